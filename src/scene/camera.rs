@@ -1,0 +1,206 @@
+//! Pinhole camera. The primary-ray formula is the contract shared by every backend:
+//! f = normalize(look_at - eye), r = normalize(f x up), u = r x f, s = tan(vfov/2),
+//! dir(i, j) = normalize(f + (2(i+0.5)/W - 1)·s·(W/H)·r + (1 - 2(j+0.5)/H)·s·u), j = 0 at the
+//! top. The GPU uses the thesis's form (eye plus the four corners of the window on the
+//! projection plane at distance 1), which [`Camera::window_corners`] provides and which
+//! spans exactly the same rays by bilinear interpolation.
+
+use glam::{DVec3, Vec3};
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub eye: Vec3,
+    /// Point the camera looks at.
+    pub look_at: Vec3,
+    /// Approximate up direction.
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub vfov_deg: f32,
+}
+
+/// The camera's orthonormal frame in f64.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    /// Eye position.
+    pub eye: DVec3,
+    /// Forward unit vector.
+    pub f: DVec3,
+    /// Right unit vector.
+    pub r: DVec3,
+    /// Up unit vector (r x f).
+    pub u: DVec3,
+    /// tan(vfov / 2).
+    pub s: f64,
+}
+
+impl Camera {
+    /// Checks that the camera defines a frame (distinct eye and target, up not parallel).
+    pub fn check(&self) -> Result<(), String> {
+        let f = (self.look_at - self.eye).as_dvec3();
+        if f.length() == 0.0 || !f.is_finite() {
+            return Err("eye and look_at coincide".into());
+        }
+        if f.normalize().cross(self.up.as_dvec3()).length() < 1e-9 {
+            return Err("up is parallel to the viewing direction".into());
+        }
+        if !(self.vfov_deg > 0.0 && self.vfov_deg < 180.0) {
+            return Err(format!("vfov {} is outside (0, 180)", self.vfov_deg));
+        }
+        Ok(())
+    }
+
+    /// The camera frame, computed in f64.
+    pub fn frame(&self) -> Frame {
+        let f = (self.look_at.as_dvec3() - self.eye.as_dvec3()).normalize();
+        let r = f.cross(self.up.as_dvec3()).normalize();
+        let u = r.cross(f);
+        let s = (self.vfov_deg as f64).to_radians().mul_add(0.5, 0.0).tan();
+        Frame {
+            eye: self.eye.as_dvec3(),
+            f,
+            r,
+            u,
+            s,
+        }
+    }
+
+    /// Primary ray direction (unit, f64) through image-plane position (px, py) in pixels,
+    /// where (i + 0.5, j + 0.5) is the centre of pixel (i, j).
+    pub fn direction_at(&self, w: u32, h: u32, px: f64, py: f64) -> DVec3 {
+        let fr = self.frame();
+        let aspect = w as f64 / h as f64;
+        let a = (2.0 * px / w as f64 - 1.0) * fr.s * aspect;
+        let b = (1.0 - 2.0 * py / h as f64) * fr.s;
+        (fr.f + a * fr.r + b * fr.u).normalize()
+    }
+
+    /// Primary ray direction through the centre of pixel (i, j).
+    pub fn pixel_direction(&self, w: u32, h: u32, i: u32, j: u32) -> DVec3 {
+        self.direction_at(w, h, i as f64 + 0.5, j as f64 + 0.5)
+    }
+
+    /// The thesis's window on the projection plane (distance 1 from the eye):
+    /// corners `[bottom_left, bottom_right, top_right, top_left]` as points, so that the
+    /// unnormalised direction at normalised window coordinates (x, y) in [0,1]^2 (y up) is
+    /// `lerp(lerp(bl, br, x), lerp(tl, tr, x), y) - eye`.
+    pub fn window_corners(&self, w: u32, h: u32) -> [DVec3; 4] {
+        let fr = self.frame();
+        let aspect = w as f64 / h as f64;
+        let c = fr.eye + fr.f;
+        let rx = fr.s * aspect * fr.r;
+        let uy = fr.s * fr.u;
+        [c - rx - uy, c + rx - uy, c + rx + uy, c - rx + uy]
+    }
+}
+
+/// Sub-pixel sample offsets for `spp` samples: stratified on a ceil(sqrt(spp))² grid with
+/// jitter from a fixed seed. The same pattern is used for every pixel and every backend, so
+/// CPU and GPU render identical sample positions (the GPU receives them as uniforms).
+pub fn sample_offsets(spp: u32) -> Vec<(f64, f64)> {
+    if spp <= 1 {
+        return vec![(0.5, 0.5)];
+    }
+    let m = (spp as f64).sqrt().ceil() as u32;
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = || {
+        // splitmix64: small, well known, and reproducible everywhere.
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64
+    };
+    // Spread the spp samples over the m*m strata with a fixed stride so that a non-square
+    // count still covers the pixel evenly.
+    (0..spp)
+        .map(|k| {
+            let cell = (k as u64 * (m * m) as u64 / spp as u64) as u32;
+            let (sx, sy) = (cell % m, cell / m);
+            let jx = next();
+            let jy = next();
+            ((sx as f64 + jx) / m as f64, (sy as f64 + jy) / m as f64)
+        })
+        .collect()
+}
+
+/// f32 view of a direction, as the GPU and the f32 CPU path see it.
+pub fn to_f32(v: DVec3) -> Vec3 {
+    v.as_vec3()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam() -> Camera {
+        Camera {
+            eye: Vec3::new(1.0, 2.0, 3.0),
+            look_at: Vec3::new(-0.5, 0.25, -4.0),
+            up: Vec3::Y,
+            vfov_deg: 50.0,
+        }
+    }
+
+    #[test]
+    fn centre_ray_is_forward_for_odd_sizes() {
+        let c = cam();
+        let d = c.pixel_direction(5, 3, 2, 1);
+        let f = (c.look_at - c.eye).as_dvec3().normalize();
+        assert!((d - f).length() < 1e-15, "{d} vs {f}");
+    }
+
+    #[test]
+    fn formula_matches_explicit_expression() {
+        let c = cam();
+        let (w, h) = (7u32, 4u32);
+        let f = (c.look_at.as_dvec3() - c.eye.as_dvec3()).normalize();
+        let r = f.cross(c.up.as_dvec3()).normalize();
+        let u = r.cross(f);
+        let s = (50f64.to_radians() / 2.0).tan();
+        for j in 0..h {
+            for i in 0..w {
+                let a = (2.0 * (i as f64 + 0.5) / w as f64 - 1.0) * s * (w as f64 / h as f64);
+                let b = (1.0 - 2.0 * (j as f64 + 0.5) / h as f64) * s;
+                let want = (f + a * r + b * u).normalize();
+                let got = c.pixel_direction(w, h, i, j);
+                assert!((want - got).length() < 1e-15);
+            }
+        }
+        // Top-left pixel looks up and left.
+        let tl = c.pixel_direction(w, h, 0, 0);
+        assert!(tl.dot(r) < 0.0 && tl.dot(u) > 0.0);
+    }
+
+    #[test]
+    fn thesis_corners_give_the_same_rays() {
+        let c = cam();
+        let (w, h) = (9u32, 6u32);
+        let [bl, br, tr, tl] = c.window_corners(w, h);
+        for j in 0..h {
+            for i in 0..w {
+                let x = (i as f64 + 0.5) / w as f64;
+                let y = 1.0 - (j as f64 + 0.5) / h as f64;
+                let p = bl.lerp(br, x).lerp(tl.lerp(tr, x), y);
+                let d = (p - c.eye.as_dvec3()).normalize();
+                assert!((d - c.pixel_direction(w, h, i, j)).length() < 1e-14);
+            }
+        }
+    }
+
+    #[test]
+    fn sample_offsets_are_stratified_and_deterministic() {
+        let a = sample_offsets(16);
+        assert_eq!(a, sample_offsets(16));
+        let mut seen = [false; 16];
+        for &(x, y) in &a {
+            assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y));
+            seen[(y * 4.0) as usize * 4 + (x * 4.0) as usize] = true;
+        }
+        assert!(seen.iter().all(|&s| s), "one sample per stratum");
+        assert_eq!(sample_offsets(1), vec![(0.5, 0.5)]);
+        assert_eq!(sample_offsets(5).len(), 5);
+    }
+}

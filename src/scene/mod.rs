@@ -1,0 +1,286 @@
+//! Scene model: what the renderers see. Everything is triangles in world space (f32, the
+//! precision the GPU stores), with per-triangle material indices and optional vertex
+//! normals. Loaders (`toml_scene`, `obj`, `shapes`) produce a [`Scene`]; renderers never see
+//! files, transforms or analytic shapes.
+
+pub mod camera;
+pub mod obj;
+pub mod shapes;
+pub mod toml_scene;
+
+use glam::Vec3;
+
+pub use camera::Camera;
+
+/// Sentinel for "no vertex normal" in [`Triangle::n`].
+pub const NO_NORMAL: u32 = u32::MAX;
+
+/// Which pair of world axes a checker pattern varies over.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CheckerAxes {
+    /// Varies over x and y (a wall facing z).
+    Xy,
+    /// Varies over x and z (a floor facing y).
+    Xz,
+    /// Varies over y and z (a wall facing x).
+    Yz,
+}
+
+impl CheckerAxes {
+    /// The two world-axis indices the pattern uses.
+    pub fn indices(self) -> (usize, usize) {
+        match self {
+            CheckerAxes::Xy => (0, 1),
+            CheckerAxes::Xz => (0, 2),
+            CheckerAxes::Yz => (1, 2),
+        }
+    }
+}
+
+/// Procedural checker albedo: `color_a` where floor(u/scale)+floor(v/scale) is even.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Checker {
+    /// Colour of the even squares.
+    pub color_a: Vec3,
+    /// Colour of the odd squares.
+    pub color_b: Vec3,
+    /// Edge length of one square in world units.
+    pub scale: f32,
+    /// The world axes the squares lie in.
+    pub axes: CheckerAxes,
+}
+
+/// Surface description for the Whitted model
+/// `L = ka*A*albedo + sum I_l*(kd*albedo*max(0,n.l) + ks*max(0,r.v)^ns) + kr*L_r + kt*L_t`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Name (from the MTL file or the scene file), for messages.
+    pub name: String,
+    /// Diffuse albedo (MTL `Kd`).
+    pub albedo: Vec3,
+    /// Procedural checker replacing `albedo` when set.
+    pub checker: Option<Checker>,
+    /// Ambient factor (scalar, multiplies the scene ambient light).
+    pub ka: f32,
+    /// Diffuse factor (scalar).
+    pub kd: f32,
+    /// Phong specular colour (MTL `Ks`).
+    pub ks: Vec3,
+    /// Phong exponent (MTL `Ns`).
+    pub ns: f32,
+    /// Mirror reflectance (ignored when `fresnel`).
+    pub kr: Vec3,
+    /// Transmittance (ignored when `fresnel`).
+    pub kt: Vec3,
+    /// Index of refraction (MTL `Ni`).
+    pub ior: f32,
+    /// When true, kr = F and kt = 1 - F from the dielectric Fresnel equations.
+    pub fresnel: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: "default".into(),
+            albedo: Vec3::splat(0.8),
+            checker: None,
+            ka: 1.0,
+            kd: 1.0,
+            ks: Vec3::ZERO,
+            ns: 1.0,
+            kr: Vec3::ZERO,
+            kt: Vec3::ZERO,
+            ior: 1.0,
+            fresnel: false,
+        }
+    }
+}
+
+impl Material {
+    /// True when the material spawns reflected rays.
+    pub fn reflects(&self) -> bool {
+        self.fresnel || self.kr.max_element() > 0.0
+    }
+    /// True when the material spawns refracted rays.
+    pub fn refracts(&self) -> bool {
+        self.fresnel || self.kt.max_element() > 0.0
+    }
+}
+
+/// A point light with no distance attenuation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Light {
+    /// World-space position.
+    pub position: Vec3,
+    /// Colour (linear RGB).
+    pub color: Vec3,
+    /// Scalar intensity multiplying `color`.
+    pub intensity: f32,
+}
+
+impl Light {
+    /// `I_l` of the shading formula: colour times intensity.
+    pub fn radiance(&self) -> Vec3 {
+        self.color * self.intensity
+    }
+}
+
+/// One triangle: vertex indices into [`Scene::positions`], optional normal indices into
+/// [`Scene::normals`] ([`NO_NORMAL`] when the mesh has none) and a material index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Triangle {
+    /// Position indices.
+    pub v: [u32; 3],
+    /// Vertex-normal indices, or `[NO_NORMAL; 3]`.
+    pub n: [u32; 3],
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+}
+
+impl Triangle {
+    /// True when the triangle carries vertex normals (smooth shading).
+    pub fn has_normals(&self) -> bool {
+        self.n[0] != NO_NORMAL
+    }
+}
+
+/// A complete, renderable scene in world space.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Where the scene came from (file path or `<builtin>`), for messages and stats.
+    pub source: String,
+    /// The pinhole camera.
+    pub camera: Camera,
+    /// Default image width.
+    pub width: u32,
+    /// Default image height.
+    pub height: u32,
+    /// Colour of rays that leave the scene.
+    pub background: Vec3,
+    /// Ambient light colour `A`.
+    pub ambient: Vec3,
+    /// Point lights.
+    pub lights: Vec<Light>,
+    /// Maximum number of reflection/refraction bounces.
+    pub max_depth: u32,
+    /// World-space vertex positions.
+    pub positions: Vec<Vec3>,
+    /// World-space unit vertex normals.
+    pub normals: Vec<Vec3>,
+    /// Triangles in load order (their index is the primitive id).
+    pub triangles: Vec<Triangle>,
+    /// Materials referenced by the triangles.
+    pub materials: Vec<Material>,
+}
+
+impl Scene {
+    /// An empty scene with the given camera and defaults elsewhere.
+    pub fn empty(camera: Camera) -> Self {
+        Scene {
+            source: "<memory>".into(),
+            camera,
+            width: 640,
+            height: 480,
+            background: Vec3::new(0.1, 0.3, 0.8),
+            ambient: Vec3::splat(0.1),
+            lights: Vec::new(),
+            max_depth: 5,
+            positions: Vec::new(),
+            normals: Vec::new(),
+            triangles: Vec::new(),
+            materials: Vec::new(),
+        }
+    }
+
+    /// Appends a material and returns its index.
+    pub fn add_material(&mut self, m: Material) -> u32 {
+        self.materials.push(m);
+        (self.materials.len() - 1) as u32
+    }
+
+    /// Appends a flat-shaded triangle and returns its index.
+    pub fn add_triangle(&mut self, a: Vec3, b: Vec3, c: Vec3, material: u32) -> u32 {
+        let base = self.positions.len() as u32;
+        self.positions.extend([a, b, c]);
+        self.triangles.push(Triangle {
+            v: [base, base + 1, base + 2],
+            n: [NO_NORMAL; 3],
+            material,
+        });
+        (self.triangles.len() - 1) as u32
+    }
+
+    /// The three vertex positions of triangle `i`.
+    pub fn triangle_vertices(&self, i: usize) -> [Vec3; 3] {
+        let t = &self.triangles[i];
+        [
+            self.positions[t.v[0] as usize],
+            self.positions[t.v[1] as usize],
+            self.positions[t.v[2] as usize],
+        ]
+    }
+
+    /// Axis-aligned bounds of all triangle vertices, or `None` for an empty scene.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut it = self
+            .triangles
+            .iter()
+            .flat_map(|t| t.v.iter().map(|&i| self.positions[i as usize]));
+        let first = it.next()?;
+        Some(it.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
+    }
+
+    /// True when any triangle uses vertex normals.
+    pub fn has_smooth_normals(&self) -> bool {
+        self.triangles.iter().any(|t| t.has_normals())
+    }
+
+    /// Checks invariants every renderer relies on: indices in range, finite numbers.
+    pub fn validate(&self) -> crate::Result<()> {
+        let bad =
+            |field: String, message: String| Error::scene(self.source.clone(), 0, field, message);
+        use crate::Error;
+        for (i, p) in self.positions.iter().enumerate() {
+            if !p.is_finite() {
+                return Err(bad(
+                    format!("positions[{i}]"),
+                    format!("non-finite vertex {p}"),
+                ));
+            }
+        }
+        for (i, t) in self.triangles.iter().enumerate() {
+            for &v in &t.v {
+                if v as usize >= self.positions.len() {
+                    return Err(bad(
+                        format!("triangles[{i}]"),
+                        format!("vertex index {v} out of range"),
+                    ));
+                }
+            }
+            if t.has_normals() {
+                for &n in &t.n {
+                    if n as usize >= self.normals.len() {
+                        return Err(bad(
+                            format!("triangles[{i}]"),
+                            format!("normal index {n} out of range"),
+                        ));
+                    }
+                }
+            }
+            if t.material as usize >= self.materials.len() {
+                return Err(bad(
+                    format!("triangles[{i}]"),
+                    format!("material index {} out of range", t.material),
+                ));
+            }
+        }
+        if !(1..=16).contains(&self.max_depth) && self.max_depth != 0 {
+            return Err(bad(
+                "max_depth".into(),
+                format!("{} is outside 0..=16", self.max_depth),
+            ));
+        }
+        Ok(())
+    }
+}
