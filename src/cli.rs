@@ -1,1 +1,179 @@
+//! Command-line interface: argument parsing (clap) and the commands, as library functions
+//! so tests can drive them without spawning the binary.
 
+use std::path::{Path, PathBuf};
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::accel::{GridConfig, GridRes};
+use crate::image_io;
+use crate::render::{self, Backend, Precision, RenderOptions};
+use crate::scene::{self, Scene};
+use crate::{Error, Result};
+
+/// fragtrace: a Whitted ray tracer on GLSL 1.20 fragment programs, with an f64 CPU reference.
+#[derive(Parser, Debug)]
+#[command(name = "fragtrace", version, about, long_about = None, args_conflicts_with_subcommands = true)]
+pub struct Cli {
+    /// The command; `render` when omitted (so `fragtrace -o x.png` renders the default scene).
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    /// Render arguments when no command is given.
+    #[command(flatten)]
+    pub render: RenderArgs,
+}
+
+/// Subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a scene (the built-in Whitted homage when no file is given).
+    Render(RenderArgs),
+}
+
+/// Arguments of `render`.
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// Scene file (TOML); the built-in default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Output image; .png (sRGB 8-bit) or .exr (linear float).
+    #[arg(short, long, default_value = "render.png")]
+    pub output: PathBuf,
+    /// Image width (default: the scene's).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: the scene's).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Renderer: auto, cpu or gl.
+    #[arg(long, default_value = "auto")]
+    pub backend: Backend,
+    /// CPU arithmetic: f64 (ground truth) or f32 (mirrors the GPU).
+    #[arg(long, default_value = "f64")]
+    pub precision: Precision,
+    /// Maximum reflection/refraction depth (default: the scene's, else 5).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Samples per pixel (stratified, fixed seed).
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Grid resolution: auto or AxBxC.
+    #[arg(long, default_value = "auto")]
+    pub grid: GridRes,
+    /// Cells per triangle for the auto grid (lambda).
+    #[arg(long)]
+    pub grid_density: Option<f32>,
+    /// Write render statistics as JSON to this file.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+impl Default for RenderArgs {
+    fn default() -> Self {
+        RenderArgs::parse_from_args(&[])
+    }
+}
+
+impl RenderArgs {
+    /// Parses `render` arguments from a list (for tests and the default command).
+    pub fn parse_from_args(args: &[&str]) -> Self {
+        #[derive(Parser)]
+        struct Wrapper {
+            #[command(flatten)]
+            inner: RenderArgs,
+        }
+        let mut all = vec!["render"];
+        all.extend_from_slice(args);
+        Wrapper::parse_from(all).inner
+    }
+}
+
+/// Loads the scene named on the command line, or the built-in one.
+pub fn load(scene_path: Option<&Path>) -> Result<Scene> {
+    match scene_path {
+        Some(p) => scene::load_scene(p),
+        None => Ok(scene::builtin_scene()),
+    }
+}
+
+/// Turns command-line arguments into render options for `scene`.
+pub fn options(args: &RenderArgs, scene: &Scene) -> Result<RenderOptions> {
+    let mut opts = RenderOptions::for_scene(scene);
+    opts.width = args.width.unwrap_or(scene.width);
+    opts.height = args.height.unwrap_or(scene.height);
+    opts.spp = args.spp;
+    opts.max_depth = args.max_depth.unwrap_or(scene.max_depth);
+    opts.precision = args.precision;
+    opts.backend = args.backend;
+    let mut grid = GridConfig {
+        res: args.grid,
+        ..GridConfig::default()
+    };
+    if let Some(d) = args.grid_density {
+        if !(d.is_finite() && d > 0.0 && d <= 1024.0) {
+            return Err(Error::Usage(format!(
+                "--grid-density {d} is outside (0, 1024]"
+            )));
+        }
+        grid.density = d;
+    }
+    opts.grid = grid;
+    opts.validate()?;
+    Ok(opts)
+}
+
+/// The `render` command: load, render, write the image (and stats).
+pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
+    let scene = load(args.scene.as_deref())?;
+    let opts = options(args, &scene)?;
+    // Fail on an unusable output path before spending time rendering.
+    image_io::Format::from_path(&args.output)?;
+    let out = render::render(&scene, &opts)?;
+    if !out.image.all_finite() {
+        return Err(Error::Internal(
+            "the render produced a NaN or Inf pixel".into(),
+        ));
+    }
+    image_io::write_image(&args.output, &out.image)?;
+    if let Some(path) = &args.stats {
+        let json =
+            serde_json::to_string_pretty(&out.stats).map_err(|e| Error::Internal(e.to_string()))?;
+        image_io::write_atomic(path, |tmp| {
+            std::fs::write(tmp, json.as_bytes()).map_err(|source| Error::Io {
+                path: path.clone(),
+                source,
+            })
+        })?;
+    }
+    if !args.quiet {
+        let s = &out.stats;
+        eprintln!(
+            "{}: {}x{} spp {} on {} [{}], {} triangles, grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
+            args.output.display(),
+            s.width,
+            s.height,
+            s.spp,
+            s.backend,
+            s.precision,
+            s.triangles,
+            s.grid[0],
+            s.grid[1],
+            s.grid[2],
+            s.grid_build_ms,
+            s.render_ms,
+            s.rays.total,
+            s.mrays_per_s
+        );
+    }
+    Ok(out)
+}
+
+/// Runs a parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        None => run_render(&cli.render).map(|_| ()),
+        Some(Command::Render(args)) => run_render(&args).map(|_| ()),
+    }
+}

@@ -1,1 +1,257 @@
+//! Images in memory (linear RGB f32) and on disk: PNG (sRGB-encoded, clamped, 8-bit) or
+//! OpenEXR (linear f32), chosen by the file extension. Files are written to a temporary
+//! name in the same folder and renamed, so a failed or interrupted write never leaves a
+//! partial file and never replaces an existing one.
 
+use std::path::{Path, PathBuf};
+
+use crate::{Error, Result};
+
+/// A linear-light RGB image, row-major with the top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// RGB triples, `3 * width * height` values.
+    pub data: Vec<f32>,
+}
+
+impl Image {
+    /// Wraps RGB data (panics on a size mismatch: a programming error).
+    pub fn from_rgb(width: u32, height: u32, data: Vec<f32>) -> Self {
+        assert_eq!(data.len(), (width * height * 3) as usize, "image data size");
+        Image {
+            width,
+            height,
+            data,
+        }
+    }
+
+    /// The pixel at column `i`, row `j` (0 = top).
+    pub fn pixel(&self, i: u32, j: u32) -> [f32; 3] {
+        let k = ((j * self.width + i) * 3) as usize;
+        [self.data[k], self.data[k + 1], self.data[k + 2]]
+    }
+
+    /// True when every value is finite.
+    pub fn all_finite(&self) -> bool {
+        self.data.iter().all(|v| v.is_finite())
+    }
+}
+
+/// Output format, from the file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// 8-bit sRGB PNG.
+    Png,
+    /// 32-bit float linear OpenEXR.
+    Exr,
+}
+
+impl Format {
+    /// Format from a path's extension (case-insensitive).
+    pub fn from_path(path: &Path) -> Result<Format> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .as_deref()
+        {
+            Some("png") => Ok(Format::Png),
+            Some("exr") => Ok(Format::Exr),
+            _ => Err(Error::Usage(format!(
+                "{}: unknown image extension (use .png or .exr)",
+                path.display()
+            ))),
+        }
+    }
+}
+
+/// Linear to sRGB transfer function (IEC 61966-2-1).
+pub fn linear_to_srgb(v: f32) -> f32 {
+    let v = v.clamp(0.0, 1.0);
+    if v >= 1.0 {
+        1.0
+    } else if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// sRGB to linear transfer function.
+pub fn srgb_to_linear(v: f32) -> f32 {
+    if v <= 0.040_45 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// 8-bit sRGB bytes of an image.
+pub fn to_srgb8(img: &Image) -> Vec<u8> {
+    img.data
+        .iter()
+        .map(|&v| (linear_to_srgb(v) * 255.0 + 0.5).floor() as u8)
+        .collect()
+}
+
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    // Keep the real extension last: the encoder is picked explicitly, but tools that look
+    // at a half-written file should still see what it is.
+    path.with_file_name(format!(".{name}.{}.partial.{ext}", std::process::id()))
+}
+
+/// Writes `bytes` atomically to `path` by way of a temporary file and a rename.
+pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let tmp = temp_path(path);
+    let res = write(&tmp).and_then(|_| {
+        std::fs::rename(&tmp, path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    });
+    if res.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    res
+}
+
+/// Writes an image as PNG or EXR according to the extension of `path`.
+pub fn write_image(path: &Path, img: &Image) -> Result<()> {
+    let format = Format::from_path(path)?;
+    let img_err = |e: image::ImageError| Error::Image {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    write_atomic(path, |tmp| match format {
+        Format::Png => {
+            let buf = image::RgbImage::from_raw(img.width, img.height, to_srgb8(img))
+                .ok_or_else(|| Error::Internal("png buffer size".into()))?;
+            buf.save_with_format(tmp, image::ImageFormat::Png)
+                .map_err(img_err)
+        }
+        Format::Exr => {
+            let buf = image::Rgb32FImage::from_raw(img.width, img.height, img.data.clone())
+                .ok_or_else(|| Error::Internal("exr buffer size".into()))?;
+            buf.save_with_format(tmp, image::ImageFormat::OpenExr)
+                .map_err(img_err)
+        }
+    })
+}
+
+/// Reads a PNG (decoded to linear) or EXR image.
+pub fn read_image(path: &Path) -> Result<Image> {
+    let format = Format::from_path(path)?;
+    let dynimg = image::open(path).map_err(|e| Error::Image {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let (w, h) = (dynimg.width(), dynimg.height());
+    let data = match format {
+        Format::Png => dynimg
+            .to_rgb8()
+            .into_raw()
+            .into_iter()
+            .map(|b| srgb_to_linear(b as f32 / 255.0))
+            .collect(),
+        Format::Exr => dynimg.to_rgb32f().into_raw(),
+    };
+    Ok(Image::from_rgb(w, h, data))
+}
+
+/// Writes named float channels (all the same size) as a multi-channel OpenEXR file.
+/// The `image` crate only writes RGB(A), so AOVs go through the `exr` crate it depends on.
+pub fn write_exr_channels(
+    path: &Path,
+    width: u32,
+    height: u32,
+    channels: &[(&str, &[f32])],
+) -> Result<()> {
+    use exr::prelude::*;
+    let n = (width * height) as usize;
+    for (name, c) in channels {
+        if c.len() != n {
+            return Err(crate::Error::Internal(format!(
+                "AOV channel {name} has {} values, want {n}",
+                c.len()
+            )));
+        }
+    }
+    let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = channels
+        .iter()
+        .map(|(name, c)| AnyChannel::new(*name, FlatSamples::F32(c.to_vec())))
+        .collect();
+    let layer = Layer::new(
+        (width as usize, height as usize),
+        LayerAttributes::named("aov"),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    let image = exr::image::Image::from_layer(layer);
+    write_atomic(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| crate::Error::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_round_trip() {
+        for k in 0..=255u32 {
+            let v = k as f32 / 255.0;
+            let back = linear_to_srgb(srgb_to_linear(v));
+            assert!((back - v).abs() < 1e-5, "{k}");
+        }
+        assert_eq!(linear_to_srgb(-1.0), 0.0);
+        assert_eq!(linear_to_srgb(7.0), 1.0);
+    }
+
+    #[test]
+    fn png_and_exr_round_trip_and_atomic() {
+        let dir = std::env::temp_dir().join(format!("fragtrace-io-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let img = Image::from_rgb(
+            3,
+            2,
+            vec![
+                0.0, 0.5, 1.0, 0.25, 2.0, -1.0, 0.1, 0.2, 0.3, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.7,
+                0.8, 0.9,
+            ],
+        );
+        let exr = dir.join("a.exr");
+        write_image(&exr, &img).unwrap();
+        assert_eq!(read_image(&exr).unwrap(), img, "EXR is exact");
+        let png = dir.join("a.png");
+        write_image(&png, &img).unwrap();
+        let back = read_image(&png).unwrap();
+        assert_eq!((back.width, back.height), (3, 2));
+        assert!((back.pixel(1, 0)[0] - 0.25).abs() < 0.01);
+        assert_eq!(back.pixel(1, 0)[1], 1.0, "clamped");
+        // No temporary files left behind.
+        let names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 2, "{names:?}");
+        // A failed write keeps the old file.
+        assert!(write_image(&dir.join("nope/x.png"), &img).is_err());
+        assert!(write_image(&dir.join("x.bmp"), &img).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

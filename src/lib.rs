@@ -10,6 +10,7 @@ pub mod cli;
 pub mod cpu;
 pub mod error;
 pub mod image_io;
+pub mod render;
 pub mod scene;
 
 pub use error::{Error, Result};

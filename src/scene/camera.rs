@@ -83,7 +83,7 @@ impl Camera {
 
     /// The thesis's window on the projection plane (distance 1 from the eye):
     /// corners `[bottom_left, bottom_right, top_right, top_left]` as points, so that the
-    /// unnormalised direction at normalised window coordinates (x, y) in [0,1]^2 (y up) is
+    /// unnormalised direction at normalised window coordinates (x, y) in the unit square (y up) is
     /// `lerp(lerp(bl, br, x), lerp(tl, tr, x), y) - eye`.
     pub fn window_corners(&self, w: u32, h: u32) -> [DVec3; 4] {
         let fr = self.frame();

@@ -11,6 +11,7 @@ pub mod toml_scene;
 use glam::Vec3;
 
 pub use camera::Camera;
+pub use toml_scene::{builtin_scene, load_scene};
 
 /// Sentinel for "no vertex normal" in [`Triangle::n`].
 pub const NO_NORMAL: u32 = u32::MAX;

@@ -1,0 +1,334 @@
+//! Exact triangle / axis-aligned box overlap, after Akenine-Möller ("Fast 3D Triangle-Box
+//! Overlap Testing", 2001): the two are disjoint iff one of 13 candidate axes separates
+//! them (the 3 box normals, the triangle normal, and the 9 cross products of a box normal
+//! with a triangle edge).
+//!
+//! The grid build uses this instead of bounding-box binning so that large or diagonal
+//! triangles do not pollute cells they only pass near. It runs in f64 on f32 input, and
+//! every comparison is inclusive, so touching counts as overlapping: the build relies on
+//! that (plus a small padding of the box) to put a triangle lying on a cell face into the
+//! cells on both sides.
+
+use glam::DVec3;
+
+/// True when triangle `tri` and the closed box `center ± half` share at least one point.
+///
+/// `half` must be non-negative. Degenerate triangles (segments, points) are handled
+/// exactly: their zero-length cross-product axes project everything to 0 and separate
+/// nothing, and the remaining axes are precisely the separating axes of a segment or a
+/// point against a box.
+pub fn tri_box_overlap(center: DVec3, half: DVec3, tri: [DVec3; 3]) -> bool {
+    // Work relative to the box centre so the box is symmetric and its projection onto an
+    // axis `a` is just `[-r, r]` with `r = half · |a|`.
+    let v = [tri[0] - center, tri[1] - center, tri[2] - center];
+
+    // Box normals: the triangle's bounding box against the box.
+    for k in 0..3 {
+        let lo = v[0][k].min(v[1][k]).min(v[2][k]);
+        let hi = v[0][k].max(v[1][k]).max(v[2][k]);
+        if lo > half[k] || hi < -half[k] {
+            return false;
+        }
+    }
+
+    // Edge x box-normal axes. Projecting all three vertices (rather than the two distinct
+    // values the paper exploits) keeps the code free of per-axis special cases; the cost
+    // is irrelevant next to the rest of the build.
+    let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
+    for e in edges {
+        for k in 0..3 {
+            let axis = DVec3::AXES[k].cross(e);
+            if separates(axis, half, &v) {
+                return false;
+            }
+        }
+    }
+
+    // Triangle normal: the plane through the triangle against the box. A zero normal
+    // (degenerate triangle) projects everything to 0 and never separates.
+    let normal = edges[0].cross(edges[1]);
+    !separates(normal, half, &v)
+}
+
+/// True when `axis` separates the centred box `±half` from the triangle `v`.
+#[inline]
+fn separates(axis: DVec3, half: DVec3, v: &[DVec3; 3]) -> bool {
+    let p = [axis.dot(v[0]), axis.dot(v[1]), axis.dot(v[2])];
+    let lo = p[0].min(p[1]).min(p[2]);
+    let hi = p[0].max(p[1]).max(p[2]);
+    let r = half.dot(axis.abs());
+    lo > r || hi < -r
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// SplitMix64: a tiny deterministic generator so tests need no extra crate.
+    pub(crate) struct Rng(u64);
+
+    impl Rng {
+        pub(crate) fn new(seed: u64) -> Self {
+            Rng(seed)
+        }
+        pub(crate) fn next_u64(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+        /// Uniform in [0, 1).
+        pub(crate) fn f64(&mut self) -> f64 {
+            (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        }
+        pub(crate) fn range(&mut self, lo: f64, hi: f64) -> f64 {
+            lo + (hi - lo) * self.f64()
+        }
+        pub(crate) fn dvec3(&mut self, lo: f64, hi: f64) -> DVec3 {
+            DVec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
+        }
+    }
+
+    /// Seed for randomized tests: `FRAGTRACE_TEST_SEED` when set, else `default`. Always
+    /// printed so a failure can be replayed.
+    pub(crate) fn test_seed(name: &str, default: u64) -> u64 {
+        let seed = std::env::var("FRAGTRACE_TEST_SEED")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(default);
+        println!("{name}: seed {seed} (override with FRAGTRACE_TEST_SEED)");
+        seed
+    }
+
+    /// Independent reference: clip the triangle against the six slabs of `center ± half`
+    /// (Sutherland-Hodgman) and report whether anything is left. Exact up to f64 rounding,
+    /// and shares no code with the separating-axis test.
+    pub(crate) fn clip_overlap(center: DVec3, half: DVec3, tri: [DVec3; 3]) -> bool {
+        let mut poly: Vec<DVec3> = tri.to_vec();
+        for k in 0..3 {
+            for sign in [1.0, -1.0] {
+                // Keep the half-space sign * (p[k] - center[k]) <= half[k].
+                let d = |p: DVec3| sign * (p[k] - center[k]) - half[k];
+                let mut out = Vec::with_capacity(poly.len() + 2);
+                for i in 0..poly.len() {
+                    let a = poly[i];
+                    let b = poly[(i + 1) % poly.len()];
+                    let (da, db) = (d(a), d(b));
+                    if da <= 0.0 {
+                        out.push(a);
+                    }
+                    if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+                        out.push(a + (b - a) * (da / (da - db)));
+                    }
+                }
+                poly = out;
+                if poly.is_empty() {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// Any point of a dense barycentric lattice over the triangle strictly inside the box
+    /// by at least `margin`.
+    fn sampled_inside(center: DVec3, half: DVec3, tri: [DVec3; 3], n: u32, margin: f64) -> bool {
+        for i in 0..=n {
+            for j in 0..=(n - i) {
+                let (u, w) = (i as f64 / n as f64, j as f64 / n as f64);
+                let p = tri[0] * (1.0 - u - w) + tri[1] * u + tri[2] * w;
+                let d = (p - center).abs();
+                if d.x < half.x - margin && d.y < half.y - margin && d.z < half.z - margin {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    fn v(x: f64, y: f64, z: f64) -> DVec3 {
+        DVec3::new(x, y, z)
+    }
+
+    #[test]
+    fn agrees_with_sampling_and_clipping() {
+        let seed = test_seed("tri_box random", 0x5EED_7B0C);
+        let mut rng = Rng::new(seed);
+        let (mut hits, mut misses, mut sampled_hits) = (0, 0, 0);
+        for case in 0..20_000 {
+            let center = rng.dvec3(-0.5, 0.5);
+            let half = DVec3::new(
+                rng.range(0.05, 1.0),
+                rng.range(0.05, 1.0),
+                rng.range(0.05, 1.0),
+            );
+            // Mix big triangles (mostly crossing) and small ones (often near misses).
+            let scale = if case % 2 == 0 { 2.5 } else { 0.6 };
+            let a = rng.dvec3(-2.0, 2.0);
+            let tri = [
+                a,
+                a + rng.dvec3(-scale, scale),
+                a + rng.dvec3(-scale, scale),
+            ];
+            let got = tri_box_overlap(center, half, tri);
+            let ctx = format!("seed {seed} case {case}: center {center} half {half} tri {tri:?}");
+
+            if sampled_inside(center, half, tri, 48, 1e-9) {
+                sampled_hits += 1;
+                assert!(got, "sample inside but no overlap reported; {ctx}");
+            }
+            // Clipping against a slightly shrunk/grown box gives a verdict that must agree
+            // wherever the case is not within rounding distance of touching.
+            let tol = DVec3::splat(1e-9);
+            if clip_overlap(center, half - tol, tri) {
+                assert!(got, "clipping finds overlap, test does not; {ctx}");
+            }
+            if got {
+                assert!(
+                    clip_overlap(center, half + tol, tri),
+                    "test reports overlap, clipping finds none; {ctx}"
+                );
+                hits += 1;
+            } else {
+                misses += 1;
+            }
+        }
+        println!("hits {hits} misses {misses} sampled hits {sampled_hits}");
+        // Both verdicts must be well exercised or the test proves little.
+        assert!(hits > 1500 && misses > 1500 && sampled_hits > 1000);
+    }
+
+    #[test]
+    fn degenerate_triangles_agree_with_clipping() {
+        let seed = test_seed("tri_box degenerate", 0xDE6E_0001);
+        let mut rng = Rng::new(seed);
+        let (mut hits, mut misses) = (0, 0);
+        for case in 0..5_000 {
+            let center = rng.dvec3(-0.5, 0.5);
+            let half = rng.dvec3(0.05, 1.0);
+            let a = rng.dvec3(-1.5, 1.5);
+            let b = rng.dvec3(-1.5, 1.5);
+            // A segment (collinear vertices, midpoint included) or a single point.
+            let tri = if case % 3 == 0 {
+                [a, a, a]
+            } else {
+                [a, b, (a + b) * 0.5]
+            };
+            let got = tri_box_overlap(center, half, tri);
+            let tol = DVec3::splat(1e-9);
+            let ctx = format!("seed {seed} case {case}: center {center} half {half} tri {tri:?}");
+            if clip_overlap(center, half - tol, tri) {
+                assert!(got, "clipping finds overlap, test does not; {ctx}");
+            }
+            if got {
+                assert!(clip_overlap(center, half + tol, tri), "spurious; {ctx}");
+                hits += 1;
+            } else {
+                misses += 1;
+            }
+        }
+        assert!(hits > 300 && misses > 300, "hits {hits} misses {misses}");
+    }
+
+    #[test]
+    fn hand_cases() {
+        let c = DVec3::ZERO;
+        let h = DVec3::ONE;
+        // Fully inside.
+        assert!(tri_box_overlap(
+            c,
+            h,
+            [v(0.1, 0.1, 0.1), v(0.5, 0.1, 0.2), v(0.1, 0.4, -0.3)]
+        ));
+        // Large triangle whose plane passes through a small box's centre; no vertex near it.
+        assert!(tri_box_overlap(
+            c,
+            DVec3::splat(0.01),
+            [
+                v(-100.0, -100.0, 1.0),
+                v(100.0, -100.0, 1.0),
+                v(0.0, 100.0, -1.0)
+            ]
+        ));
+        // Same triangle shifted so its plane passes beside the small box.
+        assert!(!tri_box_overlap(
+            c,
+            DVec3::splat(0.01),
+            [
+                v(-100.0, -100.0, 1.5),
+                v(100.0, -100.0, 1.5),
+                v(0.0, 100.0, -0.5)
+            ]
+        ));
+        // Touching only a face: the triangle lies in the plane x = 1.
+        assert!(tri_box_overlap(
+            c,
+            h,
+            [v(1.0, -0.5, -0.5), v(1.0, 0.5, -0.5), v(1.0, 0.0, 0.5)]
+        ));
+        // Touching a face with a single vertex.
+        assert!(tri_box_overlap(
+            c,
+            h,
+            [v(1.0, 0.0, 0.0), v(3.0, 0.5, 0.0), v(3.0, -0.5, 0.2)]
+        ));
+        // Just beyond that face.
+        assert!(!tri_box_overlap(
+            c,
+            h,
+            [
+                v(1.0 + 1e-12, 0.0, 0.0),
+                v(3.0, 0.5, 0.0),
+                v(3.0, -0.5, 0.2)
+            ]
+        ));
+        // Far away.
+        assert!(!tri_box_overlap(
+            c,
+            h,
+            [
+                v(10.0, 10.0, 10.0),
+                v(11.0, 10.0, 10.0),
+                v(10.0, 11.0, 10.0)
+            ]
+        ));
+        // Bounding boxes overlap but the triangle passes diagonally beside the box corner:
+        // only an edge x axis cross product separates this one.
+        let diag = [v(3.0, -0.5, 0.0), v(-0.5, 3.0, 0.0), v(3.0, 3.0, 0.0)];
+        assert!(!tri_box_overlap(c, h, diag));
+        // The same triangle moved to just cut the corner.
+        let cut = [v(1.5, 0.4, 0.0), v(0.4, 1.5, 0.0), v(3.0, 3.0, 0.0)];
+        assert!(tri_box_overlap(c, h, cut));
+        // Axis-parallel triangle (in the plane z = 0.5) crossing the box.
+        assert!(tri_box_overlap(
+            c,
+            h,
+            [v(-5.0, -5.0, 0.5), v(5.0, -5.0, 0.5), v(0.0, 5.0, 0.5)]
+        ));
+        // Axis-parallel triangle above the box.
+        assert!(!tri_box_overlap(
+            c,
+            h,
+            [v(-5.0, -5.0, 1.5), v(5.0, -5.0, 1.5), v(0.0, 5.0, 1.5)]
+        ));
+        // Box entirely inside an axis-parallel triangle's footprint, zero-thickness box.
+        assert!(tri_box_overlap(
+            v(0.0, 0.0, 0.5),
+            v(0.1, 0.1, 0.0),
+            [v(-5.0, -5.0, 0.5), v(5.0, -5.0, 0.5), v(0.0, 5.0, 0.5)]
+        ));
+        // Degenerate: a segment through the box, and one beside it diagonally.
+        let a = v(-3.0, -3.0, 0.0);
+        let b = v(3.0, 3.0, 0.0);
+        assert!(tri_box_overlap(c, h, [a, b, b]));
+        let a2 = v(0.5, 3.0, 0.0);
+        let b2 = v(3.0, 0.5, 0.0);
+        assert!(!tri_box_overlap(c, h, [a2, b2, (a2 + b2) * 0.5]));
+        // Degenerate: a point inside, a point outside.
+        let p = v(0.2, 0.3, 0.4);
+        assert!(tri_box_overlap(c, h, [p, p, p]));
+        let q = v(0.2, 1.3, 0.4);
+        assert!(!tri_box_overlap(c, h, [q, q, q]));
+    }
+}

@@ -1,0 +1,218 @@
+//! The CPU reference renderer: recursive Whitted ray tracing over the uniform grid,
+//! generic over precision (f64 is the ground truth, f32 mirrors the GPU). Rows are rendered
+//! in parallel with rayon; every pixel is computed independently, so the image does not
+//! depend on the thread count.
+
+use rayon::prelude::*;
+
+use super::real::{Real, V3};
+use super::shade::{albedo, light_term, offset_origin, secondary, surface};
+use super::traverse::{Accel, Hit, Ray, Work};
+use crate::accel::Grid;
+use crate::image_io::Image;
+use crate::render::{Aov, AovPixel, RayCounts};
+use crate::scene::{camera, Scene};
+
+/// Per-row tallies, summed after the parallel loop so counting stays off shared state.
+#[derive(Default, Clone, Copy)]
+struct Tally {
+    primary: u64,
+    shadow: u64,
+    reflected: u64,
+    refracted: u64,
+    work: Work,
+}
+
+/// A scene prepared for CPU rendering in precision `T`.
+pub struct CpuRenderer<'a, T> {
+    scene: &'a Scene,
+    accel: Accel<'a, T>,
+    max_depth: u32,
+    background: V3<T>,
+    ambient: V3<T>,
+}
+
+/// Output of a CPU render.
+pub struct CpuOutput {
+    /// Linear RGB image.
+    pub image: Image,
+    /// Primary-ray AOVs (first sample of each pixel).
+    pub aov: Aov,
+    /// Rays traced by kind.
+    pub rays: RayCounts,
+    /// Cells visited and triangle tests, all rays.
+    pub cells: u64,
+    /// Triangle tests, all rays.
+    pub tests: u64,
+}
+
+impl<'a, T: Real> CpuRenderer<'a, T> {
+    /// Prepares `scene` with its `grid`; `max_depth` bounds the recursion.
+    pub fn new(scene: &'a Scene, grid: &'a Grid, max_depth: u32) -> Self {
+        CpuRenderer {
+            scene,
+            accel: Accel::new(scene, grid),
+            max_depth,
+            background: V3::from_vec3(scene.background),
+            ambient: V3::from_vec3(scene.ambient),
+        }
+    }
+
+    /// The traversal structure (for tests and AOVs).
+    pub fn accel(&self) -> &Accel<'a, T> {
+        &self.accel
+    }
+
+    /// Radiance along a unit-direction ray at recursion depth `depth` (primary = 0).
+    fn radiance(&self, ray: &Ray<T>, depth: u32, tally: &mut Tally) -> V3<T> {
+        match self.accel.closest_hit(ray, &mut tally.work) {
+            None => self.background,
+            Some(hit) => self.shade(ray, &hit, depth, tally),
+        }
+    }
+
+    /// Whitted shading of a hit (see `cpu::shade` for the conventions).
+    fn shade(&self, ray: &Ray<T>, hit: &Hit<T>, depth: u32, tally: &mut Tally) -> V3<T> {
+        let verts = &self.accel.tris[hit.tri as usize];
+        let sp = surface(self.scene, verts, hit, ray.d);
+        let m = &self.scene.materials[sp.material as usize];
+        let alb = albedo(m, sp.p);
+        let v = -ray.d;
+        let mut color = alb.mul_elem(self.ambient) * T::from_f32(m.ka);
+        for light in &self.scene.lights {
+            let lp = V3::<T>::from_vec3(light.position);
+            let to_l = lp - sp.p;
+            if to_l.dot(sp.nf) <= T::ZERO || sp.ns.dot(to_l) <= T::ZERO {
+                continue; // below the geometric or shading horizon
+            }
+            let o = offset_origin(&sp, to_l);
+            let dl = lp - o;
+            let dist = dl.length();
+            let l = dl * (T::ONE / dist);
+            tally.shadow += 1;
+            let shadow = Ray {
+                o,
+                d: l,
+                t_min: T::ZERO,
+                t_max: dist,
+            };
+            if self.accel.any_hit(&shadow, &mut tally.work) {
+                continue;
+            }
+            color = color + light_term(m, alb, &sp, l, v, V3::from_vec3(light.radiance()));
+        }
+        if depth < self.max_depth && (m.reflects() || m.refracts()) {
+            let s = secondary(m, &sp, ray.d);
+            if s.kr.max_elem() > T::ZERO {
+                tally.reflected += 1;
+                let r = Ray {
+                    o: offset_origin(&sp, s.reflected),
+                    d: s.reflected,
+                    t_min: T::ZERO,
+                    t_max: T::BIG,
+                };
+                color = color + self.radiance(&r, depth + 1, tally).mul_elem(s.kr);
+            }
+            if s.kt.max_elem() > T::ZERO {
+                tally.refracted += 1;
+                let r = Ray {
+                    o: offset_origin(&sp, s.refracted),
+                    d: s.refracted,
+                    t_min: T::ZERO,
+                    t_max: T::BIG,
+                };
+                color = color + self.radiance(&r, depth + 1, tally).mul_elem(s.kt);
+            }
+        }
+        color
+    }
+
+    /// Primary ray for sample position (px, py) in pixel units.
+    pub fn primary_ray(&self, w: u32, h: u32, px: f64, py: f64) -> Ray<T> {
+        let cam = &self.scene.camera;
+        Ray {
+            o: V3::from_vec3(cam.eye),
+            d: V3::from_dvec3(cam.direction_at(w, h, px, py)),
+            t_min: T::ZERO,
+            t_max: T::BIG,
+        }
+    }
+
+    /// Renders a W x H image with `spp` samples per pixel.
+    pub fn render(&self, w: u32, h: u32, spp: u32) -> CpuOutput {
+        let offsets = camera::sample_offsets(spp);
+        let inv = T::ONE / T::from_f32(offsets.len() as f32);
+        let rows: Vec<(Vec<f32>, Vec<AovPixel>, Tally)> = (0..h)
+            .into_par_iter()
+            .map(|j| {
+                let mut tally = Tally::default();
+                let mut rgb = Vec::with_capacity(w as usize * 3);
+                let mut aov = Vec::with_capacity(w as usize);
+                for i in 0..w {
+                    let mut sum = V3::splat(T::ZERO);
+                    for (k, &(ox, oy)) in offsets.iter().enumerate() {
+                        let ray = self.primary_ray(w, h, i as f64 + ox, j as f64 + oy);
+                        tally.primary += 1;
+                        let before = tally.work;
+                        let hit = self.accel.closest_hit(&ray, &mut tally.work);
+                        if k == 0 {
+                            let steps = (tally.work.cells - before.cells)
+                                + (tally.work.tests - before.tests);
+                            aov.push(self.aov_of(&ray, hit.as_ref(), steps));
+                        }
+                        let c = match hit {
+                            None => self.background,
+                            Some(h) => self.shade(&ray, &h, 0, &mut tally),
+                        };
+                        sum = sum + c;
+                    }
+                    let c = sum * inv;
+                    rgb.extend([c.x, c.y, c.z].map(|v| v.to_f64() as f32));
+                }
+                (rgb, aov, tally)
+            })
+            .collect();
+        let mut data = Vec::with_capacity((w * h * 3) as usize);
+        let mut pixels = Vec::with_capacity((w * h) as usize);
+        let mut total = Tally::default();
+        for (rgb, aov, t) in rows {
+            data.extend(rgb);
+            pixels.extend(aov);
+            total.primary += t.primary;
+            total.shadow += t.shadow;
+            total.reflected += t.reflected;
+            total.refracted += t.refracted;
+            total.work.cells += t.work.cells;
+            total.work.tests += t.work.tests;
+        }
+        CpuOutput {
+            image: Image::from_rgb(w, h, data),
+            aov: Aov::from_pixels(w, h, &pixels),
+            rays: RayCounts::new(
+                total.primary,
+                total.shadow,
+                total.reflected,
+                total.refracted,
+            ),
+            cells: total.work.cells,
+            tests: total.work.tests,
+        }
+    }
+
+    /// AOV values (depth, primitive id, geometric normal, steps) of a primary ray.
+    fn aov_of(&self, ray: &Ray<T>, hit: Option<&Hit<T>>, steps: u64) -> AovPixel {
+        match hit {
+            None => AovPixel::miss(steps as f32),
+            Some(hit) => {
+                let verts = &self.accel.tris[hit.tri as usize];
+                let sp = surface(self.scene, verts, hit, ray.d);
+                AovPixel {
+                    depth: hit.t.to_f64() as f32,
+                    primid: hit.tri as f32,
+                    normal: sp.ng.to_dvec3().as_vec3().to_array(),
+                    steps: steps as f32,
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,221 @@
+//! The Whitted shading model, exactly as every backend evaluates it.
+//! GLSL twin: `glsl120/shade.glsl`.
+//!
+//! L = ka·A·albedo + Σ_visible I_l·(kd·albedo·max(0, n·l) + ks·max(0, r·v)^ns)
+//!     + kr·L(reflected) + kt·L(refracted)
+//!
+//! Conventions shared with the GPU:
+//! - The geometric normal `ng` comes from the winding (v1-v0)x(v2-v0); the shading normal
+//!   interpolates vertex normals when the triangle has them. Both are flipped to face the
+//!   incoming ray (opaque surfaces are two-sided).
+//! - A light contributes only when it lies above both the geometric and the shading
+//!   horizon and its shadow ray reaches it unblocked (every surface occludes, glass too).
+//! - Refraction decides inside/outside from the unflipped geometric normal: the ray enters
+//!   when d·ng < 0. Total internal reflection moves the transmitted weight to reflection.
+//! - Spawned rays start at the hit point offset along ±ng by pbrt's error bound of the
+//!   barycentric hit point, then nudged one more rounding step away from the surface:
+//!   the offset scales with the coordinates, never with a fixed epsilon.
+
+use super::real::{Real, V3};
+use super::traverse::Hit;
+use crate::scene::{Material, Scene};
+
+/// Everything the shading model needs about a hit.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint<T> {
+    /// Hit point from the barycentric combination of the vertices.
+    pub p: V3<T>,
+    /// Absolute error bound of `p` per component.
+    pub p_err: V3<T>,
+    /// Unit geometric normal from the winding (not flipped).
+    pub ng: V3<T>,
+    /// Unit geometric normal facing the incoming ray.
+    pub nf: V3<T>,
+    /// Unit shading normal facing the incoming ray.
+    pub ns: V3<T>,
+    /// True when the ray arrived from the side `ng` points to (it is entering).
+    pub entering: bool,
+    /// Material index.
+    pub material: u32,
+}
+
+/// Builds the surface point of a hit of ray direction `d`.
+pub fn surface<T: Real>(
+    scene: &Scene,
+    verts: &[V3<T>; 3],
+    hit: &Hit<T>,
+    d: V3<T>,
+) -> SurfacePoint<T> {
+    let [b0, b1, b2] = hit.b;
+    let p = verts[0] * b0 + verts[1] * b1 + verts[2] * b2;
+    let p_err =
+        ((verts[0] * b0).abs() + (verts[1] * b1).abs() + (verts[2] * b2).abs()) * T::gamma(7);
+    let n_raw = (verts[1] - verts[0]).cross(verts[2] - verts[0]);
+    let len = n_raw.length();
+    // Hits on zero-area triangles are impossible (det == 0 is rejected), but guard anyway so
+    // no NaN can ever reach a pixel.
+    let ng = if len > T::ZERO {
+        n_raw * (T::ONE / len)
+    } else {
+        V3::new(T::ZERO, T::ONE, T::ZERO)
+    };
+    let entering = d.dot(ng) < T::ZERO;
+    let nf = if entering { ng } else { -ng };
+    let tri = &scene.triangles[hit.tri as usize];
+    let mut ns = nf;
+    if tri.has_normals() {
+        let n = |k: usize| V3::<T>::from_vec3(scene.normals[tri.n[k] as usize]);
+        let s = n(0) * b0 + n(1) * b1 + n(2) * b2;
+        let l = s.length();
+        if l > T::ZERO && l.is_finite() {
+            let s = s * (T::ONE / l);
+            ns = if s.dot(nf) < T::ZERO { -s } else { s };
+        }
+    }
+    SurfacePoint {
+        p,
+        p_err,
+        ng,
+        nf,
+        ns,
+        entering,
+        material: tri.material,
+    }
+}
+
+/// Origin for a ray leaving `sp` in direction `w`: offset to the side of the surface that
+/// `w` points to, by the error bound projected on the normal, then one more step away.
+pub fn offset_origin<T: Real>(sp: &SurfacePoint<T>, w: V3<T>) -> V3<T> {
+    let dist = sp.ng.abs().dot(sp.p_err);
+    let mut off = sp.ng * dist;
+    if w.dot(sp.ng) < T::ZERO {
+        off = -off;
+    }
+    let po = sp.p + off;
+    let nudge = |x: T, o: T| {
+        let step = x.abs() * (T::UNIT_ROUNDOFF + T::UNIT_ROUNDOFF) + T::from_f32(1e-30);
+        if o > T::ZERO {
+            x + step
+        } else if o < T::ZERO {
+            x - step
+        } else {
+            x
+        }
+    };
+    V3::new(nudge(po.x, off.x), nudge(po.y, off.y), nudge(po.z, off.z))
+}
+
+/// Albedo at point `p` (the checker replaces the flat colour when present).
+pub fn albedo<T: Real>(m: &Material, p: V3<T>) -> V3<T> {
+    match &m.checker {
+        None => V3::from_vec3(m.albedo),
+        Some(c) => {
+            let (a, b) = c.axes.indices();
+            let inv = T::ONE / T::from_f32(c.scale);
+            let s = (p[a] * inv).floor() + (p[b] * inv).floor();
+            let half = s * T::from_f32(0.5);
+            if half.floor() == half {
+                V3::from_vec3(c.color_a)
+            } else {
+                V3::from_vec3(c.color_b)
+            }
+        }
+    }
+}
+
+/// Mirror direction of `d` about unit normal `n`.
+#[inline(always)]
+pub fn reflect<T: Real>(d: V3<T>, n: V3<T>) -> V3<T> {
+    d - n * ((T::ONE + T::ONE) * d.dot(n))
+}
+
+/// Secondary-ray weights and directions at a hit.
+#[derive(Clone, Copy, Debug)]
+pub struct Secondary<T> {
+    /// Effective reflection weight (after Fresnel and total internal reflection).
+    pub kr: V3<T>,
+    /// Effective transmission weight.
+    pub kt: V3<T>,
+    /// Unit reflected direction.
+    pub reflected: V3<T>,
+    /// Unit refracted direction (meaningful only when `kt` is non-zero).
+    pub refracted: V3<T>,
+}
+
+/// Reflection and refraction for unit incoming direction `d`.
+pub fn secondary<T: Real>(m: &Material, sp: &SurfacePoint<T>, d: V3<T>) -> Secondary<T> {
+    let zero = V3::splat(T::ZERO);
+    let mut reflected = reflect(d, sp.ns);
+    if reflected.dot(sp.nf) <= T::ZERO {
+        // The shading normal sent the mirror ray under the surface: use the true normal.
+        reflected = reflect(d, sp.nf);
+    }
+    let mut kr = if m.fresnel { zero } else { V3::from_vec3(m.kr) };
+    let mut kt = if m.fresnel { zero } else { V3::from_vec3(m.kt) };
+    let mut refracted = zero;
+    if m.refracts() {
+        let ior = T::from_f32(m.ior);
+        let (n1, n2) = if sp.entering {
+            (T::ONE, ior)
+        } else {
+            (ior, T::ONE)
+        };
+        let eta = n1 / n2;
+        let cos_i = (-d.dot(sp.ns)).min(T::ONE);
+        let k = T::ONE - eta * eta * (T::ONE - cos_i * cos_i);
+        if k < T::ZERO {
+            // Total internal reflection: all energy goes to the mirror ray.
+            kr = if m.fresnel {
+                V3::splat(T::ONE)
+            } else {
+                kr + kt
+            };
+            kt = zero;
+        } else {
+            let cos_t = k.sqrt();
+            refracted = (d * eta + sp.ns * (eta * cos_i - cos_t)).normalize();
+            if refracted.dot(sp.nf) >= T::ZERO {
+                // Shading normal put the transmitted ray on the wrong side: bend with ng.
+                let cos_g = -d.dot(sp.nf);
+                let kg = T::ONE - eta * eta * (T::ONE - cos_g * cos_g);
+                refracted = (d * eta + sp.nf * (eta * cos_g - kg.max(T::ZERO).sqrt())).normalize();
+            }
+            if m.fresnel {
+                let rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
+                let rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
+                let f = (rs * rs + rp * rp) * T::from_f32(0.5);
+                kr = V3::splat(f);
+                kt = V3::splat(T::ONE - f);
+            }
+        }
+    }
+    Secondary {
+        kr,
+        kt,
+        reflected,
+        refracted,
+    }
+}
+
+/// Direct term of one visible light: kd·albedo·max(0,n·l) + ks·max(0,r·v)^ns, times I_l.
+/// `l` is the unit direction to the light, `v` the unit direction to the viewer.
+pub fn light_term<T: Real>(
+    m: &Material,
+    albedo: V3<T>,
+    sp: &SurfacePoint<T>,
+    l: V3<T>,
+    v: V3<T>,
+    radiance: V3<T>,
+) -> V3<T> {
+    let ndotl = sp.ns.dot(l);
+    if ndotl <= T::ZERO {
+        return V3::splat(T::ZERO);
+    }
+    let mut c = albedo * (T::from_f32(m.kd) * ndotl);
+    if m.ks.max_element() > 0.0 {
+        let r = reflect(-l, sp.ns);
+        let rv = r.dot(v).max(T::ZERO);
+        c = c + V3::from_vec3(m.ks) * rv.powf(T::from_f32(m.ns));
+    }
+    c.mul_elem(radiance)
+}

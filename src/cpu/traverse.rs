@@ -1,0 +1,247 @@
+//! 3D-DDA grid traversal after Amanatides & Woo (1987), closest-hit and any-hit.
+//! GLSL twins: `glsl120/traverse_init.frag`, `glsl120/traverse_step.frag` and
+//! `glsl120/intersect.frag`, which run one step of this loop per pass.
+//!
+//! Deviation from the thesis, on purpose: the boundary parameter tMax of an axis is
+//! recomputed from the cell index, `(min + (c + [d > 0]) * size - o) / d`, instead of
+//! being accumulated with tDelta. Accumulation drifts by about one ulp per step, which after
+//! hundreds of cells exceeds the conservative padding of the binning and lets hits on cell
+//! faces be rejected; recomputation keeps the error to a few ulps at every step.
+
+use super::intersect::{intersect, RayShear};
+use super::real::{Real, V3};
+use crate::accel::{CellRange, Grid};
+
+/// A ray with its open parameter interval (t_min, t_max).
+#[derive(Clone, Copy, Debug)]
+pub struct Ray<T> {
+    /// Origin.
+    pub o: V3<T>,
+    /// Direction (need not be unit length).
+    pub d: V3<T>,
+    /// Lower bound of the parameter interval.
+    pub t_min: T,
+    /// Upper bound of the parameter interval.
+    pub t_max: T,
+}
+
+/// The closest hit of a ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit<T> {
+    /// Ray parameter.
+    pub t: T,
+    /// Triangle index (load order).
+    pub tri: u32,
+    /// Barycentric weights of the triangle's vertices.
+    pub b: [T; 3],
+}
+
+/// Work counters of one or more traversals (the `steps` AOV and the stats).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Work {
+    /// Grid cells visited.
+    pub cells: u64,
+    /// Ray-triangle tests run.
+    pub tests: u64,
+}
+
+/// Geometry and grid converted to the renderer's precision once per render.
+pub struct Accel<'a, T> {
+    /// Vertices of every triangle, in load order.
+    pub tris: Vec<[V3<T>; 3]>,
+    /// Grid lower corner.
+    pub min: V3<T>,
+    /// Grid upper corner.
+    pub max: V3<T>,
+    /// Cell size per axis.
+    pub cs: V3<T>,
+    /// Cells per axis.
+    pub res: [i32; 3],
+    /// Per-cell (offset, count) table.
+    pub cells: &'a [CellRange],
+    /// Flat triangle-index list.
+    pub list: &'a [u32],
+}
+
+impl<'a, T: Real> Accel<'a, T> {
+    /// Prepares a scene and its grid for traversal in precision `T`.
+    pub fn new(scene: &crate::scene::Scene, grid: &'a Grid) -> Self {
+        let tris = (0..scene.triangles.len())
+            .map(|i| scene.triangle_vertices(i).map(V3::from_vec3))
+            .collect();
+        Accel {
+            tris,
+            min: V3::from_vec3(grid.min),
+            max: V3::from_vec3(grid.max),
+            cs: V3::from_vec3(grid.cell_size),
+            res: grid.res.map(|r| r as i32),
+            cells: &grid.cells,
+            list: &grid.tri_indices,
+        }
+    }
+
+    /// Parameter of the far boundary of cell `c` along `axis`; `BIG` when d is ±0.
+    #[inline(always)]
+    fn boundary(&self, ray: &Ray<T>, axis: usize, c: i32) -> T {
+        let d = ray.d[axis];
+        if d == T::ZERO {
+            return T::BIG;
+        }
+        let k = if d > T::ZERO { c + 1 } else { c };
+        (self.min[axis] + T::from_f32(k as f32) * self.cs[axis] - ray.o[axis]) / d
+    }
+
+    /// Clips the ray to the grid box: (t_enter, t_exit) or `None` when it misses.
+    /// A ±0 direction component makes the slab unbounded when the origin is inside it.
+    #[inline(always)]
+    pub fn clip(&self, ray: &Ray<T>) -> Option<(T, T)> {
+        let mut t0 = ray.t_min;
+        let mut t1 = ray.t_max;
+        for a in 0..3 {
+            let d = ray.d[a];
+            if d == T::ZERO {
+                if ray.o[a] < self.min[a] || ray.o[a] > self.max[a] {
+                    return None;
+                }
+                continue;
+            }
+            let mut n = (self.min[a] - ray.o[a]) / d;
+            let mut f = (self.max[a] - ray.o[a]) / d;
+            if n > f {
+                std::mem::swap(&mut n, &mut f);
+            }
+            t0 = t0.max(n);
+            t1 = t1.min(f);
+        }
+        if t0 > t1 {
+            None
+        } else {
+            Some((t0, t1))
+        }
+    }
+
+    /// Starting cell of a ray entering at `t_enter`, clamped into the grid.
+    #[inline(always)]
+    pub fn start_cell(&self, ray: &Ray<T>, t_enter: T) -> [i32; 3] {
+        let mut c = [0i32; 3];
+        for (a, ca) in c.iter_mut().enumerate() {
+            let p = ray.o[a] + ray.d[a] * t_enter;
+            let f = ((p - self.min[a]) / self.cs[a]).floor().to_f64();
+            *ca = (f.max(0.0) as i64).min(self.res[a] as i64 - 1) as i32;
+        }
+        c
+    }
+
+    /// Runs the DDA, calling `visit(cell_range, t_exit)` for each cell in order until it
+    /// returns true (stop) or the ray leaves the grid or its interval.
+    #[inline(always)]
+    fn walk(&self, ray: &Ray<T>, work: &mut Work, mut visit: impl FnMut(CellRange, T) -> bool) {
+        let Some((t_enter, t_leave)) = self.clip(ray) else {
+            return;
+        };
+        let mut c = self.start_cell(ray, t_enter);
+        let mut tn = [0, 1, 2].map(|a| self.boundary(ray, a, c[a]));
+        loop {
+            work.cells += 1;
+            let t_exit = tn[0].min(tn[1]).min(tn[2]);
+            let idx = c[0] + self.res[0] * (c[1] + self.res[1] * c[2]);
+            if visit(self.cells[idx as usize], t_exit) {
+                return;
+            }
+            if t_exit >= t_leave {
+                return;
+            }
+            // Smallest boundary; ties go to the lower axis, as in the GLSL twin.
+            let axis = if tn[0] <= tn[1] && tn[0] <= tn[2] {
+                0
+            } else if tn[1] <= tn[2] {
+                1
+            } else {
+                2
+            };
+            c[axis] += if ray.d[axis] > T::ZERO { 1 } else { -1 };
+            if c[axis] < 0 || c[axis] >= self.res[axis] {
+                return;
+            }
+            tn[axis] = self.boundary(ray, axis, c[axis]);
+        }
+    }
+
+    /// Closest hit in (t_min, t_max). A hit is accepted in a cell only if its t is not
+    /// beyond the cell's exit (plus a few ulps, which conservative binning covers); ties
+    /// in t go to the lower triangle index.
+    pub fn closest_hit(&self, ray: &Ray<T>, work: &mut Work) -> Option<Hit<T>> {
+        let shear = RayShear::new(ray.d);
+        let mut best: Option<Hit<T>> = None;
+        let slack = T::gamma(8);
+        let mut tests = 0u64;
+        self.walk(ray, work, |range, t_exit| {
+            let limit = t_exit + t_exit.abs() * slack;
+            let mut t_best = ray.t_max;
+            for &tri in &self.list[range.offset as usize..(range.offset + range.count) as usize] {
+                tests += 1;
+                if let Some(h) =
+                    intersect(ray.o, &shear, &self.tris[tri as usize], ray.t_min, t_best)
+                {
+                    if h.t <= limit {
+                        t_best = h.t;
+                        best = Some(Hit {
+                            t: h.t,
+                            tri,
+                            b: h.b,
+                        });
+                    }
+                }
+            }
+            best.is_some()
+        });
+        work.tests += tests;
+        best
+    }
+
+    /// True when anything is hit in (t_min, t_max): the shadow-ray query.
+    pub fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool {
+        let shear = RayShear::new(ray.d);
+        let mut found = false;
+        let mut tests = 0u64;
+        self.walk(ray, work, |range, _| {
+            for &tri in &self.list[range.offset as usize..(range.offset + range.count) as usize] {
+                tests += 1;
+                if intersect(
+                    ray.o,
+                    &shear,
+                    &self.tris[tri as usize],
+                    ray.t_min,
+                    ray.t_max,
+                )
+                .is_some()
+                {
+                    found = true;
+                    return true;
+                }
+            }
+            false
+        });
+        work.tests += tests;
+        found
+    }
+
+    /// Brute-force closest hit over all triangles, with the same tie rule: the oracle for
+    /// tests.
+    pub fn brute_force(&self, ray: &Ray<T>) -> Option<Hit<T>> {
+        let shear = RayShear::new(ray.d);
+        let mut best: Option<Hit<T>> = None;
+        let mut t_best = ray.t_max;
+        for (i, tri) in self.tris.iter().enumerate() {
+            if let Some(h) = intersect(ray.o, &shear, tri, ray.t_min, t_best) {
+                t_best = h.t;
+                best = Some(Hit {
+                    t: h.t,
+                    tri: i as u32,
+                    b: h.b,
+                });
+            }
+        }
+        best
+    }
+}

@@ -1,0 +1,313 @@
+//! Backend-independent rendering front door: options, statistics, AOVs, and dispatch to
+//! the CPU reference renderer (and, where built, the GPU backend).
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::accel::{Grid, GridConfig};
+use crate::cpu::CpuRenderer;
+use crate::image_io::Image;
+use crate::scene::Scene;
+use crate::{Error, Result};
+
+/// Which renderer runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Backend {
+    /// The GPU when a suitable GL context can be made, else the CPU with a notice.
+    Auto,
+    /// The CPU reference renderer.
+    Cpu,
+    /// The GLSL 1.20 multi-pass renderer; fails rather than falling back.
+    Gl,
+}
+
+impl std::str::FromStr for Backend {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "auto" => Ok(Backend::Auto),
+            "cpu" => Ok(Backend::Cpu),
+            "gl" => Ok(Backend::Gl),
+            _ => Err(format!("unknown backend `{s}` (expected auto, cpu or gl)")),
+        }
+    }
+}
+
+/// Arithmetic precision of the CPU renderer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// Single precision, as the GPU computes.
+    F32,
+    /// Double precision: the ground truth.
+    F64,
+}
+
+impl std::str::FromStr for Precision {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "f32" => Ok(Precision::F32),
+            "f64" => Ok(Precision::F64),
+            _ => Err(format!("unknown precision `{s}` (expected f32 or f64)")),
+        }
+    }
+}
+
+/// Largest image side accepted (checked before allocating anything).
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Largest sample count per pixel.
+pub const MAX_SPP: u32 = 1024;
+/// Largest recursion depth.
+pub const MAX_DEPTH: u32 = 16;
+
+/// Everything that controls one render.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Samples per pixel (stratified, fixed seed).
+    pub spp: u32,
+    /// Maximum recursion depth (reflection/refraction bounces).
+    pub max_depth: u32,
+    /// CPU arithmetic precision.
+    pub precision: Precision,
+    /// Grid resolution and density.
+    pub grid: GridConfig,
+    /// Which renderer runs.
+    pub backend: Backend,
+}
+
+impl RenderOptions {
+    /// The scene's own size and depth, one sample, f64, the auto grid, the CPU backend.
+    pub fn for_scene(scene: &Scene) -> Self {
+        RenderOptions {
+            width: scene.width,
+            height: scene.height,
+            spp: 1,
+            max_depth: scene.max_depth,
+            precision: Precision::F64,
+            grid: GridConfig::default(),
+            backend: Backend::Cpu,
+        }
+    }
+
+    /// Rejects sizes and counts out of range before any allocation.
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [("width", self.width), ("height", self.height)] {
+            if v == 0 || v > MAX_IMAGE_SIDE {
+                return Err(Error::Usage(format!(
+                    "--{name} {v} is outside 1..={MAX_IMAGE_SIDE}"
+                )));
+            }
+        }
+        if self.spp == 0 || self.spp > MAX_SPP {
+            return Err(Error::Usage(format!(
+                "--spp {} is outside 1..={MAX_SPP}",
+                self.spp
+            )));
+        }
+        if self.max_depth > MAX_DEPTH {
+            return Err(Error::Usage(format!(
+                "--max-depth {} is outside 0..={MAX_DEPTH}",
+                self.max_depth
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Rays traced, by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RayCounts {
+    /// Camera rays.
+    pub primary: u64,
+    /// Shadow rays (one per light per shaded hit above the horizon).
+    pub shadow: u64,
+    /// Mirror rays.
+    pub reflected: u64,
+    /// Transmitted rays.
+    pub refracted: u64,
+    /// Sum of the above.
+    pub total: u64,
+}
+
+impl RayCounts {
+    /// Builds the counts and their total.
+    pub fn new(primary: u64, shadow: u64, reflected: u64, refracted: u64) -> Self {
+        RayCounts {
+            primary,
+            shadow,
+            reflected,
+            refracted,
+            total: primary + shadow + reflected + refracted,
+        }
+    }
+}
+
+/// Statistics of one render (written by `--stats FILE.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct RenderStats {
+    /// "cpu" or "gl".
+    pub backend: String,
+    /// CPU precision or GPU device name.
+    pub device: String,
+    /// "f32" or "f64" arithmetic.
+    pub precision: String,
+    /// Scene source.
+    pub scene: String,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum depth used.
+    pub max_depth: u32,
+    /// Triangle count.
+    pub triangles: usize,
+    /// Grid cells per axis.
+    pub grid: [u32; 3],
+    /// Grid statistics.
+    pub grid_stats: crate::accel::GridStats,
+    /// Grid build time.
+    pub grid_build_ms: f64,
+    /// Render time (excluding grid build).
+    pub render_ms: f64,
+    /// Rays by kind.
+    pub rays: RayCounts,
+    /// Grid cells visited by all rays.
+    pub cells_visited: u64,
+    /// Ray-triangle tests by all rays.
+    pub triangle_tests: u64,
+    /// Million rays per second over `render_ms`.
+    pub mrays_per_s: f64,
+    /// Backend-specific extras (GPU pass counts and timings).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gpu: Option<serde_json::Value>,
+}
+
+/// One AOV pixel of the primary ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AovPixel {
+    /// Hit parameter t; +inf on a miss.
+    pub depth: f32,
+    /// Triangle index; -1 on a miss.
+    pub primid: f32,
+    /// Geometric normal (winding order, not flipped); zero on a miss.
+    pub normal: [f32; 3],
+    /// Cells visited plus triangle tests.
+    pub steps: f32,
+}
+
+impl AovPixel {
+    /// A miss.
+    pub fn miss(steps: f32) -> Self {
+        AovPixel {
+            depth: f32::INFINITY,
+            primid: -1.0,
+            normal: [0.0; 3],
+            steps,
+        }
+    }
+}
+
+/// Per-pixel outputs of the primary ray: what inspection and compositing need.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Aov {
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// Pixels, top row first.
+    pub pixels: Vec<AovPixel>,
+}
+
+impl Aov {
+    /// From pixels in row order.
+    pub fn from_pixels(width: u32, height: u32, pixels: &[AovPixel]) -> Self {
+        assert_eq!(pixels.len(), (width * height) as usize);
+        Aov {
+            width,
+            height,
+            pixels: pixels.to_vec(),
+        }
+    }
+
+    /// The pixel at (i, j).
+    pub fn at(&self, i: u32, j: u32) -> &AovPixel {
+        &self.pixels[(j * self.width + i) as usize]
+    }
+}
+
+/// A finished render.
+pub struct Rendered {
+    /// Linear RGB image.
+    pub image: Image,
+    /// Primary-ray AOVs.
+    pub aov: Aov,
+    /// Statistics.
+    pub stats: RenderStats,
+}
+
+/// Builds the grid and renders `scene` on the CPU.
+pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+    opts.validate()?;
+    let grid = Grid::build(scene, &opts.grid)?;
+    let t0 = Instant::now();
+    let out = match opts.precision {
+        Precision::F64 => CpuRenderer::<f64>::new(scene, &grid, opts.max_depth).render(
+            opts.width,
+            opts.height,
+            opts.spp,
+        ),
+        Precision::F32 => CpuRenderer::<f32>::new(scene, &grid, opts.max_depth).render(
+            opts.width,
+            opts.height,
+            opts.spp,
+        ),
+    };
+    let render_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let precision = match opts.precision {
+        Precision::F32 => "f32",
+        Precision::F64 => "f64",
+    };
+    let stats = RenderStats {
+        backend: "cpu".into(),
+        device: format!("cpu ({} threads)", rayon::current_num_threads()),
+        precision: precision.into(),
+        scene: scene.source.clone(),
+        width: opts.width,
+        height: opts.height,
+        spp: opts.spp,
+        max_depth: opts.max_depth,
+        triangles: scene.triangles.len(),
+        grid: grid.res,
+        grid_build_ms: grid.stats.build_ms,
+        grid_stats: grid.stats.clone(),
+        render_ms,
+        rays: out.rays,
+        cells_visited: out.cells,
+        triangle_tests: out.tests,
+        mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
+        gpu: None,
+    };
+    Ok(Rendered {
+        image: out.image,
+        aov: out.aov,
+        stats,
+    })
+}
+
+/// Renders with the backend chosen in `opts`.
+pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+    match opts.backend {
+        Backend::Cpu | Backend::Auto => render_cpu(scene, opts),
+        Backend::Gl => Err(Error::GlUnavailable(
+            "the GL backend is not built yet in this version; use --backend cpu".into(),
+        )),
+    }
+}
