@@ -2,13 +2,15 @@
 //! fragment programs (the multi-pass stream design of Purcell et al. 2002), with an f64 CPU
 //! reference renderer as ground truth.
 //!
-//! Modules: [`scene`] (model, loaders, camera), [`accel`] (grid build), [`cpu`] (reference
-//! renderer), [`image_io`] (PNG/EXR output), [`cli`] (command line).
+//! Modules: [`scene`] (model, loaders, camera), [`accel`] (grid build, texel layout),
+//! [`cpu`] (reference renderer), [`gpu`] (headless GL context, shaders, passes),
+//! [`render`] (backend-independent front door), [`image_io`] (PNG/EXR), [`cli`].
 
 pub mod accel;
 pub mod cli;
 pub mod cpu;
 pub mod error;
+pub mod gpu;
 pub mod image_io;
 pub mod render;
 pub mod scene;

@@ -6,6 +6,7 @@
 //! test the binning relies on.
 
 pub mod grid;
+pub mod layout;
 pub mod tribox;
 
 pub use grid::{CellRange, Grid, GridConfig, GridRes, GridStats};

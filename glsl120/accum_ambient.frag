@@ -1,0 +1,31 @@
+// accum_ambient.frag: adds the ambient term at this level's hits and the background for
+// this level's rays that left the scene.
+// Reads: u_r0, u_r1, u_r2 (this level's records), u_acc, u_ambient, u_background,
+//        triangle and material textures.
+// Writes: colour = u_acc + weight * (ka A albedo) on hits, + weight * background on misses.
+#include "intersect.glsl"
+#include "shade.glsl"
+
+uniform sampler2D u_r0;
+uniform sampler2D u_r1;
+uniform sampler2D u_r2;
+uniform sampler2D u_acc;
+uniform vec3 u_ambient;
+uniform vec3 u_background;
+
+void main() {
+    vec4 acc = texture2D(u_acc, v_uv);
+    vec4 r2 = texture2D(u_r2, v_uv);
+    if (r2.w > 0.5) {
+        vec4 r0 = texture2D(u_r0, v_uv);
+        if (r0.w >= 0.0) {
+            vec4 r1 = texture2D(u_r1, v_uv);
+            Surface s = surface(r0.xyz, r1.xyz, r0.w);
+            float ka = mat_texel(s.mat, 0.0).w;
+            acc.xyz += r2.xyz * (albedo_at(s.mat, s.p) * u_ambient * ka);
+        } else if (r0.w > -1.5) {
+            acc.xyz += r2.xyz * u_background;
+        }
+    }
+    gl_FragData[0] = acc;
+}

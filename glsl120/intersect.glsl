@@ -1,0 +1,105 @@
+// intersect.glsl: watertight ray-triangle intersection (Woop, Benthin, Wald 2013) with
+// pbrt-v3's conservative bound on the error of t.
+// CPU twin: src/cpu/intersect.rs (same operations in the same order).
+//
+// GLSL 1.20 has no dynamic vector indexing on period hardware, so the axis permutation
+// (kx, ky, kz) is a 0/1 matrix: v * P picks components exactly (products with 0 and 1 and
+// sums with 0 are exact).
+
+// Shear of direction d: P permutes a vector to (v[kx], v[ky], v[kz]); S = (Sx, Sy, Sz).
+void shear_setup(vec3 d, out mat3 P, out vec3 S) {
+    vec3 a = abs(d);
+    vec3 kx;
+    vec3 ky;
+    vec3 kz;
+    // Ties resolve to the lower axis, as in the CPU twin.
+    if (a.x >= a.y && a.x >= a.z) {
+        kz = vec3(1.0, 0.0, 0.0); kx = vec3(0.0, 1.0, 0.0); ky = vec3(0.0, 0.0, 1.0);
+    } else if (a.y >= a.z) {
+        kz = vec3(0.0, 1.0, 0.0); kx = vec3(0.0, 0.0, 1.0); ky = vec3(1.0, 0.0, 0.0);
+    } else {
+        kz = vec3(0.0, 0.0, 1.0); kx = vec3(1.0, 0.0, 0.0); ky = vec3(0.0, 1.0, 0.0);
+    }
+    float dz = dot(d, kz);
+    if (dz < 0.0) {
+        vec3 t = kx; kx = ky; ky = t;
+    }
+    P = mat3(kx, ky, kz);
+    S = vec3(dot(d, kx) / dz, dot(d, ky) / dz, 1.0 / dz);
+}
+
+// Hit of ray (o, shear P S) with triangle (p0, p1, p2) for t in (t_min, t_max):
+// returns (t, b0, b1, b2), or t = -1.0 on a miss.
+vec4 intersect_tri(vec3 o, mat3 P, vec3 S, vec3 p0, vec3 p1, vec3 p2, float t_min, float t_max) {
+    vec3 A = (p0 - o) * P;
+    vec3 B = (p1 - o) * P;
+    vec3 C = (p2 - o) * P;
+    float ax = A.x - S.x * A.z;
+    float ay = A.y - S.y * A.z;
+    float bx = B.x - S.x * B.z;
+    float by = B.y - S.y * B.z;
+    float cx = C.x - S.x * C.z;
+    float cy = C.y - S.y * C.z;
+    float u = cx * by - cy * bx;
+    float v = ax * cy - ay * cx;
+    float w = bx * ay - by * ax;
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) {
+        return vec4(-1.0);
+    }
+    float det = u + v + w;
+    if (det == 0.0) {
+        return vec4(-1.0);
+    }
+    float az = S.z * A.z;
+    float bz = S.z * B.z;
+    float cz = S.z * C.z;
+    float tt = u * az + v * bz + w * cz;
+    float det_abs = abs(det);
+    if (det < 0.0) {
+        tt = -tt;
+    }
+    if (!(tt > t_min * det_abs && tt < t_max * det_abs)) {
+        return vec4(-1.0);
+    }
+    float t = tt / det_abs;
+    float max_zt = max(max(abs(az), abs(bz)), abs(cz));
+    float max_xt = max(max(abs(ax), abs(bx)), abs(cx));
+    float max_yt = max(max(abs(ay), abs(by)), abs(cy));
+    float delta_z = gamma_n(3.0) * max_zt;
+    float delta_x = gamma_n(5.0) * (max_xt + max_zt);
+    float delta_y = gamma_n(5.0) * (max_yt + max_zt);
+    float delta_e = 2.0 * (gamma_n(2.0) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    float max_e = max(max(abs(u), abs(v)), abs(w));
+    float delta_t = 3.0 * (gamma_n(3.0) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / det_abs;
+    if (t <= delta_t) {
+        return vec4(-1.0);
+    }
+    float inv = 1.0 / det;
+    return vec4(t, u * inv, v * inv, w * inv);
+}
+
+// Barycentric weights of a hit already found (no rejection): the shading passes
+// re-derive them from the recorded ray and triangle instead of storing them.
+vec3 tri_bary(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2) {
+    mat3 P;
+    vec3 S;
+    shear_setup(d, P, S);
+    vec3 A = (p0 - o) * P;
+    vec3 B = (p1 - o) * P;
+    vec3 C = (p2 - o) * P;
+    float ax = A.x - S.x * A.z;
+    float ay = A.y - S.y * A.z;
+    float bx = B.x - S.x * B.z;
+    float by = B.y - S.y * B.z;
+    float cx = C.x - S.x * C.z;
+    float cy = C.y - S.y * C.z;
+    float u = cx * by - cy * bx;
+    float v = ax * cy - ay * cx;
+    float w = bx * ay - by * ax;
+    float det = u + v + w;
+    if (det == 0.0) {
+        return vec3(1.0 / 3.0);
+    }
+    float inv = 1.0 / det;
+    return vec3(u * inv, v * inv, w * inv);
+}

@@ -1,0 +1,139 @@
+// shade.glsl: the Whitted shading model. CPU twin: src/cpu/shade.rs (conventions there).
+// Needs intersect.glsl (tri_bary) and the generated fetch_tri / fetch_mat / fetch_nrm.
+
+// A hit re-derived from the recorded ray (o, d) and triangle index.
+struct Surface {
+    vec3 p;      // barycentric hit point
+    vec3 p_err;  // its absolute error bound
+    vec3 ng;     // unit geometric normal from the winding
+    vec3 nf;     // ng facing the incoming ray
+    vec3 ns;     // shading normal facing the incoming ray
+    bool entering;
+    float mat;   // material index
+};
+
+Surface surface(vec3 o, vec3 d, float tri) {
+    Surface s;
+    vec4 t0 = fetch_tri(tri * TRI_TEXELS);
+    vec4 t1 = fetch_tri(tri * TRI_TEXELS + 1.0);
+    vec4 t2 = fetch_tri(tri * TRI_TEXELS + 2.0);
+    vec3 b = tri_bary(o, d, t0.xyz, t1.xyz, t2.xyz);
+    s.p = t0.xyz * b.x + t1.xyz * b.y + t2.xyz * b.z;
+    s.p_err = (abs(t0.xyz * b.x) + abs(t1.xyz * b.y) + abs(t2.xyz * b.z)) * gamma_n(7.0);
+    vec3 n_raw = cross(t1.xyz - t0.xyz, t2.xyz - t0.xyz);
+    float len = length(n_raw);
+    s.ng = len > 0.0 ? n_raw * (1.0 / len) : vec3(0.0, 1.0, 0.0);
+    s.entering = dot(d, s.ng) < 0.0;
+    s.nf = s.entering ? s.ng : -s.ng;
+    s.ns = s.nf;
+#ifdef HAS_SMOOTH_NORMALS
+    if (t1.w > 0.5) {
+        vec3 n0 = fetch_nrm(tri * TRI_TEXELS).xyz;
+        vec3 n1 = fetch_nrm(tri * TRI_TEXELS + 1.0).xyz;
+        vec3 n2 = fetch_nrm(tri * TRI_TEXELS + 2.0).xyz;
+        vec3 sn = n0 * b.x + n1 * b.y + n2 * b.z;
+        float l = length(sn);
+        if (l > 0.0) {
+            sn = sn * (1.0 / l);
+            s.ns = dot(sn, s.nf) < 0.0 ? -sn : sn;
+        }
+    }
+#endif
+    s.mat = t0.w;
+    return s;
+}
+
+// Origin of a ray leaving s in direction w (pbrt's offset, then one rounding step more).
+vec3 offset_origin(Surface s, vec3 w) {
+    float dist = dot(abs(s.ng), s.p_err);
+    vec3 off = s.ng * dist;
+    if (dot(w, s.ng) < 0.0) off = -off;
+    vec3 po = s.p + off;
+    vec3 step = abs(po) * (2.0 * UNIT_ROUNDOFF) + vec3(1.0e-30);
+    return po + sign(off) * step;
+}
+
+vec4 mat_texel(float mat, float k) {
+    return fetch_mat(mat * MAT_TEXELS + k);
+}
+
+vec3 albedo_at(float mat, vec3 p) {
+    vec3 a = mat_texel(mat, 0.0).xyz;
+#ifdef HAS_CHECKER
+    vec4 ca = mat_texel(mat, 4.0);
+    if (ca.w > 0.0) {
+        vec4 cb = mat_texel(mat, 5.0);
+        // axes code: 0 = xy, 1 = xz, 2 = yz
+        vec2 uv = cb.w < 0.5 ? p.xy : (cb.w < 1.5 ? p.xz : p.yz);
+        float inv = 1.0 / ca.w;
+        float s = floor(uv.x * inv) + floor(uv.y * inv);
+        float half_s = s * 0.5;
+        a = floor(half_s) == half_s ? ca.xyz : cb.xyz;
+    }
+#endif
+    return a;
+}
+
+vec3 reflect_dir(vec3 d, vec3 n) {
+    return d - n * (2.0 * dot(d, n));
+}
+
+// Secondary rays: effective weights kr, kt and directions (see the CPU twin).
+void secondary(float mat, Surface s, vec3 d, out vec3 kr, out vec3 kt, out vec3 refl, out vec3 refr) {
+    refl = reflect_dir(d, s.ns);
+    if (dot(refl, s.nf) <= 0.0) refl = reflect_dir(d, s.nf);
+    float fresnel = 0.0;
+#ifdef HAS_FRESNEL
+    fresnel = mat_texel(mat, 6.0).x;
+#endif
+    kr = fresnel > 0.5 ? vec3(0.0) : mat_texel(mat, 2.0).xyz;
+    vec4 kt_ior = mat_texel(mat, 3.0);
+    kt = fresnel > 0.5 ? vec3(0.0) : kt_ior.xyz;
+    refr = vec3(0.0);
+#ifdef HAS_REFRACTION
+    if (fresnel > 0.5 || max(max(kt_ior.x, kt_ior.y), kt_ior.z) > 0.0) {
+        float ior = kt_ior.w;
+        float n1 = s.entering ? 1.0 : ior;
+        float n2 = s.entering ? ior : 1.0;
+        float eta = n1 / n2;
+        float cos_i = min(-dot(d, s.ns), 1.0);
+        float k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+        if (k < 0.0) {
+            kr = fresnel > 0.5 ? vec3(1.0) : kr + kt;
+            kt = vec3(0.0);
+        } else {
+            float cos_t = sqrt(k);
+            refr = normalize(d * eta + s.ns * (eta * cos_i - cos_t));
+            if (dot(refr, s.nf) >= 0.0) {
+                float cos_g = -dot(d, s.nf);
+                float kg = 1.0 - eta * eta * (1.0 - cos_g * cos_g);
+                refr = normalize(d * eta + s.nf * (eta * cos_g - sqrt(max(kg, 0.0))));
+            }
+            if (fresnel > 0.5) {
+                float rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
+                float rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
+                float f = (rs * rs + rp * rp) * 0.5;
+                kr = vec3(f);
+                kt = vec3(1.0 - f);
+            }
+        }
+    }
+#endif
+}
+
+// Direct term of one visible light; l = unit direction to the light, v = to the viewer.
+vec3 light_term(float mat, vec3 albedo, Surface s, vec3 l, vec3 v, vec3 radiance) {
+    float ndotl = dot(s.ns, l);
+    if (ndotl <= 0.0) return vec3(0.0);
+    vec4 kr_kd = mat_texel(mat, 2.0);
+    vec3 c = albedo * (kr_kd.w * ndotl);
+#ifdef HAS_SPECULAR
+    vec4 ks_ns = mat_texel(mat, 1.0);
+    if (max(max(ks_ns.x, ks_ns.y), ks_ns.z) > 0.0) {
+        vec3 r = reflect_dir(-l, s.ns);
+        float rv = max(dot(r, v), 0.0);
+        c += ks_ns.xyz * (rv > 0.0 ? pow(rv, ks_ns.w) : 0.0);
+    }
+#endif
+    return c * radiance;
+}

@@ -1,0 +1,29 @@
+// traverse_init.frag: traversal set-up (pass 2 of the thesis) for rays in state INITIAL.
+// Reads: s0..s3, grid uniforms, the cell table (fetch_cell).
+// Writes: s0 state -> INVALID (misses the grid), TESTING (start cell has triangles) or
+//         TRAVERSING; s2 = (start cell, first list index); s3 = (t_max, -1, list end,
+//         steps + 1). Rays in other states are copied through unchanged.
+#include "traverse.glsl"
+
+void main() {
+    vec4 s0 = texture2D(u_s0, v_uv);
+    vec4 s1 = texture2D(u_s1, v_uv);
+    vec4 s2 = texture2D(u_s2, v_uv);
+    vec4 s3 = texture2D(u_s3, v_uv);
+    if (in_state(s0.w, ST_INITIAL)) {
+        vec2 span = clip_grid(s0.xyz, s1.xyz, 0.0, s1.w);
+        if (span.x > span.y) {
+            s0.w = ST_INVALID;
+        } else {
+            vec3 c = start_cell(s0.xyz, s1.xyz, span.x);
+            vec4 cell = fetch_cell(cell_linear(c));
+            s2 = vec4(c, cell.x);
+            s3 = vec4(s1.w, -1.0, cell.x + cell.y, s3.w + 1.0);
+            s0.w = cell.y > 0.0 ? ST_TESTING : ST_TRAVERSING;
+        }
+    }
+    gl_FragData[0] = s0;
+    gl_FragData[1] = s1;
+    gl_FragData[2] = s2;
+    gl_FragData[3] = s3;
+}

@@ -1,0 +1,31 @@
+// weight.frag: weight of a child node of the Whitted ray tree, from its parent's record.
+// Reads: u_p0, u_p1, u_p2 (the parent level's records), u_branch (0 = reflect,
+//        1 = refract), the triangle and material textures.
+// Writes: c2 = (parent weight * kr or kt, 1) when the child ray exists, else (0, 0).
+#include "intersect.glsl"
+#include "shade.glsl"
+
+uniform sampler2D u_p0;
+uniform sampler2D u_p1;
+uniform sampler2D u_p2;
+uniform float u_branch;
+
+void main() {
+    vec4 p0 = texture2D(u_p0, v_uv);
+    vec4 p2 = texture2D(u_p2, v_uv);
+    vec4 outw = vec4(0.0);
+    if (p2.w > 0.5 && p0.w >= 0.0) {
+        vec4 p1 = texture2D(u_p1, v_uv);
+        Surface s = surface(p0.xyz, p1.xyz, p0.w);
+        vec3 kr;
+        vec3 kt;
+        vec3 refl;
+        vec3 refr;
+        secondary(s.mat, s, p1.xyz, kr, kt, refl, refr);
+        vec3 k = u_branch < 0.5 ? kr : kt;
+        if (max(max(k.x, k.y), k.z) > 0.0) {
+            outw = vec4(p2.xyz * k, 1.0);
+        }
+    }
+    gl_FragData[0] = outw;
+}

@@ -1,0 +1,260 @@
+//! Texel layout of the scene and the grid in RGBA32F textures: defined here, once, and
+//! turned into the GLSL constants and fetch functions the shaders use
+//! ([`SceneTextures::glsl`]), so the packing and the unpacking cannot drift apart.
+//!
+//! Every texture is a 2D array of texels addressed by a linear index i that wraps into rows
+//! of a power-of-two width W (so the row `floor(i / W)` is exact in f32: dividing by a power of
+//! two only changes the exponent; adding 0.5 first would round near 2^24), at most the GPU's
+//! GL_MAX_TEXTURE_SIZE wide and high. Indices and counts are stored as floats, exact below
+//! 2^24; larger scenes are refused with a clear error.
+//!
+//! | texture | texels per item | contents |
+//! |---|---|---|
+//! | `tri` | 3 per triangle | (v0, material), (v1, has_normals), (v2, 0) |
+//! | `nrm` | 3 per triangle | vertex normals n0, n1, n2 (only when the scene has any) |
+//! | `mat` | 7 per material | see [`MAT_TEXELS`] |
+//! | `cell` | 1 per grid cell | (offset into `list`, count, 0, 0) |
+//! | `list` | 1 per 4 references | four triangle indices |
+
+use crate::accel::Grid;
+use crate::scene::{CheckerAxes, Scene};
+use crate::{Error, Result};
+
+/// Texels per triangle in `tri` and `nrm`.
+pub const TRI_TEXELS: u32 = 3;
+/// Texels per material: 0 (albedo, ka), 1 (ks, ns), 2 (kr, kd), 3 (kt, ior),
+/// 4 (checker colour a, checker scale; 0 = no checker), 5 (checker colour b, axes code),
+/// 6 (fresnel flag, 0, 0, 0).
+pub const MAT_TEXELS: u32 = 7;
+/// Triangle indices per `list` texel.
+pub const LIST_PER_TEXEL: u32 = 4;
+/// Largest index stored in a float that is still exact.
+pub const MAX_EXACT_INDEX: u64 = 1 << 24;
+/// Widest row used, even when the GPU allows wider: keeps textures compact for small
+/// scenes and matches the limits of 2005-era cards.
+pub const MAX_ROW: u32 = 4096;
+
+/// One packed RGBA32F texture.
+#[derive(Clone, Debug)]
+pub struct PackedTexture {
+    /// Name used in GLSL (`u_<name>`, `fetch_<name>`, `<NAME>_W` ...).
+    pub name: &'static str,
+    /// Width in texels (a power of two).
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// RGBA data, `4 * width * height` floats (padding zero).
+    pub data: Vec<f32>,
+}
+
+impl PackedTexture {
+    /// Packs `texels` (RGBA each) into rows no wider than `max_size` (or [`MAX_ROW`]).
+    pub fn pack(name: &'static str, texels: Vec<[f32; 4]>, max_size: u32) -> Result<Self> {
+        let n = texels.len().max(1) as u64;
+        if n > MAX_EXACT_INDEX {
+            return Err(Error::Limit(format!(
+                "texture `{name}` needs {n} texels; indices stay exact only below 2^24"
+            )));
+        }
+        let cap = prev_pow2(max_size.min(MAX_ROW)).max(1);
+        let width = (n.next_power_of_two() as u32).min(cap);
+        let height = n.div_ceil(width as u64) as u32;
+        if height > max_size {
+            return Err(Error::Limit(format!(
+                "texture `{name}` needs {width}x{height} texels but GL_MAX_TEXTURE_SIZE is {max_size}"
+            )));
+        }
+        let mut data = Vec::with_capacity((width * height * 4) as usize);
+        for t in &texels {
+            data.extend_from_slice(t);
+        }
+        data.resize((width * height * 4) as usize, 0.0);
+        Ok(PackedTexture {
+            name,
+            width,
+            height,
+            data,
+        })
+    }
+
+    /// GLSL: size constants and an exact fetch by linear index.
+    pub fn glsl(&self) -> String {
+        let up = self.name.to_ascii_uppercase();
+        format!(
+            "uniform sampler2D u_{n};\n\
+             #define {up}_W {w:.1}\n\
+             #define {up}_INV_W {iw:?}\n\
+             #define {up}_INV_H {ih:?}\n\
+             vec4 fetch_{n}(float i) {{\n\
+             \x20   float y = floor(i * {up}_INV_W);\n\
+             \x20   float x = i - y * {up}_W;\n\
+             \x20   return texture2D(u_{n}, vec2((x + 0.5) * {up}_INV_W, (y + 0.5) * {up}_INV_H));\n\
+             }}\n",
+            n = self.name,
+            w = self.width as f32,
+            iw = 1.0 / self.width as f32,
+            ih = 1.0 / self.height as f32,
+        )
+    }
+
+    /// Bytes of texel data.
+    pub fn bytes(&self) -> usize {
+        self.data.len() * 4
+    }
+}
+
+fn prev_pow2(v: u32) -> u32 {
+    if v == 0 {
+        0
+    } else {
+        1 << (31 - v.leading_zeros())
+    }
+}
+
+/// The scene and its grid, packed for upload.
+#[derive(Clone, Debug)]
+pub struct SceneTextures {
+    /// Triangle vertices and material indices.
+    pub tri: PackedTexture,
+    /// Vertex normals (`None` when no triangle has them: compiled out).
+    pub nrm: Option<PackedTexture>,
+    /// Materials.
+    pub mat: PackedTexture,
+    /// Grid cell table.
+    pub cell: PackedTexture,
+    /// Triangle-index list.
+    pub list: PackedTexture,
+}
+
+/// Numeric code of a checker's axes in the material texture (and in GLSL).
+pub fn axes_code(a: CheckerAxes) -> f32 {
+    match a {
+        CheckerAxes::Xy => 0.0,
+        CheckerAxes::Xz => 1.0,
+        CheckerAxes::Yz => 2.0,
+    }
+}
+
+impl SceneTextures {
+    /// Packs `scene` and `grid` for a GPU whose textures may be `max_size` texels wide/high.
+    pub fn pack(scene: &Scene, grid: &Grid, max_size: u32) -> Result<Self> {
+        let smooth = scene.has_smooth_normals();
+        let mut tri = Vec::with_capacity(scene.triangles.len() * 3);
+        let mut nrm = Vec::new();
+        for (i, t) in scene.triangles.iter().enumerate() {
+            let v = scene.triangle_vertices(i);
+            let has_n = t.has_normals();
+            tri.push([v[0].x, v[0].y, v[0].z, t.material as f32]);
+            tri.push([v[1].x, v[1].y, v[1].z, if has_n { 1.0 } else { 0.0 }]);
+            tri.push([v[2].x, v[2].y, v[2].z, 0.0]);
+            if smooth {
+                for k in 0..3 {
+                    let n = if has_n { scene.normals[t.n[k] as usize] } else { glam::Vec3::ZERO };
+                    nrm.push([n.x, n.y, n.z, 0.0]);
+                }
+            }
+        }
+        let mut mat = Vec::with_capacity(scene.materials.len() * MAT_TEXELS as usize);
+        for m in &scene.materials {
+            let (ca, cb, scale, axes) = match &m.checker {
+                Some(c) => (c.color_a, c.color_b, c.scale, axes_code(c.axes)),
+                None => (glam::Vec3::ZERO, glam::Vec3::ZERO, 0.0, 0.0),
+            };
+            mat.push([m.albedo.x, m.albedo.y, m.albedo.z, m.ka]);
+            mat.push([m.ks.x, m.ks.y, m.ks.z, m.ns]);
+            mat.push([m.kr.x, m.kr.y, m.kr.z, m.kd]);
+            mat.push([m.kt.x, m.kt.y, m.kt.z, m.ior]);
+            mat.push([ca.x, ca.y, ca.z, scale]);
+            mat.push([cb.x, cb.y, cb.z, axes]);
+            mat.push([if m.fresnel { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0]);
+        }
+        let cell = grid
+            .cells
+            .iter()
+            .map(|c| [c.offset as f32, c.count as f32, 0.0, 0.0])
+            .collect();
+        let list = grid
+            .tri_indices
+            .chunks(LIST_PER_TEXEL as usize)
+            .map(|c| {
+                let mut t = [0f32; 4];
+                for (k, &v) in c.iter().enumerate() {
+                    t[k] = v as f32;
+                }
+                t
+            })
+            .collect();
+        if scene.triangles.len() as u64 * 3 >= MAX_EXACT_INDEX {
+            return Err(Error::Limit(format!(
+                "{} triangles: the GPU layout keeps indices exact only up to {}",
+                scene.triangles.len(),
+                MAX_EXACT_INDEX / 3
+            )));
+        }
+        Ok(SceneTextures {
+            tri: PackedTexture::pack("tri", tri, max_size)?,
+            nrm: if smooth {
+                Some(PackedTexture::pack("nrm", nrm, max_size)?)
+            } else {
+                None
+            },
+            mat: PackedTexture::pack("mat", mat, max_size)?,
+            cell: PackedTexture::pack("cell", cell, max_size)?,
+            list: PackedTexture::pack("list", list, max_size)?,
+        })
+    }
+
+    /// All textures, in binding order.
+    pub fn all(&self) -> Vec<&PackedTexture> {
+        let mut v = vec![&self.tri, &self.mat, &self.cell, &self.list];
+        if let Some(n) = &self.nrm {
+            v.push(n);
+        }
+        v
+    }
+
+    /// GLSL declarations of every texture and the layout constants.
+    pub fn glsl(&self) -> String {
+        let mut s = format!(
+            "#define TRI_TEXELS {TRI_TEXELS}.0\n#define MAT_TEXELS {MAT_TEXELS}.0\n#define LIST_PER_TEXEL {LIST_PER_TEXEL}.0\n"
+        );
+        for t in self.all() {
+            s.push_str(&t.glsl());
+        }
+        s
+    }
+
+    /// Total bytes uploaded.
+    pub fn bytes(&self) -> usize {
+        self.all().iter().map(|t| t.bytes()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Emulates the GLSL fetch arithmetic in f32 and checks it lands on the packed texel.
+    #[test]
+    fn fetch_arithmetic_is_exact_up_to_2_pow_24() {
+        let t = PackedTexture::pack("x", vec![[0.0; 4]; 5000], 2048).unwrap();
+        assert_eq!((t.width, t.height), (2048, 3));
+        for w in [1u32, 2, 64, 2048, 4096] {
+            let inv_w = 1.0 / w as f32;
+            for i in [0u32, 1, w - 1, w, w + 1, 12345, (1 << 24) - 1] {
+                let fi = i as f32;
+                let y = (fi * inv_w).floor();
+                let x = fi - y * w as f32;
+                assert_eq!((x as u32, y as u32), (i % w, i / w), "w {w} i {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn too_large_is_a_clear_error() {
+        let e = PackedTexture::pack("big", vec![[0.0; 4]; 64 * 64 + 1], 64).unwrap_err();
+        assert!(e.to_string().contains("GL_MAX_TEXTURE_SIZE is 64"), "{e}");
+        let ok = PackedTexture::pack("fit", vec![[0.0; 4]; 64 * 64], 64).unwrap();
+        assert_eq!((ok.width, ok.height), (64, 64));
+    }
+}
