@@ -62,6 +62,12 @@ pub struct RenderArgs {
     /// Cells per triangle for the auto grid (lambda).
     #[arg(long)]
     pub grid_density: Option<f32>,
+    /// GPU: traversal iterations between termination queries (K).
+    #[arg(long, default_value_t = 8)]
+    pub query_every: u32,
+    /// GPU: compile every shading feature in instead of only what the scene needs.
+    #[arg(long)]
+    pub no_specialize: bool,
     /// Write render statistics as JSON to this file.
     #[arg(long)]
     pub stats: Option<PathBuf>,
@@ -120,6 +126,14 @@ pub fn options(args: &RenderArgs, scene: &Scene) -> Result<RenderOptions> {
         grid.density = d;
     }
     opts.grid = grid;
+    if args.query_every == 0 || args.query_every > 4096 {
+        return Err(Error::Usage(format!(
+            "--query-every {} is outside 1..=4096",
+            args.query_every
+        )));
+    }
+    opts.gpu.query_every = args.query_every;
+    opts.gpu.no_specialize = args.no_specialize;
     opts.validate()?;
     Ok(opts)
 }

@@ -7,6 +7,7 @@ use serde::Serialize;
 
 use crate::accel::{Grid, GridConfig};
 use crate::cpu::CpuRenderer;
+use crate::gpu::GlContext;
 use crate::image_io::Image;
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -79,6 +80,8 @@ pub struct RenderOptions {
     pub grid: GridConfig,
     /// Which renderer runs.
     pub backend: Backend,
+    /// GPU backend options.
+    pub gpu: crate::gpu::render::GpuOptions,
 }
 
 impl RenderOptions {
@@ -92,6 +95,7 @@ impl RenderOptions {
             precision: Precision::F64,
             grid: GridConfig::default(),
             backend: Backend::Cpu,
+            gpu: crate::gpu::render::GpuOptions::default(),
         }
     }
 
@@ -302,12 +306,55 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     })
 }
 
-/// Renders with the backend chosen in `opts`.
+/// Builds the grid and renders `scene` with the GLSL 1.20 multi-pass backend in `ctx`.
+pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+    opts.validate()?;
+    let grid = Grid::build(scene, &opts.grid)?;
+    let t0 = Instant::now();
+    let out = crate::gpu::render::render_gl(ctx, scene, &grid, opts)?;
+    let render_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let stats = RenderStats {
+        backend: "gl".into(),
+        device: ctx.info.renderer.clone(),
+        precision: "f32".into(),
+        scene: scene.source.clone(),
+        width: opts.width,
+        height: opts.height,
+        spp: opts.spp,
+        max_depth: opts.max_depth,
+        triangles: scene.triangles.len(),
+        grid: grid.res,
+        grid_build_ms: grid.stats.build_ms,
+        grid_stats: grid.stats.clone(),
+        render_ms,
+        rays: out.rays,
+        cells_visited: 0,
+        triangle_tests: 0,
+        mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
+        gpu: Some(serde_json::to_value(&out.stats).map_err(|e| Error::Internal(e.to_string()))?),
+    };
+    Ok(Rendered {
+        image: out.image,
+        aov: out.aov,
+        stats,
+    })
+}
+
+/// Renders with the backend chosen in `opts`. `Auto` uses the GPU when a suitable context
+/// can be made and otherwise the CPU, saying why on stderr; `Gl` never falls back.
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     match opts.backend {
-        Backend::Cpu | Backend::Auto => render_cpu(scene, opts),
-        Backend::Gl => Err(Error::GlUnavailable(
-            "the GL backend is not built yet in this version; use --backend cpu".into(),
-        )),
+        Backend::Cpu => render_cpu(scene, opts),
+        Backend::Gl => {
+            let ctx = GlContext::new()?;
+            render_gl_with(&ctx, scene, opts)
+        }
+        Backend::Auto => match GlContext::new() {
+            Ok(ctx) => render_gl_with(&ctx, scene, opts),
+            Err(e) => {
+                eprintln!("fragtrace: notice: using the CPU backend: {e}");
+                render_cpu(scene, opts)
+            }
+        },
     }
 }

@@ -149,7 +149,11 @@ impl SceneTextures {
             tri.push([v[2].x, v[2].y, v[2].z, 0.0]);
             if smooth {
                 for k in 0..3 {
-                    let n = if has_n { scene.normals[t.n[k] as usize] } else { glam::Vec3::ZERO };
+                    let n = if has_n {
+                        scene.normals[t.n[k] as usize]
+                    } else {
+                        glam::Vec3::ZERO
+                    };
                     nrm.push([n.x, n.y, n.z, 0.0]);
                 }
             }

@@ -9,5 +9,7 @@
 
 pub mod context;
 pub mod gl_util;
+pub mod render;
+pub mod shader;
 
 pub use context::{with_test_context, GlContext, GlInfo};

@@ -11,7 +11,11 @@ pub mod toml_scene;
 use glam::Vec3;
 
 pub use camera::Camera;
-pub use toml_scene::{builtin_scene, load_scene};
+pub use obj::{load_obj, ObjMesh};
+pub use toml_scene::{
+    builtin_scene, load_scene, load_scene_str, load_scene_str_with_search_path,
+    load_scene_with_search_path, model_search_path, DEFAULT_SCENE_TOML,
+};
 
 /// Sentinel for "no vertex normal" in [`Triangle::n`].
 pub const NO_NORMAL: u32 = u32::MAX;

@@ -1,1 +1,724 @@
+//! Wavefront OBJ/MTL loading through `tobj`, mapped onto fragtrace's Whitted materials.
+//!
+//! `tobj` does the parsing and triangulation (fans, negative indices, `mtllib`), but it is
+//! lenient in ways a renderer cannot afford: it accepts `nan`/`inf` coordinates, invents a
+//! normal index for faces that have none, turns 3+-point `l` polylines into triangles and
+//! panics on short colour lines in an MTL. So a cheap line scan runs first: it validates
+//! numbers and indices with line numbers, records which faces carry normals, and strips
+//! polylines; the MTL text is normalised before `tobj` sees it. The MTL→[`Material`] mapping
+//! is documented in `docs/scene-format.md` and implemented by [`material_from_mtl`].
 
+use std::cell::RefCell;
+use std::collections::BTreeSet;
+use std::io::Cursor;
+use std::path::Path;
+
+use glam::Vec3;
+
+use super::{Material, Triangle, NO_NORMAL};
+use crate::{Error, Result};
+
+/// A loaded OBJ in its own object space.
+#[derive(Clone, Debug, Default)]
+pub struct ObjMesh {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Unit vertex normals (only those some triangle references).
+    pub normals: Vec<Vec3>,
+    /// Triangles; `material` indexes [`ObjMesh::materials`], `n` is `[NO_NORMAL; 3]` for
+    /// faces without usable normals.
+    pub triangles: Vec<Triangle>,
+    /// Materials from the MTL library, plus a trailing default grey one when some faces have
+    /// no (known) material.
+    pub materials: Vec<Material>,
+    /// Non-fatal problems (unreadable MTL, unknown `usemtl` name), one line each.
+    pub warnings: Vec<String>,
+}
+
+/// Loads an OBJ file; `mtllib` paths resolve relative to the file's folder.
+pub fn load_obj(path: &Path) -> Result<ObjMesh> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    // OBJ files in the wild are ASCII or Latin-1; a stray byte in a comment must not make
+    // the whole mesh unloadable.
+    let text = String::from_utf8_lossy(&bytes);
+    let base_dir = path.parent().unwrap_or(Path::new("."));
+    parse_obj(&text, &path.display().to_string(), base_dir)
+}
+
+/// Parses OBJ text. `name` is used in messages; `mtllib` paths resolve against `base_dir`.
+pub fn parse_obj(text: &str, name: &str, base_dir: &Path) -> Result<ObjMesh> {
+    let scan = prescan(text, name)?;
+    let filtered;
+    let tobj_text: &str = if scan.polylines.is_empty() {
+        text
+    } else {
+        filtered = blank_lines(text, &scan.polylines);
+        &filtered
+    };
+
+    let mtl_problem: RefCell<Option<Error>> = RefCell::new(None);
+    let warnings: RefCell<Vec<String>> = RefCell::new(Vec::new());
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let loaded = tobj::load_obj_buf(&mut Cursor::new(tobj_text), &options, |mtl_path| {
+        let full = base_dir.join(mtl_path);
+        match read_mtl(&full) {
+            Ok(result) => result,
+            Err(MtlFailure::Fatal(e)) => {
+                mtl_problem.borrow_mut().get_or_insert(e);
+                Err(tobj::LoadError::MaterialParseError)
+            }
+            Err(MtlFailure::Warn(w)) => {
+                warnings.borrow_mut().push(w);
+                Err(tobj::LoadError::OpenFileFailed)
+            }
+        }
+    });
+    if let Some(e) = mtl_problem.into_inner() {
+        return Err(e);
+    }
+    let (models, tobj_materials) = loaded.map_err(|e| Error::Mesh {
+        file: name.into(),
+        message: format!("cannot parse OBJ: {e}"),
+    })?;
+    let mut warnings = warnings.into_inner();
+    let tobj_materials = tobj_materials.unwrap_or_default();
+
+    let mut mesh = ObjMesh::default();
+    let mut material_names = BTreeSet::new();
+    for m in &tobj_materials {
+        material_names.insert(m.name.as_str());
+        mesh.materials.push(material_from_mtl(m));
+    }
+    for used in &scan.usemtl {
+        if !material_names.contains(used.as_str()) {
+            warnings.push(format!(
+                "{name}: usemtl `{used}` is not defined in any loaded MTL; using the default grey material"
+            ));
+        }
+    }
+
+    let total_tris: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
+    // The scan's per-face flags line up with tobj's triangles because tobj emits models in
+    // file order and triangulates each face into n-2 triangles; if that ever stops holding,
+    // trusting tobj's normal indices is the safe degradation.
+    let flags_match = scan.tri_has_normals.len() == total_tris;
+    if total_tris > u32::MAX as usize / 3 {
+        return Err(Error::Mesh {
+            file: name.into(),
+            message: format!("{total_tris} triangles exceed the supported index range"),
+        });
+    }
+    mesh.triangles.reserve(total_tris);
+
+    let mut default_material: Option<u32> = None;
+    let mut tri_index = 0usize;
+    for model in &models {
+        let m = &model.mesh;
+        let pos_base = mesh.positions.len() as u32;
+        mesh.positions.extend(
+            m.positions
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2])),
+        );
+        // Model-local normal index -> slot in mesh.normals, filled on first use so that only
+        // referenced, non-degenerate normals are kept.
+        let mut normal_slot: Vec<u32> = vec![u32::MAX; m.normals.len() / 3];
+        let material = match m.material_id {
+            Some(i) if i < mesh.materials.len() => i as u32,
+            _ => *default_material.get_or_insert_with(|| {
+                mesh.materials.push(Material {
+                    name: format!("{name}:default"),
+                    ..Material::default()
+                });
+                (mesh.materials.len() - 1) as u32
+            }),
+        };
+        let has_normal_data = !m.normal_indices.is_empty() && !m.normals.is_empty();
+        for (t, idx) in m.indices.chunks_exact(3).enumerate() {
+            let face_has_normals = if flags_match {
+                scan.tri_has_normals[tri_index]
+            } else {
+                true
+            };
+            tri_index += 1;
+            let v = [idx[0] + pos_base, idx[1] + pos_base, idx[2] + pos_base];
+            let mut n = [NO_NORMAL; 3];
+            if face_has_normals && has_normal_data {
+                let local = &m.normal_indices[3 * t..3 * t + 3];
+                let usable = local.iter().all(|&k| {
+                    let k = k as usize;
+                    Vec3::new(m.normals[3 * k], m.normals[3 * k + 1], m.normals[3 * k + 2])
+                        .try_normalize()
+                        .is_some()
+                });
+                // A zero (or denormal) normal has no direction; the face normal is the only
+                // honest fallback, and it must replace all three so shading stays consistent.
+                if usable {
+                    for (slot, &k) in n.iter_mut().zip(local) {
+                        let k = k as usize;
+                        if normal_slot[k] == u32::MAX {
+                            let nv = Vec3::new(
+                                m.normals[3 * k],
+                                m.normals[3 * k + 1],
+                                m.normals[3 * k + 2],
+                            );
+                            mesh.normals.push(nv.normalize());
+                            normal_slot[k] = (mesh.normals.len() - 1) as u32;
+                        }
+                        *slot = normal_slot[k];
+                    }
+                }
+            }
+            mesh.triangles.push(Triangle { v, n, material });
+        }
+    }
+    if mesh.positions.len() > u32::MAX as usize {
+        return Err(Error::Mesh {
+            file: name.into(),
+            message: format!(
+                "{} vertices exceed the supported index range",
+                mesh.positions.len()
+            ),
+        });
+    }
+    mesh.warnings = warnings;
+    Ok(mesh)
+}
+
+/// Maps one MTL material onto the Whitted model (see the table in `docs/scene-format.md`).
+///
+/// - `Kd` → `albedo` (0.8 grey when absent); `ka` = `kd` = opacity (1 for opaque), so the
+///   ambient term is `ambient · albedo` and `Ka` is ignored: exporters write `Ka` as a copy
+///   of `Kd`, as 0 or as 1, none of which means "ambient factor".
+/// - `Ks` → `ks` for illum ≥ 2, `Ns` → `ns` (at least 1).
+/// - illum 3, 5, 8: mirror, `kr = Ks`; illum 4, 6, 9: glass, `kr = Ks`, `kt = (1 - opacity)·Tf`;
+///   illum 7: dielectric with `fresnel = true` and `ior = Ni`.
+/// - `d` < 1 (or `Tr` > 0 without `d`) on any other model: see-through with `ior` = 1.
+/// - `Ke` is ignored: fragtrace only has point lights.
+pub fn material_from_mtl(m: &tobj::Material) -> Material {
+    let illum = m.illumination_model.unwrap_or(2);
+    let ks = m.specular.map(Vec3::from_array).unwrap_or(Vec3::ZERO);
+    let tf = m
+        .unknown_param
+        .get("Tf")
+        .and_then(|s| parse_color(s))
+        .unwrap_or(Vec3::ONE);
+    let tr = m
+        .unknown_param
+        .get("Tr")
+        .and_then(|s| s.split_whitespace().next()?.parse::<f32>().ok());
+    let glass = matches!(illum, 4 | 6 | 7 | 9);
+    // `d` wins over `Tr` because some old exporters wrote Tr as an opacity; when a glass
+    // model gives neither, it is clear glass.
+    let opacity = match (m.dissolve, tr) {
+        (Some(d), _) => d,
+        (None, Some(tr)) => 1.0 - tr,
+        (None, None) if glass => 0.0,
+        (None, None) => 1.0,
+    }
+    .clamp(0.0, 1.0);
+    let transmit = (1.0 - opacity) * tf;
+    let ior = m
+        .optical_density
+        .filter(|n| n.is_finite() && *n > 0.0)
+        .unwrap_or(1.0);
+
+    let mut out = Material {
+        name: m.name.clone(),
+        albedo: m.diffuse.map(Vec3::from_array).unwrap_or(Vec3::splat(0.8)),
+        ka: opacity,
+        kd: opacity,
+        ks: if illum >= 2 { ks } else { Vec3::ZERO },
+        ns: m.shininess.unwrap_or(1.0).max(1.0),
+        ..Material::default()
+    };
+    match illum {
+        3 | 5 | 8 => out.kr = ks,
+        4 | 6 | 9 => {
+            out.kr = ks;
+            out.kt = transmit;
+            out.ior = ior;
+        }
+        7 => {
+            out.fresnel = true;
+            out.ior = ior;
+        }
+        _ => {}
+    }
+    if !glass && opacity < 1.0 {
+        // Dissolve, not refraction: light passes straight through.
+        out.kt = transmit;
+        out.ior = 1.0;
+    }
+    out
+}
+
+fn parse_color(s: &str) -> Option<Vec3> {
+    let v: Vec<f32> = s
+        .split_whitespace()
+        .map(str::parse)
+        .collect::<std::result::Result<_, _>>()
+        .ok()?;
+    match v[..] {
+        [g] => Some(Vec3::splat(g)),
+        [r, g, b] => Some(Vec3::new(r, g, b)),
+        _ => None,
+    }
+}
+
+/// What the pre-scan learned about the OBJ text.
+struct Scan {
+    /// One entry per triangle tobj will emit, in order: does its face carry normals?
+    tri_has_normals: Vec<bool>,
+    /// Every `usemtl` name used.
+    usemtl: BTreeSet<String>,
+    /// 0-based line numbers of `l` polylines that tobj would triangulate.
+    polylines: Vec<usize>,
+}
+
+/// Validates numbers and face indices line by line (tobj reports neither line numbers nor
+/// non-finite values) and records per-face normal presence.
+fn prescan(text: &str, name: &str) -> Result<Scan> {
+    let mut scan = Scan {
+        tri_has_normals: Vec::new(),
+        usemtl: BTreeSet::new(),
+        polylines: Vec::new(),
+    };
+    let (mut nv, mut nt, mut nn) = (0usize, 0usize, 0usize);
+    let err = |line: usize, message: String| Error::Mesh {
+        file: name.into(),
+        message: format!("line {}: {message}", line + 1),
+    };
+    for (ln, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some(kind @ ("v" | "vn")) => {
+                let mut c = [0f32; 4];
+                let mut k = 0;
+                for w in words.by_ref().take(4) {
+                    c[k] = w
+                        .parse()
+                        .map_err(|_| err(ln, format!("`{w}` is not a number")))?;
+                    k += 1;
+                }
+                if k < 3 {
+                    return Err(err(ln, format!("`{kind}` needs three coordinates")));
+                }
+                // `v x y z w` is homogeneous; tobj divides by w, so check what it will store.
+                let w = if kind == "v" && k == 4 { c[3] } else { 1.0 };
+                if !c[..3].iter().all(|x| (x / w).is_finite()) {
+                    let what = if kind == "v" { "vertex" } else { "normal" };
+                    return Err(err(
+                        ln,
+                        format!("non-finite {what} coordinate: {}", line.trim()),
+                    ));
+                }
+                if kind == "v" {
+                    nv += 1;
+                } else {
+                    nn += 1;
+                }
+            }
+            Some("vt") => nt += 1,
+            Some(kind @ ("f" | "l")) => {
+                let mut count = 0usize;
+                let mut all_normals = true;
+                for w in words {
+                    count += 1;
+                    let mut parts = w.split('/');
+                    let limits = [(nv, "vertex"), (nt, "texture"), (nn, "normal")];
+                    for (slot, (limit, what)) in limits.iter().enumerate() {
+                        match parts.next() {
+                            Some("") | None => {
+                                if slot == 0 {
+                                    return Err(err(
+                                        ln,
+                                        format!("face corner `{w}` has no vertex"),
+                                    ));
+                                }
+                                if slot == 2 {
+                                    all_normals = false;
+                                }
+                            }
+                            Some(s) => {
+                                let i: i64 = s.parse().map_err(|_| {
+                                    err(ln, format!("face index `{s}` is not an integer"))
+                                })?;
+                                let ok = (i > 0 && i as usize <= *limit)
+                                    || (i < 0 && i.unsigned_abs() as usize <= *limit);
+                                if !ok {
+                                    return Err(err(
+                                        ln,
+                                        format!(
+                                            "{what} index {i} out of range (1..={limit} or -{limit}..=-1 here)"
+                                        ),
+                                    ));
+                                }
+                            }
+                        }
+                    }
+                }
+                if count >= 3 {
+                    if kind == "f" {
+                        scan.tri_has_normals
+                            .extend(std::iter::repeat_n(all_normals, count - 2));
+                    } else {
+                        scan.polylines.push(ln);
+                    }
+                }
+            }
+            Some("usemtl") => {
+                let n = line.trim_start()["usemtl".len()..].trim();
+                if !n.is_empty() {
+                    scan.usemtl.insert(n.to_owned());
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(scan)
+}
+
+/// `text` with the given 0-based lines emptied (line count preserved).
+fn blank_lines(text: &str, lines: &[usize]) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut skip = lines.iter().peekable();
+    for (i, line) in text.lines().enumerate() {
+        if skip.peek() == Some(&&i) {
+            skip.next();
+        } else {
+            out.push_str(line);
+        }
+        out.push('\n');
+    }
+    out
+}
+
+enum MtlFailure {
+    /// The MTL exists but holds invalid numbers: the user must fix it.
+    Fatal(Error),
+    /// The MTL cannot be read: render with default materials and say so.
+    Warn(String),
+}
+
+/// Reads and normalises an MTL file, then hands it to tobj.
+fn read_mtl(path: &Path) -> std::result::Result<tobj::MTLLoadResult, MtlFailure> {
+    let text = std::fs::read(path).map_err(|e| {
+        MtlFailure::Warn(format!(
+            "{}: cannot read material library ({e}); using the default grey material",
+            path.display()
+        ))
+    })?;
+    let text = String::from_utf8_lossy(&text);
+    let fixed = normalise_mtl(&text, path).map_err(MtlFailure::Fatal)?;
+    Ok(tobj::load_mtl_buf(&mut Cursor::new(fixed)))
+}
+
+/// Checks every numeric MTL statement fragtrace uses for finiteness (with line numbers) and
+/// expands one-component colours (`Kd 0.5`, allowed by the MTL spec) to three, because tobj
+/// panics on them.
+fn normalise_mtl(text: &str, path: &Path) -> Result<String> {
+    let file = path.display().to_string();
+    let mut out = String::with_capacity(text.len() + 64);
+    for (ln, line) in text.lines().enumerate() {
+        // Trailing comments (`Kd 0.63 0.065 0.05 # Red`, as in the Cornell box) are legal.
+        let content = line.split_once('#').map_or(line, |(before, _)| before);
+        let mut words = content.split_whitespace();
+        let key = words.next();
+        let vals: Vec<&str> = words.collect();
+        let numeric = |vals: &[&str]| -> Result<Vec<f32>> {
+            vals.iter()
+                .map(|w| match w.parse::<f32>() {
+                    Ok(x) if x.is_finite() => Ok(x),
+                    _ => Err(Error::Mesh {
+                        file: file.clone(),
+                        message: format!(
+                            "line {}: invalid number `{w}` in `{}`",
+                            ln + 1,
+                            line.trim()
+                        ),
+                    }),
+                })
+                .collect()
+        };
+        match key {
+            Some(k @ ("Ka" | "Kd" | "Ks" | "Ke" | "Tf")) => {
+                // `Kd spectral file.rfl` / `Kd xyz ...` are not RGB; drop them (default used).
+                if matches!(vals.first(), Some(&"spectral") | Some(&"xyz")) {
+                    out.push('\n');
+                    continue;
+                }
+                let v = numeric(&vals)?;
+                match v[..] {
+                    [g] => out.push_str(&format!("{k} {g} {g} {g}\n")),
+                    [r, g, b] => out.push_str(&format!("{k} {r} {g} {b}\n")),
+                    _ => {
+                        return Err(Error::Mesh {
+                            file,
+                            message: format!("line {}: `{k}` needs 1 or 3 numbers", ln + 1),
+                        })
+                    }
+                }
+            }
+            Some(k @ ("Ns" | "Ni" | "d" | "Tr")) => {
+                // `d -halo 0.5`: the halo variant is treated as a plain dissolve.
+                let vals: Vec<&str> = vals.into_iter().filter(|w| *w != "-halo").collect();
+                let v = numeric(&vals[..vals.len().min(1)])?;
+                match v.first() {
+                    Some(x) => out.push_str(&format!("{k} {x}\n")),
+                    None => {
+                        return Err(Error::Mesh {
+                            file,
+                            message: format!("line {}: `{k}` needs a number", ln + 1),
+                        })
+                    }
+                }
+            }
+            _ => {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn models_dir() -> PathBuf {
+        PathBuf::from(
+            std::env::var("FRAGTRACE_MODEL_PATH")
+                .ok()
+                .and_then(|p| p.split(':').find(|s| !s.is_empty()).map(str::to_owned))
+                .unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/models").into()),
+        )
+    }
+
+    fn tmpdir(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("fragtrace-obj-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn mesh_err(r: Result<ObjMesh>) -> String {
+        match r {
+            Err(Error::Mesh { file, message }) => format!("{file}: {message}"),
+            other => panic!("expected a mesh error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn nan_and_inf_coordinates_are_errors_with_line_numbers() {
+        let e = mesh_err(parse_obj(
+            "v 0 0 0\nv 1 0 0\n\nv 0 nan 0\nf 1 2 3\n",
+            "bad.obj",
+            Path::new("."),
+        ));
+        assert!(e.starts_with("bad.obj: line 4:"), "{e}");
+        assert!(e.contains("non-finite"), "{e}");
+        let e = mesh_err(parse_obj(
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 inf\nf 1//1 2//1 3//1\n",
+            "n.obj",
+            Path::new("."),
+        ));
+        assert!(e.contains("line 4") && e.contains("normal"), "{e}");
+        // Overflowing f32 is as bad as a literal inf.
+        let e = mesh_err(parse_obj("v 0 0 1e39\n", "big.obj", Path::new(".")));
+        assert!(e.contains("line 1"), "{e}");
+    }
+
+    #[test]
+    fn face_index_out_of_range_is_an_error() {
+        for (src, line) in [
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", 4),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n", 4),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", 4),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//2 3//1\n", 5),
+        ] {
+            let e = mesh_err(parse_obj(src, "idx.obj", Path::new(".")));
+            assert!(
+                e.contains(&format!("line {line}:")) && e.contains("out of range"),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn normals_only_where_the_face_has_them_and_zero_normals_fall_back() {
+        let src = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n\
+                   vn 0 0 2\nvn 0 0 0\n\
+                   f 1//1 2//1 3//1\n\
+                   f 2 4 3\n\
+                   f 2//1 4//2 3//1\n\
+                   f 1//1 2//1 4//1 3//1\n";
+        let m = parse_obj(src, "mixed.obj", Path::new(".")).unwrap();
+        assert_eq!(m.triangles.len(), 5);
+        assert!(m.triangles[0].has_normals());
+        assert!(
+            !m.triangles[1].has_normals(),
+            "face without vn must be flat"
+        );
+        assert!(!m.triangles[2].has_normals(), "zero normal must fall back");
+        assert!(m.triangles[3].has_normals() && m.triangles[4].has_normals());
+        // Normalised, and only the referenced one kept.
+        assert_eq!(m.normals, vec![Vec3::Z]);
+        // No mtllib: one default material, no warnings.
+        assert_eq!(m.materials.len(), 1);
+        assert!(m.warnings.is_empty(), "{:?}", m.warnings);
+    }
+
+    #[test]
+    fn polylines_and_points_are_not_triangles() {
+        let src = "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\np 1\nl 1 2\nf 1 2 3\n";
+        let m = parse_obj(src, "lines.obj", Path::new(".")).unwrap();
+        assert_eq!(m.triangles.len(), 1);
+    }
+
+    #[test]
+    fn missing_mtl_warns_and_uses_grey() {
+        let src = "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
+        let m = parse_obj(src, "m.obj", &tmpdir("missing")).unwrap();
+        assert_eq!(m.materials.len(), 1);
+        assert_eq!(m.materials[0].albedo, Vec3::splat(0.8));
+        assert!(
+            m.warnings.iter().any(|w| w.contains("nowhere.mtl")),
+            "{:?}",
+            m.warnings
+        );
+        assert!(
+            m.warnings.iter().any(|w| w.contains("`red`")),
+            "{:?}",
+            m.warnings
+        );
+    }
+
+    #[test]
+    fn mtl_mapping_follows_the_documented_table() {
+        let dir = tmpdir("mtl");
+        std::fs::write(
+            dir.join("t.mtl"),
+            "newmtl plain\nKd 0.5\nKs 0.3 0.3 0.3\nNs 50\nillum 1\n\
+             newmtl shiny\nKd 0.1 0.2 0.3\nKs 0.3 0.3 0.3\nNs 0\nillum 2\nKe 5 5 5\n\
+             newmtl mirror\nKs 0.9 0.8 0.7\nillum 3\n\
+             newmtl glass\nKs 0.1 0.1 0.1\nTf 0.9 1 0.9\nNi 1.5\nillum 4\n\
+             newmtl dielectric\nNi 1.33\nillum 7\n\
+             newmtl veil\nKd 1 0 0\nd 0.25\nillum 2\nNi 1.7\n\
+             newmtl oldtr\nTr 0.5\nillum 6\nNi 1.2\n",
+        )
+        .unwrap();
+        let src = "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n\
+                   usemtl plain\nf 1 2 3\nusemtl shiny\nf 1 2 3\nusemtl mirror\nf 1 2 3\n\
+                   usemtl glass\nf 1 2 3\nusemtl dielectric\nf 1 2 3\nusemtl veil\nf 1 2 3\n\
+                   usemtl oldtr\nf 1 2 3\n";
+        let m = parse_obj(src, "t.obj", &dir).unwrap();
+        assert!(m.warnings.is_empty(), "{:?}", m.warnings);
+        let by = |n: &str| m.materials.iter().find(|x| x.name == n).unwrap().clone();
+        let plain = by("plain");
+        assert_eq!(plain.albedo, Vec3::splat(0.5), "one-component Kd expands");
+        assert_eq!(plain.ks, Vec3::ZERO, "illum 1 drops the highlight");
+        assert!(!plain.reflects() && !plain.refracts());
+        let shiny = by("shiny");
+        assert_eq!((shiny.ks, shiny.ns, shiny.ka), (Vec3::splat(0.3), 1.0, 1.0));
+        let mirror = by("mirror");
+        assert_eq!(mirror.kr, Vec3::new(0.9, 0.8, 0.7));
+        assert!(!mirror.refracts());
+        let glass = by("glass");
+        assert_eq!(
+            (glass.kr, glass.kt, glass.ior),
+            (Vec3::splat(0.1), Vec3::new(0.9, 1.0, 0.9), 1.5)
+        );
+        assert_eq!(glass.kd, 0.0, "clear glass has no diffuse term");
+        let d = by("dielectric");
+        assert!(d.fresnel && d.ior == 1.33);
+        let veil = by("veil");
+        assert_eq!((veil.kt, veil.ior, veil.kd), (Vec3::splat(0.75), 1.0, 0.25));
+        let oldtr = by("oldtr");
+        assert_eq!((oldtr.kt, oldtr.ior), (Vec3::splat(0.5), 1.2));
+        // Triangles point at the right materials.
+        let names: Vec<_> = m
+            .triangles
+            .iter()
+            .map(|t| m.materials[t.material as usize].name.as_str())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "plain",
+                "shiny",
+                "mirror",
+                "glass",
+                "dielectric",
+                "veil",
+                "oldtr"
+            ]
+        );
+    }
+
+    #[test]
+    fn mtl_with_nan_is_an_error_naming_the_mtl() {
+        let dir = tmpdir("mtlnan");
+        std::fs::write(dir.join("n.mtl"), "newmtl a\nKd 0.5 nan 0.5\n").unwrap();
+        let e = mesh_err(parse_obj("mtllib n.mtl\nv 0 0 0\n", "n.obj", &dir));
+        assert!(e.contains("n.mtl") && e.contains("line 2"), "{e}");
+    }
+
+    #[test]
+    fn cornell_box_loads_with_negative_indices_and_materials() {
+        let path = models_dir().join("cornell_box/CornellBox-Original.obj");
+        let m = load_obj(&path).unwrap();
+        assert!(m.warnings.is_empty(), "{:?}", m.warnings);
+        assert_eq!(m.triangles.len(), 36);
+        assert_eq!(m.materials.len(), 8, "8 MTL materials, no default needed");
+        let mat = |i: usize| &m.materials[m.triangles[i].material as usize];
+        // The floor is the first quad.
+        assert_eq!(mat(0).name, "floor");
+        assert!(m.triangles.iter().all(|t| !t.has_normals()));
+        let left = m.materials.iter().find(|x| x.name == "leftWall").unwrap();
+        assert_eq!(left.albedo, Vec3::new(0.63, 0.065, 0.05));
+        assert!(!left.reflects() && !left.refracts());
+        // Negative indices resolved against the right vertices: the floor lies at y = 0 and
+        // the light quad at y = 1.98.
+        for t in 0..2 {
+            for &v in &m.triangles[t].v {
+                assert_eq!(m.positions[v as usize].y, 0.0);
+            }
+        }
+        let light: Vec<_> = m
+            .triangles
+            .iter()
+            .filter(|t| m.materials[t.material as usize].name == "light")
+            .collect();
+        assert_eq!(light.len(), 2);
+        for t in light {
+            for &v in &t.v {
+                assert_eq!(m.positions[v as usize].y, 1.98);
+            }
+        }
+        let lo = m.positions.iter().copied().reduce(Vec3::min).unwrap();
+        let hi = m.positions.iter().copied().reduce(Vec3::max).unwrap();
+        assert!(lo.abs_diff_eq(Vec3::new(-1.02, 0.0, -1.04), 1e-6), "{lo}");
+        assert!(hi.abs_diff_eq(Vec3::new(1.0, 1.99, 0.99), 1e-6), "{hi}");
+    }
+
+    #[test]
+    fn dragon_zero_normals_fall_back_and_others_are_unit() {
+        let m = load_obj(&models_dir().join("dragon/dragon.obj")).unwrap();
+        assert_eq!(m.triangles.len(), 47_794);
+        let smooth = m.triangles.iter().filter(|t| t.has_normals()).count();
+        assert!(smooth > 40_000 && smooth < m.triangles.len(), "{smooth}");
+        for n in &m.normals {
+            assert!((n.length() - 1.0).abs() < 1e-5);
+        }
+    }
+}

@@ -1,0 +1,669 @@
+//! The multi-pass GPU renderer: the host side of the thesis's stream design.
+//!
+//! Every pass is one fragment program drawn over the full-screen quad into RGBA32F
+//! textures. The ray state lives in four textures ping-ponged between two framebuffers
+//! (a pass never reads what it writes); every pass copies rays that are not in its state
+//! through unchanged, so either set always holds the whole current state.
+//!
+//! One ray wave is traced by `traverse_init`, then alternating `traverse_step` and
+//! `intersect` passes, each advancing every active ray by one cell or one triangle test,
+//! until an occlusion query over the `count` pass (run every K iterations) finds no active
+//! ray. The Whitted ray tree is walked depth-first in the same order for every pixel:
+//! each level keeps a hit record (origin + triangle, direction + t, path weight); a
+//! node's children are skipped when an occlusion query finds no pixel where they exist.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use glow::HasContext;
+use serde::Serialize;
+
+use super::context::GlContext;
+use super::gl_util::{
+    compile_program, create_float_texture, FullscreenQuad, OcclusionQuery, RenderTarget,
+    TimerQuery, QUAD_VERTEX_SHADER,
+};
+use super::shader::{assemble, Count, Features, Pass, Query, RayState};
+use crate::accel::layout::SceneTextures;
+use crate::accel::Grid;
+use crate::image_io::Image;
+use crate::render::{Aov, AovPixel, RayCounts};
+use crate::scene::{camera, Scene};
+use crate::{Error, Result};
+
+/// Options of the GPU backend.
+#[derive(Clone, Copy, Debug)]
+pub struct GpuOptions {
+    /// Traversal iterations between two termination queries (K).
+    pub query_every: u32,
+    /// Measure per-pass GPU time with timer queries where the driver has them.
+    pub timers: bool,
+    /// Compile every shading feature in, whatever the scene needs.
+    pub no_specialize: bool,
+}
+
+impl Default for GpuOptions {
+    fn default() -> Self {
+        GpuOptions {
+            query_every: 8,
+            timers: true,
+            no_specialize: false,
+        }
+    }
+}
+
+/// Texture units, fixed per sampler name so bindings can be set once per program.
+const UNITS: &[(&str, u32)] = &[
+    ("u_tri", 0),
+    ("u_mat", 1),
+    ("u_cell", 2),
+    ("u_list", 3),
+    ("u_nrm", 4),
+    ("u_s0", 5),
+    ("u_s1", 6),
+    ("u_s2", 7),
+    ("u_s3", 8),
+    ("u_p0", 9),
+    ("u_r0", 9),
+    ("u_p1", 10),
+    ("u_r1", 10),
+    ("u_p2", 11),
+    ("u_r2", 11),
+    ("u_c2", 12),
+    ("u_acc", 13),
+];
+/// Texture units a render needs.
+pub const REQUIRED_TEXTURE_UNITS: i32 = 14;
+
+/// GPU statistics of one render.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct GpuStats {
+    /// GL_RENDERER.
+    pub renderer: String,
+    /// GL_VERSION.
+    pub gl_version: String,
+    /// Passes drawn, by kind.
+    pub passes: HashMap<String, u64>,
+    /// Total passes drawn.
+    pub passes_total: u64,
+    /// GPU time per pass kind from timer queries (empty where unavailable).
+    pub gpu_ms: HashMap<String, f64>,
+    /// Sum of `gpu_ms`.
+    pub gpu_ms_total: f64,
+    /// Shader compile and link time.
+    pub compile_ms: f64,
+    /// Scene texture upload time.
+    pub upload_ms: f64,
+    /// Scene texture bytes.
+    pub upload_bytes: usize,
+    /// Wall time of the pass loop including read-back.
+    pub trace_ms: f64,
+    /// Termination queries issued.
+    pub termination_queries: u64,
+    /// K.
+    pub query_every: u32,
+    /// Scene features compiled in.
+    pub features: String,
+}
+
+/// Output of a GPU render.
+pub struct GpuOutput {
+    /// Linear RGB image.
+    pub image: Image,
+    /// Primary-ray AOVs (first sample).
+    pub aov: Aov,
+    /// Rays by kind (from occlusion queries).
+    pub rays: RayCounts,
+    /// GPU statistics.
+    pub stats: GpuStats,
+}
+
+/// A render in progress: programs, textures and targets.
+struct Frame<'a> {
+    ctx: &'a GlContext,
+    quad: FullscreenQuad,
+    programs: HashMap<Pass, glow::Program>,
+    /// Ray state, two sets of four attachments.
+    state: [RenderTarget; 2],
+    cur: usize,
+    /// Per level: (origin, tri) + (direction, t) records.
+    rec01: Vec<RenderTarget>,
+    /// Per level: (weight, exists).
+    rec2: Vec<RenderTarget>,
+    acc: [RenderTarget; 2],
+    acc_cur: usize,
+    count_query: OcclusionQuery,
+    timers: Option<TimerPool>,
+    stats: GpuStats,
+    opts: GpuOptions,
+    max_iterations: u64,
+}
+
+/// Timer queries in flight, resolved in batches so the pipeline is not stalled per pass.
+struct TimerPool {
+    free: Vec<TimerQuery>,
+    pending: Vec<(&'static str, TimerQuery)>,
+    ms: HashMap<String, f64>,
+}
+
+impl TimerPool {
+    fn resolve(&mut self, ctx: &GlContext) -> Result<()> {
+        for (name, q) in self.pending.drain(..) {
+            let ns = q.result_ns(ctx)?;
+            *self.ms.entry(name.to_string()).or_default() += ns as f64 * 1e-6;
+            self.free.push(q);
+        }
+        Ok(())
+    }
+}
+
+fn bind_texture(gl: &glow::Context, unit: u32, tex: glow::Texture) {
+    // SAFETY: the context is current; `tex` is a live texture of this context.
+    unsafe {
+        gl.active_texture(glow::TEXTURE0 + unit);
+        gl.bind_texture(glow::TEXTURE_2D, Some(tex));
+    }
+}
+
+fn unit_of(name: &str) -> u32 {
+    UNITS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, u)| *u)
+        .expect("known sampler")
+}
+
+impl<'a> Frame<'a> {
+    fn gl(&self) -> &glow::Context {
+        &self.ctx.gl
+    }
+
+    fn program(&self, pass: Pass) -> glow::Program {
+        self.programs[&pass]
+    }
+
+    fn set_vec3(&self, pass: Pass, name: &str, v: [f32; 3]) {
+        let gl = self.gl();
+        let p = self.program(pass);
+        // SAFETY: the context is current and `p` is a linked program of it.
+        unsafe {
+            gl.use_program(Some(p));
+            let loc = gl.get_uniform_location(p, name);
+            gl.uniform_3_f32(loc.as_ref(), v[0], v[1], v[2]);
+        }
+    }
+
+    fn set_vec2(&self, pass: Pass, name: &str, v: [f32; 2]) {
+        let gl = self.gl();
+        let p = self.program(pass);
+        // SAFETY: as in `set_vec3`.
+        unsafe {
+            gl.use_program(Some(p));
+            let loc = gl.get_uniform_location(p, name);
+            gl.uniform_2_f32(loc.as_ref(), v[0], v[1]);
+        }
+    }
+
+    fn set_float(&self, pass: Pass, name: &str, v: f32) {
+        let gl = self.gl();
+        let p = self.program(pass);
+        // SAFETY: as in `set_vec3`.
+        unsafe {
+            gl.use_program(Some(p));
+            let loc = gl.get_uniform_location(p, name);
+            gl.uniform_1_f32(loc.as_ref(), v);
+        }
+    }
+
+    fn target(&self, slot: Slot) -> &RenderTarget {
+        match slot {
+            Slot::State(k) => &self.state[k],
+            Slot::Rec01(l) => &self.rec01[l],
+            Slot::Rec2(l) => &self.rec2[l],
+            Slot::Acc(k) => &self.acc[k],
+        }
+    }
+
+    /// Draws `pass` into the target in `slot`, timing it when timers are on.
+    fn draw(&mut self, pass: Pass, slot: Slot) -> Result<()> {
+        self.target(slot).bind(self.gl());
+        let timer = match &mut self.timers {
+            Some(pool) => Some(match pool.free.pop() {
+                Some(q) => q,
+                None => TimerQuery::new(self.ctx)?,
+            }),
+            None => None,
+        };
+        if let Some(t) = &timer {
+            t.begin(self.ctx);
+        }
+        self.quad.draw(self.gl(), self.program(pass));
+        if let Some(t) = timer {
+            t.end(self.ctx);
+            let pool = self.timers.as_mut().expect("timer pool");
+            pool.pending.push((pass.name(), t));
+            if pool.pending.len() >= 256 {
+                pool.resolve(self.ctx)?;
+            }
+        }
+        *self
+            .stats
+            .passes
+            .entry(pass.name().to_string())
+            .or_default() += 1;
+        self.stats.passes_total += 1;
+        Ok(())
+    }
+
+    /// Binds the current ray-state set as input.
+    fn bind_state_input(&self) {
+        for (k, t) in self.state[self.cur].textures().iter().enumerate() {
+            bind_texture(self.gl(), 5 + k as u32, *t);
+        }
+    }
+
+    /// Runs a ray-state pass: reads the current set, writes the other, swaps.
+    fn state_pass(&mut self, pass: Pass) -> Result<()> {
+        self.bind_state_input();
+        let other = 1 - self.cur;
+        self.draw(pass, Slot::State(other))?;
+        self.cur = other;
+        Ok(())
+    }
+
+    /// Counts fragments that survive the `count` pass: active rays or existing nodes.
+    fn count(&mut self, what: Count, node: Option<glow::Texture>) -> Result<u64> {
+        let pass = Pass::Count(what);
+        self.bind_state_input();
+        if let Some(t) = node {
+            bind_texture(self.gl(), unit_of("u_c2"), t);
+        }
+        let gl = &self.ctx.gl;
+        // SAFETY: the context is current.
+        unsafe { gl.color_mask(false, false, false, false) };
+        self.count_query.begin(self.ctx);
+        let r = self.draw(pass, Slot::Acc(1 - self.acc_cur));
+        self.count_query.end(self.ctx);
+        // SAFETY: as above.
+        unsafe { self.ctx.gl.color_mask(true, true, true, true) };
+        r?;
+        self.stats.termination_queries += (what == Count::Rays) as u64;
+        Ok(self.count_query.result(self.ctx)? as u64)
+    }
+
+    /// Traces the current ray wave to completion.
+    fn trace(&mut self, query: Query) -> Result<()> {
+        self.state_pass(Pass::TraverseInit)?;
+        let k = self.opts.query_every.max(1) as u64;
+        let mut it = 0u64;
+        loop {
+            if it.is_multiple_of(k) && self.count(Count::Rays, None)? == 0 {
+                return Ok(());
+            }
+            self.state_pass(Pass::TraverseStep)?;
+            self.state_pass(Pass::Intersect(query))?;
+            it += 1;
+            if it > self.max_iterations {
+                return Err(Error::Internal(format!(
+                    "traversal did not terminate after {it} iterations"
+                )));
+            }
+        }
+    }
+
+    /// Accumulation pass: reads level `level` records and the colour so far.
+    fn accumulate(&mut self, pass: Pass, level: usize) -> Result<()> {
+        self.bind_state_input();
+        let (r0, r1, r2) = (
+            self.rec01[level].texture(0),
+            self.rec01[level].texture(1),
+            self.rec2[level].texture(0),
+        );
+        bind_texture(self.gl(), unit_of("u_r0"), r0);
+        bind_texture(self.gl(), unit_of("u_r1"), r1);
+        bind_texture(self.gl(), unit_of("u_r2"), r2);
+        bind_texture(
+            self.gl(),
+            unit_of("u_acc"),
+            self.acc[self.acc_cur].texture(0),
+        );
+        let other = 1 - self.acc_cur;
+        self.draw(pass, Slot::Acc(other))?;
+        self.acc_cur = other;
+        Ok(())
+    }
+
+    /// Stores the finished wave in level `level`'s records.
+    fn record(&mut self, level: usize) -> Result<()> {
+        self.bind_state_input();
+        self.draw(Pass::Record, Slot::Rec01(level))
+    }
+}
+
+/// Names a render target of a [`Frame`].
+#[derive(Clone, Copy, Debug)]
+enum Slot {
+    State(usize),
+    Rec01(usize),
+    Rec2(usize),
+    Acc(usize),
+}
+
+/// Renders `scene` over `grid` on the GPU.
+pub fn render_gl(
+    ctx: &GlContext,
+    scene: &Scene,
+    grid: &Grid,
+    render: &crate::render::RenderOptions,
+) -> Result<GpuOutput> {
+    let (width, height, spp, max_depth) =
+        (render.width, render.height, render.spp, render.max_depth);
+    let opts = render.gpu;
+    let gl = &ctx.gl;
+    let info = &ctx.info;
+    let max_size = info.max_texture_size.max(0) as u32;
+    if width > max_size || height > max_size {
+        return Err(Error::Limit(format!(
+            "image {width}x{height} exceeds GL_MAX_TEXTURE_SIZE {max_size}"
+        )));
+    }
+    if info.max_texture_units < REQUIRED_TEXTURE_UNITS {
+        return Err(Error::GlUnavailable(format!(
+            "{} texture image units, fragtrace needs {REQUIRED_TEXTURE_UNITS}",
+            info.max_texture_units
+        )));
+    }
+    // Check memory before allocating: ray state (8), records (3 per level), colour (2).
+    let levels = max_depth as usize + 1;
+    let bytes = (width as u64 * height as u64) * 16 * (8 + 3 * levels as u64 + 2);
+    if bytes > 8 << 30 {
+        return Err(Error::Limit(format!(
+            "{width}x{height} at depth {max_depth} needs {:.1} GiB of ray textures",
+            bytes as f64 / (1u64 << 30) as f64
+        )));
+    }
+    let mut stats = GpuStats {
+        renderer: info.renderer.clone(),
+        gl_version: info.gl_version.clone(),
+        query_every: opts.query_every,
+        ..GpuStats::default()
+    };
+
+    // Scene upload.
+    let t_up = Instant::now();
+    let layout = SceneTextures::pack(scene, grid, max_size)?;
+    let mut scene_tex = Vec::new();
+    for t in layout.all() {
+        let tex = create_float_texture(gl, t.width, t.height, Some(&t.data))?;
+        scene_tex.push((t.name, tex));
+    }
+    // SAFETY: the context is current.
+    unsafe { gl.finish() };
+    stats.upload_ms = t_up.elapsed().as_secs_f64() * 1e3;
+    stats.upload_bytes = layout.bytes();
+
+    // Programs: only the passes this scene and depth use.
+    let features = if opts.no_specialize {
+        Features::all()
+    } else {
+        Features::of(scene)
+    };
+    stats.features = format!("{features:?}");
+    let secondary = max_depth > 0 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
+    let lights = !scene.lights.is_empty();
+    let passes: Vec<Pass> = Pass::ALL
+        .into_iter()
+        .filter(|p| match p {
+            Pass::Intersect(Query::Any) | Pass::ShadowSpawn | Pass::AccumLight => lights,
+            Pass::Weight | Pass::Spawn | Pass::Count(Count::Nodes) => secondary,
+            _ => true,
+        })
+        .collect();
+    let t_c = Instant::now();
+    let mut programs = HashMap::new();
+    for pass in passes {
+        let a = assemble(pass, features, &layout)?;
+        let p = compile_program(gl, pass.name(), QUAD_VERTEX_SHADER, &a.source, &|n| {
+            a.origin(n)
+        })?;
+        // SAFETY: the context is current and `p` is linked.
+        unsafe {
+            gl.use_program(Some(p));
+            for (name, unit) in UNITS {
+                if let Some(loc) = gl.get_uniform_location(p, name) {
+                    gl.uniform_1_i32(Some(&loc), *unit as i32);
+                }
+            }
+            let set3 = |name: &str, v: glam::Vec3| {
+                if let Some(loc) = gl.get_uniform_location(p, name) {
+                    gl.uniform_3_f32(Some(&loc), v.x, v.y, v.z);
+                }
+            };
+            set3("u_grid_min", grid.min);
+            set3("u_grid_max", grid.max);
+            set3("u_cell_size", grid.cell_size);
+            set3("u_grid_res", glam::UVec3::from(grid.res).as_vec3());
+            set3("u_ambient", scene.ambient);
+            set3("u_background", scene.background);
+            if let Some(loc) = gl.get_uniform_location(p, "u_size") {
+                gl.uniform_2_f32(Some(&loc), width as f32, height as f32);
+            }
+        }
+        programs.insert(pass, p);
+    }
+    stats.compile_ms = t_c.elapsed().as_secs_f64() * 1e3;
+    for (name, tex) in &scene_tex {
+        bind_texture(gl, unit_of(&format!("u_{name}")), *tex);
+    }
+
+    let t_trace = Instant::now();
+    let targets = |n: usize| RenderTarget::new(gl, width, height, n);
+    let mut f = Frame {
+        ctx,
+        quad: FullscreenQuad::new(gl)?,
+        programs,
+        state: [targets(4)?, targets(4)?],
+        cur: 0,
+        rec01: (0..levels).map(|_| targets(2)).collect::<Result<_>>()?,
+        rec2: (0..levels).map(|_| targets(1)).collect::<Result<_>>()?,
+        acc: [targets(1)?, targets(1)?],
+        acc_cur: 0,
+        count_query: OcclusionQuery::new(ctx)?,
+        timers: if opts.timers && info.timer_query {
+            Some(TimerPool {
+                free: Vec::new(),
+                pending: Vec::new(),
+                ms: HashMap::new(),
+            })
+        } else {
+            None
+        },
+        stats,
+        opts,
+        // A DDA visits at most rx+ry+rz cells; each test is one iteration; be generous.
+        max_iterations: 16
+            * (grid.res.iter().map(|&r| r as u64).sum::<u64>()
+                + grid.tri_indices.len() as u64
+                + 16),
+    };
+
+    // Clear the colour accumulator.
+    // SAFETY: the context is current.
+    unsafe {
+        f.acc[0].bind(gl);
+        gl.clear_color(0.0, 0.0, 0.0, 0.0);
+        gl.clear(glow::COLOR_BUFFER_BIT);
+    }
+    let offsets = camera::sample_offsets(spp);
+    let corners = scene
+        .camera
+        .window_corners(width, height)
+        .map(|c| c.as_vec3().to_array());
+    let mut rays = [0u64; 4];
+    let mut aov = None;
+    for (k, &(ox, oy)) in offsets.iter().enumerate() {
+        // Level-0 weight: 1/spp everywhere, and every pixel has a primary ray.
+        let w = 1.0 / offsets.len() as f32;
+        // SAFETY: the context is current.
+        unsafe {
+            f.rec2[0].bind(gl);
+            gl.clear_color(w, w, w, 1.0);
+            gl.clear(glow::COLOR_BUFFER_BIT);
+        }
+        f.set_vec3(Pass::RayGen, "u_eye", scene.camera.eye.to_array());
+        f.set_vec3(Pass::RayGen, "u_bl", corners[0]);
+        f.set_vec3(Pass::RayGen, "u_br", corners[1]);
+        f.set_vec3(Pass::RayGen, "u_tr", corners[2]);
+        f.set_vec3(Pass::RayGen, "u_tl", corners[3]);
+        f.set_vec2(Pass::RayGen, "u_offset", [ox as f32, oy as f32]);
+        f.state_pass(Pass::RayGen)?;
+        rays[0] += width as u64 * height as u64;
+        f.trace(Query::Closest)?;
+        if k == 0 {
+            aov = Some(read_aov(&f, scene, width, height)?);
+        }
+        f.record(0)?;
+        shade_node(&mut f, scene, 0, max_depth, secondary, &mut rays)?;
+    }
+    let data = f.acc[f.acc_cur].read_attachment(gl, 0)?;
+    if let Some(pool) = &mut f.timers {
+        pool.resolve(ctx)?;
+        f.stats.gpu_ms = pool.ms.clone();
+        f.stats.gpu_ms_total = pool.ms.values().sum();
+    }
+    f.stats.trace_ms = t_trace.elapsed().as_secs_f64() * 1e3;
+    let image = Image::from_rgb(width, height, flip_rgba_to_rgb(&data, width, height));
+
+    // Release GL objects (the context may render again).
+    let Frame {
+        quad,
+        programs,
+        state,
+        rec01,
+        rec2,
+        acc,
+        count_query,
+        timers,
+        stats,
+        ..
+    } = f;
+    quad.delete(gl);
+    for t in state.into_iter().chain(rec01).chain(rec2).chain(acc) {
+        t.delete(gl);
+    }
+    count_query.delete(ctx);
+    if let Some(pool) = timers {
+        for q in pool.free {
+            q.delete(ctx);
+        }
+    }
+    // SAFETY: the context is current; names are not used after this.
+    unsafe {
+        for p in programs.values() {
+            gl.delete_program(*p);
+        }
+        for (_, t) in scene_tex {
+            gl.delete_texture(t);
+        }
+    }
+    Ok(GpuOutput {
+        image,
+        aov: aov.expect("at least one sample"),
+        rays: RayCounts::new(rays[0], rays[1], rays[2], rays[3]),
+        stats,
+    })
+}
+
+/// Shades level `level`'s records (ambient, every light) and recurses into the node's
+/// reflected and refracted children.
+fn shade_node(
+    f: &mut Frame,
+    scene: &Scene,
+    level: usize,
+    max_depth: u32,
+    secondary: bool,
+    rays: &mut [u64; 4],
+) -> Result<()> {
+    f.accumulate(Pass::AccumAmbient, level)?;
+    for light in &scene.lights {
+        f.set_vec3(Pass::ShadowSpawn, "u_light_pos", light.position.to_array());
+        f.set_vec3(Pass::AccumLight, "u_light_rad", light.radiance().to_array());
+        bind_texture(f.gl(), unit_of("u_r0"), f.rec01[level].texture(0));
+        bind_texture(f.gl(), unit_of("u_r1"), f.rec01[level].texture(1));
+        f.state_pass(Pass::ShadowSpawn)?;
+        let n = f.count(Count::Rays, None)?;
+        rays[1] += n;
+        if n > 0 {
+            f.trace(Query::Any)?;
+        }
+        f.accumulate(Pass::AccumLight, level)?;
+    }
+    if !secondary || level as u32 >= max_depth {
+        return Ok(());
+    }
+    for (branch, slot) in [(0.0f32, 2usize), (1.0, 3)] {
+        let child = level + 1;
+        f.set_float(Pass::Weight, "u_branch", branch);
+        f.set_float(Pass::Spawn, "u_branch", branch);
+        bind_texture(f.gl(), unit_of("u_p0"), f.rec01[level].texture(0));
+        bind_texture(f.gl(), unit_of("u_p1"), f.rec01[level].texture(1));
+        bind_texture(f.gl(), unit_of("u_p2"), f.rec2[level].texture(0));
+        f.draw(Pass::Weight, Slot::Rec2(child))?;
+        let node = f.rec2[child].texture(0);
+        let n = f.count(Count::Nodes, Some(node))?;
+        if n == 0 {
+            continue; // no pixel has this node: skip its whole subtree
+        }
+        rays[slot] += n;
+        bind_texture(f.gl(), unit_of("u_p0"), f.rec01[level].texture(0));
+        bind_texture(f.gl(), unit_of("u_p1"), f.rec01[level].texture(1));
+        bind_texture(f.gl(), unit_of("u_c2"), node);
+        f.state_pass(Pass::Spawn)?;
+        f.trace(Query::Closest)?;
+        f.record(child)?;
+        shade_node(f, scene, child, max_depth, secondary, rays)?;
+    }
+    Ok(())
+}
+
+/// GL rows start at the bottom; images at the top. Drops alpha.
+fn flip_rgba_to_rgb(data: &[f32], w: u32, h: u32) -> Vec<f32> {
+    let mut out = Vec::with_capacity((w * h * 3) as usize);
+    for j in 0..h {
+        let row = (h - 1 - j) as usize * w as usize * 4;
+        for i in 0..w as usize {
+            out.extend_from_slice(&data[row + i * 4..row + i * 4 + 3]);
+        }
+    }
+    out
+}
+
+/// Primary-ray AOVs from the finished level-0 wave.
+fn read_aov(f: &Frame, scene: &Scene, w: u32, h: u32) -> Result<Aov> {
+    let st = &f.state[f.cur];
+    let s0 = st.read_attachment(f.gl(), 0)?;
+    let s3 = st.read_attachment(f.gl(), 3)?;
+    let mut pixels = Vec::with_capacity((w * h) as usize);
+    for j in 0..h {
+        let row = (h - 1 - j) as usize * w as usize;
+        for i in 0..w as usize {
+            let k = (row + i) * 4;
+            let steps = s3[k + 3];
+            let hit = RayState::from_code(s0[k + 3]) == Some(RayState::Shading);
+            pixels.push(if hit {
+                let tri = s3[k + 1] as usize;
+                let v = scene.triangle_vertices(tri);
+                let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+                AovPixel {
+                    depth: s3[k],
+                    primid: s3[k + 1],
+                    normal: n.to_array(),
+                    steps,
+                }
+            } else {
+                AovPixel::miss(steps)
+            });
+        }
+    }
+    Ok(Aov::from_pixels(w, h, &pixels))
+}

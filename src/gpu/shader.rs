@@ -1,0 +1,458 @@
+//! Shader assembly: every pass is `#version 120`, then generated `#define`s (ray-state
+//! codes, scene features, pass variant), then the generated texel-layout declarations,
+//! then `common.glsl`, then the pass's `.frag` with its `#include "x.glsl"` lines expanded
+//! from a fixed list. An unknown include is an error. A line map sends driver error lines
+//! back to (file, line).
+
+use crate::accel::layout::SceneTextures;
+use crate::scene::Scene;
+use crate::{Error, Result};
+
+/// The GLSL sources, embedded in the binary.
+const SOURCES: &[(&str, &str)] = &[
+    ("common.glsl", include_str!("../../glsl120/common.glsl")),
+    (
+        "intersect.glsl",
+        include_str!("../../glsl120/intersect.glsl"),
+    ),
+    ("traverse.glsl", include_str!("../../glsl120/traverse.glsl")),
+    ("shade.glsl", include_str!("../../glsl120/shade.glsl")),
+    ("raygen.frag", include_str!("../../glsl120/raygen.frag")),
+    (
+        "traverse_init.frag",
+        include_str!("../../glsl120/traverse_init.frag"),
+    ),
+    (
+        "traverse_step.frag",
+        include_str!("../../glsl120/traverse_step.frag"),
+    ),
+    (
+        "intersect.frag",
+        include_str!("../../glsl120/intersect.frag"),
+    ),
+    ("record.frag", include_str!("../../glsl120/record.frag")),
+    ("weight.frag", include_str!("../../glsl120/weight.frag")),
+    ("spawn.frag", include_str!("../../glsl120/spawn.frag")),
+    (
+        "shadow_spawn.frag",
+        include_str!("../../glsl120/shadow_spawn.frag"),
+    ),
+    (
+        "accum_light.frag",
+        include_str!("../../glsl120/accum_light.frag"),
+    ),
+    (
+        "accum_ambient.frag",
+        include_str!("../../glsl120/accum_ambient.frag"),
+    ),
+    ("count.frag", include_str!("../../glsl120/count.frag")),
+];
+
+/// Files a pass may `#include`.
+const INCLUDABLE: &[&str] = &["intersect.glsl", "traverse.glsl", "shade.glsl"];
+
+/// Ray states, stored in the 4th component of the ray-origin texture (the thesis's
+/// *kezdeti*, *érvénytelen*, *átszelő*, *metszéspont-tesztelő*, *árnyékoló* states, plus
+/// done).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayState {
+    /// Generated, traversal not set up yet.
+    Initial,
+    /// Misses the grid's bounding box: finished without a hit.
+    Invalid,
+    /// Walking the grid cell by cell.
+    Traversing,
+    /// Testing the triangles of the current cell one per pass.
+    Testing,
+    /// Finished with a hit (for shadow rays: occluded).
+    Shading,
+    /// Finished without a hit, or no ray at all.
+    Done,
+}
+
+impl RayState {
+    /// All states.
+    pub const ALL: [RayState; 6] = [
+        RayState::Initial,
+        RayState::Invalid,
+        RayState::Traversing,
+        RayState::Testing,
+        RayState::Shading,
+        RayState::Done,
+    ];
+
+    /// The float code stored in textures.
+    pub fn code(self) -> f32 {
+        match self {
+            RayState::Initial => 0.0,
+            RayState::Invalid => 1.0,
+            RayState::Traversing => 2.0,
+            RayState::Testing => 3.0,
+            RayState::Shading => 4.0,
+            RayState::Done => 5.0,
+        }
+    }
+
+    /// The GLSL macro name.
+    pub fn macro_name(self) -> &'static str {
+        match self {
+            RayState::Initial => "ST_INITIAL",
+            RayState::Invalid => "ST_INVALID",
+            RayState::Traversing => "ST_TRAVERSING",
+            RayState::Testing => "ST_TESTING",
+            RayState::Shading => "ST_SHADING",
+            RayState::Done => "ST_DONE",
+        }
+    }
+
+    /// Decodes a stored code.
+    pub fn from_code(c: f32) -> Option<RayState> {
+        RayState::ALL
+            .into_iter()
+            .find(|s| (s.code() - c).abs() < 0.25)
+    }
+}
+
+/// What the intersection pass looks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Query {
+    /// The closest hit (camera, reflected and refracted rays).
+    Closest,
+    /// Any hit below t_max (shadow rays).
+    Any,
+}
+
+/// What the counting pass counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Count {
+    /// Rays still being traced.
+    Rays,
+    /// Pixels where a ray-tree node exists.
+    Nodes,
+}
+
+/// Every pass program.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Pass {
+    /// Primary ray generation.
+    RayGen,
+    /// Traversal set-up.
+    TraverseInit,
+    /// One DDA step.
+    TraverseStep,
+    /// One triangle test.
+    Intersect(Query),
+    /// Store a finished trace as a hit record.
+    Record,
+    /// Weight of a ray-tree child.
+    Weight,
+    /// Rays of a ray-tree child.
+    Spawn,
+    /// Shadow rays towards one light.
+    ShadowSpawn,
+    /// One light's direct term.
+    AccumLight,
+    /// Ambient term and background.
+    AccumAmbient,
+    /// Occlusion-query counting.
+    Count(Count),
+}
+
+impl Pass {
+    /// Every program a render may use.
+    pub const ALL: [Pass; 13] = [
+        Pass::RayGen,
+        Pass::TraverseInit,
+        Pass::TraverseStep,
+        Pass::Intersect(Query::Closest),
+        Pass::Intersect(Query::Any),
+        Pass::Record,
+        Pass::Weight,
+        Pass::Spawn,
+        Pass::ShadowSpawn,
+        Pass::AccumLight,
+        Pass::AccumAmbient,
+        Pass::Count(Count::Rays),
+        Pass::Count(Count::Nodes),
+    ];
+
+    /// Its source file.
+    pub fn file(self) -> &'static str {
+        match self {
+            Pass::RayGen => "raygen.frag",
+            Pass::TraverseInit => "traverse_init.frag",
+            Pass::TraverseStep => "traverse_step.frag",
+            Pass::Intersect(_) => "intersect.frag",
+            Pass::Record => "record.frag",
+            Pass::Weight => "weight.frag",
+            Pass::Spawn => "spawn.frag",
+            Pass::ShadowSpawn => "shadow_spawn.frag",
+            Pass::AccumLight => "accum_light.frag",
+            Pass::AccumAmbient => "accum_ambient.frag",
+            Pass::Count(_) => "count.frag",
+        }
+    }
+
+    /// A short name for messages and statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            Pass::RayGen => "raygen",
+            Pass::TraverseInit => "traverse_init",
+            Pass::TraverseStep => "traverse_step",
+            Pass::Intersect(Query::Closest) => "intersect",
+            Pass::Intersect(Query::Any) => "intersect_any",
+            Pass::Record => "record",
+            Pass::Weight => "weight",
+            Pass::Spawn => "spawn",
+            Pass::ShadowSpawn => "shadow_spawn",
+            Pass::AccumLight => "accum_light",
+            Pass::AccumAmbient => "accum_ambient",
+            Pass::Count(Count::Rays) => "count_rays",
+            Pass::Count(Count::Nodes) => "count_nodes",
+        }
+    }
+
+    /// Pass-variant `#define`s.
+    fn defines(self) -> Vec<&'static str> {
+        match self {
+            Pass::Intersect(Query::Any) => vec!["ANY_HIT"],
+            Pass::Intersect(Query::Closest) => vec![],
+            Pass::Count(Count::Rays) => vec!["COUNT_RAYS"],
+            Pass::Count(Count::Nodes) => vec!["COUNT_NODES"],
+            Pass::RayGen
+            | Pass::TraverseInit
+            | Pass::TraverseStep
+            | Pass::Record
+            | Pass::Weight
+            | Pass::Spawn
+            | Pass::ShadowSpawn
+            | Pass::AccumLight
+            | Pass::AccumAmbient => vec![],
+        }
+    }
+}
+
+/// Scene features that decide which shading code is compiled in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Features {
+    /// Some triangle has vertex normals.
+    pub smooth_normals: bool,
+    /// Some material uses the procedural checker.
+    pub checker: bool,
+    /// Some material has a Phong highlight.
+    pub specular: bool,
+    /// Some material refracts.
+    pub refraction: bool,
+    /// Some material uses Fresnel weights.
+    pub fresnel: bool,
+}
+
+impl Features {
+    /// What `scene` needs.
+    pub fn of(scene: &Scene) -> Self {
+        let m = &scene.materials;
+        Features {
+            smooth_normals: scene.has_smooth_normals(),
+            checker: m.iter().any(|m| m.checker.is_some()),
+            specular: m.iter().any(|m| m.ks.max_element() > 0.0),
+            refraction: m.iter().any(|m| m.refracts()),
+            fresnel: m.iter().any(|m| m.fresnel),
+        }
+    }
+
+    /// Everything on: the one-size-fits-all build.
+    pub fn all() -> Self {
+        Features {
+            smooth_normals: true,
+            checker: true,
+            specular: true,
+            refraction: true,
+            fresnel: true,
+        }
+    }
+
+    fn defines(self) -> Vec<&'static str> {
+        let Features {
+            smooth_normals,
+            checker,
+            specular,
+            refraction,
+            fresnel,
+        } = self;
+        [
+            (smooth_normals, "HAS_SMOOTH_NORMALS"),
+            (checker, "HAS_CHECKER"),
+            (specular, "HAS_SPECULAR"),
+            (refraction, "HAS_REFRACTION"),
+            (fresnel, "HAS_FRESNEL"),
+        ]
+        .into_iter()
+        .filter_map(|(on, name)| on.then_some(name))
+        .collect()
+    }
+}
+
+/// An assembled fragment program and where each of its lines came from.
+#[derive(Clone, Debug)]
+pub struct Assembled {
+    /// The complete source.
+    pub source: String,
+    /// (file, 1-based line) of each source line.
+    pub lines: Vec<(String, usize)>,
+}
+
+impl Assembled {
+    /// Maps a 1-based line of the assembled source to its origin.
+    pub fn origin(&self, line: usize) -> (String, usize) {
+        self.lines
+            .get(line.wrapping_sub(1))
+            .cloned()
+            .unwrap_or_else(|| ("<assembled>".into(), line))
+    }
+
+    fn push_text(&mut self, file: &str, text: &str) {
+        for (k, l) in text.lines().enumerate() {
+            self.source.push_str(l);
+            self.source.push('\n');
+            self.lines.push((file.to_string(), k + 1));
+        }
+    }
+}
+
+fn source(name: &str) -> Result<&'static str> {
+    SOURCES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, s)| *s)
+        .ok_or_else(|| Error::Internal(format!("no embedded GLSL file `{name}`")))
+}
+
+/// Generated prelude: state codes and constants shared with Rust.
+fn prelude() -> String {
+    let mut s = String::new();
+    for st in RayState::ALL {
+        s.push_str(&format!("#define {} {:.1}\n", st.macro_name(), st.code()));
+    }
+    s.push_str("#define BIG 1.0e30\n");
+    s
+}
+
+/// Assembles the fragment program of `pass` for a scene with `features` and `layout`.
+pub fn assemble(pass: Pass, features: Features, layout: &SceneTextures) -> Result<Assembled> {
+    let mut a = Assembled {
+        source: String::new(),
+        lines: Vec::new(),
+    };
+    a.push_text("<generated>", "#version 120");
+    let mut defs = String::new();
+    for d in features.defines().into_iter().chain(pass.defines()) {
+        defs.push_str(&format!("#define {d}\n"));
+    }
+    a.push_text("<generated defines>", &defs);
+    a.push_text("<generated prelude>", &prelude());
+    a.push_text("<generated layout>", &layout.glsl());
+    a.push_text("common.glsl", source("common.glsl")?);
+    let file = pass.file();
+    let mut included = Vec::new();
+    for (k, line) in source(file)?.lines().enumerate() {
+        let t = line.trim();
+        if let Some(rest) = t.strip_prefix("#include") {
+            let name = rest.trim().trim_matches('"');
+            if !INCLUDABLE.contains(&name) {
+                return Err(Error::Shader {
+                    pass: pass.name().into(),
+                    file: file.into(),
+                    line: k + 1,
+                    log: format!(
+                        "unknown include `{name}` (allowed: {})",
+                        INCLUDABLE.join(", ")
+                    ),
+                });
+            }
+            if !included.contains(&name) {
+                included.push(name);
+                a.push_text(name, source(name)?);
+            }
+        } else {
+            a.source.push_str(line);
+            a.source.push('\n');
+            a.lines.push((file.to_string(), k + 1));
+        }
+    }
+    Ok(a)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{Grid, GridConfig};
+    use crate::scene::{Camera, Material};
+    use glam::Vec3;
+
+    fn layout() -> (Scene, SceneTextures) {
+        let mut s = Scene::empty(Camera {
+            eye: Vec3::Z,
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 45.0,
+        });
+        let m = s.add_material(Material::default());
+        s.add_triangle(Vec3::ZERO, Vec3::X, Vec3::Y, m);
+        let g = Grid::build(&s, &GridConfig::default()).unwrap();
+        let l = SceneTextures::pack(&s, &g, 4096).unwrap();
+        (s, l)
+    }
+
+    #[test]
+    fn every_pass_assembles_and_maps_lines_back() {
+        let (s, l) = layout();
+        for pass in Pass::ALL {
+            let a = assemble(pass, Features::of(&s), &l).unwrap();
+            assert!(a.source.starts_with("#version 120\n"));
+            assert_eq!(a.source.lines().count(), a.lines.len());
+            assert!(!a.source.contains("#include"), "{pass:?}");
+            // The last line maps back to the pass's own file.
+            let (file, _) = a.origin(a.lines.len());
+            assert_eq!(file, pass.file());
+        }
+        let a = assemble(Pass::Intersect(Query::Any), Features::of(&s), &l).unwrap();
+        assert!(a.source.contains("#define ANY_HIT"));
+        let n = a
+            .source
+            .lines()
+            .position(|x| x.contains("vec4 intersect_tri("))
+            .unwrap()
+            + 1;
+        let (file, line) = a.origin(n);
+        assert_eq!(file, "intersect.glsl");
+        assert!(source("intersect.glsl")
+            .unwrap()
+            .lines()
+            .nth(line - 1)
+            .unwrap()
+            .contains("vec4 intersect_tri("));
+    }
+
+    #[test]
+    fn features_follow_the_scene() {
+        let (mut s, l) = layout();
+        let f = Features::of(&s);
+        assert!(!f.refraction && !f.checker && !f.smooth_normals);
+        let a = assemble(Pass::AccumLight, f, &l).unwrap();
+        assert!(!a.source.contains("#define HAS_REFRACTION"));
+        s.materials[0].fresnel = true;
+        let f = Features::of(&s);
+        assert!(f.refraction && f.fresnel);
+        assert!(assemble(Pass::Spawn, f, &l)
+            .unwrap()
+            .source
+            .contains("#define HAS_FRESNEL"));
+    }
+
+    #[test]
+    fn state_codes_round_trip() {
+        for st in RayState::ALL {
+            assert_eq!(RayState::from_code(st.code()), Some(st));
+        }
+    }
+}
