@@ -1,7 +1,8 @@
 // intersect.frag: one ray-triangle test (pass 4 of the thesis) for rays in state TESTING.
 // Reads: s0..s3, grid uniforms, the triangle list (fetch_list) and triangles (fetch_tri).
-// Writes: s2.w = next list index; s3 = (t_best, tri_best, list end, steps + 1); when the
-//         cell's list is exhausted, s0 state -> SHADING (closest hit found) or TRAVERSING.
+// Writes: s2.w = next list index; s3 = (t_best, tri_best, list end, steps + 1) with the
+//         cell's closest hit so far; when the cell's list is exhausted, s0 state ->
+//         SHADING (that hit lies inside the cell) or TRAVERSING (hit forgotten).
 //         With ANY_HIT (shadow rays) the first hit in (0, t_max) ends the ray as SHADING,
 //         meaning "occluded". Other rays are copied through.
 #include "intersect.glsl"
@@ -23,7 +24,14 @@ void main() {
         mat3 P;
         vec3 S;
         shear_setup(s1.xyz, P, S);
-        vec4 h = intersect_tri(s0.xyz, P, S, p0, p1, p2, 0.0, s3.x);
+#ifdef ANY_HIT
+        float t_hi = s3.x;
+#else
+        // Ties: once a hit is held, a later (higher-index) triangle must be closer by more
+        // than TIE_EPS relative, as in the CPU twin (cpu/traverse.rs, tie_limit).
+        float t_hi = s3.y >= 0.0 ? s3.x - abs(s3.x) * TIE_EPS : s3.x;
+#endif
+        vec4 h = intersect_tri(s0.xyz, P, S, p0, p1, p2, 0.0, t_hi);
         s2.w = k + 1.0;
         s3.w += 1.0;
 #ifdef ANY_HIT
@@ -35,14 +43,18 @@ void main() {
         }
 #else
         if (h.x > 0.0) {
-            // Accept only inside the current cell: a closer hit may lie in the next one.
-            vec3 tn = boundaries(s0.xyz, s1.xyz, s2.xyz);
-            if (h.x <= exit_limit(min(min(tn.x, tn.y), tn.z))) {
-                s3.xy = vec2(h.x, tri);
-            }
+            s3.xy = vec2(h.x, tri);
         }
         if (s2.w >= s3.z) {
-            s0.w = s3.y >= 0.0 ? ST_SHADING : ST_TRAVERSING;
+            // The cell's closest hit counts only inside the cell: a closer hit may lie in
+            // the next one, where this triangle is binned too (CPU twin: closest_hit).
+            vec3 tn = boundaries(s0.xyz, s1.xyz, s2.xyz);
+            if (s3.y >= 0.0 && s3.x <= exit_limit(min(min(tn.x, tn.y), tn.z))) {
+                s0.w = ST_SHADING;
+            } else {
+                s3.xy = vec2(s1.w, -1.0);
+                s0.w = ST_TRAVERSING;
+            }
         }
 #endif
     }

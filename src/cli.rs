@@ -28,6 +28,31 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene (the built-in Whitted homage when no file is given).
     Render(RenderArgs),
+    /// Compare two images (PNG or EXR): RMSE, PSNR, max error, share above a threshold.
+    Compare(CompareArgs),
+    /// Print the EGL/GL context: versions, limits, required features, verdict.
+    Info,
+}
+
+/// Arguments of `compare`.
+#[derive(Args, Debug, Clone)]
+pub struct CompareArgs {
+    /// The image to judge.
+    pub a: PathBuf,
+    /// The reference image.
+    pub b: PathBuf,
+    /// Per-pixel threshold (largest channel difference) for the share of differing pixels.
+    #[arg(long, default_value_t = 0.01)]
+    pub threshold: f64,
+    /// Write a difference image (absolute difference times --gain) here.
+    #[arg(long)]
+    pub diff: Option<PathBuf>,
+    /// Gain applied to the difference image.
+    #[arg(long, default_value_t = 10.0)]
+    pub gain: f32,
+    /// Exit with code 1 when RMSE exceeds this bound.
+    #[arg(long)]
+    pub max_rmse: Option<f64>,
 }
 
 /// Arguments of `render`.
@@ -184,10 +209,33 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
     Ok(out)
 }
 
-/// Runs a parsed command line.
-pub fn run(cli: Cli) -> Result<()> {
+/// The `compare` command: prints the figures; `Ok(false)` when a bound is exceeded.
+pub fn run_compare(args: &CompareArgs) -> Result<bool> {
+    let a = image_io::read_image(&args.a)?;
+    let b = image_io::read_image(&args.b)?;
+    let clamp = image_io::Format::from_path(&args.a)? == image_io::Format::Png
+        || image_io::Format::from_path(&args.b)? == image_io::Format::Png;
+    let c = crate::compare::compare(&a, &b, args.threshold, clamp)?;
+    println!("{c}");
+    if let Some(path) = &args.diff {
+        image_io::write_image(path, &crate::compare::diff_image(&a, &b, args.gain))?;
+    }
+    Ok(args.max_rmse.is_none_or(|m| c.rmse <= m))
+}
+
+/// The `info` command: what the GL driver offers and whether fragtrace can run on it.
+pub fn run_info() -> Result<bool> {
+    let ctx = crate::gpu::GlContext::new_unchecked()?;
+    println!("{}", ctx.info);
+    Ok(ctx.info.verdict().is_ok())
+}
+
+/// Runs a parsed command line; `Ok(false)` means "ran, but the answer is no" (exit 1).
+pub fn run(cli: Cli) -> Result<bool> {
     match cli.command {
-        None => run_render(&cli.render).map(|_| ()),
-        Some(Command::Render(args)) => run_render(&args).map(|_| ()),
+        None => run_render(&cli.render).map(|_| true),
+        Some(Command::Render(args)) => run_render(&args).map(|_| true),
+        Some(Command::Compare(args)) => run_compare(&args),
+        Some(Command::Info) => run_info(),
     }
 }

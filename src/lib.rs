@@ -8,6 +8,7 @@
 
 pub mod accel;
 pub mod cli;
+pub mod compare;
 pub mod cpu;
 pub mod error;
 pub mod gpu;

@@ -5,8 +5,19 @@ use clap::Parser;
 
 fn main() {
     let cli = fragtrace::cli::Cli::parse();
-    if let Err(e) = fragtrace::cli::run(cli) {
-        eprintln!("fragtrace: error: {e}");
-        std::process::exit(e.exit_code());
+    match fragtrace::cli::run(cli) {
+        Ok(true) => {}
+        Ok(false) => std::process::exit(1),
+        Err(e) => {
+            // One line per error, whatever a dependency's message looks like.
+            let msg = e
+                .to_string()
+                .lines()
+                .map(str::trim)
+                .collect::<Vec<_>>()
+                .join(": ");
+            eprintln!("fragtrace: error: {msg}");
+            std::process::exit(e.exit_code());
+        }
     }
 }

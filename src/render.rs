@@ -183,10 +183,13 @@ pub struct RenderStats {
     pub render_ms: f64,
     /// Rays by kind.
     pub rays: RayCounts,
-    /// Grid cells visited by all rays.
-    pub cells_visited: u64,
-    /// Ray-triangle tests by all rays.
-    pub triangle_tests: u64,
+    /// Grid cells visited by all rays (CPU only: the GPU counts per primary ray, see the
+    /// `steps` AOV).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cells_visited: Option<u64>,
+    /// Ray-triangle tests by all rays (CPU only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub triangle_tests: Option<u64>,
     /// Million rays per second over `render_ms`.
     pub mrays_per_s: f64,
     /// Backend-specific extras (GPU pass counts and timings).
@@ -294,8 +297,8 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
         grid_stats: grid.stats.clone(),
         render_ms,
         rays: out.rays,
-        cells_visited: out.cells,
-        triangle_tests: out.tests,
+        cells_visited: Some(out.cells),
+        triangle_tests: Some(out.tests),
         mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
         gpu: None,
     };
@@ -328,8 +331,8 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
         grid_stats: grid.stats.clone(),
         render_ms,
         rays: out.rays,
-        cells_visited: 0,
-        triangle_tests: 0,
+        cells_visited: None,
+        triangle_tests: None,
         mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
         gpu: Some(serde_json::to_value(&out.stats).map_err(|e| Error::Internal(e.to_string()))?),
     };

@@ -12,6 +12,18 @@ use super::intersect::{intersect, RayShear};
 use super::real::{Real, V3};
 use crate::accel::{CellRange, Grid};
 
+/// Relative margin by which a later (higher-index) triangle must be closer than the current
+/// best hit to replace it. Coplanar duplicates and hits on shared edges give t values that
+/// differ by an ulp or two between f32, f64 and GPU arithmetic; with this margin all of them
+/// keep the lowest index. 2^-19 is about 8 f32 ulps.
+pub const TIE_EPS: f64 = 1.0 / 524_288.0;
+
+/// Upper bound for the next triangle test once a hit at `t_best` is held.
+#[inline(always)]
+pub fn tie_limit<T: Real>(t_best: T) -> T {
+    t_best - t_best.abs() * T::from_f64(TIE_EPS)
+}
+
 /// A ray with its open parameter interval (t_min, t_max).
 #[derive(Clone, Copy, Debug)]
 pub struct Ray<T> {
@@ -82,7 +94,7 @@ impl<'a, T: Real> Accel<'a, T> {
 
     /// Parameter of the far boundary of cell `c` along `axis`; `BIG` when d is ±0.
     #[inline(always)]
-    fn boundary(&self, ray: &Ray<T>, axis: usize, c: i32) -> T {
+    pub fn boundary(&self, ray: &Ray<T>, axis: usize, c: i32) -> T {
         let d = ray.d[axis];
         if d == T::ZERO {
             return T::BIG;
@@ -167,36 +179,47 @@ impl<'a, T: Real> Accel<'a, T> {
         }
     }
 
-    /// Closest hit in (t_min, t_max). A hit is accepted in a cell only if its t is not
-    /// beyond the cell's exit (plus a few ulps, which conservative binning covers); ties
-    /// in t go to the lower triangle index.
+    /// Closest hit in (t_min, t_max). Per cell, the closest hit among the cell's triangles
+    /// is found first (ties within [`TIE_EPS`] go to the lower index), then accepted only if
+    /// it is not beyond the cell's exit (plus a few ulps, which conservative binning
+    /// covers); otherwise it is forgotten and the walk goes on, since a closer hit may lie in
+    /// the next cell. Deciding on the cell's closest hit, not hit by hit, keeps coplanar
+    /// duplicates from straddling the exit test differently on different backends.
     pub fn closest_hit(&self, ray: &Ray<T>, work: &mut Work) -> Option<Hit<T>> {
         let shear = RayShear::new(ray.d);
-        let mut best: Option<Hit<T>> = None;
+        let mut found: Option<Hit<T>> = None;
         let slack = T::gamma(8);
         let mut tests = 0u64;
         self.walk(ray, work, |range, t_exit| {
             let limit = t_exit + t_exit.abs() * slack;
+            let mut best: Option<Hit<T>> = None;
             let mut t_best = ray.t_max;
             for &tri in &self.list[range.offset as usize..(range.offset + range.count) as usize] {
                 tests += 1;
-                if let Some(h) =
-                    intersect(ray.o, &shear, &self.tris[tri as usize], ray.t_min, t_best)
-                {
-                    if h.t <= limit {
-                        t_best = h.t;
-                        best = Some(Hit {
-                            t: h.t,
-                            tri,
-                            b: h.b,
-                        });
-                    }
+                let hi = if best.is_some() {
+                    tie_limit(t_best)
+                } else {
+                    t_best
+                };
+                if let Some(h) = intersect(ray.o, &shear, &self.tris[tri as usize], ray.t_min, hi) {
+                    t_best = h.t;
+                    best = Some(Hit {
+                        t: h.t,
+                        tri,
+                        b: h.b,
+                    });
                 }
             }
-            best.is_some()
+            match best {
+                Some(h) if h.t <= limit => {
+                    found = Some(h);
+                    true
+                }
+                _ => false,
+            }
         });
         work.tests += tests;
-        best
+        found
     }
 
     /// True when anything is hit in (t_min, t_max): the shadow-ray query.
@@ -233,7 +256,12 @@ impl<'a, T: Real> Accel<'a, T> {
         let mut best: Option<Hit<T>> = None;
         let mut t_best = ray.t_max;
         for (i, tri) in self.tris.iter().enumerate() {
-            if let Some(h) = intersect(ray.o, &shear, tri, ray.t_min, t_best) {
+            let hi = if best.is_some() {
+                tie_limit(t_best)
+            } else {
+                t_best
+            };
+            if let Some(h) = intersect(ray.o, &shear, tri, ray.t_min, hi) {
                 t_best = h.t;
                 best = Some(Hit {
                     t: h.t,

@@ -123,6 +123,8 @@ struct Frame<'a> {
     ctx: &'a GlContext,
     quad: FullscreenQuad,
     programs: HashMap<Pass, glow::Program>,
+    /// Scene textures and their units.
+    scene_tex: Vec<(u32, glow::Texture)>,
     /// Ray state, two sets of four attachments.
     state: [RenderTarget; 2],
     cur: usize,
@@ -226,6 +228,11 @@ impl<'a> Frame<'a> {
 
     /// Draws `pass` into the target in `slot`, timing it when timers are on.
     fn draw(&mut self, pass: Pass, slot: Slot) -> Result<()> {
+        // Re-bound every pass: creating or reading textures elsewhere changes the binding
+        // of whatever unit is active, and five binds cost nothing next to a pass.
+        for &(unit, tex) in &self.scene_tex {
+            bind_texture(self.gl(), unit, tex);
+        }
         self.target(slot).bind(self.gl());
         let timer = match &mut self.timers {
             Some(pool) => Some(match pool.free.pop() {
@@ -452,9 +459,6 @@ pub fn render_gl(
         programs.insert(pass, p);
     }
     stats.compile_ms = t_c.elapsed().as_secs_f64() * 1e3;
-    for (name, tex) in &scene_tex {
-        bind_texture(gl, unit_of(&format!("u_{name}")), *tex);
-    }
 
     let t_trace = Instant::now();
     let targets = |n: usize| RenderTarget::new(gl, width, height, n);
@@ -462,6 +466,10 @@ pub fn render_gl(
         ctx,
         quad: FullscreenQuad::new(gl)?,
         programs,
+        scene_tex: scene_tex
+            .iter()
+            .map(|(name, tex)| (unit_of(&format!("u_{name}")), *tex))
+            .collect(),
         state: [targets(4)?, targets(4)?],
         cur: 0,
         rec01: (0..levels).map(|_| targets(2)).collect::<Result<_>>()?,

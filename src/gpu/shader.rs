@@ -334,33 +334,60 @@ fn prelude() -> String {
         s.push_str(&format!("#define {} {:.1}\n", st.macro_name(), st.code()));
     }
     s.push_str("#define BIG 1.0e30\n");
+    s.push_str(&format!(
+        "#define TIE_EPS {:?}\n",
+        crate::cpu::traverse::TIE_EPS as f32
+    ));
     s
 }
 
 /// Assembles the fragment program of `pass` for a scene with `features` and `layout`.
 pub fn assemble(pass: Pass, features: Features, layout: &SceneTextures) -> Result<Assembled> {
+    assemble_text(
+        pass.name(),
+        pass.file(),
+        source(pass.file())?,
+        &pass.defines(),
+        features,
+        layout,
+    )
+}
+
+/// Assembles a fragment program from `text` (named `file`) with the same prelude and
+/// include rules as the passes: how tests run the GLSL twins on hand-made inputs.
+pub fn assemble_text(
+    pass_name: &str,
+    file: &str,
+    text: &str,
+    extra_defines: &[&str],
+    features: Features,
+    layout: &SceneTextures,
+) -> Result<Assembled> {
     let mut a = Assembled {
         source: String::new(),
         lines: Vec::new(),
     };
     a.push_text("<generated>", "#version 120");
     let mut defs = String::new();
-    for d in features.defines().into_iter().chain(pass.defines()) {
+    for d in features
+        .defines()
+        .into_iter()
+        .chain(extra_defines.iter().copied())
+    {
         defs.push_str(&format!("#define {d}\n"));
     }
     a.push_text("<generated defines>", &defs);
     a.push_text("<generated prelude>", &prelude());
     a.push_text("<generated layout>", &layout.glsl());
     a.push_text("common.glsl", source("common.glsl")?);
-    let file = pass.file();
     let mut included = Vec::new();
-    for (k, line) in source(file)?.lines().enumerate() {
+    for (k, line) in text.lines().enumerate() {
         let t = line.trim();
         if let Some(rest) = t.strip_prefix("#include") {
             let name = rest.trim().trim_matches('"');
             if !INCLUDABLE.contains(&name) {
                 return Err(Error::Shader {
-                    pass: pass.name().into(),
+                    pass: pass_name.into(),
                     file: file.into(),
                     line: k + 1,
                     log: format!(

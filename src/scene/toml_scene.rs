@@ -405,7 +405,14 @@ impl Ctx<'_> {
 
 /// Rewrites serde's "unknown field/variant" messages into "unknown key ...; did you mean".
 fn improve_message(msg: &str) -> String {
-    let msg = msg.trim();
+    // toml's messages can span lines ("invalid array\nexpected `]`"); errors are one line.
+    let joined = msg
+        .trim()
+        .lines()
+        .map(str::trim)
+        .collect::<Vec<_>>()
+        .join(": ");
+    let msg = joined.as_str();
     for (prefix, what) in [("unknown field `", "key"), ("unknown variant `", "value")] {
         let Some(rest) = msg.strip_prefix(prefix) else {
             continue;

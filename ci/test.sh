@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# CI entry point: installs what a clean Debian machine lacks for headless EGL on Mesa
+# (llvmpipe), then runs the README's test command plus the format and lint gates.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+need=()
+for pkg in libegl1 libegl-mesa0 libgl1-mesa-dri; do
+    dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
+done
+if [ ${#need[@]} -gt 0 ]; then
+    echo "ci: installing ${need[*]}"
+    SUDO=""
+    [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+    export DEBIAN_FRONTEND=noninteractive
+    $SUDO apt-get update -qq
+    $SUDO apt-get install -y -qq "${need[@]}"
+fi
+
+# Test meshes live outside the repository (never copied in): ../shared/models.
+export FRAGTRACE_MODEL_PATH="${FRAGTRACE_MODEL_PATH:-$(cd .. && pwd)/shared/models}"
+
+cargo fmt --all -- --check
+cargo clippy --release --all-targets -- -D warnings
+# The README's test command:
+cargo test --release

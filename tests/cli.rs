@@ -1,0 +1,229 @@
+//! The binary as a user meets it: outputs, statistics, exit codes and error messages.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fragtrace-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn default_command_renders_the_builtin_scene_with_stats() {
+    let d = tmpdir("default");
+    let out = bin()
+        .current_dir(&d)
+        .args([
+            "--backend",
+            "cpu",
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "--stats",
+            "s.json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let png = image::open(d.join("render.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (40, 30));
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+    for key in [
+        "backend",
+        "device",
+        "width",
+        "height",
+        "spp",
+        "triangles",
+        "grid",
+        "grid_build_ms",
+        "render_ms",
+        "mrays_per_s",
+    ] {
+        assert!(s.get(key).is_some(), "stats lack `{key}`: {s}");
+    }
+    let rays = &s["rays"];
+    assert_eq!(rays["primary"], 1200);
+    let sum: u64 = ["primary", "shadow", "reflected", "refracted"]
+        .iter()
+        .map(|k| rays[k].as_u64().unwrap())
+        .sum();
+    assert_eq!(rays["total"].as_u64().unwrap(), sum);
+    assert!(rays["shadow"].as_u64().unwrap() > 0 && rays["reflected"].as_u64().unwrap() > 0);
+    assert_eq!(s["backend"], "cpu");
+    assert_eq!(s["grid"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn exr_output_is_linear_float() {
+    let d = tmpdir("exr");
+    let st = bin()
+        .args([
+            "render",
+            "--backend",
+            "cpu",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "-q",
+            "-o",
+        ])
+        .arg(d.join("a.exr"))
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let img = fragtrace::image_io::read_image(&d.join("a.exr")).unwrap();
+    assert_eq!((img.width, img.height), (8, 6));
+    assert!(img.all_finite());
+}
+
+#[test]
+fn bad_input_exits_2_with_a_precise_message() {
+    let d = tmpdir("bad");
+    let scene = d.join("broken.toml");
+    std::fs::write(
+        &scene,
+        "background = [0.1, 0.2, 0.3]\n[camera]\neye = [0, 0, 1\nlook_at = [0, 0, 0]\n",
+    )
+    .unwrap();
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "render".into(),
+                scene.display().to_string(),
+                "-o".into(),
+                d.join("x.png").display().to_string(),
+            ],
+            "broken.toml:4: camera.eye",
+        ),
+        (
+            vec![
+                "render".into(),
+                "--backend".into(),
+                "cpu".into(),
+                "-o".into(),
+                d.join("x.bmp").display().to_string(),
+            ],
+            "unknown image extension",
+        ),
+        (
+            vec![
+                "render".into(),
+                "--width".into(),
+                "0".into(),
+                "-o".into(),
+                d.join("y.png").display().to_string(),
+            ],
+            "--width 0",
+        ),
+        (
+            vec![
+                "render".into(),
+                "--max-depth".into(),
+                "99".into(),
+                "-o".into(),
+                d.join("y.png").display().to_string(),
+            ],
+            "--max-depth 99",
+        ),
+        (
+            vec![
+                "render".into(),
+                d.join("missing.toml").display().to_string(),
+            ],
+            "missing.toml",
+        ),
+        (
+            vec![
+                "render".into(),
+                "--backend".into(),
+                "cpu".into(),
+                "--width".into(),
+                "4".into(),
+                "--height".into(),
+                "4".into(),
+                "-o".into(),
+                d.join("no/such/dir/x.png").display().to_string(),
+            ],
+            "no/such/dir",
+        ),
+    ];
+    for (args, needle) in cases {
+        let out = bin().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(needle),
+            "{args:?}: message `{err}` lacks `{needle}`"
+        );
+        assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
+    }
+    // Nothing partial was left behind.
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left.len(), 1, "{left:?}");
+}
+
+#[test]
+fn compare_reports_and_bounds() {
+    let d = tmpdir("compare");
+    for (name, depth) in [("a.exr", "5"), ("b.exr", "0")] {
+        let st = bin()
+            .args([
+                "render",
+                "--backend",
+                "cpu",
+                "--width",
+                "24",
+                "--height",
+                "18",
+                "-q",
+                "--max-depth",
+                depth,
+                "-o",
+            ])
+            .arg(d.join(name))
+            .status()
+            .unwrap();
+        assert!(st.success());
+    }
+    let same = bin()
+        .arg("compare")
+        .arg(d.join("a.exr"))
+        .arg(d.join("a.exr"))
+        .output()
+        .unwrap();
+    assert!(same.status.success());
+    assert!(String::from_utf8_lossy(&same.stdout).contains("identical"));
+    let diff = bin()
+        .arg("compare")
+        .arg(d.join("a.exr"))
+        .arg(d.join("b.exr"))
+        .args(["--max-rmse", "0.0001", "--diff"])
+        .arg(d.join("d.png"))
+        .output()
+        .unwrap();
+    assert_eq!(
+        diff.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&diff.stdout)
+    );
+    assert!(String::from_utf8_lossy(&diff.stdout).contains("RMSE"));
+    assert!(d.join("d.png").exists());
+}

@@ -1,0 +1,254 @@
+//! The GLSL twins run on hand-made inputs next to their CPU originals, so a difference in
+//! the shader code shows up as a failing case rather than as a blurry image difference.
+
+use fragtrace::accel::layout::SceneTextures;
+use fragtrace::accel::{Grid, GridConfig};
+use fragtrace::cpu::intersect::{intersect, RayShear};
+use fragtrace::cpu::real::V3;
+use fragtrace::gpu::gl_util::{
+    compile_program, create_float_texture, FullscreenQuad, RenderTarget, QUAD_VERTEX_SHADER,
+};
+use fragtrace::gpu::shader::{assemble_text, Features};
+use fragtrace::gpu::{with_test_context, GlContext};
+use fragtrace::scene::{Camera, Material, Scene};
+use glam::Vec3;
+use glow::HasContext;
+
+fn dummy_layout() -> SceneTextures {
+    let mut s = Scene::empty(Camera {
+        eye: Vec3::Z,
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+    });
+    let m = s.add_material(Material::default());
+    s.add_triangle(Vec3::ZERO, Vec3::X, Vec3::Y, m);
+    let g = Grid::build(&s, &GridConfig::default()).unwrap();
+    SceneTextures::pack(&s, &g, 4096).unwrap()
+}
+
+/// Runs `body` (GLSL computing `vec4 result` from `vec4 in0..in{K-1}`) once per case.
+fn run_cases(ctx: &GlContext, body: &str, cases: &[Vec<[f32; 4]>]) -> Vec<[f32; 4]> {
+    run_cases_grid(ctx, body, cases, None)
+}
+
+/// As [`run_cases`], with the grid uniforms of `grid` set.
+fn run_cases_grid(
+    ctx: &GlContext,
+    body: &str,
+    cases: &[Vec<[f32; 4]>],
+    grid: Option<&Grid>,
+) -> Vec<[f32; 4]> {
+    let gl = &ctx.gl;
+    let n = cases.len() as u32;
+    let k = cases[0].len() as u32;
+    let mut data = Vec::with_capacity((n * k * 4) as usize);
+    for row in 0..k {
+        for c in cases {
+            data.extend_from_slice(&c[row as usize]);
+        }
+    }
+    let mut reads = String::new();
+    for r in 0..k {
+        reads.push_str(&format!(
+            "    vec4 in{r} = texture2D(u_in, vec2(gl_FragCoord.x / {n}.0, ({r}.0 + 0.5) / {k}.0));\n"
+        ));
+    }
+    let text = format!(
+        "#include \"intersect.glsl\"\n#include \"traverse.glsl\"\nuniform sampler2D u_in;\nvoid main() {{\n{reads}    vec4 result;\n{body}\n    gl_FragData[0] = result;\n}}\n"
+    );
+    let a = assemble_text(
+        "test",
+        "test.frag",
+        &text,
+        &[],
+        Features::all(),
+        &dummy_layout(),
+    )
+    .unwrap();
+    let prog =
+        compile_program(gl, "test", QUAD_VERTEX_SHADER, &a.source, &|l| a.origin(l)).unwrap();
+    let tex = create_float_texture(gl, n, k, Some(&data)).unwrap();
+    let target = RenderTarget::new(gl, n, 1, 1).unwrap();
+    let quad = FullscreenQuad::new(gl).unwrap();
+    target.bind(gl);
+    // SAFETY: the test context is current.
+    unsafe {
+        gl.use_program(Some(prog));
+        gl.active_texture(glow::TEXTURE0);
+        gl.bind_texture(glow::TEXTURE_2D, Some(tex));
+        gl.uniform_1_i32(gl.get_uniform_location(prog, "u_in").as_ref(), 0);
+        if let Some(g) = grid {
+            let res = glam::UVec3::from(g.res).as_vec3();
+            for (name, v) in [
+                ("u_grid_min", g.min),
+                ("u_grid_max", g.max),
+                ("u_cell_size", g.cell_size),
+                ("u_grid_res", res),
+            ] {
+                gl.uniform_3_f32(gl.get_uniform_location(prog, name).as_ref(), v.x, v.y, v.z);
+            }
+        }
+    }
+    quad.draw(gl, prog);
+    let out = target.read_attachment(gl, 0).unwrap();
+    out.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
+}
+
+struct Rng(u64);
+impl Rng {
+    fn f(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        ((self.0 >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    }
+}
+
+#[test]
+fn intersect_glsl_equals_cpu_f32() {
+    let seed = 0xfeed_beef_u64;
+    println!("seed = {seed:#x}");
+    let mut r = Rng(seed);
+    let mut cases = Vec::new();
+    for i in 0..2048 {
+        let o = [r.f() * 3.0, r.f() * 3.0, r.f() * 3.0 + 4.0];
+        let p = [
+            [r.f(), r.f(), r.f()],
+            [r.f(), r.f(), r.f()],
+            [r.f(), r.f(), r.f()],
+        ];
+        let c = [
+            (p[0][0] + p[1][0] + p[2][0]) / 3.0,
+            (p[0][1] + p[1][1] + p[2][1]) / 3.0,
+            (p[0][2] + p[1][2] + p[2][2]) / 3.0,
+        ];
+        let d = [
+            c[0] - o[0] + r.f() * 0.3,
+            c[1] - o[1] + r.f() * 0.3,
+            c[2] - o[2] + r.f() * 0.3,
+        ];
+        // Every third case has a finite t_max, some below the hit.
+        let t_max = if i % 3 == 0 { 1e30 } else { 2.0 + r.f() * 4.0 };
+        cases.push(vec![
+            [o[0], o[1], o[2], 0.0],
+            [d[0], d[1], d[2], t_max],
+            [p[0][0], p[0][1], p[0][2], 0.0],
+            [p[1][0], p[1][1], p[1][2], 0.0],
+            [p[2][0], p[2][1], p[2][2], 0.0],
+        ]);
+    }
+    let body = "    mat3 P; vec3 S; shear_setup(in1.xyz, P, S);\n    result = intersect_tri(in0.xyz, P, S, in2.xyz, in3.xyz, in4.xyz, in0.w, in1.w);";
+    let got = with_test_context(|ctx| run_cases(ctx, body, &cases));
+    let (mut hits, mut mismatches) = (0, Vec::new());
+    for (i, (c, g)) in cases.iter().zip(&got).enumerate() {
+        let v = |t: [f32; 4]| V3::<f32>::new(t[0], t[1], t[2]);
+        let tri = [v(c[2]), v(c[3]), v(c[4])];
+        let want = intersect(v(c[0]), &RayShear::new(v(c[1])), &tri, c[0][3], c[1][3]);
+        match want {
+            Some(h) => {
+                hits += 1;
+                if !(g[0] > 0.0 && (g[0] - h.t).abs() <= 1e-5 * h.t.abs().max(1.0)) {
+                    mismatches.push(format!("case {i}: cpu t {} gpu {:?}", h.t, g));
+                }
+            }
+            None => {
+                if g[0] > 0.0 {
+                    mismatches.push(format!("case {i}: cpu miss, gpu {:?}", g));
+                }
+            }
+        }
+    }
+    assert!(hits > 500, "{hits} hits");
+    assert!(
+        mismatches.len() <= 2,
+        "{} of {} cases differ:\n{}",
+        mismatches.len(),
+        cases.len(),
+        mismatches[..mismatches.len().min(20)].join("\n")
+    );
+}
+
+#[test]
+fn dda_helpers_glsl_equal_cpu_including_signed_zero_directions() {
+    use fragtrace::cpu::traverse::{Accel, Ray};
+    let mut s = Scene::empty(Camera {
+        eye: Vec3::Z,
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+    });
+    let m = s.add_material(Material::default());
+    s.add_triangle(
+        Vec3::new(-2.0, -1.0, -3.0),
+        Vec3::new(2.0, 1.5, -3.0),
+        Vec3::new(0.0, 1.0, 3.0),
+        m,
+    );
+    let grid = Grid::build(
+        &s,
+        &GridConfig {
+            res: fragtrace::accel::GridRes::Fixed([5, 7, 3]),
+            ..GridConfig::default()
+        },
+    )
+    .unwrap();
+    let accel = Accel::<f32>::new(&s, &grid);
+    let seed = 0x0dda_u64;
+    println!("seed = {seed:#x}");
+    let mut r = Rng(seed | 1);
+    let mut cases = Vec::new();
+    for i in 0..1024 {
+        let o = [r.f() * 4.0, r.f() * 3.0, r.f() * 5.0];
+        let mut d = [r.f(), r.f(), r.f()];
+        // Signed zeros on one or two axes for half the cases.
+        if i % 2 == 0 {
+            d[i / 2 % 3] = if i % 4 == 0 { 0.0 } else { -0.0 };
+        }
+        if i % 8 == 0 {
+            d[(i / 2 + 1) % 3] = -0.0;
+        }
+        cases.push(vec![[o[0], o[1], o[2], 0.0], [d[0], d[1], d[2], 1e30]]);
+    }
+    let body = "    vec2 span = clip_grid(in0.xyz, in1.xyz, 0.0, in1.w);\n    vec3 c = start_cell(in0.xyz, in1.xyz, span.x);\n    vec3 tn = boundaries(in0.xyz, in1.xyz, c);\n    result = span.x > span.y ? vec4(-1.0) : vec4(cell_linear(c), min(min(tn.x, tn.y), tn.z), span.x, span.y);";
+    let got = with_test_context(|ctx| run_cases_grid(ctx, body, &cases, Some(&grid)));
+    let mut bad = Vec::new();
+    for (i, (c, g)) in cases.iter().zip(&got).enumerate() {
+        assert!(g.iter().all(|v| !v.is_nan()), "case {i}: NaN {g:?}");
+        let ray = Ray {
+            o: V3::new(c[0][0], c[0][1], c[0][2]),
+            d: V3::new(c[1][0], c[1][1], c[1][2]),
+            t_min: 0.0,
+            t_max: 1e30,
+        };
+        let want = accel.clip(&ray);
+        match want {
+            None => {
+                if g[0] != -1.0 {
+                    bad.push(format!("case {i}: cpu misses the grid, gpu {g:?}"));
+                }
+            }
+            Some((t0, t1)) => {
+                let cell = accel.start_cell(&ray, t0);
+                let idx = cell[0] + accel.res[0] * (cell[1] + accel.res[1] * cell[2]);
+                let exit = (0..3)
+                    .map(|a| accel.boundary(&ray, a, cell[a]))
+                    .fold(f32::MAX, f32::min);
+                let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(1.0);
+                if g[0] != idx as f32 || !close(g[1], exit) || !close(g[2], t0) || !close(g[3], t1)
+                {
+                    bad.push(format!(
+                        "case {i}: cpu cell {idx} exit {exit} span ({t0}, {t1}); gpu {g:?}"
+                    ));
+                }
+            }
+        }
+    }
+    assert!(
+        bad.len() <= 3,
+        "{} of {} differ:\n{}",
+        bad.len(),
+        cases.len(),
+        bad[..bad.len().min(20)].join("\n")
+    );
+}

@@ -1,0 +1,181 @@
+//! The GLSL 1.20 multi-pass backend against the CPU reference, on every shipped scene,
+//! in the default GL context and in a GL 2.1 / GLSL 1.20 context (Mesa's version override,
+//! run in a child process because the override must be set before the driver loads).
+//!
+//! Bars (measured on llvmpipe, stated with margin): the primary-hit triangle equals the
+//! f32 CPU reference's on at least 99.9% of pixels; colour RMSE against the f32 CPU
+//! reference below `RMSE_VS_F32`; no NaN or Inf pixel.
+
+use std::path::{Path, PathBuf};
+
+use fragtrace::compare::compare;
+use fragtrace::gpu::{with_test_context, GlContext};
+use fragtrace::render::{render_cpu, render_gl_with, Backend, Precision, RenderOptions};
+use fragtrace::scene::{builtin_scene, load_scene_with_search_path, Scene};
+
+/// Image size of the comparisons: small, because llvmpipe on 2 cores runs every pass over
+/// every pixel and the pass count (set by the longest ray) does not shrink with the image.
+const W: u32 = 64;
+const H: u32 = 48;
+/// Colour RMSE bound against the f32 CPU reference (linear values, clamped to [0, 1]).
+const RMSE_VS_F32: f64 = 0.02;
+/// Share of pixels whose primary-hit triangle must agree.
+const PRIMID_AGREEMENT: f64 = 0.999;
+
+fn model_path() -> Vec<PathBuf> {
+    match std::env::var_os("FRAGTRACE_MODEL_PATH") {
+        Some(p) => std::env::split_paths(&p).collect(),
+        None => vec![PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../shared/models"
+        ))],
+    }
+}
+
+/// The built-in scene and every file in scenes/.
+fn shipped_scenes() -> Vec<(String, Scene)> {
+    let mut v = vec![("builtin".to_string(), builtin_scene())];
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    for f in files {
+        let name = f.file_stem().unwrap().to_string_lossy().into_owned();
+        let scene =
+            load_scene_with_search_path(&f, &model_path()).unwrap_or_else(|e| panic!("{e}"));
+        v.push((name, scene));
+    }
+    v
+}
+
+fn opts(scene: &Scene, precision: Precision) -> RenderOptions {
+    let mut o = RenderOptions::for_scene(scene);
+    o.width = W;
+    o.height = H;
+    o.precision = precision;
+    o.backend = Backend::Gl;
+    o
+}
+
+/// Renders every shipped scene on `ctx` and checks it against the CPU; returns a report.
+fn check_all_scenes(ctx: &GlContext) -> String {
+    let mut report = format!("device: {}\n", ctx.info.renderer);
+    let mut failures = Vec::new();
+    for (name, scene) in shipped_scenes() {
+        let gl = render_gl_with(ctx, &scene, &opts(&scene, Precision::F32))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let c32 = render_cpu(&scene, &opts(&scene, Precision::F32)).unwrap();
+        let c64 = render_cpu(&scene, &opts(&scene, Precision::F64)).unwrap();
+        let same = gl
+            .aov
+            .pixels
+            .iter()
+            .zip(&c32.aov.pixels)
+            .filter(|(a, b)| a.primid == b.primid)
+            .count();
+        let agree = same as f64 / gl.aov.pixels.len() as f64;
+        let vs32 = compare(&gl.image, &c32.image, 0.02, true).unwrap();
+        let vs64 = compare(&gl.image, &c64.image, 0.02, true).unwrap();
+        let cpu32_vs64 = compare(&c32.image, &c64.image, 0.02, true).unwrap();
+        report.push_str(&format!(
+            "{name:>8}: primid agree {:.4}%  gl-vs-f32 RMSE {:.5} (>0.02: {:.2}%)  gl-vs-f64 RMSE {:.5}  f32-vs-f64 RMSE {:.5}  passes {}\n",
+            agree * 100.0,
+            vs32.rmse,
+            vs32.share_above * 100.0,
+            vs64.rmse,
+            cpu32_vs64.rmse,
+            gl.stats.gpu.as_ref().and_then(|g| g.get("passes_total")).cloned().unwrap_or_default(),
+        ));
+        if !gl.image.all_finite() {
+            failures.push(format!("{name}: NaN or Inf pixel"));
+        }
+        if agree < PRIMID_AGREEMENT {
+            failures.push(format!(
+                "{name}: primary-hit agreement {:.4}% < {}%",
+                agree * 100.0,
+                PRIMID_AGREEMENT * 100.0
+            ));
+        }
+        if vs32.rmse > RMSE_VS_F32 {
+            failures.push(format!(
+                "{name}: RMSE vs f32 CPU {:.5} > {RMSE_VS_F32}",
+                vs32.rmse
+            ));
+        }
+        if failures.iter().any(|f| f.starts_with(&name)) {
+            let dir = std::env::temp_dir();
+            let _ = fragtrace::image_io::write_image(
+                &dir.join(format!("fragtrace-{name}-gl-actual.png")),
+                &gl.image,
+            );
+            let _ = fragtrace::image_io::write_image(
+                &dir.join(format!("fragtrace-{name}-cpu32.png")),
+                &c32.image,
+            );
+            let _ = fragtrace::image_io::write_image(
+                &dir.join(format!("fragtrace-{name}-diff.png")),
+                &fragtrace::compare::diff_image(&gl.image, &c32.image, 10.0),
+            );
+        }
+    }
+    println!("{report}");
+    assert!(failures.is_empty(), "{}\n{report}", failures.join("\n"));
+    report
+}
+
+#[test]
+fn gl_matches_cpu_on_every_shipped_scene() {
+    with_test_context(|ctx| {
+        check_all_scenes(ctx);
+    });
+}
+
+/// Inner half of the GL 2.1 test: run only in the child process with the override set.
+#[test]
+#[ignore = "run by gl21_context_matches_cpu in a child process"]
+fn gl21_inner() {
+    with_test_context(|ctx| {
+        assert_eq!(
+            ctx.info.gl_major_minor,
+            (2, 1),
+            "the override must give a GL 2.1 context"
+        );
+        assert!(
+            ctx.info.glsl_version.starts_with("1.20"),
+            "{}",
+            ctx.info.glsl_version
+        );
+        check_all_scenes(ctx);
+    });
+}
+
+#[test]
+fn gl21_context_matches_cpu() {
+    let exe = std::env::current_exe().unwrap();
+    let out = std::process::Command::new(exe)
+        .args([
+            "--exact",
+            "gl21_inner",
+            "--ignored",
+            "--nocapture",
+            "--test-threads=1",
+        ])
+        .env("MESA_GL_VERSION_OVERRIDE", "2.1")
+        .env("MESA_GLSL_VERSION_OVERRIDE", "120")
+        .output()
+        .unwrap();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{text}");
+    assert!(out.status.success(), "GL 2.1 run failed:\n{text}");
+    assert!(
+        text.contains("1 passed"),
+        "the inner test did not run:\n{text}"
+    );
+}
