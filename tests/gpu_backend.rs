@@ -179,3 +179,106 @@ fn gl21_context_matches_cpu() {
         "the inner test did not run:\n{text}"
     );
 }
+
+/// Random rays through a random triangle soup: the GPU's traversal and intersection passes
+/// give the same closest hit (triangle and t) and the same any-hit answer as the f32 CPU
+/// traversal, including axis-aligned directions with +0 and -0 components.
+#[test]
+fn gpu_trace_rays_equal_cpu_f32_traversal() {
+    use fragtrace::accel::{Grid, GridConfig};
+    use fragtrace::cpu::real::V3;
+    use fragtrace::cpu::traverse::{Accel, Ray, Work};
+    use fragtrace::gpu::render::{trace_rays, GpuOptions, GpuRay};
+    use fragtrace::gpu::shader::Query;
+    use fragtrace::scene::{Camera, Material};
+    use glam::Vec3;
+
+    let seed = 0x7ace_u64;
+    println!("seed = {seed:#x}");
+    let mut st = seed;
+    let mut r = move || {
+        st ^= st << 13;
+        st ^= st >> 7;
+        st ^= st << 17;
+        (st >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut scene = Scene::empty(Camera {
+        eye: Vec3::Z,
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+    });
+    let m = scene.add_material(Material::default());
+    for _ in 0..400 {
+        let c = Vec3::new(r() * 10.0 - 5.0, r() * 10.0 - 5.0, r() * 10.0 - 5.0);
+        let s = r() * r() * 2.0 + 0.05;
+        let mut v = || c + Vec3::new(r() - 0.5, r() - 0.5, r() - 0.5) * s;
+        let (a, b, d) = (v(), v(), v());
+        scene.add_triangle(a, b, d, m);
+    }
+    let grid = Grid::build(&scene, &GridConfig::default()).unwrap();
+    let accel = Accel::<f32>::new(&scene, &grid);
+    let mut rays = Vec::new();
+    for k in 0..3000 {
+        let o = Vec3::new(r() * 16.0 - 8.0, r() * 16.0 - 8.0, r() * 16.0 - 8.0);
+        // Two rays in three aim at a triangle, so hits and near-misses are common.
+        let mut d = if k % 3 == 0 {
+            Vec3::new(r() - 0.5, r() - 0.5, r() - 0.5)
+        } else {
+            let t = scene.triangle_vertices((r() * 399.0) as usize);
+            (t[0] + t[1] + t[2]) / 3.0 + Vec3::new(r() - 0.5, r() - 0.5, r() - 0.5) * 0.2 - o
+        };
+        if k % 7 == 0 {
+            d[k % 3] = if k % 2 == 0 { 0.0 } else { -0.0 };
+        }
+        let t_max = if k % 4 == 0 { r() * 10.0 + 0.5 } else { 1e30 };
+        rays.push(GpuRay {
+            o,
+            d: d.normalize(),
+            t_max,
+        });
+    }
+    let (closest, any) = with_test_context(|ctx| {
+        (
+            trace_rays(
+                ctx,
+                &scene,
+                &grid,
+                &rays,
+                Query::Closest,
+                GpuOptions::default(),
+            )
+            .unwrap(),
+            trace_rays(ctx, &scene, &grid, &rays, Query::Any, GpuOptions::default()).unwrap(),
+        )
+    });
+    let (mut same, mut hits, mut any_same) = (0, 0, 0);
+    for (k, ray) in rays.iter().enumerate() {
+        let cr = Ray {
+            o: V3::from_vec3(ray.o),
+            d: V3::from_vec3(ray.d),
+            t_min: 0.0,
+            t_max: ray.t_max,
+        };
+        let want = accel.closest_hit(&cr, &mut Work::default()).map(|h| h.tri);
+        hits += want.is_some() as usize;
+        same += (closest[k].hit.map(|h| h.1) == want) as usize;
+        any_same += (any[k].hit.is_some() == accel.any_hit(&cr, &mut Work::default())) as usize;
+        assert!(closest[k].steps.is_finite());
+    }
+    println!(
+        "closest agree {same}/{} ({hits} hits), any agree {any_same}",
+        rays.len()
+    );
+    assert!(hits > 400, "{hits} hits");
+    assert!(
+        same as f64 >= 0.999 * rays.len() as f64,
+        "closest-hit agreement {same}/{}",
+        rays.len()
+    );
+    assert!(
+        any_same as f64 >= 0.999 * rays.len() as f64,
+        "any-hit agreement {any_same}/{}",
+        rays.len()
+    );
+}

@@ -356,6 +356,191 @@ enum Slot {
     Acc(usize),
 }
 
+impl<'a> Frame<'a> {
+    /// Uploads the scene, compiles the programs `scene` needs (all shading passes when
+    /// `shading`), and allocates `width` x `height` targets for `levels` tree levels.
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        ctx: &'a GlContext,
+        scene: &Scene,
+        grid: &Grid,
+        width: u32,
+        height: u32,
+        levels: usize,
+        shading: bool,
+        opts: GpuOptions,
+    ) -> Result<Self> {
+        let gl = &ctx.gl;
+        let info = &ctx.info;
+        let max_size = info.max_texture_size.max(0) as u32;
+        if width > max_size || height > max_size {
+            return Err(Error::Limit(format!(
+                "image {width}x{height} exceeds GL_MAX_TEXTURE_SIZE {max_size}"
+            )));
+        }
+        if info.max_texture_units < REQUIRED_TEXTURE_UNITS {
+            return Err(Error::GlUnavailable(format!(
+                "{} texture image units, fragtrace needs {REQUIRED_TEXTURE_UNITS}",
+                info.max_texture_units
+            )));
+        }
+        // Check memory before allocating: ray state (8), records (3 per level), colour (2).
+        let bytes = (width as u64 * height as u64) * 16 * (8 + 3 * levels as u64 + 2);
+        if bytes > 8 << 30 {
+            return Err(Error::Limit(format!(
+                "{width}x{height} with {levels} ray-tree levels needs {:.1} GiB of ray textures",
+                bytes as f64 / (1u64 << 30) as f64
+            )));
+        }
+        let mut stats = GpuStats {
+            renderer: info.renderer.clone(),
+            gl_version: info.gl_version.clone(),
+            query_every: opts.query_every,
+            ..GpuStats::default()
+        };
+
+        let t_up = Instant::now();
+        let layout = SceneTextures::pack(scene, grid, max_size)?;
+        let mut scene_tex = Vec::new();
+        for t in layout.all() {
+            let tex = create_float_texture(gl, t.width, t.height, Some(&t.data))?;
+            scene_tex.push((unit_of(&format!("u_{}", t.name)), tex));
+        }
+        // SAFETY: the context is current.
+        unsafe { gl.finish() };
+        stats.upload_ms = t_up.elapsed().as_secs_f64() * 1e3;
+        stats.upload_bytes = layout.bytes();
+
+        // Programs: only the passes this scene and depth use.
+        let features = if opts.no_specialize {
+            Features::all()
+        } else {
+            Features::of(scene)
+        };
+        stats.features = format!("{features:?}");
+        let secondary = levels > 1 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
+        let lights = !scene.lights.is_empty();
+        let passes: Vec<Pass> = Pass::ALL
+            .into_iter()
+            .filter(|p| match p {
+                Pass::Intersect(Query::Any) => lights || !shading,
+                Pass::ShadowSpawn | Pass::AccumLight => shading && lights,
+                Pass::Weight | Pass::Spawn | Pass::Count(Count::Nodes) => shading && secondary,
+                Pass::RayGen | Pass::Record | Pass::AccumAmbient => shading,
+                Pass::TraverseInit
+                | Pass::TraverseStep
+                | Pass::Intersect(Query::Closest)
+                | Pass::Count(Count::Rays) => true,
+            })
+            .collect();
+        let t_c = Instant::now();
+        let mut programs = HashMap::new();
+        for pass in passes {
+            let a = assemble(pass, features, &layout)?;
+            let p = compile_program(gl, pass.name(), QUAD_VERTEX_SHADER, &a.source, &|n| {
+                a.origin(n)
+            })?;
+            // SAFETY: the context is current and `p` is linked.
+            unsafe {
+                gl.use_program(Some(p));
+                for (name, unit) in UNITS {
+                    if let Some(loc) = gl.get_uniform_location(p, name) {
+                        gl.uniform_1_i32(Some(&loc), *unit as i32);
+                    }
+                }
+                let set3 = |name: &str, v: glam::Vec3| {
+                    if let Some(loc) = gl.get_uniform_location(p, name) {
+                        gl.uniform_3_f32(Some(&loc), v.x, v.y, v.z);
+                    }
+                };
+                set3("u_grid_min", grid.min);
+                set3("u_grid_max", grid.max);
+                set3("u_cell_size", grid.cell_size);
+                set3("u_grid_res", glam::UVec3::from(grid.res).as_vec3());
+                set3("u_ambient", scene.ambient);
+                set3("u_background", scene.background);
+                if let Some(loc) = gl.get_uniform_location(p, "u_size") {
+                    gl.uniform_2_f32(Some(&loc), width as f32, height as f32);
+                }
+            }
+            programs.insert(pass, p);
+        }
+        stats.compile_ms = t_c.elapsed().as_secs_f64() * 1e3;
+
+        let targets = |n: usize| RenderTarget::new(gl, width, height, n);
+        Ok(Frame {
+            ctx,
+            quad: FullscreenQuad::new(gl)?,
+            programs,
+            scene_tex,
+            state: [targets(4)?, targets(4)?],
+            cur: 0,
+            rec01: (0..levels).map(|_| targets(2)).collect::<Result<_>>()?,
+            rec2: (0..levels).map(|_| targets(1)).collect::<Result<_>>()?,
+            acc: [targets(1)?, targets(1)?],
+            acc_cur: 0,
+            count_query: OcclusionQuery::new(ctx)?,
+            timers: if opts.timers && info.timer_query {
+                Some(TimerPool {
+                    free: Vec::new(),
+                    pending: Vec::new(),
+                    ms: HashMap::new(),
+                })
+            } else {
+                None
+            },
+            stats,
+            opts,
+            // A DDA visits at most rx+ry+rz cells; each test is one iteration; be generous.
+            max_iterations: 16
+                * (grid.res.iter().map(|&r| r as u64).sum::<u64>()
+                    + grid.tri_indices.len() as u64
+                    + 16),
+        })
+    }
+
+    /// Resolves pending timers into the statistics.
+    fn finish_timers(&mut self) -> Result<()> {
+        if let Some(pool) = &mut self.timers {
+            pool.resolve(self.ctx)?;
+            self.stats.gpu_ms = pool.ms.clone();
+            self.stats.gpu_ms_total = pool.ms.values().sum();
+        }
+        Ok(())
+    }
+
+    /// Deletes every GL object of the frame (the context may render again).
+    fn delete(self) -> GpuStats {
+        let gl = &self.ctx.gl;
+        self.quad.delete(gl);
+        for t in self
+            .state
+            .into_iter()
+            .chain(self.rec01)
+            .chain(self.rec2)
+            .chain(self.acc)
+        {
+            t.delete(gl);
+        }
+        self.count_query.delete(self.ctx);
+        if let Some(pool) = self.timers {
+            for q in pool.free {
+                q.delete(self.ctx);
+            }
+        }
+        // SAFETY: the context is current; names are not used after this.
+        unsafe {
+            for p in self.programs.values() {
+                gl.delete_program(*p);
+            }
+            for (_, t) in self.scene_tex {
+                gl.delete_texture(t);
+            }
+        }
+        self.stats
+    }
+}
+
 /// Renders `scene` over `grid` on the GPU.
 pub fn render_gl(
     ctx: &GlContext,
@@ -365,136 +550,11 @@ pub fn render_gl(
 ) -> Result<GpuOutput> {
     let (width, height, spp, max_depth) =
         (render.width, render.height, render.spp, render.max_depth);
-    let opts = render.gpu;
     let gl = &ctx.gl;
-    let info = &ctx.info;
-    let max_size = info.max_texture_size.max(0) as u32;
-    if width > max_size || height > max_size {
-        return Err(Error::Limit(format!(
-            "image {width}x{height} exceeds GL_MAX_TEXTURE_SIZE {max_size}"
-        )));
-    }
-    if info.max_texture_units < REQUIRED_TEXTURE_UNITS {
-        return Err(Error::GlUnavailable(format!(
-            "{} texture image units, fragtrace needs {REQUIRED_TEXTURE_UNITS}",
-            info.max_texture_units
-        )));
-    }
-    // Check memory before allocating: ray state (8), records (3 per level), colour (2).
     let levels = max_depth as usize + 1;
-    let bytes = (width as u64 * height as u64) * 16 * (8 + 3 * levels as u64 + 2);
-    if bytes > 8 << 30 {
-        return Err(Error::Limit(format!(
-            "{width}x{height} at depth {max_depth} needs {:.1} GiB of ray textures",
-            bytes as f64 / (1u64 << 30) as f64
-        )));
-    }
-    let mut stats = GpuStats {
-        renderer: info.renderer.clone(),
-        gl_version: info.gl_version.clone(),
-        query_every: opts.query_every,
-        ..GpuStats::default()
-    };
-
-    // Scene upload.
-    let t_up = Instant::now();
-    let layout = SceneTextures::pack(scene, grid, max_size)?;
-    let mut scene_tex = Vec::new();
-    for t in layout.all() {
-        let tex = create_float_texture(gl, t.width, t.height, Some(&t.data))?;
-        scene_tex.push((t.name, tex));
-    }
-    // SAFETY: the context is current.
-    unsafe { gl.finish() };
-    stats.upload_ms = t_up.elapsed().as_secs_f64() * 1e3;
-    stats.upload_bytes = layout.bytes();
-
-    // Programs: only the passes this scene and depth use.
-    let features = if opts.no_specialize {
-        Features::all()
-    } else {
-        Features::of(scene)
-    };
-    stats.features = format!("{features:?}");
+    let mut f = Frame::new(ctx, scene, grid, width, height, levels, true, render.gpu)?;
     let secondary = max_depth > 0 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
-    let lights = !scene.lights.is_empty();
-    let passes: Vec<Pass> = Pass::ALL
-        .into_iter()
-        .filter(|p| match p {
-            Pass::Intersect(Query::Any) | Pass::ShadowSpawn | Pass::AccumLight => lights,
-            Pass::Weight | Pass::Spawn | Pass::Count(Count::Nodes) => secondary,
-            _ => true,
-        })
-        .collect();
-    let t_c = Instant::now();
-    let mut programs = HashMap::new();
-    for pass in passes {
-        let a = assemble(pass, features, &layout)?;
-        let p = compile_program(gl, pass.name(), QUAD_VERTEX_SHADER, &a.source, &|n| {
-            a.origin(n)
-        })?;
-        // SAFETY: the context is current and `p` is linked.
-        unsafe {
-            gl.use_program(Some(p));
-            for (name, unit) in UNITS {
-                if let Some(loc) = gl.get_uniform_location(p, name) {
-                    gl.uniform_1_i32(Some(&loc), *unit as i32);
-                }
-            }
-            let set3 = |name: &str, v: glam::Vec3| {
-                if let Some(loc) = gl.get_uniform_location(p, name) {
-                    gl.uniform_3_f32(Some(&loc), v.x, v.y, v.z);
-                }
-            };
-            set3("u_grid_min", grid.min);
-            set3("u_grid_max", grid.max);
-            set3("u_cell_size", grid.cell_size);
-            set3("u_grid_res", glam::UVec3::from(grid.res).as_vec3());
-            set3("u_ambient", scene.ambient);
-            set3("u_background", scene.background);
-            if let Some(loc) = gl.get_uniform_location(p, "u_size") {
-                gl.uniform_2_f32(Some(&loc), width as f32, height as f32);
-            }
-        }
-        programs.insert(pass, p);
-    }
-    stats.compile_ms = t_c.elapsed().as_secs_f64() * 1e3;
-
     let t_trace = Instant::now();
-    let targets = |n: usize| RenderTarget::new(gl, width, height, n);
-    let mut f = Frame {
-        ctx,
-        quad: FullscreenQuad::new(gl)?,
-        programs,
-        scene_tex: scene_tex
-            .iter()
-            .map(|(name, tex)| (unit_of(&format!("u_{name}")), *tex))
-            .collect(),
-        state: [targets(4)?, targets(4)?],
-        cur: 0,
-        rec01: (0..levels).map(|_| targets(2)).collect::<Result<_>>()?,
-        rec2: (0..levels).map(|_| targets(1)).collect::<Result<_>>()?,
-        acc: [targets(1)?, targets(1)?],
-        acc_cur: 0,
-        count_query: OcclusionQuery::new(ctx)?,
-        timers: if opts.timers && info.timer_query {
-            Some(TimerPool {
-                free: Vec::new(),
-                pending: Vec::new(),
-                ms: HashMap::new(),
-            })
-        } else {
-            None
-        },
-        stats,
-        opts,
-        // A DDA visits at most rx+ry+rz cells; each test is one iteration; be generous.
-        max_iterations: 16
-            * (grid.res.iter().map(|&r| r as u64).sum::<u64>()
-                + grid.tri_indices.len() as u64
-                + 16),
-    };
-
     // Clear the colour accumulator.
     // SAFETY: the context is current.
     unsafe {
@@ -534,46 +594,11 @@ pub fn render_gl(
         shade_node(&mut f, scene, 0, max_depth, secondary, &mut rays)?;
     }
     let data = f.acc[f.acc_cur].read_attachment(gl, 0)?;
-    if let Some(pool) = &mut f.timers {
-        pool.resolve(ctx)?;
-        f.stats.gpu_ms = pool.ms.clone();
-        f.stats.gpu_ms_total = pool.ms.values().sum();
-    }
+    f.finish_timers()?;
     f.stats.trace_ms = t_trace.elapsed().as_secs_f64() * 1e3;
     let image = Image::from_rgb(width, height, flip_rgba_to_rgb(&data, width, height));
 
-    // Release GL objects (the context may render again).
-    let Frame {
-        quad,
-        programs,
-        state,
-        rec01,
-        rec2,
-        acc,
-        count_query,
-        timers,
-        stats,
-        ..
-    } = f;
-    quad.delete(gl);
-    for t in state.into_iter().chain(rec01).chain(rec2).chain(acc) {
-        t.delete(gl);
-    }
-    count_query.delete(ctx);
-    if let Some(pool) = timers {
-        for q in pool.free {
-            q.delete(ctx);
-        }
-    }
-    // SAFETY: the context is current; names are not used after this.
-    unsafe {
-        for p in programs.values() {
-            gl.delete_program(*p);
-        }
-        for (_, t) in scene_tex {
-            gl.delete_texture(t);
-        }
-    }
+    let stats = f.delete();
     Ok(GpuOutput {
         image,
         aov: aov.expect("at least one sample"),
@@ -674,4 +699,88 @@ fn read_aov(f: &Frame, scene: &Scene, w: u32, h: u32) -> Result<Aov> {
         }
     }
     Ok(Aov::from_pixels(w, h, &pixels))
+}
+
+/// One ray for [`trace_rays`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpuRay {
+    /// Origin.
+    pub o: glam::Vec3,
+    /// Direction (need not be unit length, must not be zero).
+    pub d: glam::Vec3,
+    /// Upper end of the open interval (0, t_max).
+    pub t_max: f32,
+}
+
+/// What [`trace_rays`] found for one ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpuTrace {
+    /// (t, triangle) of the hit; for [`Query::Any`] the first hit found.
+    pub hit: Option<(f32, u32)>,
+    /// Final ray state.
+    pub state: RayState,
+    /// Cells visited plus triangle tests.
+    pub steps: f32,
+}
+
+/// Traces arbitrary rays through the same traversal and intersection passes a render uses:
+/// how tests put single hand-made rays through the GPU kernel.
+pub fn trace_rays(
+    ctx: &GlContext,
+    scene: &Scene,
+    grid: &Grid,
+    rays: &[GpuRay],
+    query: Query,
+    opts: GpuOptions,
+) -> Result<Vec<GpuTrace>> {
+    if rays.is_empty() {
+        return Ok(Vec::new());
+    }
+    let n = rays.len() as u32;
+    let w = n.min(256);
+    let h = n.div_ceil(w);
+    let mut f = Frame::new(ctx, scene, grid, w, h, 1, false, opts)?;
+    let texels = (w * h) as usize;
+    let mut s = [
+        vec![0f32; texels * 4],
+        vec![0f32; texels * 4],
+        vec![0f32; texels * 4],
+        vec![0f32; texels * 4],
+    ];
+    for k in 0..texels {
+        let (s0, s1, s3) = match rays.get(k) {
+            Some(r) => (
+                [r.o.x, r.o.y, r.o.z, RayState::Initial.code()],
+                [r.d.x, r.d.y, r.d.z, r.t_max],
+                [r.t_max, -1.0, 0.0, 0.0],
+            ),
+            None => (
+                [0.0, 0.0, 0.0, RayState::Done.code()],
+                [0.0, 0.0, 1.0, 0.0],
+                [0.0, -2.0, 0.0, 0.0],
+            ),
+        };
+        s[0][k * 4..k * 4 + 4].copy_from_slice(&s0);
+        s[1][k * 4..k * 4 + 4].copy_from_slice(&s1);
+        s[3][k * 4..k * 4 + 4].copy_from_slice(&s3);
+    }
+    for (k, data) in s.iter().enumerate() {
+        super::gl_util::upload_float_texture(&ctx.gl, f.state[f.cur].texture(k), w, h, data)?;
+    }
+    f.trace(query)?;
+    let st = &f.state[f.cur];
+    let s0 = st.read_attachment(&ctx.gl, 0)?;
+    let s3 = st.read_attachment(&ctx.gl, 3)?;
+    let out = (0..rays.len())
+        .map(|k| {
+            let state = RayState::from_code(s0[k * 4 + 3]).unwrap_or(RayState::Done);
+            GpuTrace {
+                hit: (state == RayState::Shading).then(|| (s3[k * 4], s3[k * 4 + 1] as u32)),
+                state,
+                steps: s3[k * 4 + 3],
+            }
+        })
+        .collect();
+    f.delete();
+    Ok(out)
 }
