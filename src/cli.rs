@@ -90,9 +90,17 @@ pub struct RenderArgs {
     /// GPU: traversal iterations between termination queries (K).
     #[arg(long, default_value_t = 8)]
     pub query_every: u32,
+    /// GPU: traversal kernel: multipass (the thesis: one step per pass), unrolled:K
+    /// (K steps per pass, straight-line code) or looped (bounded loop per pass).
+    #[arg(long, default_value = "multipass")]
+    pub kernel: crate::gpu::shader::Kernel,
     /// GPU: compile every shading feature in instead of only what the scene needs.
     #[arg(long)]
     pub no_specialize: bool,
+    /// Write primary-ray AOVs next to the image: any of depth,normal,primid,steps
+    /// (`<stem>.aov.exr`; `steps` also as a heat map `<stem>.steps.png`).
+    #[arg(long)]
+    pub aov: Option<String>,
     /// Write render statistics as JSON to this file.
     #[arg(long)]
     pub stats: Option<PathBuf>,
@@ -159,6 +167,7 @@ pub fn options(args: &RenderArgs, scene: &Scene) -> Result<RenderOptions> {
     }
     opts.gpu.query_every = args.query_every;
     opts.gpu.no_specialize = args.no_specialize;
+    opts.gpu.kernel = args.kernel;
     opts.validate()?;
     Ok(opts)
 }
@@ -167,8 +176,13 @@ pub fn options(args: &RenderArgs, scene: &Scene) -> Result<RenderOptions> {
 pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
     let scene = load(args.scene.as_deref())?;
     let opts = options(args, &scene)?;
-    // Fail on an unusable output path before spending time rendering.
+    // Fail on an unusable output path or AOV list before spending time rendering.
     image_io::Format::from_path(&args.output)?;
+    let aovs = args
+        .aov
+        .as_deref()
+        .map(crate::aov::AovKind::parse_list)
+        .transpose()?;
     let out = render::render(&scene, &opts)?;
     if !out.image.all_finite() {
         return Err(Error::Internal(
@@ -176,6 +190,9 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
         ));
     }
     image_io::write_image(&args.output, &out.image)?;
+    if let Some(kinds) = &aovs {
+        crate::aov::write_aovs(&args.output, &out.aov, kinds)?;
+    }
     if let Some(path) = &args.stats {
         let json =
             serde_json::to_string_pretty(&out.stats).map_err(|e| Error::Internal(e.to_string()))?;

@@ -7,6 +7,7 @@
 //! [`render`] (backend-independent front door), [`image_io`] (PNG/EXR), [`cli`].
 
 pub mod accel;
+pub mod aov;
 pub mod cli;
 pub mod compare;
 pub mod cpu;

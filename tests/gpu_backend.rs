@@ -282,3 +282,48 @@ fn gpu_trace_rays_equal_cpu_f32_traversal() {
         rays.len()
     );
 }
+
+/// The kernel variants run the same step chunk, so they must render what the faithful
+/// multipass kernel renders, with fewer passes.
+#[test]
+fn kernel_variants_render_the_same_image() {
+    use fragtrace::gpu::shader::Kernel;
+    let scene = builtin_scene();
+    with_test_context(|ctx| {
+        let mut o = opts(&scene, Precision::F32);
+        o.width = 48;
+        o.height = 36;
+        let base = render_gl_with(ctx, &scene, &o).unwrap();
+        let passes = |r: &fragtrace::render::Rendered| {
+            r.stats.gpu.as_ref().unwrap()["passes_total"]
+                .as_u64()
+                .unwrap()
+        };
+        for kernel in [Kernel::Unrolled(4), Kernel::Looped] {
+            o.gpu.kernel = kernel;
+            let r = render_gl_with(ctx, &scene, &o).unwrap();
+            let c = compare(&r.image, &base.image, 1e-4, false).unwrap();
+            let same = r
+                .aov
+                .pixels
+                .iter()
+                .zip(&base.aov.pixels)
+                .filter(|(a, b)| a.primid == b.primid)
+                .count();
+            println!(
+                "{kernel}: RMSE vs multipass {:.2e}, passes {} vs {}",
+                c.rmse,
+                passes(&r),
+                passes(&base)
+            );
+            assert_eq!(same, base.aov.pixels.len(), "{kernel}: primary hits differ");
+            assert!(c.rmse < 1e-5, "{kernel}: RMSE {} vs multipass", c.rmse);
+            assert!(
+                passes(&r) * 2 < passes(&base),
+                "{kernel}: {} passes, multipass {}",
+                passes(&r),
+                passes(&base)
+            );
+        }
+    });
+}

@@ -23,7 +23,7 @@ use super::gl_util::{
     compile_program, create_float_texture, FullscreenQuad, OcclusionQuery, RenderTarget,
     TimerQuery, QUAD_VERTEX_SHADER,
 };
-use super::shader::{assemble, Count, Features, Pass, Query, RayState};
+use super::shader::{assemble, Count, Features, Kernel, Pass, Query, RayState};
 use crate::accel::layout::SceneTextures;
 use crate::accel::Grid;
 use crate::image_io::Image;
@@ -40,6 +40,8 @@ pub struct GpuOptions {
     pub timers: bool,
     /// Compile every shading feature in, whatever the scene needs.
     pub no_specialize: bool,
+    /// How traversal iterations map onto passes.
+    pub kernel: Kernel,
 }
 
 impl Default for GpuOptions {
@@ -48,6 +50,7 @@ impl Default for GpuOptions {
             query_every: 8,
             timers: true,
             no_specialize: false,
+            kernel: Kernel::Multipass,
         }
     }
 }
@@ -301,6 +304,29 @@ impl<'a> Frame<'a> {
     /// Traces the current ray wave to completion.
     fn trace(&mut self, query: Query) -> Result<()> {
         self.state_pass(Pass::TraverseInit)?;
+        if let Some(pass) = Pass::advance(self.opts.kernel, query) {
+            // Several iterations per pass: query every `query_every` iterations' worth.
+            let per_pass = match self.opts.kernel {
+                Kernel::Unrolled(k) => k as u64,
+                Kernel::Looped => super::shader::LOOP_MAX as u64,
+                Kernel::Multipass => 1,
+            };
+            let every = (self.opts.query_every as u64 / per_pass).max(1);
+            let mut passes = 0u64;
+            loop {
+                if passes.is_multiple_of(every) && self.count(Count::Rays, None)? == 0 {
+                    return Ok(());
+                }
+                self.state_pass(pass)?;
+                passes += 1;
+                if passes * per_pass > self.max_iterations {
+                    return Err(Error::Internal(format!(
+                        "traversal did not terminate after {} iterations",
+                        passes * per_pass
+                    )));
+                }
+            }
+        }
         let k = self.opts.query_every.max(1) as u64;
         let mut it = 0u64;
         loop {
@@ -423,15 +449,25 @@ impl<'a> Frame<'a> {
         let passes: Vec<Pass> = Pass::ALL
             .into_iter()
             .filter(|p| match p {
-                Pass::Intersect(Query::Any) => lights || !shading,
+                Pass::Intersect(Query::Any) => {
+                    (lights || !shading) && opts.kernel == Kernel::Multipass
+                }
                 Pass::ShadowSpawn | Pass::AccumLight => shading && lights,
                 Pass::Weight | Pass::Spawn | Pass::Count(Count::Nodes) => shading && secondary,
                 Pass::RayGen | Pass::Record | Pass::AccumAmbient => shading,
-                Pass::TraverseInit
-                | Pass::TraverseStep
-                | Pass::Intersect(Query::Closest)
-                | Pass::Count(Count::Rays) => true,
+                Pass::TraverseInit | Pass::Count(Count::Rays) => true,
+                Pass::TraverseStep | Pass::Intersect(Query::Closest) => {
+                    opts.kernel == Kernel::Multipass
+                }
+                // Not in Pass::ALL: the chosen kernel's pass is added below.
+                Pass::Unrolled(..) | Pass::Looped(_) => false,
             })
+            .chain(
+                [Query::Closest, Query::Any]
+                    .into_iter()
+                    .filter(|q| *q == Query::Closest || lights || !shading)
+                    .filter_map(|q| Pass::advance(opts.kernel, q)),
+            )
             .collect();
         let t_c = Instant::now();
         let mut programs = HashMap::new();

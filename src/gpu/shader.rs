@@ -17,6 +17,8 @@ const SOURCES: &[(&str, &str)] = &[
     ),
     ("traverse.glsl", include_str!("../../glsl120/traverse.glsl")),
     ("shade.glsl", include_str!("../../glsl120/shade.glsl")),
+    ("step.glsl", include_str!("../../glsl120/step.glsl")),
+    ("unrolled.frag", include_str!("../../glsl120/unrolled.frag")),
     ("raygen.frag", include_str!("../../glsl120/raygen.frag")),
     (
         "traverse_init.frag",
@@ -49,7 +51,45 @@ const SOURCES: &[(&str, &str)] = &[
 ];
 
 /// Files a pass may `#include`.
-const INCLUDABLE: &[&str] = &["intersect.glsl", "traverse.glsl", "shade.glsl"];
+const INCLUDABLE: &[&str] = &["intersect.glsl", "traverse.glsl", "shade.glsl", "step.glsl"];
+
+/// Iterations of one `looped` pass at most (a bounded loop, as Shader Model 3 requires).
+pub const LOOP_MAX: u32 = 1024;
+
+/// How traversal iterations (a DDA step then a triangle test) map onto passes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// The thesis's design: one step pass and one test pass per iteration.
+    Multipass,
+    /// K iterations per pass as straight-line code (no loops).
+    Unrolled(u32),
+    /// Up to [`LOOP_MAX`] iterations per pass in a bounded loop.
+    Looped,
+}
+
+impl std::str::FromStr for Kernel {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "multipass" => Ok(Kernel::Multipass),
+            "looped" => Ok(Kernel::Looped),
+            _ => match s.strip_prefix("unrolled:").map(str::parse::<u32>) {
+                Some(Ok(k)) if (1..=64).contains(&k) => Ok(Kernel::Unrolled(k)),
+                _ => Err(format!("unknown kernel `{s}` (expected multipass, unrolled:K with K in 1..=64, or looped)")),
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for Kernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Kernel::Multipass => write!(f, "multipass"),
+            Kernel::Unrolled(k) => write!(f, "unrolled:{k}"),
+            Kernel::Looped => write!(f, "looped"),
+        }
+    }
+}
 
 /// Ray states, stored in the 4th component of the ray-origin texture (the thesis's
 /// *kezdeti*, *érvénytelen*, *átszelő*, *metszéspont-tesztelő*, *árnyékoló* states, plus
@@ -156,6 +196,10 @@ pub enum Pass {
     AccumAmbient,
     /// Occlusion-query counting.
     Count(Count),
+    /// K traversal iterations in one pass (`--kernel unrolled:K`).
+    Unrolled(Query, u32),
+    /// Up to [`LOOP_MAX`] traversal iterations in one pass (`--kernel looped`).
+    Looped(Query),
 }
 
 impl Pass {
@@ -190,6 +234,7 @@ impl Pass {
             Pass::AccumLight => "accum_light.frag",
             Pass::AccumAmbient => "accum_ambient.frag",
             Pass::Count(_) => "count.frag",
+            Pass::Unrolled(..) | Pass::Looped(_) => "unrolled.frag",
         }
     }
 
@@ -209,16 +254,38 @@ impl Pass {
             Pass::AccumAmbient => "accum_ambient",
             Pass::Count(Count::Rays) => "count_rays",
             Pass::Count(Count::Nodes) => "count_nodes",
+            Pass::Unrolled(Query::Closest, _) => "unrolled",
+            Pass::Unrolled(Query::Any, _) => "unrolled_any",
+            Pass::Looped(Query::Closest) => "looped",
+            Pass::Looped(Query::Any) => "looped_any",
         }
     }
 
     /// Pass-variant `#define`s.
-    fn defines(self) -> Vec<&'static str> {
+    fn defines(self) -> Vec<String> {
+        let any = |q: Query| match q {
+            Query::Any => vec!["ANY_HIT".to_string()],
+            Query::Closest => vec![],
+        };
         match self {
-            Pass::Intersect(Query::Any) => vec!["ANY_HIT"],
-            Pass::Intersect(Query::Closest) => vec![],
-            Pass::Count(Count::Rays) => vec!["COUNT_RAYS"],
-            Pass::Count(Count::Nodes) => vec!["COUNT_NODES"],
+            Pass::Intersect(q) => any(q),
+            Pass::Count(Count::Rays) => vec!["COUNT_RAYS".into()],
+            Pass::Count(Count::Nodes) => vec!["COUNT_NODES".into()],
+            Pass::Unrolled(q, k) => {
+                let mut d = any(q);
+                let step = "traverse_step(s0, s1, s2, s3); intersect_step(s0, s1, s2, s3);";
+                d.push(format!(
+                    "UNROLLED_STEPS {}",
+                    vec![step; k as usize].join(" ")
+                ));
+                d
+            }
+            Pass::Looped(q) => {
+                let mut d = any(q);
+                d.push("LOOPED".into());
+                d.push(format!("LOOP_MAX {LOOP_MAX}"));
+                d
+            }
             Pass::RayGen
             | Pass::TraverseInit
             | Pass::TraverseStep
@@ -228,6 +295,15 @@ impl Pass {
             | Pass::ShadowSpawn
             | Pass::AccumLight
             | Pass::AccumAmbient => vec![],
+        }
+    }
+
+    /// The pass that advances rays by traversal iterations under `kernel`.
+    pub fn advance(kernel: Kernel, query: Query) -> Option<Pass> {
+        match kernel {
+            Kernel::Multipass => None,
+            Kernel::Unrolled(k) => Some(Pass::Unrolled(query, k)),
+            Kernel::Looped => Some(Pass::Looped(query)),
         }
     }
 }
@@ -343,11 +419,13 @@ fn prelude() -> String {
 
 /// Assembles the fragment program of `pass` for a scene with `features` and `layout`.
 pub fn assemble(pass: Pass, features: Features, layout: &SceneTextures) -> Result<Assembled> {
+    let defines = pass.defines();
+    let defines: Vec<&str> = defines.iter().map(String::as_str).collect();
     assemble_text(
         pass.name(),
         pass.file(),
         source(pass.file())?,
-        &pass.defines(),
+        &defines,
         features,
         layout,
     )
