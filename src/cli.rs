@@ -32,6 +32,20 @@ pub enum Command {
     Compare(CompareArgs),
     /// Print the EGL/GL context: versions, limits, required features, verdict.
     Info,
+    /// Write the final GLSL source of every pass for a scene (`builtin` for the built-in).
+    DumpShaders(DumpArgs),
+}
+
+/// Arguments of `dump-shaders`.
+#[derive(Args, Debug, Clone)]
+pub struct DumpArgs {
+    /// Scene file, or `builtin`.
+    pub scene: PathBuf,
+    /// Output folder.
+    pub dir: PathBuf,
+    /// Every combination of scene features, one sub-folder each (what CI validates).
+    #[arg(long)]
+    pub all_variants: bool,
 }
 
 /// Arguments of `compare`.
@@ -254,5 +268,17 @@ pub fn run(cli: Cli) -> Result<bool> {
         Some(Command::Render(args)) => run_render(&args).map(|_| true),
         Some(Command::Compare(args)) => run_compare(&args),
         Some(Command::Info) => run_info(),
+        Some(Command::DumpShaders(args)) => {
+            let scene = if args.scene.as_os_str() == "builtin" {
+                load(None)?
+            } else {
+                load(Some(&args.scene))?
+            };
+            let grid = crate::accel::Grid::build(&scene, &GridConfig::default())?;
+            let files =
+                crate::gpu::shader::dump_shaders(&scene, &grid, &args.dir, args.all_variants)?;
+            println!("{} files written to {}", files.len(), args.dir.display());
+            Ok(true)
+        }
     }
 }

@@ -561,3 +561,92 @@ mod tests {
         }
     }
 }
+
+/// Every combination of scene features (for `dump-shaders --all-variants`).
+pub fn all_feature_sets() -> Vec<Features> {
+    (0..32u32)
+        .map(|b| Features {
+            smooth_normals: b & 1 != 0,
+            checker: b & 2 != 0,
+            specular: b & 4 != 0,
+            refraction: b & 8 != 0,
+            fresnel: b & 16 != 0,
+        })
+        .collect()
+}
+
+impl Features {
+    /// A short tag naming the features on, e.g. `n-c-s-r-f` or `none`.
+    pub fn tag(self) -> String {
+        let on: Vec<&str> = [
+            (self.smooth_normals, "normals"),
+            (self.checker, "checker"),
+            (self.specular, "specular"),
+            (self.refraction, "refraction"),
+            (self.fresnel, "fresnel"),
+        ]
+        .into_iter()
+        .filter_map(|(b, n)| b.then_some(n))
+        .collect();
+        if on.is_empty() {
+            "plain".into()
+        } else {
+            on.join("+")
+        }
+    }
+}
+
+/// Every pass program a render can use, for every kernel variant (unrolled at 4 and 16).
+pub fn all_passes() -> Vec<Pass> {
+    let mut v = Pass::ALL.to_vec();
+    for q in [Query::Closest, Query::Any] {
+        v.push(Pass::Unrolled(q, 4));
+        v.push(Pass::Unrolled(q, 16));
+        v.push(Pass::Looped(q));
+    }
+    v
+}
+
+/// Writes the final sources of every pass for `scene` into `dir` (with `all_variants`,
+/// for every combination of scene features, one sub-folder each), plus the vertex shader.
+/// Returns the files written.
+pub fn dump_shaders(
+    scene: &Scene,
+    grid: &crate::accel::Grid,
+    dir: &std::path::Path,
+    all_variants: bool,
+) -> Result<Vec<std::path::PathBuf>> {
+    let layout = SceneTextures::pack(scene, grid, crate::accel::layout::MAX_ROW)?;
+    let sets = if all_variants {
+        all_feature_sets()
+    } else {
+        vec![Features::of(scene)]
+    };
+    let io = |path: &std::path::Path, e: std::io::Error| Error::Io {
+        path: path.to_path_buf(),
+        source: e,
+    };
+    let mut written = Vec::new();
+    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+    let vert = dir.join("quad.vert");
+    std::fs::write(&vert, super::gl_util::QUAD_VERTEX_SHADER).map_err(|e| io(&vert, e))?;
+    written.push(vert);
+    for f in sets {
+        let sub = if all_variants {
+            dir.join(f.tag())
+        } else {
+            dir.to_path_buf()
+        };
+        std::fs::create_dir_all(&sub).map_err(|e| io(&sub, e))?;
+        for pass in all_passes() {
+            let name = match pass {
+                Pass::Unrolled(_, k) => format!("{}{k}.frag", pass.name()),
+                _ => format!("{}.frag", pass.name()),
+            };
+            let path = sub.join(name);
+            std::fs::write(&path, assemble(pass, f, &layout)?.source).map_err(|e| io(&path, e))?;
+            written.push(path);
+        }
+    }
+    Ok(written)
+}
