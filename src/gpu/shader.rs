@@ -487,81 +487,6 @@ pub fn assemble_text(
     Ok(a)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::accel::{Grid, GridConfig};
-    use crate::scene::{Camera, Material};
-    use glam::Vec3;
-
-    fn layout() -> (Scene, SceneTextures) {
-        let mut s = Scene::empty(Camera {
-            eye: Vec3::Z,
-            look_at: Vec3::ZERO,
-            up: Vec3::Y,
-            vfov_deg: 45.0,
-        });
-        let m = s.add_material(Material::default());
-        s.add_triangle(Vec3::ZERO, Vec3::X, Vec3::Y, m);
-        let g = Grid::build(&s, &GridConfig::default()).unwrap();
-        let l = SceneTextures::pack(&s, &g, 4096).unwrap();
-        (s, l)
-    }
-
-    #[test]
-    fn every_pass_assembles_and_maps_lines_back() {
-        let (s, l) = layout();
-        for pass in Pass::ALL {
-            let a = assemble(pass, Features::of(&s), &l).unwrap();
-            assert!(a.source.starts_with("#version 120\n"));
-            assert_eq!(a.source.lines().count(), a.lines.len());
-            assert!(!a.source.contains("#include"), "{pass:?}");
-            // The last line maps back to the pass's own file.
-            let (file, _) = a.origin(a.lines.len());
-            assert_eq!(file, pass.file());
-        }
-        let a = assemble(Pass::Intersect(Query::Any), Features::of(&s), &l).unwrap();
-        assert!(a.source.contains("#define ANY_HIT"));
-        let n = a
-            .source
-            .lines()
-            .position(|x| x.contains("vec4 intersect_tri("))
-            .unwrap()
-            + 1;
-        let (file, line) = a.origin(n);
-        assert_eq!(file, "intersect.glsl");
-        assert!(source("intersect.glsl")
-            .unwrap()
-            .lines()
-            .nth(line - 1)
-            .unwrap()
-            .contains("vec4 intersect_tri("));
-    }
-
-    #[test]
-    fn features_follow_the_scene() {
-        let (mut s, l) = layout();
-        let f = Features::of(&s);
-        assert!(!f.refraction && !f.checker && !f.smooth_normals);
-        let a = assemble(Pass::AccumLight, f, &l).unwrap();
-        assert!(!a.source.contains("#define HAS_REFRACTION"));
-        s.materials[0].fresnel = true;
-        let f = Features::of(&s);
-        assert!(f.refraction && f.fresnel);
-        assert!(assemble(Pass::Spawn, f, &l)
-            .unwrap()
-            .source
-            .contains("#define HAS_FRESNEL"));
-    }
-
-    #[test]
-    fn state_codes_round_trip() {
-        for st in RayState::ALL {
-            assert_eq!(RayState::from_code(st.code()), Some(st));
-        }
-    }
-}
-
 /// Every combination of scene features (for `dump-shaders --all-variants`).
 pub fn all_feature_sets() -> Vec<Features> {
     (0..32u32)
@@ -649,4 +574,79 @@ pub fn dump_shaders(
         }
     }
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{Grid, GridConfig};
+    use crate::scene::{Camera, Material};
+    use glam::Vec3;
+
+    fn layout() -> (Scene, SceneTextures) {
+        let mut s = Scene::empty(Camera {
+            eye: Vec3::Z,
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_deg: 45.0,
+        });
+        let m = s.add_material(Material::default());
+        s.add_triangle(Vec3::ZERO, Vec3::X, Vec3::Y, m);
+        let g = Grid::build(&s, &GridConfig::default()).unwrap();
+        let l = SceneTextures::pack(&s, &g, 4096).unwrap();
+        (s, l)
+    }
+
+    #[test]
+    fn every_pass_assembles_and_maps_lines_back() {
+        let (s, l) = layout();
+        for pass in Pass::ALL {
+            let a = assemble(pass, Features::of(&s), &l).unwrap();
+            assert!(a.source.starts_with("#version 120\n"));
+            assert_eq!(a.source.lines().count(), a.lines.len());
+            assert!(!a.source.contains("#include"), "{pass:?}");
+            // The last line maps back to the pass's own file.
+            let (file, _) = a.origin(a.lines.len());
+            assert_eq!(file, pass.file());
+        }
+        let a = assemble(Pass::Intersect(Query::Any), Features::of(&s), &l).unwrap();
+        assert!(a.source.contains("#define ANY_HIT"));
+        let n = a
+            .source
+            .lines()
+            .position(|x| x.contains("vec4 intersect_tri("))
+            .unwrap()
+            + 1;
+        let (file, line) = a.origin(n);
+        assert_eq!(file, "intersect.glsl");
+        assert!(source("intersect.glsl")
+            .unwrap()
+            .lines()
+            .nth(line - 1)
+            .unwrap()
+            .contains("vec4 intersect_tri("));
+    }
+
+    #[test]
+    fn features_follow_the_scene() {
+        let (mut s, l) = layout();
+        let f = Features::of(&s);
+        assert!(!f.refraction && !f.checker && !f.smooth_normals);
+        let a = assemble(Pass::AccumLight, f, &l).unwrap();
+        assert!(!a.source.contains("#define HAS_REFRACTION"));
+        s.materials[0].fresnel = true;
+        let f = Features::of(&s);
+        assert!(f.refraction && f.fresnel);
+        assert!(assemble(Pass::Spawn, f, &l)
+            .unwrap()
+            .source
+            .contains("#define HAS_FRESNEL"));
+    }
+
+    #[test]
+    fn state_codes_round_trip() {
+        for st in RayState::ALL {
+            assert_eq!(RayState::from_code(st.code()), Some(st));
+        }
+    }
 }
