@@ -50,6 +50,11 @@ vec4 intersect_tri(vec3 o, mat3 P, vec3 S, vec3 p0, vec3 p1, vec3 p2, float t_mi
     if (det == 0.0) {
         return vec4(-1.0);
     }
+    // Zero area in f32 (collinear or repeated vertices): never hit, as in the CPU twin.
+    vec3 n_raw = cross(p1 - p0, p2 - p0);
+    if (dot(n_raw, n_raw) == 0.0) {
+        return vec4(-1.0);
+    }
     float az = S.z * A.z;
     float bz = S.z * B.z;
     float cz = S.z * C.z;

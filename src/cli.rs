@@ -104,9 +104,10 @@ pub struct RenderArgs {
     /// GPU: traversal iterations between termination queries (K).
     #[arg(long, default_value_t = 8)]
     pub query_every: u32,
-    /// GPU: traversal kernel: multipass (the thesis: one step per pass), unrolled:K
-    /// (K steps per pass, straight-line code) or looped (bounded loop per pass).
-    #[arg(long, default_value = "multipass")]
+    /// GPU: traversal kernel: looped (bounded loop per pass, the fast default), multipass
+    /// (the thesis: one step per pass, no loops) or unrolled:K (K steps per pass,
+    /// straight-line code, no loops). All render the same image.
+    #[arg(long, default_value = "looped")]
     pub kernel: crate::gpu::shader::Kernel,
     /// GPU: compile every shading feature in instead of only what the scene needs.
     #[arg(long)]

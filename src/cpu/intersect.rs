@@ -7,7 +7,9 @@
 //! counts as inside for both triangles; the closest-hit rule then breaks the tie by the
 //! lower triangle index, the same on every backend. We do not use the paper's
 //! double-precision fallback for zero edge functions because GLSL 1.20 has no doubles and
-//! every backend must take the same decision.
+//! every backend must take the same decision. Watertightness rules out false misses on
+//! shared edges, not false hits on a triangle whose edge functions are all rounding noise:
+//! triangles of zero area (zero normal) are therefore rejected outright.
 
 use super::real::{Real, V3};
 
@@ -95,6 +97,14 @@ pub fn intersect<T: Real>(
     let det = u + v + w;
     if det == z {
         // Ray parallel to the triangle's plane, or a degenerate triangle.
+        return None;
+    }
+    // A triangle of zero area in this precision (collinear or repeated vertices: its
+    // normal, computed exactly as `shade::surface` does, is the zero vector) is never hit,
+    // as in pbrt-v4. Its edge functions above are pure rounding noise, which can have one
+    // sign and so look like a hit (the sliver of the hard-case suite, case 6).
+    let n = (p[1] - p[0]).cross(p[2] - p[0]);
+    if n.dot(n) == z {
         return None;
     }
     let az = s.sz * a[kz];

@@ -52,8 +52,8 @@ pub fn surface<T: Real>(
         ((verts[0] * b0).abs() + (verts[1] * b1).abs() + (verts[2] * b2).abs()) * T::gamma(7);
     let n_raw = (verts[1] - verts[0]).cross(verts[2] - verts[0]);
     let len = n_raw.length();
-    // Hits on zero-area triangles are impossible (det == 0 is rejected), but guard anyway so
-    // no NaN can ever reach a pixel.
+    // Hits on zero-area triangles are impossible (`intersect` rejects a zero normal), but
+    // guard anyway so no NaN can ever reach a pixel.
     let ng = if len > T::ZERO {
         n_raw * (T::ONE / len)
     } else {

@@ -40,7 +40,9 @@ pub struct GpuOptions {
     pub timers: bool,
     /// Compile every shading feature in, whatever the scene needs.
     pub no_specialize: bool,
-    /// How traversal iterations map onto passes.
+    /// How traversal iterations map onto passes. Default: `Looped`, which renders the same
+    /// image as the thesis's `Multipass` kernel from the same step chunk, 40-100x faster
+    /// (docs/performance.md); `Multipass` is the faithful GL 2.1 design.
     pub kernel: Kernel,
 }
 
@@ -50,7 +52,7 @@ impl Default for GpuOptions {
             query_every: 8,
             timers: true,
             no_specialize: false,
-            kernel: Kernel::Multipass,
+            kernel: Kernel::Looped,
         }
     }
 }
