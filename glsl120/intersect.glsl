@@ -28,21 +28,39 @@ void shear_setup(vec3 d, out mat3 P, out vec3 S) {
     S = vec3(dot(d, kx) / dz, dot(d, ky) / dz, 1.0 / dz);
 }
 
+// Vertices relative to o in the shear frame: A, B, C (z not yet scaled by Sz), and the
+// edge functions (u, v, w) = (weight of p0, p1, p2) * det.
+void shear_edges(vec3 o, mat3 P, vec3 S, vec3 p0, vec3 p1, vec3 p2,
+                 out vec3 A, out vec3 B, out vec3 C, out vec3 uvw, out vec2 a, out vec2 b, out vec2 c) {
+    A = (p0 - o) * P;
+    B = (p1 - o) * P;
+    C = (p2 - o) * P;
+    a = vec2(A.x - S.x * A.z, A.y - S.y * A.z);
+    b = vec2(B.x - S.x * B.z, B.y - S.y * B.z);
+    c = vec2(C.x - S.x * C.z, C.y - S.y * C.z);
+    uvw = vec3(c.x * b.y - c.y * b.x, a.x * c.y - a.y * c.x, b.x * a.y - b.y * a.x);
+}
+
 // Hit of ray (o, shear P S) with triangle (p0, p1, p2) for t in (t_min, t_max):
 // returns (t, b0, b1, b2), or t = -1.0 on a miss.
 vec4 intersect_tri(vec3 o, mat3 P, vec3 S, vec3 p0, vec3 p1, vec3 p2, float t_min, float t_max) {
-    vec3 A = (p0 - o) * P;
-    vec3 B = (p1 - o) * P;
-    vec3 C = (p2 - o) * P;
-    float ax = A.x - S.x * A.z;
-    float ay = A.y - S.y * A.z;
-    float bx = B.x - S.x * B.z;
-    float by = B.y - S.y * B.z;
-    float cx = C.x - S.x * C.z;
-    float cy = C.y - S.y * C.z;
-    float u = cx * by - cy * bx;
-    float v = ax * cy - ay * cx;
-    float w = bx * ay - by * ax;
+    vec3 A;
+    vec3 B;
+    vec3 C;
+    vec3 uvw;
+    vec2 a2;
+    vec2 b2;
+    vec2 c2;
+    shear_edges(o, P, S, p0, p1, p2, A, B, C, uvw, a2, b2, c2);
+    float ax = a2.x;
+    float ay = a2.y;
+    float bx = b2.x;
+    float by = b2.y;
+    float cx = c2.x;
+    float cy = c2.y;
+    float u = uvw.x;
+    float v = uvw.y;
+    float w = uvw.z;
     if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) {
         return vec4(-1.0);
     }
@@ -89,22 +107,17 @@ vec3 tri_bary(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2) {
     mat3 P;
     vec3 S;
     shear_setup(d, P, S);
-    vec3 A = (p0 - o) * P;
-    vec3 B = (p1 - o) * P;
-    vec3 C = (p2 - o) * P;
-    float ax = A.x - S.x * A.z;
-    float ay = A.y - S.y * A.z;
-    float bx = B.x - S.x * B.z;
-    float by = B.y - S.y * B.z;
-    float cx = C.x - S.x * C.z;
-    float cy = C.y - S.y * C.z;
-    float u = cx * by - cy * bx;
-    float v = ax * cy - ay * cx;
-    float w = bx * ay - by * ax;
-    float det = u + v + w;
+    vec3 A;
+    vec3 B;
+    vec3 C;
+    vec3 uvw;
+    vec2 a2;
+    vec2 b2;
+    vec2 c2;
+    shear_edges(o, P, S, p0, p1, p2, A, B, C, uvw, a2, b2, c2);
+    float det = uvw.x + uvw.y + uvw.z;
     if (det == 0.0) {
         return vec3(1.0 / 3.0);
     }
-    float inv = 1.0 / det;
-    return vec3(u * inv, v * inv, w * inv);
+    return uvw * (1.0 / det);
 }

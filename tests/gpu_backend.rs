@@ -92,8 +92,14 @@ fn check_all_scenes(ctx: &GlContext) -> String {
             cpu32_vs64.rmse,
             gl.stats.gpu.as_ref().and_then(|g| g.get("passes_total")).cloned().unwrap_or_default(),
         ));
-        if !gl.image.all_finite() {
-            failures.push(format!("{name}: NaN or Inf pixel"));
+        for (backend, img) in [
+            ("gl", &gl.image),
+            ("cpu f32", &c32.image),
+            ("cpu f64", &c64.image),
+        ] {
+            if !img.all_finite() {
+                failures.push(format!("{name}: NaN or Inf pixel on {backend}"));
+            }
         }
         if agree < PRIMID_AGREEMENT {
             failures.push(format!(
