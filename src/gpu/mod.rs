@@ -3,9 +3,12 @@
 //!
 //! The backend follows the OpenGL 2.1-era stream design: every pass is a GLSL 1.20 fragment
 //! program drawn over a [`gl_util::FullscreenQuad`] into a [`gl_util::RenderTarget`] of
-//! RGBA32F textures, reading the previous pass's outputs as textures. Fragments of finished
-//! rays `discard`, and an [`gl_util::OcclusionQuery`] around a pass counts the rest, which
-//! is how the host loop knows when to stop without reading streams back.
+//! RGBA32F textures, reading the previous pass's outputs as textures. Work passes copy rays
+//! that are not in their state through unchanged (so the ping-pong pair stays complete); a
+//! separate `count` pass `discard`s inactive rays under an [`gl_util::OcclusionQuery`],
+//! which is how the host loop knows when to stop without reading streams back. The passes
+//! ([`render`]) and their assembly from `glsl120/` ([`shader`]) are described in
+//! docs/gpu-design.md.
 
 pub mod context;
 pub mod gl_util;
