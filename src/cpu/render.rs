@@ -58,11 +58,6 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
         }
     }
 
-    /// The traversal structure (for tests and AOVs).
-    pub fn accel(&self) -> &Accel<'a, T> {
-        &self.accel
-    }
-
     /// Radiance along a unit-direction ray at recursion depth `depth` (primary = 0).
     fn radiance(&self, ray: &Ray<T>, depth: u32, tally: &mut Tally) -> V3<T> {
         match self.accel.closest_hit(ray, &mut tally.work) {
@@ -103,25 +98,22 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
         }
         if depth < self.max_depth && (m.reflects() || m.refracts()) {
             let s = secondary(m, &sp, ray.d);
-            if s.kr.max_elem() > T::ZERO {
-                tally.reflected += 1;
-                let r = Ray {
-                    o: offset_origin(&sp, s.reflected),
-                    d: s.reflected,
-                    t_min: T::ZERO,
-                    t_max: T::BIG,
-                };
-                color = color + self.radiance(&r, depth + 1, tally).mul_elem(s.kr);
-            }
-            if s.kt.max_elem() > T::ZERO {
-                tally.refracted += 1;
-                let r = Ray {
-                    o: offset_origin(&sp, s.refracted),
-                    d: s.refracted,
-                    t_min: T::ZERO,
-                    t_max: T::BIG,
-                };
-                color = color + self.radiance(&r, depth + 1, tally).mul_elem(s.kt);
+            // Reflected child first, then refracted: the order the GPU walks the tree in.
+            for (k, dir, refracted) in [(s.kr, s.reflected, false), (s.kt, s.refracted, true)] {
+                if k.max_elem() > T::ZERO {
+                    if refracted {
+                        tally.refracted += 1;
+                    } else {
+                        tally.reflected += 1;
+                    }
+                    let r = Ray {
+                        o: offset_origin(&sp, dir),
+                        d: dir,
+                        t_min: T::ZERO,
+                        t_max: T::BIG,
+                    };
+                    color = color + self.radiance(&r, depth + 1, tally).mul_elem(k);
+                }
             }
         }
         color

@@ -126,11 +126,6 @@ pub fn sample_offsets(spp: u32) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// f32 view of a direction, as the GPU and the f32 CPU path see it.
-pub fn to_f32(v: DVec3) -> Vec3 {
-    v.as_vec3()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
