@@ -41,7 +41,7 @@ pub struct GpuOptions {
     /// Compile every shading feature in, whatever the scene needs.
     pub no_specialize: bool,
     /// How traversal iterations map onto passes. Default: `Looped`, which renders the same
-    /// image as the thesis's `Multipass` kernel from the same step chunk, 40-100x faster
+    /// image as the thesis's `Multipass` kernel from the same step chunk, 25-107x faster
     /// (docs/performance.md); `Multipass` is the faithful GL 2.1 design.
     pub kernel: Kernel,
 }
