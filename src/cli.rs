@@ -112,6 +112,15 @@ pub struct RenderArgs {
     /// GPU: compile every shading feature in instead of only what the scene needs.
     #[arg(long)]
     pub no_specialize: bool,
+    /// GPU: keep finished rays out of traversal passes with the depth test (early-z) or the
+    /// stencil test, refreshed at each termination query; none relies on the in-shader
+    /// early-out alone.
+    #[arg(long, default_value = "none")]
+    pub mask: crate::gpu::render::Mask,
+    /// GPU: ray textures in 32- or 16-bit floats (f16: ray directions and the colour sum;
+    /// origins and every index stay in 32-bit textures).
+    #[arg(long, default_value = "f32")]
+    pub storage: crate::gpu::render::Storage,
     /// Write primary-ray AOVs next to the image: any of depth,normal,primid,steps
     /// (`<stem>.aov.exr`; `steps` also as a heat map `<stem>.steps.png`).
     #[arg(long)]
@@ -119,9 +128,12 @@ pub struct RenderArgs {
     /// Write render statistics as JSON to this file.
     #[arg(long)]
     pub stats: Option<PathBuf>,
-    /// Print nothing but errors.
+    /// Print nothing but errors (no progress display, no summary).
     #[arg(short, long)]
     pub quiet: bool,
+    /// After the render, log each pass kind's count and GPU time (or the CPU's work).
+    #[arg(short, long)]
+    pub verbose: bool,
 }
 
 impl Default for RenderArgs {
@@ -183,6 +195,9 @@ pub fn options(args: &RenderArgs, scene: &Scene) -> Result<RenderOptions> {
     opts.gpu.query_every = args.query_every;
     opts.gpu.no_specialize = args.no_specialize;
     opts.gpu.kernel = args.kernel;
+    opts.gpu.mask = args.mask;
+    opts.gpu.storage = args.storage;
+    opts.progress = !args.quiet;
     opts.validate()?;
     Ok(opts)
 }
@@ -238,7 +253,62 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
             s.mrays_per_s
         );
     }
+    if args.verbose {
+        eprint!("{}", verbose_report(&out.stats));
+    }
     Ok(out)
+}
+
+/// The `-v` log: per pass kind, how many passes and how much GPU time; for the CPU, the
+/// traversal work. One line per entry, most expensive first.
+pub fn verbose_report(s: &render::RenderStats) -> String {
+    let mut out = String::new();
+    if let (Some(c), Some(t)) = (s.cells_visited, s.triangle_tests) {
+        out += &format!(
+            "cpu: {c} cells visited, {t} triangle tests ({:.1} cells and {:.1} tests per ray)\n",
+            c as f64 / s.rays.total.max(1) as f64,
+            t as f64 / s.rays.total.max(1) as f64
+        );
+    }
+    if let Some(g) = &s.gpu {
+        let passes = g["passes"].as_object().cloned().unwrap_or_default();
+        let ms = g["gpu_ms"].as_object().cloned().unwrap_or_default();
+        let mut rows: Vec<(String, u64, Option<f64>)> = passes
+            .iter()
+            .map(|(k, v)| {
+                (
+                    k.clone(),
+                    v.as_u64().unwrap_or(0),
+                    ms.get(k).and_then(|m| m.as_f64()),
+                )
+            })
+            .collect();
+        rows.sort_by(|a, b| {
+            b.2.unwrap_or(0.0)
+                .total_cmp(&a.2.unwrap_or(0.0))
+                .then(b.1.cmp(&a.1))
+        });
+        out += &format!(
+            "{:<24} {:>10} {:>12} {:>12}\n",
+            "pass", "count", "gpu ms", "ms/pass"
+        );
+        for (name, n, t) in rows {
+            let (t, per) = match t {
+                Some(t) => (format!("{t:.2}"), format!("{:.4}", t / n.max(1) as f64)),
+                None => ("-".into(), "-".into()),
+            };
+            out += &format!("{name:<24} {n:>10} {t:>12} {per:>12}\n");
+        }
+        out += &format!(
+            "total: {} passes, {} termination queries, gpu {:.2} ms, compile {:.1} ms, upload {:.1} ms\n",
+            g["passes_total"].as_u64().unwrap_or(0),
+            g["termination_queries"].as_u64().unwrap_or(0),
+            g["gpu_ms_total"].as_f64().unwrap_or(0.0),
+            g["compile_ms"].as_f64().unwrap_or(0.0),
+            g["upload_ms"].as_f64().unwrap_or(0.0),
+        );
+    }
+    out
 }
 
 /// The `compare` command: prints the figures; `Ok(false)` when a bound is exceeded.

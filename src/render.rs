@@ -82,6 +82,8 @@ pub struct RenderOptions {
     pub backend: Backend,
     /// GPU backend options.
     pub gpu: crate::gpu::render::GpuOptions,
+    /// Show a progress display on stderr (only drawn when stderr is a terminal).
+    pub progress: bool,
 }
 
 impl RenderOptions {
@@ -96,6 +98,7 @@ impl RenderOptions {
             grid: GridConfig::default(),
             backend: Backend::Cpu,
             gpu: crate::gpu::render::GpuOptions::default(),
+            progress: false,
         }
     }
 
@@ -264,18 +267,13 @@ pub struct Rendered {
 pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     opts.validate()?;
     let grid = Grid::build(scene, &opts.grid)?;
+    let progress = crate::progress::Progress::bar(opts.progress, opts.height as u64, "rows");
     let t0 = Instant::now();
     let out = match opts.precision {
-        Precision::F64 => CpuRenderer::<f64>::new(scene, &grid, opts.max_depth).render(
-            opts.width,
-            opts.height,
-            opts.spp,
-        ),
-        Precision::F32 => CpuRenderer::<f32>::new(scene, &grid, opts.max_depth).render(
-            opts.width,
-            opts.height,
-            opts.spp,
-        ),
+        Precision::F64 => CpuRenderer::<f64>::new(scene, &grid, opts.max_depth)
+            .render_with_progress(opts.width, opts.height, opts.spp, &progress),
+        Precision::F32 => CpuRenderer::<f32>::new(scene, &grid, opts.max_depth)
+            .render_with_progress(opts.width, opts.height, opts.spp, &progress),
     };
     let render_ms = t0.elapsed().as_secs_f64() * 1e3;
     let precision = match opts.precision {

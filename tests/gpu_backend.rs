@@ -1,6 +1,7 @@
 //! The GLSL 1.20 multi-pass backend against the CPU reference, on every shipped scene,
-//! in the default GL context and in a GL 2.1 / GLSL 1.20 context (Mesa's version override,
-//! run in a child process because the override must be set before the driver loads).
+//! in the default GL context and in a GL 2.1 / GLSL 1.20 context with a GeForce 6/7-class
+//! card's limits (Mesa's version override and `FRAGTRACE_GL_LIMITS=geforce7`, run in a child
+//! process because the override must be set before the driver loads).
 //!
 //! Bars (measured on llvmpipe, stated with margin): the primary-hit triangle equals the
 //! f32 CPU reference's on at least 99.9% of pixels; colour RMSE against the f32 CPU
@@ -157,10 +158,23 @@ fn gl21_inner() {
             "{}",
             ctx.info.glsl_version
         );
+        // A GeForce 6/7-class card's limits (FRAGTRACE_GL_LIMITS=geforce7): fragtrace plans
+        // its textures and targets with them, and refuses what does not fit.
+        assert_eq!(ctx.info.limit_profile.as_deref(), Some("geforce7"));
+        assert_eq!(ctx.info.max_texture_size, 4096);
+        assert_eq!(ctx.info.max_draw_buffers, 4);
+        let scene = builtin_scene();
+        let mut o = opts(&scene, Precision::F32);
+        o.width = 4097;
+        o.height = 2;
+        let e = render_gl_with(ctx, &scene, &o).err().expect("4097 > 4096");
+        assert!(e.to_string().contains("4096"), "{e}");
         check_all_scenes(ctx);
+        check_masks_and_storage(ctx, &scene, fragtrace::gpu::shader::Kernel::Unrolled(4));
     });
 }
 
+/// The GL 2.1 / GLSL 1.20 run with GeForce 6/7 limits, in a child process.
 #[test]
 fn gl21_context_matches_cpu() {
     let exe = std::env::current_exe().unwrap();
@@ -174,6 +188,7 @@ fn gl21_context_matches_cpu() {
         ])
         .env("MESA_GL_VERSION_OVERRIDE", "2.1")
         .env("MESA_GLSL_VERSION_OVERRIDE", "120")
+        .env(fragtrace::gpu::context::LIMITS_ENV, "geforce7")
         .output()
         .unwrap();
     let text = format!(
@@ -339,4 +354,65 @@ fn kernel_variants_render_the_same_image() {
             );
         }
     });
+}
+
+/// `--mask early-z|stencil` only keeps finished rays from running passes: the image, every
+/// AOV (including the per-pixel step count) and the pass count equal the unmasked render's,
+/// for the faithful kernel and for an unrolled one whose queries are far enough apart for
+/// the mask to be used. `--storage f16` changes rays slightly: bounded error, no NaN.
+#[test]
+fn masks_are_exact_and_f16_storage_is_close() {
+    use fragtrace::gpu::shader::Kernel;
+    let scene = builtin_scene();
+    with_test_context(|ctx| check_masks_and_storage(ctx, &scene, Kernel::Unrolled(4)));
+}
+
+/// Bound on the f16-storage image's RMSE against the f32-storage one (measured 0.0125 on the
+/// built-in scene at 160x120 and 0.0095 at 48x36 on llvmpipe).
+const F16_RMSE: f64 = 0.03;
+
+fn check_masks_and_storage(ctx: &GlContext, scene: &Scene, fast: fragtrace::gpu::shader::Kernel) {
+    use fragtrace::gpu::render::{Mask, Storage};
+    use fragtrace::gpu::shader::Kernel;
+    let mut o = opts(scene, Precision::F32);
+    o.width = 48;
+    o.height = 36;
+    let passes = |r: &fragtrace::render::Rendered| {
+        r.stats.gpu.as_ref().unwrap()["passes_total"]
+            .as_u64()
+            .unwrap()
+    };
+    for (kernel, every) in [(Kernel::Multipass, 8), (fast, 32)] {
+        o.gpu.kernel = kernel;
+        o.gpu.query_every = every;
+        o.gpu.mask = Mask::None;
+        let base = render_gl_with(ctx, scene, &o).unwrap();
+        for mask in [Mask::EarlyZ, Mask::Stencil] {
+            o.gpu.mask = mask;
+            let r = render_gl_with(ctx, scene, &o).unwrap();
+            let c = compare(&r.image, &base.image, 0.0, false).unwrap();
+            println!(
+                "{kernel} --mask {mask}: max abs {:.2e}, passes {} vs {}",
+                c.max_abs,
+                passes(&r),
+                passes(&base)
+            );
+            assert_eq!(c.max_abs, 0.0, "{kernel} --mask {mask}: image differs");
+            assert_eq!(r.aov, base.aov, "{kernel} --mask {mask}: AOVs differ");
+            assert_eq!(passes(&r), passes(&base), "{kernel} --mask {mask}");
+        }
+        o.gpu.mask = Mask::None;
+        o.gpu.storage = Storage::F16;
+        let r = render_gl_with(ctx, scene, &o).unwrap();
+        o.gpu.storage = Storage::F32;
+        let c = compare(&r.image, &base.image, 0.01, true).unwrap();
+        println!("{kernel} --storage f16: {c}");
+        assert!(r.image.all_finite(), "{kernel} --storage f16: NaN or Inf");
+        assert!(c.rmse < F16_RMSE, "{kernel} --storage f16: {c}");
+        // Not a no-op: 16-bit directions do move some rays.
+        assert!(
+            c.max_abs > 0.0,
+            "{kernel} --storage f16 rendered the f32 image"
+        );
+    }
 }

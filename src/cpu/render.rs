@@ -10,6 +10,7 @@ use super::shade::{albedo, light_term, offset_origin, secondary, surface};
 use super::traverse::{Accel, Hit, Ray, Work};
 use crate::accel::Grid;
 use crate::image_io::Image;
+use crate::progress::Progress;
 use crate::render::{Aov, AovPixel, RayCounts};
 use crate::scene::{camera, Scene};
 
@@ -132,6 +133,11 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
 
     /// Renders a W x H image with `spp` samples per pixel.
     pub fn render(&self, w: u32, h: u32, spp: u32) -> CpuOutput {
+        self.render_with_progress(w, h, spp, &Progress::hidden())
+    }
+
+    /// [`CpuRenderer::render`], advancing `progress` by one per finished row.
+    pub fn render_with_progress(&self, w: u32, h: u32, spp: u32, progress: &Progress) -> CpuOutput {
         let offsets = camera::sample_offsets(spp);
         let inv = T::ONE / T::from_f32(offsets.len() as f32);
         let rows: Vec<(Vec<f32>, Vec<AovPixel>, Tally)> = (0..h)
@@ -161,9 +167,11 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
                     let c = sum * inv;
                     rgb.extend([c.x, c.y, c.z].map(|v| v.to_f64() as f32));
                 }
+                progress.inc(1);
                 (rgb, aov, tally)
             })
             .collect();
+        progress.finish();
         let mut data = Vec::with_capacity((w * h * 3) as usize);
         let mut pixels = Vec::with_capacity((w * h) as usize);
         let mut total = Tally::default();

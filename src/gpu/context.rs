@@ -116,6 +116,59 @@ impl RawGl {
     }
 }
 
+/// Environment variable naming a historical card whose limits fragtrace imposes on top of
+/// the driver's (`geforce7`), to prove the GL 2.1 path fits period hardware on a modern
+/// driver that cannot be told to shrink its own limits.
+pub const LIMITS_ENV: &str = "FRAGTRACE_GL_LIMITS";
+
+/// Limits fragtrace plans with instead of the driver's larger ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LimitProfile {
+    /// Name given in [`LIMITS_ENV`].
+    pub name: &'static str,
+    /// `GL_MAX_TEXTURE_SIZE`.
+    pub max_texture_size: i32,
+    /// `GL_MAX_DRAW_BUFFERS` (and colour attachments).
+    pub max_draw_buffers: i32,
+    /// `GL_MAX_TEXTURE_IMAGE_UNITS`.
+    pub max_texture_units: i32,
+}
+
+/// A GeForce 6/7-class card (NV40/G70, 2004-2006, the thesis's era): 4096-texel textures,
+/// 4 draw buffers, 16 fragment texture units.
+pub const GEFORCE7: LimitProfile = LimitProfile {
+    name: "geforce7",
+    max_texture_size: 4096,
+    max_draw_buffers: 4,
+    max_texture_units: 16,
+};
+
+/// The profile named by [`LIMITS_ENV`], read once per process; `None` when unset or empty.
+///
+/// # Panics
+/// Never; an unknown name is reported by [`GlContext::new_unchecked`] as a usage error.
+pub fn limit_profile() -> std::result::Result<Option<LimitProfile>, String> {
+    static PROFILE: OnceLock<std::result::Result<Option<LimitProfile>, String>> = OnceLock::new();
+    PROFILE
+        .get_or_init(|| match std::env::var(LIMITS_ENV) {
+            Err(_) => Ok(None),
+            Ok(v) if v.is_empty() => Ok(None),
+            Ok(v) if v == GEFORCE7.name => Ok(Some(GEFORCE7)),
+            Ok(v) => Err(format!(
+                "{LIMITS_ENV}={v} is not a known profile (expected geforce7)"
+            )),
+        })
+        .clone()
+}
+
+/// The driver's `value` of a limit, lowered to the active [`LimitProfile`]'s.
+pub(crate) fn effective_limit(value: i32, pick: impl Fn(&LimitProfile) -> i32) -> i32 {
+    match limit_profile() {
+        Ok(Some(p)) => value.min(pick(&p)),
+        _ => value,
+    }
+}
+
 /// What the driver is and whether fragtrace can use it.
 ///
 /// Filled once when the context is created. `features` lists every *required* capability
@@ -144,6 +197,8 @@ pub struct GlInfo {
     pub max_draw_buffers: i32,
     /// `GL_MAX_TEXTURE_IMAGE_UNITS`: how many streams/scene textures one pass may read.
     pub max_texture_units: i32,
+    /// The [`LimitProfile`] the three limits above were lowered to, if any.
+    pub limit_profile: Option<String>,
     /// `GL_QUERY_COUNTER_BITS` of `GL_SAMPLES_PASSED`: the occlusion counter's width (GL lets
     /// a driver report 0, meaning the query always returns 0).
     pub occlusion_query_bits: i32,
@@ -235,6 +290,9 @@ impl fmt::Display for GlInfo {
         writeln!(f, "OpenGL renderer:  {}", self.renderer)?;
         writeln!(f, "OpenGL vendor:    {}", self.vendor)?;
         writeln!(f, "GLSL version:     {}", self.glsl_version)?;
+        if let Some(p) = &self.limit_profile {
+            writeln!(f, "Limits lowered to: {p} ({LIMITS_ENV})")?;
+        }
         writeln!(f, "Max texture size: {}", self.max_texture_size)?;
         writeln!(f, "Max draw buffers: {}", self.max_draw_buffers)?;
         writeln!(
@@ -303,6 +361,7 @@ impl GlContext {
     /// context is an error. Meant for `fragtrace info`, which prints [`GlContext::info`]
     /// (including the verdict line) even when the driver is inadequate.
     pub fn new_unchecked() -> Result<GlContext> {
+        limit_profile().map_err(Error::Usage)?;
         let egl = egl_instance()?;
         let session = open_session(egl)?;
         let fallback = session.fallback_lib.as_ref();
@@ -803,9 +862,12 @@ fn gather_info(
         renderer: string(glow::RENDERER),
         vendor: string(glow::VENDOR),
         glsl_version: string(glow::SHADING_LANGUAGE_VERSION),
-        max_texture_size: int(glow::MAX_TEXTURE_SIZE),
-        max_draw_buffers: int(glow::MAX_DRAW_BUFFERS),
-        max_texture_units: int(glow::MAX_TEXTURE_IMAGE_UNITS),
+        max_texture_size: effective_limit(int(glow::MAX_TEXTURE_SIZE), |p| p.max_texture_size),
+        max_draw_buffers: effective_limit(int(glow::MAX_DRAW_BUFFERS), |p| p.max_draw_buffers),
+        max_texture_units: effective_limit(int(glow::MAX_TEXTURE_IMAGE_UNITS), |p| {
+            p.max_texture_units
+        }),
+        limit_profile: limit_profile().ok().flatten().map(|p| p.name.to_string()),
         occlusion_query_bits: raw.query_iv(glow::SAMPLES_PASSED, glow::QUERY_COUNTER_BITS),
         timer_query: false,
         extensions,
@@ -895,6 +957,7 @@ mod tests {
             max_texture_size: 4096,
             max_draw_buffers: 4,
             max_texture_units: 16,
+            limit_profile: None,
             occlusion_query_bits: 32,
             timer_query: false,
             extensions: vec![

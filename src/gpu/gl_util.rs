@@ -15,7 +15,7 @@
 use glow::HasContext;
 
 use crate::error::{Error, Result};
-use crate::gpu::context::GlContext;
+use crate::gpu::context::{effective_limit, GlContext};
 
 /// Generic attribute index of the quad's position (`a_pos`). Index 0 on purpose: in a
 /// compatibility profile attribute 0 aliases `gl_Vertex`, and some drivers (NVIDIA) draw
@@ -121,7 +121,11 @@ fn framebuffer_status_name(status: u32) -> String {
 /// image resolution or scene size decides it, hence [`Error::Limit`]).
 fn check_texture_size(gl: &glow::Context, width: u32, height: u32) -> Result<()> {
     // SAFETY: plain state query.
-    let max = unsafe { gl.get_parameter_i32(glow::MAX_TEXTURE_SIZE) }.max(0) as u32;
+    let max = effective_limit(
+        unsafe { gl.get_parameter_i32(glow::MAX_TEXTURE_SIZE) },
+        |p| p.max_texture_size,
+    )
+    .max(0) as u32;
     if width == 0 || height == 0 {
         return Err(Error::Internal(format!(
             "texture size {width}x{height} is empty"
@@ -162,6 +166,45 @@ pub fn create_float_texture(
     gl: &glow::Context,
     width: u32,
     height: u32,
+    data: Option<&[f32]>,
+) -> Result<glow::Texture> {
+    create_texture(gl, width, height, TexFormat::Rgba32F, data)
+}
+
+/// Internal format of a stream texture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TexFormat {
+    /// 32-bit floats: exact integers to 2^24, what indices and hit distances need.
+    Rgba32F,
+    /// 16-bit floats (ARB_texture_float's RGBA16F, as on GeForce 6/7-class cards): half the
+    /// memory traffic, 11 significant bits, integers exact only to 2048.
+    Rgba16F,
+}
+
+impl TexFormat {
+    fn gl_enum(self) -> u32 {
+        match self {
+            TexFormat::Rgba32F => glow::RGBA32F,
+            TexFormat::Rgba16F => glow::RGBA16F,
+        }
+    }
+
+    /// Bytes per texel.
+    pub fn bytes(self) -> u64 {
+        match self {
+            TexFormat::Rgba32F => 16,
+            TexFormat::Rgba16F => 8,
+        }
+    }
+}
+
+/// [`create_float_texture`] with a chosen internal format (data, when given, is f32 and is
+/// rounded by the driver for [`TexFormat::Rgba16F`]).
+pub fn create_texture(
+    gl: &glow::Context,
+    width: u32,
+    height: u32,
+    format: TexFormat,
     data: Option<&[f32]>,
 ) -> Result<glow::Texture> {
     check_texture_size(gl, width, height)?;
@@ -206,7 +249,7 @@ pub fn create_float_texture(
         gl.tex_image_2d(
             glow::TEXTURE_2D,
             0,
-            glow::RGBA32F as i32,
+            format.gl_enum() as i32,
             width as i32,
             height as i32,
             0,
@@ -215,7 +258,7 @@ pub fn create_float_texture(
             glow::PixelUnpackData::Slice(data.map(f32_bytes)),
         );
         gl.bind_texture(glow::TEXTURE_2D, None);
-        if let Err(e) = check_gl_error(gl, "creating an RGBA32F texture") {
+        if let Err(e) = check_gl_error(gl, &format!("creating an {format:?} texture")) {
             gl.delete_texture(texture);
             return Err(e);
         }
@@ -286,7 +329,38 @@ pub fn read_texture_rgba32f(
     Ok(out)
 }
 
-/// A framebuffer object with N RGBA32F colour attachments of one size: the output streams of
+/// Creates a `width`×`height` renderbuffer for masking rays out of passes: 24-bit depth, or
+/// packed depth 24 + stencil 8 when `stencil` (EXT_packed_depth_stencil, core in GL 3.0;
+/// stencil-only renderbuffers were never widely supported).
+pub fn create_mask_buffer(
+    gl: &glow::Context,
+    width: u32,
+    height: u32,
+    stencil: bool,
+) -> Result<glow::Renderbuffer> {
+    check_texture_size(gl, width, height)?;
+    // SAFETY: the context is current.
+    unsafe {
+        let rb = gl
+            .create_renderbuffer()
+            .map_err(|e| Error::Internal(format!("glGenRenderbuffers: {e}")))?;
+        gl.bind_renderbuffer(glow::RENDERBUFFER, Some(rb));
+        let format = if stencil {
+            glow::DEPTH24_STENCIL8
+        } else {
+            glow::DEPTH_COMPONENT24
+        };
+        gl.renderbuffer_storage(glow::RENDERBUFFER, format, width as i32, height as i32);
+        gl.bind_renderbuffer(glow::RENDERBUFFER, None);
+        if let Err(e) = check_gl_error(gl, "creating a mask renderbuffer") {
+            gl.delete_renderbuffer(rb);
+            return Err(e);
+        }
+        Ok(rb)
+    }
+}
+
+/// A framebuffer object with N float colour attachments of one size: the output streams of
 /// one pass.
 ///
 /// GL objects are not freed on drop (that would need the context); call
@@ -306,6 +380,19 @@ impl RenderTarget {
     /// `GL_MAX_TEXTURE_SIZE`, and with [`Error::GlUnavailable`] naming the status when the
     /// driver reports the framebuffer incomplete.
     pub fn new(gl: &glow::Context, width: u32, height: u32, attachments: usize) -> Result<Self> {
+        Self::with_formats(gl, width, height, &vec![TexFormat::Rgba32F; attachments])
+    }
+
+    /// [`RenderTarget::new`] with one internal format per attachment. Mixing formats in
+    /// one FBO needs GL 3.0 or ARB_framebuffer_object (EXT_framebuffer_object reports
+    /// `INCOMPLETE_FORMATS`), which is reported as [`Error::GlUnavailable`].
+    pub fn with_formats(
+        gl: &glow::Context,
+        width: u32,
+        height: u32,
+        formats: &[TexFormat],
+    ) -> Result<Self> {
+        let attachments = formats.len();
         // SAFETY: plain state queries.
         let (max_draw, max_color) = unsafe {
             (
@@ -313,7 +400,7 @@ impl RenderTarget {
                 gl.get_parameter_i32(glow::MAX_COLOR_ATTACHMENTS),
             )
         };
-        let max = max_draw.min(max_color).max(0) as usize;
+        let max = effective_limit(max_draw.min(max_color), |p| p.max_draw_buffers).max(0) as usize;
         if attachments == 0 || attachments > max {
             return Err(Error::Limit(format!(
                 "{attachments} colour attachments requested, the driver allows 1..={max}"
@@ -321,8 +408,8 @@ impl RenderTarget {
         }
         check_texture_size(gl, width, height)?;
         let mut textures = Vec::with_capacity(attachments);
-        for _ in 0..attachments {
-            match create_float_texture(gl, width, height, None) {
+        for &format in formats {
+            match create_texture(gl, width, height, format, None) {
                 Ok(t) => textures.push(t),
                 Err(e) => {
                     // SAFETY: deleting textures this function just created.
@@ -365,7 +452,7 @@ impl RenderTarget {
             if status != glow::FRAMEBUFFER_COMPLETE {
                 target.delete(gl);
                 return Err(Error::GlUnavailable(format!(
-                    "framebuffer with {attachments} RGBA32F attachment(s) of {width}x{height} \
+                    "framebuffer with attachment(s) {formats:?} of {width}x{height} \
                      is incomplete: {}",
                     framebuffer_status_name(status)
                 )));
@@ -376,6 +463,48 @@ impl RenderTarget {
             }
             Ok(target)
         }
+    }
+
+    /// Attaches `buffer` (from [`create_mask_buffer`]) as this FBO's depth buffer, and as
+    /// its stencil buffer when `stencil`. Several targets may share one buffer: that is how
+    /// a mask written while drawing into one ping-pong target tests the draws into the other.
+    pub fn attach_mask_buffer(
+        &self,
+        gl: &glow::Context,
+        buffer: glow::Renderbuffer,
+        stencil: bool,
+    ) -> Result<()> {
+        // SAFETY: the context is current; both names belong to it.
+        unsafe {
+            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(self.framebuffer));
+            // Two attachment points rather than GL 3.0's DEPTH_STENCIL_ATTACHMENT, which
+            // EXT_packed_depth_stencil-era drivers do not know.
+            gl.framebuffer_renderbuffer(
+                glow::FRAMEBUFFER,
+                glow::DEPTH_ATTACHMENT,
+                glow::RENDERBUFFER,
+                Some(buffer),
+            );
+            if stencil {
+                gl.framebuffer_renderbuffer(
+                    glow::FRAMEBUFFER,
+                    glow::STENCIL_ATTACHMENT,
+                    glow::RENDERBUFFER,
+                    Some(buffer),
+                );
+            }
+            self.set_draw_buffers(gl);
+            let status = gl.check_framebuffer_status(glow::FRAMEBUFFER);
+            gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+            if status != glow::FRAMEBUFFER_COMPLETE {
+                return Err(Error::GlUnavailable(format!(
+                    "framebuffer with a {} mask buffer is incomplete: {}",
+                    if stencil { "depth-stencil" } else { "depth" },
+                    framebuffer_status_name(status)
+                )));
+            }
+        }
+        check_gl_error(gl, "attaching a mask buffer")
     }
 
     fn set_draw_buffers(&self, gl: &glow::Context) {

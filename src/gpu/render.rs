@@ -20,13 +20,14 @@ use serde::Serialize;
 
 use super::context::GlContext;
 use super::gl_util::{
-    compile_program, create_float_texture, FullscreenQuad, OcclusionQuery, RenderTarget,
-    TimerQuery, QUAD_VERTEX_SHADER,
+    compile_program, create_float_texture, create_mask_buffer, FullscreenQuad, OcclusionQuery,
+    RenderTarget, TexFormat, TimerQuery, QUAD_VERTEX_SHADER,
 };
 use super::shader::{assemble, Count, Features, Kernel, Pass, Query, RayState};
 use crate::accel::layout::SceneTextures;
 use crate::accel::Grid;
 use crate::image_io::Image;
+use crate::progress::Progress;
 use crate::render::{Aov, AovPixel, RayCounts};
 use crate::scene::{camera, Scene};
 use crate::{Error, Result};
@@ -44,6 +45,10 @@ pub struct GpuOptions {
     /// image as the thesis's `Multipass` kernel from the same step chunk, 25-107x faster
     /// (docs/performance.md); `Multipass` is the faithful GL 2.1 design.
     pub kernel: Kernel,
+    /// How rays that finished are kept out of the traversal passes.
+    pub mask: Mask,
+    /// Precision of the ray textures.
+    pub storage: Storage,
 }
 
 impl Default for GpuOptions {
@@ -53,6 +58,112 @@ impl Default for GpuOptions {
             timers: true,
             no_specialize: false,
             kernel: Kernel::Looped,
+            mask: Mask::None,
+            storage: Storage::F32,
+        }
+    }
+}
+
+/// How finished rays are skipped during traversal.
+///
+/// Every pass early-outs on rays not in its state whatever the mask; a mask additionally
+/// keeps the fragment program from running at all for rays that were inactive at the last
+/// termination query, as Purcell et al. did with the depth test. The termination query's
+/// count pass writes the mask as a side effect (only active rays survive its `discard`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mask {
+    /// Run every pass on every pixel and rely on the in-shader early-out.
+    #[default]
+    None,
+    /// Active rays get depth 0, the rest 1; passes are drawn at depth 0.5 with
+    /// `GL_GREATER`, so the early depth test culls finished rays before shading.
+    EarlyZ,
+    /// Active rays get stencil 1; passes are drawn with `GL_EQUAL 1`.
+    Stencil,
+}
+
+impl std::str::FromStr for Mask {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "none" => Ok(Mask::None),
+            "early-z" => Ok(Mask::EarlyZ),
+            "stencil" => Ok(Mask::Stencil),
+            _ => Err(format!(
+                "unknown mask `{s}` (expected none, early-z or stencil)"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for Mask {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Mask::None => "none",
+            Mask::EarlyZ => "early-z",
+            Mask::Stencil => "stencil",
+        })
+    }
+}
+
+/// Precision of the textures that carry rays between passes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Storage {
+    /// Everything in RGBA32F.
+    #[default]
+    F32,
+    /// Ray direction (with t_max, texture s1) and the colour accumulator in RGBA16F, as
+    /// 16-bit-float hardware stored streams. A unit direction keeps 11 significant bits
+    /// (about 5e-4 rad), below a pixel's angle at 512 pixels across. Indices stay exact because
+    /// nothing that holds one is stored in 16 bits: the state code, cell, cursor, list end,
+    /// best triangle and hit t (s0, s2, s3) and the hit records stay RGBA32F. Origins stay
+    /// 32-bit too: rounded to 11 bits, a spawned ray's origin moves by up to 2^-12 of its
+    /// coordinate, far more than the offset that keeps it off its surface, and shadow acne
+    /// darkened most of the image when we tried it (docs/performance.md). Needs
+    /// mixed-format framebuffers (GL 3.0 or ARB_framebuffer_object); refused with a clear
+    /// error elsewhere.
+    F16,
+}
+
+impl std::str::FromStr for Storage {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "f32" => Ok(Storage::F32),
+            "f16" => Ok(Storage::F16),
+            _ => Err(format!("unknown storage `{s}` (expected f32 or f16)")),
+        }
+    }
+}
+
+impl std::fmt::Display for Storage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Storage::F32 => "f32",
+            Storage::F16 => "f16",
+        })
+    }
+}
+
+impl Storage {
+    /// Formats of the four ray-state attachments s0..s3.
+    fn state_formats(self) -> [TexFormat; 4] {
+        match self {
+            Storage::F32 => [TexFormat::Rgba32F; 4],
+            Storage::F16 => [
+                TexFormat::Rgba32F,
+                TexFormat::Rgba16F,
+                TexFormat::Rgba32F,
+                TexFormat::Rgba32F,
+            ],
+        }
+    }
+
+    /// Format of the colour accumulator.
+    fn colour_format(self) -> TexFormat {
+        match self {
+            Storage::F32 => TexFormat::Rgba32F,
+            Storage::F16 => TexFormat::Rgba16F,
         }
     }
 }
@@ -140,7 +251,11 @@ struct Frame<'a> {
     acc: [RenderTarget; 2],
     acc_cur: usize,
     count_query: OcclusionQuery,
+    /// Depth or depth-stencil buffer shared by both ray-state targets (`--mask`).
+    mask_buffer: Option<glow::Renderbuffer>,
     timers: Option<TimerPool>,
+    /// Progress display (hidden unless asked for and stderr is a terminal).
+    progress: Progress,
     stats: GpuStats,
     opts: GpuOptions,
     max_iterations: u64,
@@ -285,6 +400,80 @@ impl<'a> Frame<'a> {
 
     /// Counts fragments that survive the `count` pass: active rays or existing nodes.
     fn count(&mut self, what: Count, node: Option<glow::Texture>) -> Result<u64> {
+        self.count_into(what, node, Slot::Acc(1 - self.acc_cur))
+    }
+
+    /// Counts active rays and, with `--mask`, writes the mask of them: the count pass is
+    /// drawn (colour writes off) into the ray-state target that is not being read, whose
+    /// depth/stencil buffer both state targets share.
+    fn count_and_mask(&mut self) -> Result<u64> {
+        let Some(_) = self.mask_buffer else {
+            return self.count(Count::Rays, None);
+        };
+        let slot = Slot::State(1 - self.cur);
+        self.target(slot).bind(self.gl());
+        let gl = &self.ctx.gl;
+        // SAFETY: the context is current; the bound FBO has the mask buffer attached.
+        unsafe {
+            match self.opts.mask {
+                Mask::EarlyZ => {
+                    gl.depth_mask(true);
+                    gl.clear_depth_f64(1.0);
+                    gl.clear(glow::DEPTH_BUFFER_BIT);
+                    gl.enable(glow::DEPTH_TEST);
+                    gl.depth_func(glow::ALWAYS);
+                    // The quad lies at window depth 0.5; a [0, 0] range stores 0 instead.
+                    gl.depth_range_f64(0.0, 0.0);
+                }
+                Mask::Stencil => {
+                    gl.stencil_mask(0xff);
+                    gl.clear_stencil(0);
+                    gl.clear(glow::STENCIL_BUFFER_BIT);
+                    gl.enable(glow::STENCIL_TEST);
+                    gl.stencil_func(glow::ALWAYS, 1, 0xff);
+                    gl.stencil_op(glow::KEEP, glow::KEEP, glow::REPLACE);
+                }
+                Mask::None => unreachable!("no mask buffer without a mask"),
+            }
+        }
+        let n = self.count_into(Count::Rays, None, slot);
+        // SAFETY: as above.
+        unsafe {
+            gl.depth_range_f64(0.0, 1.0);
+            gl.depth_mask(false);
+            gl.stencil_mask(0);
+            gl.disable(glow::DEPTH_TEST);
+            gl.disable(glow::STENCIL_TEST);
+        }
+        n
+    }
+
+    /// Turns the mask test on or off for the draws that follow.
+    fn set_mask_test(&self, on: bool) {
+        let gl = self.gl();
+        // SAFETY: the context is current.
+        unsafe {
+            match (self.opts.mask, on) {
+                (Mask::EarlyZ, true) => {
+                    gl.enable(glow::DEPTH_TEST);
+                    gl.depth_func(glow::GREATER);
+                    gl.depth_mask(false);
+                }
+                (Mask::Stencil, true) => {
+                    gl.enable(glow::STENCIL_TEST);
+                    gl.stencil_func(glow::EQUAL, 1, 0xff);
+                    gl.stencil_op(glow::KEEP, glow::KEEP, glow::KEEP);
+                    gl.stencil_mask(0);
+                }
+                _ => {
+                    gl.disable(glow::DEPTH_TEST);
+                    gl.disable(glow::STENCIL_TEST);
+                }
+            }
+        }
+    }
+
+    fn count_into(&mut self, what: Count, node: Option<glow::Texture>, slot: Slot) -> Result<u64> {
         let pass = Pass::Count(what);
         self.bind_state_input();
         if let Some(t) = node {
@@ -294,7 +483,7 @@ impl<'a> Frame<'a> {
         // SAFETY: the context is current.
         unsafe { gl.color_mask(false, false, false, false) };
         self.count_query.begin(self.ctx);
-        let r = self.draw(pass, Slot::Acc(1 - self.acc_cur));
+        let r = self.draw(pass, slot);
         self.count_query.end(self.ctx);
         // SAFETY: as above.
         unsafe { self.ctx.gl.color_mask(true, true, true, true) };
@@ -304,8 +493,20 @@ impl<'a> Frame<'a> {
     }
 
     /// Traces the current ray wave to completion.
+    ///
+    /// With a mask, a masked pass leaves finished rays unwritten in its target, so the
+    /// ping-pong pair may disagree on them. The first pass after each mask refresh therefore
+    /// runs unmasked: its write-through copies every finished ray into the other target, and
+    /// from then on both hold the same state for every ray outside the mask.
     fn trace(&mut self, query: Query) -> Result<()> {
+        let r = self.trace_inner(query);
+        self.set_mask_test(false);
+        r
+    }
+
+    fn trace_inner(&mut self, query: Query) -> Result<()> {
         self.state_pass(Pass::TraverseInit)?;
+        let mut synced = false;
         if let Some(pass) = Pass::advance(self.opts.kernel, query) {
             // Several iterations per pass: query every `query_every` iterations' worth.
             let per_pass = match self.opts.kernel {
@@ -316,10 +517,19 @@ impl<'a> Frame<'a> {
             let every = (self.opts.query_every as u64 / per_pass).max(1);
             let mut passes = 0u64;
             loop {
-                if passes.is_multiple_of(every) && self.count(Count::Rays, None)? == 0 {
-                    return Ok(());
+                if passes.is_multiple_of(every) {
+                    self.set_mask_test(false);
+                    self.progress.passes(self.stats.passes_total);
+                    let n = self.count_and_mask()?;
+                    self.progress.active(n);
+                    if n == 0 {
+                        return Ok(());
+                    }
+                    synced = false;
                 }
+                self.set_mask_test(synced);
                 self.state_pass(pass)?;
+                synced = true;
                 passes += 1;
                 if passes * per_pass > self.max_iterations {
                     return Err(Error::Internal(format!(
@@ -332,10 +542,20 @@ impl<'a> Frame<'a> {
         let k = self.opts.query_every.max(1) as u64;
         let mut it = 0u64;
         loop {
-            if it.is_multiple_of(k) && self.count(Count::Rays, None)? == 0 {
-                return Ok(());
+            if it.is_multiple_of(k) {
+                self.set_mask_test(false);
+                self.progress.passes(self.stats.passes_total);
+                let n = self.count_and_mask()?;
+                self.progress.active(n);
+                if n == 0 {
+                    return Ok(());
+                }
+                synced = false;
             }
+            self.set_mask_test(synced);
             self.state_pass(Pass::TraverseStep)?;
+            synced = true;
+            self.set_mask_test(true);
             self.state_pass(Pass::Intersect(query))?;
             it += 1;
             if it > self.max_iterations {
@@ -506,18 +726,48 @@ impl<'a> Frame<'a> {
         stats.compile_ms = t_c.elapsed().as_secs_f64() * 1e3;
 
         let targets = |n: usize| RenderTarget::new(gl, width, height, n);
+        let state_formats = opts.storage.state_formats();
+        let state_target = || {
+            RenderTarget::with_formats(gl, width, height, &state_formats).map_err(|e| match e {
+                Error::GlUnavailable(m) if opts.storage == Storage::F16 => {
+                    Error::GlUnavailable(format!(
+                        "--storage f16 mixes RGBA16F and RGBA32F attachments in one \
+                         framebuffer, which needs GL 3.0 or ARB_framebuffer_object: {m}"
+                    ))
+                }
+                e => e,
+            })
+        };
+        let colour = [opts.storage.colour_format()];
+        let state = [state_target()?, state_target()?];
+        let mask_buffer = match opts.mask {
+            Mask::None => None,
+            Mask::EarlyZ | Mask::Stencil => {
+                let stencil = opts.mask == Mask::Stencil;
+                let rb = create_mask_buffer(gl, width, height, stencil)?;
+                for t in &state {
+                    t.attach_mask_buffer(gl, rb, stencil)?;
+                }
+                Some(rb)
+            }
+        };
         Ok(Frame {
             ctx,
             quad: FullscreenQuad::new(gl)?,
             programs,
             scene_tex,
-            state: [targets(4)?, targets(4)?],
+            state,
             cur: 0,
             rec01: (0..levels).map(|_| targets(2)).collect::<Result<_>>()?,
             rec2: (0..levels).map(|_| targets(1)).collect::<Result<_>>()?,
-            acc: [targets(1)?, targets(1)?],
+            acc: [
+                RenderTarget::with_formats(gl, width, height, &colour)?,
+                RenderTarget::with_formats(gl, width, height, &colour)?,
+            ],
             acc_cur: 0,
             count_query: OcclusionQuery::new(ctx)?,
+            mask_buffer,
+            progress: Progress::hidden(),
             timers: if opts.timers && info.timer_query {
                 Some(TimerPool {
                     free: Vec::new(),
@@ -561,6 +811,10 @@ impl<'a> Frame<'a> {
             t.delete(gl);
         }
         self.count_query.delete(self.ctx);
+        if let Some(rb) = self.mask_buffer {
+            // SAFETY: the FBOs it was attached to are deleted above.
+            unsafe { gl.delete_renderbuffer(rb) };
+        }
         if let Some(pool) = self.timers {
             for q in pool.free {
                 q.delete(self.ctx);
@@ -591,6 +845,7 @@ pub fn render_gl(
     let gl = &ctx.gl;
     let levels = max_depth as usize + 1;
     let mut f = Frame::new(ctx, scene, grid, width, height, levels, true, render.gpu)?;
+    f.progress = Progress::spinner(render.progress);
     let secondary = max_depth > 0 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
     let t_trace = Instant::now();
     // Clear the colour accumulator.
@@ -622,6 +877,8 @@ pub fn render_gl(
         f.set_vec3(Pass::RayGen, "u_tr", corners[2]);
         f.set_vec3(Pass::RayGen, "u_tl", corners[3]);
         f.set_vec2(Pass::RayGen, "u_offset", [ox as f32, oy as f32]);
+        f.progress
+            .stage(format!("sample {}/{}: primary rays", k + 1, offsets.len()));
         f.state_pass(Pass::RayGen)?;
         rays[0] += width as u64 * height as u64;
         f.trace(Query::Closest)?;
@@ -632,6 +889,7 @@ pub fn render_gl(
         shade_node(&mut f, scene, 0, max_depth, secondary, &mut rays)?;
     }
     let data = f.acc[f.acc_cur].read_attachment(gl, 0)?;
+    f.progress.finish();
     f.finish_timers()?;
     f.stats.trace_ms = t_trace.elapsed().as_secs_f64() * 1e3;
     let image = Image::from_rgb(width, height, flip_rgba_to_rgb(&data, width, height));
@@ -661,6 +919,7 @@ fn shade_node(
         f.set_vec3(Pass::AccumLight, "u_light_rad", light.radiance().to_array());
         bind_texture(f.gl(), unit_of("u_r0"), f.rec01[level].texture(0));
         bind_texture(f.gl(), unit_of("u_r1"), f.rec01[level].texture(1));
+        f.progress.stage(format!("depth {level}: shadow rays"));
         f.state_pass(Pass::ShadowSpawn)?;
         let n = f.count(Count::Rays, None)?;
         rays[1] += n;
@@ -686,6 +945,10 @@ fn shade_node(
             continue; // no pixel has this node: skip its whole subtree
         }
         rays[slot] += n;
+        f.progress.stage(format!(
+            "depth {child}: {} rays",
+            if slot == 2 { "reflected" } else { "refracted" }
+        ));
         bind_texture(f.gl(), unit_of("u_p0"), f.rec01[level].texture(0));
         bind_texture(f.gl(), unit_of("u_p1"), f.rec01[level].texture(1));
         bind_texture(f.gl(), unit_of("u_c2"), node);
