@@ -227,3 +227,95 @@ fn compare_reports_and_bounds() {
     assert!(String::from_utf8_lossy(&diff.stdout).contains("RMSE"));
     assert!(d.join("d.png").exists());
 }
+
+/// `-v` logs every pass kind with its count (GPU) or the traversal work (CPU).
+#[test]
+fn verbose_logs_pass_kinds_and_cpu_work() {
+    let d = tmpdir("verbose");
+    let run = |backend: &str| {
+        let out = bin()
+            .current_dir(&d)
+            .args([
+                "--backend",
+                backend,
+                "--width",
+                "24",
+                "--height",
+                "18",
+                "-v",
+                "-o",
+                "v.png",
+            ])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let cpu = run("cpu");
+    assert!(
+        cpu.contains("cells visited") && cpu.contains("triangle tests"),
+        "{cpu}"
+    );
+    let gl = run("gl");
+    for pass in [
+        "raygen",
+        "traverse_init",
+        "count_rays",
+        "record",
+        "accum_ambient",
+    ] {
+        assert!(
+            gl.lines()
+                .any(|l| l.split_whitespace().next() == Some(pass)),
+            "no `{pass}` line in:\n{gl}"
+        );
+    }
+    assert!(gl.contains("termination queries"), "{gl}");
+}
+
+/// On a terminal the render shows a progress display; off a terminal (this test's pipes)
+/// and with `-q` it draws nothing. The terminal is a pseudo-terminal from util-linux's
+/// `script`, present on every Debian system.
+#[test]
+fn progress_shows_on_a_terminal_only() {
+    let d = tmpdir("progress");
+    let args = "--backend cpu --width 64 --height 2000 -o p.png";
+    let exe = env!("CARGO_BIN_EXE_fragtrace");
+    let piped = bin()
+        .current_dir(&d)
+        .args(args.split(' '))
+        .output()
+        .unwrap();
+    assert!(piped.status.success());
+    assert!(
+        !String::from_utf8_lossy(&piped.stderr).contains("rows"),
+        "progress drawn into a pipe"
+    );
+    let on_tty = |extra: &str| {
+        let out = Command::new("script")
+            .current_dir(&d)
+            .args(["-qec", &format!("{exe} {args} {extra}"), "/dev/null"])
+            .output()
+            .expect("util-linux `script`");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let shown = on_tty("");
+    assert!(
+        shown.contains("/2000 rows"),
+        "no progress bar on a terminal:\n{shown}"
+    );
+    let quiet = on_tty("-q");
+    assert!(
+        !quiet.contains("rows"),
+        "progress drawn despite -q:\n{quiet}"
+    );
+}
