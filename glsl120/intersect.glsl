@@ -2,6 +2,10 @@
 // pbrt-v3's conservative bound on the error of t.
 // CPU twin: src/cpu/intersect.rs (same operations in the same order).
 //
+// Technique switches (generated from src/technique.rs, exactly one of each pair defined):
+// INTERSECT_WATERTIGHT / INTERSECT_MOLLER_TRUMBORE (Moller-Trumbore 1997 instead, CPU twin
+// intersect_moller_trumbore), T_BOUND_ON / T_BOUND_OFF (the t error bound).
+//
 // GLSL 1.20 has no dynamic vector indexing on period hardware, so the axis permutation
 // (kx, ky, kz) is a 0/1 matrix: v * P picks components exactly (products with 0 and 1 and
 // sums with 0 are exact).
@@ -41,9 +45,61 @@ void shear_edges(vec3 o, mat3 P, vec3 S, vec3 p0, vec3 p1, vec3 p2,
     uvw = vec3(c.x * b.y - c.y * b.x, a.x * c.y - a.y * c.x, b.x * a.y - b.y * a.x);
 }
 
-// Hit of ray (o, shear P S) with triangle (p0, p1, p2) for t in (t_min, t_max):
-// returns (t, b0, b1, b2), or t = -1.0 on a miss.
-vec4 intersect_tri(vec3 o, mat3 P, vec3 S, vec3 p0, vec3 p1, vec3 p2, float t_min, float t_max) {
+#ifdef INTERSECT_MOLLER_TRUMBORE
+// |a| x |b| with a plus per component: magnitudes summed in a cross product.
+vec3 abs_cross(vec3 a, vec3 b) {
+    vec3 x = abs(a);
+    vec3 y = abs(b);
+    return vec3(x.y * y.z + x.z * y.y, x.z * y.x + x.x * y.z, x.x * y.y + x.y * y.x);
+}
+
+// Moller-Trumbore: (t, b0, b1, b2) for t in (t_min, t_max), or t = -1.0 on a miss. Same
+// rules as the CPU twin: zero counts as inside, det == 0 and zero-area triangles miss.
+vec4 intersect_mt(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2, float t_min, float t_max) {
+    vec3 e1 = p1 - p0;
+    vec3 e2 = p2 - p0;
+    vec3 pv = cross(d, e2);
+    float det = dot(e1, pv);
+    if (det == 0.0) {
+        return vec4(-1.0);
+    }
+    vec3 n_raw = cross(e1, e2);
+    if (dot(n_raw, n_raw) == 0.0) {
+        return vec4(-1.0);
+    }
+    float inv = 1.0 / det;
+    vec3 sv = o - p0;
+    float u = dot(sv, pv) * inv;
+    if (u < 0.0 || u > 1.0) {
+        return vec4(-1.0);
+    }
+    vec3 qv = cross(sv, e1);
+    float v = dot(d, qv) * inv;
+    if (v < 0.0 || u + v > 1.0) {
+        return vec4(-1.0);
+    }
+    float t = dot(e2, qv) * inv;
+    if (!(t > t_min && t < t_max)) {
+        return vec4(-1.0);
+    }
+#ifdef T_BOUND_ON
+    float num_err = gamma_n(7.0) * dot(abs(e2), abs_cross(sv, e1));
+    float det_err = gamma_n(5.0) * dot(abs(e1), abs_cross(d, e2));
+    if (t <= (num_err + abs(t) * det_err) / abs(det)) {
+        return vec4(-1.0);
+    }
+#endif
+    return vec4(t, 1.0 - u - v, u, v);
+}
+#endif
+
+// Hit of ray (o, d; shear P S of d) with triangle (p0, p1, p2) for t in (t_min, t_max):
+// returns (t, b0, b1, b2), or t = -1.0 on a miss. Under INTERSECT_MOLLER_TRUMBORE, P and S
+// are not used.
+vec4 intersect_tri(vec3 o, vec3 d, mat3 P, vec3 S, vec3 p0, vec3 p1, vec3 p2, float t_min, float t_max) {
+#ifdef INTERSECT_MOLLER_TRUMBORE
+    return intersect_mt(o, d, p0, p1, p2, t_min, t_max);
+#else
     vec3 A;
     vec3 B;
     vec3 C;
@@ -85,6 +141,7 @@ vec4 intersect_tri(vec3 o, mat3 P, vec3 S, vec3 p0, vec3 p1, vec3 p2, float t_mi
         return vec4(-1.0);
     }
     float t = tt / det_abs;
+#ifdef T_BOUND_ON
     float max_zt = max(max(abs(az), abs(bz)), abs(cz));
     float max_xt = max(max(abs(ax), abs(bx)), abs(cx));
     float max_yt = max(max(abs(ay), abs(by)), abs(cy));
@@ -97,13 +154,31 @@ vec4 intersect_tri(vec3 o, mat3 P, vec3 S, vec3 p0, vec3 p1, vec3 p2, float t_mi
     if (t <= delta_t) {
         return vec4(-1.0);
     }
+#endif
     float inv = 1.0 / det;
     return vec4(t, u * inv, v * inv, w * inv);
+#endif
 }
 
 // Barycentric weights of a hit already found (no rejection): the shading passes
 // re-derive them from the recorded ray and triangle instead of storing them.
 vec3 tri_bary(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2) {
+#ifdef INTERSECT_MOLLER_TRUMBORE
+    // The same operations as intersect_mt, without its rejections.
+    vec3 e1 = p1 - p0;
+    vec3 e2 = p2 - p0;
+    vec3 pv = cross(d, e2);
+    float det = dot(e1, pv);
+    if (det == 0.0) {
+        return vec3(1.0 / 3.0);
+    }
+    float inv = 1.0 / det;
+    vec3 sv = o - p0;
+    float u = dot(sv, pv) * inv;
+    vec3 qv = cross(sv, e1);
+    float v = dot(d, qv) * inv;
+    return vec3(1.0 - u - v, u, v);
+#else
     mat3 P;
     vec3 S;
     shear_setup(d, P, S);
@@ -120,4 +195,5 @@ vec3 tri_bary(vec3 o, vec3 d, vec3 p0, vec3 p1, vec3 p2) {
         return vec3(1.0 / 3.0);
     }
     return uvw * (1.0 / det);
+#endif
 }

@@ -43,14 +43,19 @@ Surface surface(vec3 o, vec3 d, float tri) {
     return s;
 }
 
-// Origin of a ray leaving s in direction w (pbrt's offset, then one rounding step more).
+// Origin of a ray leaving s in direction w (pbrt's offset, then one rounding step more);
+// with OFFSET_EPSILON_FIXED, the fixed OFFSET_EPSILON along the normal instead.
 vec3 offset_origin(Surface s, vec3 w) {
+#ifdef OFFSET_EPSILON_FIXED
+    return s.p + s.ng * (dot(w, s.ng) < 0.0 ? -OFFSET_EPSILON : OFFSET_EPSILON);
+#else
     float dist = dot(abs(s.ng), s.p_err);
     vec3 off = s.ng * dist;
     if (dot(w, s.ng) < 0.0) off = -off;
     vec3 po = s.p + off;
     vec3 step = abs(po) * (2.0 * UNIT_ROUNDOFF) + vec3(1.0e-30);
     return po + sign(off) * step;
+#endif
 }
 
 vec4 mat_texel(float mat, float k) {

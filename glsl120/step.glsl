@@ -42,9 +42,11 @@ void intersect_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     vec3 p0 = fetch_tri(tri * TRI_TEXELS).xyz;
     vec3 p1 = fetch_tri(tri * TRI_TEXELS + 1.0).xyz;
     vec3 p2 = fetch_tri(tri * TRI_TEXELS + 2.0).xyz;
-    mat3 P;
-    vec3 S;
+    mat3 P = mat3(1.0);
+    vec3 S = vec3(1.0);
+#ifdef INTERSECT_WATERTIGHT
     shear_setup(s1.xyz, P, S);
+#endif
 #ifdef ANY_HIT
     float t_hi = s3.x;
 #else
@@ -52,7 +54,7 @@ void intersect_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     // than TIE_EPS relative, as in the CPU twin (cpu/traverse.rs, tie_limit).
     float t_hi = s3.y >= 0.0 ? s3.x - abs(s3.x) * TIE_EPS : s3.x;
 #endif
-    vec4 h = intersect_tri(s0.xyz, P, S, p0, p1, p2, 0.0, t_hi);
+    vec4 h = intersect_tri(s0.xyz, s1.xyz, P, S, p0, p1, p2, 0.0, t_hi);
     s2.w = k + 1.0;
     s3.w += 1.0;
 #ifdef ANY_HIT

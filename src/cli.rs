@@ -9,6 +9,7 @@ use crate::accel::{GridConfig, GridRes};
 use crate::image_io;
 use crate::render::{self, Backend, Precision, RenderOptions};
 use crate::scene::{self, Scene};
+use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques};
 use crate::{Error, Result};
 
 /// fragtrace: a Whitted ray tracer on GLSL 1.20 fragment programs, with an f64 CPU reference.
@@ -43,7 +44,8 @@ pub struct DumpArgs {
     pub scene: PathBuf,
     /// Output folder.
     pub dir: PathBuf,
-    /// Every combination of scene features, one sub-folder each (what CI validates).
+    /// Every combination of scene features, one sub-folder each, plus one sub-folder
+    /// `techniques-<setting>` per non-default robustness technique (what CI validates).
     #[arg(long)]
     pub all_variants: bool,
 }
@@ -121,6 +123,18 @@ pub struct RenderArgs {
     /// origins and every index stay in 32-bit textures).
     #[arg(long, default_value = "f32")]
     pub storage: crate::gpu::render::Storage,
+    /// Ray-triangle test: watertight (Woop et al. 2013, the default) or moller-trumbore
+    /// (1997; rays can slip through shared edges). For measuring the technique's cost.
+    #[arg(long, value_enum, default_value_t = IntersectMethod::Watertight)]
+    pub intersect: IntersectMethod,
+    /// pbrt's t error bound on hits (on, the default) or off (spawned rays may re-hit
+    /// their own surface). For measuring the technique's cost.
+    #[arg(long, value_enum, default_value_t = TBound::On)]
+    pub t_bound: TBound,
+    /// Origin offset of spawned rays: error-bound (scale-independent, the default) or
+    /// epsilon (a fixed 1e-4 along the normal). For measuring the technique's cost.
+    #[arg(long, value_enum, default_value_t = OffsetMethod::ErrorBound)]
+    pub offset: OffsetMethod,
     /// Write primary-ray AOVs next to the image: any of depth,normal,primid,steps
     /// (`<stem>.aov.exr`; `steps` also as a heat map `<stem>.steps.png`).
     #[arg(long)]
@@ -198,6 +212,11 @@ pub fn options(args: &RenderArgs, scene: &Scene) -> Result<RenderOptions> {
     opts.gpu.mask = args.mask;
     opts.gpu.storage = args.storage;
     opts.progress = !args.quiet;
+    opts.techniques = Techniques {
+        intersect: args.intersect,
+        t_bound: args.t_bound,
+        offset: args.offset,
+    };
     opts.validate()?;
     Ok(opts)
 }
@@ -236,13 +255,18 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
     if !args.quiet {
         let s = &out.stats;
         eprintln!(
-            "{}: {}x{} spp {} on {} [{}], {} triangles, grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
+            "{}: {}x{} spp {} on {} [{}{}], {} triangles, grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
             args.output.display(),
             s.width,
             s.height,
             s.spp,
             s.backend,
             s.precision,
+            if s.techniques == "default" {
+                String::new()
+            } else {
+                format!(", {}", s.techniques)
+            },
             s.triangles,
             s.grid[0],
             s.grid[1],

@@ -4,7 +4,8 @@
 //!
 //! Modules: [`scene`] (model, loaders, camera), [`accel`] (grid build, texel layout),
 //! [`cpu`] (reference renderer), [`gpu`] (headless GL context, shaders, passes),
-//! [`render`] (backend-independent front door), [`image_io`] (PNG/EXR), [`cli`].
+//! [`render`] (backend-independent front door), [`technique`] (switches for the robustness
+//! techniques), [`image_io`] (PNG/EXR), [`cli`].
 
 pub mod accel;
 pub mod aov;
@@ -17,5 +18,6 @@ pub mod image_io;
 pub mod progress;
 pub mod render;
 pub mod scene;
+pub mod technique;
 
 pub use error::{Error, Result};

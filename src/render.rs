@@ -84,6 +84,9 @@ pub struct RenderOptions {
     pub gpu: crate::gpu::render::GpuOptions,
     /// Show a progress display on stderr (only drawn when stderr is a terminal).
     pub progress: bool,
+    /// Robustness techniques, on every backend (the GL render uses these, not
+    /// `gpu.techniques`).
+    pub techniques: crate::technique::Techniques,
 }
 
 impl RenderOptions {
@@ -99,6 +102,7 @@ impl RenderOptions {
             backend: Backend::Cpu,
             gpu: crate::gpu::render::GpuOptions::default(),
             progress: false,
+            techniques: crate::technique::Techniques::default(),
         }
     }
 
@@ -180,6 +184,8 @@ pub struct RenderStats {
     pub grid: [u32; 3],
     /// Grid statistics.
     pub grid_stats: crate::accel::GridStats,
+    /// Robustness techniques that differ from the default (`default` when none).
+    pub techniques: String,
     /// Grid build time.
     pub grid_build_ms: f64,
     /// Render time (excluding grid build).
@@ -270,9 +276,9 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     let progress = crate::progress::Progress::bar(opts.progress, opts.height as u64, "rows");
     let t0 = Instant::now();
     let out = match opts.precision {
-        Precision::F64 => CpuRenderer::<f64>::new(scene, &grid, opts.max_depth)
+        Precision::F64 => CpuRenderer::<f64>::new(scene, &grid, opts.max_depth, opts.techniques)
             .render_with_progress(opts.width, opts.height, opts.spp, &progress),
-        Precision::F32 => CpuRenderer::<f32>::new(scene, &grid, opts.max_depth)
+        Precision::F32 => CpuRenderer::<f32>::new(scene, &grid, opts.max_depth, opts.techniques)
             .render_with_progress(opts.width, opts.height, opts.spp, &progress),
     };
     let render_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -293,6 +299,7 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
         grid: grid.res,
         grid_build_ms: grid.stats.build_ms,
         grid_stats: grid.stats.clone(),
+        techniques: opts.techniques.tag(),
         render_ms,
         rays: out.rays,
         cells_visited: Some(out.cells),
@@ -327,6 +334,7 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
         grid: grid.res,
         grid_build_ms: grid.stats.build_ms,
         grid_stats: grid.stats.clone(),
+        techniques: opts.techniques.tag(),
         render_ms,
         rays: out.rays,
         cells_visited: None,

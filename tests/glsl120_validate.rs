@@ -35,6 +35,28 @@ fn every_generated_shader_is_valid_glsl_120() {
     let grid = Grid::build(&scene, &GridConfig::default()).unwrap();
     let files = dump_shaders(&scene, &grid, &dir, true).unwrap();
     assert!(files.len() > 500, "only {} shaders", files.len());
+    // One folder per non-default robustness technique, each with its specialised code.
+    for (tag, marker) in [
+        (
+            "intersect-moller-trumbore",
+            "#define INTERSECT_MOLLER_TRUMBORE",
+        ),
+        ("t-bound-off", "#define T_BOUND_OFF"),
+        ("offset-epsilon", "#define OFFSET_EPSILON_FIXED"),
+    ] {
+        let sub = dir.join(format!("techniques-{tag}"));
+        let in_sub: Vec<_> = files.iter().filter(|f| f.starts_with(&sub)).collect();
+        assert!(
+            in_sub.len() > 10,
+            "{}: {} files",
+            sub.display(),
+            in_sub.len()
+        );
+        for f in in_sub {
+            let text = std::fs::read_to_string(f).unwrap();
+            assert!(text.contains(marker), "{} lacks {marker}", f.display());
+        }
+    }
     let mut bad = Vec::new();
     for f in &files {
         let (ok, log) = validate(f);

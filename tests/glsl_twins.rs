@@ -3,7 +3,7 @@
 
 use fragtrace::accel::layout::SceneTextures;
 use fragtrace::accel::{Grid, GridConfig};
-use fragtrace::cpu::intersect::{intersect, RayShear};
+use fragtrace::cpu::intersect::{intersect_with, RayShear};
 use fragtrace::cpu::real::V3;
 use fragtrace::gpu::gl_util::{
     compile_program, create_float_texture, FullscreenQuad, RenderTarget, QUAD_VERTEX_SHADER,
@@ -11,6 +11,7 @@ use fragtrace::gpu::gl_util::{
 use fragtrace::gpu::shader::{assemble_text, Features};
 use fragtrace::gpu::{with_test_context, GlContext};
 use fragtrace::scene::{Camera, Material, Scene};
+use fragtrace::technique::{IntersectMethod, TBound, Techniques};
 use glam::Vec3;
 use glow::HasContext;
 
@@ -27,17 +28,14 @@ fn dummy_layout() -> SceneTextures {
     SceneTextures::pack(&s, &g, 4096).unwrap()
 }
 
-/// Runs `body` (GLSL computing `vec4 result` from `vec4 in0..in{K-1}`) once per case.
-fn run_cases(ctx: &GlContext, body: &str, cases: &[Vec<[f32; 4]>]) -> Vec<[f32; 4]> {
-    run_cases_grid(ctx, body, cases, None)
-}
-
-/// As [`run_cases`], with the grid uniforms of `grid` set.
+/// Runs `body` (GLSL computing `vec4 result` from `vec4 in0..in{K-1}`) once per case,
+/// with the grid uniforms of `grid` set and the programs built for `techniques`.
 fn run_cases_grid(
     ctx: &GlContext,
     body: &str,
     cases: &[Vec<[f32; 4]>],
     grid: Option<&Grid>,
+    techniques: Techniques,
 ) -> Vec<[f32; 4]> {
     let gl = &ctx.gl;
     let n = cases.len() as u32;
@@ -63,6 +61,7 @@ fn run_cases_grid(
         &text,
         &[],
         Features::all(),
+        techniques,
         &dummy_layout(),
     )
     .unwrap();
@@ -138,35 +137,54 @@ fn intersect_glsl_equals_cpu_f32() {
             [p[2][0], p[2][1], p[2][2], 0.0],
         ]);
     }
-    let body = "    mat3 P; vec3 S; shear_setup(in1.xyz, P, S);\n    result = intersect_tri(in0.xyz, P, S, in2.xyz, in3.xyz, in4.xyz, in0.w, in1.w);";
-    let got = with_test_context(|ctx| run_cases(ctx, body, &cases));
-    let (mut hits, mut mismatches) = (0, Vec::new());
-    for (i, (c, g)) in cases.iter().zip(&got).enumerate() {
-        let v = |t: [f32; 4]| V3::<f32>::new(t[0], t[1], t[2]);
-        let tri = [v(c[2]), v(c[3]), v(c[4])];
-        let want = intersect(v(c[0]), &RayShear::new(v(c[1])), &tri, c[0][3], c[1][3]);
-        match want {
-            Some(h) => {
-                hits += 1;
-                if !(g[0] > 0.0 && (g[0] - h.t).abs() <= 1e-5 * h.t.abs().max(1.0)) {
-                    mismatches.push(format!("case {i}: cpu t {} gpu {:?}", h.t, g));
+    let body = "    mat3 P; vec3 S; shear_setup(in1.xyz, P, S);\n    result = intersect_tri(in0.xyz, in1.xyz, P, S, in2.xyz, in3.xyz, in4.xyz, in0.w, in1.w);";
+    // Every intersection technique: the default (watertight with the t bound) and the
+    // switchable alternatives (src/technique.rs).
+    let d = Techniques::default();
+    let settings = [
+        d,
+        d.with_t_bound(TBound::Off),
+        d.with_intersect(IntersectMethod::MollerTrumbore),
+        d.with_intersect(IntersectMethod::MollerTrumbore)
+            .with_t_bound(TBound::Off),
+    ];
+    for tech in settings {
+        let got = with_test_context(|ctx| run_cases_grid(ctx, body, &cases, None, tech));
+        let (mut hits, mut mismatches) = (0, Vec::new());
+        for (i, (c, g)) in cases.iter().zip(&got).enumerate() {
+            let v = |t: [f32; 4]| V3::<f32>::new(t[0], t[1], t[2]);
+            let tri = [v(c[2]), v(c[3]), v(c[4])];
+            let (o, dir) = (v(c[0]), v(c[1]));
+            let want = intersect_with(o, dir, &RayShear::new(dir), &tri, c[0][3], c[1][3], &tech);
+            match want {
+                Some(h) => {
+                    hits += 1;
+                    if !(g[0] > 0.0 && (g[0] - h.t).abs() <= 1e-5 * h.t.abs().max(1.0)) {
+                        mismatches.push(format!("case {i}: cpu t {} gpu {:?}", h.t, g));
+                    }
                 }
-            }
-            None => {
-                if g[0] > 0.0 {
-                    mismatches.push(format!("case {i}: cpu miss, gpu {:?}", g));
+                None => {
+                    if g[0] > 0.0 {
+                        mismatches.push(format!("case {i}: cpu miss, gpu {:?}", g));
+                    }
                 }
             }
         }
+        println!(
+            "{}: {hits} hits, {} mismatches",
+            tech.tag(),
+            mismatches.len()
+        );
+        assert!(hits > 500, "{}: {hits} hits", tech.tag());
+        assert!(
+            mismatches.len() <= 2,
+            "{}: {} of {} cases differ:\n{}",
+            tech.tag(),
+            mismatches.len(),
+            cases.len(),
+            mismatches[..mismatches.len().min(20)].join("\n")
+        );
     }
-    assert!(hits > 500, "{hits} hits");
-    assert!(
-        mismatches.len() <= 2,
-        "{} of {} cases differ:\n{}",
-        mismatches.len(),
-        cases.len(),
-        mismatches[..mismatches.len().min(20)].join("\n")
-    );
 }
 
 #[test]
@@ -211,7 +229,9 @@ fn dda_helpers_glsl_equal_cpu_including_signed_zero_directions() {
         cases.push(vec![[o[0], o[1], o[2], 0.0], [d[0], d[1], d[2], 1e30]]);
     }
     let body = "    vec2 span = clip_grid(in0.xyz, in1.xyz, 0.0, in1.w);\n    vec3 c = start_cell(in0.xyz, in1.xyz, span.x);\n    vec3 tn = boundaries(in0.xyz, in1.xyz, c);\n    result = span.x > span.y ? vec4(-1.0) : vec4(cell_linear(c), min(min(tn.x, tn.y), tn.z), span.x, span.y);";
-    let got = with_test_context(|ctx| run_cases_grid(ctx, body, &cases, Some(&grid)));
+    let got = with_test_context(|ctx| {
+        run_cases_grid(ctx, body, &cases, Some(&grid), Techniques::default())
+    });
     let mut bad = Vec::new();
     for (i, (c, g)) in cases.iter().zip(&got).enumerate() {
         assert!(g.iter().all(|v| !v.is_nan()), "case {i}: NaN {g:?}");

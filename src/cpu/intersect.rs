@@ -12,6 +12,7 @@
 //! triangles of zero area (zero normal) are therefore rejected outright.
 
 use super::real::{Real, V3};
+use crate::technique::{IntersectMethod, TBound, Techniques};
 
 /// Per-ray constants of the shear transform.
 #[derive(Clone, Copy, Debug)]
@@ -68,7 +69,8 @@ pub struct TriHit<T> {
 }
 
 /// Intersects the ray (o, shear of d) with triangle (p0, p1, p2); accepts t in
-/// (t_min, t_max) open at both ends. Either winding is hit.
+/// (t_min, t_max) open at both ends. Either winding is hit. The default techniques:
+/// watertight, with the t error bound.
 #[inline(always)]
 pub fn intersect<T: Real>(
     o: V3<T>,
@@ -76,6 +78,39 @@ pub fn intersect<T: Real>(
     p: &[V3<T>; 3],
     t_min: T,
     t_max: T,
+) -> Option<TriHit<T>> {
+    intersect_watertight(o, s, p, t_min, t_max, TBound::On)
+}
+
+/// Intersects the ray (o, d) with triangle `p` by the method `tech` selects (`s` must be
+/// the shear of `d`; Möller–Trumbore ignores it), with or without the t error bound.
+#[inline(always)]
+pub fn intersect_with<T: Real>(
+    o: V3<T>,
+    d: V3<T>,
+    s: &RayShear<T>,
+    p: &[V3<T>; 3],
+    t_min: T,
+    t_max: T,
+    tech: &Techniques,
+) -> Option<TriHit<T>> {
+    match tech.intersect {
+        IntersectMethod::Watertight => intersect_watertight(o, s, p, t_min, t_max, tech.t_bound),
+        IntersectMethod::MollerTrumbore => {
+            intersect_moller_trumbore(o, d, p, t_min, t_max, tech.t_bound)
+        }
+    }
+}
+
+/// The watertight test ([`intersect`]) with the t error bound switchable.
+#[inline(always)]
+pub fn intersect_watertight<T: Real>(
+    o: V3<T>,
+    s: &RayShear<T>,
+    p: &[V3<T>; 3],
+    t_min: T,
+    t_max: T,
+    t_bound: TBound,
 ) -> Option<TriHit<T>> {
     let a = p[0] - o;
     let b = p[1] - o;
@@ -117,6 +152,38 @@ pub fn intersect<T: Real>(
         return None;
     }
     let t = tt / det_abs;
+    if t_bound == TBound::On && t <= watertight_t_error(s, a, b, c, [u, v, w], det_abs) {
+        return None;
+    }
+    let inv = T::ONE / det;
+    Some(TriHit {
+        t,
+        b: [u * inv, v * inv, w * inv],
+    })
+}
+
+/// pbrt-v3's bound on the error of the watertight t (`a`, `b`, `c`: vertices relative to
+/// the origin; `e`: the edge functions).
+#[inline(always)]
+fn watertight_t_error<T: Real>(
+    s: &RayShear<T>,
+    a: V3<T>,
+    b: V3<T>,
+    c: V3<T>,
+    e: [T; 3],
+    det_abs: T,
+) -> T {
+    let (kx, ky, kz) = (s.kx, s.ky, s.kz);
+    let ax = a[kx] - s.sx * a[kz];
+    let ay = a[ky] - s.sy * a[kz];
+    let bx = b[kx] - s.sx * b[kz];
+    let by = b[ky] - s.sy * b[kz];
+    let cx = c[kx] - s.sx * c[kz];
+    let cy = c[ky] - s.sy * c[kz];
+    let az = s.sz * a[kz];
+    let bz = s.sz * b[kz];
+    let cz = s.sz * c[kz];
+    let [u, v, w] = e;
     // pbrt-v3's conservative bound on the error of t: a hit closer than its own error could
     // be behind the origin, which is how a ray spawned on a surface re-hits that surface.
     let max_zt = az.abs().max(bz.abs()).max(cz.abs());
@@ -129,15 +196,79 @@ pub fn intersect<T: Real>(
     let delta_e = two * (T::gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = u.abs().max(v.abs()).max(w.abs());
     let three = two + T::ONE;
-    let delta_t =
-        three * (T::gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / det_abs;
-    if t <= delta_t {
+    three * (T::gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) / det_abs
+}
+
+/// Component-wise |a| x |b| with a plus: bounds the magnitudes summed in each component of
+/// a cross product (for error bounds).
+#[inline(always)]
+fn abs_cross<T: Real>(a: V3<T>, b: V3<T>) -> V3<T> {
+    let (a, b) = (a.abs(), b.abs());
+    V3::new(
+        a.y * b.z + a.z * b.y,
+        a.z * b.x + a.x * b.z,
+        a.x * b.y + a.y * b.x,
+    )
+}
+
+/// Möller–Trumbore (1997) for the ray (o, d) and triangle `p`, t in (t_min, t_max), either
+/// winding. Barycentrics u (of p1) and v (of p2) are inside when u >= 0, v >= 0 and
+/// u + v <= 1 (zero counts as inside, as in the watertight test); `det == 0` (ray parallel
+/// to the plane) and zero-area triangles (zero normal, as in the watertight test) miss.
+/// There is no epsilon on det: the 1997 paper's `EPSILON` is scale-dependent. Each
+/// triangle is decided on its own, so rounding can put a point of a shared edge outside
+/// both neighbours. GLSL twin: `intersect_tri` under `INTERSECT_MOLLER_TRUMBORE`.
+///
+/// With `TBound::On`, a hit with t below a first-order forward error bound of t (same
+/// reasoning as pbrt's for the watertight test: γ-bounds of the numerator e2·(s×e1) and
+/// of det = e1·(d×e2), s = o − p0) is rejected.
+#[inline(always)]
+pub fn intersect_moller_trumbore<T: Real>(
+    o: V3<T>,
+    d: V3<T>,
+    p: &[V3<T>; 3],
+    t_min: T,
+    t_max: T,
+    t_bound: TBound,
+) -> Option<TriHit<T>> {
+    let z = T::ZERO;
+    let e1 = p[1] - p[0];
+    let e2 = p[2] - p[0];
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    if det == z {
+        return None;
+    }
+    let n = e1.cross(e2);
+    if n.dot(n) == z {
         return None;
     }
     let inv = T::ONE / det;
+    let sv = o - p[0];
+    let u = sv.dot(pv) * inv;
+    if u < z || u > T::ONE {
+        return None;
+    }
+    let qv = sv.cross(e1);
+    let v = d.dot(qv) * inv;
+    if v < z || u + v > T::ONE {
+        return None;
+    }
+    let t = e2.dot(qv) * inv;
+    if !(t > t_min && t < t_max) {
+        return None;
+    }
+    if t_bound == TBound::On {
+        let num_err = T::gamma(7) * e2.abs().dot(abs_cross(sv, e1));
+        let det_err = T::gamma(5) * e1.abs().dot(abs_cross(d, e2));
+        let delta_t = (num_err + t.abs() * det_err) / det.abs();
+        if t <= delta_t {
+            return None;
+        }
+    }
     Some(TriHit {
         t,
-        b: [u * inv, v * inv, w * inv],
+        b: [T::ONE - u - v, u, v],
     })
 }
 

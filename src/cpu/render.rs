@@ -6,13 +6,14 @@
 use rayon::prelude::*;
 
 use super::real::{Real, V3};
-use super::shade::{albedo, light_term, offset_origin, secondary, surface};
+use super::shade::{albedo, light_term, offset_origin_with, secondary, surface};
 use super::traverse::{Accel, Hit, Ray, Work};
 use crate::accel::Grid;
 use crate::image_io::Image;
 use crate::progress::Progress;
 use crate::render::{Aov, AovPixel, RayCounts};
 use crate::scene::{camera, Scene};
+use crate::technique::{OffsetMethod, Techniques};
 
 /// Per-row tallies, summed after the parallel loop so counting stays off shared state.
 #[derive(Default, Clone, Copy)]
@@ -31,6 +32,7 @@ pub struct CpuRenderer<'a, T> {
     max_depth: u32,
     background: V3<T>,
     ambient: V3<T>,
+    offset: OffsetMethod,
 }
 
 /// Output of a CPU render.
@@ -48,11 +50,13 @@ pub struct CpuOutput {
 }
 
 impl<'a, T: Real> CpuRenderer<'a, T> {
-    /// Prepares `scene` with its `grid`; `max_depth` bounds the recursion.
-    pub fn new(scene: &'a Scene, grid: &'a Grid, max_depth: u32) -> Self {
+    /// Prepares `scene` with its `grid`; `max_depth` bounds the recursion; `techniques`
+    /// selects the robustness techniques (`Techniques::default()` for the normal ones).
+    pub fn new(scene: &'a Scene, grid: &'a Grid, max_depth: u32, techniques: Techniques) -> Self {
         CpuRenderer {
             scene,
-            accel: Accel::new(scene, grid),
+            accel: Accel::with_techniques(scene, grid, techniques),
+            offset: techniques.offset,
             max_depth,
             background: V3::from_vec3(scene.background),
             ambient: V3::from_vec3(scene.ambient),
@@ -81,7 +85,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
             if to_l.dot(sp.nf) <= T::ZERO || sp.ns.dot(to_l) <= T::ZERO {
                 continue; // below the geometric or shading horizon
             }
-            let o = offset_origin(&sp, to_l);
+            let o = offset_origin_with(&sp, to_l, self.offset);
             let dl = lp - o;
             let dist = dl.length();
             let l = dl * (T::ONE / dist);
@@ -108,7 +112,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
                         tally.reflected += 1;
                     }
                     let r = Ray {
-                        o: offset_origin(&sp, dir),
+                        o: offset_origin_with(&sp, dir, self.offset),
                         d: dir,
                         t_min: T::ZERO,
                         t_max: T::BIG,

@@ -19,6 +19,7 @@
 use super::real::{Real, V3};
 use super::traverse::Hit;
 use crate::scene::{Material, Scene};
+use crate::technique::{OffsetMethod, OFFSET_EPSILON};
 
 /// Everything the shading model needs about a hit.
 #[derive(Clone, Copy, Debug)]
@@ -86,6 +87,17 @@ pub fn surface<T: Real>(
 /// Origin for a ray leaving `sp` in direction `w`: offset to the side of the surface that
 /// `w` points to, by the error bound projected on the normal, then one more step away.
 pub fn offset_origin<T: Real>(sp: &SurfacePoint<T>, w: V3<T>) -> V3<T> {
+    offset_origin_with(sp, w, OffsetMethod::ErrorBound)
+}
+
+/// [`offset_origin`] by `method`: `Epsilon` moves the hit point by the fixed
+/// [`OFFSET_EPSILON`] along the geometric normal, on the side `w` points to.
+pub fn offset_origin_with<T: Real>(sp: &SurfacePoint<T>, w: V3<T>, method: OffsetMethod) -> V3<T> {
+    if method == OffsetMethod::Epsilon {
+        let eps = T::from_f64(OFFSET_EPSILON);
+        let off = if w.dot(sp.ng) < T::ZERO { -eps } else { eps };
+        return sp.p + sp.ng * off;
+    }
     let dist = sp.ng.abs().dot(sp.p_err);
     let mut off = sp.ng * dist;
     if w.dot(sp.ng) < T::ZERO {

@@ -8,9 +8,10 @@
 //! hundreds of cells exceeds the conservative padding of the binning and lets hits on cell
 //! faces be rejected; recomputation keeps the error to a few ulps at every step.
 
-use super::intersect::{intersect, RayShear};
+use super::intersect::{intersect_with, RayShear};
 use super::real::{Real, V3};
 use crate::accel::{CellRange, Grid};
+use crate::technique::Techniques;
 
 /// Relative margin by which a later (higher-index) triangle must be closer than the current
 /// best hit to replace it. Coplanar duplicates and hits on shared edges give t values that
@@ -73,11 +74,22 @@ pub struct Accel<'a, T> {
     pub cells: &'a [CellRange],
     /// Flat triangle-index list.
     pub list: &'a [u32],
+    /// Intersection test and t bound used by every query.
+    pub techniques: Techniques,
 }
 
 impl<'a, T: Real> Accel<'a, T> {
-    /// Prepares a scene and its grid for traversal in precision `T`.
+    /// Prepares a scene and its grid for traversal in precision `T`, default techniques.
     pub fn new(scene: &crate::scene::Scene, grid: &'a Grid) -> Self {
+        Self::with_techniques(scene, grid, Techniques::default())
+    }
+
+    /// [`Accel::new`] with the intersection test and t bound of `techniques`.
+    pub fn with_techniques(
+        scene: &crate::scene::Scene,
+        grid: &'a Grid,
+        techniques: Techniques,
+    ) -> Self {
         let tris = (0..scene.triangles.len())
             .map(|i| scene.triangle_vertices(i).map(V3::from_vec3))
             .collect();
@@ -89,6 +101,7 @@ impl<'a, T: Real> Accel<'a, T> {
             res: grid.res.map(|r| r as i32),
             cells: &grid.cells,
             list: &grid.tri_indices,
+            techniques,
         }
     }
 
@@ -201,7 +214,15 @@ impl<'a, T: Real> Accel<'a, T> {
                 } else {
                     t_best
                 };
-                if let Some(h) = intersect(ray.o, &shear, &self.tris[tri as usize], ray.t_min, hi) {
+                if let Some(h) = intersect_with(
+                    ray.o,
+                    ray.d,
+                    &shear,
+                    &self.tris[tri as usize],
+                    ray.t_min,
+                    hi,
+                    &self.techniques,
+                ) {
                     t_best = h.t;
                     best = Some(Hit {
                         t: h.t,
@@ -230,12 +251,14 @@ impl<'a, T: Real> Accel<'a, T> {
         self.walk(ray, work, |range, _| {
             for &tri in &self.list[range.offset as usize..(range.offset + range.count) as usize] {
                 tests += 1;
-                if intersect(
+                if intersect_with(
                     ray.o,
+                    ray.d,
                     &shear,
                     &self.tris[tri as usize],
                     ray.t_min,
                     ray.t_max,
+                    &self.techniques,
                 )
                 .is_some()
                 {
@@ -261,7 +284,9 @@ impl<'a, T: Real> Accel<'a, T> {
             } else {
                 t_best
             };
-            if let Some(h) = intersect(ray.o, &shear, tri, ray.t_min, hi) {
+            if let Some(h) =
+                intersect_with(ray.o, ray.d, &shear, tri, ray.t_min, hi, &self.techniques)
+            {
                 t_best = h.t;
                 best = Some(Hit {
                     t: h.t,

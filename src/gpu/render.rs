@@ -49,6 +49,9 @@ pub struct GpuOptions {
     pub mask: Mask,
     /// Precision of the ray textures.
     pub storage: Storage,
+    /// Robustness techniques compiled into the programs. `render_gl` takes them from
+    /// `RenderOptions::techniques` instead; `trace_rays` uses these.
+    pub techniques: crate::technique::Techniques,
 }
 
 impl Default for GpuOptions {
@@ -60,6 +63,7 @@ impl Default for GpuOptions {
             kernel: Kernel::Looped,
             mask: Mask::None,
             storage: Storage::F32,
+            techniques: crate::technique::Techniques::default(),
         }
     }
 }
@@ -694,7 +698,7 @@ impl<'a> Frame<'a> {
         let t_c = Instant::now();
         let mut programs = HashMap::new();
         for pass in passes {
-            let a = assemble(pass, features, &layout)?;
+            let a = assemble(pass, features, opts.techniques, &layout)?;
             let p = compile_program(gl, pass.name(), QUAD_VERTEX_SHADER, &a.source, &|n| {
                 a.origin(n)
             })?;
@@ -844,7 +848,11 @@ pub fn render_gl(
         (render.width, render.height, render.spp, render.max_depth);
     let gl = &ctx.gl;
     let levels = max_depth as usize + 1;
-    let mut f = Frame::new(ctx, scene, grid, width, height, levels, true, render.gpu)?;
+    let gpu = GpuOptions {
+        techniques: render.techniques,
+        ..render.gpu
+    };
+    let mut f = Frame::new(ctx, scene, grid, width, height, levels, true, gpu)?;
     f.progress = Progress::spinner(render.progress);
     let secondary = max_depth > 0 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
     let t_trace = Instant::now();

@@ -6,6 +6,7 @@
 
 use crate::accel::layout::SceneTextures;
 use crate::scene::Scene;
+use crate::technique::Techniques;
 use crate::{Error, Result};
 
 /// The GLSL sources, embedded in the binary.
@@ -414,11 +415,21 @@ fn prelude() -> String {
         "#define TIE_EPS {:?}\n",
         crate::cpu::traverse::TIE_EPS as f32
     ));
+    s.push_str(&format!(
+        "#define OFFSET_EPSILON {:?}\n",
+        crate::technique::OFFSET_EPSILON as f32
+    ));
     s
 }
 
-/// Assembles the fragment program of `pass` for a scene with `features` and `layout`.
-pub fn assemble(pass: Pass, features: Features, layout: &SceneTextures) -> Result<Assembled> {
+/// Assembles the fragment program of `pass` for a scene with `features` and `layout`,
+/// specialised for `techniques`.
+pub fn assemble(
+    pass: Pass,
+    features: Features,
+    techniques: Techniques,
+    layout: &SceneTextures,
+) -> Result<Assembled> {
     let defines = pass.defines();
     let defines: Vec<&str> = defines.iter().map(String::as_str).collect();
     assemble_text(
@@ -427,6 +438,7 @@ pub fn assemble(pass: Pass, features: Features, layout: &SceneTextures) -> Resul
         source(pass.file())?,
         &defines,
         features,
+        techniques,
         layout,
     )
 }
@@ -439,6 +451,7 @@ pub fn assemble_text(
     text: &str,
     extra_defines: &[&str],
     features: Features,
+    techniques: Techniques,
     layout: &SceneTextures,
 ) -> Result<Assembled> {
     let mut a = Assembled {
@@ -450,6 +463,7 @@ pub fn assemble_text(
     for d in features
         .defines()
         .into_iter()
+        .chain(techniques.defines())
         .chain(extra_defines.iter().copied())
     {
         defs.push_str(&format!("#define {d}\n"));
@@ -533,8 +547,9 @@ pub fn all_passes() -> Vec<Pass> {
 }
 
 /// Writes the final sources of every pass for `scene` into `dir` (with `all_variants`,
-/// for every combination of scene features, one sub-folder each), plus the vertex shader.
-/// Returns the files written.
+/// for every combination of scene features, one sub-folder each, plus one sub-folder
+/// `techniques-<tag>` per non-default technique setting of [`Techniques::one_off`], with
+/// every scene feature on), plus the vertex shader. Returns the files written.
 pub fn dump_shaders(
     scene: &Scene,
     grid: &crate::accel::Grid,
@@ -542,10 +557,19 @@ pub fn dump_shaders(
     all_variants: bool,
 ) -> Result<Vec<std::path::PathBuf>> {
     let layout = SceneTextures::pack(scene, grid, crate::accel::layout::MAX_ROW)?;
-    let sets = if all_variants {
+    let d = Techniques::default();
+    let sets: Vec<(Features, Techniques, Option<String>)> = if all_variants {
         all_feature_sets()
+            .into_iter()
+            .map(|f| (f, d, Some(f.tag())))
+            .chain(
+                Techniques::one_off()
+                    .into_iter()
+                    .map(|t| (Features::all(), t, Some(format!("techniques-{}", t.tag())))),
+            )
+            .collect()
     } else {
-        vec![Features::of(scene)]
+        vec![(Features::of(scene), d, None)]
     };
     let io = |path: &std::path::Path, e: std::io::Error| Error::Io {
         path: path.to_path_buf(),
@@ -556,11 +580,10 @@ pub fn dump_shaders(
     let vert = dir.join("quad.vert");
     std::fs::write(&vert, super::gl_util::QUAD_VERTEX_SHADER).map_err(|e| io(&vert, e))?;
     written.push(vert);
-    for f in sets {
-        let sub = if all_variants {
-            dir.join(f.tag())
-        } else {
-            dir.to_path_buf()
+    for (f, t, tag) in sets {
+        let sub = match tag {
+            Some(tag) => dir.join(tag),
+            None => dir.to_path_buf(),
         };
         std::fs::create_dir_all(&sub).map_err(|e| io(&sub, e))?;
         for pass in all_passes() {
@@ -569,7 +592,8 @@ pub fn dump_shaders(
                 _ => format!("{}.frag", pass.name()),
             };
             let path = sub.join(name);
-            std::fs::write(&path, assemble(pass, f, &layout)?.source).map_err(|e| io(&path, e))?;
+            std::fs::write(&path, assemble(pass, f, t, &layout)?.source)
+                .map_err(|e| io(&path, e))?;
             written.push(path);
         }
     }
@@ -601,7 +625,7 @@ mod tests {
     fn every_pass_assembles_and_maps_lines_back() {
         let (s, l) = layout();
         for pass in Pass::ALL {
-            let a = assemble(pass, Features::of(&s), &l).unwrap();
+            let a = assemble(pass, Features::of(&s), Techniques::default(), &l).unwrap();
             assert!(a.source.starts_with("#version 120\n"));
             assert_eq!(a.source.lines().count(), a.lines.len());
             assert!(!a.source.contains("#include"), "{pass:?}");
@@ -609,7 +633,13 @@ mod tests {
             let (file, _) = a.origin(a.lines.len());
             assert_eq!(file, pass.file());
         }
-        let a = assemble(Pass::Intersect(Query::Any), Features::of(&s), &l).unwrap();
+        let a = assemble(
+            Pass::Intersect(Query::Any),
+            Features::of(&s),
+            Techniques::default(),
+            &l,
+        )
+        .unwrap();
         assert!(a.source.contains("#define ANY_HIT"));
         let n = a
             .source
@@ -632,12 +662,12 @@ mod tests {
         let (mut s, l) = layout();
         let f = Features::of(&s);
         assert!(!f.refraction && !f.checker && !f.smooth_normals);
-        let a = assemble(Pass::AccumLight, f, &l).unwrap();
+        let a = assemble(Pass::AccumLight, f, Techniques::default(), &l).unwrap();
         assert!(!a.source.contains("#define HAS_REFRACTION"));
         s.materials[0].fresnel = true;
         let f = Features::of(&s);
         assert!(f.refraction && f.fresnel);
-        assert!(assemble(Pass::Spawn, f, &l)
+        assert!(assemble(Pass::Spawn, f, Techniques::default(), &l)
             .unwrap()
             .source
             .contains("#define HAS_FRESNEL"));
