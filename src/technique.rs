@@ -56,17 +56,17 @@ pub struct Techniques {
 }
 
 impl Techniques {
-    /// The default techniques with the intersection test replaced.
+    /// These techniques with the intersection test replaced.
     pub fn with_intersect(self, intersect: IntersectMethod) -> Self {
         Techniques { intersect, ..self }
     }
 
-    /// The default techniques with the t bound switched.
+    /// These techniques with the t bound switched.
     pub fn with_t_bound(self, t_bound: TBound) -> Self {
         Techniques { t_bound, ..self }
     }
 
-    /// The default techniques with the offset replaced.
+    /// These techniques with the offset replaced.
     pub fn with_offset(self, offset: OffsetMethod) -> Self {
         Techniques { offset, ..self }
     }
