@@ -476,3 +476,33 @@ fn t_bound_and_offset_prevent_shadow_acne() {
     assert!(cpu[2][0] < cpu[0][0] && gl[2][0] < gl[0][0]);
     assert_eq!((cpu[2][1], gl[2][1]), (cpu[0][1], gl[0][1]));
 }
+
+/// The command-line flags reach the render options; omitted, they are the defaults.
+#[test]
+fn command_line_flags_select_techniques() {
+    use fragtrace::cli::{options, RenderArgs};
+    let scene = builtin_scene();
+    let o = options(&RenderArgs::parse_from_args(&[]), &scene).unwrap();
+    assert!(o.techniques.is_default());
+    let args = RenderArgs::parse_from_args(&[
+        "--intersect",
+        "moller-trumbore",
+        "--t-bound",
+        "off",
+        "--offset",
+        "epsilon",
+    ]);
+    let o = options(&args, &scene).unwrap();
+    assert_eq!(
+        o.techniques,
+        Techniques {
+            intersect: IntersectMethod::MollerTrumbore,
+            t_bound: TBound::Off,
+            offset: OffsetMethod::Epsilon,
+        }
+    );
+    assert_eq!(
+        o.techniques.tag(),
+        "intersect-moller-trumbore+t-bound-off+offset-epsilon"
+    );
+}

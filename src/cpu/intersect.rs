@@ -1,5 +1,7 @@
-//! Watertight ray-triangle intersection (Woop, Benthin, Wald 2013).
-//! GLSL twin: `glsl120/intersect.glsl` (same operation order, so f32 results agree).
+//! Watertight ray-triangle intersection (Woop, Benthin, Wald 2013), and Möller–Trumbore
+//! (1997) for measuring what watertightness buys (`--intersect moller-trumbore`, see
+//! `crate::technique`). GLSL twin: `glsl120/intersect.glsl` (same operation order, so f32
+//! results agree).
 //!
 //! Why watertight: the edge functions U, V, W are evaluated in a ray-aligned shear frame
 //! where a point on an edge shared by two triangles gives bit-identical values (with
