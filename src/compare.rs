@@ -89,7 +89,7 @@ pub fn compare(a: &Image, b: &Image, threshold: f64, clamp: bool) -> Result<Comp
     Ok(Comparison {
         rmse,
         psnr: if rmse > 0.0 {
-            Some(-20.0 * rmse.log10())
+            Some(-20.0 * rmse.log10() + 0.0)
         } else {
             None
         },
