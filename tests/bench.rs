@@ -216,3 +216,48 @@ fn bad_bench_input_exits_2_with_a_clear_message() {
     // Nothing was rendered or written for bad input.
     assert!(!d.join("out").join("results.csv").exists());
 }
+
+/// The progress bar is drawn on a terminal only (a pseudo-terminal from util-linux's
+/// `script`), never into a pipe and never with `-q`; off a terminal one line per
+/// configuration remains.
+#[test]
+fn bench_progress_on_a_terminal_only() {
+    let d = tmpdir("progress");
+    let exe = env!("CARGO_BIN_EXE_fragtrace");
+    let args = "bench --scenes whitted --configs cpu-f64,cpu-f32 --size 48x32 --runs 2 --out o";
+    let piped = Command::new(exe)
+        .current_dir(&d)
+        .args(args.split(' '))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&piped.stderr);
+    assert!(piped.status.success(), "{err}");
+    assert!(
+        !err.contains("renders"),
+        "progress drawn into a pipe: {err}"
+    );
+    assert!(
+        err.contains("whitted / cpu-f32: ") && err.contains("wrote "),
+        "{err}"
+    );
+    let on_tty = |extra: &str| {
+        let out = Command::new("script")
+            .current_dir(&d)
+            .args(["-qec", &format!("{exe} {args} {extra}"), "/dev/null"])
+            .output()
+            .expect("util-linux `script`");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let shown = on_tty("");
+    assert!(
+        shown.contains("/6 renders"),
+        "no progress bar on a terminal:\n{shown}"
+    );
+    let quiet = on_tty("-q");
+    assert!(quiet.trim().is_empty(), "output despite -q:\n{quiet}");
+}
