@@ -1146,12 +1146,26 @@ pub fn plot_speed_vs_error(path: &Path, rows: &[BenchRow]) -> Result<()> {
                     (t0, t1) = (0.1, 1.0);
                 }
                 let (t0, t1) = (t0 / 1.6, t1 * 1.6);
-                let ymax = ok
+                // Errors on a log axis too (they span decades); an error of exactly 0
+                // sits on the bottom line, labelled 0.
+                let positive = ok
                     .iter()
                     .map(|r| value(r))
-                    .filter(|v| v.is_finite())
-                    .fold(0.0, f64::max);
-                let ymax = if ymax > 0.0 { ymax * 1.15 } else { 1e-3 };
+                    .filter(|v| *v > 0.0 && v.is_finite());
+                let (lo, hi) =
+                    positive.fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+                let (floor, top) = if hi > 0.0 {
+                    (lo / 4.0, hi * 2.0)
+                } else {
+                    (1e-6, 1e-3)
+                };
+                let y_of = move |v: f64| if v > 0.0 { v.max(floor) } else { floor };
+                let mut y_ticks = vec![floor];
+                y_ticks.extend(
+                    log_ticks(floor, top)
+                        .into_iter()
+                        .filter(|v| *v > floor * 1.5),
+                );
                 let mut chart = ChartBuilder::on(area)
                     .caption(
                         format!("{scene}: {metric} against time"),
@@ -1160,24 +1174,21 @@ pub fn plot_speed_vs_error(path: &Path, rows: &[BenchRow]) -> Result<()> {
                     .margin(12)
                     .x_label_area_size(40)
                     .y_label_area_size(70)
-                    .build_cartesian_2d((t0..t1).log_scale(), 0.0..ymax)
+                    .build_cartesian_2d(
+                        (t0..t1).log_scale().with_key_points(log_ticks(t0, t1)),
+                        (floor..top).log_scale().with_key_points(y_ticks),
+                    )
                     .map_err(|e| draw_err(&e))?;
                 chart
                     .configure_mesh()
-                    .x_labels(8)
                     .x_desc("median wall time (s, log scale)")
-                    .y_desc(format!("{metric} vs CPU f64"))
-                    .x_label_formatter(&|v| {
-                        format!("{v:.3}")
-                            .trim_end_matches('0')
-                            .trim_end_matches('.')
-                            .to_string()
-                    })
+                    .y_desc(format!("{metric} vs CPU f64 (log scale)"))
+                    .x_label_formatter(&|v| fmt_tick(*v))
                     .y_label_formatter(&|v| {
-                        if *v == 0.0 {
+                        if *v <= floor * 1.000_001 {
                             "0".into()
                         } else {
-                            format!("{v:.1e}")
+                            format!("{v:.0e}")
                         }
                     })
                     .label_style(("sans-serif", 13).into_font())
@@ -1187,7 +1198,7 @@ pub fn plot_speed_vs_error(path: &Path, rows: &[BenchRow]) -> Result<()> {
                 let mut front: Vec<(f64, f64)> = ok
                     .iter()
                     .filter(|r| on_front(r))
-                    .map(|r| (r.time_s, value(r)))
+                    .map(|r| (r.time_s, y_of(value(r))))
                     .collect();
                 front.sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.total_cmp(&a.1)));
                 chart
@@ -1202,7 +1213,7 @@ pub fn plot_speed_vs_error(path: &Path, rows: &[BenchRow]) -> Result<()> {
                     let ci = configs.iter().position(|c| *c == r.config).unwrap_or(0);
                     let (cr, cg, cb) = PALETTE[ci % PALETTE.len()];
                     let colour = RGBColor(cr, cg, cb);
-                    let p = (r.time_s, value(r));
+                    let p = (r.time_s, y_of(value(r)));
                     chart
                         .draw_series(std::iter::once(Circle::new(p, 5, colour.filled())))
                         .map_err(|e| draw_err(&e))?;
@@ -1245,6 +1256,41 @@ pub fn plot_speed_vs_error(path: &Path, rows: &[BenchRow]) -> Result<()> {
             message: e.to_string(),
         })
     })
+}
+
+/// Tick values of a log axis over `[lo, hi]`: 1-2-5 in each decade (1-1.5-2-3-5-7 when
+/// that gives fewer than four).
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let ticks = |mantissas: &[f64]| {
+        let (d0, d1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+        let mut v = Vec::new();
+        for d in d0..=d1 {
+            for m in mantissas {
+                let t = m * 10f64.powi(d);
+                if t >= lo && t <= hi {
+                    v.push(t);
+                }
+            }
+        }
+        v
+    };
+    let coarse = ticks(&[1.0, 2.0, 5.0]);
+    if coarse.len() >= 4 {
+        coarse
+    } else {
+        ticks(&[1.0, 1.5, 2.0, 3.0, 5.0, 7.0])
+    }
+}
+
+/// A tick label without float noise: 0.05, 1.5, 200.
+fn fmt_tick(v: f64) -> String {
+    if v >= 10.0 {
+        format!("{v:.0}")
+    } else {
+        let decimals = (2.0 - v.log10().floor()).max(1.0) as usize;
+        let s = format!("{v:.decimals$}");
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    }
 }
 
 #[cfg(test)]
@@ -1375,5 +1421,15 @@ mod tests {
         assert_eq!(csv_field("a,\"b\""), "\"a,\"\"b\"\"\"");
         assert_eq!(thousands(1_993_148), "1,993,148");
         assert_eq!(thousands(12), "12");
+        assert_eq!(
+            log_ticks(0.01, 1.0),
+            vec![0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0]
+        );
+        assert_eq!(log_ticks(1.0, 2.5), vec![1.0, 1.5, 2.0]);
+        let labels: Vec<String> = [0.05, 0.15, 1.5, 2.0, 300.0]
+            .iter()
+            .map(|v| fmt_tick(*v))
+            .collect();
+        assert_eq!(labels, ["0.05", "0.15", "1.5", "2", "300"]);
     }
 }
