@@ -25,17 +25,30 @@ fn read_csv(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
     assert_eq!(header.join(","), fragtrace::bench::CSV_HEADER);
     lines
         .map(|l| {
-            // The tiny bench's fields hold no commas or quotes (errors would be quoted).
-            assert!(!l.contains('"'), "unexpected quoted field: {l}");
-            let f: Vec<&str> = l.split(',').collect();
+            let f = split_csv_line(l);
             assert_eq!(f.len(), header.len(), "{l}");
-            header
-                .iter()
-                .cloned()
-                .zip(f.into_iter().map(String::from))
-                .collect()
+            header.iter().cloned().zip(f).collect()
         })
         .collect()
+}
+
+/// One CSV line's fields (RFC 4180 quoting; no line breaks inside fields here).
+fn split_csv_line(line: &str) -> Vec<String> {
+    let (mut fields, mut cur, mut quoted) = (Vec::new(), String::new(), false);
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                chars.next();
+                cur.push('"');
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => fields.push(std::mem::take(&mut cur)),
+            _ => cur.push(c),
+        }
+    }
+    fields.push(cur);
+    fields
 }
 
 fn num(row: &std::collections::HashMap<String, String>, key: &str) -> f64 {
@@ -260,4 +273,46 @@ fn bench_progress_on_a_terminal_only() {
     );
     let quiet = on_tty("-q");
     assert!(quiet.trim().is_empty(), "output despite -q:\n{quiet}");
+}
+
+/// A configuration that parses but fails to render on a scene (here: a grid over the cell
+/// limit) is recorded with its error; the bench goes on and succeeds.
+#[test]
+fn a_failing_configuration_is_recorded_not_fatal() {
+    let d = tmpdir("failing");
+    let file = d.join("c.toml");
+    std::fs::write(
+        &file,
+        "[configs]\nref = \"--backend cpu\"\nhuge = \"--backend cpu --grid 4000x4000x4000\"\n",
+    )
+    .unwrap();
+    let out = bin()
+        .args([
+            "bench", "-q", "--size", "16x12", "--runs", "1", "--scenes", "whitted",
+        ])
+        .arg("--configs")
+        .arg(&file)
+        .arg("--out")
+        .arg(d.join("out"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = read_csv(&d.join("out").join("results.csv"));
+    let names: Vec<&str> = rows.iter().map(|r| r["config"].as_str()).collect();
+    assert_eq!(names, ["ref", "huge"]);
+    assert_eq!(rows[0]["error"], "");
+    assert!(rows[1]["error"].contains("limit exceeded"), "{:?}", rows[1]);
+    assert_eq!(
+        (rows[1]["time_s"].as_str(), rows[1]["pareto_rmse"].as_str()),
+        ("", "false")
+    );
+    let md = std::fs::read_to_string(d.join("out").join("report.md")).unwrap();
+    assert!(
+        md.contains("huge (`--backend cpu --grid 4000x4000x4000`) failed"),
+        "{md}"
+    );
 }
