@@ -5,7 +5,7 @@
 //! Modules: [`scene`] (model, loaders, camera), [`accel`] (grid build, texel layout),
 //! [`cpu`] (reference renderer), [`gpu`] (headless GL context, shaders, passes),
 //! [`render`] (backend-independent front door), [`image_io`] (PNG/EXR), [`compare`] (error
-//! figures), [`bench`] (speed against error), [`cli`].
+//! figures), [`bench`](mod@bench) (speed against error), [`cli`].
 
 pub mod accel;
 pub mod aov;
