@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # CI entry point: installs what a clean Debian machine lacks for headless EGL on Mesa
-# (llvmpipe) and for validating the shaders as GLSL 1.20 (glslang-tools), then runs the README's test command plus the format and lint gates.
+# (llvmpipe), for validating the shaders as GLSL 1.20 (glslang-tools) and for building the
+# FLIP library's C++ (g++, for the nv-flip crate), then runs the README's test command plus
+# the format and lint gates.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need=()
-for pkg in libegl1 libegl-mesa0 libgl1-mesa-dri glslang-tools; do
+for pkg in libegl1 libegl-mesa0 libgl1-mesa-dri glslang-tools g++; do
     dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then

@@ -29,8 +29,12 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene (the built-in Whitted homage when no file is given).
     Render(RenderArgs),
-    /// Compare two images (PNG or EXR): RMSE, PSNR, max error, share above a threshold.
+    /// Compare two images (PNG or EXR): RMSE, PSNR, mean FLIP, max error, share above a
+    /// threshold.
     Compare(CompareArgs),
+    /// Time every configuration on every scene and measure its error against the CPU f64
+    /// reference: results.csv, report.md and speed_vs_error.png in --out.
+    Bench(BenchArgs),
     /// Print the EGL/GL context: versions, limits, required features, verdict.
     Info,
     /// Write the final GLSL source of every pass for a scene (`builtin` for the built-in).
@@ -69,6 +73,38 @@ pub struct CompareArgs {
     /// Exit with code 1 when RMSE exceeds this bound.
     #[arg(long)]
     pub max_rmse: Option<f64>,
+    /// Exit with code 1 when the mean FLIP error exceeds this bound.
+    #[arg(long)]
+    pub max_flip: Option<f64>,
+}
+
+/// Arguments of `bench`.
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Scenes, comma-separated: names of files in scenes/ (`whitted` is the built-in) or
+    /// paths to scene files. Default: every shipped scene.
+    #[arg(long)]
+    pub scenes: Option<String>,
+    /// Configurations: a preset (default, quick, all), comma-separated names from the
+    /// table (docs/performance.md), or a TOML file with `[configs]` lines
+    /// `name = "render arguments"`.
+    #[arg(long, default_value = "default")]
+    pub configs: String,
+    /// Timed runs per scene and configuration, after one warm-up (the median is reported).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub runs: u32,
+    /// Image size of every render, WxH.
+    #[arg(long, default_value = "512x512")]
+    pub size: crate::bench::Size,
+    /// Skip the remaining runs of a configuration once one run takes longer than this.
+    #[arg(long, default_value_t = 120.0)]
+    pub max_seconds: f64,
+    /// Output folder: results.csv, report.md, speed_vs_error.png, cached references.
+    #[arg(long, default_value = "bench-out")]
+    pub out: PathBuf,
+    /// Print nothing but errors (no progress display, no per-configuration lines).
+    #[arg(short, long)]
+    pub quiet: bool,
 }
 
 /// Arguments of `render`.
@@ -156,17 +192,36 @@ impl Default for RenderArgs {
     }
 }
 
+/// `render`'s arguments as a command of their own, for parsing lists of them.
+#[derive(Parser)]
+#[command(name = "render")]
+struct RenderArgsParser {
+    #[command(flatten)]
+    inner: RenderArgs,
+}
+
 impl RenderArgs {
-    /// Parses `render` arguments from a list (for tests and the default command).
+    /// Parses `render` arguments from a list (for tests and the default command); exits the
+    /// process with clap's message on bad arguments.
     pub fn parse_from_args(args: &[&str]) -> Self {
-        #[derive(Parser)]
-        struct Wrapper {
-            #[command(flatten)]
-            inner: RenderArgs,
-        }
-        let mut all = vec!["render"];
-        all.extend_from_slice(args);
-        Wrapper::parse_from(all).inner
+        RenderArgsParser::parse_from(std::iter::once("render").chain(args.iter().copied())).inner
+    }
+
+    /// Parses `render` arguments from a list (a bench configuration's, for one), returning
+    /// [`Error::Usage`] with clap's one-line message instead of exiting.
+    pub fn try_parse_from_args<S: AsRef<str>>(args: &[S]) -> Result<Self> {
+        let all = std::iter::once("render").chain(args.iter().map(|a| a.as_ref()));
+        RenderArgsParser::try_parse_from(all)
+            .map(|p| p.inner)
+            .map_err(|e| {
+                let text = e.to_string();
+                let line = text
+                    .lines()
+                    .map(str::trim)
+                    .find(|l| !l.is_empty())
+                    .unwrap_or("invalid render arguments");
+                Error::Usage(line.strip_prefix("error: ").unwrap_or(line).to_string())
+            })
     }
 }
 
@@ -346,7 +401,22 @@ pub fn run_compare(args: &CompareArgs) -> Result<bool> {
     if let Some(path) = &args.diff {
         image_io::write_image(path, &crate::compare::diff_image(&a, &b, args.gain))?;
     }
-    Ok(args.max_rmse.is_none_or(|m| c.rmse <= m))
+    Ok(args.max_rmse.is_none_or(|m| c.rmse <= m) && args.max_flip.is_none_or(|m| c.flip_mean <= m))
+}
+
+/// The `bench` command: resolves scenes and configurations (bad ones are usage errors,
+/// before anything renders), then runs [`crate::bench::run_bench`].
+pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
+    let opts = crate::bench::BenchOptions {
+        scenes: crate::bench::resolve_scenes(args.scenes.as_deref())?,
+        configs: crate::bench::resolve_configs(&args.configs)?,
+        runs: args.runs,
+        size: args.size,
+        max_seconds: args.max_seconds,
+        out: args.out.clone(),
+        quiet: args.quiet,
+    };
+    crate::bench::run_bench(&opts)
 }
 
 /// The `info` command: what the GL driver offers and whether fragtrace can run on it.
@@ -362,6 +432,7 @@ pub fn run(cli: Cli) -> Result<bool> {
         None => run_render(&cli.render).map(|_| true),
         Some(Command::Render(args)) => run_render(&args).map(|_| true),
         Some(Command::Compare(args)) => run_compare(&args),
+        Some(Command::Bench(args)) => run_bench(&args).map(|_| true),
         Some(Command::Info) => run_info(),
         Some(Command::DumpShaders(args)) => {
             let scene = if args.scene.as_os_str() == "builtin" {

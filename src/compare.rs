@@ -1,5 +1,10 @@
 //! Image comparison: the error figures every speed option is judged by (RMSE, PSNR, max
-//! absolute error, share of pixels above a threshold) and a difference image.
+//! absolute error, share of pixels above a threshold, mean FLIP) and a difference image.
+//!
+//! FLIP (NVIDIA's perceptual difference, Andersson et al. 2020) comes from the `nv-flip`
+//! crate, which wraps the reference C++ implementation. It judges what a viewer sees: both
+//! images are clamped to [0, 1], encoded as 8-bit sRGB (as a PNG stores them) and compared
+//! at [`FLIP_PIXELS_PER_DEGREE`].
 
 use serde::Serialize;
 
@@ -21,7 +26,15 @@ pub struct Comparison {
     pub threshold: f64,
     /// Number of pixels compared.
     pub pixels: usize,
+    /// Mean of the FLIP error map (0 = identical, 1 = as different as can be), on the
+    /// clamped 8-bit sRGB images; see [`flip_mean`].
+    pub flip_mean: f64,
 }
+
+/// Observer distance in pixels per degree for FLIP: FLIP's default observer, 0.7 m from a
+/// 0.7 m wide monitor 3840 pixels across (`nv_flip::pixels_per_degree(0.7, 3840.0, 0.7)`
+/// = 67.0206; `nv_flip::DEFAULT_PIXELS_PER_DEGREE` rounds it to 67.0).
+pub const FLIP_PIXELS_PER_DEGREE: f32 = 67.020_64;
 
 impl std::fmt::Display for Comparison {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -31,9 +44,10 @@ impl std::fmt::Display for Comparison {
         };
         write!(
             f,
-            "RMSE {:.6}  PSNR {}  max abs {:.6}  pixels > {}: {:.4}%  ({} pixels)",
+            "RMSE {:.6}  PSNR {}  FLIP {:.6}  max abs {:.6}  pixels > {}: {:.4}%  ({} pixels)",
             self.rmse,
             psnr,
+            self.flip_mean,
             self.max_abs,
             self.threshold,
             self.share_above * 100.0,
@@ -75,7 +89,7 @@ pub fn compare(a: &Image, b: &Image, threshold: f64, clamp: bool) -> Result<Comp
     Ok(Comparison {
         rmse,
         psnr: if rmse > 0.0 {
-            Some(-20.0 * rmse.log10())
+            Some(-20.0 * rmse.log10() + 0.0)
         } else {
             None
         },
@@ -83,7 +97,35 @@ pub fn compare(a: &Image, b: &Image, threshold: f64, clamp: bool) -> Result<Comp
         share_above: above as f64 / pixels.max(1) as f64,
         threshold,
         pixels,
+        flip_mean: flip_mean(a, b)?,
     })
+}
+
+/// Mean FLIP error of `test` against `reference` (same size): both are clamped to [0, 1],
+/// converted to 8-bit sRGB and compared at [`FLIP_PIXELS_PER_DEGREE`]. 0 for identical
+/// images; about 0.97 for black against white.
+pub fn flip_mean(test: &Image, reference: &Image) -> Result<f64> {
+    if (test.width, test.height) != (reference.width, reference.height) {
+        return Err(Error::Usage(format!(
+            "images differ in size: {}x{} vs {}x{}",
+            test.width, test.height, reference.width, reference.height
+        )));
+    }
+    if test.width == 0 || test.height == 0 {
+        return Ok(0.0);
+    }
+    let to_flip = |img: &Image| {
+        nv_flip::FlipImageRgb8::with_data(img.width, img.height, &crate::image_io::to_srgb8(img))
+    };
+    let error_map = nv_flip::flip(to_flip(reference), to_flip(test), FLIP_PIXELS_PER_DEGREE);
+    // Averaged here in f64 rather than through the library's histogram pool.
+    let map = error_map.to_vec();
+    let mean = map.iter().map(|&v| v as f64).sum::<f64>() / map.len() as f64;
+    if mean.is_finite() {
+        Ok(mean)
+    } else {
+        Err(Error::Internal(format!("FLIP returned {mean}")))
+    }
 }
 
 /// Absolute difference image, scaled by `gain` so small errors are visible.
@@ -101,6 +143,10 @@ pub fn diff_image(a: &Image, b: &Image, gain: f32) -> Image {
 mod tests {
     use super::*;
 
+    /// Mean FLIP of black against white, as nv-flip 0.1.2 computes it at 67.02 pixels per
+    /// degree.
+    const BLACK_WHITE: f64 = 0.967_388;
+
     #[test]
     fn known_errors() {
         let a = Image::from_rgb(2, 1, vec![0.5, 0.5, 0.5, 1.0, 1.0, 1.0]);
@@ -114,10 +160,43 @@ mod tests {
         assert_eq!(c.share_above, 0.5);
         assert!((c.psnr.unwrap() - (-20.0 * c.rmse.log10())).abs() < 1e-9);
         assert!(compare(&a, &Image::from_rgb(1, 1, vec![0.0; 3]), 0.1, false).is_err());
+        assert_eq!(same.flip_mean, 0.0);
         // Clamping hides out-of-range differences, as a PNG would.
         let hi = Image::from_rgb(1, 1, vec![2.0, 2.0, 2.0]);
         let one = Image::from_rgb(1, 1, vec![1.0, 1.0, 1.0]);
         assert_eq!(compare(&hi, &one, 0.1, true).unwrap().rmse, 0.0);
         assert_eq!(compare(&hi, &one, 0.1, false).unwrap().rmse, 1.0);
+    }
+
+    #[test]
+    fn flip_known_answers() {
+        assert!(
+            (FLIP_PIXELS_PER_DEGREE - nv_flip::pixels_per_degree(0.7, 3840.0, 0.7)).abs() < 1e-3
+        );
+        let (w, h) = (32u32, 24u32);
+        let n = (w * h * 3) as usize;
+        let black = Image::from_rgb(w, h, vec![0.0; n]);
+        let white = Image::from_rgb(w, h, vec![1.0; n]);
+        let grey = Image::from_rgb(w, h, vec![0.18; n]);
+        assert_eq!(flip_mean(&black, &black).unwrap(), 0.0);
+        assert_eq!(flip_mean(&grey, &grey).unwrap(), 0.0);
+        let bw = flip_mean(&black, &white).unwrap();
+        println!("black vs white {bw}");
+        assert!((bw - BLACK_WHITE).abs() < 1e-4, "{bw}");
+        // Symmetric here, and between the extremes for a smaller difference.
+        assert!((flip_mean(&white, &black).unwrap() - bw).abs() < 1e-4);
+        let gw = flip_mean(&grey, &white).unwrap();
+        println!("grey vs white {gw}");
+        assert!((gw - 0.894_242).abs() < 1e-4 && gw < bw, "{gw}");
+        // Values above 1 are clamped first: 2.0 looks like 1.0.
+        let over = Image::from_rgb(w, h, vec![2.0; n]);
+        assert_eq!(flip_mean(&over, &white).unwrap(), 0.0);
+        // One white pixel in 768 black ones: its error spreads over its neighbours
+        // (FLIP filters spatially), so the mean is above 1/768; compare() carries it.
+        let mut dot = black.clone();
+        dot.data[3 * (12 * w as usize + 16)..][..3].copy_from_slice(&[1.0, 1.0, 1.0]);
+        let c = compare(&dot, &black, 0.01, false).unwrap();
+        assert!((c.flip_mean - 0.018_634).abs() < 1e-4, "{}", c.flip_mean);
+        assert!(flip_mean(&black, &Image::from_rgb(1, 1, vec![0.0; 3])).is_err());
     }
 }

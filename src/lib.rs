@@ -5,10 +5,12 @@
 //! Modules: [`scene`] (model, loaders, camera), [`accel`] (grid build, texel layout),
 //! [`cpu`] (reference renderer), [`gpu`] (headless GL context, shaders, passes),
 //! [`render`] (backend-independent front door), [`technique`] (switches for the robustness
-//! techniques), [`image_io`] (PNG/EXR), [`cli`].
+//! techniques), [`image_io`] (PNG/EXR), [`compare`] (error figures), [`bench`](mod@bench)
+//! (speed against error), [`cli`].
 
 pub mod accel;
 pub mod aov;
+pub mod bench;
 pub mod cli;
 pub mod compare;
 pub mod cpu;

@@ -74,6 +74,25 @@ impl Progress {
         }
     }
 
+    /// A bar over `total` units of work with a message after it (what runs now). Hidden
+    /// unless `enabled` and stderr is a terminal.
+    pub fn bar_with_message(enabled: bool, total: u64, unit: &str) -> Self {
+        let Some(bar) = Self::make(enabled, Some(total)) else {
+            return Self::hidden();
+        };
+        bar.set_style(
+            ProgressStyle::with_template(&format!(
+                "[{{elapsed_precise}}] {{bar:30}} {{pos}}/{{len}} {unit} (eta {{eta}}) {{msg}}"
+            ))
+            .expect("static template"),
+        );
+        bar.enable_steady_tick(Duration::from_millis(500));
+        Progress {
+            bar: Some(bar),
+            ..Self::hidden()
+        }
+    }
+
     fn make(enabled: bool, total: Option<u64>) -> Option<ProgressBar> {
         if !enabled || !std::io::stderr().is_terminal() {
             return None;
@@ -93,6 +112,21 @@ impl Progress {
     pub fn inc(&self, n: u64) {
         if let Some(b) = &self.bar {
             b.inc(n);
+        }
+    }
+
+    /// Sets the message shown after the bar.
+    pub fn message(&self, s: impl Into<String>) {
+        if let Some(b) = &self.bar {
+            b.set_message(s.into());
+        }
+    }
+
+    /// Prints a line on stderr above the display (plainly when hidden).
+    pub fn println(&self, line: impl AsRef<str>) {
+        match &self.bar {
+            Some(b) => b.println(line.as_ref()),
+            None => eprintln!("{}", line.as_ref()),
         }
     }
 
@@ -148,6 +182,7 @@ mod tests {
         for p in [
             Progress::spinner(false),
             Progress::bar(false, 10, "rows"),
+            Progress::bar_with_message(false, 10, "renders"),
             Progress::hidden(),
         ] {
             assert!(!p.is_shown());
@@ -155,6 +190,7 @@ mod tests {
             p.passes(5);
             p.active(7);
             p.stage("x");
+            p.message("y");
             p.finish();
             // Hidden displays do not even keep the figures.
             assert_eq!(p.passes.load(Ordering::Relaxed), 0);

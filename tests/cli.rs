@@ -319,3 +319,43 @@ fn progress_shows_on_a_terminal_only() {
         "progress drawn despite -q:\n{quiet}"
     );
 }
+
+/// `compare` prints the mean FLIP and `--max-flip` bounds it (exit 1 above), on PNG and EXR.
+#[test]
+fn compare_max_flip_bounds_png_and_exr() {
+    let d = tmpdir("flip");
+    let n = 16 * 12 * 3;
+    let black = fragtrace::image_io::Image::from_rgb(16, 12, vec![0.0; n]);
+    let white = fragtrace::image_io::Image::from_rgb(16, 12, vec![1.0; n]);
+    for ext in ["png", "exr"] {
+        let (b, w) = (d.join(format!("b.{ext}")), d.join(format!("w.{ext}")));
+        fragtrace::image_io::write_image(&b, &black).unwrap();
+        fragtrace::image_io::write_image(&w, &white).unwrap();
+        let run = |x: &std::path::Path, y: &std::path::Path, bound: &str| {
+            bin()
+                .arg("compare")
+                .arg(x)
+                .arg(y)
+                .args(["--max-flip", bound])
+                .output()
+                .unwrap()
+        };
+        let out = run(&b, &w, "0.5");
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(1), "{ext}: {text}");
+        assert!(text.contains("FLIP 0.967"), "{ext}: {text}");
+        assert_eq!(run(&b, &w, "0.99").status.code(), Some(0), "{ext}");
+        let same = run(&w, &w, "0");
+        assert_eq!(same.status.code(), Some(0), "{ext}");
+        assert!(String::from_utf8_lossy(&same.stdout).contains("FLIP 0.000000"));
+        // Both bounds apply: a loose FLIP bound does not hide a tight RMSE bound.
+        let both = bin()
+            .arg("compare")
+            .arg(&b)
+            .arg(&w)
+            .args(["--max-flip", "1", "--max-rmse", "0.5"])
+            .status()
+            .unwrap();
+        assert_eq!(both.code(), Some(1), "{ext}");
+    }
+}

@@ -1,0 +1,318 @@
+//! `fragtrace bench` as a user runs it: the three output files, one sane CSV row per
+//! configuration, the f64 CPU row exact, the reference cached, bad input refused (exit 2).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_fragtrace"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    c
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fragtrace-bench-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The CSV as header-keyed rows.
+fn read_csv(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    assert_eq!(header.join(","), fragtrace::bench::CSV_HEADER);
+    lines
+        .map(|l| {
+            let f = split_csv_line(l);
+            assert_eq!(f.len(), header.len(), "{l}");
+            header.iter().cloned().zip(f).collect()
+        })
+        .collect()
+}
+
+/// One CSV line's fields (RFC 4180 quoting; no line breaks inside fields here).
+fn split_csv_line(line: &str) -> Vec<String> {
+    let (mut fields, mut cur, mut quoted) = (Vec::new(), String::new(), false);
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                chars.next();
+                cur.push('"');
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => fields.push(std::mem::take(&mut cur)),
+            _ => cur.push(c),
+        }
+    }
+    fields.push(cur);
+    fields
+}
+
+fn num(row: &std::collections::HashMap<String, String>, key: &str) -> f64 {
+    row[key]
+        .parse()
+        .unwrap_or_else(|_| panic!("{key} = `{}` in {row:?}", row[key]))
+}
+
+#[test]
+fn tiny_bench_writes_csv_report_and_plot() {
+    let d = tmpdir("tiny");
+    let out = d.join("out");
+    let run = |configs: &str| {
+        bin()
+            .args([
+                "bench", "--size", "32x24", "--runs", "1", "--scenes", "whitted",
+            ])
+            .args(["--configs", configs, "-q", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap()
+    };
+    let res = run("quick");
+    assert!(
+        res.status.success(),
+        "{}",
+        String::from_utf8_lossy(&res.stderr)
+    );
+    assert!(
+        res.stderr.is_empty(),
+        "-q printed: {}",
+        String::from_utf8_lossy(&res.stderr)
+    );
+    for f in ["results.csv", "report.md", "speed_vs_error.png"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+
+    let quick: Vec<String> = fragtrace::bench::resolve_configs("quick")
+        .unwrap()
+        .into_iter()
+        .map(|c| c.name)
+        .collect();
+    let rows = read_csv(&out.join("results.csv"));
+    assert_eq!(rows.len(), quick.len());
+    for (row, name) in rows.iter().zip(&quick) {
+        assert_eq!(&row["config"], name);
+        assert_eq!(row["scene"], "whitted");
+        assert_eq!(row["error"], "", "{name} failed: {row:?}");
+        assert_eq!(
+            (row["width"].as_str(), row["height"].as_str()),
+            ("32", "24")
+        );
+        assert_eq!(row["runs"], "1");
+        let t = num(row, "time_s");
+        assert!(t > 0.0 && t < 60.0, "{name}: time {t}");
+        assert_eq!(row["times_s"].split(' ').count(), 1);
+        assert_eq!(num(row, "rays_primary"), 768.0, "{name}");
+        let kinds: f64 = [
+            "rays_primary",
+            "rays_shadow",
+            "rays_reflected",
+            "rays_refracted",
+        ]
+        .iter()
+        .map(|k| num(row, k))
+        .sum();
+        assert_eq!(kinds, num(row, "rays_total"), "{name}");
+        let mrays = num(row, "mrays_per_s");
+        assert!(
+            (mrays - num(row, "rays_total") / t / 1e6).abs() <= 1e-6 * mrays.max(1.0),
+            "{name}: {mrays}"
+        );
+        let (rmse, flip) = (num(row, "rmse"), num(row, "flip_mean"));
+        assert!((0.0..0.1).contains(&rmse), "{name}: rmse {rmse}");
+        assert!((0.0..0.1).contains(&flip), "{name}: flip {flip}");
+        if row["backend"] == "gl" {
+            assert!(num(row, "passes") > 0.0, "{name}");
+        } else {
+            assert_eq!(row["backend"], "cpu");
+            assert_eq!(row["passes"], "");
+            assert_eq!(row["gpu_ms"], "");
+        }
+    }
+    // The f64 CPU configuration is the reference itself: no error, so it is on the RMSE
+    // front whatever its time.
+    let f64_row = rows.iter().find(|r| r["config"] == "cpu-f64").unwrap();
+    assert_eq!(num(f64_row, "rmse"), 0.0);
+    assert_eq!(num(f64_row, "flip_mean"), 0.0);
+    assert_eq!(f64_row["pareto_rmse"], "true");
+    // Pareto marks agree with the figures in the table.
+    let pts: Vec<(f64, f64)> = rows
+        .iter()
+        .map(|r| (num(r, "time_s"), num(r, "rmse")))
+        .collect();
+    let front = fragtrace::bench::pareto_front(&pts);
+    for (r, on) in rows.iter().zip(front) {
+        assert_eq!(r["pareto_rmse"], on.to_string(), "{r:?}");
+    }
+
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("## whitted"), "{md}");
+    for name in &quick {
+        assert!(
+            md.contains(&format!("| {name} |")),
+            "{name} missing from the report"
+        );
+    }
+    assert!(md.contains("**RMSE**") && md.contains("speed_vs_error.png"));
+    let png = image::open(out.join("speed_vs_error.png")).unwrap();
+    assert!(png.width() >= 600 && png.height() >= 300);
+    // Not a blank canvas: the plot has dark pixels (axes, text) and coloured ones (points).
+    let rgb = png.to_rgb8();
+    assert!(rgb.pixels().any(|p| p.0.iter().all(|&c| c < 80)));
+    assert!(rgb
+        .pixels()
+        .any(|p| p.0.iter().max().unwrap() - p.0.iter().min().unwrap() > 100));
+
+    // The reference is cached: a second bench reuses the file.
+    let refs: Vec<PathBuf> = std::fs::read_dir(out.join("references"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(refs.len(), 1, "{refs:?}");
+    let stamp = std::fs::metadata(&refs[0]).unwrap().modified().unwrap();
+    let again = run("cpu-f64");
+    assert!(
+        again.status.success(),
+        "{}",
+        String::from_utf8_lossy(&again.stderr)
+    );
+    assert_eq!(
+        std::fs::metadata(&refs[0]).unwrap().modified().unwrap(),
+        stamp
+    );
+    let rows = read_csv(&out.join("results.csv"));
+    assert_eq!(rows.len(), 1);
+    assert_eq!(num(&rows[0], "rmse"), 0.0);
+}
+
+#[test]
+fn bad_bench_input_exits_2_with_a_clear_message() {
+    let d = tmpdir("bad");
+    let file = d.join("c.toml");
+    std::fs::write(
+        &file,
+        "[configs]\nok = \"--backend cpu\"\nwarp = \"--backend gl --kernel warp\"\n",
+    )
+    .unwrap();
+    let file = file.to_string_lossy().into_owned();
+    for (args, want) in [
+        (
+            vec!["--configs", "gl-looped,gl-nonsense"],
+            "unknown configuration `gl-nonsense`",
+        ),
+        (vec!["--configs", &file], "configuration `warp`"),
+        (vec!["--configs", "missing.toml"], "missing.toml"),
+        (
+            vec!["--scenes", "nosuchscene"],
+            "unknown scene `nosuchscene`",
+        ),
+        (vec!["--size", "32"], "WxH"),
+        (vec!["--runs", "0"], "--runs"),
+    ] {
+        let out = bin()
+            .args(["bench", "-q", "--out"])
+            .arg(d.join("out"))
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+        if !want.starts_with('-') && want != "WxH" {
+            // fragtrace's own messages are one line (clap's own carry a usage hint).
+            assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        }
+    }
+    // Nothing was rendered or written for bad input.
+    assert!(!d.join("out").join("results.csv").exists());
+}
+
+/// The progress bar is drawn on a terminal only (a pseudo-terminal from util-linux's
+/// `script`), never into a pipe and never with `-q`; off a terminal one line per
+/// configuration remains.
+#[test]
+fn bench_progress_on_a_terminal_only() {
+    let d = tmpdir("progress");
+    let exe = env!("CARGO_BIN_EXE_fragtrace");
+    let args = "bench --scenes whitted --configs cpu-f64,cpu-f32 --size 48x32 --runs 2 --out o";
+    let piped = Command::new(exe)
+        .current_dir(&d)
+        .args(args.split(' '))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&piped.stderr);
+    assert!(piped.status.success(), "{err}");
+    assert!(
+        !err.contains("renders"),
+        "progress drawn into a pipe: {err}"
+    );
+    assert!(
+        err.contains("whitted / cpu-f32: ") && err.contains("wrote "),
+        "{err}"
+    );
+    let on_tty = |extra: &str| {
+        let out = Command::new("script")
+            .current_dir(&d)
+            .args(["-qec", &format!("{exe} {args} {extra}"), "/dev/null"])
+            .output()
+            .expect("util-linux `script`");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let shown = on_tty("");
+    assert!(
+        shown.contains("/6 renders"),
+        "no progress bar on a terminal:\n{shown}"
+    );
+    let quiet = on_tty("-q");
+    assert!(quiet.trim().is_empty(), "output despite -q:\n{quiet}");
+}
+
+/// A configuration that parses but fails to render on a scene (here: a grid over the cell
+/// limit) is recorded with its error; the bench goes on and succeeds.
+#[test]
+fn a_failing_configuration_is_recorded_not_fatal() {
+    let d = tmpdir("failing");
+    let file = d.join("c.toml");
+    std::fs::write(
+        &file,
+        "[configs]\nref = \"--backend cpu\"\nhuge = \"--backend cpu --grid 4000x4000x4000\"\n",
+    )
+    .unwrap();
+    let out = bin()
+        .args([
+            "bench", "-q", "--size", "16x12", "--runs", "1", "--scenes", "whitted",
+        ])
+        .arg("--configs")
+        .arg(&file)
+        .arg("--out")
+        .arg(d.join("out"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = read_csv(&d.join("out").join("results.csv"));
+    let names: Vec<&str> = rows.iter().map(|r| r["config"].as_str()).collect();
+    assert_eq!(names, ["ref", "huge"]);
+    assert_eq!(rows[0]["error"], "");
+    assert!(rows[1]["error"].contains("limit exceeded"), "{:?}", rows[1]);
+    assert_eq!(
+        (rows[1]["time_s"].as_str(), rows[1]["pareto_rmse"].as_str()),
+        ("", "false")
+    );
+    let md = std::fs::read_to_string(d.join("out").join("report.md")).unwrap();
+    assert!(
+        md.contains("huge (`--backend cpu --grid 4000x4000x4000`) failed"),
+        "{md}"
+    );
+}
