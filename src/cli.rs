@@ -225,6 +225,90 @@ impl RenderArgs {
     }
 }
 
+/// Joins a possibly multi-line message (a dependency's, a driver's) into one line.
+pub fn one_line(msg: &str) -> String {
+    msg.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
+/// A clap usage error as one line: clap's own first line without its `error:` prefix, any
+/// further lines of explanation (not the usage block), and a pointer to `--help`.
+pub fn one_line_clap_error(e: &clap::Error) -> String {
+    let rendered = e.render().to_string();
+    let mut parts: Vec<String> = Vec::new();
+    for line in rendered.lines().map(str::trim) {
+        if line.starts_with("Usage:") || line.starts_with("For more information") {
+            break;
+        }
+        if line.is_empty() {
+            continue;
+        }
+        parts.push(line.strip_prefix("error: ").unwrap_or(line).to_owned());
+    }
+    if parts.is_empty() {
+        parts.push(format!("{}", e.kind()));
+    }
+    let mut out = String::new();
+    for p in parts {
+        if !out.is_empty() {
+            out += if out.ends_with(':') { " " } else { ": " };
+        }
+        out += &p;
+    }
+    format!("{out} (see `fragtrace --help`)")
+}
+
+/// Fails unless `path` can be created or replaced: its folder exists and is writable, and
+/// it is not a folder itself. Checked before loading and rendering, so a typo in `-o`
+/// costs no render time. Probes with (and removes) a temporary file next to `path`; an
+/// existing `path` is never touched.
+pub fn check_writable(path: &Path, what: &str) -> Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let fail = |why: String| {
+        Error::Usage(format!(
+            "{}: cannot write the {what}: {why}",
+            path.display()
+        ))
+    };
+    if path.is_dir() {
+        return Err(fail("is a directory".into()));
+    }
+    match std::fs::metadata(dir) {
+        Ok(m) if m.is_dir() => {}
+        Ok(_) => return Err(fail(format!("{} is not a directory", dir.display()))),
+        Err(e) => return Err(fail(format!("folder {}: {e}", dir.display()))),
+    }
+    if let Ok(m) = std::fs::metadata(path) {
+        if !m.is_file() {
+            return Err(fail("exists and is not a regular file".into()));
+        }
+    }
+    let probe = dir.join(format!(
+        ".{}.{}.probe",
+        path.file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        std::process::id()
+    ));
+    match std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+    {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => Err(fail(format!("folder {}: {e}", dir.display()))),
+    }
+}
+
 /// Loads the scene named on the command line, or the built-in one.
 pub fn load(scene_path: Option<&Path>) -> Result<Scene> {
     match scene_path {
@@ -278,15 +362,19 @@ pub fn options(args: &RenderArgs, scene: &Scene) -> Result<RenderOptions> {
 
 /// The `render` command: load, render, write the image (and stats).
 pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
-    let scene = load(args.scene.as_deref())?;
-    let opts = options(args, &scene)?;
-    // Fail on an unusable output path or AOV list before spending time rendering.
+    // Fail on an unusable output path or AOV list before loading or rendering anything.
     image_io::Format::from_path(&args.output)?;
+    check_writable(&args.output, "image")?;
+    if let Some(stats) = &args.stats {
+        check_writable(stats, "statistics")?;
+    }
     let aovs = args
         .aov
         .as_deref()
         .map(crate::aov::AovKind::parse_list)
         .transpose()?;
+    let scene = load(args.scene.as_deref())?;
+    let opts = options(args, &scene)?;
     let out = render::render(&scene, &opts)?;
     if !out.image.all_finite() {
         return Err(Error::Internal(

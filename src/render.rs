@@ -58,6 +58,12 @@ impl std::str::FromStr for Precision {
 
 /// Largest image side accepted (checked before allocating anything).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Host memory one render may need at most; checked before allocating anything.
+pub const MAX_HOST_BYTES: u64 = 8 << 30;
+/// Upper estimate of the host bytes a render needs per pixel: the radiance and AOV rows
+/// and their assembled copies on the CPU, or the read-back textures on the GPU, plus the
+/// encoded image.
+pub const HOST_BYTES_PER_PIXEL: u64 = 128;
 /// Largest sample count per pixel.
 pub const MAX_SPP: u32 = 1024;
 /// Largest recursion depth.
@@ -114,6 +120,16 @@ impl RenderOptions {
                     "--{name} {v} is outside 1..={MAX_IMAGE_SIDE}"
                 )));
             }
+        }
+        let bytes = self.width as u64 * self.height as u64 * HOST_BYTES_PER_PIXEL;
+        if bytes > MAX_HOST_BYTES {
+            return Err(Error::Limit(format!(
+                "a {}x{} image needs about {:.1} GiB of host memory, more than the {} GiB limit",
+                self.width,
+                self.height,
+                bytes as f64 / (1u64 << 30) as f64,
+                MAX_HOST_BYTES >> 30
+            )));
         }
         if self.spp == 0 || self.spp > MAX_SPP {
             return Err(Error::Usage(format!(
@@ -317,6 +333,8 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
 /// Builds the grid and renders `scene` with the GLSL 1.20 multi-pass backend in `ctx`.
 pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     opts.validate()?;
+    // The image must fit the driver's textures and viewport before any work is done.
+    ctx.info.check_image_size(opts.width, opts.height)?;
     let grid = Grid::build(scene, &opts.grid)?;
     let t0 = Instant::now();
     let out = crate::gpu::render::render_gl(ctx, scene, &grid, opts)?;

@@ -45,6 +45,10 @@ const DRM_DEVICE_FILE_EXT: egl::Int = 0x3233;
 /// diagnosing a machine where the automatic choice picks the wrong GPU or fails.
 pub const PLATFORM_ENV: &str = "FRAGTRACE_EGL_PLATFORM";
 
+/// Loads this EGL library (a file name or path) instead of `libEGL.so.1`, e.g. to pick a
+/// vendor's library directly or to test the "no EGL" path (`/nonexistent`).
+pub const EGL_LIBRARY_ENV: &str = "FRAGTRACE_EGL_LIBRARY";
+
 /// The apt command printed when EGL is missing; the packages are the Debian/Ubuntu names of
 /// the GLVND loader, the Mesa EGL vendor library and the Mesa DRI drivers (incl. llvmpipe).
 const EGL_INSTALL_HINT: &str = "apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri";
@@ -193,6 +197,8 @@ pub struct GlInfo {
     pub glsl_version: String,
     /// `GL_MAX_TEXTURE_SIZE`: bounds every stream texture's width and height.
     pub max_texture_size: i32,
+    /// `GL_MAX_VIEWPORT_DIMS`: bounds the full-screen quad every pass draws.
+    pub max_viewport_dims: (i32, i32),
     /// `GL_MAX_DRAW_BUFFERS`: how many streams one pass may write.
     pub max_draw_buffers: i32,
     /// `GL_MAX_TEXTURE_IMAGE_UNITS`: how many streams/scene textures one pass may read.
@@ -216,6 +222,30 @@ impl GlInfo {
     /// Whether the context advertises the extension `name` (e.g. `GL_ARB_texture_float`).
     pub fn has_extension(&self, name: &str) -> bool {
         self.extensions.iter().any(|e| e == name)
+    }
+
+    /// `Ok` when a `width` x `height` image fits the stream textures
+    /// (`GL_MAX_TEXTURE_SIZE`) and the viewport (`GL_MAX_VIEWPORT_DIMS`); otherwise
+    /// [`Error::Limit`] naming the limit. Checked before anything is allocated.
+    pub fn check_image_size(&self, width: u32, height: u32) -> Result<()> {
+        let tex = self.max_texture_size.max(0) as u32;
+        if width > tex || height > tex {
+            return Err(Error::Limit(format!(
+                "image {width}x{height} exceeds GL_MAX_TEXTURE_SIZE {tex} of {}",
+                self.renderer
+            )));
+        }
+        let (vw, vh) = (
+            self.max_viewport_dims.0.max(0) as u32,
+            self.max_viewport_dims.1.max(0) as u32,
+        );
+        if width > vw || height > vh {
+            return Err(Error::Limit(format!(
+                "image {width}x{height} exceeds GL_MAX_VIEWPORT_DIMS {vw}x{vh} of {}",
+                self.renderer
+            )));
+        }
+        Ok(())
     }
 
     /// `Ok` when every required feature is present, otherwise the reason fragtrace's GPU
@@ -294,6 +324,11 @@ impl fmt::Display for GlInfo {
             writeln!(f, "Limits lowered to: {p} ({LIMITS_ENV})")?;
         }
         writeln!(f, "Max texture size: {}", self.max_texture_size)?;
+        writeln!(
+            f,
+            "Max viewport:     {}x{}",
+            self.max_viewport_dims.0, self.max_viewport_dims.1
+        )?;
         writeln!(f, "Max draw buffers: {}", self.max_draw_buffers)?;
         writeln!(
             f,
@@ -438,13 +473,19 @@ pub fn with_test_context<R>(f: impl FnOnce(&GlContext) -> R) -> R {
 fn egl_instance() -> Result<&'static EglInstance> {
     static EGL: OnceLock<std::result::Result<EglInstance, String>> = OnceLock::new();
     EGL.get_or_init(|| {
-        // SAFETY: loading the system's libEGL; the symbols are the standard EGL 1.4 ABI.
-        unsafe { EglInstance::load_required() }.map_err(|e| {
+        let lib = std::env::var_os(EGL_LIBRARY_ENV)
+            .filter(|v| !v.is_empty())
+            .unwrap_or_else(|| "libEGL.so.1".into());
+        // SAFETY: loading an EGL library; the symbols are the standard EGL 1.4 ABI.
+        unsafe { EglInstance::load_required_from_filename(&lib) }.map_err(|e| {
+            // libloading's message repeats the file name and may span lines.
+            let why = e.to_string().replace('\n', " ");
             format!(
-                "cannot load libEGL.so.1 ({e}); install an EGL runtime, \
+                "cannot load the EGL library {} ({why}); install an EGL runtime, \
                  e.g. on Debian/Ubuntu: {EGL_INSTALL_HINT} (with the NVIDIA driver, \
                  libegl1 alone suffices: it is the GLVND dispatcher that loads the \
-                 driver's libEGL_nvidia.so.0, which exports no EGL API of its own)"
+                 driver's libEGL_nvidia.so.0, which exports no EGL API of its own)",
+                lib.to_string_lossy()
             )
         })
     })
@@ -863,6 +904,13 @@ fn gather_info(
         vendor: string(glow::VENDOR),
         glsl_version: string(glow::SHADING_LANGUAGE_VERSION),
         max_texture_size: effective_limit(int(glow::MAX_TEXTURE_SIZE), |p| p.max_texture_size),
+        max_viewport_dims: {
+            let mut dims = [0i32; 2];
+            // SAFETY: the context is current; GL_MAX_VIEWPORT_DIMS writes two integers.
+            unsafe { gl.get_parameter_i32_slice(glow::MAX_VIEWPORT_DIMS, &mut dims) };
+            let lim = |v: i32| effective_limit(v, |p| p.max_texture_size);
+            (lim(dims[0]), lim(dims[1]))
+        },
         max_draw_buffers: effective_limit(int(glow::MAX_DRAW_BUFFERS), |p| p.max_draw_buffers),
         max_texture_units: effective_limit(int(glow::MAX_TEXTURE_IMAGE_UNITS), |p| {
             p.max_texture_units
@@ -955,6 +1003,7 @@ mod tests {
             vendor: "test".into(),
             glsl_version: "1.20".into(),
             max_texture_size: 4096,
+            max_viewport_dims: (4096, 4096),
             max_draw_buffers: 4,
             max_texture_units: 16,
             limit_profile: None,

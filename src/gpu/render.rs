@@ -625,11 +625,7 @@ impl<'a> Frame<'a> {
         let gl = &ctx.gl;
         let info = &ctx.info;
         let max_size = info.max_texture_size.max(0) as u32;
-        if width > max_size || height > max_size {
-            return Err(Error::Limit(format!(
-                "image {width}x{height} exceeds GL_MAX_TEXTURE_SIZE {max_size}"
-            )));
-        }
+        info.check_image_size(width, height)?;
         if info.max_texture_units < REQUIRED_TEXTURE_UNITS {
             return Err(Error::GlUnavailable(format!(
                 "{} texture image units, fragtrace needs {REQUIRED_TEXTURE_UNITS}",

@@ -11,10 +11,10 @@ pub mod toml_scene;
 use glam::Vec3;
 
 pub use camera::Camera;
-pub use obj::{load_obj, ObjMesh};
+pub use obj::{load_obj, parse_obj_with_mtl, ObjMesh};
 pub use toml_scene::{
     builtin_scene, load_scene, load_scene_str, load_scene_str_with_search_path,
-    load_scene_with_search_path, model_search_path, DEFAULT_SCENE_TOML,
+    load_scene_with_search_path, model_search_path, parse_scene_str, DEFAULT_SCENE_TOML,
 };
 
 /// Sentinel for "no vertex normal" in [`Triangle::n`].
@@ -288,4 +288,45 @@ impl Scene {
         }
         Ok(())
     }
+}
+
+/// Reads an input file (scene, OBJ, MTL) that must be a regular file of at most `limit`
+/// bytes. Directories, devices (`/dev/zero`), FIFOs and sockets are refused before anything
+/// is read, so a wrong path can neither hang the loader nor exhaust memory; `what` names
+/// the kind of file in the message.
+pub fn read_input_file(path: &std::path::Path, limit: u64, what: &str) -> crate::Result<Vec<u8>> {
+    use std::io::Read;
+    let io = |source: std::io::Error| crate::Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        let kind = if meta.is_dir() {
+            "a directory"
+        } else {
+            "not a regular file (a device, FIFO or socket)"
+        };
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("is {kind}; a {what} must be a regular file"),
+        )));
+    }
+    let too_big = |n: u64| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("{n} bytes exceed the {limit}-byte limit for a {what}"),
+        ))
+    };
+    if meta.len() > limit {
+        return Err(too_big(meta.len()));
+    }
+    let file = std::fs::File::open(path).map_err(io)?;
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    // The file may grow between the two calls: never read past the limit.
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > limit {
+        return Err(too_big(bytes.len() as u64));
+    }
+    Ok(bytes)
 }

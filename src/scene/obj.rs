@@ -31,16 +31,24 @@ pub struct ObjMesh {
     /// Materials from the MTL library, plus a trailing default grey one when some faces have
     /// no (known) material.
     pub materials: Vec<Material>,
-    /// Non-fatal problems (unreadable MTL, unknown `usemtl` name), one line each.
+    /// Non-fatal problems (an unknown `usemtl` name), one line each.
     pub warnings: Vec<String>,
+    /// One line per `mtllib` that could not be read (missing, not a regular file, too
+    /// large). The mesh then uses the default grey material; a scene rejects such a mesh
+    /// unless the object overrides its materials (`material = ...`).
+    pub missing_mtl: Vec<String>,
 }
 
-/// Loads an OBJ file; `mtllib` paths resolve relative to the file's folder.
+/// Largest OBJ file read (checked before reading, so `/dev/zero` or a runaway file cannot
+/// exhaust memory).
+pub const MAX_OBJ_BYTES: u64 = 1 << 30;
+/// Largest MTL file read.
+pub const MAX_MTL_BYTES: u64 = 16 << 20;
+
+/// Loads an OBJ file; `mtllib` paths resolve relative to the file's folder. Only regular
+/// files of at most [`MAX_OBJ_BYTES`] are read.
 pub fn load_obj(path: &Path) -> Result<ObjMesh> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = super::read_input_file(path, MAX_OBJ_BYTES, "OBJ mesh")?;
     // OBJ files in the wild are ASCII or Latin-1; a stray byte in a comment must not make
     // the whole mesh unloadable.
     let text = String::from_utf8_lossy(&bytes);
@@ -50,6 +58,31 @@ pub fn load_obj(path: &Path) -> Result<ObjMesh> {
 
 /// Parses OBJ text. `name` is used in messages; `mtllib` paths resolve against `base_dir`.
 pub fn parse_obj(text: &str, name: &str, base_dir: &Path) -> Result<ObjMesh> {
+    parse_obj_with(text, name, &|mtl: &Path| {
+        let full = base_dir.join(mtl);
+        let shown = full.display().to_string();
+        match super::read_input_file(&full, MAX_MTL_BYTES, "MTL material library") {
+            Ok(bytes) => Ok((shown, String::from_utf8_lossy(&bytes).into_owned())),
+            Err(e) => Err(e.to_string()),
+        }
+    })
+}
+
+/// Parses OBJ text whose every `mtllib` is `mtl_text` (`None`: the library is missing),
+/// without touching the file system; messages name the OBJ `<obj>` and the MTL `<mtl>`.
+/// The fuzz target `obj_load` drives this.
+pub fn parse_obj_with_mtl(obj_text: &str, mtl_text: Option<&str>) -> Result<ObjMesh> {
+    parse_obj_with(obj_text, "<obj>", &|_: &Path| match mtl_text {
+        Some(t) => Ok(("<mtl>".to_owned(), t.to_owned())),
+        None => Err("<mtl>: not found".to_owned()),
+    })
+}
+
+/// What an `mtllib` resolves to: (name for messages, text), or why it cannot be read.
+type MtlSource<'a> = dyn Fn(&Path) -> std::result::Result<(String, String), String> + 'a;
+
+/// [`parse_obj`] with the MTL libraries supplied by `mtl`.
+fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Result<ObjMesh> {
     let scan = prescan(text, name)?;
     let filtered;
     let tobj_text: &str = if scan.polylines.is_empty() {
@@ -60,25 +93,35 @@ pub fn parse_obj(text: &str, name: &str, base_dir: &Path) -> Result<ObjMesh> {
     };
 
     let mtl_problem: RefCell<Option<Error>> = RefCell::new(None);
-    let warnings: RefCell<Vec<String>> = RefCell::new(Vec::new());
+    let missing: RefCell<Vec<String>> = RefCell::new(Vec::new());
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
     };
-    let loaded = tobj::load_obj_buf(&mut Cursor::new(tobj_text), &options, |mtl_path| {
-        let full = base_dir.join(mtl_path);
-        match read_mtl(&full) {
-            Ok(result) => result,
-            Err(MtlFailure::Fatal(e)) => {
+    let loaded = tobj::load_obj_buf(&mut Cursor::new(tobj_text), &options, |mtl_path| match mtl(
+        mtl_path,
+    ) {
+        Ok((file, text)) => match normalise_mtl(&text, &file) {
+            Ok(fixed) => tobj::load_mtl_buf(&mut Cursor::new(fixed)),
+            Err(e) => {
                 mtl_problem.borrow_mut().get_or_insert(e);
                 Err(tobj::LoadError::MaterialParseError)
             }
-            Err(MtlFailure::Warn(w)) => {
-                warnings.borrow_mut().push(w);
-                Err(tobj::LoadError::OpenFileFailed)
-            }
+        },
+        Err(why) => {
+            let written = mtl_path.display().to_string();
+            let line = scan
+                .mtllib
+                .iter()
+                .find(|(_, l)| l.contains(written.as_str()))
+                .map(|(n, _)| format!("line {}: ", n + 1))
+                .unwrap_or_default();
+            missing.borrow_mut().push(format!(
+                "{name}: {line}mtllib `{written}`: cannot read the material library ({why})"
+            ));
+            Err(tobj::LoadError::OpenFileFailed)
         }
     });
     if let Some(e) = mtl_problem.into_inner() {
@@ -88,7 +131,7 @@ pub fn parse_obj(text: &str, name: &str, base_dir: &Path) -> Result<ObjMesh> {
         file: name.into(),
         message: format!("cannot parse OBJ: {e}"),
     })?;
-    let mut warnings = warnings.into_inner();
+    let mut warnings = Vec::new();
     let tobj_materials = tobj_materials.unwrap_or_default();
 
     let mut mesh = ObjMesh::default();
@@ -190,6 +233,7 @@ pub fn parse_obj(text: &str, name: &str, base_dir: &Path) -> Result<ObjMesh> {
         });
     }
     mesh.warnings = warnings;
+    mesh.missing_mtl = missing.into_inner();
     Ok(mesh)
 }
 
@@ -282,6 +326,8 @@ struct Scan {
     usemtl: BTreeSet<String>,
     /// 0-based line numbers of `l` polylines that tobj would triangulate.
     polylines: Vec<usize>,
+    /// 0-based line number and text of every `mtllib` statement.
+    mtllib: Vec<(usize, String)>,
 }
 
 /// Validates numbers and face indices line by line (tobj reports neither line numbers nor
@@ -291,6 +337,7 @@ fn prescan(text: &str, name: &str) -> Result<Scan> {
         tri_has_normals: Vec::new(),
         usemtl: BTreeSet::new(),
         polylines: Vec::new(),
+        mtllib: Vec::new(),
     };
     let (mut nv, mut nt, mut nn) = (0usize, 0usize, 0usize);
     let err = |line: usize, message: String| Error::Mesh {
@@ -375,6 +422,7 @@ fn prescan(text: &str, name: &str) -> Result<Scan> {
                     }
                 }
             }
+            Some("mtllib") => scan.mtllib.push((ln, line.to_owned())),
             Some("usemtl") => {
                 let n = line.trim_start()["usemtl".len()..].trim();
                 if !n.is_empty() {
@@ -402,31 +450,11 @@ fn blank_lines(text: &str, lines: &[usize]) -> String {
     out
 }
 
-enum MtlFailure {
-    /// The MTL exists but holds invalid numbers: the user must fix it.
-    Fatal(Error),
-    /// The MTL cannot be read: render with default materials and say so.
-    Warn(String),
-}
-
-/// Reads and normalises an MTL file, then hands it to tobj.
-fn read_mtl(path: &Path) -> std::result::Result<tobj::MTLLoadResult, MtlFailure> {
-    let text = std::fs::read(path).map_err(|e| {
-        MtlFailure::Warn(format!(
-            "{}: cannot read material library ({e}); using the default grey material",
-            path.display()
-        ))
-    })?;
-    let text = String::from_utf8_lossy(&text);
-    let fixed = normalise_mtl(&text, path).map_err(MtlFailure::Fatal)?;
-    Ok(tobj::load_mtl_buf(&mut Cursor::new(fixed)))
-}
-
 /// Checks every numeric MTL statement fragtrace uses for finiteness (with line numbers) and
 /// expands one-component colours (`Kd 0.5`, allowed by the MTL spec) to three, because tobj
 /// panics on them.
-fn normalise_mtl(text: &str, path: &Path) -> Result<String> {
-    let file = path.display().to_string();
+fn normalise_mtl(text: &str, file: &str) -> Result<String> {
+    let file = file.to_owned();
     let mut out = String::with_capacity(text.len() + 64);
     for (ln, line) in text.lines().enumerate() {
         // Trailing comments (`Kd 0.63 0.065 0.05 # Red`, as in the Cornell box) are legal.
@@ -586,15 +614,17 @@ mod tests {
     }
 
     #[test]
-    fn missing_mtl_warns_and_uses_grey() {
+    fn missing_mtl_is_recorded_and_uses_grey() {
         let src = "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
         let m = parse_obj(src, "m.obj", &tmpdir("missing")).unwrap();
         assert_eq!(m.materials.len(), 1);
         assert_eq!(m.materials[0].albedo, Vec3::splat(0.8));
         assert!(
-            m.warnings.iter().any(|w| w.contains("nowhere.mtl")),
+            m.missing_mtl.len() == 1
+                && m.missing_mtl[0].contains("nowhere.mtl")
+                && m.missing_mtl[0].contains("line 1:"),
             "{:?}",
-            m.warnings
+            m.missing_mtl
         );
         assert!(
             m.warnings.iter().any(|w| w.contains("`red`")),

@@ -41,6 +41,9 @@ pub const MAX_DEPTH_LIMIT: u32 = 16;
 /// that width·height·16 bytes of radiance cannot overflow or exhaust memory silently.
 pub const MAX_IMAGE_SIZE: u32 = 16_384;
 
+/// Largest scene file read; scenes are short, so anything bigger is a wrong path.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
 /// Default sphere subdivision level (1,280 triangles, smooth enough with vertex normals).
 pub const DEFAULT_SPHERE_SUBDIVISIONS: u32 = 3;
 
@@ -51,9 +54,16 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
 
 /// [`load_scene`] with an explicit mesh search path instead of `FRAGTRACE_MODEL_PATH`.
 pub fn load_scene_with_search_path(path: &Path, search: &[PathBuf]) -> Result<Scene> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
+    let bytes = super::read_input_file(path, MAX_SCENE_BYTES, "scene file")?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        Error::scene(
+            path.display().to_string(),
+            line,
+            "",
+            "invalid UTF-8 (a TOML scene must be UTF-8 text)",
+        )
     })?;
     let base = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
@@ -76,12 +86,22 @@ pub fn load_scene_str_with_search_path(
     base_dir: &Path,
     search: &[PathBuf],
 ) -> Result<Scene> {
+    build_scene(text, name, Some((base_dir, search)))
+}
+
+/// Parses scene text without touching the file system: any `mesh = ...` is an error naming
+/// the object. For fuzzing and for checking a scene's syntax and values.
+pub fn parse_scene_str(text: &str, name: &str) -> Result<Scene> {
+    build_scene(text, name, None)
+}
+
+/// The loader proper; `files` is where meshes are looked up, `None` to refuse them.
+fn build_scene(text: &str, name: &str, files: Option<(&Path, &[PathBuf])>) -> Result<Scene> {
     let ctx = Ctx { name, text };
     let def: SceneDef = toml::from_str(text).map_err(|e| ctx.toml_error(&e))?;
     let mut builder = Builder {
         ctx,
-        base_dir,
-        search,
+        files,
         scene: Scene::empty(Camera {
             eye: Vec3::ZERO,
             look_at: Vec3::NEG_Z,
@@ -698,10 +718,13 @@ impl Placement {
     }
 }
 
+/// A loaded mesh and the resolved path it is cached under.
+type LoadedMesh = (Rc<ObjMesh>, PathBuf);
+
 struct Builder<'a> {
     ctx: Ctx<'a>,
-    base_dir: &'a Path,
-    search: &'a [PathBuf],
+    /// The scene's folder and the mesh search path; `None` when no file may be read.
+    files: Option<(&'a Path, &'a [PathBuf])>,
     scene: Scene,
     /// Named material → index in `scene.materials`.
     named: HashMap<String, u32>,
@@ -935,6 +958,22 @@ impl Builder<'_> {
         )?;
 
         let (mut geometry, mesh_materials) = match (&d.mesh, &d.shape) {
+            (Some(path), None) if d.material.is_none() => {
+                let (mesh, _) = self.mesh(path, &f("mesh"))?;
+                // Without an override the MTL decides how the mesh looks: a missing one is
+                // an error, not a silently grey mesh.
+                if let Some(problem) = mesh.missing_mtl.first() {
+                    return Err(ctx.err(
+                        path.span(),
+                        f("mesh"),
+                        format!(
+                            "{problem}; fix the mtllib, or set `material = \"NAME\"` on this \
+                             object to render the mesh without its MTL"
+                        ),
+                    ));
+                }
+                self.mesh_geometry(path, &f("mesh"))?
+            }
             (Some(_), Some(s)) => {
                 return Err(ctx.err(
                     s.span(),
@@ -945,15 +984,7 @@ impl Builder<'_> {
             (None, None) => {
                 return Err(ctx.err(o.span(), format!("objects[{i}]"), "an object needs `mesh = \"file.obj\"` or `shape = \"sphere\" | \"quad\" | \"box\"`"));
             }
-            (Some(path), None) => {
-                let (mesh, path_key) = self.mesh(path, &f("mesh"))?;
-                let g = Geometry {
-                    positions: mesh.positions.clone(),
-                    normals: mesh.normals.clone(),
-                    triangles: mesh.triangles.clone(),
-                };
-                (g, Some((mesh, path_key)))
-            }
+            (Some(path), None) => self.mesh_geometry(path, &f("mesh"))?,
             (None, Some(s)) => (self.shape(*s.get_ref(), d, &f)?, None),
         };
 
@@ -1072,12 +1103,41 @@ impl Builder<'_> {
         })
     }
 
+    /// The mesh an object names, as geometry to place, and the mesh with its path key.
+    fn mesh_geometry(
+        &mut self,
+        path: &S<String>,
+        field: &str,
+    ) -> Result<(Geometry, Option<LoadedMesh>)> {
+        let (mesh, path_key) = self.mesh(path, field)?;
+        let g = Geometry {
+            positions: mesh.positions.clone(),
+            normals: mesh.normals.clone(),
+            triangles: mesh.triangles.clone(),
+        };
+        Ok((g, Some((mesh, path_key))))
+    }
+
     /// Resolves and loads (once per file) the mesh an object names.
     fn mesh(&mut self, path: &S<String>, field: &str) -> Result<(Rc<ObjMesh>, PathBuf)> {
         let written = path.get_ref();
-        let found = resolve_mesh(written, self.base_dir, self.search).map_err(|searched| {
+        let Some((base_dir, search)) = self.files else {
+            return Err(self.ctx.err(
+                path.span(),
+                field,
+                "mesh files are not read by this text-only parser",
+            ));
+        };
+        let found = resolve_mesh(written, base_dir, search).map_err(|searched| {
             let line = self.ctx.line_of(path.span().start);
-            let list: Vec<String> = searched.iter().map(|p| p.display().to_string()).collect();
+            let list: Vec<String> = searched
+                .iter()
+                .map(|p| match std::fs::metadata(p) {
+                    Ok(m) if m.is_dir() => format!("{} (a directory)", p.display()),
+                    Ok(_) => format!("{} (not a regular file)", p.display()),
+                    Err(_) => p.display().to_string(),
+                })
+                .collect();
             Error::Mesh {
                 file: written.clone(),
                 message: format!(

@@ -1,0 +1,582 @@
+//! Every bad input, through the real binary: exit code 2, one line on stderr naming the
+//! file, line and field where that applies, no panic, no hang, no file written, and an
+//! existing output never replaced.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const CAM: &str = "[camera]\neye = [0, 1, 5]\nlook_at = [0, 1, 0]\nfov = 45\n";
+const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fragtrace-bad-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Runs the binary in `dir` with `args` (and `env`), with a deadline: a hang is a failure.
+fn run_in(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_fragtrace"));
+    cmd.current_dir(dir)
+        .args(args)
+        .env_remove("FRAGTRACE_GL_LIMITS")
+        .env_remove("FRAGTRACE_EGL_LIBRARY")
+        .env("FRAGTRACE_MODEL_PATH", dir.join("no-models"))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let mut child = cmd.spawn().unwrap();
+    let t0 = Instant::now();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            return child.wait_with_output().unwrap();
+        }
+        if t0.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("fragtrace {args:?} hung");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Asserts exit code 2, a single `fragtrace: error:` line containing every needle, and
+/// returns that line.
+fn fails(dir: &Path, args: &[&str], env: &[(&str, &str)], needles: &[&str]) -> String {
+    let out = run_in(dir, args, env);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{args:?}: {err}");
+    assert_eq!(lines.len(), 1, "{args:?}: not one line: {err}");
+    assert!(
+        lines[0].starts_with("fragtrace: error: "),
+        "{args:?}: {err}"
+    );
+    for n in needles {
+        assert!(lines[0].contains(n), "{args:?}: `{}` lacks `{n}`", lines[0]);
+    }
+    lines[0].to_owned()
+}
+
+/// Renders `scene` at 4x4 on the CPU into `out` in `dir`; must fail with `needles`.
+fn scene_fails(dir: &Path, scene: &str, needles: &[&str]) -> String {
+    let line = fails(
+        dir,
+        &[
+            "render",
+            scene,
+            "--backend",
+            "cpu",
+            "--width",
+            "4",
+            "--height",
+            "4",
+            "-q",
+            "-o",
+            "out.png",
+        ],
+        &[],
+        needles,
+    );
+    assert!(
+        !dir.join("out.png").exists(),
+        "{scene}: an image was written"
+    );
+    line
+}
+
+/// Nothing but the inputs is left in `dir`: no image, no temporary or probe file.
+fn only_inputs(dir: &Path, inputs: &[&str]) {
+    let mut left: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !inputs.contains(&n.as_str()))
+        .collect();
+    left.sort();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+#[test]
+fn malformed_toml_names_file_line_and_field() {
+    let d = tmpdir("malformed");
+    write(
+        &d,
+        "broken.toml",
+        "ambient = [0.1, 0.1, 0.1]\n[camera]\neye = [0, 0, 1\nlook_at = [0, 0, 0]\n",
+    );
+    scene_fails(&d, "broken.toml", &["broken.toml:4:", "camera.eye"]);
+    write(
+        &d,
+        "dup.toml",
+        &format!("{CAM}[image]\nwidth = 4\nwidth = 8\n"),
+    );
+    scene_fails(&d, "dup.toml", &["dup.toml:7:", "image.width", "duplicate"]);
+    write(
+        &d,
+        "type.toml",
+        &format!("{CAM}[[lights]]\nposition = \"up\"\n"),
+    );
+    scene_fails(&d, "type.toml", &["type.toml:6:", "lights[0].position"]);
+    std::fs::write(d.join("latin1.toml"), b"# caf\xe9\n[camera]\n").unwrap();
+    scene_fails(&d, "latin1.toml", &["latin1.toml:1:", "UTF-8"]);
+    only_inputs(&d, &["broken.toml", "dup.toml", "type.toml", "latin1.toml"]);
+}
+
+#[test]
+fn unknown_keys_suggest_the_known_one() {
+    let d = tmpdir("unknown");
+    write(
+        &d,
+        "k.toml",
+        "[camera]\neye = [0, 1, 5]\nlook_at = [0, 1, 0]\nfvo = 45\n",
+    );
+    scene_fails(
+        &d,
+        "k.toml",
+        &[
+            "k.toml:4:",
+            "camera.fvo",
+            "unknown key `fvo`",
+            "did you mean `fov`?",
+        ],
+    );
+    write(
+        &d,
+        "o.toml",
+        &format!("{CAM}[[objects]]\nshape = \"box\"\ntranslation = [1, 2, 3]\n"),
+    );
+    scene_fails(
+        &d,
+        "o.toml",
+        &[
+            "o.toml:7:",
+            "objects[0].translation",
+            "did you mean `translate`?",
+        ],
+    );
+    write(
+        &d,
+        "v.toml",
+        &format!("{CAM}[[objects]]\nshape = \"sphre\"\n"),
+    );
+    scene_fails(
+        &d,
+        "v.toml",
+        &["v.toml:6:", "objects[0].shape", "did you mean `sphere`?"],
+    );
+}
+
+#[test]
+fn missing_obj_names_the_scene_line_and_the_folders_searched() {
+    let d = tmpdir("noobj");
+    write(
+        &d,
+        "s.toml",
+        &format!("{CAM}[[objects]]\nmesh = \"gone/missing.obj\"\n"),
+    );
+    scene_fails(
+        &d,
+        "s.toml",
+        &[
+            "gone/missing.obj",
+            "mesh not found",
+            "s.toml:6",
+            "objects[0].mesh",
+            "FRAGTRACE_MODEL_PATH",
+        ],
+    );
+}
+
+#[test]
+fn missing_mtl_is_an_error_unless_the_scene_overrides_materials() {
+    let d = tmpdir("nomtl");
+    write(
+        &d,
+        "m.obj",
+        &format!("# a triangle\nmtllib nowhere.mtl\nusemtl red\n{TRI}"),
+    );
+    write(
+        &d,
+        "s.toml",
+        &format!("{CAM}[[lights]]\nposition = [0, 3, 3]\n[[objects]]\nmesh = \"m.obj\"\n"),
+    );
+    scene_fails(
+        &d,
+        "s.toml",
+        &[
+            "s.toml:8:",
+            "objects[0].mesh",
+            "m.obj: line 2: mtllib `nowhere.mtl`",
+            "material =",
+        ],
+    );
+    // With an override the MTL is not needed: it renders.
+    write(&d, "ok.toml", &format!("{CAM}[[lights]]\nposition = [0, 3, 3]\n[[objects]]\nmesh = \"m.obj\"\nmaterial = {{ albedo = [1, 0, 0] }}\n"));
+    let out = run_in(
+        &d,
+        &[
+            "render",
+            "ok.toml",
+            "--backend",
+            "cpu",
+            "--width",
+            "4",
+            "--height",
+            "4",
+            "-q",
+            "-o",
+            "ok.png",
+        ],
+        &[],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(d.join("ok.png").is_file());
+    // An MTL that is a directory counts as missing.
+    std::fs::create_dir_all(d.join("nowhere.mtl")).unwrap();
+    scene_fails(&d, "s.toml", &["s.toml:8:", "nowhere.mtl", "directory"]);
+}
+
+#[test]
+fn obj_face_index_out_of_range_and_non_finite_coordinates() {
+    let d = tmpdir("obj");
+    write(&d, "idx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
+    write(&d, "nan.obj", "v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n");
+    write(
+        &d,
+        "inf.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 inf\nf 1//1 2//1 3//1\n",
+    );
+    for (obj, needles) in [
+        (
+            "idx.obj",
+            ["idx.obj: line 4:", "vertex index 4 out of range"],
+        ),
+        ("nan.obj", ["nan.obj: line 2:", "non-finite vertex"]),
+        ("inf.obj", ["inf.obj: line 4:", "non-finite normal"]),
+    ] {
+        let scene = format!("{obj}.toml");
+        write(
+            &d,
+            &scene,
+            &format!("{CAM}[[objects]]\nmesh = \"{obj}\"\nmaterial = {{}}\n"),
+        );
+        scene_fails(&d, &scene, &needles);
+    }
+}
+
+#[test]
+fn non_finite_toml_numbers_name_the_field() {
+    let d = tmpdir("toml-nan");
+    for (body, needles) in [
+        (
+            format!("ambient = [0.1, nan, 0.1]\n{CAM}"),
+            ["n.toml:1:", "ambient", "finite"],
+        ),
+        (
+            format!("{CAM}[[lights]]\nposition = [0, inf, 0]\n"),
+            ["n.toml:6:", "lights[0].position", "finite"],
+        ),
+        (
+            format!("{CAM}[[objects]]\nshape = \"box\"\ntranslate = [1e39, 0, 0]\n"),
+            ["n.toml:7:", "objects[0].translate", "finite"],
+        ),
+        (
+            format!("{CAM}[materials.g]\nior = -inf\n"),
+            ["n.toml:6:", "materials.g.ior", "finite"],
+        ),
+    ] {
+        write(&d, "n.toml", &body);
+        scene_fails(&d, "n.toml", &needles);
+    }
+}
+
+#[test]
+fn undefined_material_suggests_the_defined_one() {
+    let d = tmpdir("mat");
+    write(&d, "m.toml", &format!("{CAM}[materials.glass]\nior = 1.5\n[[objects]]\nshape = \"box\"\nmaterial = \"glas\"\n"));
+    scene_fails(
+        &d,
+        "m.toml",
+        &[
+            "m.toml:9:",
+            "objects[0].material",
+            "undefined material `glas`",
+            "did you mean `glass`?",
+        ],
+    );
+}
+
+#[test]
+fn image_sizes_zero_negative_and_too_large() {
+    let d = tmpdir("size");
+    let base = ["render", "--backend", "cpu", "-q", "-o", "out.png"];
+    let with = |extra: &[&'static str]| -> Vec<&str> {
+        base.iter().copied().chain(extra.iter().copied()).collect()
+    };
+    fails(
+        &d,
+        &with(&["--width", "0"]),
+        &[],
+        &["--width 0", "1..=16384"],
+    );
+    fails(&d, &with(&["--height", "0"]), &[], &["--height 0"]);
+    // Negative values are clap's to reject: still one line and exit code 2.
+    fails(&d, &with(&["--width=-5"]), &[], &["'-5'", "--width"]);
+    fails(&d, &with(&["--height", "-5"]), &[], &["-5"]);
+    fails(&d, &with(&["--width", "16385"]), &[], &["--width 16385"]);
+    // Within the per-side bound but beyond the host-memory bound: refused before allocating.
+    fails(
+        &d,
+        &with(&["--width", "16384", "--height", "16384"]),
+        &[],
+        &["16384x16384", "host memory", "8 GiB"],
+    );
+    write(&d, "w.toml", &format!("{CAM}[image]\nwidth = 0\n"));
+    scene_fails(&d, "w.toml", &["w.toml:6:", "image.width", "1..=16384"]);
+    write(&d, "h.toml", &format!("{CAM}[image]\nheight = -480\n"));
+    scene_fails(&d, "h.toml", &["h.toml:6:", "image.height"]);
+    only_inputs(&d, &["w.toml", "h.toml"]);
+}
+
+#[test]
+fn image_beyond_the_gl_limits_is_refused_before_allocating() {
+    let d = tmpdir("gl-limit");
+    std::fs::write(d.join("out.png"), b"previous image").unwrap();
+    // The geforce7 profile lowers GL_MAX_TEXTURE_SIZE and the viewport to 4096.
+    fails(
+        &d,
+        &[
+            "render",
+            "--backend",
+            "gl",
+            "--width",
+            "5000",
+            "--height",
+            "8",
+            "-q",
+            "-o",
+            "out.png",
+        ],
+        &[("FRAGTRACE_GL_LIMITS", "geforce7")],
+        &["5000x8", "GL_MAX_TEXTURE_SIZE 4096"],
+    );
+    // A failed render leaves the existing image as it was.
+    assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"previous image");
+    only_inputs(&d, &["out.png"]);
+}
+
+#[test]
+fn max_depth_out_of_range() {
+    let d = tmpdir("depth");
+    fails(
+        &d,
+        &[
+            "render",
+            "--backend",
+            "cpu",
+            "--max-depth",
+            "17",
+            "-o",
+            "out.png",
+        ],
+        &[],
+        &["--max-depth 17", "0..=16"],
+    );
+    fails(
+        &d,
+        &["render", "--max-depth", "-1", "-o", "out.png"],
+        &[],
+        &["-1"],
+    );
+    write(&d, "d.toml", &format!("max_depth = 99\n{CAM}"));
+    scene_fails(&d, "d.toml", &["d.toml:1:", "max_depth", "0..=16"]);
+}
+
+#[test]
+fn unwritable_output_is_refused_before_the_scene_is_loaded() {
+    let d = tmpdir("out");
+    write(&d, "file", "not a folder");
+    std::fs::create_dir_all(d.join("folder.png")).unwrap();
+    // The scene does not exist: the output is checked first, so the message is about it.
+    for (out, needle) in [
+        ("no/such/dir/x.png", "no/such/dir"),
+        ("file/x.png", "not a directory"),
+        ("folder.png", "is a directory"),
+    ] {
+        let line = fails(
+            &d,
+            &["render", "missing.toml", "-o", out],
+            &[],
+            &[out, needle, "cannot write"],
+        );
+        assert!(!line.contains("missing.toml"), "{line}");
+    }
+    fails(
+        &d,
+        &[
+            "render",
+            "missing.toml",
+            "-o",
+            "x.png",
+            "--stats",
+            "no/dir/s.json",
+        ],
+        &[],
+        &["no/dir/s.json", "statistics"],
+    );
+    fails(
+        &d,
+        &["render", "missing.toml", "-o", "x.bmp"],
+        &[],
+        &["x.bmp", "unknown image extension"],
+    );
+    only_inputs(&d, &["file", "folder.png"]);
+}
+
+#[test]
+fn existing_output_is_untouched_by_a_failed_run() {
+    let d = tmpdir("keep");
+    std::fs::write(d.join("out.png"), b"previous image").unwrap();
+    write(
+        &d,
+        "bad.toml",
+        &format!("{CAM}[[objects]]\nshape = \"box\"\nmaterial = \"nope\"\n"),
+    );
+    scene_fails_keeping(&d, "bad.toml");
+    // A render that fails after loading (no EGL with --backend gl) keeps it too.
+    fails(
+        &d,
+        &[
+            "render",
+            "--backend",
+            "gl",
+            "--width",
+            "4",
+            "--height",
+            "4",
+            "-q",
+            "-o",
+            "out.png",
+        ],
+        &[("FRAGTRACE_EGL_LIBRARY", "/nonexistent/libEGL.so.1")],
+        &["/nonexistent/libEGL.so.1"],
+    );
+    assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"previous image");
+    only_inputs(&d, &["out.png", "bad.toml"]);
+}
+
+fn scene_fails_keeping(d: &Path, scene: &str) {
+    fails(
+        d,
+        &[
+            "render",
+            scene,
+            "--backend",
+            "cpu",
+            "--width",
+            "4",
+            "--height",
+            "4",
+            "-q",
+            "-o",
+            "out.png",
+        ],
+        &[],
+        &[scene],
+    );
+    assert_eq!(std::fs::read(d.join("out.png")).unwrap(), b"previous image");
+}
+
+#[test]
+fn directories_and_devices_are_not_read_as_scenes_or_meshes() {
+    let d = tmpdir("special");
+    std::fs::create_dir_all(d.join("adir.toml")).unwrap();
+    std::fs::create_dir_all(d.join("adir.obj")).unwrap();
+    scene_fails(
+        &d,
+        "adir.toml",
+        &["adir.toml", "is a directory", "regular file"],
+    );
+    scene_fails(&d, "/dev/zero", &["/dev/zero", "not a regular file"]);
+    write(
+        &d,
+        "zero.toml",
+        &format!("{CAM}[[objects]]\nmesh = \"/dev/zero\"\nmaterial = {{}}\n"),
+    );
+    scene_fails(
+        &d,
+        "zero.toml",
+        &["/dev/zero", "not a regular file", "zero.toml:6"],
+    );
+    write(
+        &d,
+        "dir.toml",
+        &format!("{CAM}[[objects]]\nmesh = \"adir.obj\"\nmaterial = {{}}\n"),
+    );
+    scene_fails(&d, "dir.toml", &["adir.obj", "a directory", "dir.toml:6"]);
+    // Bigger than any scene: refused without reading it (a sparse file, nothing written).
+    let big = std::fs::File::create(d.join("big.toml")).unwrap();
+    big.set_len(17 << 20).unwrap();
+    scene_fails(&d, "big.toml", &["big.toml", "limit"]);
+}
+
+#[test]
+fn no_egl_library_names_it_and_the_packages() {
+    let d = tmpdir("egl");
+    fails(
+        &d,
+        &[
+            "render",
+            "--backend",
+            "gl",
+            "--width",
+            "4",
+            "--height",
+            "4",
+            "-o",
+            "out.png",
+        ],
+        &[("FRAGTRACE_EGL_LIBRARY", "/nonexistent")],
+        &["/nonexistent", "libegl1 libegl-mesa0 libgl1-mesa-dri"],
+    );
+    fails(
+        &d,
+        &["info"],
+        &[("FRAGTRACE_EGL_LIBRARY", "/nonexistent")],
+        &["/nonexistent", "libegl1"],
+    );
+    only_inputs(&d, &[]);
+}
+
+#[test]
+fn clap_usage_errors_are_one_line_with_exit_code_2() {
+    let d = tmpdir("clap");
+    fails(&d, &["--bogus"], &[], &["--bogus", "--help"]);
+    fails(
+        &d,
+        &["render", "--backend", "vulkan"],
+        &[],
+        &["vulkan", "--backend"],
+    );
+    fails(&d, &["render", "--spp", "many"], &[], &["many", "--spp"]);
+    fails(&d, &["compare"], &[], &["required"]);
+    fails(&d, &["frobnicate", "x", "y"], &[], &["'x'"]);
+    // Help is an answer, not an error.
+    let out = run_in(&d, &["--help"], &[]);
+    assert_eq!(out.status.code(), Some(0));
+}
