@@ -143,6 +143,41 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
         args: "--backend gl --kernel unrolled:16 --storage f16",
         presets: A,
     },
+    ConfigRow {
+        name: "gl-looped-moller-trumbore",
+        args: "--backend gl --kernel looped --intersect moller-trumbore",
+        presets: A,
+    },
+    ConfigRow {
+        name: "gl-looped-no-t-bound",
+        args: "--backend gl --kernel looped --t-bound off",
+        presets: A,
+    },
+    ConfigRow {
+        name: "gl-looped-epsilon",
+        args: "--backend gl --kernel looped --offset epsilon",
+        presets: A,
+    },
+    ConfigRow {
+        name: "cpu-f32-moller-trumbore",
+        args: "--backend cpu --precision f32 --intersect moller-trumbore",
+        presets: A,
+    },
+    ConfigRow {
+        name: "cpu-f32-epsilon",
+        args: "--backend cpu --precision f32 --offset epsilon",
+        presets: A,
+    },
+    ConfigRow {
+        name: "gl-looped-density-1",
+        args: "--backend gl --kernel looped --grid-density 1",
+        presets: A,
+    },
+    ConfigRow {
+        name: "gl-looped-density-8",
+        args: "--backend gl --kernel looped --grid-density 8",
+        presets: A,
+    },
 ];
 
 /// Preset names accepted by `--configs`.

@@ -29,7 +29,7 @@ pub struct RayShear<T> {
     pub sx: T,
     /// See `sx`.
     pub sy: T,
-    /// 1 / d[kz].
+    /// `1 / d[kz]`.
     pub sz: T,
 }
 
