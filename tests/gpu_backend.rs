@@ -148,16 +148,27 @@ fn gl_matches_cpu_on_every_shipped_scene() {
 #[ignore = "run by gl21_context_matches_cpu in a child process"]
 fn gl21_inner() {
     with_test_context(|ctx| {
-        assert_eq!(
-            ctx.info.gl_major_minor,
-            (2, 1),
-            "the override must give a GL 2.1 context"
-        );
-        assert!(
-            ctx.info.glsl_version.starts_with("1.20"),
-            "{}",
-            ctx.info.glsl_version
-        );
+        // The version overrides are Mesa's; another driver (NVIDIA) keeps its own version,
+        // and the run still proves the GeForce 6/7 limits and GLSL 1.20 shaders there.
+        let mesa = ctx.info.vendor.contains("Mesa") || ctx.info.renderer.contains("llvmpipe");
+        if mesa {
+            assert_eq!(
+                ctx.info.gl_major_minor,
+                (2, 1),
+                "the override must give a GL 2.1 context"
+            );
+            assert!(
+                ctx.info.glsl_version.starts_with("1.20"),
+                "{}",
+                ctx.info.glsl_version
+            );
+        } else {
+            println!(
+                "{} ({}): Mesa's version override does not apply; GL {:?} kept, GeForce 7 \
+                 limits still imposed",
+                ctx.info.renderer, ctx.info.vendor, ctx.info.gl_major_minor
+            );
+        }
         // A GeForce 6/7-class card's limits (FRAGTRACE_GL_LIMITS=geforce7): fragtrace plans
         // its textures and targets with them, and refuses what does not fit.
         assert_eq!(ctx.info.limit_profile.as_deref(), Some("geforce7"));
@@ -415,4 +426,31 @@ fn check_masks_and_storage(ctx: &GlContext, scene: &Scene, fast: fragtrace::gpu:
             "{kernel} --storage f16 rendered the f32 image"
         );
     }
+}
+
+/// The one-size-fits-all build (`--no-specialize`: every feature compiled in, every texture
+/// bound) renders every shipped scene like the specialised build: the compiled-out code is
+/// exactly the code a scene does not reach. Bar: RMSE 1e-5 (measured 0 on llvmpipe).
+#[test]
+fn unspecialized_build_renders_every_scene_like_the_specialized_one() {
+    with_test_context(|ctx| {
+        let mut failures = Vec::new();
+        for (name, scene) in shipped_scenes() {
+            let mut o = opts(&scene, Precision::F32);
+            o.gpu.kernel = fragtrace::gpu::shader::Kernel::Looped;
+            let spec = render_gl_with(ctx, &scene, &o).unwrap_or_else(|e| panic!("{name}: {e}"));
+            o.gpu.no_specialize = true;
+            match render_gl_with(ctx, &scene, &o) {
+                Err(e) => failures.push(format!("{name}: --no-specialize failed: {e}")),
+                Ok(all) => {
+                    let c = compare(&spec.image, &all.image, 0.01, true).unwrap();
+                    println!("{name}: unspecialised vs specialised RMSE {:.3e}", c.rmse);
+                    if c.rmse > 1e-5 || !all.image.all_finite() {
+                        failures.push(format!("{name}: RMSE {:.3e}", c.rmse));
+                    }
+                }
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    });
 }

@@ -136,9 +136,17 @@ pub fn axes_code(a: CheckerAxes) -> f32 {
 }
 
 impl SceneTextures {
-    /// Packs `scene` and `grid` for a GPU whose textures may be `max_size` texels wide/high.
+    /// Packs `scene` and `grid` for a GPU whose textures may be `max_size` texels wide/high;
+    /// the vertex-normal texture only when the scene has vertex normals.
     pub fn pack(scene: &Scene, grid: &Grid, max_size: u32) -> Result<Self> {
-        let smooth = scene.has_smooth_normals();
+        Self::pack_with(scene, grid, max_size, scene.has_smooth_normals())
+    }
+
+    /// As [`SceneTextures::pack`], with the vertex-normal texture packed when `normals` is
+    /// set even if no triangle has normals (all zero then): shaders built with every feature
+    /// on (`--no-specialize`) fetch from it, behind the per-triangle flag.
+    pub fn pack_with(scene: &Scene, grid: &Grid, max_size: u32, normals: bool) -> Result<Self> {
+        let smooth = normals || scene.has_smooth_normals();
         let mut tri = Vec::with_capacity(scene.triangles.len() * 3);
         let mut nrm = Vec::new();
         for (i, t) in scene.triangles.iter().enumerate() {

@@ -647,8 +647,13 @@ impl<'a> Frame<'a> {
             ..GpuStats::default()
         };
 
+        let features = if opts.no_specialize {
+            Features::all()
+        } else {
+            Features::of(scene)
+        };
         let t_up = Instant::now();
-        let layout = SceneTextures::pack(scene, grid, max_size)?;
+        let layout = SceneTextures::pack_with(scene, grid, max_size, features.smooth_normals)?;
         let mut scene_tex = Vec::new();
         for t in layout.all() {
             let tex = create_float_texture(gl, t.width, t.height, Some(&t.data))?;
@@ -660,11 +665,6 @@ impl<'a> Frame<'a> {
         stats.upload_bytes = layout.bytes();
 
         // Programs: only the passes this scene and depth use.
-        let features = if opts.no_specialize {
-            Features::all()
-        } else {
-            Features::of(scene)
-        };
         stats.features = format!("{features:?}");
         let secondary = levels > 1 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
         let lights = !scene.lights.is_empty();

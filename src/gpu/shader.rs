@@ -556,7 +556,9 @@ pub fn dump_shaders(
     dir: &std::path::Path,
     all_variants: bool,
 ) -> Result<Vec<std::path::PathBuf>> {
-    let layout = SceneTextures::pack(scene, grid, crate::accel::layout::MAX_ROW)?;
+    // Variants with smooth normals on fetch from the normal texture, so it is declared.
+    let layout =
+        SceneTextures::pack_with(scene, grid, crate::accel::layout::MAX_ROW, all_variants)?;
     let d = Techniques::default();
     let sets: Vec<(Features, Techniques, Option<String>)> = if all_variants {
         all_feature_sets()
