@@ -174,8 +174,8 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
         presets: A,
     },
     ConfigRow {
-        name: "gl-looped-density-8",
-        args: "--backend gl --kernel looped --grid-density 8",
+        name: "gl-looped-density-4",
+        args: "--backend gl --kernel looped --grid-density 4",
         presets: A,
     },
 ];
