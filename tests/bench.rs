@@ -1,6 +1,7 @@
 //! `fragtrace bench` as a user runs it: the three output files, one sane CSV row per
 //! configuration, the f64 CPU row exact, the reference cached, bad input refused (exit 2).
 
+mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -257,19 +258,7 @@ fn bench_progress_on_a_terminal_only() {
         err.contains("whitted / cpu-f32: ") && err.contains("wrote "),
         "{err}"
     );
-    let on_tty = |extra: &str| {
-        let out = Command::new("script")
-            .current_dir(&d)
-            .args(["-qec", &format!("{exe} {args} {extra}"), "/dev/null"])
-            .output()
-            .expect("util-linux `script`");
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).into_owned()
-    };
+    let on_tty = |extra: &str| common::on_terminal(&d, &format!("{exe} {args} {extra}"));
     let shown = on_tty("");
     assert!(
         shown.contains("/6 renders"),

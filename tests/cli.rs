@@ -1,5 +1,6 @@
 //! The binary as a user meets it: outputs, statistics, exit codes and error messages.
 
+mod common;
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -295,19 +296,7 @@ fn progress_shows_on_a_terminal_only() {
         !String::from_utf8_lossy(&piped.stderr).contains("rows"),
         "progress drawn into a pipe"
     );
-    let on_tty = |extra: &str| {
-        let out = Command::new("script")
-            .current_dir(&d)
-            .args(["-qec", &format!("{exe} {args} {extra}"), "/dev/null"])
-            .output()
-            .expect("util-linux `script`");
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).into_owned()
-    };
+    let on_tty = |extra: &str| common::on_terminal(&d, &format!("{exe} {args} {extra}"));
     let shown = on_tty("");
     assert!(
         shown.contains("/2000 rows"),

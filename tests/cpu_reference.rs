@@ -1,6 +1,8 @@
 //! Known-answer scenes (closed-form values, pbrt style) and brute-force oracles for the
 //! CPU reference renderer, in f64 and f32.
 
+mod common;
+use common::Rng;
 use fragtrace::accel::{Grid, GridConfig, GridRes};
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin, secondary, surface};
@@ -24,24 +26,6 @@ fn opts(scene: &Scene, w: u32, h: u32, p: Precision) -> RenderOptions {
     o.height = h;
     o.precision = p;
     o
-}
-
-/// Tiny xorshift for seeded tests; the seed is printed so failures reproduce.
-struct Rng(u64);
-impl Rng {
-    fn new(seed: u64) -> Self {
-        println!("seed = {seed:#x}");
-        Rng(seed | 1)
-    }
-    fn f(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.f()
-    }
 }
 
 fn inside_2d(p: (f64, f64), t: [(f64, f64); 3]) -> Option<bool> {
@@ -450,7 +434,7 @@ fn random_soup<R: FnMut() -> f64>(n: usize, mut r: R) -> Scene {
 }
 
 fn grid_matches_brute_force<T: Real>(seed: u64, grid_res: GridRes) {
-    let mut rng = Rng::new(seed);
+    let mut rng = Rng::new("cpu_reference", seed);
     let s = random_soup(600, || rng.f());
     let grid = Grid::build(
         &s,
@@ -461,7 +445,7 @@ fn grid_matches_brute_force<T: Real>(seed: u64, grid_res: GridRes) {
     )
     .unwrap();
     let accel = Accel::<T>::new(&s, &grid);
-    let mut rng = Rng::new(seed ^ 0xabcdef);
+    let mut rng = Rng::new("cpu_reference", seed ^ 0xabcdef);
     let mut hits = 0;
     for k in 0..20000 {
         // Origins inside and outside the grid; a share of axis-aligned directions.

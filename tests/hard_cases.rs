@@ -12,6 +12,8 @@
 //! GL work is kept small (llvmpipe on two cores): images are 48x36, ray batches one
 //! `trace_rays` call per scene and query.
 
+mod common;
+use common::Rng;
 use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
@@ -43,57 +45,6 @@ const H: u32 = 36;
 // ---------------------------------------------------------------------------------------
 // Shared helpers
 // ---------------------------------------------------------------------------------------
-
-/// Tiny xorshift; the seed is printed so a failure reproduces.
-struct Rng(u64);
-
-impl Rng {
-    fn new(case: &str, seed: u64) -> Self {
-        println!("[{case}] seed = {seed:#x}");
-        Rng(seed | 1)
-    }
-    /// Uniform in [0, 1).
-    fn f(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.f()
-    }
-    fn below(&mut self, n: usize) -> usize {
-        ((self.f() * n as f64) as usize).min(n - 1)
-    }
-    /// Uniform direction on the unit sphere.
-    fn dir(&mut self) -> DVec3 {
-        loop {
-            let v = DVec3::new(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            let l = v.length();
-            if l > 1e-3 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
-    /// Uniform point in the ball of radius `r`.
-    fn in_ball(&mut self, r: f64) -> DVec3 {
-        self.dir() * r * self.f().cbrt()
-    }
-    /// Barycentric weights bounded away from the edges by `margin`.
-    fn bary(&mut self, margin: f64) -> [f64; 3] {
-        loop {
-            let (a, b) = (self.f(), self.f());
-            let w = [a, b, 1.0 - a - b];
-            if w.iter().all(|&x| x > margin) {
-                return w;
-            }
-        }
-    }
-}
 
 fn camera(eye: Vec3, look_at: Vec3, vfov_deg: f32) -> Camera {
     Camera {

@@ -13,6 +13,8 @@
 //!   triangle at large scales in f32 (case 5), and shadows change at small scales
 //!   (case 16).
 
+mod common;
+use common::Rng;
 use fragtrace::accel::{Grid, GridConfig};
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin_with, reflect, surface};
@@ -27,38 +29,6 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 const BIG: f32 = 1.0e30;
-
-/// Tiny xorshift; the seed is printed so a failure reproduces.
-struct Rng(u64);
-
-impl Rng {
-    fn new(case: &str, seed: u64) -> Self {
-        println!("[{case}] seed = {seed:#x}");
-        Rng(seed | 1)
-    }
-    fn f(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.f()
-    }
-    fn dir(&mut self) -> DVec3 {
-        loop {
-            let v = DVec3::new(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            let l = v.length();
-            if l > 1e-3 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
-}
 
 fn camera() -> Camera {
     Camera {
