@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::image_io::{write_exr_channels, write_image, Image};
-use crate::render::Aov;
+use crate::output::Aov;
 use crate::{Error, Result};
 
 /// One requestable AOV.
@@ -177,7 +177,7 @@ pub fn heat_map(width: u32, height: u32, steps: &[f32]) -> Image {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::AovPixel;
+    use crate::output::AovPixel;
 
     #[test]
     fn parse_list_and_errors() {

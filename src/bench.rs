@@ -25,8 +25,9 @@ use serde::Serialize;
 use crate::cli::RenderArgs;
 use crate::gpu::GlContext;
 use crate::image_io::{self, Image};
+use crate::output::RayCounts;
 use crate::progress::Progress;
-use crate::render::{self, Backend, RayCounts, RenderOptions};
+use crate::render::{self, Backend, RenderOptions};
 use crate::scene::{self, Scene};
 use crate::{Error, Result};
 
@@ -847,8 +848,7 @@ fn bench_one(
         .iter()
         .filter_map(|r| {
             let g = r.1.stats.gpu.as_ref()?;
-            let has_timers = g["gpu_ms"].as_object().is_some_and(|m| !m.is_empty());
-            has_timers.then(|| g["gpu_ms_total"].as_f64()).flatten()
+            (!g.gpu_ms.is_empty()).then_some(g.gpu_ms_total)
         })
         .collect();
     let first = &runs[0].1.stats;
@@ -866,7 +866,7 @@ fn bench_one(
         time_s,
         render_ms: median(&render_ms),
         gpu_ms: (!gpu_ms.is_empty()).then(|| median(&gpu_ms)),
-        passes: first.gpu.as_ref().and_then(|g| g["passes_total"].as_u64()),
+        passes: first.gpu.as_ref().map(|g| g.passes_total),
         rays: first.rays,
         mrays_per_s: first.rays.total as f64 / time_s.max(1e-12) / 1e6,
         rmse: cmp.rmse,

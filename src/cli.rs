@@ -438,17 +438,10 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
         );
     }
     if let Some(g) = &s.gpu {
-        let passes = g["passes"].as_object().cloned().unwrap_or_default();
-        let ms = g["gpu_ms"].as_object().cloned().unwrap_or_default();
-        let mut rows: Vec<(String, u64, Option<f64>)> = passes
+        let mut rows: Vec<(String, u64, Option<f64>)> = g
+            .passes
             .iter()
-            .map(|(k, v)| {
-                (
-                    k.clone(),
-                    v.as_u64().unwrap_or(0),
-                    ms.get(k).and_then(|m| m.as_f64()),
-                )
-            })
+            .map(|(k, &n)| (k.clone(), n, g.gpu_ms.get(k).copied()))
             .collect();
         rows.sort_by(|a, b| {
             b.2.unwrap_or(0.0)
@@ -468,11 +461,11 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
         }
         out += &format!(
             "total: {} passes, {} termination queries, gpu {:.2} ms, compile {:.1} ms, upload {:.1} ms\n",
-            g["passes_total"].as_u64().unwrap_or(0),
-            g["termination_queries"].as_u64().unwrap_or(0),
-            g["gpu_ms_total"].as_f64().unwrap_or(0.0),
-            g["compile_ms"].as_f64().unwrap_or(0.0),
-            g["upload_ms"].as_f64().unwrap_or(0.0),
+            g.passes_total,
+            g.termination_queries,
+            g.gpu_ms_total,
+            g.compile_ms,
+            g.upload_ms,
         );
     }
     out

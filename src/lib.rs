@@ -17,6 +17,7 @@ pub mod cpu;
 pub mod error;
 pub mod gpu;
 pub mod image_io;
+pub mod output;
 pub mod progress;
 pub mod render;
 pub mod scene;

@@ -9,6 +9,7 @@ use crate::accel::{Grid, GridConfig};
 use crate::cpu::CpuRenderer;
 use crate::gpu::GlContext;
 use crate::image_io::Image;
+use crate::output::{Aov, GpuStats, RayCounts};
 use crate::scene::Scene;
 use crate::{Error, Result};
 
@@ -147,34 +148,6 @@ impl RenderOptions {
     }
 }
 
-/// Rays traced, by kind.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-pub struct RayCounts {
-    /// Camera rays.
-    pub primary: u64,
-    /// Shadow rays (one per light per shaded hit above the horizon).
-    pub shadow: u64,
-    /// Mirror rays.
-    pub reflected: u64,
-    /// Transmitted rays.
-    pub refracted: u64,
-    /// Sum of the above.
-    pub total: u64,
-}
-
-impl RayCounts {
-    /// Builds the counts and their total.
-    pub fn new(primary: u64, shadow: u64, reflected: u64, refracted: u64) -> Self {
-        RayCounts {
-            primary,
-            shadow,
-            reflected,
-            refracted,
-            total: primary + shadow + reflected + refracted,
-        }
-    }
-}
-
 /// Statistics of one render (written by `--stats FILE.json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderStats {
@@ -219,60 +192,7 @@ pub struct RenderStats {
     pub mrays_per_s: f64,
     /// Backend-specific extras (GPU pass counts and timings).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub gpu: Option<serde_json::Value>,
-}
-
-/// One AOV pixel of the primary ray.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AovPixel {
-    /// Hit parameter t; +inf on a miss.
-    pub depth: f32,
-    /// Triangle index; -1 on a miss.
-    pub primid: f32,
-    /// Geometric normal (winding order, not flipped); zero on a miss.
-    pub normal: [f32; 3],
-    /// Cells visited plus triangle tests.
-    pub steps: f32,
-}
-
-impl AovPixel {
-    /// A miss.
-    pub fn miss(steps: f32) -> Self {
-        AovPixel {
-            depth: f32::INFINITY,
-            primid: -1.0,
-            normal: [0.0; 3],
-            steps,
-        }
-    }
-}
-
-/// Per-pixel outputs of the primary ray: what inspection and compositing need.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Aov {
-    /// Width.
-    pub width: u32,
-    /// Height.
-    pub height: u32,
-    /// Pixels, top row first.
-    pub pixels: Vec<AovPixel>,
-}
-
-impl Aov {
-    /// From pixels in row order.
-    pub fn from_pixels(width: u32, height: u32, pixels: &[AovPixel]) -> Self {
-        assert_eq!(pixels.len(), (width * height) as usize);
-        Aov {
-            width,
-            height,
-            pixels: pixels.to_vec(),
-        }
-    }
-
-    /// The pixel at (i, j).
-    pub fn at(&self, i: u32, j: u32) -> &AovPixel {
-        &self.pixels[(j * self.width + i) as usize]
-    }
+    pub gpu: Option<GpuStats>,
 }
 
 /// A finished render.
@@ -358,7 +278,7 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
         cells_visited: None,
         triangle_tests: None,
         mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
-        gpu: Some(serde_json::to_value(&out.stats).map_err(|e| Error::Internal(e.to_string()))?),
+        gpu: Some(out.stats),
     };
     Ok(Rendered {
         image: out.image,

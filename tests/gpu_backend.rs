@@ -91,7 +91,7 @@ fn check_all_scenes(ctx: &GlContext) -> String {
             vs32.share_above * 100.0,
             vs64.rmse,
             cpu32_vs64.rmse,
-            gl.stats.gpu.as_ref().and_then(|g| g.get("passes_total")).cloned().unwrap_or_default(),
+            gl.stats.gpu.as_ref().map_or(0, |g| g.passes_total),
         ));
         for (backend, img) in [
             ("gl", &gl.image),
@@ -333,11 +333,7 @@ fn kernel_variants_render_the_same_image() {
         o.width = 48;
         o.height = 36;
         let base = render_gl_with(ctx, &scene, &o).unwrap();
-        let passes = |r: &fragtrace::render::Rendered| {
-            r.stats.gpu.as_ref().unwrap()["passes_total"]
-                .as_u64()
-                .unwrap()
-        };
+        let passes = |r: &fragtrace::render::Rendered| r.stats.gpu.as_ref().unwrap().passes_total;
         for kernel in [Kernel::Unrolled(4), Kernel::Looped] {
             o.gpu.kernel = kernel;
             let r = render_gl_with(ctx, &scene, &o).unwrap();
@@ -388,11 +384,7 @@ fn check_masks_and_storage(ctx: &GlContext, scene: &Scene, fast: fragtrace::gpu:
     let mut o = opts(scene, Precision::F32);
     o.width = 48;
     o.height = 36;
-    let passes = |r: &fragtrace::render::Rendered| {
-        r.stats.gpu.as_ref().unwrap()["passes_total"]
-            .as_u64()
-            .unwrap()
-    };
+    let passes = |r: &fragtrace::render::Rendered| r.stats.gpu.as_ref().unwrap().passes_total;
     for (kernel, every) in [(Kernel::Multipass, 8), (fast, 32)] {
         o.gpu.kernel = kernel;
         o.gpu.query_every = every;

@@ -10,8 +10,8 @@ use super::shade::{albedo, light_term, offset_origin_with, secondary, surface};
 use super::traverse::{Accel, Hit, Ray, Work};
 use crate::accel::Grid;
 use crate::image_io::Image;
+use crate::output::{Aov, AovPixel, RayCounts};
 use crate::progress::Progress;
-use crate::render::{Aov, AovPixel, RayCounts};
 use crate::scene::{camera, Scene};
 use crate::technique::{OffsetMethod, Techniques};
 

@@ -16,7 +16,6 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use glow::HasContext;
-use serde::Serialize;
 
 use super::context::GlContext;
 use super::gl_util::{
@@ -27,8 +26,8 @@ use super::shader::{assemble, Count, Features, Kernel, Pass, Query, RayState};
 use crate::accel::layout::SceneTextures;
 use crate::accel::Grid;
 use crate::image_io::Image;
+use crate::output::{Aov, AovPixel, GpuStats, RayCounts};
 use crate::progress::Progress;
-use crate::render::{Aov, AovPixel, RayCounts};
 use crate::scene::{camera, Scene};
 use crate::{Error, Result};
 
@@ -194,37 +193,6 @@ const UNITS: &[(&str, u32)] = &[
 ];
 /// Texture units a render needs.
 pub const REQUIRED_TEXTURE_UNITS: i32 = 14;
-
-/// GPU statistics of one render.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct GpuStats {
-    /// GL_RENDERER.
-    pub renderer: String,
-    /// GL_VERSION.
-    pub gl_version: String,
-    /// Passes drawn, by kind.
-    pub passes: HashMap<String, u64>,
-    /// Total passes drawn.
-    pub passes_total: u64,
-    /// GPU time per pass kind from timer queries (empty where unavailable).
-    pub gpu_ms: HashMap<String, f64>,
-    /// Sum of `gpu_ms`.
-    pub gpu_ms_total: f64,
-    /// Shader compile and link time.
-    pub compile_ms: f64,
-    /// Scene texture upload time.
-    pub upload_ms: f64,
-    /// Scene texture bytes.
-    pub upload_bytes: usize,
-    /// Wall time of the pass loop including read-back.
-    pub trace_ms: f64,
-    /// Termination queries issued.
-    pub termination_queries: u64,
-    /// K.
-    pub query_every: u32,
-    /// Scene features compiled in.
-    pub features: String,
-}
 
 /// Output of a GPU render.
 pub struct GpuOutput {

@@ -1,0 +1,119 @@
+//! Output types shared by every backend and every front end: rays by kind, primary-ray
+//! AOVs and GPU statistics. They sit below `cpu`, `gpu` and `render` so that the backends
+//! produce them without importing the front door that dispatches to them.
+
+use std::collections::HashMap;
+
+use serde::Serialize;
+
+/// Rays traced, by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RayCounts {
+    /// Camera rays.
+    pub primary: u64,
+    /// Shadow rays (one per light per shaded hit above the horizon).
+    pub shadow: u64,
+    /// Mirror rays.
+    pub reflected: u64,
+    /// Transmitted rays.
+    pub refracted: u64,
+    /// Sum of the above.
+    pub total: u64,
+}
+
+impl RayCounts {
+    /// Builds the counts and their total.
+    pub fn new(primary: u64, shadow: u64, reflected: u64, refracted: u64) -> Self {
+        RayCounts {
+            primary,
+            shadow,
+            reflected,
+            refracted,
+            total: primary + shadow + reflected + refracted,
+        }
+    }
+}
+
+/// One AOV pixel of the primary ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AovPixel {
+    /// Hit parameter t; +inf on a miss.
+    pub depth: f32,
+    /// Triangle index; -1 on a miss.
+    pub primid: f32,
+    /// Geometric normal (winding order, not flipped); zero on a miss.
+    pub normal: [f32; 3],
+    /// Cells visited plus triangle tests.
+    pub steps: f32,
+}
+
+impl AovPixel {
+    /// A miss.
+    pub fn miss(steps: f32) -> Self {
+        AovPixel {
+            depth: f32::INFINITY,
+            primid: -1.0,
+            normal: [0.0; 3],
+            steps,
+        }
+    }
+}
+
+/// Per-pixel outputs of the primary ray: what inspection and compositing need.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Aov {
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// Pixels, top row first.
+    pub pixels: Vec<AovPixel>,
+}
+
+impl Aov {
+    /// From pixels in row order.
+    pub fn from_pixels(width: u32, height: u32, pixels: &[AovPixel]) -> Self {
+        assert_eq!(pixels.len(), (width * height) as usize);
+        Aov {
+            width,
+            height,
+            pixels: pixels.to_vec(),
+        }
+    }
+
+    /// The pixel at (i, j).
+    pub fn at(&self, i: u32, j: u32) -> &AovPixel {
+        &self.pixels[(j * self.width + i) as usize]
+    }
+}
+
+/// GPU statistics of one render.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct GpuStats {
+    /// GL_RENDERER.
+    pub renderer: String,
+    /// GL_VERSION.
+    pub gl_version: String,
+    /// Passes drawn, by kind.
+    pub passes: HashMap<String, u64>,
+    /// Total passes drawn.
+    pub passes_total: u64,
+    /// GPU time per pass kind from timer queries (empty where unavailable).
+    pub gpu_ms: HashMap<String, f64>,
+    /// Sum of `gpu_ms`.
+    pub gpu_ms_total: f64,
+    /// Shader compile and link time.
+    pub compile_ms: f64,
+    /// Scene texture upload time.
+    pub upload_ms: f64,
+    /// Scene texture bytes.
+    pub upload_bytes: usize,
+    /// Wall time of the pass loop including read-back.
+    pub trace_ms: f64,
+    /// Termination queries issued.
+    pub termination_queries: u64,
+    /// K.
+    pub query_every: u32,
+    /// Scene features compiled in.
+    pub features: String,
+}
