@@ -24,5 +24,9 @@ export FRAGTRACE_MODEL_PATH="${FRAGTRACE_MODEL_PATH:-$(cd .. && pwd)/shared/mode
 
 cargo fmt --all -- --check
 cargo clippy --release --all-targets -- -D warnings
+# The fuzz targets live in their own workspace, which `cargo test` never builds: check them
+# so an API change cannot leave them uncompilable unnoticed (running them needs cargo-fuzz
+# and nightly; docs/fuzzing.md).
+cargo check --manifest-path fuzz/Cargo.toml --bins --target-dir target/fuzz-check
 # The README's test command:
 cargo test --release
