@@ -5,6 +5,8 @@
 
 use crate::common::Rng;
 use crate::support::*;
+use fragtrace::cpu::real::{Real, V3};
+use fragtrace::cpu::traverse::{Accel, Ray};
 use fragtrace::gpu::with_test_context;
 use fragtrace::render::Rendered;
 use fragtrace::scene::{Material, Scene};
@@ -81,11 +83,17 @@ fn smooth_sphere_scene() -> Scene {
 /// A smooth-shaded icosphere (4 subdivisions, vertex normals, diffuse + Phong) over a ground
 /// quad, lit from the side so the terminator and the silhouette both cross the image.
 /// Against the f64 image: a "speckle" is a pixel where both backends hit the same triangle
-/// but the colour differs by more than 0.05; a silhouette flip is a pixel where one backend
-/// hits the sphere and the other does not (a legitimate f32 rounding of the ray).
+/// but the colour differs by more than [`SPECKLE`](case_13_silhouettes_of_smooth_mesh);
+/// a silhouette flip is a pixel where one backend hits the sphere and the other does not
+/// (f32 rounding of the ray could cause one; none is measured).
 #[test]
 fn case_13_silhouettes_of_smooth_mesh() {
-    const SPECKLE: f32 = 0.05;
+    // Measured largest difference on the same triangle: CPU f32 9.5e-7, GL 3.5e-6 on
+    // llvmpipe, 1.7e-6 on the H200; the bound is about 6x the largest.
+    const SPECKLE: f32 = 2e-5;
+    // Measured RMSE: CPU f32 5.4e-8, GL 1.2e-7 (llvmpipe) and 6.7e-8 (H200): 5x the largest.
+    const RMSE: f64 = 6e-7;
+
     let s = smooth_sphere_scene();
     let renders = with_test_context(|ctx| render_all(ctx, &s));
     let mut checks = Checks::new();
@@ -98,7 +106,9 @@ fn case_13_silhouettes_of_smooth_mesh() {
             "vs CPU f64: {speckles} speckles (same triangle, |diff| > {SPECKLE}) of {} pixels, max diff on same triangle {:.2e}, {} silhouette flips, RMSE {:.2e}",
             v.same_tri, v.worst_same_tri, v.flips, v.rmse
         );
-        let ok = speckles == 0 && v.flips <= 8 && v.rmse <= 0.02;
+        // Flips: 0 measured on every backend (llvmpipe and H200), so none is allowed; a single
+        // one would break the RMSE bound anyway (one pixel off by ~0.5 is an RMSE of ~7e-3).
+        let ok = speckles == 0 && v.flips == 0 && v.rmse <= RMSE;
         if !ok {
             dump(&format!("case13-{b}"), &r.image);
         }
@@ -276,18 +286,64 @@ fn empty_single_room() -> (Scene, Scene, [f64; 3], Scene) {
     (empty, single, tri_colour, room)
 }
 
+/// Per pixel of a `W`x`H` image of `s`, the f64 camera ray through its centre, exactly as
+/// the f64 CPU builds it.
+fn camera_rays(s: &Scene) -> Vec<Ray<f64>> {
+    (0..W * H)
+        .map(|k| Ray {
+            o: V3::from_vec3(s.camera.eye),
+            d: V3::from_dvec3(s.camera.pixel_direction(W, H, k % W, k / W)),
+            t_min: 0.0,
+            t_max: f64::BIG,
+        })
+        .collect()
+}
+
+/// Closed-form coverage of triangle 0 of `s`: per pixel, whether the f64 camera ray passes
+/// inside (all three signed volumes d . (a - o) x (b - o) of one sign), or None when one of
+/// them is within 1e-9 of its scale (the ray is within rounding of an edge).
+fn coverage(s: &Scene) -> Vec<Option<bool>> {
+    let v = s.triangle_vertices(0).map(|v| v.as_dvec3());
+    camera_rays(s)
+        .iter()
+        .map(|r| {
+            let (o, d) = (r.o.to_dvec3(), r.d.to_dvec3());
+            let w: [f64; 3] = std::array::from_fn(|i| d.dot((v[i] - o).cross(v[(i + 1) % 3] - o)));
+            let scale = (v[0] - o).length() * (v[1] - o).length() + (v[2] - o).length().powi(2);
+            if w.iter().any(|x| x.abs() < 1e-9 * scale) {
+                None
+            } else {
+                Some(w.iter().all(|&x| x > 0.0) || w.iter().all(|&x| x < 0.0))
+            }
+        })
+        .collect()
+}
+
 /// The empty scene renders the background exactly everywhere; a single ambient-lit
-/// triangle renders exactly two colours with the coverage of the f64 image; a camera inside
-/// a closed room (so inside the grid) renders finite, every primary ray hits, and GL agrees
-/// with the f32 CPU.
+/// triangle renders exactly its closed-form colour where the closed-form f64 camera ray
+/// meets it and the background elsewhere; a camera inside a closed room (so inside the
+/// grid) renders finite, every primary ray hits the triangle brute force over every
+/// triangle finds in f64 (no grid), and the f32 CPU and GL images match the f64 one.
 #[test]
 fn case_21_empty_single_triangle_camera_inside_grid() {
+    // Measured room RMSE vs CPU f64: CPU f32 9.3e-8, GL 9.3e-8 on llvmpipe (the H200 log
+    // has GL vs CPU f32 at 4.6e-8, below the f32-f64 gap); the bound is about 5x.
+    const RMSE: f64 = 5e-7;
     let (empty, single, tri_colour, room) = empty_single_room();
     let grid = auto_grid(&room);
     assert!(
         room.camera.eye.cmpgt(grid.min).all() && room.camera.eye.cmplt(grid.max).all(),
         "the camera must be inside the grid"
     );
+    let covered = coverage(&single);
+    let ambiguous = covered.iter().filter(|c| c.is_none()).count();
+    let brute: Vec<f32> = {
+        let accel = Accel::<f64>::new(&room, &grid);
+        camera_rays(&room)
+            .iter()
+            .map(|r| accel.brute_force(r).map_or(-1.0, |h| h.tri as f32))
+            .collect()
+    };
     let (re, rs, rr) = with_test_context(|ctx| {
         (
             render_all(ctx, &empty),
@@ -302,36 +358,43 @@ fn case_21_empty_single_triangle_camera_inside_grid() {
         let not_bg = pixels(&re[bi].image)
             .filter(|p| px_diff(*p, bg) > 1e-6)
             .count();
-        // Single triangle.
+        // Single triangle: each pixel is the triangle's colour or the background, and
+        // which one is the closed form's coverage.
         let sb = single.background.to_array();
-        let (mut tri_px, mut odd) = (0, 0);
-        for p in pixels(&rs[bi].image) {
-            if (0..3).all(|c| (p[c] as f64 - tri_colour[c]).abs() < 1e-5) {
-                tri_px += 1;
-            } else if px_diff(p, sb) > 1e-6 {
-                odd += 1;
-            }
+        let (mut tri_px, mut odd, mut cover_diff) = (0, 0, 0);
+        for (p, want) in pixels(&rs[bi].image).zip(&covered) {
+            let on_tri = (0..3).all(|c| (p[c] as f64 - tri_colour[c]).abs() < 1e-5);
+            tri_px += on_tri as usize;
+            odd += (!on_tri && px_diff(p, sb) > 1e-6) as usize;
+            cover_diff += want.is_some_and(|w| w != on_tri) as usize;
         }
-        let cover_diff = VsReference::new(&rs[bi], &rs[F64]).flips;
         // Room.
         let finite =
             rr[bi].image.all_finite() && re[bi].image.all_finite() && rs[bi].image.all_finite();
         let room_miss = rr[bi].aov.pixels.iter().filter(|p| p.primid < 0.0).count();
-        let vs32 = VsReference::new(&rr[bi], &rr[1]);
-        let agree = vs32.same_tri;
-        let line = format!(
-            "empty: {not_bg} non-background pixels; single triangle: {tri_px} triangle pixels, {odd} other colours, {cover_diff} coverage differences vs f64; room: {room_miss} misses, primid agreement with CPU f32 {agree}/{}, RMSE vs CPU f32 {:.2e}; all finite: {finite}",
+        let vs_brute = rr[bi]
+            .aov
+            .pixels
+            .iter()
+            .zip(&brute)
+            .filter(|(p, t)| p.primid != **t)
+            .count();
+        let mut line = format!(
+            "empty: {not_bg} non-background pixels; single triangle: {tri_px} triangle pixels, {odd} other colours, {cover_diff} coverage differences vs the closed form ({ambiguous} pixels within rounding of an edge); room: {room_miss} misses, {vs_brute} of {} primary triangles differ from f64 brute force; all finite: {finite}",
             W * H,
-            vs32.rmse
         );
-        let ok = not_bg == 0
+        let mut ok = not_bg == 0
             && odd == 0
             && tri_px >= 150
-            && cover_diff <= 2
+            && cover_diff == 0
             && finite
             && room_miss == 0
-            && (agree as f64) >= 0.995 * (W * H) as f64
-            && vs32.rmse <= 0.02;
+            && vs_brute == 0;
+        if bi != F64 {
+            let vs64 = rmse(&rr[bi].image, &rr[F64].image);
+            line.push_str(&format!(", RMSE vs CPU f64 {vs64:.2e}"));
+            ok &= vs64 <= RMSE;
+        }
         checks.line("case 21", b, ok, line);
     }
     checks.done();

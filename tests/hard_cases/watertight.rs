@@ -196,7 +196,10 @@ fn case_01_02_seams_vertices_and_edges() {
 /// Rays from inside a closed icosphere (5 subdivisions, 20480 triangles), alone and over
 /// a 16x16 ground quad, must all hit the sphere: the miss (or leak to the ground) rate must
 /// stay at or below Embree's 0.002%. Case 4 repeats it with everything translated to about
-/// 1e5, where the f32 spacing is 2^-7 = 0.0078 on a radius-1 sphere, and records the rates.
+/// 1e5, where the f32 spacing is 2^-7 = 0.0078 on a radius-1 sphere, under the same bound:
+/// every bound of the intersection and the traversal is relative, so the quantised sphere
+/// is as closed as the one at the origin (measured: 0 misses on every backend, llvmpipe
+/// and H200, in both cases).
 #[test]
 fn case_03_04_rays_from_inside_closed_mesh() {
     const CPU_RAYS: usize = 100_000;
@@ -270,8 +273,7 @@ fn case_03_04_rays_from_inside_closed_mesh() {
                 prepared[k].1.res,
                 rate * 100.0
             );
-            assert!(rate.is_finite());
-            checks.line(case, b, case == "case 04" || rate <= EMBREE, line);
+            checks.line(case, b, rate <= EMBREE, line);
         }
     }
     checks.done();
