@@ -83,7 +83,7 @@ fn smooth_sphere_scene() -> Scene {
 /// A smooth-shaded icosphere (4 subdivisions, vertex normals, diffuse + Phong) over a ground
 /// quad, lit from the side so the terminator and the silhouette both cross the image.
 /// Against the f64 image: a "speckle" is a pixel where both backends hit the same triangle
-/// but the colour differs by more than [`SPECKLE`](case_13_silhouettes_of_smooth_mesh);
+/// but the colour differs by more than `SPECKLE` (2e-5);
 /// a silhouette flip is a pixel where one backend hits the sphere and the other does not
 /// (f32 rounding of the ray could cause one; none is measured).
 #[test]
@@ -368,7 +368,9 @@ fn case_21_empty_single_triangle_camera_inside_grid() {
             odd += (!on_tri && px_diff(p, sb) > 1e-6) as usize;
             cover_diff += want.is_some_and(|w| w != on_tri) as usize;
         }
-        // Room.
+        // Room. Measured: 0 primary triangles differ from brute force and 0 coverage
+        // differences above, on every backend (llvmpipe; the H200 log has GL's room
+        // triangles equal to the f32 CPU's on all 1728 pixels), so none is allowed.
         let finite =
             rr[bi].image.all_finite() && re[bi].image.all_finite() && rs[bi].image.all_finite();
         let room_miss = rr[bi].aov.pixels.iter().filter(|p| p.primid < 0.0).count();

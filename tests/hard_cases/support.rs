@@ -24,8 +24,9 @@ pub const BIG: f32 = 1.0e30;
 pub const BACKENDS: [&str; 3] = ["CPU f64", "CPU f32", "GL"];
 /// Index of the f64 CPU, the reference, in [`BACKENDS`].
 pub const F64: usize = 0;
-/// Image size of the render cases.
+/// Image width of the render cases.
 pub const W: u32 = 48;
+/// Image height of the render cases.
 pub const H: u32 = 36;
 
 // ---------------------------------------------------------------------------------------
@@ -38,6 +39,7 @@ pub const H: u32 = 36;
 pub struct Checks(Vec<String>);
 
 impl Checks {
+    /// No failure yet.
     pub fn new() -> Self {
         Checks::default()
     }
@@ -66,6 +68,7 @@ impl Checks {
 // Scene builders
 // ---------------------------------------------------------------------------------------
 
+/// A camera with +y up.
 pub fn camera(eye: Vec3, look_at: Vec3, vfov_deg: f32) -> Camera {
     Camera {
         eye,
@@ -75,6 +78,7 @@ pub fn camera(eye: Vec3, look_at: Vec3, vfov_deg: f32) -> Camera {
     }
 }
 
+/// The ray cases' camera: at z = 10 looking at the origin.
 pub fn default_camera() -> Camera {
     camera(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, 45.0)
 }
@@ -213,10 +217,12 @@ pub fn add_quad_outward(s: &mut Scene, q: [Vec3; 4], inside: Vec3, material: u32
     }
 }
 
+/// The grid with the default (automatic) resolution.
 pub fn auto_grid(scene: &Scene) -> Grid {
     Grid::build(scene, &GridConfig::default()).unwrap()
 }
 
+/// A grid of exactly `res` cells.
 pub fn fixed_grid(scene: &Scene, res: [u32; 3]) -> Grid {
     Grid::build(
         scene,
@@ -241,6 +247,7 @@ pub struct TRay {
 }
 
 impl TRay {
+    /// A ray without an upper bound.
     pub fn new(o: Vec3, d: Vec3) -> Self {
         TRay { o, d, t_max: BIG }
     }
@@ -257,6 +264,7 @@ impl TRay {
             t_max: r.t_max.to_f64().min(BIG as f64) as f32,
         }
     }
+    /// The same ray in the CPU's precision `T` (exact conversion).
     pub fn cpu<T: Real>(&self) -> Ray<T> {
         Ray {
             o: V3::from_vec3(self.o),
@@ -265,6 +273,7 @@ impl TRay {
             t_max: T::from_f32(self.t_max),
         }
     }
+    /// The same ray for `trace_rays`.
     pub fn gpu(&self) -> GpuRay {
         GpuRay {
             o: self.o,
@@ -272,6 +281,7 @@ impl TRay {
             t_max: self.t_max,
         }
     }
+    /// The point at parameter `t`, in f64.
     pub fn at(&self, t: f64) -> DVec3 {
         self.o.as_dvec3() + self.d.as_dvec3() * t
     }
@@ -288,6 +298,7 @@ pub struct Found {
 }
 
 impl Found {
+    /// The triangle hit, if any.
     pub fn tri(&self) -> Option<u32> {
         self.hit.map(|h| h.1)
     }
@@ -447,6 +458,7 @@ pub fn px_diff(a: [f32; 3], b: [f32; 3]) -> f32 {
     (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f32::max)
 }
 
+/// An image's pixels as RGB triples, row by row.
 pub fn pixels(img: &Image) -> impl Iterator<Item = [f32; 3]> + '_ {
     img.data.chunks(3).map(|c| [c[0], c[1], c[2]])
 }
