@@ -1,0 +1,472 @@
+//! What the hard cases share: one f32 test ray that every backend traces, tracing on the
+//! three backends, rendering on the three backends, scene builders, and the per-backend
+//! report that prints every backend's line before a case fails.
+
+use std::time::Instant;
+
+use fragtrace::accel::{Grid, GridConfig, GridRes};
+use fragtrace::compare::compare;
+use fragtrace::cpu::real::{Real, V3};
+use fragtrace::cpu::traverse::{Accel, Ray, Work};
+use fragtrace::gpu::render::{trace_rays, GpuOptions, GpuRay};
+use fragtrace::gpu::shader::{Kernel, Query, RayState};
+use fragtrace::gpu::GlContext;
+use fragtrace::image_io::Image;
+use fragtrace::render::{render_cpu, render_gl_with, Backend, Precision, RenderOptions, Rendered};
+use fragtrace::scene::{shapes, Camera, Light, Material, Scene, Triangle, NO_NORMAL};
+use fragtrace::technique::Techniques;
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+/// "No upper bound" for a ray, as every backend spells it (GLSL 1.20 has no infinity).
+pub const BIG: f32 = 1.0e30;
+/// Backend names, in the order results are reported: every `[_; 3]` below is in this order.
+pub const BACKENDS: [&str; 3] = ["CPU f64", "CPU f32", "GL"];
+/// Index of the f64 CPU, the reference, in [`BACKENDS`].
+pub const F64: usize = 0;
+/// Image width of the render cases.
+pub const W: u32 = 48;
+/// Image height of the render cases.
+pub const H: u32 = 36;
+
+// ---------------------------------------------------------------------------------------
+// The per-backend report
+// ---------------------------------------------------------------------------------------
+
+/// Collects a test's failures so that every backend prints its line before the test fails
+/// (the figures of the backends that pass are what docs/robustness.md tabulates).
+#[derive(Default)]
+pub struct Checks(Vec<String>);
+
+impl Checks {
+    /// No failure yet.
+    pub fn new() -> Self {
+        Checks::default()
+    }
+
+    /// Prints `[case] who: line`; a failure unless `ok`.
+    pub fn line(&mut self, case: &str, who: &str, ok: bool, line: impl AsRef<str>) {
+        let text = format!("[{case}] {who}: {}", line.as_ref());
+        println!("{text}");
+        if !ok {
+            self.0.push(text);
+        }
+    }
+
+    /// Records a failure without a measurement line.
+    pub fn fail(&mut self, msg: impl Into<String>) {
+        self.0.push(msg.into());
+    }
+
+    /// Fails the test with every recorded failure.
+    pub fn done(self) {
+        assert!(self.0.is_empty(), "FAILED:\n{}", self.0.join("\n"));
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Scene builders
+// ---------------------------------------------------------------------------------------
+
+/// A camera with +y up.
+pub fn camera(eye: Vec3, look_at: Vec3, vfov_deg: f32) -> Camera {
+    Camera {
+        eye,
+        look_at,
+        up: Vec3::Y,
+        vfov_deg,
+    }
+}
+
+/// The ray cases' camera: at z = 10 looking at the origin.
+pub fn default_camera() -> Camera {
+    camera(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, 45.0)
+}
+
+/// The ray cases' scene: default camera and one default material (index returned).
+pub fn plain_scene() -> (Scene, u32) {
+    let mut s = Scene::empty(default_camera());
+    let m = s.add_material(Material::default());
+    (s, m)
+}
+
+/// A white point light.
+pub fn light(position: Vec3, intensity: f32) -> Light {
+    Light {
+        position,
+        color: Vec3::ONE,
+        intensity,
+    }
+}
+
+/// A diffuse material of colour `albedo`.
+pub fn diffuse(albedo: Vec3) -> Material {
+    Material {
+        albedo,
+        ..Material::default()
+    }
+}
+
+/// Clear glass (no local shading, all light transmitted) of index `ior`.
+pub fn glass(ior: f32, fresnel: bool) -> Material {
+    Material {
+        albedo: Vec3::ONE,
+        ka: 0.0,
+        kd: 0.0,
+        kt: Vec3::ONE,
+        ior,
+        fresnel,
+        ..Material::default()
+    }
+}
+
+/// Appends an indexed mesh, mapped by `p * scale + offset` (in f64, rounded once to f32);
+/// `normals` (one per position) make it smooth-shaded. Returns its triangle index range.
+pub fn add_mesh(
+    s: &mut Scene,
+    positions: &[Vec3],
+    normals: Option<&[Vec3]>,
+    tris: &[[u32; 3]],
+    material: u32,
+    scale: f64,
+    offset: DVec3,
+) -> std::ops::Range<u32> {
+    let base = s.positions.len() as u32;
+    let nbase = s.normals.len() as u32;
+    s.positions.extend(
+        positions
+            .iter()
+            .map(|p| (p.as_dvec3() * scale + offset).as_vec3()),
+    );
+    if let Some(n) = normals {
+        s.normals.extend_from_slice(n);
+    }
+    let first = s.triangles.len() as u32;
+    for t in tris {
+        s.triangles.push(Triangle {
+            v: t.map(|i| base + i),
+            n: if normals.is_some() {
+                t.map(|i| nbase + i)
+            } else {
+                [NO_NORMAL; 3]
+            },
+            material,
+        });
+    }
+    first..s.triangles.len() as u32
+}
+
+/// The closed unit-radius icosphere with `n` subdivisions, centred at `offset`, scaled by
+/// `scale`, smooth-shaded (its vertex normals) or flat.
+pub fn add_sphere(
+    s: &mut Scene,
+    n: u32,
+    smooth: bool,
+    material: u32,
+    scale: f64,
+    offset: DVec3,
+) -> std::ops::Range<u32> {
+    let (p, nrm, t) = shapes::sphere(n);
+    add_mesh(
+        s,
+        &p,
+        smooth.then_some(&nrm[..]),
+        &t,
+        material,
+        scale,
+        offset,
+    )
+}
+
+/// An axis-aligned box of full extents `size` centred at `centre` (scaled by `scale`).
+pub fn add_box(
+    s: &mut Scene,
+    size: Vec3,
+    material: u32,
+    scale: f64,
+    centre: DVec3,
+) -> std::ops::Range<u32> {
+    let (p, t) = shapes::cuboid(size);
+    add_mesh(s, &p, None, &t, material, scale, centre)
+}
+
+/// A quad a, b, c, d as two triangles (a, b, c) and (a, c, d).
+pub fn add_quad(s: &mut Scene, q: [Vec3; 4], material: u32) -> [u32; 2] {
+    [
+        s.add_triangle(q[0], q[1], q[2], material),
+        s.add_triangle(q[0], q[2], q[3], material),
+    ]
+}
+
+/// The horizontal quad y = `y` over [-half, half]² around `centre` (x, z), in f64 then
+/// rounded to f32.
+pub fn add_ground(s: &mut Scene, y: f64, half: f64, centre: DVec3, material: u32) -> [u32; 2] {
+    let q = [(-1.0, -1.0), (-1.0, 1.0), (1.0, 1.0), (1.0, -1.0)]
+        .map(|(x, z)| (DVec3::new(x * half, y, z * half) + centre).as_vec3());
+    add_quad(s, q, material)
+}
+
+/// A quad wound so that its normal points away from `inside` (closed meshes for glass).
+pub fn add_quad_outward(s: &mut Scene, q: [Vec3; 4], inside: Vec3, material: u32) {
+    let n = (q[1] - q[0]).cross(q[2] - q[0]);
+    let c = (q[0] + q[1] + q[2] + q[3]) / 4.0;
+    if n.dot(c - inside) > 0.0 {
+        add_quad(s, q, material);
+    } else {
+        add_quad(s, [q[0], q[3], q[2], q[1]], material);
+    }
+}
+
+/// The grid with the default (automatic) resolution.
+pub fn auto_grid(scene: &Scene) -> Grid {
+    Grid::build(scene, &GridConfig::default()).unwrap()
+}
+
+/// A grid of exactly `res` cells.
+pub fn fixed_grid(scene: &Scene, res: [u32; 3]) -> Grid {
+    Grid::build(
+        scene,
+        &GridConfig {
+            res: GridRes::Fixed(res),
+            ..GridConfig::default()
+        },
+    )
+    .unwrap()
+}
+
+// ---------------------------------------------------------------------------------------
+// Single rays on every backend
+// ---------------------------------------------------------------------------------------
+
+/// One test ray in f32, the precision the GPU stores; the f64 backend converts it exactly.
+#[derive(Clone, Copy, Debug)]
+pub struct TRay {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub t_max: f32,
+}
+
+impl TRay {
+    /// A ray without an upper bound.
+    pub fn new(o: Vec3, d: Vec3) -> Self {
+        TRay { o, d, t_max: BIG }
+    }
+    /// From `o` through `target` (both rounded to f32 first, direction computed in f32).
+    pub fn towards(o: DVec3, target: DVec3) -> Self {
+        let o = o.as_vec3();
+        TRay::new(o, target.as_vec3() - o)
+    }
+    /// The ray of a CPU-spawned ray, rounded to f32 (what the GPU would store).
+    pub fn from_cpu<T: Real>(r: &Ray<T>) -> Self {
+        TRay {
+            o: r.o.to_dvec3().as_vec3(),
+            d: r.d.to_dvec3().as_vec3(),
+            t_max: r.t_max.to_f64().min(BIG as f64) as f32,
+        }
+    }
+    /// The same ray in the CPU's precision `T` (exact conversion).
+    pub fn cpu<T: Real>(&self) -> Ray<T> {
+        Ray {
+            o: V3::from_vec3(self.o),
+            d: V3::from_vec3(self.d),
+            t_min: T::ZERO,
+            t_max: T::from_f32(self.t_max),
+        }
+    }
+    /// The same ray for `trace_rays`.
+    pub fn gpu(&self) -> GpuRay {
+        GpuRay {
+            o: self.o,
+            d: self.d,
+            t_max: self.t_max,
+        }
+    }
+    /// The point at parameter `t`, in f64.
+    pub fn at(&self, t: f64) -> DVec3 {
+        self.o.as_dvec3() + self.d.as_dvec3() * t
+    }
+}
+
+/// What one backend found for one ray: (t, triangle) of the hit and the work done
+/// (cells visited plus triangle tests, the `steps` AOV).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Found {
+    pub hit: Option<(f64, u32)>,
+    pub steps: f64,
+    /// GL only: the final ray state (`Invalid` = missed the grid box).
+    pub state: Option<RayState>,
+}
+
+impl Found {
+    /// The triangle hit, if any.
+    pub fn tri(&self) -> Option<u32> {
+        self.hit.map(|h| h.1)
+    }
+}
+
+/// Closest hits on the CPU in precision `T`.
+pub fn cpu_closest<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Found> {
+    let accel = Accel::<T>::new(scene, grid);
+    rays.par_iter()
+        .map(|r| {
+            let mut w = Work::default();
+            let h = accel.closest_hit(&r.cpu::<T>(), &mut w);
+            Found {
+                hit: h.map(|h| (h.t.to_f64(), h.tri)),
+                steps: (w.cells + w.tests) as f64,
+                state: None,
+            }
+        })
+        .collect()
+}
+
+/// Any-hit answers on the CPU in precision `T`.
+pub fn cpu_any<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<bool> {
+    let accel = Accel::<T>::new(scene, grid);
+    rays.par_iter()
+        .map(|r| accel.any_hit(&r.cpu::<T>(), &mut Work::default()))
+        .collect()
+}
+
+/// Brute force over every triangle (no grid) in precision `T`: the traversal's reference.
+pub fn brute<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Option<(f64, u32)>> {
+    let accel = Accel::<T>::new(scene, grid);
+    rays.par_iter()
+        .map(|r| {
+            accel
+                .brute_force(&r.cpu::<T>())
+                .map(|h| (h.t.to_f64(), h.tri))
+        })
+        .collect()
+}
+
+/// Traces rays through the GL traversal and intersection passes. Asserts the basics every
+/// case needs: the trace terminates (an error otherwise), every ray ends in a final state,
+/// and no hit parameter or step count is NaN.
+pub fn gl_trace(
+    ctx: &GlContext,
+    scene: &Scene,
+    grid: &Grid,
+    rays: &[TRay],
+    q: Query,
+) -> Vec<Found> {
+    let gpu: Vec<GpuRay> = rays.iter().map(TRay::gpu).collect();
+    let t0 = Instant::now();
+    let out = trace_rays(ctx, scene, grid, &gpu, q, faithful())
+        .unwrap_or_else(|e| panic!("trace_rays failed: {e}"));
+    let ms = t0.elapsed().as_secs_f64() * 1e3;
+    if ms > 500.0 {
+        println!("    (GL trace_rays of {} rays: {ms:.0} ms)", rays.len());
+    }
+    out.iter()
+        .enumerate()
+        .map(|(k, g)| {
+            assert!(
+                matches!(
+                    g.state,
+                    RayState::Shading | RayState::Done | RayState::Invalid
+                ),
+                "ray {k} {:?} ended in state {:?}",
+                rays[k],
+                g.state
+            );
+            assert!(g.steps.is_finite(), "ray {k}: steps {}", g.steps);
+            if let Some((t, _)) = g.hit {
+                assert!(t.is_finite(), "ray {k}: hit t = {t}");
+            }
+            Found {
+                hit: g.hit.map(|(t, i)| (t as f64, i)),
+                steps: g.steps as f64,
+                state: Some(g.state),
+            }
+        })
+        .collect()
+}
+
+/// Closest hits on all three backends, in [`BACKENDS`] order.
+pub fn closest_all(ctx: &GlContext, scene: &Scene, grid: &Grid, rays: &[TRay]) -> [Vec<Found>; 3] {
+    [
+        cpu_closest::<f64>(scene, grid, rays),
+        cpu_closest::<f32>(scene, grid, rays),
+        gl_trace(ctx, scene, grid, rays, Query::Closest),
+    ]
+}
+
+/// Per backend, how many of `res`'s rays `bad` holds for (`bad` gets the ray's index).
+pub fn count(res: &[Vec<Found>; 3], bad: impl Fn(usize, &Found) -> bool) -> [usize; 3] {
+    res.each_ref()
+        .map(|r| r.iter().enumerate().filter(|(k, f)| bad(*k, f)).count())
+}
+
+// ---------------------------------------------------------------------------------------
+// Images on every backend
+// ---------------------------------------------------------------------------------------
+
+/// GPU options with the thesis's faithful multipass kernel: the hard cases test it, and
+/// the other kernels run the same step chunk (tests/gpu_backend.rs checks they agree).
+pub fn faithful() -> GpuOptions {
+    GpuOptions {
+        kernel: Kernel::Multipass,
+        ..GpuOptions::default()
+    }
+}
+
+/// Render options for a `W`x`H` image of `scene`.
+pub fn opts(scene: &Scene, precision: Precision) -> RenderOptions {
+    let mut o = RenderOptions::for_scene(scene);
+    o.gpu = faithful();
+    o.width = W;
+    o.height = H;
+    o.precision = precision;
+    o.backend = Backend::Cpu;
+    o
+}
+
+/// Renders `scene` on all three backends, in [`BACKENDS`] order.
+pub fn render_all(ctx: &GlContext, scene: &Scene) -> [Rendered; 3] {
+    render_all_with(ctx, scene, Techniques::default())
+}
+
+/// [`render_all`] with the given robustness techniques (to show that a check fails when
+/// the technique it guards is switched off).
+pub fn render_all_with(ctx: &GlContext, scene: &Scene, techniques: Techniques) -> [Rendered; 3] {
+    let o = |p| RenderOptions {
+        techniques,
+        ..opts(scene, p)
+    };
+    let t0 = Instant::now();
+    let gl =
+        render_gl_with(ctx, scene, &o(Precision::F32)).unwrap_or_else(|e| panic!("GL render: {e}"));
+    let ms = t0.elapsed().as_secs_f64() * 1e3;
+    if ms > 1000.0 {
+        println!("    (GL render: {ms:.0} ms)");
+    }
+    [
+        render_cpu(scene, &o(Precision::F64)).unwrap(),
+        render_cpu(scene, &o(Precision::F32)).unwrap(),
+        gl,
+    ]
+}
+
+/// RMSE of two images (linear values clamped to [0, 1]).
+pub fn rmse(a: &Image, b: &Image) -> f64 {
+    compare(a, b, 0.05, true).unwrap().rmse
+}
+
+/// Largest channel difference of two pixels.
+pub fn px_diff(a: [f32; 3], b: [f32; 3]) -> f32 {
+    (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f32::max)
+}
+
+/// An image's pixels as RGB triples, row by row.
+pub fn pixels(img: &Image) -> impl Iterator<Item = [f32; 3]> + '_ {
+    img.data.chunks(3).map(|c| [c[0], c[1], c[2]])
+}
+
+/// Writes an image for inspection when a render case fails (best effort).
+pub fn dump(name: &str, img: &Image) {
+    let p = std::env::temp_dir().join(format!("fragtrace-hard-{}.png", name.replace(' ', "")));
+    if fragtrace::image_io::write_image(&p, img).is_ok() {
+        println!("    wrote {}", p.display());
+    }
+}
