@@ -18,7 +18,7 @@ use common::Rng;
 use fragtrace::accel::{Grid, GridConfig};
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin_with, reflect, surface};
-use fragtrace::cpu::traverse::{Accel, Ray, Work};
+use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
 use fragtrace::gpu::render::{trace_rays, GpuOptions, GpuRay};
 use fragtrace::gpu::shader::{Kernel, Query};
 use fragtrace::gpu::{with_test_context, GlContext};
@@ -68,7 +68,7 @@ impl TRay {
 
 /// Closest hit triangle per ray on the CPU in precision `T` with `tech`.
 fn cpu_closest<T: Real>(s: &Scene, g: &Grid, rays: &[TRay], tech: Techniques) -> Vec<Option<u32>> {
-    let accel = Accel::<T>::with_techniques(s, g, tech);
+    let accel = GridWalker::<T>::with_techniques(s, g, tech);
     rays.par_iter()
         .map(|r| {
             accel
@@ -270,7 +270,7 @@ fn self_hits<T: Real>(tech: Techniques) -> Vec<(i32, usize, usize)> {
             s.add_triangle(a, b, cc, m);
         }
         let g = Grid::build(&s, &GridConfig::default()).unwrap();
-        let accel = Accel::<T>::with_techniques(&s, &g, tech);
+        let accel = GridWalker::<T>::with_techniques(&s, &g, tech);
         let light = V3::<T>::from_dvec3(centre + DVec3::new(30.0, 40.0, 50.0) * scale);
         let (mut hits, mut spawned) = (0usize, 0usize);
         for i in 0..s.triangles.len() {
