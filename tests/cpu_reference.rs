@@ -7,7 +7,8 @@ use fragtrace::accel::{Grid, GridConfig, GridRes};
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin, secondary, surface};
 use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
-use fragtrace::render::{render_cpu, Precision, RenderOptions};
+use fragtrace::options::{Precision, RenderOptions};
+use fragtrace::render::render_cpu;
 use fragtrace::scene::{Camera, Light, Material, Scene};
 use glam::{DVec3, Vec3};
 

@@ -22,7 +22,8 @@ use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
 use fragtrace::gpu::render::{trace_rays, GpuOptions, GpuRay};
 use fragtrace::gpu::shader::{Kernel, Query};
 use fragtrace::gpu::{with_test_context, GlContext};
-use fragtrace::render::{render_cpu, render_gl_with, Backend, Precision, RenderOptions};
+use fragtrace::options::{Backend, Precision, RenderOptions};
+use fragtrace::render::{render_cpu, render_gl_with};
 use fragtrace::scene::{builtin_scene, shapes, Camera, Light, Material, Scene};
 use fragtrace::technique::{IntersectMethod, OffsetMethod, TBound, Techniques};
 use glam::{DVec3, Vec3};
@@ -450,9 +451,9 @@ fn t_bound_and_offset_prevent_shadow_acne() {
 /// The command-line flags reach the render options; omitted, they are the defaults.
 #[test]
 fn command_line_flags_select_techniques() {
-    use fragtrace::cli::{options, RenderArgs};
+    use fragtrace::options::RenderArgs;
     let scene = builtin_scene();
-    let o = options(&RenderArgs::parse_from_args(&[]), &scene).unwrap();
+    let o = RenderArgs::parse_from_args(&[]).to_options(&scene).unwrap();
     assert!(o.techniques.is_default());
     let args = RenderArgs::parse_from_args(&[
         "--intersect",
@@ -462,7 +463,7 @@ fn command_line_flags_select_techniques() {
         "--offset",
         "epsilon",
     ]);
-    let o = options(&args, &scene).unwrap();
+    let o = args.to_options(&scene).unwrap();
     assert_eq!(
         o.techniques,
         Techniques {
