@@ -207,12 +207,6 @@ pub struct RenderArgs {
     pub verbose: bool,
 }
 
-impl Default for RenderArgs {
-    fn default() -> Self {
-        RenderArgs::parse_from_args(&[])
-    }
-}
-
 /// `render`'s arguments as a command of their own, for parsing lists of them.
 #[derive(Parser)]
 #[command(name = "render")]
@@ -222,12 +216,6 @@ struct RenderArgsParser {
 }
 
 impl RenderArgs {
-    /// Parses `render` arguments from a list (for tests and the default command); exits the
-    /// process with clap's message on bad arguments.
-    pub fn parse_from_args(args: &[&str]) -> Self {
-        RenderArgsParser::parse_from(std::iter::once("render").chain(args.iter().copied())).inner
-    }
-
     /// Parses `render` arguments from a list (a bench configuration's, for one), returning
     /// [`Error::Usage`] with clap's one-line message instead of exiting.
     pub fn try_parse_from_args<S: AsRef<str>>(args: &[S]) -> Result<Self> {

@@ -453,16 +453,20 @@ fn t_bound_and_offset_prevent_shadow_acne() {
 fn command_line_flags_select_techniques() {
     use fragtrace::options::RenderArgs;
     let scene = builtin_scene();
-    let o = RenderArgs::parse_from_args(&[]).to_options(&scene).unwrap();
+    let o = RenderArgs::try_parse_from_args::<&str>(&[])
+        .unwrap()
+        .to_options(&scene)
+        .unwrap();
     assert!(o.techniques.is_default());
-    let args = RenderArgs::parse_from_args(&[
+    let args = RenderArgs::try_parse_from_args(&[
         "--intersect",
         "moller-trumbore",
         "--t-bound",
         "off",
         "--offset",
         "epsilon",
-    ]);
+    ])
+    .unwrap();
     let o = args.to_options(&scene).unwrap();
     assert_eq!(
         o.techniques,
