@@ -222,7 +222,17 @@ impl RenderArgs {
         let all = std::iter::once("render").chain(args.iter().map(|a| a.as_ref()));
         RenderArgsParser::try_parse_from(all)
             .map(|p| p.inner)
-            .map_err(|e| Error::Usage(clap_error_line(&e)))
+            .map_err(|e| {
+                // The first line and the accepted values; clap's tips are about typing a
+                // command line, not a configuration string.
+                let lines = clap_error_lines(&e)
+                    .into_iter()
+                    .enumerate()
+                    .filter(|(i, l)| *i == 0 || l.starts_with("[possible values"))
+                    .map(|(_, l)| l)
+                    .collect();
+                Error::Usage(join_clap_lines(lines))
+            })
     }
 
     /// Turns the flags into render options for `scene`, checking the ranges the parser
@@ -274,6 +284,12 @@ impl RenderArgs {
 /// A clap error as one line: clap's own first line without its `error:` prefix and any
 /// further lines of explanation (possible values, a tip), not the usage block.
 pub fn clap_error_line(e: &clap::Error) -> String {
+    join_clap_lines(clap_error_lines(e))
+}
+
+/// The lines of a clap error before its usage block, trimmed, without the `error:` prefix;
+/// the error kind when clap gave no text.
+fn clap_error_lines(e: &clap::Error) -> Vec<String> {
     let rendered = e.render().to_string();
     let mut parts: Vec<String> = Vec::new();
     for line in rendered.lines().map(str::trim) {
@@ -288,6 +304,11 @@ pub fn clap_error_line(e: &clap::Error) -> String {
     if parts.is_empty() {
         parts.push(format!("{}", e.kind()));
     }
+    parts
+}
+
+/// Joins message lines with `: ` (one space after a line that already ends in a colon).
+fn join_clap_lines(parts: Vec<String>) -> String {
     let mut out = String::new();
     for p in parts {
         if !out.is_empty() {
