@@ -457,7 +457,7 @@ fn command_line_flags_select_techniques() {
         .unwrap()
         .to_options(&scene)
         .unwrap();
-    assert!(o.techniques.is_default());
+    assert_eq!(o.techniques, Techniques::default());
     let args = RenderArgs::try_parse_from_args(&[
         "--intersect",
         "moller-trumbore",
