@@ -4,18 +4,22 @@
 
 use std::path::{Path, PathBuf};
 
+use clap::ValueEnum;
+
 use crate::image_io::{write_exr_channels, write_image, Image};
 use crate::output::Aov;
 use crate::{Error, Result};
 
-/// One requestable AOV.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// One requestable AOV. Spelled on the command line as clap's [`ValueEnum`] names it; `--aov`
+/// takes a comma-separated list of them ([`AovKind::parse_list`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum AovKind {
     /// Ray parameter t of the closest hit; +inf on a miss.
     Depth,
     /// Geometric normal (winding order), x y z; 0 on a miss.
     Normal,
     /// Triangle index in load order; -1 on a miss.
+    #[value(name = "primid")]
     PrimId,
     /// Grid cells visited plus triangle tests.
     Steps,
@@ -26,17 +30,17 @@ impl AovKind {
     pub fn parse_list(s: &str) -> Result<Vec<AovKind>> {
         let mut v = Vec::new();
         for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
-            let k = match name {
-                "depth" => AovKind::Depth,
-                "normal" => AovKind::Normal,
-                "primid" => AovKind::PrimId,
-                "steps" => AovKind::Steps,
-                other => {
-                    return Err(Error::Usage(format!(
-                        "--aov: unknown AOV `{other}` (expected depth, normal, primid, steps)"
-                    )))
-                }
-            };
+            let k = <AovKind as ValueEnum>::from_str(name, false).map_err(|_| {
+                let known: Vec<String> = AovKind::value_variants()
+                    .iter()
+                    .filter_map(|k| k.to_possible_value())
+                    .map(|v| v.get_name().to_owned())
+                    .collect();
+                Error::Usage(format!(
+                    "--aov: unknown AOV `{name}` (expected {})",
+                    known.join(", ")
+                ))
+            })?;
             if !v.contains(&k) {
                 v.push(k);
             }

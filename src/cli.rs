@@ -5,11 +5,11 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::accel::{GridConfig, GridRes};
+use crate::accel::GridConfig;
 use crate::image_io;
-use crate::render::{self, Backend, Precision, RenderOptions};
+use crate::options::{clap_error_line, RenderArgs};
+use crate::render;
 use crate::scene::{self, Scene};
-use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques};
 use crate::{Error, Result};
 
 /// fragtrace: a Whitted ray tracer on GLSL 1.20 fragment programs, with an f64 CPU reference.
@@ -107,124 +107,6 @@ pub struct BenchArgs {
     pub quiet: bool,
 }
 
-/// Arguments of `render`.
-#[derive(Args, Debug, Clone)]
-pub struct RenderArgs {
-    /// Scene file (TOML); the built-in default scene when omitted.
-    pub scene: Option<PathBuf>,
-    /// Output image; .png (sRGB 8-bit) or .exr (linear float).
-    #[arg(short, long, default_value = "render.png")]
-    pub output: PathBuf,
-    /// Image width (default: the scene's).
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height (default: the scene's).
-    #[arg(long)]
-    pub height: Option<u32>,
-    /// Renderer: auto, cpu or gl.
-    #[arg(long, default_value = "auto")]
-    pub backend: Backend,
-    /// CPU arithmetic: f64 (ground truth) or f32 (mirrors the GPU).
-    #[arg(long, default_value = "f64")]
-    pub precision: Precision,
-    /// Maximum reflection/refraction depth (default: the scene's, else 5).
-    #[arg(long)]
-    pub max_depth: Option<u32>,
-    /// Samples per pixel (stratified, fixed seed).
-    #[arg(long, default_value_t = 1)]
-    pub spp: u32,
-    /// Grid resolution: auto or AxBxC.
-    #[arg(long, default_value = "auto")]
-    pub grid: GridRes,
-    /// Cells per triangle for the auto grid (lambda).
-    #[arg(long)]
-    pub grid_density: Option<f32>,
-    /// GPU: traversal iterations between termination queries (K).
-    #[arg(long, default_value_t = 8)]
-    pub query_every: u32,
-    /// GPU: traversal kernel: looped (bounded loop per pass, the fast default), multipass
-    /// (the thesis: one step per pass, no loops) or unrolled:K (K steps per pass,
-    /// straight-line code, no loops). All render the same image.
-    #[arg(long, default_value = "looped")]
-    pub kernel: crate::gpu::shader::Kernel,
-    /// GPU: compile every shading feature in instead of only what the scene needs.
-    #[arg(long)]
-    pub no_specialize: bool,
-    /// GPU: keep finished rays out of traversal passes with the depth test (early-z) or the
-    /// stencil test, refreshed at each termination query; none relies on the in-shader
-    /// early-out alone.
-    #[arg(long, default_value = "none")]
-    pub mask: crate::gpu::render::Mask,
-    /// GPU: ray textures in 32- or 16-bit floats (f16: ray directions and the colour sum;
-    /// origins and every index stay in 32-bit textures).
-    #[arg(long, default_value = "f32")]
-    pub storage: crate::gpu::render::Storage,
-    /// Ray-triangle test: watertight (Woop et al. 2013, the default) or moller-trumbore
-    /// (1997; rays can slip through shared edges). For measuring the technique's cost.
-    #[arg(long, value_enum, default_value_t = IntersectMethod::Watertight)]
-    pub intersect: IntersectMethod,
-    /// pbrt's t error bound on hits (on, the default) or off (spawned rays may re-hit
-    /// their own surface). For measuring the technique's cost.
-    #[arg(long, value_enum, default_value_t = TBound::On)]
-    pub t_bound: TBound,
-    /// Origin offset of spawned rays: error-bound (scale-independent, the default) or
-    /// epsilon (a fixed 1e-4 along the normal). For measuring the technique's cost.
-    #[arg(long, value_enum, default_value_t = OffsetMethod::ErrorBound)]
-    pub offset: OffsetMethod,
-    /// Write primary-ray AOVs next to the image: any of depth,normal,primid,steps
-    /// (`<stem>.aov.exr`; `steps` also as a heat map `<stem>.steps.png`).
-    #[arg(long)]
-    pub aov: Option<String>,
-    /// Write render statistics as JSON to this file.
-    #[arg(long)]
-    pub stats: Option<PathBuf>,
-    /// Print nothing but errors (no progress display, no summary).
-    #[arg(short, long)]
-    pub quiet: bool,
-    /// After the render, log each pass kind's count and GPU time (or the CPU's work).
-    #[arg(short, long)]
-    pub verbose: bool,
-}
-
-impl Default for RenderArgs {
-    fn default() -> Self {
-        RenderArgs::parse_from_args(&[])
-    }
-}
-
-/// `render`'s arguments as a command of their own, for parsing lists of them.
-#[derive(Parser)]
-#[command(name = "render")]
-struct RenderArgsParser {
-    #[command(flatten)]
-    inner: RenderArgs,
-}
-
-impl RenderArgs {
-    /// Parses `render` arguments from a list (for tests and the default command); exits the
-    /// process with clap's message on bad arguments.
-    pub fn parse_from_args(args: &[&str]) -> Self {
-        RenderArgsParser::parse_from(std::iter::once("render").chain(args.iter().copied())).inner
-    }
-
-    /// Parses `render` arguments from a list (a bench configuration's, for one), returning
-    /// [`Error::Usage`] with clap's one-line message instead of exiting.
-    pub fn try_parse_from_args<S: AsRef<str>>(args: &[S]) -> Result<Self> {
-        let all = std::iter::once("render").chain(args.iter().map(|a| a.as_ref()));
-        RenderArgsParser::try_parse_from(all)
-            .map(|p| p.inner)
-            .map_err(|e| {
-                let text = e.to_string();
-                let line = text
-                    .lines()
-                    .map(str::trim)
-                    .find(|l| !l.is_empty())
-                    .unwrap_or("invalid render arguments");
-                Error::Usage(line.strip_prefix("error: ").unwrap_or(line).to_string())
-            })
-    }
-}
-
 /// Joins a possibly multi-line message (a dependency's, a driver's) into one line.
 pub fn one_line(msg: &str) -> String {
     msg.lines()
@@ -234,31 +116,9 @@ pub fn one_line(msg: &str) -> String {
         .join(": ")
 }
 
-/// A clap usage error as one line: clap's own first line without its `error:` prefix, any
-/// further lines of explanation (not the usage block), and a pointer to `--help`.
+/// A clap usage error as one line ([`clap_error_line`]) with a pointer to `--help`.
 pub fn one_line_clap_error(e: &clap::Error) -> String {
-    let rendered = e.render().to_string();
-    let mut parts: Vec<String> = Vec::new();
-    for line in rendered.lines().map(str::trim) {
-        if line.starts_with("Usage:") || line.starts_with("For more information") {
-            break;
-        }
-        if line.is_empty() {
-            continue;
-        }
-        parts.push(line.strip_prefix("error: ").unwrap_or(line).to_owned());
-    }
-    if parts.is_empty() {
-        parts.push(format!("{}", e.kind()));
-    }
-    let mut out = String::new();
-    for p in parts {
-        if !out.is_empty() {
-            out += if out.ends_with(':') { " " } else { ": " };
-        }
-        out += &p;
-    }
-    format!("{out} (see `fragtrace --help`)")
+    format!("{} (see `fragtrace --help`)", clap_error_line(e))
 }
 
 /// Fails unless `path` can be created or replaced: its folder exists and is writable, and
@@ -317,49 +177,6 @@ pub fn load(scene_path: Option<&Path>) -> Result<Scene> {
     }
 }
 
-/// Turns command-line arguments into render options for `scene`.
-pub fn options(args: &RenderArgs, scene: &Scene) -> Result<RenderOptions> {
-    let mut opts = RenderOptions::for_scene(scene);
-    opts.width = args.width.unwrap_or(scene.width);
-    opts.height = args.height.unwrap_or(scene.height);
-    opts.spp = args.spp;
-    opts.max_depth = args.max_depth.unwrap_or(scene.max_depth);
-    opts.precision = args.precision;
-    opts.backend = args.backend;
-    let mut grid = GridConfig {
-        res: args.grid,
-        ..GridConfig::default()
-    };
-    if let Some(d) = args.grid_density {
-        if !(d.is_finite() && d > 0.0 && d <= 1024.0) {
-            return Err(Error::Usage(format!(
-                "--grid-density {d} is outside (0, 1024]"
-            )));
-        }
-        grid.density = d;
-    }
-    opts.grid = grid;
-    if args.query_every == 0 || args.query_every > 4096 {
-        return Err(Error::Usage(format!(
-            "--query-every {} is outside 1..=4096",
-            args.query_every
-        )));
-    }
-    opts.gpu.query_every = args.query_every;
-    opts.gpu.no_specialize = args.no_specialize;
-    opts.gpu.kernel = args.kernel;
-    opts.gpu.mask = args.mask;
-    opts.gpu.storage = args.storage;
-    opts.progress = !args.quiet;
-    opts.techniques = Techniques {
-        intersect: args.intersect,
-        t_bound: args.t_bound,
-        offset: args.offset,
-    };
-    opts.validate()?;
-    Ok(opts)
-}
-
 /// The `render` command: load, render, write the image (and stats).
 pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
     // Fail on an unusable output path or AOV list before loading or rendering anything.
@@ -374,7 +191,7 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
         .map(crate::aov::AovKind::parse_list)
         .transpose()?;
     let scene = load(args.scene.as_deref())?;
-    let opts = options(args, &scene)?;
+    let opts = args.to_options(&scene)?;
     let out = render::render(&scene, &opts)?;
     if !out.image.all_finite() {
         return Err(Error::Internal(

@@ -2,11 +2,12 @@
 //! fragment programs (the multi-pass stream design of Purcell et al. 2002), with an f64 CPU
 //! reference renderer as ground truth.
 //!
-//! Modules: [`scene`] (model, loaders, camera), [`accel`] (grid build, texel layout),
-//! [`cpu`] (reference renderer), [`gpu`] (headless GL context, shaders, passes),
-//! [`render`] (backend-independent front door), [`technique`] (switches for the robustness
-//! techniques), [`image_io`] (PNG/EXR), [`compare`] (error figures), [`bench`](mod@bench)
-//! (speed against error), [`cli`].
+//! Modules, bottom to top (docs/architecture.md): [`scene`] (model, loaders, camera),
+//! [`accel`] (grid build), [`cpu`] (reference renderer), [`gpu`] (headless GL context,
+//! shaders, passes), [`output`] and [`image_io`] (what a render produces), [`options`]
+//! (render flags and options), [`render`] (backend-independent front door), [`bench`](mod@bench)
+//! (speed against error) and [`cli`]; beside them [`technique`] (switches for the
+//! robustness techniques), [`aov`] (AOV files) and [`compare`] (error figures).
 
 pub mod accel;
 pub mod aov;
@@ -17,6 +18,7 @@ pub mod cpu;
 pub mod error;
 pub mod gpu;
 pub mod image_io;
+pub mod options;
 pub mod output;
 pub mod progress;
 pub mod render;

@@ -103,8 +103,9 @@ impl Progress {
         ))
     }
 
-    /// Whether anything is drawn.
-    pub fn is_shown(&self) -> bool {
+    /// Whether anything is drawn (the unit tests check the off cases).
+    #[cfg(test)]
+    fn is_shown(&self) -> bool {
         self.bar.is_some()
     }
 

@@ -1,152 +1,20 @@
-//! Backend-independent rendering front door: options, statistics, AOVs, and dispatch to
-//! the CPU reference renderer (and, where built, the GPU backend).
+//! Backend-independent rendering front door: dispatch to the CPU reference renderer or the
+//! GPU backend, and the statistics of a render. The options live in [`crate::options`]
+//! (re-exported here for callers that only take the front door).
 
 use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::accel::{Grid, GridConfig};
+use crate::accel::Grid;
 use crate::cpu::CpuRenderer;
 use crate::gpu::GlContext;
 use crate::image_io::Image;
 use crate::output::{Aov, GpuStats, RayCounts};
 use crate::scene::Scene;
-use crate::{Error, Result};
+use crate::Result;
 
-/// Which renderer runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Backend {
-    /// The GPU when a suitable GL context can be made, else the CPU with a notice.
-    Auto,
-    /// The CPU reference renderer.
-    Cpu,
-    /// The GLSL 1.20 multi-pass renderer; fails rather than falling back.
-    Gl,
-}
-
-impl std::str::FromStr for Backend {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "auto" => Ok(Backend::Auto),
-            "cpu" => Ok(Backend::Cpu),
-            "gl" => Ok(Backend::Gl),
-            _ => Err(format!("unknown backend `{s}` (expected auto, cpu or gl)")),
-        }
-    }
-}
-
-/// Arithmetic precision of the CPU renderer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Precision {
-    /// Single precision, as the GPU computes.
-    F32,
-    /// Double precision: the ground truth.
-    F64,
-}
-
-impl std::str::FromStr for Precision {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "f32" => Ok(Precision::F32),
-            "f64" => Ok(Precision::F64),
-            _ => Err(format!("unknown precision `{s}` (expected f32 or f64)")),
-        }
-    }
-}
-
-/// Largest image side accepted (checked before allocating anything).
-pub const MAX_IMAGE_SIDE: u32 = 16384;
-/// Host memory one render may need at most; checked before allocating anything.
-pub const MAX_HOST_BYTES: u64 = 8 << 30;
-/// Upper estimate of the host bytes a render needs per pixel: the radiance and AOV rows
-/// and their assembled copies on the CPU, or the read-back textures on the GPU, plus the
-/// encoded image.
-pub const HOST_BYTES_PER_PIXEL: u64 = 128;
-/// Largest sample count per pixel.
-pub const MAX_SPP: u32 = 1024;
-/// Largest recursion depth.
-pub const MAX_DEPTH: u32 = 16;
-
-/// Everything that controls one render.
-#[derive(Clone, Debug)]
-pub struct RenderOptions {
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// Samples per pixel (stratified, fixed seed).
-    pub spp: u32,
-    /// Maximum recursion depth (reflection/refraction bounces).
-    pub max_depth: u32,
-    /// CPU arithmetic precision.
-    pub precision: Precision,
-    /// Grid resolution and density.
-    pub grid: GridConfig,
-    /// Which renderer runs.
-    pub backend: Backend,
-    /// GPU backend options.
-    pub gpu: crate::gpu::render::GpuOptions,
-    /// Show a progress display on stderr (only drawn when stderr is a terminal).
-    pub progress: bool,
-    /// Robustness techniques, on every backend (the GL render uses these, not
-    /// `gpu.techniques`).
-    pub techniques: crate::technique::Techniques,
-}
-
-impl RenderOptions {
-    /// The scene's own size and depth, one sample, f64, the auto grid, the CPU backend.
-    pub fn for_scene(scene: &Scene) -> Self {
-        RenderOptions {
-            width: scene.width,
-            height: scene.height,
-            spp: 1,
-            max_depth: scene.max_depth,
-            precision: Precision::F64,
-            grid: GridConfig::default(),
-            backend: Backend::Cpu,
-            gpu: crate::gpu::render::GpuOptions::default(),
-            progress: false,
-            techniques: crate::technique::Techniques::default(),
-        }
-    }
-
-    /// Rejects sizes and counts out of range before any allocation.
-    pub fn validate(&self) -> Result<()> {
-        for (name, v) in [("width", self.width), ("height", self.height)] {
-            if v == 0 || v > MAX_IMAGE_SIDE {
-                return Err(Error::Usage(format!(
-                    "--{name} {v} is outside 1..={MAX_IMAGE_SIDE}"
-                )));
-            }
-        }
-        let bytes = self.width as u64 * self.height as u64 * HOST_BYTES_PER_PIXEL;
-        if bytes > MAX_HOST_BYTES {
-            return Err(Error::Limit(format!(
-                "a {}x{} image needs about {:.1} GiB of host memory, more than the {} GiB limit",
-                self.width,
-                self.height,
-                bytes as f64 / (1u64 << 30) as f64,
-                MAX_HOST_BYTES >> 30
-            )));
-        }
-        if self.spp == 0 || self.spp > MAX_SPP {
-            return Err(Error::Usage(format!(
-                "--spp {} is outside 1..={MAX_SPP}",
-                self.spp
-            )));
-        }
-        if self.max_depth > MAX_DEPTH {
-            return Err(Error::Usage(format!(
-                "--max-depth {} is outside 0..={MAX_DEPTH}",
-                self.max_depth
-            )));
-        }
-        Ok(())
-    }
-}
+pub use crate::options::{Backend, Precision, RenderOptions};
 
 /// Statistics of one render (written by `--stats FILE.json`).
 #[derive(Clone, Debug, Serialize)]

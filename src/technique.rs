@@ -83,11 +83,6 @@ impl Techniques {
         ]
     }
 
-    /// True for the default techniques.
-    pub fn is_default(self) -> bool {
-        self == Techniques::default()
-    }
-
     /// The GLSL `#define`s selecting these techniques (one per technique, from an exhaustive
     /// match, so a new variant cannot be forgotten).
     pub fn defines(self) -> Vec<&'static str> {
@@ -147,7 +142,6 @@ mod tests {
     #[test]
     fn defaults_and_tags() {
         let d = Techniques::default();
-        assert!(d.is_default());
         assert_eq!(d.tag(), "default");
         assert_eq!(
             d.defines(),

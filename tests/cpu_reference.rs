@@ -6,8 +6,9 @@ use common::Rng;
 use fragtrace::accel::{Grid, GridConfig, GridRes};
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin, secondary, surface};
-use fragtrace::cpu::traverse::{Accel, Ray, Work};
-use fragtrace::render::{render_cpu, Precision, RenderOptions};
+use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
+use fragtrace::options::{Precision, RenderOptions};
+use fragtrace::render::render_cpu;
 use fragtrace::scene::{Camera, Light, Material, Scene};
 use glam::{DVec3, Vec3};
 
@@ -319,7 +320,7 @@ fn slab_scene(ior: f32) -> Scene {
 /// Follows the refraction chain of a ray through the scene, returning the directions.
 fn refraction_chain<T: Real>(s: &Scene, o: V3<T>, d: V3<T>, n: usize) -> Vec<(V3<T>, V3<T>)> {
     let grid = Grid::build(s, &GridConfig::default()).unwrap();
-    let accel = Accel::<T>::new(s, &grid);
+    let accel = GridWalker::<T>::new(s, &grid);
     let mut ray = Ray {
         o,
         d,
@@ -380,7 +381,7 @@ fn total_internal_reflection_reflects() {
     // Start inside the slab heading for the top face at 60° from its normal (> 41.8°).
     let d = V3::<f64>::new(60f64.to_radians().sin(), 0.0, 60f64.to_radians().cos());
     let grid = Grid::build(&s, &GridConfig::default()).unwrap();
-    let accel = Accel::<f64>::new(&s, &grid);
+    let accel = GridWalker::<f64>::new(&s, &grid);
     let ray = Ray {
         o: V3::new(0.0, 0.0, -0.5),
         d,
@@ -444,7 +445,7 @@ fn grid_matches_brute_force<T: Real>(seed: u64, grid_res: GridRes) {
         },
     )
     .unwrap();
-    let accel = Accel::<T>::new(&s, &grid);
+    let accel = GridWalker::<T>::new(&s, &grid);
     let mut rng = Rng::new("cpu_reference", seed ^ 0xabcdef);
     let mut hits = 0;
     for k in 0..20000 {

@@ -11,7 +11,7 @@ use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, RngSee
 
 use fragtrace::accel::{Grid, GridConfig, GridRes};
 use fragtrace::cpu::real::V3;
-use fragtrace::cpu::traverse::{Accel, Ray, Work};
+use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
 use fragtrace::scene::{
     parse_obj_with_mtl, parse_scene_str, Camera, Material, Scene, Triangle, NO_NORMAL,
 };
@@ -367,7 +367,7 @@ fn grid_traversal_agrees_with_brute_force() {
             .map(|v| Triangle { v, n: [NO_NORMAL; 3], material: m })
             .collect();
         let grid = Grid::build(&s, &GridConfig { res, ..GridConfig::default() }).unwrap();
-        let accel = Accel::<f64>::new(&s, &grid);
+        let accel = GridWalker::<f64>::new(&s, &grid);
         for (o, d) in rays {
             rays_total.set(rays_total.get() + 1);
             let ray = Ray {

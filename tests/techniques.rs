@@ -18,11 +18,12 @@ use common::Rng;
 use fragtrace::accel::{Grid, GridConfig};
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin_with, reflect, surface};
-use fragtrace::cpu::traverse::{Accel, Ray, Work};
+use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
 use fragtrace::gpu::render::{trace_rays, GpuOptions, GpuRay};
 use fragtrace::gpu::shader::{Kernel, Query};
 use fragtrace::gpu::{with_test_context, GlContext};
-use fragtrace::render::{render_cpu, render_gl_with, Backend, Precision, RenderOptions};
+use fragtrace::options::{Backend, Precision, RenderOptions};
+use fragtrace::render::{render_cpu, render_gl_with};
 use fragtrace::scene::{builtin_scene, shapes, Camera, Light, Material, Scene};
 use fragtrace::technique::{IntersectMethod, OffsetMethod, TBound, Techniques};
 use glam::{DVec3, Vec3};
@@ -68,7 +69,7 @@ impl TRay {
 
 /// Closest hit triangle per ray on the CPU in precision `T` with `tech`.
 fn cpu_closest<T: Real>(s: &Scene, g: &Grid, rays: &[TRay], tech: Techniques) -> Vec<Option<u32>> {
-    let accel = Accel::<T>::with_techniques(s, g, tech);
+    let accel = GridWalker::<T>::with_techniques(s, g, tech);
     rays.par_iter()
         .map(|r| {
             accel
@@ -270,7 +271,7 @@ fn self_hits<T: Real>(tech: Techniques) -> Vec<(i32, usize, usize)> {
             s.add_triangle(a, b, cc, m);
         }
         let g = Grid::build(&s, &GridConfig::default()).unwrap();
-        let accel = Accel::<T>::with_techniques(&s, &g, tech);
+        let accel = GridWalker::<T>::with_techniques(&s, &g, tech);
         let light = V3::<T>::from_dvec3(centre + DVec3::new(30.0, 40.0, 50.0) * scale);
         let (mut hits, mut spawned) = (0usize, 0usize);
         for i in 0..s.triangles.len() {
@@ -450,19 +451,23 @@ fn t_bound_and_offset_prevent_shadow_acne() {
 /// The command-line flags reach the render options; omitted, they are the defaults.
 #[test]
 fn command_line_flags_select_techniques() {
-    use fragtrace::cli::{options, RenderArgs};
+    use fragtrace::options::RenderArgs;
     let scene = builtin_scene();
-    let o = options(&RenderArgs::parse_from_args(&[]), &scene).unwrap();
-    assert!(o.techniques.is_default());
-    let args = RenderArgs::parse_from_args(&[
+    let o = RenderArgs::try_parse_from_args::<&str>(&[])
+        .unwrap()
+        .to_options(&scene)
+        .unwrap();
+    assert_eq!(o.techniques, Techniques::default());
+    let args = RenderArgs::try_parse_from_args(&[
         "--intersect",
         "moller-trumbore",
         "--t-bound",
         "off",
         "--offset",
         "epsilon",
-    ]);
-    let o = options(&args, &scene).unwrap();
+    ])
+    .unwrap();
+    let o = args.to_options(&scene).unwrap();
     assert_eq!(
         o.techniques,
         Techniques {

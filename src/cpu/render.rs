@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::real::{Real, V3};
 use super::shade::{albedo, light_term, offset_origin_with, secondary, surface};
-use super::traverse::{Accel, Hit, Ray, Work};
+use super::traverse::{GridWalker, Hit, Ray, Work};
 use crate::accel::Grid;
 use crate::image_io::Image;
 use crate::output::{Aov, AovPixel, RayCounts};
@@ -28,7 +28,7 @@ struct Tally {
 /// A scene prepared for CPU rendering in precision `T`.
 pub struct CpuRenderer<'a, T> {
     scene: &'a Scene,
-    accel: Accel<'a, T>,
+    walker: GridWalker<'a, T>,
     max_depth: u32,
     background: V3<T>,
     ambient: V3<T>,
@@ -55,7 +55,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
     pub fn new(scene: &'a Scene, grid: &'a Grid, max_depth: u32, techniques: Techniques) -> Self {
         CpuRenderer {
             scene,
-            accel: Accel::with_techniques(scene, grid, techniques),
+            walker: GridWalker::with_techniques(scene, grid, techniques),
             offset: techniques.offset,
             max_depth,
             background: V3::from_vec3(scene.background),
@@ -65,7 +65,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
 
     /// Radiance along a unit-direction ray at recursion depth `depth` (primary = 0).
     fn radiance(&self, ray: &Ray<T>, depth: u32, tally: &mut Tally) -> V3<T> {
-        match self.accel.closest_hit(ray, &mut tally.work) {
+        match self.walker.closest_hit(ray, &mut tally.work) {
             None => self.background,
             Some(hit) => self.shade(ray, &hit, depth, tally),
         }
@@ -73,7 +73,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
 
     /// Whitted shading of a hit (see `cpu::shade` for the conventions).
     fn shade(&self, ray: &Ray<T>, hit: &Hit<T>, depth: u32, tally: &mut Tally) -> V3<T> {
-        let verts = &self.accel.tris[hit.tri as usize];
+        let verts = &self.walker.tris[hit.tri as usize];
         let sp = surface(self.scene, verts, hit, ray.d);
         let m = &self.scene.materials[sp.material as usize];
         let alb = albedo(m, sp.p);
@@ -96,7 +96,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
                 t_min: T::ZERO,
                 t_max: dist,
             };
-            if self.accel.any_hit(&shadow, &mut tally.work) {
+            if self.walker.any_hit(&shadow, &mut tally.work) {
                 continue;
             }
             color = color + light_term(m, alb, &sp, l, v, V3::from_vec3(light.radiance()));
@@ -156,7 +156,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
                         let ray = self.primary_ray(w, h, i as f64 + ox, j as f64 + oy);
                         tally.primary += 1;
                         let before = tally.work;
-                        let hit = self.accel.closest_hit(&ray, &mut tally.work);
+                        let hit = self.walker.closest_hit(&ray, &mut tally.work);
                         if k == 0 {
                             let steps = (tally.work.cells - before.cells)
                                 + (tally.work.tests - before.tests);
@@ -208,7 +208,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
         match hit {
             None => AovPixel::miss(steps as f32),
             Some(hit) => {
-                let verts = &self.accel.tris[hit.tri as usize];
+                let verts = &self.walker.tris[hit.tri as usize];
                 let sp = surface(self.scene, verts, hit, ray.d);
                 AovPixel {
                     depth: hit.t.to_f64() as f32,

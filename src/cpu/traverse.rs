@@ -58,8 +58,10 @@ pub struct Work {
     pub tests: u64,
 }
 
-/// Geometry and grid converted to the renderer's precision once per render.
-pub struct Accel<'a, T> {
+/// Walks rays through the uniform grid (3D-DDA) and tests the triangles of each cell: the
+/// scene's geometry and grid converted to the renderer's precision once per render. (Not an
+/// acceleration structure of its own: it traverses [`crate::accel::Grid`].)
+pub struct GridWalker<'a, T> {
     /// Vertices of every triangle, in load order.
     pub tris: Vec<[V3<T>; 3]>,
     /// Grid lower corner.
@@ -78,13 +80,18 @@ pub struct Accel<'a, T> {
     pub techniques: Techniques,
 }
 
-impl<'a, T: Real> Accel<'a, T> {
+/// The former name of [`GridWalker`], which clashed with the `accel` module; kept only while
+/// tests outside this change (hard_cases, glsl_twins, gpu_backend) still spell it so.
+#[doc(hidden)]
+pub type Accel<'a, T> = GridWalker<'a, T>;
+
+impl<'a, T: Real> GridWalker<'a, T> {
     /// Prepares a scene and its grid for traversal in precision `T`, default techniques.
     pub fn new(scene: &crate::scene::Scene, grid: &'a Grid) -> Self {
         Self::with_techniques(scene, grid, Techniques::default())
     }
 
-    /// [`Accel::new`] with the intersection test and t bound of `techniques`.
+    /// [`GridWalker::new`] with the intersection test and t bound of `techniques`.
     pub fn with_techniques(
         scene: &crate::scene::Scene,
         grid: &'a Grid,
@@ -93,7 +100,7 @@ impl<'a, T: Real> Accel<'a, T> {
         let tris = (0..scene.triangles.len())
             .map(|i| scene.triangle_vertices(i).map(V3::from_vec3))
             .collect();
-        Accel {
+        GridWalker {
             tris,
             min: V3::from_vec3(grid.min),
             max: V3::from_vec3(grid.max),

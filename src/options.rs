@@ -1,0 +1,320 @@
+//! Render options and the flags that set them: [`RenderArgs`] (the clap flags of `render`,
+//! which bench configurations are parsed with too), [`RenderOptions`] (what one render
+//! needs, whoever asks) and the conversion between them, with the limits every backend
+//! checks before allocating.
+//!
+//! This module sits below both the command line and the bench (and above the backends,
+//! whose options it carries), so neither of those imports the other.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, ValueEnum};
+use serde::Serialize;
+
+use crate::accel::{GridConfig, GridRes};
+use crate::scene::Scene;
+use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques};
+use crate::{Error, Result};
+
+/// Which renderer runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Backend {
+    /// The GPU when a suitable GL context can be made, else the CPU with a notice.
+    Auto,
+    /// The CPU reference renderer.
+    Cpu,
+    /// The GLSL 1.20 multi-pass renderer; fails rather than falling back.
+    Gl,
+}
+
+/// Arithmetic precision of the CPU renderer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// Single precision, as the GPU computes.
+    F32,
+    /// Double precision: the ground truth.
+    F64,
+}
+
+/// Largest image side accepted (checked before allocating anything).
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Host memory one render may need at most; checked before allocating anything.
+pub const MAX_HOST_BYTES: u64 = 8 << 30;
+/// Upper estimate of the host bytes a render needs per pixel: the radiance and AOV rows
+/// and their assembled copies on the CPU, or the read-back textures on the GPU, plus the
+/// encoded image.
+pub const HOST_BYTES_PER_PIXEL: u64 = 128;
+/// Largest sample count per pixel.
+pub const MAX_SPP: u32 = 1024;
+/// Largest recursion depth.
+pub const MAX_DEPTH: u32 = 16;
+
+/// Everything that controls one render.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Samples per pixel (stratified, fixed seed).
+    pub spp: u32,
+    /// Maximum recursion depth (reflection/refraction bounces).
+    pub max_depth: u32,
+    /// CPU arithmetic precision.
+    pub precision: Precision,
+    /// Grid resolution and density.
+    pub grid: GridConfig,
+    /// Which renderer runs.
+    pub backend: Backend,
+    /// GPU backend options.
+    pub gpu: crate::gpu::render::GpuOptions,
+    /// Show a progress display on stderr (only drawn when stderr is a terminal).
+    pub progress: bool,
+    /// Robustness techniques, on every backend (the GL render uses these, not
+    /// `gpu.techniques`).
+    pub techniques: crate::technique::Techniques,
+}
+
+impl RenderOptions {
+    /// The scene's own size and depth, one sample, f64, the auto grid, the CPU backend.
+    pub fn for_scene(scene: &Scene) -> Self {
+        RenderOptions {
+            width: scene.width,
+            height: scene.height,
+            spp: 1,
+            max_depth: scene.max_depth,
+            precision: Precision::F64,
+            grid: GridConfig::default(),
+            backend: Backend::Cpu,
+            gpu: crate::gpu::render::GpuOptions::default(),
+            progress: false,
+            techniques: crate::technique::Techniques::default(),
+        }
+    }
+
+    /// Rejects sizes and counts out of range before any allocation.
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [("width", self.width), ("height", self.height)] {
+            if v == 0 || v > MAX_IMAGE_SIDE {
+                return Err(Error::Usage(format!(
+                    "--{name} {v} is outside 1..={MAX_IMAGE_SIDE}"
+                )));
+            }
+        }
+        let bytes = self.width as u64 * self.height as u64 * HOST_BYTES_PER_PIXEL;
+        if bytes > MAX_HOST_BYTES {
+            return Err(Error::Limit(format!(
+                "a {}x{} image needs about {:.1} GiB of host memory, more than the {} GiB limit",
+                self.width,
+                self.height,
+                bytes as f64 / (1u64 << 30) as f64,
+                MAX_HOST_BYTES >> 30
+            )));
+        }
+        if self.spp == 0 || self.spp > MAX_SPP {
+            return Err(Error::Usage(format!(
+                "--spp {} is outside 1..={MAX_SPP}",
+                self.spp
+            )));
+        }
+        if self.max_depth > MAX_DEPTH {
+            return Err(Error::Usage(format!(
+                "--max-depth {} is outside 0..={MAX_DEPTH}",
+                self.max_depth
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Arguments of `render`.
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// Scene file (TOML); the built-in default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Output image; .png (sRGB 8-bit) or .exr (linear float).
+    #[arg(short, long, default_value = "render.png")]
+    pub output: PathBuf,
+    /// Image width (default: the scene's).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: the scene's).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Renderer: auto, cpu or gl.
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
+    /// CPU arithmetic: f64 (ground truth) or f32 (mirrors the GPU).
+    #[arg(long, value_enum, default_value_t = Precision::F64)]
+    pub precision: Precision,
+    /// Maximum reflection/refraction depth (default: the scene's, else 5).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// Samples per pixel (stratified, fixed seed).
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
+    /// Grid resolution: auto or AxBxC.
+    #[arg(long, default_value = "auto")]
+    pub grid: GridRes,
+    /// Cells per triangle for the auto grid (lambda).
+    #[arg(long)]
+    pub grid_density: Option<f32>,
+    /// GPU: traversal iterations between termination queries (K).
+    #[arg(long, default_value_t = 8)]
+    pub query_every: u32,
+    /// GPU: traversal kernel: looped (bounded loop per pass, the fast default), multipass
+    /// (the thesis: one step per pass, no loops) or unrolled:K (K steps per pass,
+    /// straight-line code, no loops). All render the same image.
+    #[arg(long, default_value = "looped")]
+    pub kernel: crate::gpu::shader::Kernel,
+    /// GPU: compile every shading feature in instead of only what the scene needs.
+    #[arg(long)]
+    pub no_specialize: bool,
+    /// GPU: keep finished rays out of traversal passes with the depth test (early-z) or the
+    /// stencil test, refreshed at each termination query; none relies on the in-shader
+    /// early-out alone.
+    #[arg(long, default_value = "none")]
+    pub mask: crate::gpu::render::Mask,
+    /// GPU: ray textures in 32- or 16-bit floats (f16: ray directions and the colour sum;
+    /// origins and every index stay in 32-bit textures).
+    #[arg(long, default_value = "f32")]
+    pub storage: crate::gpu::render::Storage,
+    /// Ray-triangle test: watertight (Woop et al. 2013, the default) or moller-trumbore
+    /// (1997; rays can slip through shared edges). For measuring the technique's cost.
+    #[arg(long, value_enum, default_value_t = IntersectMethod::Watertight)]
+    pub intersect: IntersectMethod,
+    /// pbrt's t error bound on hits (on, the default) or off (spawned rays may re-hit
+    /// their own surface). For measuring the technique's cost.
+    #[arg(long, value_enum, default_value_t = TBound::On)]
+    pub t_bound: TBound,
+    /// Origin offset of spawned rays: error-bound (scale-independent, the default) or
+    /// epsilon (a fixed 1e-4 along the normal). For measuring the technique's cost.
+    #[arg(long, value_enum, default_value_t = OffsetMethod::ErrorBound)]
+    pub offset: OffsetMethod,
+    /// Write primary-ray AOVs next to the image: any of depth,normal,primid,steps
+    /// (`<stem>.aov.exr`; `steps` also as a heat map `<stem>.steps.png`).
+    #[arg(long)]
+    pub aov: Option<String>,
+    /// Write render statistics as JSON to this file.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Print nothing but errors (no progress display, no summary).
+    #[arg(short, long)]
+    pub quiet: bool,
+    /// After the render, log each pass kind's count and GPU time (or the CPU's work).
+    #[arg(short, long)]
+    pub verbose: bool,
+}
+
+/// `render`'s arguments as a command of their own, for parsing lists of them.
+#[derive(Parser)]
+#[command(name = "render")]
+struct RenderArgsParser {
+    #[command(flatten)]
+    inner: RenderArgs,
+}
+
+impl RenderArgs {
+    /// Parses `render` arguments from a list (a bench configuration's, for one), returning
+    /// [`Error::Usage`] with clap's one-line message instead of exiting.
+    pub fn try_parse_from_args<S: AsRef<str>>(args: &[S]) -> Result<Self> {
+        let all = std::iter::once("render").chain(args.iter().map(|a| a.as_ref()));
+        RenderArgsParser::try_parse_from(all)
+            .map(|p| p.inner)
+            .map_err(|e| {
+                // The first line and the accepted values; clap's tips are about typing a
+                // command line, not a configuration string.
+                let lines = clap_error_lines(&e)
+                    .into_iter()
+                    .enumerate()
+                    .filter(|(i, l)| *i == 0 || l.starts_with("[possible values"))
+                    .map(|(_, l)| l)
+                    .collect();
+                Error::Usage(join_clap_lines(lines))
+            })
+    }
+
+    /// Turns the flags into render options for `scene`, checking the ranges the parser
+    /// leaves open (grid density, query interval, sizes and counts).
+    pub fn to_options(&self, scene: &Scene) -> Result<RenderOptions> {
+        let args = self;
+        let mut opts = RenderOptions::for_scene(scene);
+        opts.width = args.width.unwrap_or(scene.width);
+        opts.height = args.height.unwrap_or(scene.height);
+        opts.spp = args.spp;
+        opts.max_depth = args.max_depth.unwrap_or(scene.max_depth);
+        opts.precision = args.precision;
+        opts.backend = args.backend;
+        let mut grid = GridConfig {
+            res: args.grid,
+            ..GridConfig::default()
+        };
+        if let Some(d) = args.grid_density {
+            if !(d.is_finite() && d > 0.0 && d <= 1024.0) {
+                return Err(Error::Usage(format!(
+                    "--grid-density {d} is outside (0, 1024]"
+                )));
+            }
+            grid.density = d;
+        }
+        opts.grid = grid;
+        if args.query_every == 0 || args.query_every > 4096 {
+            return Err(Error::Usage(format!(
+                "--query-every {} is outside 1..=4096",
+                args.query_every
+            )));
+        }
+        opts.gpu.query_every = args.query_every;
+        opts.gpu.no_specialize = args.no_specialize;
+        opts.gpu.kernel = args.kernel;
+        opts.gpu.mask = args.mask;
+        opts.gpu.storage = args.storage;
+        opts.progress = !args.quiet;
+        opts.techniques = Techniques {
+            intersect: args.intersect,
+            t_bound: args.t_bound,
+            offset: args.offset,
+        };
+        opts.validate()?;
+        Ok(opts)
+    }
+}
+
+/// A clap error as one line: clap's own first line without its `error:` prefix and any
+/// further lines of explanation (possible values, a tip), not the usage block.
+pub fn clap_error_line(e: &clap::Error) -> String {
+    join_clap_lines(clap_error_lines(e))
+}
+
+/// The lines of a clap error before its usage block, trimmed, without the `error:` prefix;
+/// the error kind when clap gave no text.
+fn clap_error_lines(e: &clap::Error) -> Vec<String> {
+    let rendered = e.render().to_string();
+    let mut parts: Vec<String> = Vec::new();
+    for line in rendered.lines().map(str::trim) {
+        if line.starts_with("Usage:") || line.starts_with("For more information") {
+            break;
+        }
+        if line.is_empty() {
+            continue;
+        }
+        parts.push(line.strip_prefix("error: ").unwrap_or(line).to_owned());
+    }
+    if parts.is_empty() {
+        parts.push(format!("{}", e.kind()));
+    }
+    parts
+}
+
+/// Joins message lines with `: ` (one space after a line that already ends in a colon).
+fn join_clap_lines(parts: Vec<String>) -> String {
+    let mut out = String::new();
+    for p in parts {
+        if !out.is_empty() {
+            out += if out.ends_with(':') { " " } else { ": " };
+        }
+        out += &p;
+    }
+    out
+}
