@@ -1,5 +1,5 @@
 // traverse.glsl: 3D-DDA helpers after Amanatides & Woo.
-// CPU twin: src/cpu/traverse.rs (`Accel::clip`, `start_cell`, `boundary`).
+// CPU twin: src/cpu/traverse.rs (`GridWalker::clip`, `start_cell`, `boundary`).
 //
 // The boundary parameter of an axis is recomputed from the cell index rather than
 // accumulated with tDelta, which would drift by an ulp per step (see the CPU twin).

@@ -189,7 +189,7 @@ fn intersect_glsl_equals_cpu_f32() {
 
 #[test]
 fn dda_helpers_glsl_equal_cpu_including_signed_zero_directions() {
-    use fragtrace::cpu::traverse::{Accel, Ray};
+    use fragtrace::cpu::traverse::{GridWalker, Ray};
     let mut s = Scene::empty(Camera {
         eye: Vec3::Z,
         look_at: Vec3::ZERO,
@@ -211,7 +211,7 @@ fn dda_helpers_glsl_equal_cpu_including_signed_zero_directions() {
         },
     )
     .unwrap();
-    let accel = Accel::<f32>::new(&s, &grid);
+    let accel = GridWalker::<f32>::new(&s, &grid);
     let seed = 0x0dda_u64;
     println!("seed = {seed:#x}");
     let mut r = Rng(seed | 1);

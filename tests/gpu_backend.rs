@@ -262,7 +262,7 @@ fn gl21_context_matches_cpu() {
 fn gpu_trace_rays_equal_cpu_f32_traversal() {
     use fragtrace::accel::{Grid, GridConfig};
     use fragtrace::cpu::real::V3;
-    use fragtrace::cpu::traverse::{Accel, Ray, Work};
+    use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
     use fragtrace::gpu::render::{trace_rays, GpuOptions, GpuRay};
     use fragtrace::gpu::shader::Query;
     use fragtrace::scene::{Camera, Material};
@@ -292,7 +292,7 @@ fn gpu_trace_rays_equal_cpu_f32_traversal() {
         scene.add_triangle(a, b, d, m);
     }
     let grid = Grid::build(&scene, &GridConfig::default()).unwrap();
-    let accel = Accel::<f32>::new(&scene, &grid);
+    let accel = GridWalker::<f32>::new(&scene, &grid);
     let mut rays = Vec::new();
     for k in 0..3000 {
         let o = Vec3::new(r() * 16.0 - 8.0, r() * 16.0 - 8.0, r() * 16.0 - 8.0);

@@ -1,6 +1,6 @@
 //! The hard-case robustness suite: 22 geometric and numeric corner cases, each run on every
 //! backend — the CPU reference in f64 (ground truth), the CPU in f32 (the GPU's arithmetic)
-//! and the GLSL 1.20 backend (llvmpipe here) — through single rays (`Accel::<T>` and
+//! and the GLSL 1.20 backend (llvmpipe here) — through single rays (`GridWalker::<T>` and
 //! `gpu::render::trace_rays`) or small images (`render_cpu` / `render_gl_with`).
 //!
 //! Every case reads as its set-up and its bound: the shared machinery (the f32 test ray,

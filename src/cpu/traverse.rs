@@ -80,11 +80,6 @@ pub struct GridWalker<'a, T> {
     pub techniques: Techniques,
 }
 
-/// The former name of [`GridWalker`], which clashed with the `accel` module; kept only while
-/// tests outside this change (hard_cases, glsl_twins, gpu_backend) still spell it so.
-#[doc(hidden)]
-pub type Accel<'a, T> = GridWalker<'a, T>;
-
 impl<'a, T: Real> GridWalker<'a, T> {
     /// Prepares a scene and its grid for traversal in precision `T`, default techniques.
     pub fn new(scene: &crate::scene::Scene, grid: &'a Grid) -> Self {

@@ -6,7 +6,7 @@
 use crate::common::Rng;
 use crate::support::*;
 use fragtrace::cpu::real::{Real, V3};
-use fragtrace::cpu::traverse::{Accel, Ray};
+use fragtrace::cpu::traverse::{GridWalker, Ray};
 use fragtrace::gpu::with_test_context;
 use fragtrace::render::Rendered;
 use fragtrace::scene::{Material, Scene};
@@ -338,7 +338,7 @@ fn case_21_empty_single_triangle_camera_inside_grid() {
     let covered = coverage(&single);
     let ambiguous = covered.iter().filter(|c| c.is_none()).count();
     let brute: Vec<f32> = {
-        let accel = Accel::<f64>::new(&room, &grid);
+        let accel = GridWalker::<f64>::new(&room, &grid);
         camera_rays(&room)
             .iter()
             .map(|r| accel.brute_force(r).map_or(-1.0, |h| h.tri as f32))

@@ -9,7 +9,7 @@ use crate::support::*;
 use fragtrace::accel::Grid;
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin, secondary, surface, Secondary, SurfacePoint};
-use fragtrace::cpu::traverse::{Accel, Ray, Work};
+use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
 use fragtrace::gpu::shader::Query;
 use fragtrace::gpu::with_test_context;
 use fragtrace::render::{render_cpu, Precision, Rendered};
@@ -30,7 +30,7 @@ struct Spawned<T: Real> {
 /// the triangle, the surface point and the secondary directions of material 0.
 fn hit_and_secondary<T: Real>(
     scene: &Scene,
-    accel: &Accel<T>,
+    accel: &GridWalker<T>,
     r: &TRay,
 ) -> Option<(u32, SurfacePoint<T>, Secondary<T>)> {
     let mut ray = r.cpu::<T>();
@@ -60,7 +60,7 @@ fn spawn<T: Real>(own: u32, kind: usize, sp: &SurfacePoint<T>, d: V3<T>, t_max: 
 
 /// The triangle each spawned ray hits first, in its own precision.
 fn trace_spawned<T: Real>(s: &Scene, grid: &Grid, spawned: &[Spawned<T>]) -> Vec<Option<u32>> {
-    let accel = Accel::<T>::new(s, grid);
+    let accel = GridWalker::<T>::new(s, grid);
     spawned
         .iter()
         .map(|x| {
@@ -150,7 +150,7 @@ impl Decade {
     /// The reflected (kind 0), refracted (1) and light (2, t_max = distance) rays spawned
     /// at every primary hit, in precision `T`.
     fn spawn<T: Real>(&self) -> Vec<Spawned<T>> {
-        let accel = Accel::<T>::new(&self.scene, &self.grid);
+        let accel = GridWalker::<T>::new(&self.scene, &self.grid);
         let light = V3::<T>::from_vec3(self.scene.lights[0].position);
         let mut out = Vec::new();
         for r in &self.primary {
@@ -274,7 +274,7 @@ fn case_17_close_parallel_surfaces() {
     }
     /// The transmitted continuation of each ray that hits.
     fn transmit<T: Real>(s: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Spawned<T>> {
-        let accel = Accel::<T>::new(s, grid);
+        let accel = GridWalker::<T>::new(s, grid);
         rays.iter()
             .filter_map(|r| hit_and_secondary(s, &accel, r))
             .map(|(tri, sp, sec)| spawn(tri, 0, &sp, sec.refracted, T::BIG))

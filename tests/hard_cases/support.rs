@@ -7,7 +7,7 @@ use std::time::Instant;
 use fragtrace::accel::{Grid, GridConfig, GridRes};
 use fragtrace::compare::compare;
 use fragtrace::cpu::real::{Real, V3};
-use fragtrace::cpu::traverse::{Accel, Ray, Work};
+use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
 use fragtrace::gpu::render::{trace_rays, GpuOptions, GpuRay};
 use fragtrace::gpu::shader::{Kernel, Query, RayState};
 use fragtrace::gpu::GlContext;
@@ -306,7 +306,7 @@ impl Found {
 
 /// Closest hits on the CPU in precision `T`.
 pub fn cpu_closest<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Found> {
-    let accel = Accel::<T>::new(scene, grid);
+    let accel = GridWalker::<T>::new(scene, grid);
     rays.par_iter()
         .map(|r| {
             let mut w = Work::default();
@@ -322,7 +322,7 @@ pub fn cpu_closest<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Fo
 
 /// Any-hit answers on the CPU in precision `T`.
 pub fn cpu_any<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<bool> {
-    let accel = Accel::<T>::new(scene, grid);
+    let accel = GridWalker::<T>::new(scene, grid);
     rays.par_iter()
         .map(|r| accel.any_hit(&r.cpu::<T>(), &mut Work::default()))
         .collect()
@@ -330,7 +330,7 @@ pub fn cpu_any<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<bool> 
 
 /// Brute force over every triangle (no grid) in precision `T`: the traversal's reference.
 pub fn brute<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Option<(f64, u32)>> {
-    let accel = Accel::<T>::new(scene, grid);
+    let accel = GridWalker::<T>::new(scene, grid);
     rays.par_iter()
         .map(|r| {
             accel
