@@ -534,3 +534,20 @@ fn field_locator_handles_headers_and_inline_tables() {
     assert_eq!(edit_distance("fvo", "fov"), 1);
     assert_eq!(edit_distance("kitten", "sitting"), 3);
 }
+
+#[test]
+fn serde_path_names_array_elements_and_quoted_keys() {
+    // A wrong element is named by its index, not just the array.
+    let (line, field, _) = scene_err(&format!(
+        "{CAM}[[objects]]\nshape = \"box\"\nsize = [1, \"a\", 2]\n"
+    ));
+    assert_eq!((line, field.as_str()), (7, "objects[0].size[1]"));
+    // A key that is not bare stays quoted, as written (the re-lexer dropped the space).
+    let (line, field, _) = scene_err(&format!("{CAM}[materials.\"my mat\"]\nns = \"x\"\n"));
+    assert_eq!((line, field.as_str()), (6, "materials.\"my mat\".ns"));
+    // Syntax errors have no serde path: the re-lexer still names the field.
+    let (line, field, _) = scene_err(&format!(
+        "{CAM}[[objects]]\nshape = \"box\"\nmaterial = {{ albedo = [1, 0, 0] ior = 1.5 }}\n"
+    ));
+    assert_eq!((line, field.as_str()), (7, "objects[0].material.albedo"));
+}
