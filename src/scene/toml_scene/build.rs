@@ -1,0 +1,660 @@
+//! Turning a parsed [`SceneDef`] into a [`Scene`]: range checks with file/line/field errors,
+//! named and inline materials, analytic shapes, OBJ meshes (resolved against the scene's
+//! folder and the search path, loaded once per file) and their placement transforms.
+
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+use glam::{DMat3, DVec3, Vec2, Vec3};
+
+use super::diagnostics::{closest, Ctx};
+use super::schema::{
+    CameraDef, MaterialDef, MaterialRef, Numbers, ObjectDef, SceneDef, ShapeKind, S,
+};
+use super::{DEFAULT_SPHERE_SUBDIVISIONS, MAX_DEPTH_LIMIT, MAX_IMAGE_SIZE, MODEL_PATH_VAR};
+use crate::scene::obj::{load_obj, ObjMesh};
+use crate::scene::shapes::{self, MAX_SPHERE_SUBDIVISIONS};
+use crate::scene::{Camera, Checker, CheckerAxes, Light, Material, Scene, Triangle, NO_NORMAL};
+use crate::{Error, Result};
+
+/// The loader proper; `files` is where meshes are looked up, `None` to refuse them.
+pub(super) fn build_scene(
+    text: &str,
+    name: &str,
+    files: Option<(&Path, &[PathBuf])>,
+) -> Result<Scene> {
+    let ctx = Ctx { name, text };
+    let def: SceneDef = serde_path_to_error::deserialize(toml::Deserializer::new(text))
+        .map_err(|e| ctx.toml_error(&e))?;
+    let mut builder = Builder {
+        ctx,
+        files,
+        scene: Scene::empty(Camera {
+            eye: Vec3::ZERO,
+            look_at: Vec3::NEG_Z,
+            up: Vec3::Y,
+            vfov_deg: 45.0,
+        }),
+        named: HashMap::new(),
+        default_material: None,
+        meshes: HashMap::new(),
+        warnings: Vec::new(),
+    };
+    builder.scene.source = name.to_owned();
+    builder.build(def)?;
+    for w in &builder.warnings {
+        eprintln!("fragtrace: warning: {w}");
+    }
+    let scene = builder.scene;
+    scene.validate()?;
+    Ok(scene)
+}
+
+/// Object-space geometry before placement; triangle materials are local indices.
+struct Geometry {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    triangles: Vec<Triangle>,
+}
+
+impl Geometry {
+    fn flat(positions: Vec<Vec3>, tris: Vec<[u32; 3]>) -> Self {
+        let triangles = tris
+            .into_iter()
+            .map(|v| Triangle {
+                v,
+                n: [NO_NORMAL; 3],
+                material: 0,
+            })
+            .collect();
+        Geometry {
+            positions,
+            normals: Vec::new(),
+            triangles,
+        }
+    }
+
+    fn smooth(positions: Vec<Vec3>, normals: Vec<Vec3>, tris: Vec<[u32; 3]>) -> Self {
+        let triangles = tris
+            .into_iter()
+            .map(|v| Triangle {
+                v,
+                n: v,
+                material: 0,
+            })
+            .collect();
+        Geometry {
+            positions,
+            normals,
+            triangles,
+        }
+    }
+}
+
+/// An affine placement: `p' = linear·p + translate`, normals by the inverse transpose.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Placement {
+    pub(super) linear: DMat3,
+    translate: DVec3,
+}
+
+impl Placement {
+    /// Scale first, then rotate about X, then Y, then Z (degrees), then translate.
+    pub(super) fn new(scale: DVec3, rotate_deg: DVec3, translate: DVec3) -> Self {
+        let r = DMat3::from_rotation_z(rotate_deg.z.to_radians())
+            * DMat3::from_rotation_y(rotate_deg.y.to_radians())
+            * DMat3::from_rotation_x(rotate_deg.x.to_radians());
+        Placement {
+            linear: r * DMat3::from_diagonal(scale),
+            translate,
+        }
+    }
+
+    pub(super) fn point(&self, p: Vec3) -> Vec3 {
+        (self.linear * p.as_dvec3() + self.translate).as_vec3()
+    }
+
+    /// Transforms geometry in place. A mirroring transform (negative determinant) would turn
+    /// triangles inside out, so their winding is reversed to keep geometric normals outward.
+    fn apply(&self, g: &mut Geometry) {
+        let normal_matrix = self.linear.inverse().transpose();
+        for p in &mut g.positions {
+            *p = self.point(*p);
+        }
+        for n in &mut g.normals {
+            // Unit input and a non-singular matrix give a non-zero result.
+            *n = (normal_matrix * n.as_dvec3()).normalize().as_vec3();
+        }
+        if self.linear.determinant() < 0.0 {
+            for t in &mut g.triangles {
+                t.v.swap(1, 2);
+                t.n.swap(1, 2);
+            }
+        }
+    }
+}
+
+/// A loaded mesh and the resolved path it is cached under.
+type LoadedMesh = (Rc<ObjMesh>, PathBuf);
+
+struct Builder<'a> {
+    ctx: Ctx<'a>,
+    /// The scene's folder and the mesh search path; `None` when no file may be read.
+    files: Option<(&'a Path, &'a [PathBuf])>,
+    scene: Scene,
+    /// Named material → index in `scene.materials`.
+    named: HashMap<String, u32>,
+    default_material: Option<u32>,
+    /// Resolved mesh path → mesh, and the index of its first MTL material once added.
+    meshes: HashMap<PathBuf, (Rc<ObjMesh>, Option<u32>)>,
+    warnings: Vec<String>,
+}
+
+impl Builder<'_> {
+    fn build(&mut self, def: SceneDef) -> Result<()> {
+        let ctx = self.ctx;
+        self.camera(&def.camera)?;
+        if let Some(img) = &def.image {
+            let why = format!(" (image sizes are 1..={MAX_IMAGE_SIZE} pixels)");
+            let max = MAX_IMAGE_SIZE as i64;
+            if let Some(w) = &img.width {
+                self.scene.width = ctx.integer(w, "image.width", 1..=max, &why)?;
+            }
+            if let Some(h) = &img.height {
+                self.scene.height = ctx.integer(h, "image.height", 1..=max, &why)?;
+            }
+        } else {
+            self.scene.width = 640;
+            self.scene.height = 480;
+        }
+        self.scene.background =
+            ctx.opt_color(&def.background, "background", Vec3::new(0.1, 0.3, 0.8))?;
+        self.scene.ambient = ctx.opt_color(&def.ambient, "ambient", Vec3::splat(0.1))?;
+        self.scene.max_depth = match &def.max_depth {
+            Some(d) => ctx.integer(d, "max_depth", 0..=MAX_DEPTH_LIMIT as i64, "")?,
+            None => 5,
+        };
+        for (i, l) in def.lights.iter().enumerate() {
+            let f = format!("lights[{i}]");
+            let intensity = match &l.get_ref().intensity {
+                Some(v) => {
+                    ctx.scalar(v, &format!("{f}.intensity"), |x| x >= 0.0, "must be >= 0")?
+                }
+                None => 1.0,
+            };
+            self.scene.lights.push(Light {
+                position: ctx.vec3(&l.get_ref().position, &format!("{f}.position"))?,
+                color: ctx.opt_color(&l.get_ref().color, &format!("{f}.color"), Vec3::ONE)?,
+                intensity,
+            });
+        }
+        // Named materials first, in name order, so their indices do not depend on which
+        // object happens to use them first.
+        for (name, m) in &def.materials {
+            let mat = self.material(m, name.clone(), &format!("materials.{name}"))?;
+            let idx = self.scene.add_material(mat);
+            self.named.insert(name.clone(), idx);
+        }
+        for (i, o) in def.objects.iter().enumerate() {
+            self.object(i, o)?;
+        }
+        Ok(())
+    }
+
+    fn camera(&mut self, c: &S<CameraDef>) -> Result<()> {
+        let ctx = self.ctx;
+        let d = c.get_ref();
+        let eye = ctx.vec3(&d.eye, "camera.eye")?;
+        let look_at = ctx.vec3(&d.look_at, "camera.look_at")?;
+        let up = match &d.up {
+            Some(u) => ctx.vec3(u, "camera.up")?,
+            None => Vec3::Y,
+        };
+        let fov = ctx.scalar(
+            &d.fov,
+            "camera.fov",
+            |x| x > 0.0 && x < 180.0,
+            "vertical field of view must be in (0, 180) degrees",
+        )?;
+        let cam = Camera {
+            eye,
+            look_at,
+            up,
+            vfov_deg: fov,
+        };
+        let forward = (look_at - eye).as_dvec3();
+        if forward.length() == 0.0 {
+            return Err(ctx.err(
+                d.look_at.span(),
+                "camera.look_at",
+                "equals camera.eye; the camera has no viewing direction",
+            ));
+        }
+        if forward.normalize().cross(up.as_dvec3()).length() < 1e-6 {
+            let (span, field) = match &d.up {
+                Some(u) => (u.span(), "camera.up"),
+                None => (d.look_at.span(), "camera.look_at"),
+            };
+            return Err(ctx.err(
+                span,
+                field,
+                format!(
+                    "up {up} is parallel to the viewing direction {}; choose another `up`",
+                    forward.normalize().as_vec3()
+                ),
+            ));
+        }
+        // Camera::check is the renderers' contract; keep it authoritative.
+        cam.check().map_err(|m| ctx.err(c.span(), "camera", m))?;
+        self.scene.camera = cam;
+        Ok(())
+    }
+
+    fn material(&self, m: &MaterialDef, name: String, field: &str) -> Result<Material> {
+        let ctx = self.ctx;
+        let f = |k: &str| format!("{field}.{k}");
+        let nonneg = |v: &Option<S<f64>>, k: &str, default: f32| -> Result<f32> {
+            v.as_ref().map_or(Ok(default), |v| {
+                ctx.scalar(v, &f(k), |x| x >= 0.0, "must be >= 0")
+            })
+        };
+        let checker = match &m.checker {
+            Some(c) => {
+                let c = c.get_ref();
+                Some(Checker {
+                    color_a: ctx.color(&c.a, &f("checker.a"))?,
+                    color_b: ctx.color(&c.b, &f("checker.b"))?,
+                    scale: match &c.scale {
+                        Some(s) => {
+                            ctx.scalar(s, &f("checker.scale"), |x| x > 0.0, "must be > 0")?
+                        }
+                        None => 1.0,
+                    },
+                    axes: c.axes.unwrap_or(CheckerAxes::Xz),
+                })
+            }
+            None => None,
+        };
+        Ok(Material {
+            name,
+            albedo: ctx.opt_color(&m.albedo, &f("albedo"), Vec3::splat(0.8))?,
+            checker,
+            ka: nonneg(&m.ka, "ka", 1.0)?,
+            kd: nonneg(&m.kd, "kd", 1.0)?,
+            ks: ctx.opt_color(&m.ks, &f("ks"), Vec3::ZERO)?,
+            ns: match &m.ns {
+                Some(v) => ctx.scalar(v, &f("ns"), |x| x >= 1.0, "Phong exponent must be >= 1")?,
+                None => 32.0,
+            },
+            kr: ctx.opt_color(&m.kr, &f("kr"), Vec3::ZERO)?,
+            kt: ctx.opt_color(&m.kt, &f("kt"), Vec3::ZERO)?,
+            ior: match &m.ior {
+                Some(v) => {
+                    ctx.scalar(v, &f("ior"), |x| x > 0.0, "index of refraction must be > 0")?
+                }
+                None => 1.0,
+            },
+            fresnel: m.fresnel.unwrap_or(false),
+        })
+    }
+
+    fn default_material(&mut self) -> u32 {
+        if let Some(i) = self.default_material {
+            return i;
+        }
+        let i = self.scene.add_material(Material::default());
+        self.default_material = Some(i);
+        i
+    }
+
+    /// The scene material index an object's `material` key names or defines.
+    fn object_material(&mut self, m: &S<MaterialRef>, field: &str) -> Result<u32> {
+        match m.get_ref() {
+            MaterialRef::Named(name) => self.named.get(name).copied().ok_or_else(|| {
+                let known: Vec<&str> = self.named.keys().map(String::as_str).collect();
+                let hint = closest(name, &known)
+                    .map(|k| format!("; did you mean `{k}`?"))
+                    .unwrap_or_default();
+                let listing = if known.is_empty() {
+                    " (no [materials.NAME] tables are defined)".to_owned()
+                } else {
+                    let mut k = known.clone();
+                    k.sort_unstable();
+                    format!(" (defined: {})", k.join(", "))
+                };
+                self.ctx.err(
+                    m.span(),
+                    field,
+                    format!("undefined material `{name}`{hint}{listing}"),
+                )
+            }),
+            MaterialRef::Inline(def) => {
+                let mat = self.material(def, field.to_owned(), field)?;
+                Ok(self.scene.add_material(mat))
+            }
+        }
+    }
+
+    fn object(&mut self, i: usize, o: &S<ObjectDef>) -> Result<()> {
+        let ctx = self.ctx;
+        let f = |k: &str| format!("objects[{i}].{k}");
+        let d = o.get_ref();
+
+        // Keys that only make sense for some kinds of object.
+        let kind = d.shape.as_ref().map(|s| *s.get_ref());
+        let only_for =
+            |key: &str, span: Option<Range<usize>>, allowed: &[ShapeKind]| -> Result<()> {
+                match span {
+                    Some(span) if !kind.is_some_and(|k| allowed.contains(&k)) => {
+                        let shapes: Vec<String> =
+                            allowed.iter().map(|s| format!("shape = \"{s}\"")).collect();
+                        Err(ctx.err(
+                            span,
+                            f(key),
+                            format!("`{key}` applies only to {}", shapes.join(" or ")),
+                        ))
+                    }
+                    _ => Ok(()),
+                }
+            };
+        only_for(
+            "subdivisions",
+            d.subdivisions.as_ref().map(|s| s.span()),
+            &[ShapeKind::Sphere],
+        )?;
+        only_for(
+            "radius",
+            d.radius.as_ref().map(|s| s.span()),
+            &[ShapeKind::Sphere],
+        )?;
+        only_for(
+            "size",
+            d.size.as_ref().map(|s| s.span()),
+            &[ShapeKind::Quad, ShapeKind::Box],
+        )?;
+
+        let (mut geometry, mesh_materials) = match (&d.mesh, &d.shape) {
+            (Some(path), None) if d.material.is_none() => {
+                let (mesh, _) = self.mesh(path, &f("mesh"))?;
+                // Without an override the MTL decides how the mesh looks: a missing one is
+                // an error, not a silently grey mesh.
+                if let Some(problem) = mesh.missing_mtl.first() {
+                    return Err(ctx.err(
+                        path.span(),
+                        f("mesh"),
+                        format!(
+                            "{problem}; fix the mtllib, or set `material = \"NAME\"` on this \
+                             object to render the mesh without its MTL"
+                        ),
+                    ));
+                }
+                self.mesh_geometry(path, &f("mesh"))?
+            }
+            (Some(_), Some(s)) => {
+                return Err(ctx.err(
+                    s.span(),
+                    f("shape"),
+                    "an object has either `mesh` or `shape`, not both",
+                ));
+            }
+            (None, None) => {
+                return Err(ctx.err(o.span(), format!("objects[{i}]"), "an object needs `mesh = \"file.obj\"` or `shape = \"sphere\" | \"quad\" | \"box\"`"));
+            }
+            (Some(path), None) => self.mesh_geometry(path, &f("mesh"))?,
+            (None, Some(s)) => (self.shape(*s.get_ref(), d, &f)?, None),
+        };
+
+        let scale = match &d.scale {
+            None => DVec3::ONE,
+            Some(s) => {
+                let v = numbers(ctx, s, &f("scale"), 3)?;
+                if v.contains(&0.0) {
+                    return Err(ctx.err(s.span(), f("scale"), "scale factors must be non-zero (a flat object has no inside and its normals are undefined)"));
+                }
+                DVec3::from_array([v[0], v[1], v[2]])
+            }
+        };
+        let rotate = match &d.rotate {
+            Some(r) => ctx.vec3(r, &f("rotate"))?.as_dvec3(),
+            None => DVec3::ZERO,
+        };
+        let translate = match &d.translate {
+            Some(t) => ctx.vec3(t, &f("translate"))?.as_dvec3(),
+            None => DVec3::ZERO,
+        };
+        let placement = Placement::new(scale, rotate, translate);
+        placement.apply(&mut geometry);
+        if let Some(p) = geometry.positions.iter().find(|p| !p.is_finite()) {
+            return Err(ctx.err(
+                o.span(),
+                format!("objects[{i}]"),
+                format!(
+                    "a transformed vertex is not finite ({p}); scale or translate is too large"
+                ),
+            ));
+        }
+
+        // Material indices: an override replaces everything; a mesh otherwise brings its
+        // MTL materials (added once per mesh file); a shape without one is default grey.
+        let material_map: Box<dyn Fn(u32) -> u32> = match (&d.material, mesh_materials) {
+            (Some(m), _) => {
+                let idx = self.object_material(m, &f("material"))?;
+                Box::new(move |_| idx)
+            }
+            (None, Some((mesh, key))) => {
+                let base = match self.meshes.get(&key).and_then(|e| e.1) {
+                    Some(b) => b,
+                    None => {
+                        let b = self.scene.materials.len() as u32;
+                        self.scene.materials.extend(mesh.materials.iter().cloned());
+                        if let Some(e) = self.meshes.get_mut(&key) {
+                            e.1 = Some(b);
+                        }
+                        b
+                    }
+                };
+                Box::new(move |m| base + m)
+            }
+            (None, None) => {
+                let idx = self.default_material();
+                Box::new(move |_| idx)
+            }
+        };
+        self.append(geometry, &*material_map, o.span(), i)
+    }
+
+    fn shape(
+        &self,
+        kind: ShapeKind,
+        d: &ObjectDef,
+        f: &dyn Fn(&str) -> String,
+    ) -> Result<Geometry> {
+        let ctx = self.ctx;
+        Ok(match kind {
+            ShapeKind::Sphere => {
+                let n = match &d.subdivisions {
+                    Some(s) => ctx.integer(
+                        s,
+                        &f("subdivisions"),
+                        0..=MAX_SPHERE_SUBDIVISIONS as i64,
+                        &format!(
+                            " (level {MAX_SPHERE_SUBDIVISIONS} is already {} triangles)",
+                            shapes::sphere_triangle_count(MAX_SPHERE_SUBDIVISIONS)
+                        ),
+                    )?,
+                    None => DEFAULT_SPHERE_SUBDIVISIONS,
+                };
+                let r = match &d.radius {
+                    Some(r) => ctx.scalar(r, &f("radius"), |x| x > 0.0, "must be > 0")?,
+                    None => 1.0,
+                };
+                let (p, n, t) = shapes::sphere(n);
+                // Scaling a unit sphere uniformly leaves its normals unchanged.
+                Geometry::smooth(p.into_iter().map(|p| p * r).collect(), n, t)
+            }
+            ShapeKind::Quad => {
+                let size = match &d.size {
+                    Some(s) => {
+                        let v = numbers(ctx, s, &f("size"), 2)?;
+                        positive(ctx, s, &f("size"), &v)?;
+                        Vec2::new(v[0] as f32, v[1] as f32)
+                    }
+                    None => Vec2::ONE,
+                };
+                let (p, t) = shapes::quad(size.x, size.y);
+                Geometry::flat(p, t)
+            }
+            ShapeKind::Box => {
+                let size = match &d.size {
+                    Some(s) => {
+                        let v = numbers(ctx, s, &f("size"), 3)?;
+                        positive(ctx, s, &f("size"), &v)?;
+                        Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)
+                    }
+                    None => Vec3::ONE,
+                };
+                let (p, t) = shapes::cuboid(size);
+                Geometry::flat(p, t)
+            }
+        })
+    }
+
+    /// The mesh an object names, as geometry to place, and the mesh with its path key.
+    fn mesh_geometry(
+        &mut self,
+        path: &S<String>,
+        field: &str,
+    ) -> Result<(Geometry, Option<LoadedMesh>)> {
+        let (mesh, path_key) = self.mesh(path, field)?;
+        let g = Geometry {
+            positions: mesh.positions.clone(),
+            normals: mesh.normals.clone(),
+            triangles: mesh.triangles.clone(),
+        };
+        Ok((g, Some((mesh, path_key))))
+    }
+
+    /// Resolves and loads (once per file) the mesh an object names.
+    fn mesh(&mut self, path: &S<String>, field: &str) -> Result<(Rc<ObjMesh>, PathBuf)> {
+        let written = path.get_ref();
+        let Some((base_dir, search)) = self.files else {
+            return Err(self.ctx.err(
+                path.span(),
+                field,
+                "mesh files are not read by this text-only parser",
+            ));
+        };
+        let found = resolve_mesh(written, base_dir, search).map_err(|searched| {
+            let line = self.ctx.line_of(path.span().start);
+            let list: Vec<String> = searched
+                .iter()
+                .map(|p| match std::fs::metadata(p) {
+                    Ok(m) if m.is_dir() => format!("{} (a directory)", p.display()),
+                    Ok(_) => format!("{} (not a regular file)", p.display()),
+                    Err(_) => p.display().to_string(),
+                })
+                .collect();
+            Error::Mesh {
+                file: written.clone(),
+                message: format!(
+                    "mesh not found (referenced by {field} at {}:{line}); searched: {}; \
+                     set {MODEL_PATH_VAR} to the folder that holds it",
+                    self.ctx.name,
+                    list.join(", ")
+                ),
+            }
+        })?;
+        if let Some((m, _)) = self.meshes.get(&found) {
+            return Ok((m.clone(), found));
+        }
+        let mesh = Rc::new(load_obj(&found)?);
+        self.warnings.extend(mesh.warnings.iter().cloned());
+        self.meshes.insert(found.clone(), (mesh.clone(), None));
+        Ok((mesh, found))
+    }
+
+    fn append(
+        &mut self,
+        g: Geometry,
+        material: &dyn Fn(u32) -> u32,
+        span: Range<usize>,
+        i: usize,
+    ) -> Result<()> {
+        let s = &mut self.scene;
+        let vbase = s.positions.len();
+        let nbase = s.normals.len();
+        if vbase + g.positions.len() > u32::MAX as usize
+            || nbase + g.normals.len() >= u32::MAX as usize
+        {
+            return Err(self.ctx.err(
+                span,
+                format!("objects[{i}]"),
+                "the scene exceeds 2^32 vertices",
+            ));
+        }
+        let (vbase, nbase) = (vbase as u32, nbase as u32);
+        s.positions.extend(g.positions);
+        s.normals.extend(g.normals);
+        s.triangles
+            .extend(g.triangles.into_iter().map(|t| Triangle {
+                v: t.v.map(|v| v + vbase),
+                n: if t.has_normals() {
+                    t.n.map(|n| n + nbase)
+                } else {
+                    [NO_NORMAL; 3]
+                },
+                material: material(t.material),
+            }));
+        Ok(())
+    }
+}
+
+/// `scale`/`size` values: one number (used for every axis) or exactly `len` numbers, finite.
+fn numbers(ctx: Ctx, v: &S<Numbers>, field: &str, len: usize) -> Result<Vec<f64>> {
+    let out = match v.get_ref() {
+        Numbers::One(x) => vec![*x; len],
+        Numbers::Many(xs) if xs.len() == len => xs.clone(),
+        Numbers::Many(xs) => {
+            return Err(ctx.err(
+                v.span(),
+                field,
+                format!("expected a number or {len} numbers, got {}", xs.len()),
+            ));
+        }
+    };
+    if out.iter().any(|x| !(*x as f32).is_finite()) {
+        return Err(ctx.err(v.span(), field, format!("must be finite, got {out:?}")));
+    }
+    Ok(out)
+}
+
+fn positive(ctx: Ctx, v: &S<Numbers>, field: &str, xs: &[f64]) -> Result<()> {
+    if xs.iter().any(|&x| x <= 0.0) {
+        return Err(ctx.err(v.span(), field, format!("sizes must be > 0, got {xs:?}")));
+    }
+    Ok(())
+}
+
+/// Where a mesh path written in a scene file lives: absolute as is; otherwise relative to
+/// the scene's folder, then `folder/path` for each search folder, first existing file wins.
+/// On failure returns every location tried.
+fn resolve_mesh(
+    written: &str,
+    base_dir: &Path,
+    search: &[PathBuf],
+) -> std::result::Result<PathBuf, Vec<PathBuf>> {
+    let p = Path::new(written);
+    let candidates: Vec<PathBuf> = if p.is_absolute() {
+        vec![p.to_path_buf()]
+    } else {
+        std::iter::once(base_dir.join(p))
+            .chain(search.iter().map(|d| d.join(p)))
+            .collect()
+    };
+    match candidates.iter().find(|c| c.is_file()) {
+        Some(c) => Ok(c.clone()),
+        None => Err(candidates),
+    }
+}

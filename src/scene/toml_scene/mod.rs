@@ -1,0 +1,118 @@
+//! Scene files: TOML in, a world-space triangle [`Scene`] out.
+//!
+//! The format is documented with an example per key in `docs/scene-format.md`. Parsing goes
+//! through serde with `deny_unknown_fields` everywhere, so a misspelt key is an error (with
+//! the closest known key suggested), not a silently ignored setting. Values that need range
+//! checks are read as [`toml::Spanned`] so that every error names the file, the 1-based line
+//! and the dotted field, e.g. `scenes/x.toml:12: objects[2].material.ior: ...`.
+//!
+//! Numbers are read as f64 and narrowed to the f32 the renderers use only after checking that
+//! they are finite, because TOML accepts `nan` and `inf` literals and 1e39 overflows f32.
+
+//!
+//! The loader is split by job: `schema` is the file format as serde sees it, `build` turns
+//! it into a [`Scene`] (transforms, materials, shapes, meshes), and `diagnostics` words the
+//! errors (file, line, dotted field, "did you mean"). This module holds the entry points.
+
+mod build;
+mod diagnostics;
+mod schema;
+
+use std::path::{Path, PathBuf};
+
+use super::Scene;
+use crate::{Error, Result};
+
+/// The built-in scene (a homage to Whitted's 1980 image), used when no scene file is given.
+pub const DEFAULT_SCENE_TOML: &str = include_str!("../../../scenes/whitted.toml");
+
+/// The [`Scene::source`] of [`builtin_scene`].
+pub const BUILTIN_SCENE_NAME: &str = "<builtin:whitted>";
+
+/// Environment variable holding extra mesh folders, colon-separated.
+pub const MODEL_PATH_VAR: &str = "FRAGTRACE_MODEL_PATH";
+
+/// Largest accepted `max_depth`.
+pub const MAX_DEPTH_LIMIT: u32 = 16;
+
+/// Largest accepted image width or height: far beyond any sensible render, small enough
+/// that width·height·16 bytes of radiance cannot overflow or exhaust memory silently.
+pub const MAX_IMAGE_SIZE: u32 = 16_384;
+
+/// Largest scene file read; scenes are short, so anything bigger is a wrong path.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
+/// Default sphere subdivision level (1,280 triangles, smooth enough with vertex normals).
+pub const DEFAULT_SPHERE_SUBDIVISIONS: u32 = 3;
+
+/// Loads a scene file; meshes resolve against its folder, then [`model_search_path`].
+pub fn load_scene(path: &Path) -> Result<Scene> {
+    load_scene_with_search_path(path, &model_search_path())
+}
+
+/// [`load_scene`] with an explicit mesh search path instead of `FRAGTRACE_MODEL_PATH`.
+pub fn load_scene_with_search_path(path: &Path, search: &[PathBuf]) -> Result<Scene> {
+    let bytes = super::read_input_file(path, MAX_SCENE_BYTES, "scene file")?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        Error::scene(
+            path.display().to_string(),
+            line,
+            "",
+            "invalid UTF-8 (a TOML scene must be UTF-8 text)",
+        )
+    })?;
+    let base = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    load_scene_str_with_search_path(&text, &path.display().to_string(), base, search)
+}
+
+/// Parses scene text. `name` is used in messages and as [`Scene::source`]; relative mesh
+/// paths resolve against `base_dir`, then [`model_search_path`].
+pub fn load_scene_str(text: &str, name: &str, base_dir: &Path) -> Result<Scene> {
+    load_scene_str_with_search_path(text, name, base_dir, &model_search_path())
+}
+
+/// [`load_scene_str`] with an explicit mesh search path instead of `FRAGTRACE_MODEL_PATH`.
+/// Non-fatal mesh problems (e.g. an unreadable MTL) are reported on stderr, one line each.
+pub fn load_scene_str_with_search_path(
+    text: &str,
+    name: &str,
+    base_dir: &Path,
+    search: &[PathBuf],
+) -> Result<Scene> {
+    build::build_scene(text, name, Some((base_dir, search)))
+}
+
+/// Parses scene text without touching the file system: any `mesh = ...` is an error naming
+/// the object. For fuzzing and for checking a scene's syntax and values.
+pub fn parse_scene_str(text: &str, name: &str) -> Result<Scene> {
+    build::build_scene(text, name, None)
+}
+
+/// The built-in Whitted scene ([`DEFAULT_SCENE_TOML`]).
+///
+/// # Panics
+/// Only if the embedded file is broken, which a unit test rules out.
+pub fn builtin_scene() -> Scene {
+    load_scene_str_with_search_path(DEFAULT_SCENE_TOML, BUILTIN_SCENE_NAME, Path::new("."), &[])
+        .unwrap_or_else(|e| panic!("the embedded default scene is invalid: {e}"))
+}
+
+/// The folders listed in `FRAGTRACE_MODEL_PATH` (colon-separated, empty entries skipped), in
+/// order; empty when the variable is unset.
+pub fn model_search_path() -> Vec<PathBuf> {
+    std::env::var_os(MODEL_PATH_VAR)
+        .map(|v| {
+            std::env::split_paths(&v)
+                .filter(|p| !p.as_os_str().is_empty())
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,190 @@
+//! The scene file format as serde sees it: one struct per TOML table, `deny_unknown_fields`
+//! everywhere. Optional keys are `Option` (defaults are applied while building) so that a
+//! present key keeps its span for error messages; no value is checked here beyond its type.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::scene::CheckerAxes;
+
+/// A value with the byte span it was read from.
+pub(super) type S<T> = Spanned<T>;
+
+/// The whole file: top-level keys and the `[camera]`, `[image]`, `[[lights]]`,
+/// `[materials.NAME]` and `[[objects]]` tables.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct SceneDef {
+    pub(super) camera: S<CameraDef>,
+    pub(super) image: Option<ImageDef>,
+    pub(super) background: Option<S<[f64; 3]>>,
+    pub(super) ambient: Option<S<[f64; 3]>>,
+    pub(super) max_depth: Option<S<i64>>,
+    #[serde(default)]
+    pub(super) lights: Vec<S<LightDef>>,
+    #[serde(default)]
+    pub(super) materials: BTreeMap<String, MaterialDef>,
+    #[serde(default)]
+    pub(super) objects: Vec<S<ObjectDef>>,
+}
+
+/// `[camera]`: a look-at pinhole camera.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct CameraDef {
+    pub(super) eye: S<[f64; 3]>,
+    pub(super) look_at: S<[f64; 3]>,
+    pub(super) up: Option<S<[f64; 3]>>,
+    pub(super) fov: S<f64>,
+}
+
+/// `[image]`: the default output size.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ImageDef {
+    pub(super) width: Option<S<i64>>,
+    pub(super) height: Option<S<i64>>,
+}
+
+/// One `[[lights]]` entry: a point light.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct LightDef {
+    pub(super) position: S<[f64; 3]>,
+    pub(super) color: Option<S<[f64; 3]>>,
+    pub(super) intensity: Option<S<f64>>,
+}
+
+/// A `[materials.NAME]` table or an inline `material = { ... }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct MaterialDef {
+    pub(super) albedo: Option<S<[f64; 3]>>,
+    pub(super) ka: Option<S<f64>>,
+    pub(super) kd: Option<S<f64>>,
+    pub(super) ks: Option<S<[f64; 3]>>,
+    pub(super) ns: Option<S<f64>>,
+    pub(super) kr: Option<S<[f64; 3]>>,
+    pub(super) kt: Option<S<[f64; 3]>>,
+    pub(super) ior: Option<S<f64>>,
+    pub(super) fresnel: Option<bool>,
+    pub(super) checker: Option<S<CheckerDef>>,
+}
+
+/// `checker = { ... }`: a procedural albedo replacing `albedo`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct CheckerDef {
+    pub(super) a: S<[f64; 3]>,
+    pub(super) b: S<[f64; 3]>,
+    pub(super) scale: Option<S<f64>>,
+    pub(super) axes: Option<CheckerAxes>,
+}
+
+/// One `[[objects]]` entry: a mesh or an analytic shape, with its placement.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct ObjectDef {
+    pub(super) mesh: Option<S<String>>,
+    pub(super) shape: Option<S<ShapeKind>>,
+    pub(super) subdivisions: Option<S<i64>>,
+    pub(super) radius: Option<S<f64>>,
+    pub(super) size: Option<S<Numbers>>,
+    pub(super) material: Option<S<MaterialRef>>,
+    pub(super) translate: Option<S<[f64; 3]>>,
+    pub(super) rotate: Option<S<[f64; 3]>>,
+    pub(super) scale: Option<S<Numbers>>,
+}
+
+/// The analytic shapes `shape = "..."` names.
+#[derive(Deserialize, Clone, Copy, PartialEq, Eq, Debug)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum ShapeKind {
+    Sphere,
+    Quad,
+    Box,
+}
+
+impl fmt::Display for ShapeKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ShapeKind::Sphere => "sphere",
+            ShapeKind::Quad => "quad",
+            ShapeKind::Box => "box",
+        })
+    }
+}
+
+/// A number or an array of numbers (`scale = 2` or `scale = [1, 2, 1]`); the length is
+/// checked where the meaning is known.
+pub(super) enum Numbers {
+    One(f64),
+    Many(Vec<f64>),
+}
+
+impl<'de> Deserialize<'de> for Numbers {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Numbers;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or an array of numbers")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> std::result::Result<Numbers, E> {
+                Ok(Numbers::One(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> std::result::Result<Numbers, E> {
+                Ok(Numbers::One(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> std::result::Result<Numbers, E> {
+                Ok(Numbers::One(v as f64))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(
+                self,
+                mut s: A,
+            ) -> std::result::Result<Numbers, A::Error> {
+                let mut v = Vec::new();
+                while let Some(x) = s.next_element::<f64>()? {
+                    v.push(x);
+                }
+                Ok(Numbers::Many(v))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// `material = "name"` or an inline material table. Hand-written rather than
+/// `#[serde(untagged)]` so that an unknown key inside the inline table is reported as such
+/// instead of "data did not match any variant".
+pub(super) enum MaterialRef {
+    Named(String),
+    Inline(Box<MaterialDef>),
+}
+
+impl<'de> Deserialize<'de> for MaterialRef {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = MaterialRef;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a material name or an inline material table")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> std::result::Result<MaterialRef, E> {
+                Ok(MaterialRef::Named(v.to_owned()))
+            }
+            fn visit_map<A: MapAccess<'de>>(
+                self,
+                m: A,
+            ) -> std::result::Result<MaterialRef, A::Error> {
+                MaterialDef::deserialize(de::value::MapAccessDeserializer::new(m))
+                    .map(|d| MaterialRef::Inline(Box::new(d)))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
