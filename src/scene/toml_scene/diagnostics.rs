@@ -7,7 +7,7 @@ use std::ops::Range;
 use glam::Vec3;
 use serde_path_to_error::Segment;
 
-use super::schema::S;
+use super::schema::{Triple, S};
 use crate::Error;
 use crate::Result;
 
@@ -82,7 +82,7 @@ impl Ctx<'_> {
         Ok(y)
     }
 
-    pub(super) fn vec3(&self, v: &S<[f64; 3]>, field: &str) -> Result<Vec3> {
+    pub(super) fn vec3(&self, v: &S<Triple>, field: &str) -> Result<Vec3> {
         let a = v.get_ref();
         let f = Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
         if !f.is_finite() {
@@ -91,7 +91,7 @@ impl Ctx<'_> {
         Ok(f)
     }
 
-    pub(super) fn color(&self, v: &S<[f64; 3]>, field: &str) -> Result<Vec3> {
+    pub(super) fn color(&self, v: &S<Triple>, field: &str) -> Result<Vec3> {
         let c = self.vec3(v, field)?;
         if c.min_element() < 0.0 {
             return Err(self.err(
@@ -105,7 +105,7 @@ impl Ctx<'_> {
 
     pub(super) fn opt_color(
         &self,
-        v: &Option<S<[f64; 3]>>,
+        v: &Option<S<Triple>>,
         field: &str,
         default: Vec3,
     ) -> Result<Vec3> {

@@ -21,8 +21,8 @@ pub(super) type S<T> = Spanned<T>;
 pub(super) struct SceneDef {
     pub(super) camera: S<CameraDef>,
     pub(super) image: Option<ImageDef>,
-    pub(super) background: Option<S<[f64; 3]>>,
-    pub(super) ambient: Option<S<[f64; 3]>>,
+    pub(super) background: Option<S<Triple>>,
+    pub(super) ambient: Option<S<Triple>>,
     pub(super) max_depth: Option<S<i64>>,
     #[serde(default)]
     pub(super) lights: Vec<S<LightDef>>,
@@ -36,9 +36,9 @@ pub(super) struct SceneDef {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct CameraDef {
-    pub(super) eye: S<[f64; 3]>,
-    pub(super) look_at: S<[f64; 3]>,
-    pub(super) up: Option<S<[f64; 3]>>,
+    pub(super) eye: S<Triple>,
+    pub(super) look_at: S<Triple>,
+    pub(super) up: Option<S<Triple>>,
     pub(super) fov: S<f64>,
 }
 
@@ -54,8 +54,8 @@ pub(super) struct ImageDef {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct LightDef {
-    pub(super) position: S<[f64; 3]>,
-    pub(super) color: Option<S<[f64; 3]>>,
+    pub(super) position: S<Triple>,
+    pub(super) color: Option<S<Triple>>,
     pub(super) intensity: Option<S<f64>>,
 }
 
@@ -63,13 +63,13 @@ pub(super) struct LightDef {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct MaterialDef {
-    pub(super) albedo: Option<S<[f64; 3]>>,
+    pub(super) albedo: Option<S<Triple>>,
     pub(super) ka: Option<S<f64>>,
     pub(super) kd: Option<S<f64>>,
-    pub(super) ks: Option<S<[f64; 3]>>,
+    pub(super) ks: Option<S<Triple>>,
     pub(super) ns: Option<S<f64>>,
-    pub(super) kr: Option<S<[f64; 3]>>,
-    pub(super) kt: Option<S<[f64; 3]>>,
+    pub(super) kr: Option<S<Triple>>,
+    pub(super) kt: Option<S<Triple>>,
     pub(super) ior: Option<S<f64>>,
     pub(super) fresnel: Option<bool>,
     pub(super) checker: Option<S<CheckerDef>>,
@@ -79,8 +79,8 @@ pub(super) struct MaterialDef {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct CheckerDef {
-    pub(super) a: S<[f64; 3]>,
-    pub(super) b: S<[f64; 3]>,
+    pub(super) a: S<Triple>,
+    pub(super) b: S<Triple>,
     pub(super) scale: Option<S<f64>>,
     pub(super) axes: Option<CheckerAxes>,
 }
@@ -95,8 +95,8 @@ pub(super) struct ObjectDef {
     pub(super) radius: Option<S<f64>>,
     pub(super) size: Option<S<Numbers>>,
     pub(super) material: Option<S<MaterialRef>>,
-    pub(super) translate: Option<S<[f64; 3]>>,
-    pub(super) rotate: Option<S<[f64; 3]>>,
+    pub(super) translate: Option<S<Triple>>,
+    pub(super) rotate: Option<S<Triple>>,
     pub(super) scale: Option<S<Numbers>>,
 }
 
@@ -116,6 +116,55 @@ impl fmt::Display for ShapeKind {
             ShapeKind::Quad => "quad",
             ShapeKind::Box => "box",
         })
+    }
+}
+
+/// Exactly three numbers (`eye = [0, 1, 5]`). serde's `[f64; 3]` reads three elements and
+/// leaves the rest unread, and toml does not complain, so `[0, 1, 5, 9]` would load as
+/// `[0, 1, 5]`; this reads the whole array and reports its length either way.
+pub(super) struct Triple(pub(super) [f64; 3]);
+
+impl std::ops::Deref for Triple {
+    type Target = [f64; 3];
+    fn deref(&self) -> &[f64; 3] {
+        &self.0
+    }
+}
+
+/// Prints as the bare array, so messages read `[0.0, 1.0, 5.0]`.
+impl fmt::Debug for Triple {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl<'de> Deserialize<'de> for Triple {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Triple;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an array of length 3")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(
+                self,
+                mut s: A,
+            ) -> std::result::Result<Triple, A::Error> {
+                let mut v = [0.0; 3];
+                let mut n = 0;
+                while let Some(x) = s.next_element::<f64>()? {
+                    if n < 3 {
+                        v[n] = x;
+                    }
+                    n += 1;
+                }
+                if n != 3 {
+                    return Err(de::Error::invalid_length(n, &self));
+                }
+                Ok(Triple(v))
+            }
+        }
+        d.deserialize_seq(V)
     }
 }
 

@@ -246,6 +246,36 @@ fn wrong_types_name_the_field() {
     assert_eq!((line, field.as_str()), (6, "lights[0].position"));
 }
 
+/// Three-number keys take exactly three: serde's fixed arrays would read the first three of
+/// `[1, 2, 3, 4]` and drop the rest without a word.
+#[test]
+fn extra_numbers_in_a_triple_are_an_error() {
+    for (text, line, field) in [
+        (
+            format!("{CAM}[[lights]]\nposition = [0, 1, 2, 3]\n"),
+            6,
+            "lights[0].position",
+        ),
+        (
+            "[camera]\neye = [0, 1, 5]\nlook_at = [0, 1, 0, 0]\nfov = 45\n".to_string(),
+            3,
+            "camera.look_at",
+        ),
+        (
+            format!("{CAM}[[objects]]\nshape = \"quad\"\ntranslate = [1, 2, 3, 4]\n"),
+            7,
+            "objects[0].translate",
+        ),
+    ] {
+        let (l, f, msg) = scene_err(&text);
+        assert_eq!((l, f.as_str()), (line, field), "{msg}");
+        assert!(
+            msg.contains("invalid length 4, expected an array of length 3"),
+            "{msg}"
+        );
+    }
+}
+
 #[test]
 fn invalid_values_name_file_line_and_field() {
     let cases: &[(&str, usize, &str, &str)] = &[
