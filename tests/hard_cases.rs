@@ -18,12 +18,12 @@ use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
 
-use fragtrace::accel::layout::SceneTextures;
 use fragtrace::accel::{Grid, GridConfig, GridRes};
 use fragtrace::compare::compare;
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin, secondary, surface};
 use fragtrace::cpu::traverse::{Accel, Ray, Work};
+use fragtrace::gpu::layout::SceneTextures;
 use fragtrace::gpu::render::{trace_rays, GpuOptions, GpuRay};
 use fragtrace::gpu::shader::{Kernel, Query, RayState};
 use fragtrace::gpu::{with_test_context, GlContext};
