@@ -2,8 +2,8 @@
 //! fragment programs (the multi-pass stream design of Purcell et al. 2002), with an f64 CPU
 //! reference renderer as ground truth.
 //!
-//! Modules: [`scene`] (model, loaders, camera), [`accel`] (grid build, texel layout),
-//! [`cpu`] (reference renderer), [`gpu`] (headless GL context, shaders, passes),
+//! Modules: [`scene`] (model, loaders, camera), [`accel`] (grid build),
+//! [`cpu`] (reference renderer), [`gpu`] (headless GL context, texel layout, shaders, passes),
 //! [`render`] (backend-independent front door), [`technique`] (switches for the robustness
 //! techniques), [`image_io`] (PNG/EXR), [`compare`] (error figures), [`bench`](mod@bench)
 //! (speed against error), [`cli`].
