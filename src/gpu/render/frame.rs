@@ -229,6 +229,7 @@ impl<'a> Frame<'a> {
         })
     }
 
+    /// The context's glow table.
     pub(super) fn gl(&self) -> &glow::Context {
         self.ctx.gl()
     }
@@ -247,24 +248,28 @@ impl<'a> Frame<'a> {
         }
     }
 
+    /// Sets uniform `name` of `pass`'s program (a no-op where the program lacks it).
     pub(super) fn set_vec3(&self, pass: Pass, name: &str, v: [f32; 3]) {
         let loc = self.uniform(pass, name);
         // SAFETY: the program is current (see `uniform`).
         unsafe { self.gl().uniform_3_f32(loc.as_ref(), v[0], v[1], v[2]) };
     }
 
+    /// As [`Frame::set_vec3`], for a `vec2`.
     pub(super) fn set_vec2(&self, pass: Pass, name: &str, v: [f32; 2]) {
         let loc = self.uniform(pass, name);
         // SAFETY: as in `set_vec3`.
         unsafe { self.gl().uniform_2_f32(loc.as_ref(), v[0], v[1]) };
     }
 
+    /// As [`Frame::set_vec3`], for a `float`.
     pub(super) fn set_float(&self, pass: Pass, name: &str, v: f32) {
         let loc = self.uniform(pass, name);
         // SAFETY: as in `set_vec3`.
         unsafe { self.gl().uniform_1_f32(loc.as_ref(), v) };
     }
 
+    /// The render target in `slot`.
     pub(super) fn target(&self, slot: Slot) -> &RenderTarget {
         match slot {
             Slot::State(k) => &self.state[k],
