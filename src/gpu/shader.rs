@@ -644,6 +644,24 @@ mod tests {
             .contains("#define HAS_FRESNEL"));
     }
 
+    /// Every sampler a pass declares has a texture unit in the contract, so binding by
+    /// [`Unit`](crate::gpu::contract::Unit) reaches it.
+    #[test]
+    fn every_sampler_has_a_unit() {
+        use crate::gpu::contract::Unit;
+        let (_, l) = layout();
+        let known: Vec<&str> = Unit::ALL.iter().flat_map(|u| u.samplers()).copied().collect();
+        for pass in all_passes() {
+            let a = assemble(pass, Features::all(), Techniques::default(), &l).unwrap();
+            for line in a.source.lines() {
+                if let Some(rest) = line.trim().strip_prefix("uniform sampler2D ") {
+                    let name = rest.split([';', ' ']).next().unwrap();
+                    assert!(known.contains(&name), "{pass:?}: sampler {name} has no unit");
+                }
+            }
+        }
+    }
+
     #[test]
     fn state_codes_round_trip() {
         for st in RayState::ALL {
