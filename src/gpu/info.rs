@@ -1,7 +1,7 @@
 //! What a GL context is and whether fragtrace can use it: the [`GlInfo`] capability report
 //! (version, limits, required features and the verdict), the [`LimitProfile`]s that shrink
 //! a modern driver's limits to period hardware's, and the few GL entry points loaded
-//! directly ([`RawGl`]) because glow's wrappers break on real GL 2.1 drivers.
+//! directly (`RawGl`) because glow's wrappers break on real GL 2.1 drivers.
 
 use std::ffi::{c_void, CStr};
 use std::fmt;
@@ -120,7 +120,7 @@ pub const GEFORCE7: LimitProfile = LimitProfile {
 /// The profile named by [`LIMITS_ENV`], read once per process; `None` when unset or empty.
 ///
 /// # Panics
-/// Never; an unknown name is reported by [`GlContext::new_unchecked`] as a usage error.
+/// Never; an unknown name is reported by [`GlContext::new_unchecked`](super::GlContext::new_unchecked) as a usage error.
 pub fn limit_profile() -> std::result::Result<Option<LimitProfile>, String> {
     static PROFILE: OnceLock<std::result::Result<Option<LimitProfile>, String>> = OnceLock::new();
     PROFILE

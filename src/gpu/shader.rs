@@ -650,13 +650,20 @@ mod tests {
     fn every_sampler_has_a_unit() {
         use crate::gpu::contract::Unit;
         let (_, l) = layout();
-        let known: Vec<&str> = Unit::ALL.iter().flat_map(|u| u.samplers()).copied().collect();
+        let known: Vec<&str> = Unit::ALL
+            .iter()
+            .flat_map(|u| u.samplers())
+            .copied()
+            .collect();
         for pass in all_passes() {
             let a = assemble(pass, Features::all(), Techniques::default(), &l).unwrap();
             for line in a.source.lines() {
                 if let Some(rest) = line.trim().strip_prefix("uniform sampler2D ") {
                     let name = rest.split([';', ' ']).next().unwrap();
-                    assert!(known.contains(&name), "{pass:?}: sampler {name} has no unit");
+                    assert!(
+                        known.contains(&name),
+                        "{pass:?}: sampler {name} has no unit"
+                    );
                 }
             }
         }

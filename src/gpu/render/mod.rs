@@ -5,12 +5,12 @@
 //! (a pass never reads what it writes); every pass copies rays that are not in its state
 //! through unchanged, so either set always holds the whole current state.
 //!
-//! One job per file: [`frame`] owns the GL objects of a render and draws passes;
-//! [`passes`] decides which programs a scene needs and builds them; [`trace`] is the one
+//! One job per file: `frame` owns the GL objects of a render and draws passes;
+//! `passes` decides which programs a scene needs and builds them; `trace` is the one
 //! termination loop that traces a ray wave (traversal passes until an occlusion query over
-//! the `count` pass, run every K iterations, finds no active ray); [`tree`] walks the
+//! the `count` pass, run every K iterations, finds no active ray); `tree` walks the
 //! Whitted ray tree (each level keeps a hit record; a node's children are skipped when an
-//! occlusion query finds no pixel where they exist); [`readback`] brings images, AOVs and
+//! occlusion query finds no pixel where they exist); `readback` brings images, AOVs and
 //! traced rays back to the host.
 
 mod frame;
