@@ -16,15 +16,15 @@ uniform vec3 u_background;
 void main() {
     vec4 acc = texture2D(u_acc, v_uv);
     vec4 r2 = texture2D(u_r2, v_uv);
-    if (r2.w > 0.5) {
+    if (r2.R2_EXISTS > 0.5) {
         vec4 r0 = texture2D(u_r0, v_uv);
-        if (r0.w >= 0.0) {
+        if (r0.R0_TRI >= 0.0) {
             vec4 r1 = texture2D(u_r1, v_uv);
-            Surface s = surface(r0.xyz, r1.xyz, r0.w);
-            float ka = mat_texel(s.mat, 0.0).w;
-            acc.xyz += r2.xyz * (albedo_at(s.mat, s.p) * u_ambient * ka);
-        } else if (r0.w > -1.5) {
-            acc.xyz += r2.xyz * u_background;
+            Surface s = surface(r0.R0_ORIGIN, r1.R1_DIR, r0.R0_TRI);
+            float ka = mat_texel(s.mat, M0_SLOT).M0_KA;
+            acc.xyz += r2.R2_WEIGHT * (albedo_at(s.mat, s.p) * u_ambient * ka);
+        } else if (r0.R0_TRI > -1.5) {
+            acc.xyz += r2.R2_WEIGHT * u_background;
         }
     }
     gl_FragData[0] = acc;

@@ -1,7 +1,7 @@
 // accum_light.frag: adds one light's direct term at this level's hits whose shadow ray
 // reached the light.
 // Reads: u_r0, u_r1, u_r2 (this level's records), s0 (shadow ray state: SHADING means
-//        occluded), s1 (unit direction to the light), s3 (tri_best = -2: no shadow ray),
+//        occluded), s1 (unit direction to the light), s3 (tri_best = TRI_NO_RAY: no shadow ray),
 //        u_acc (colour so far), u_light_rad (I_l), triangle/normal/material textures.
 // Writes: colour = u_acc + weight * I_l * (kd albedo n.l + ks (r.v)^ns) where visible.
 #include "intersect.glsl"
@@ -17,14 +17,14 @@ void main() {
     vec4 acc = texture2D(u_acc, v_uv);
     vec4 s0 = texture2D(u_s0, v_uv);
     vec4 s3 = texture2D(u_s3, v_uv);
-    if (s3.y > -1.5 && !in_state(s0.w, ST_SHADING)) {
+    if (s3.S3_TRI_BEST > -1.5 && !in_state(s0.S0_STATE, ST_SHADING)) {
         vec4 r0 = texture2D(u_r0, v_uv);
         vec4 r1 = texture2D(u_r1, v_uv);
         vec4 r2 = texture2D(u_r2, v_uv);
-        Surface s = surface(r0.xyz, r1.xyz, r0.w);
-        vec3 l = texture2D(u_s1, v_uv).xyz;
-        vec3 c = light_term(s.mat, albedo_at(s.mat, s.p), s, l, -r1.xyz, u_light_rad);
-        acc.xyz += r2.xyz * c;
+        Surface s = surface(r0.R0_ORIGIN, r1.R1_DIR, r0.R0_TRI);
+        vec3 l = texture2D(u_s1, v_uv).S1_DIR;
+        vec3 c = light_term(s.mat, albedo_at(s.mat, s.p), s, l, -r1.R1_DIR, u_light_rad);
+        acc.xyz += r2.R2_WEIGHT * c;
     }
     gl_FragData[0] = acc;
 }

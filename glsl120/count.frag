@@ -7,12 +7,12 @@ uniform sampler2D u_c2;
 
 void main() {
 #ifdef COUNT_RAYS
-    float st = texture2D(u_s0, v_uv).w;
+    float st = texture2D(u_s0, v_uv).S0_STATE;
     if (!(in_state(st, ST_INITIAL) || in_state(st, ST_TRAVERSING) || in_state(st, ST_TESTING))) {
         discard;
     }
 #else
-    if (texture2D(u_c2, v_uv).w < 0.5) {
+    if (texture2D(u_c2, v_uv).R2_EXISTS < 0.5) {
         discard;
     }
 #endif

@@ -1,6 +1,6 @@
 // intersect.frag: one ray-triangle test (pass 4 of the thesis) for rays in state TESTING.
 // Reads: s0..s3, grid uniforms, the triangle list (fetch_list) and triangles (fetch_tri).
-// Writes: s2.w = next list index; s3 = (t_best, tri_best, list end, steps + 1) with the
+// Writes: s2 cursor = next list index; s3 = (t_best, tri_best, list end, steps + 1) with the
 //         cell's closest hit so far; when the cell's list is exhausted, s0 state ->
 //         SHADING (that hit lies inside the cell) or TRAVERSING (hit forgotten).
 //         With ANY_HIT (shadow rays) the first hit in (0, t_max) ends the ray as SHADING,

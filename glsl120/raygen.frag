@@ -2,7 +2,7 @@
 // Reads: uniforms u_eye, u_bl, u_br, u_tl, u_tr (window corners on the projection plane),
 //        u_size (W, H), u_offset (sub-pixel sample position), grid uniforms.
 // Writes: s0 = (eye, INITIAL or INVALID when the ray misses the grid box),
-//         s1 = (direction, BIG), s2 = 0, s3 = (BIG, -1, 0, 0).
+//         s1 = (direction, BIG), s2 = 0, s3 = (BIG, TRI_NONE, 0, 0).
 #include "traverse.glsl"
 
 uniform vec3 u_eye;
@@ -22,8 +22,8 @@ void main() {
     vec3 d = normalize(p - u_eye);
     vec2 span = clip_grid(u_eye, d, 0.0, BIG);
     float state = span.x > span.y ? ST_INVALID : ST_INITIAL;
-    gl_FragData[0] = vec4(u_eye, state);
-    gl_FragData[1] = vec4(d, BIG);
-    gl_FragData[2] = vec4(0.0);
-    gl_FragData[3] = vec4(BIG, -1.0, 0.0, 0.0);
+    gl_FragData[0] = S0_TEXEL(u_eye, state);
+    gl_FragData[1] = S1_TEXEL(d, BIG);
+    gl_FragData[2] = S2_TEXEL(vec3(0.0), 0.0);
+    gl_FragData[3] = S3_TEXEL(BIG, TRI_NONE, 0.0, 0.0);
 }

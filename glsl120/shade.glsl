@@ -63,17 +63,18 @@ vec4 mat_texel(float mat, float k) {
 }
 
 vec3 albedo_at(float mat, vec3 p) {
-    vec3 a = mat_texel(mat, 0.0).xyz;
+    vec3 a = mat_texel(mat, M0_SLOT).M0_ALBEDO;
 #ifdef HAS_CHECKER
-    vec4 ca = mat_texel(mat, 4.0);
-    if (ca.w > 0.0) {
-        vec4 cb = mat_texel(mat, 5.0);
+    vec4 ca = mat_texel(mat, M4_SLOT);
+    if (ca.M4_CHECKER_SCALE > 0.0) {
+        vec4 cb = mat_texel(mat, M5_SLOT);
         // axes code: 0 = xy, 1 = xz, 2 = yz
-        vec2 uv = cb.w < 0.5 ? p.xy : (cb.w < 1.5 ? p.xz : p.yz);
-        float inv = 1.0 / ca.w;
+        float axes = cb.M5_CHECKER_AXES;
+        vec2 uv = axes < 0.5 ? p.xy : (axes < 1.5 ? p.xz : p.yz);
+        float inv = 1.0 / ca.M4_CHECKER_SCALE;
         float s = floor(uv.x * inv) + floor(uv.y * inv);
         float half_s = s * 0.5;
-        a = floor(half_s) == half_s ? ca.xyz : cb.xyz;
+        a = floor(half_s) == half_s ? ca.M4_CHECKER_A : cb.M5_CHECKER_B;
     }
 #endif
     return a;
@@ -89,15 +90,16 @@ void secondary(float mat, Surface s, vec3 d, out vec3 kr, out vec3 kt, out vec3 
     if (dot(refl, s.nf) <= 0.0) refl = reflect_dir(d, s.nf);
     float fresnel = 0.0;
 #ifdef HAS_FRESNEL
-    fresnel = mat_texel(mat, 6.0).x;
+    fresnel = mat_texel(mat, M6_SLOT).M6_FRESNEL;
 #endif
-    kr = fresnel > 0.5 ? vec3(0.0) : mat_texel(mat, 2.0).xyz;
-    vec4 kt_ior = mat_texel(mat, 3.0);
-    kt = fresnel > 0.5 ? vec3(0.0) : kt_ior.xyz;
+    kr = fresnel > 0.5 ? vec3(0.0) : mat_texel(mat, M2_SLOT).M2_KR;
+    vec4 kt_ior = mat_texel(mat, M3_SLOT);
+    kt = fresnel > 0.5 ? vec3(0.0) : kt_ior.M3_KT;
     refr = vec3(0.0);
 #ifdef HAS_REFRACTION
-    if (fresnel > 0.5 || max(max(kt_ior.x, kt_ior.y), kt_ior.z) > 0.0) {
-        float ior = kt_ior.w;
+    vec3 kt_m = kt_ior.M3_KT;
+    if (fresnel > 0.5 || max(max(kt_m.x, kt_m.y), kt_m.z) > 0.0) {
+        float ior = kt_ior.M3_IOR;
         float n1 = s.entering ? 1.0 : ior;
         float n2 = s.entering ? ior : 1.0;
         float eta = n1 / n2;
@@ -130,14 +132,15 @@ void secondary(float mat, Surface s, vec3 d, out vec3 kr, out vec3 kt, out vec3 
 vec3 light_term(float mat, vec3 albedo, Surface s, vec3 l, vec3 v, vec3 radiance) {
     float ndotl = dot(s.ns, l);
     if (ndotl <= 0.0) return vec3(0.0);
-    vec4 kr_kd = mat_texel(mat, 2.0);
-    vec3 c = albedo * (kr_kd.w * ndotl);
+    vec4 kr_kd = mat_texel(mat, M2_SLOT);
+    vec3 c = albedo * (kr_kd.M2_KD * ndotl);
 #ifdef HAS_SPECULAR
-    vec4 ks_ns = mat_texel(mat, 1.0);
-    if (max(max(ks_ns.x, ks_ns.y), ks_ns.z) > 0.0) {
+    vec4 ks_ns = mat_texel(mat, M1_SLOT);
+    vec3 ks = ks_ns.M1_KS;
+    if (max(max(ks.x, ks.y), ks.z) > 0.0) {
         vec3 r = reflect_dir(-l, s.ns);
         float rv = max(dot(r, v), 0.0);
-        c += ks_ns.xyz * (rv > 0.0 ? pow(rv, ks_ns.w) : 0.0);
+        c += ks * (rv > 0.0 ? pow(rv, ks_ns.M1_NS) : 0.0);
     }
 #endif
     return c * radiance;

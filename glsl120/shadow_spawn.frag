@@ -2,7 +2,7 @@
 // afterwards as an any-hit query limited to the light's distance.
 // Reads: u_r0, u_r1 (this level's records), triangle, normal and material textures.
 // Writes: s0..s3 = a ray in state INITIAL with t_max = distance to the light, or state
-//         DONE with tri_best = -2 when there is no hit or the light is below the geometric
+//         DONE with tri_best = TRI_NO_RAY when there is no hit or the light is below the geometric
 //         or shading horizon (it then contributes nothing).
 #include "intersect.glsl"
 #include "shade.glsl"
@@ -14,23 +14,24 @@ uniform vec3 u_light_pos;
 void main() {
     vec4 r0 = texture2D(u_r0, v_uv);
     bool spawned = false;
-    if (r0.w >= 0.0) {
+    if (r0.R0_TRI >= 0.0) {
         vec4 r1 = texture2D(u_r1, v_uv);
-        Surface s = surface(r0.xyz, r1.xyz, r0.w);
+        Surface s = surface(r0.R0_ORIGIN, r1.R1_DIR, r0.R0_TRI);
         vec3 to_l = u_light_pos - s.p;
         if (dot(to_l, s.nf) > 0.0 && dot(s.ns, to_l) > 0.0) {
             vec3 o = offset_origin(s, to_l);
             vec3 dl = u_light_pos - o;
             float dist = length(dl);
-            gl_FragData[0] = vec4(o, ST_INITIAL);
-            gl_FragData[1] = vec4(dl * (1.0 / dist), dist);
+            gl_FragData[0] = S0_TEXEL(o, ST_INITIAL);
+            gl_FragData[1] = S1_TEXEL(dl * (1.0 / dist), dist);
             spawned = true;
         }
     }
     if (!spawned) {
-        gl_FragData[0] = vec4(0.0, 0.0, 0.0, ST_DONE);
-        gl_FragData[1] = vec4(0.0, 0.0, 1.0, 0.0);
+        gl_FragData[0] = S0_TEXEL(vec3(0.0), ST_DONE);
+        gl_FragData[1] = S1_TEXEL(vec3(0.0, 0.0, 1.0), 0.0);
     }
-    gl_FragData[2] = vec4(0.0);
-    gl_FragData[3] = vec4(spawned ? gl_FragData[1].w : 0.0, spawned ? -1.0 : -2.0, 0.0, 0.0);
+    gl_FragData[2] = S2_TEXEL(vec3(0.0), 0.0);
+    gl_FragData[3] = S3_TEXEL(spawned ? gl_FragData[1].S1_T_MAX : 0.0,
+                              spawned ? TRI_NONE : TRI_NO_RAY, 0.0, 0.0);
 }

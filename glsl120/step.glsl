@@ -6,15 +6,15 @@
 
 // One 3D-DDA step for a ray in state TRAVERSING (else nothing).
 void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
-    if (!in_state(s0.w, ST_TRAVERSING)) return;
-    vec3 o = s0.xyz;
-    vec3 d = s1.xyz;
-    vec3 c = s2.xyz;
+    if (!in_state(s0.S0_STATE, ST_TRAVERSING)) return;
+    vec3 o = s0.S0_ORIGIN;
+    vec3 d = s1.S1_DIR;
+    vec3 c = s2.S2_CELL;
     vec3 tn = boundaries(o, d, c);
     float t_exit = min(min(tn.x, tn.y), tn.z);
-    float t_leave = clip_grid(o, d, 0.0, s1.w).y;
+    float t_leave = clip_grid(o, d, 0.0, s1.S1_T_MAX).y;
     if (t_exit >= t_leave) {
-        s0.w = ST_DONE;
+        s0.S0_STATE = ST_DONE;
         return;
     }
     // Smallest boundary; ties go to the lower axis, as in the CPU twin.
@@ -22,20 +22,20 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
               : (tn.y <= tn.z ? vec3(0.0, 1.0, 0.0) : vec3(0.0, 0.0, 1.0));
     c += axis * sign(d);
     if (any(lessThan(c, vec3(0.0))) || any(greaterThanEqual(c, u_grid_res))) {
-        s0.w = ST_DONE;
+        s0.S0_STATE = ST_DONE;
         return;
     }
     vec4 cell = fetch_cell(cell_linear(c));
-    s2 = vec4(c, cell.x);
-    s3.z = cell.x + cell.y;
-    s3.w += 1.0;
-    s0.w = cell.y > 0.0 ? ST_TESTING : ST_TRAVERSING;
+    s2 = S2_TEXEL(c, cell.x);
+    s3.S3_CURSOR_END = cell.x + cell.y;
+    s3.S3_STEPS += 1.0;
+    s0.S0_STATE = cell.y > 0.0 ? ST_TESTING : ST_TRAVERSING;
 }
 
 // One ray-triangle test for a ray in state TESTING (else nothing).
 void intersect_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
-    if (!in_state(s0.w, ST_TESTING)) return;
-    float k = s2.w;
+    if (!in_state(s0.S0_STATE, ST_TESTING)) return;
+    float k = s2.S2_CURSOR;
     float texel = floor(k * (1.0 / LIST_PER_TEXEL));
     float comp = k - texel * LIST_PER_TEXEL;
     float tri = dot(fetch_list(texel), vec4(equal(vec4(comp), vec4(0.0, 1.0, 2.0, 3.0))));
@@ -45,38 +45,38 @@ void intersect_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     mat3 P = mat3(1.0);
     vec3 S = vec3(1.0);
 #ifdef INTERSECT_WATERTIGHT
-    shear_setup(s1.xyz, P, S);
+    shear_setup(s1.S1_DIR, P, S);
 #endif
 #ifdef ANY_HIT
-    float t_hi = s3.x;
+    float t_hi = s3.S3_T_BEST;
 #else
     // Ties: once a hit is held, a later (higher-index) triangle must be closer by more
     // than TIE_EPS relative, as in the CPU twin (cpu/traverse.rs, tie_limit).
-    float t_hi = s3.y >= 0.0 ? s3.x - abs(s3.x) * TIE_EPS : s3.x;
+    float t_hi = s3.S3_TRI_BEST >= 0.0 ? s3.S3_T_BEST - abs(s3.S3_T_BEST) * TIE_EPS : s3.S3_T_BEST;
 #endif
-    vec4 h = intersect_tri(s0.xyz, s1.xyz, P, S, p0, p1, p2, 0.0, t_hi);
-    s2.w = k + 1.0;
-    s3.w += 1.0;
+    vec4 h = intersect_tri(s0.S0_ORIGIN, s1.S1_DIR, P, S, p0, p1, p2, 0.0, t_hi);
+    s2.S2_CURSOR = k + 1.0;
+    s3.S3_STEPS += 1.0;
 #ifdef ANY_HIT
     if (h.x > 0.0) {
-        s3.xy = vec2(h.x, tri);
-        s0.w = ST_SHADING;
-    } else if (s2.w >= s3.z) {
-        s0.w = ST_TRAVERSING;
+        s3.S3_HIT = vec2(h.x, tri);
+        s0.S0_STATE = ST_SHADING;
+    } else if (s2.S2_CURSOR >= s3.S3_CURSOR_END) {
+        s0.S0_STATE = ST_TRAVERSING;
     }
 #else
     if (h.x > 0.0) {
-        s3.xy = vec2(h.x, tri);
+        s3.S3_HIT = vec2(h.x, tri);
     }
-    if (s2.w >= s3.z) {
+    if (s2.S2_CURSOR >= s3.S3_CURSOR_END) {
         // The cell's closest hit counts only inside the cell: a closer hit may lie in the
         // next one, where this triangle is binned too (CPU twin: closest_hit).
-        vec3 tn = boundaries(s0.xyz, s1.xyz, s2.xyz);
-        if (s3.y >= 0.0 && s3.x <= exit_limit(min(min(tn.x, tn.y), tn.z))) {
-            s0.w = ST_SHADING;
+        vec3 tn = boundaries(s0.S0_ORIGIN, s1.S1_DIR, s2.S2_CELL);
+        if (s3.S3_TRI_BEST >= 0.0 && s3.S3_T_BEST <= exit_limit(min(min(tn.x, tn.y), tn.z))) {
+            s0.S0_STATE = ST_SHADING;
         } else {
-            s3.xy = vec2(s1.w, -1.0);
-            s0.w = ST_TRAVERSING;
+            s3.S3_HIT = vec2(s1.S1_T_MAX, TRI_NONE);
+            s0.S0_STATE = ST_TRAVERSING;
         }
     }
 #endif
@@ -84,5 +84,5 @@ void intersect_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
 
 // True while the ray still needs traversal or intersection work.
 bool ray_active(vec4 s0) {
-    return in_state(s0.w, ST_TRAVERSING) || in_state(s0.w, ST_TESTING);
+    return in_state(s0.S0_STATE, ST_TRAVERSING) || in_state(s0.S0_STATE, ST_TESTING);
 }

@@ -1,8 +1,8 @@
 // traverse_init.frag: traversal set-up (pass 2 of the thesis) for rays in state INITIAL.
 // Reads: s0..s3, grid uniforms, the cell table (fetch_cell).
 // Writes: s0 state -> INVALID (misses the grid), TESTING (start cell has triangles) or
-//         TRAVERSING; s2 = (start cell, first list index); s3 = (t_max, -1, list end,
-//         steps + 1). Rays in other states are copied through unchanged.
+//         TRAVERSING; s2 = (start cell, first list index); s3 = (t_max, TRI_NONE,
+//         list end, steps + 1). Rays in other states are copied through unchanged.
 #include "traverse.glsl"
 
 void main() {
@@ -10,16 +10,16 @@ void main() {
     vec4 s1 = texture2D(u_s1, v_uv);
     vec4 s2 = texture2D(u_s2, v_uv);
     vec4 s3 = texture2D(u_s3, v_uv);
-    if (in_state(s0.w, ST_INITIAL)) {
-        vec2 span = clip_grid(s0.xyz, s1.xyz, 0.0, s1.w);
+    if (in_state(s0.S0_STATE, ST_INITIAL)) {
+        vec2 span = clip_grid(s0.S0_ORIGIN, s1.S1_DIR, 0.0, s1.S1_T_MAX);
         if (span.x > span.y) {
-            s0.w = ST_INVALID;
+            s0.S0_STATE = ST_INVALID;
         } else {
-            vec3 c = start_cell(s0.xyz, s1.xyz, span.x);
+            vec3 c = start_cell(s0.S0_ORIGIN, s1.S1_DIR, span.x);
             vec4 cell = fetch_cell(cell_linear(c));
-            s2 = vec4(c, cell.x);
-            s3 = vec4(s1.w, -1.0, cell.x + cell.y, s3.w + 1.0);
-            s0.w = cell.y > 0.0 ? ST_TESTING : ST_TRAVERSING;
+            s2 = S2_TEXEL(c, cell.x);
+            s3 = S3_TEXEL(s1.S1_T_MAX, TRI_NONE, cell.x + cell.y, s3.S3_STEPS + 1.0);
+            s0.S0_STATE = cell.y > 0.0 ? ST_TESTING : ST_TRAVERSING;
         }
     }
     gl_FragData[0] = s0;

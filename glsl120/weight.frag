@@ -13,18 +13,18 @@ uniform float u_branch;
 void main() {
     vec4 p0 = texture2D(u_p0, v_uv);
     vec4 p2 = texture2D(u_p2, v_uv);
-    vec4 outw = vec4(0.0);
-    if (p2.w > 0.5 && p0.w >= 0.0) {
+    vec4 outw = R2_TEXEL(vec3(0.0), 0.0);
+    if (p2.R2_EXISTS > 0.5 && p0.R0_TRI >= 0.0) {
         vec4 p1 = texture2D(u_p1, v_uv);
-        Surface s = surface(p0.xyz, p1.xyz, p0.w);
+        Surface s = surface(p0.R0_ORIGIN, p1.R1_DIR, p0.R0_TRI);
         vec3 kr;
         vec3 kt;
         vec3 refl;
         vec3 refr;
-        secondary(s.mat, s, p1.xyz, kr, kt, refl, refr);
+        secondary(s.mat, s, p1.R1_DIR, kr, kt, refl, refr);
         vec3 k = u_branch < 0.5 ? kr : kt;
         if (max(max(k.x, k.y), k.z) > 0.0) {
-            outw = vec4(p2.xyz * k, 1.0);
+            outw = R2_TEXEL(p2.R2_WEIGHT * k, 1.0);
         }
     }
     gl_FragData[0] = outw;

@@ -4,7 +4,7 @@
 //!
 //! Modules, bottom to top (docs/architecture.md): [`scene`] (model, loaders, camera),
 //! [`accel`] (grid build), [`cpu`] (reference renderer), [`gpu`] (headless GL context,
-//! shaders, passes), [`output`] and [`image_io`] (what a render produces), [`options`]
+//! owning GL objects, the Rust/GLSL contract, texel layout, shaders, passes), [`output`] and [`image_io`] (what a render produces), [`options`]
 //! (render flags and options), [`render`] (backend-independent front door), [`bench`](mod@bench)
 //! (speed against error) and [`cli`]; beside them [`technique`] (switches for the
 //! robustness techniques), [`aov`] (AOV files) and [`compare`] (error figures).

@@ -125,7 +125,16 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
     ctx.info.check_image_size(opts.width, opts.height)?;
     let grid = Grid::build(scene, &opts.grid)?;
     let t0 = Instant::now();
-    let out = crate::gpu::render::render_gl(ctx, scene, &grid, opts)?;
+    let req = crate::gpu::render::ImageRequest {
+        width: opts.width,
+        height: opts.height,
+        spp: opts.spp,
+        max_depth: opts.max_depth,
+        techniques: opts.techniques,
+        progress: opts.progress,
+        gpu: opts.gpu,
+    };
+    let out = crate::gpu::render::render_gl(ctx, scene, &grid, &req)?;
     let render_ms = t0.elapsed().as_secs_f64() * 1e3;
     let stats = RenderStats {
         backend: "gl".into(),

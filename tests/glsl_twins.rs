@@ -1,13 +1,13 @@
 //! The GLSL twins run on hand-made inputs next to their CPU originals, so a difference in
 //! the shader code shows up as a failing case rather than as a blurry image difference.
 
-use fragtrace::accel::layout::SceneTextures;
 use fragtrace::accel::{Grid, GridConfig};
 use fragtrace::cpu::intersect::{intersect_with, RayShear};
 use fragtrace::cpu::real::V3;
-use fragtrace::gpu::gl_util::{
-    compile_program, create_float_texture, FullscreenQuad, RenderTarget, QUAD_VERTEX_SHADER,
+use fragtrace::gpu::gl::{
+    compile_program, FullscreenQuad, RenderTarget, Texture, QUAD_VERTEX_SHADER,
 };
+use fragtrace::gpu::layout::SceneTextures;
 use fragtrace::gpu::shader::{assemble_text, Features};
 use fragtrace::gpu::{with_test_context, GlContext};
 use fragtrace::scene::{Camera, Material, Scene};
@@ -37,7 +37,7 @@ fn run_cases_grid(
     grid: Option<&Grid>,
     techniques: Techniques,
 ) -> Vec<[f32; 4]> {
-    let gl = &ctx.gl;
+    let gl = ctx.gl();
     let n = cases.len() as u32;
     let k = cases[0].len() as u32;
     let mut data = Vec::with_capacity((n * k * 4) as usize);
@@ -66,17 +66,17 @@ fn run_cases_grid(
     )
     .unwrap();
     let prog =
-        compile_program(gl, "test", QUAD_VERTEX_SHADER, &a.source, &|l| a.origin(l)).unwrap();
-    let tex = create_float_texture(gl, n, k, Some(&data)).unwrap();
-    let target = RenderTarget::new(gl, n, 1, 1).unwrap();
-    let quad = FullscreenQuad::new(gl).unwrap();
+        compile_program(ctx, "test", QUAD_VERTEX_SHADER, &a.source, &|l| a.origin(l)).unwrap();
+    let tex = Texture::new_f32(ctx, n, k, Some(&data)).unwrap();
+    let target = RenderTarget::new(ctx, n, 1, 1).unwrap();
+    let quad = FullscreenQuad::new(ctx).unwrap();
     target.bind(gl);
     // SAFETY: the test context is current.
     unsafe {
-        gl.use_program(Some(prog));
+        gl.use_program(Some(prog.name()));
         gl.active_texture(glow::TEXTURE0);
-        gl.bind_texture(glow::TEXTURE_2D, Some(tex));
-        gl.uniform_1_i32(gl.get_uniform_location(prog, "u_in").as_ref(), 0);
+        gl.bind_texture(glow::TEXTURE_2D, Some(tex.name()));
+        gl.uniform_1_i32(gl.get_uniform_location(prog.name(), "u_in").as_ref(), 0);
         if let Some(g) = grid {
             let res = glam::UVec3::from(g.res).as_vec3();
             for (name, v) in [
@@ -85,11 +85,16 @@ fn run_cases_grid(
                 ("u_cell_size", g.cell_size),
                 ("u_grid_res", res),
             ] {
-                gl.uniform_3_f32(gl.get_uniform_location(prog, name).as_ref(), v.x, v.y, v.z);
+                gl.uniform_3_f32(
+                    gl.get_uniform_location(prog.name(), name).as_ref(),
+                    v.x,
+                    v.y,
+                    v.z,
+                );
             }
         }
     }
-    quad.draw(gl, prog);
+    quad.draw(gl, &prog);
     let out = target.read_attachment(gl, 0).unwrap();
     out.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
 }

@@ -239,7 +239,7 @@ fn gl21_context_matches_cpu() {
         ])
         .env("MESA_GL_VERSION_OVERRIDE", "2.1")
         .env("MESA_GLSL_VERSION_OVERRIDE", "120")
-        .env(fragtrace::gpu::context::LIMITS_ENV, "geforce7")
+        .env(fragtrace::gpu::info::LIMITS_ENV, "geforce7")
         .output()
         .unwrap();
     let text = format!(

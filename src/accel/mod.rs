@@ -6,7 +6,6 @@
 //! test the binning relies on.
 
 pub mod grid;
-pub mod layout;
 pub mod tribox;
 
 pub use grid::{CellRange, Grid, GridConfig, GridRes, GridStats};

@@ -1,18 +1,28 @@
-//! The GPU backend's foundation: a headless OpenGL context over EGL ([`context`]) and the
-//! low-level GL helpers the render passes are built from ([`gl_util`]).
+//! The GPU backend: a headless OpenGL context over EGL ([`context`], [`egl`], [`info`]),
+//! owning GL objects ([`gl`]), the Rust/GLSL contract ([`contract`]), the scene's texel
+//! layout ([`layout`]), shader assembly ([`shader`]), options ([`options`]) and the passes
+//! ([`render`]).
 //!
 //! The backend follows the OpenGL 2.1-era stream design: every pass is a GLSL 1.20 fragment
-//! program drawn over a [`gl_util::FullscreenQuad`] into a [`gl_util::RenderTarget`] of
-//! RGBA32F textures, reading the previous pass's outputs as textures. Work passes copy rays
-//! that are not in their state through unchanged (so the ping-pong pair stays complete); a
-//! separate `count` pass `discard`s inactive rays under an [`gl_util::OcclusionQuery`],
-//! which is how the host loop knows when to stop without reading streams back. The passes
-//! ([`render`]) and their assembly from `glsl120/` ([`shader`]) are described in
-//! docs/gpu-design.md.
+//! program drawn over a [`gl::FullscreenQuad`] into a [`gl::RenderTarget`] of RGBA32F
+//! textures, reading the previous pass's outputs as textures. Work passes copy rays that are
+//! not in their state through unchanged (so the ping-pong pair stays complete); a separate
+//! `count` pass `discard`s inactive rays under an [`gl::OcclusionQuery`], which is how the
+//! host loop knows when to stop without reading streams back. The passes ([`render`]) and
+//! their assembly from `glsl120/` ([`shader`]) are described in docs/gpu-design.md.
+//!
+//! This layer depends on `scene`, `accel` and the shared output types only, never on the
+//! render front door, the CLI or the bench.
 
 pub mod context;
-pub mod gl_util;
+pub mod contract;
+pub mod egl;
+pub mod gl;
+pub mod info;
+pub mod layout;
+pub mod options;
 pub mod render;
 pub mod shader;
 
-pub use context::{with_test_context, GlContext, GlInfo};
+pub use context::{with_test_context, GlContext};
+pub use info::GlInfo;

@@ -1,10 +1,12 @@
 //! Shader assembly: every pass is `#version 120`, then generated `#define`s (ray-state
-//! codes, scene features, pass variant), then the generated texel-layout declarations,
+//! codes, scene features, pass variant, the Rust/GLSL contract of [`super::contract`]),
+//! then the generated texel-layout declarations,
 //! then `common.glsl`, then the pass's `.frag` with its `#include "x.glsl"` lines expanded
 //! from a fixed list. An unknown include is an error. A line map sends driver error lines
 //! back to (file, line).
 
-use crate::accel::layout::SceneTextures;
+use super::contract;
+use super::layout::{self, SceneTextures};
 use crate::scene::Scene;
 use crate::technique::Techniques;
 use crate::{Error, Result};
@@ -57,40 +59,7 @@ const INCLUDABLE: &[&str] = &["intersect.glsl", "traverse.glsl", "shade.glsl", "
 /// Iterations of one `looped` pass at most (a bounded loop, as Shader Model 3 requires).
 pub const LOOP_MAX: u32 = 1024;
 
-/// How traversal iterations (a DDA step then a triangle test) map onto passes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Kernel {
-    /// The thesis's design: one step pass and one test pass per iteration.
-    Multipass,
-    /// K iterations per pass as straight-line code (no loops).
-    Unrolled(u32),
-    /// Up to [`LOOP_MAX`] iterations per pass in a bounded loop.
-    Looped,
-}
-
-impl std::str::FromStr for Kernel {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "multipass" => Ok(Kernel::Multipass),
-            "looped" => Ok(Kernel::Looped),
-            _ => match s.strip_prefix("unrolled:").map(str::parse::<u32>) {
-                Some(Ok(k)) if (1..=64).contains(&k) => Ok(Kernel::Unrolled(k)),
-                _ => Err(format!("unknown kernel `{s}` (expected multipass, unrolled:K with K in 1..=64, or looped)")),
-            },
-        }
-    }
-}
-
-impl std::fmt::Display for Kernel {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Kernel::Multipass => write!(f, "multipass"),
-            Kernel::Unrolled(k) => write!(f, "unrolled:{k}"),
-            Kernel::Looped => write!(f, "looped"),
-        }
-    }
-}
+pub use super::options::Kernel;
 
 /// Ray states, stored in the 4th component of the ray-origin texture (the thesis's
 /// *kezdeti*, *érvénytelen*, *átszelő*, *metszéspont-tesztelő*, *árnyékoló* states, plus
@@ -410,6 +379,7 @@ fn prelude() -> String {
     for st in RayState::ALL {
         s.push_str(&format!("#define {} {:.1}\n", st.macro_name(), st.code()));
     }
+    s.push_str(&contract::glsl_prelude());
     s.push_str("#define BIG 1.0e30\n");
     s.push_str(&format!(
         "#define TIE_EPS {:?}\n",
@@ -557,8 +527,7 @@ pub fn dump_shaders(
     all_variants: bool,
 ) -> Result<Vec<std::path::PathBuf>> {
     // Variants with smooth normals on fetch from the normal texture, so it is declared.
-    let layout =
-        SceneTextures::pack_with(scene, grid, crate::accel::layout::MAX_ROW, all_variants)?;
+    let layout = SceneTextures::pack_with(scene, grid, layout::MAX_ROW, all_variants)?;
     let d = Techniques::default();
     let sets: Vec<(Features, Techniques, Option<String>)> = if all_variants {
         all_feature_sets()
@@ -580,7 +549,7 @@ pub fn dump_shaders(
     let mut written = Vec::new();
     std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
     let vert = dir.join("quad.vert");
-    std::fs::write(&vert, super::gl_util::QUAD_VERTEX_SHADER).map_err(|e| io(&vert, e))?;
+    std::fs::write(&vert, super::gl::QUAD_VERTEX_SHADER).map_err(|e| io(&vert, e))?;
     written.push(vert);
     for (f, t, tag) in sets {
         let sub = match tag {
@@ -673,6 +642,31 @@ mod tests {
             .unwrap()
             .source
             .contains("#define HAS_FRESNEL"));
+    }
+
+    /// Every sampler a pass declares has a texture unit in the contract, so binding by
+    /// [`Unit`](crate::gpu::contract::Unit) reaches it.
+    #[test]
+    fn every_sampler_has_a_unit() {
+        use crate::gpu::contract::Unit;
+        let (_, l) = layout();
+        let known: Vec<&str> = Unit::ALL
+            .iter()
+            .flat_map(|u| u.samplers())
+            .copied()
+            .collect();
+        for pass in all_passes() {
+            let a = assemble(pass, Features::all(), Techniques::default(), &l).unwrap();
+            for line in a.source.lines() {
+                if let Some(rest) = line.trim().strip_prefix("uniform sampler2D ") {
+                    let name = rest.split([';', ' ']).next().unwrap();
+                    assert!(
+                        known.contains(&name),
+                        "{pass:?}: sampler {name} has no unit"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! rendered wrongly.
 
 use crate::support::*;
-use fragtrace::accel::layout::SceneTextures;
+use fragtrace::gpu::layout::SceneTextures;
 use fragtrace::accel::{GridConfig, GridRes};
 use fragtrace::gpu::with_test_context;
 use fragtrace::render::{render_cpu, render_gl_with, Precision};

@@ -12,20 +12,19 @@
 //! |---|---|---|
 //! | `tri` | 3 per triangle | (v0, material), (v1, has_normals), (v2, 0) |
 //! | `nrm` | 3 per triangle | vertex normals n0, n1, n2 (only when the scene has any) |
-//! | `mat` | 7 per material | see [`MAT_TEXELS`] |
+//! | `mat` | 7 per material | see [`contract::mat`](super::contract::mat) |
 //! | `cell` | 1 per grid cell | (offset into `list`, count, 0, 0) |
 //! | `list` | 1 per 4 references | four triangle indices |
 
+use super::contract::{mat as slot, Field, Unit};
 use crate::accel::Grid;
 use crate::scene::{CheckerAxes, Scene};
 use crate::{Error, Result};
 
 /// Texels per triangle in `tri` and `nrm`.
 pub const TRI_TEXELS: u32 = 3;
-/// Texels per material: 0 (albedo, ka), 1 (ks, ns), 2 (kr, kd), 3 (kt, ior),
-/// 4 (checker colour a, checker scale; 0 = no checker), 5 (checker colour b, axes code),
-/// 6 (fresnel flag, 0, 0, 0).
-pub const MAT_TEXELS: u32 = 7;
+/// Texels per material; the slots are declared in [`contract::mat`](super::contract::mat).
+pub const MAT_TEXELS: u32 = slot::TEXELS;
 /// Triangle indices per `list` texel.
 pub const LIST_PER_TEXEL: u32 = 4;
 /// Largest index stored in a float that is still exact.
@@ -166,19 +165,29 @@ impl SceneTextures {
                 }
             }
         }
-        let mut mat = Vec::with_capacity(scene.materials.len() * MAT_TEXELS as usize);
-        for m in &scene.materials {
+        let mut mat = vec![[0f32; 4]; scene.materials.len() * MAT_TEXELS as usize];
+        for (i, m) in scene.materials.iter().enumerate() {
             let (ca, cb, scale, axes) = match &m.checker {
                 Some(c) => (c.color_a, c.color_b, c.scale, axes_code(c.axes)),
                 None => (glam::Vec3::ZERO, glam::Vec3::ZERO, 0.0, 0.0),
             };
-            mat.push([m.albedo.x, m.albedo.y, m.albedo.z, m.ka]);
-            mat.push([m.ks.x, m.ks.y, m.ks.z, m.ns]);
-            mat.push([m.kr.x, m.kr.y, m.kr.z, m.kd]);
-            mat.push([m.kt.x, m.kt.y, m.kt.z, m.ior]);
-            mat.push([ca.x, ca.y, ca.z, scale]);
-            mat.push([cb.x, cb.y, cb.z, axes]);
-            mat.push([if m.fresnel { 1.0 } else { 0.0 }, 0.0, 0.0, 0.0]);
+            let texels = &mut mat[i * MAT_TEXELS as usize..][..MAT_TEXELS as usize];
+            let mut put = |f: Field, v: &[f32]| {
+                texels[f.texel][f.first..f.first + f.len].copy_from_slice(v);
+            };
+            put(slot::ALBEDO, &m.albedo.to_array());
+            put(slot::KA, &[m.ka]);
+            put(slot::KS, &m.ks.to_array());
+            put(slot::NS, &[m.ns]);
+            put(slot::KR, &m.kr.to_array());
+            put(slot::KD, &[m.kd]);
+            put(slot::KT, &m.kt.to_array());
+            put(slot::IOR, &[m.ior]);
+            put(slot::CHECKER_A, &ca.to_array());
+            put(slot::CHECKER_SCALE, &[scale]);
+            put(slot::CHECKER_B, &cb.to_array());
+            put(slot::CHECKER_AXES, &[axes]);
+            put(slot::FRESNEL, &[if m.fresnel { 1.0 } else { 0.0 }]);
         }
         let cell = grid
             .cells
@@ -218,9 +227,19 @@ impl SceneTextures {
 
     /// All textures, in binding order.
     pub fn all(&self) -> Vec<&PackedTexture> {
-        let mut v = vec![&self.tri, &self.mat, &self.cell, &self.list];
+        self.with_units().into_iter().map(|(_, t)| t).collect()
+    }
+
+    /// All textures with the unit each is bound to.
+    pub fn with_units(&self) -> Vec<(Unit, &PackedTexture)> {
+        let mut v = vec![
+            (Unit::Tri, &self.tri),
+            (Unit::Mat, &self.mat),
+            (Unit::Cell, &self.cell),
+            (Unit::List, &self.list),
+        ];
         if let Some(n) = &self.nrm {
-            v.push(n);
+            v.push((Unit::Nrm, n));
         }
         v
     }

@@ -1,0 +1,248 @@
+//! Programs: compiling and linking GLSL 1.20 with driver error lines mapped back to their
+//! source files, and the full-screen quad every pass draws them over.
+
+use glow::HasContext;
+
+use super::{
+    check_gl_error, f32_bytes, BufferKind, Owned, ProgramKind, ShaderKind, VertexArrayKind,
+};
+use crate::error::{Error, Result};
+use crate::gpu::context::GlContext;
+
+/// Generic attribute index of the quad's position (`a_pos`). Index 0 on purpose: in a
+/// compatibility profile attribute 0 aliases `gl_Vertex`, and some drivers (NVIDIA) draw
+/// nothing unless attribute 0 is an enabled array.
+pub const ATTRIB_POS: u32 = 0;
+/// Generic attribute index of the quad's texture coordinate (`a_uv`).
+pub const ATTRIB_UV: u32 = 1;
+
+/// The vertex shader every pass uses with [`FullscreenQuad`] (GLSL 1.20).
+///
+/// The thesis sets an orthographic projection over [-1,1]^2 and draws the quad at z = -0.5;
+/// that projection maps the quad onto itself, so the shader passes the position through as
+/// clip coordinates instead of multiplying by an identity matrix.
+pub const QUAD_VERTEX_SHADER: &str = "#version 120
+attribute vec3 a_pos;
+attribute vec2 a_uv;
+varying vec2 v_uv;
+void main() {
+    v_uv = a_uv;
+    gl_Position = vec4(a_pos, 1.0);
+}
+";
+
+/// Interleaved `x, y, z, u, v` of the quad's corners, counter-clockwise from bottom-left,
+/// exactly as in the thesis.
+const QUAD_VERTICES: [f32; 20] = [
+    -1.0, -1.0, -0.5, 0.0, 0.0, //
+    1.0, -1.0, -0.5, 1.0, 0.0, //
+    1.0, 1.0, -0.5, 1.0, 1.0, //
+    -1.0, 1.0, -0.5, 0.0, 1.0, //
+];
+
+/// A linked program; deleted when dropped.
+#[derive(Debug)]
+pub struct Program {
+    obj: Owned<ProgramKind>,
+}
+
+impl Program {
+    /// The raw name, for `glUseProgram` and uniform look-ups.
+    pub fn name(&self) -> glow::Program {
+        self.obj.name()
+    }
+}
+
+/// The full-screen quad each pass rasterises: one fragment per stream element.
+///
+/// Drawn from a GL 1.5 vertex buffer of interleaved position + texture coordinate, bound to
+/// generic attributes [`ATTRIB_POS`] and [`ATTRIB_UV`] (which [`compile_program`] binds to
+/// `a_pos`/`a_uv`). With the viewport set to a W×H target, `v_uv` at pixel (i, j) is the
+/// pixel centre ((i+0.5)/W, (j+0.5)/H), so `texture2D(stream, v_uv)` with nearest filtering
+/// fetches exactly texel (i, j) of a same-sized input.
+#[derive(Debug)]
+pub struct FullscreenQuad {
+    vbo: Owned<BufferKind>,
+    /// Only on GL >= 3.0, where a core-profile driver would reject drawing without a VAO;
+    /// a 2.1 context has no VAOs and uses the default vertex state.
+    vao: Option<Owned<VertexArrayKind>>,
+}
+
+impl FullscreenQuad {
+    /// Uploads the quad's vertices.
+    pub fn new(ctx: &GlContext) -> Result<Self> {
+        let gl = ctx.gl();
+        // SAFETY: the context is current; the buffer data is a local constant.
+        unsafe {
+            let vbo = Owned::new(
+                ctx,
+                gl.create_buffer()
+                    .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
+            );
+            gl.bind_buffer(glow::ARRAY_BUFFER, Some(vbo.name()));
+            gl.buffer_data_u8_slice(
+                glow::ARRAY_BUFFER,
+                f32_bytes(&QUAD_VERTICES),
+                glow::STATIC_DRAW,
+            );
+            gl.bind_buffer(glow::ARRAY_BUFFER, None);
+            let vao = if gl.version().major >= 3 {
+                gl.create_vertex_array().ok().map(|v| Owned::new(ctx, v))
+            } else {
+                None
+            };
+            check_gl_error(gl, "creating the full-screen quad")?;
+            Ok(FullscreenQuad { vbo, vao })
+        }
+    }
+
+    /// Makes `program` current and draws the quad into the bound render target. Uniforms
+    /// may be set before (after `gl.use_program(Some(program))`); textures must be bound to
+    /// the units the program's samplers name.
+    pub fn draw(&self, gl: &glow::Context, program: &Program) {
+        const STRIDE: i32 = 5 * std::mem::size_of::<f32>() as i32;
+        // SAFETY: the buffer holds 4 vertices of the declared layout.
+        unsafe {
+            gl.use_program(Some(program.name()));
+            if let Some(vao) = &self.vao {
+                gl.bind_vertex_array(Some(vao.name()));
+            }
+            gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.vbo.name()));
+            gl.enable_vertex_attrib_array(ATTRIB_POS);
+            gl.vertex_attrib_pointer_f32(ATTRIB_POS, 3, glow::FLOAT, false, STRIDE, 0);
+            gl.enable_vertex_attrib_array(ATTRIB_UV);
+            gl.vertex_attrib_pointer_f32(ATTRIB_UV, 2, glow::FLOAT, false, STRIDE, 12);
+            // A fan over the 4 corners covers the same pixels as GL_QUADS, which core
+            // profiles lack; the shared diagonal is rasterised once by the fill rule, so every
+            // pixel gets exactly one fragment (occlusion counts rely on that).
+            gl.draw_arrays(glow::TRIANGLE_FAN, 0, 4);
+            gl.disable_vertex_attrib_array(ATTRIB_POS);
+            gl.disable_vertex_attrib_array(ATTRIB_UV);
+            gl.bind_buffer(glow::ARRAY_BUFFER, None);
+            if self.vao.is_some() {
+                gl.bind_vertex_array(None);
+            }
+        }
+    }
+}
+
+/// A line map for a shader made of one file: line `n` of the source is line `n` of `file`.
+pub fn single_file_line_map(file: &str) -> impl Fn(usize) -> (String, usize) + '_ {
+    move |line| (file.to_string(), line)
+}
+
+/// Compiles and links a program from GLSL 1.20 sources, binding `a_pos`/`a_uv` to
+/// [`ATTRIB_POS`]/[`ATTRIB_UV`] before linking.
+///
+/// On failure returns [`Error::Shader`] with the driver's full log. The first error line
+/// number in the log (Mesa `0:12(5): error: ...`, NVIDIA `0(12) : error C0000: ...`,
+/// AMD/Apple `ERROR: 0:12: ...`) is a line of the *assembled* fragment source; `line_map`
+/// turns it into the original `(file, line)`. Vertex-shader errors name `<vertex shader>`
+/// (always [`QUAD_VERTEX_SHADER`] in practice) and link errors `<link>`, unmapped.
+pub fn compile_program(
+    ctx: &GlContext,
+    pass: &str,
+    vertex_src: &str,
+    fragment_src: &str,
+    line_map: &dyn Fn(usize) -> (String, usize),
+) -> Result<Program> {
+    let gl = ctx.gl();
+    let shader_error = |file: String, line: usize, log: String| Error::Shader {
+        pass: pass.to_string(),
+        file,
+        line,
+        log: log.trim_end().to_string(),
+    };
+    // SAFETY: the context is current; every name used is created and owned here.
+    unsafe {
+        let vs = compile_shader(ctx, glow::VERTEX_SHADER, vertex_src).map_err(|log| {
+            let line = parse_error_line(&log).unwrap_or(0);
+            shader_error("<vertex shader>".into(), line, log)
+        })?;
+        let fs = compile_shader(ctx, glow::FRAGMENT_SHADER, fragment_src).map_err(|log| {
+            let (file, line) = match parse_error_line(&log) {
+                Some(n) => line_map(n),
+                None => ("<fragment shader>".to_string(), 0),
+            };
+            shader_error(file, line, log)
+        })?;
+        let program = Program {
+            obj: Owned::new(
+                ctx,
+                gl.create_program()
+                    .map_err(|e| Error::Internal(format!("glCreateProgram: {e}")))?,
+            ),
+        };
+        let p = program.name();
+        gl.attach_shader(p, vs.name());
+        gl.attach_shader(p, fs.name());
+        gl.bind_attrib_location(p, ATTRIB_POS, "a_pos");
+        gl.bind_attrib_location(p, ATTRIB_UV, "a_uv");
+        gl.link_program(p);
+        // Shaders are only needed until link; detaching (and dropping them) lets the driver
+        // free them now.
+        gl.detach_shader(p, vs.name());
+        gl.detach_shader(p, fs.name());
+        drop((vs, fs));
+        if !gl.get_program_link_status(p) {
+            let log = gl.get_program_info_log(p);
+            let line = parse_error_line(&log).unwrap_or(0);
+            return Err(shader_error("<link>".into(), line, log));
+        }
+        check_gl_error(gl, &format!("building the `{pass}` program"))?;
+        Ok(program)
+    }
+}
+
+/// Compiles one shader; `Err` carries the info log.
+unsafe fn compile_shader(
+    ctx: &GlContext,
+    kind: u32,
+    src: &str,
+) -> std::result::Result<Owned<ShaderKind>, String> {
+    let gl = ctx.gl();
+    let shader = Owned::<ShaderKind>::new(ctx, gl.create_shader(kind)?);
+    gl.shader_source(shader.name(), src);
+    gl.compile_shader(shader.name());
+    if gl.get_shader_compile_status(shader.name()) {
+        Ok(shader)
+    } else {
+        let log = gl.get_shader_info_log(shader.name());
+        Err(if log.trim().is_empty() {
+            "compilation failed, the driver gave no log".to_string()
+        } else {
+            log
+        })
+    }
+}
+
+/// The 1-based source line of the first error in a driver info log, or `None`. Prefers
+/// lines that say "error" so that a warning listed first does not misdirect.
+pub(crate) fn parse_error_line(log: &str) -> Option<usize> {
+    log.lines()
+        .filter(|l| l.to_ascii_lowercase().contains("error"))
+        .find_map(parse_log_line)
+        .or_else(|| log.lines().find_map(parse_log_line))
+}
+
+/// Line number of one log line in any of the known `<string>:<line>` layouts.
+fn parse_log_line(line: &str) -> Option<usize> {
+    fn digits(s: &str) -> Option<(usize, &str)> {
+        let end = s.find(|c: char| !c.is_ascii_digit()).unwrap_or(s.len());
+        Some((s[..end].parse().ok()?, &s[end..]))
+    }
+    let s = line.trim_start();
+    let s = s.strip_prefix("ERROR:").map_or(s, str::trim_start);
+    let (_source_string, rest) = digits(s)?;
+    if let Some(rest) = rest.strip_prefix(':') {
+        // Mesa `0:12(5):` or AMD/Apple `0:12:`.
+        let (line, rest) = digits(rest)?;
+        (rest.starts_with('(') || rest.starts_with(':')).then_some(line)
+    } else if let Some(rest) = rest.strip_prefix('(') {
+        // NVIDIA `0(12) :`.
+        let (line, rest) = digits(rest)?;
+        rest.starts_with(')').then_some(line)
+    } else {
+        None
+    }
+}

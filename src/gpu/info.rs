@@ -1,0 +1,532 @@
+//! What a GL context is and whether fragtrace can use it: the [`GlInfo`] capability report
+//! (version, limits, required features and the verdict), the [`LimitProfile`]s that shrink
+//! a modern driver's limits to period hardware's, and the few GL entry points loaded
+//! directly (`RawGl`) because glow's wrappers break on real GL 2.1 drivers.
+
+use std::ffi::{c_void, CStr};
+use std::fmt;
+use std::sync::OnceLock;
+
+use glow::HasContext;
+
+use super::egl::EglSession;
+use crate::error::{Error, Result};
+
+/// The lowest GL version whose API (GLSL 1.20, MRT, VBOs, occlusion queries) the backend uses.
+const MIN_GL: (u32, u32) = (2, 1);
+/// The passes write up to four output streams at once (one per colour attachment).
+const MIN_DRAW_BUFFERS: i32 = 4;
+
+type PfnGetString = unsafe extern "system" fn(u32) -> *const u8;
+type PfnGetQueryObjectuiv = unsafe extern "system" fn(u32, u32, *mut u32);
+type PfnGetQueryObjectui64v = unsafe extern "system" fn(u32, u32, *mut u64);
+type PfnGetQueryiv = unsafe extern "system" fn(u32, u32, *mut i32);
+#[cfg(test)]
+type PfnIsName = unsafe extern "system" fn(u32) -> u8;
+
+/// GL entry points called directly instead of through glow.
+///
+/// glow 0.16 panics when `glGetString` returns NULL (e.g. `GL_EXTENSIONS` in a core profile),
+/// and its `get_query_parameter_u32` only calls `glGetQueryObjectuiv` when the GL 4.5
+/// `glGetQueryBufferObjectiv` is present, otherwise the GLES-only `...EXT` name, which a real
+/// GL 2.1 driver does not export. Loading these few ourselves keeps 2.1 drivers working.
+pub(crate) struct RawGl {
+    get_string: PfnGetString,
+    get_query_objectuiv: PfnGetQueryObjectuiv,
+    get_queryiv: PfnGetQueryiv,
+    /// `glGetQueryObjectui64v` (GL 3.3 / ARB_timer_query) or its EXT_timer_query alias; only
+    /// present when timer queries are.
+    get_query_objectui64v: Option<PfnGetQueryObjectui64v>,
+    /// `glIsQuery` and `glIsVertexArray` (GL 3.0; `None` below), only for the tests' count
+    /// of live GL objects, which glow does not wrap.
+    #[cfg(test)]
+    is_query: Option<PfnIsName>,
+    #[cfg(test)]
+    is_vertex_array: Option<PfnIsName>,
+}
+
+impl RawGl {
+    /// `glGetString`, `None` where the driver returns NULL.
+    pub(crate) fn string(&self, name: u32) -> Option<String> {
+        // SAFETY: the pointer came from the current context's loader; GL returns either NULL
+        // or a NUL-terminated static string.
+        unsafe {
+            let p = (self.get_string)(name);
+            (!p.is_null()).then(|| CStr::from_ptr(p.cast()).to_string_lossy().into_owned())
+        }
+    }
+
+    /// `glGetQueryObjectuiv(query, GL_QUERY_RESULT)`; blocks until the result is available.
+    pub(crate) fn query_result_u32(&self, query: glow::Query) -> u32 {
+        let mut value = 0u32;
+        // SAFETY: valid query name from this context, one-element out pointer.
+        unsafe { (self.get_query_objectuiv)(query.0.get(), glow::QUERY_RESULT, &mut value) };
+        value
+    }
+
+    /// `glGetQueryObjectui64v(query, GL_QUERY_RESULT)`, `None` without timer-query support.
+    pub(crate) fn query_result_u64(&self, query: glow::Query) -> Option<u64> {
+        let f = self.get_query_objectui64v?;
+        let mut value = 0u64;
+        // SAFETY: as above; the function exists because timer queries were detected.
+        unsafe { f(query.0.get(), glow::QUERY_RESULT, &mut value) };
+        Some(value)
+    }
+
+    /// `glIsQuery(name)` and `glIsVertexArray(name)` (false where the driver lacks it).
+    #[cfg(test)]
+    pub(crate) fn is_query_and_vertex_array(&self, name: u32) -> (bool, bool) {
+        // SAFETY: both take any name and only read state.
+        let is = |f: Option<PfnIsName>| f.is_some_and(|f| unsafe { f(name) } != 0);
+        (is(self.is_query), is(self.is_vertex_array))
+    }
+
+    /// `glGetQueryiv(target, pname)`.
+    fn query_iv(&self, target: u32, pname: u32) -> i32 {
+        let mut value = 0;
+        // SAFETY: one-element out pointer; an unsupported target only raises a GL error.
+        unsafe { (self.get_queryiv)(target, pname, &mut value) };
+        value
+    }
+}
+
+/// Environment variable naming a historical card whose limits fragtrace imposes on top of
+/// the driver's (`geforce7`), to prove the GL 2.1 path fits period hardware on a modern
+/// driver that cannot be told to shrink its own limits.
+pub const LIMITS_ENV: &str = "FRAGTRACE_GL_LIMITS";
+
+/// Limits fragtrace plans with instead of the driver's larger ones.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LimitProfile {
+    /// Name given in [`LIMITS_ENV`].
+    pub name: &'static str,
+    /// `GL_MAX_TEXTURE_SIZE`.
+    pub max_texture_size: i32,
+    /// `GL_MAX_DRAW_BUFFERS` (and colour attachments).
+    pub max_draw_buffers: i32,
+    /// `GL_MAX_TEXTURE_IMAGE_UNITS`.
+    pub max_texture_units: i32,
+}
+
+/// A GeForce 6/7-class card (NV40/G70, 2004-2006, the thesis's era): 4096-texel textures,
+/// 4 draw buffers, 16 fragment texture units.
+pub const GEFORCE7: LimitProfile = LimitProfile {
+    name: "geforce7",
+    max_texture_size: 4096,
+    max_draw_buffers: 4,
+    max_texture_units: 16,
+};
+
+/// The profile named by [`LIMITS_ENV`], read once per process; `None` when unset or empty.
+///
+/// # Panics
+/// Never; an unknown name is reported by [`GlContext::new_unchecked`](super::GlContext::new_unchecked) as a usage error.
+pub fn limit_profile() -> std::result::Result<Option<LimitProfile>, String> {
+    static PROFILE: OnceLock<std::result::Result<Option<LimitProfile>, String>> = OnceLock::new();
+    PROFILE
+        .get_or_init(|| match std::env::var(LIMITS_ENV) {
+            Err(_) => Ok(None),
+            Ok(v) if v.is_empty() => Ok(None),
+            Ok(v) if v == GEFORCE7.name => Ok(Some(GEFORCE7)),
+            Ok(v) => Err(format!(
+                "{LIMITS_ENV}={v} is not a known profile (expected geforce7)"
+            )),
+        })
+        .clone()
+}
+
+/// The driver's `value` of a limit, lowered to the active [`LimitProfile`]'s.
+pub(crate) fn effective_limit(value: i32, pick: impl Fn(&LimitProfile) -> i32) -> i32 {
+    match limit_profile() {
+        Ok(Some(p)) => value.min(pick(&p)),
+        _ => value,
+    }
+}
+
+/// What the driver is and whether fragtrace can use it.
+///
+/// Filled once when the context is created. `features` lists every *required* capability
+/// with its outcome; [`GlInfo::verdict`] turns the failures into one explanation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GlInfo {
+    /// How the EGL display was obtained (platform, device) and how the context was made current.
+    pub egl_platform: String,
+    /// `EGL_VENDOR` of the display, e.g. `Mesa Project` or `NVIDIA`.
+    pub egl_vendor: String,
+    /// `EGL_VERSION` of the display, e.g. `1.5`.
+    pub egl_version: String,
+    /// Raw `GL_VERSION` string.
+    pub gl_version: String,
+    /// `(major, minor)` parsed from `GL_VERSION`.
+    pub gl_major_minor: (u32, u32),
+    /// `GL_RENDERER`, e.g. `llvmpipe (LLVM 15.0.7, 256 bits)`.
+    pub renderer: String,
+    /// `GL_VENDOR`.
+    pub vendor: String,
+    /// `GL_SHADING_LANGUAGE_VERSION`, e.g. `1.20`.
+    pub glsl_version: String,
+    /// `GL_MAX_TEXTURE_SIZE`: bounds every stream texture's width and height.
+    pub max_texture_size: i32,
+    /// `GL_MAX_VIEWPORT_DIMS`: bounds the full-screen quad every pass draws.
+    pub max_viewport_dims: (i32, i32),
+    /// `GL_MAX_DRAW_BUFFERS`: how many streams one pass may write.
+    pub max_draw_buffers: i32,
+    /// `GL_MAX_TEXTURE_IMAGE_UNITS`: how many streams/scene textures one pass may read.
+    pub max_texture_units: i32,
+    /// The [`LimitProfile`] the three limits above were lowered to, if any.
+    pub limit_profile: Option<String>,
+    /// `GL_QUERY_COUNTER_BITS` of `GL_SAMPLES_PASSED`: the occlusion counter's width (GL lets
+    /// a driver report 0, meaning the query always returns 0).
+    pub occlusion_query_bits: i32,
+    /// Whether `GL_TIME_ELAPSED` queries work (GL 3.3, ARB_timer_query or EXT_timer_query);
+    /// optional, used only for per-pass timings.
+    pub timer_query: bool,
+    /// Every extension the context advertises.
+    pub extensions: Vec<String>,
+    /// Each required capability (human-readable, naming the GL version/extension that
+    /// provides it) and whether this context has it.
+    pub features: Vec<(String, bool)>,
+}
+
+impl GlInfo {
+    /// Whether the context advertises the extension `name` (e.g. `GL_ARB_texture_float`).
+    pub fn has_extension(&self, name: &str) -> bool {
+        self.extensions.iter().any(|e| e == name)
+    }
+
+    /// `Ok` when a `width` x `height` image fits the stream textures
+    /// (`GL_MAX_TEXTURE_SIZE`) and the viewport (`GL_MAX_VIEWPORT_DIMS`); otherwise
+    /// [`Error::Limit`] naming the limit. Checked before anything is allocated.
+    pub fn check_image_size(&self, width: u32, height: u32) -> Result<()> {
+        let tex = self.max_texture_size.max(0) as u32;
+        if width > tex || height > tex {
+            return Err(Error::Limit(format!(
+                "image {width}x{height} exceeds GL_MAX_TEXTURE_SIZE {tex} of {}",
+                self.renderer
+            )));
+        }
+        let (vw, vh) = (
+            self.max_viewport_dims.0.max(0) as u32,
+            self.max_viewport_dims.1.max(0) as u32,
+        );
+        if width > vw || height > vh {
+            return Err(Error::Limit(format!(
+                "image {width}x{height} exceeds GL_MAX_VIEWPORT_DIMS {vw}x{vh} of {}",
+                self.renderer
+            )));
+        }
+        Ok(())
+    }
+
+    /// `Ok` when every required feature is present, otherwise the reason fragtrace's GPU
+    /// backend cannot run here (all missing features, with the renderer named).
+    pub fn verdict(&self) -> std::result::Result<(), String> {
+        let missing: Vec<&str> = self
+            .features
+            .iter()
+            .filter(|(_, ok)| !ok)
+            .map(|(name, _)| name.as_str())
+            .collect();
+        if missing.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "{} (OpenGL {}) lacks: {}",
+                self.renderer,
+                self.gl_version,
+                missing.join("; ")
+            ))
+        }
+    }
+
+    /// Evaluates the requirements from the raw facts already stored in `self`.
+    fn compute_features(&mut self, fbo_entry_points: bool) {
+        let gl = self.gl_major_minor;
+        let ext = |n: &str| self.has_extension(n);
+        let glsl_ok = parse_major_minor(&self.glsl_version).is_some_and(|v| v >= (1, 20));
+        // EXT_framebuffer_object alone only exports `glGenFramebuffersEXT` & co., but glow
+        // calls the core names (which ARB_framebuffer_object and GL 3.0 define). Every Mesa
+        // and NVIDIA driver of the last decade has ARB_framebuffer_object, so an EXT-only
+        // driver counts only when the core-named entry points resolve anyway.
+        let fbo = gl >= (3, 0)
+            || ext("GL_ARB_framebuffer_object")
+            || (ext("GL_EXT_framebuffer_object") && fbo_entry_points);
+        self.features = vec![
+            (format!("OpenGL >= {}.{}", MIN_GL.0, MIN_GL.1), gl >= MIN_GL),
+            ("GLSL >= 1.20 (#version 120)".to_string(), glsl_ok),
+            (
+                "float textures (OpenGL 3.0 or GL_ARB_texture_float)".to_string(),
+                gl >= (3, 0) || ext("GL_ARB_texture_float"),
+            ),
+            (
+                "framebuffer objects (OpenGL 3.0, GL_ARB_framebuffer_object or GL_EXT_framebuffer_object)"
+                    .to_string(),
+                fbo,
+            ),
+            (
+                format!("draw buffers (OpenGL 2.0, GL_MAX_DRAW_BUFFERS >= {MIN_DRAW_BUFFERS})"),
+                gl >= (2, 0) && self.max_draw_buffers >= MIN_DRAW_BUFFERS,
+            ),
+            (
+                "occlusion queries (OpenGL 1.5 or GL_ARB_occlusion_query, counter bits > 0)"
+                    .to_string(),
+                (gl >= (1, 5) || ext("GL_ARB_occlusion_query")) && self.occlusion_query_bits > 0,
+            ),
+        ];
+    }
+}
+
+impl fmt::Display for GlInfo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let yes_no = |b: bool| if b { "yes" } else { "NO " };
+        writeln!(f, "EGL platform:     {}", self.egl_platform)?;
+        writeln!(f, "EGL vendor:       {}", self.egl_vendor)?;
+        writeln!(f, "EGL version:      {}", self.egl_version)?;
+        writeln!(
+            f,
+            "OpenGL version:   {} (parsed {}.{})",
+            self.gl_version, self.gl_major_minor.0, self.gl_major_minor.1
+        )?;
+        writeln!(f, "OpenGL renderer:  {}", self.renderer)?;
+        writeln!(f, "OpenGL vendor:    {}", self.vendor)?;
+        writeln!(f, "GLSL version:     {}", self.glsl_version)?;
+        if let Some(p) = &self.limit_profile {
+            writeln!(f, "Limits lowered to: {p} ({LIMITS_ENV})")?;
+        }
+        writeln!(f, "Max texture size: {}", self.max_texture_size)?;
+        writeln!(
+            f,
+            "Max viewport:     {}x{}",
+            self.max_viewport_dims.0, self.max_viewport_dims.1
+        )?;
+        writeln!(f, "Max draw buffers: {}", self.max_draw_buffers)?;
+        writeln!(
+            f,
+            "Max texture units (fragment): {}",
+            self.max_texture_units
+        )?;
+        writeln!(
+            f,
+            "Occlusion query counter bits: {}",
+            self.occlusion_query_bits
+        )?;
+        writeln!(f, "Extensions:       {} advertised", self.extensions.len())?;
+        writeln!(f, "Required features:")?;
+        for (name, ok) in &self.features {
+            writeln!(f, "  [{}] {}", yes_no(*ok), name)?;
+        }
+        writeln!(f, "Optional features:")?;
+        writeln!(
+            f,
+            "  [{}] timer queries (OpenGL 3.3, GL_ARB_timer_query or GL_EXT_timer_query)",
+            yes_no(self.timer_query)
+        )?;
+        match self.verdict() {
+            Ok(()) => write!(f, "Verdict: OK, the GPU backend can run on this context"),
+            Err(reason) => write!(f, "Verdict: UNUSABLE, {reason}"),
+        }
+    }
+}
+
+/// Resolves the [`RawGl`] entry points; only the always-present GL 1.x/1.5 ones are mandatory.
+pub(super) fn load_raw_gl(loader: &dyn Fn(&str) -> *const c_void) -> Result<RawGl> {
+    let get = |name: &str| -> Result<*const c_void> {
+        let p = loader(name);
+        if p.is_null() {
+            Err(Error::GlUnavailable(format!(
+                "the driver does not export {name}"
+            )))
+        } else {
+            Ok(p)
+        }
+    };
+    // SAFETY: each pointer is the named GL function, whose C signature the type spells out.
+    unsafe {
+        Ok(RawGl {
+            get_string: std::mem::transmute::<*const c_void, PfnGetString>(get("glGetString")?),
+            get_query_objectuiv: std::mem::transmute::<*const c_void, PfnGetQueryObjectuiv>(get(
+                "glGetQueryObjectuiv",
+            )?),
+            get_queryiv: std::mem::transmute::<*const c_void, PfnGetQueryiv>(get("glGetQueryiv")?),
+            get_query_objectui64v: None,
+            #[cfg(test)]
+            is_query: (!loader("glIsQuery").is_null())
+                .then(|| std::mem::transmute::<*const c_void, PfnIsName>(loader("glIsQuery"))),
+            #[cfg(test)]
+            is_vertex_array: (!loader("glIsVertexArray").is_null()).then(|| {
+                std::mem::transmute::<*const c_void, PfnIsName>(loader("glIsVertexArray"))
+            }),
+        })
+    }
+}
+
+/// Reads version strings, limits and extensions, and evaluates the requirements.
+pub(super) fn gather_info(
+    gl: &glow::Context,
+    raw: &mut RawGl,
+    session: &EglSession,
+    gl_version: String,
+    gl_major_minor: (u32, u32),
+    loader: &dyn Fn(&str) -> *const c_void,
+) -> GlInfo {
+    let string = |name| raw.string(name).unwrap_or_default();
+    // SAFETY (all `gl` calls below): the context is current; plain state queries.
+    let int = |name| unsafe { gl.get_parameter_i32(name) };
+
+    // GL_EXTENSIONS through glGetString is the only way in a 2.1 context and still works in
+    // 3.x compatibility profiles; a core profile returns NULL (+ GL_INVALID_ENUM) and needs
+    // glGetStringi.
+    let extensions: Vec<String> = match raw.string(glow::EXTENSIONS) {
+        Some(s) => s.split_ascii_whitespace().map(str::to_owned).collect(),
+        None => unsafe {
+            while gl.get_error() != glow::NO_ERROR {}
+            let n = gl.get_parameter_i32(glow::NUM_EXTENSIONS).max(0) as u32;
+            (0..n)
+                .map(|i| gl.get_parameter_indexed_string(glow::EXTENSIONS, i))
+                .collect()
+        },
+    };
+    let mut info = GlInfo {
+        egl_platform: session.platform.clone(),
+        egl_vendor: session.vendor.clone(),
+        egl_version: session.version.clone(),
+        gl_version,
+        gl_major_minor,
+        renderer: string(glow::RENDERER),
+        vendor: string(glow::VENDOR),
+        glsl_version: string(glow::SHADING_LANGUAGE_VERSION),
+        max_texture_size: effective_limit(int(glow::MAX_TEXTURE_SIZE), |p| p.max_texture_size),
+        max_viewport_dims: {
+            let mut dims = [0i32; 2];
+            // SAFETY: the context is current; GL_MAX_VIEWPORT_DIMS writes two integers.
+            unsafe { gl.get_parameter_i32_slice(glow::MAX_VIEWPORT_DIMS, &mut dims) };
+            let lim = |v: i32| effective_limit(v, |p| p.max_texture_size);
+            (lim(dims[0]), lim(dims[1]))
+        },
+        max_draw_buffers: effective_limit(int(glow::MAX_DRAW_BUFFERS), |p| p.max_draw_buffers),
+        max_texture_units: effective_limit(int(glow::MAX_TEXTURE_IMAGE_UNITS), |p| {
+            p.max_texture_units
+        }),
+        limit_profile: limit_profile().ok().flatten().map(|p| p.name.to_string()),
+        occlusion_query_bits: raw.query_iv(glow::SAMPLES_PASSED, glow::QUERY_COUNTER_BITS),
+        timer_query: false,
+        extensions,
+        features: Vec::new(),
+    };
+
+    // Mesa's eglGetProcAddress returns a dispatch stub for *any* gl* name, so whether a
+    // function resolves says nothing on Mesa; decide by version/extension first.
+    let core_timer = gl_major_minor >= (3, 3) || info.has_extension("GL_ARB_timer_query");
+    let timer_fn = if core_timer {
+        Some("glGetQueryObjectui64v")
+    } else if info.has_extension("GL_EXT_timer_query") {
+        Some("glGetQueryObjectui64vEXT")
+    } else {
+        None
+    };
+    raw.get_query_objectui64v = timer_fn.and_then(|name| {
+        let p = loader(name);
+        // SAFETY: the named function has exactly this C signature.
+        (!p.is_null())
+            .then(|| unsafe { std::mem::transmute::<*const c_void, PfnGetQueryObjectui64v>(p) })
+    });
+    info.timer_query = raw.get_query_objectui64v.is_some();
+
+    let fbo_entry_points = !loader("glGenFramebuffers").is_null();
+    info.compute_features(fbo_entry_points);
+    // Leave no error from the probing above for the first real GL call to trip over.
+    unsafe { while gl.get_error() != glow::NO_ERROR {} }
+    info
+}
+
+/// Parses the leading `major.minor` of a GL/GLSL version string (`4.5 (Compat...) Mesa`,
+/// `2.1 Mesa 24.0`, `1.20`, `OpenGL ES 3.2 ...`).
+pub(crate) fn parse_major_minor(s: &str) -> Option<(u32, u32)> {
+    let s = s.trim_start_matches(|c: char| !c.is_ascii_digit());
+    let mut parts = s.splitn(2, '.');
+    let major = parts.next()?.parse().ok()?;
+    let minor_str: String = parts
+        .next()?
+        .chars()
+        .take_while(|c| c.is_ascii_digit())
+        .collect();
+    Some((major, minor_str.parse().ok()?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample_info() -> GlInfo {
+        let mut info = GlInfo {
+            egl_platform: "test".into(),
+            egl_vendor: "test".into(),
+            egl_version: "1.5".into(),
+            gl_version: "2.1 Test".into(),
+            gl_major_minor: (2, 1),
+            renderer: "TestGPU".into(),
+            vendor: "test".into(),
+            glsl_version: "1.20".into(),
+            max_texture_size: 4096,
+            max_viewport_dims: (4096, 4096),
+            max_draw_buffers: 4,
+            max_texture_units: 16,
+            limit_profile: None,
+            occlusion_query_bits: 32,
+            timer_query: false,
+            extensions: vec![
+                "GL_ARB_texture_float".into(),
+                "GL_ARB_framebuffer_object".into(),
+            ],
+            features: Vec::new(),
+        };
+        info.compute_features(true);
+        info
+    }
+
+    #[test]
+    fn version_parsing() {
+        assert_eq!(
+            parse_major_minor("4.5 (Compatibility Profile) Mesa 24.0.1"),
+            Some((4, 5))
+        );
+        assert_eq!(parse_major_minor("2.1 Mesa 24.0.1"), Some((2, 1)));
+        assert_eq!(parse_major_minor("1.20"), Some((1, 20)));
+        assert_eq!(parse_major_minor("4.60 NVIDIA"), Some((4, 60)));
+        assert_eq!(parse_major_minor("OpenGL ES 3.2 Mesa"), Some((3, 2)));
+        assert_eq!(parse_major_minor("garbage"), None);
+    }
+
+    #[test]
+    fn verdict_accepts_minimal_gl21_and_names_missing_features() {
+        let info = sample_info();
+        assert_eq!(info.verdict(), Ok(()));
+
+        let mut old = sample_info();
+        old.gl_major_minor = (2, 0);
+        old.extensions.clear();
+        old.max_draw_buffers = 1;
+        old.compute_features(false);
+        let reason = old.verdict().unwrap_err();
+        assert!(reason.contains("TestGPU"), "{reason}");
+        assert!(reason.contains("OpenGL >= 2.1"), "{reason}");
+        assert!(reason.contains("float textures"), "{reason}");
+        assert!(reason.contains("framebuffer objects"), "{reason}");
+        assert!(reason.contains("draw buffers"), "{reason}");
+        assert!(!reason.contains("occlusion"), "{reason}");
+        assert!(old.to_string().contains("Verdict: UNUSABLE"));
+    }
+
+    #[test]
+    fn ext_only_fbo_needs_core_entry_points() {
+        let mut info = sample_info();
+        info.extensions = vec![
+            "GL_ARB_texture_float".into(),
+            "GL_EXT_framebuffer_object".into(),
+        ];
+        info.compute_features(false);
+        assert!(info.verdict().unwrap_err().contains("framebuffer objects"));
+        info.compute_features(true);
+        assert_eq!(info.verdict(), Ok(()));
+    }
+}

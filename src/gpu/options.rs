@@ -1,0 +1,202 @@
+//! Options of the GPU backend: what a render asks of it ([`GpuOptions`]) and the switches it
+//! is made of ([`Kernel`], [`Mask`], [`Storage`]).
+//!
+//! `Mask` and `Storage` are plain word choices and derive `clap::ValueEnum`, which gives the
+//! CLI their spellings, the error message and the `--help` list in one place. `Kernel` carries
+//! a number (`unrolled:K`), which a value enum cannot express, so it keeps its own `FromStr`
+//! (clap uses it through `value_parser!`) beside a matching `Display`.
+
+use super::gl::TexFormat;
+use super::shader::LOOP_MAX;
+use crate::technique::Techniques;
+
+/// Options of the GPU backend.
+#[derive(Clone, Copy, Debug)]
+pub struct GpuOptions {
+    /// Traversal iterations between two termination queries (K).
+    pub query_every: u32,
+    /// Measure per-pass GPU time with timer queries where the driver has them.
+    pub timers: bool,
+    /// Compile every shading feature in, whatever the scene needs.
+    pub no_specialize: bool,
+    /// How traversal iterations map onto passes. Default: `Looped`, which renders the same
+    /// image as the thesis's `Multipass` kernel from the same step chunk, 25-107x faster
+    /// (docs/performance.md); `Multipass` is the faithful GL 2.1 design.
+    pub kernel: Kernel,
+    /// How rays that finished are kept out of the traversal passes.
+    pub mask: Mask,
+    /// Precision of the ray textures.
+    pub storage: Storage,
+    /// Robustness techniques compiled into the programs. `render_gl` takes them from
+    /// [`ImageRequest::techniques`](super::render::ImageRequest::techniques) instead;
+    /// `trace_rays` uses these.
+    pub techniques: Techniques,
+}
+
+impl Default for GpuOptions {
+    fn default() -> Self {
+        GpuOptions {
+            query_every: 8,
+            timers: true,
+            no_specialize: false,
+            kernel: Kernel::Looped,
+            mask: Mask::None,
+            storage: Storage::F32,
+            techniques: Techniques::default(),
+        }
+    }
+}
+
+/// How traversal iterations (a DDA step then a triangle test) map onto passes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// The thesis's design: one step pass and one test pass per iteration.
+    Multipass,
+    /// K iterations per pass as straight-line code (no loops).
+    Unrolled(u32),
+    /// Up to [`LOOP_MAX`] iterations per pass in a bounded loop.
+    Looped,
+}
+
+impl Kernel {
+    /// Traversal iterations one advancing pass performs at most (multipass: one step pass
+    /// plus one test pass count as one).
+    pub fn iterations_per_pass(self) -> u64 {
+        match self {
+            Kernel::Multipass => 1,
+            Kernel::Unrolled(k) => k as u64,
+            Kernel::Looped => LOOP_MAX as u64,
+        }
+    }
+}
+
+impl std::str::FromStr for Kernel {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "multipass" => Ok(Kernel::Multipass),
+            "looped" => Ok(Kernel::Looped),
+            _ => match s.strip_prefix("unrolled:").map(str::parse::<u32>) {
+                Some(Ok(k)) if (1..=64).contains(&k) => Ok(Kernel::Unrolled(k)),
+                _ => Err(format!("unknown kernel `{s}` (expected multipass, unrolled:K with K in 1..=64, or looped)")),
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for Kernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Kernel::Multipass => write!(f, "multipass"),
+            Kernel::Unrolled(k) => write!(f, "unrolled:{k}"),
+            Kernel::Looped => write!(f, "looped"),
+        }
+    }
+}
+
+/// How finished rays are skipped during traversal.
+///
+/// Every pass early-outs on rays not in its state whatever the mask; a mask additionally
+/// keeps the fragment program from running at all for rays that were inactive at the last
+/// termination query, as Purcell et al. did with the depth test. The termination query's
+/// count pass writes the mask as a side effect (only active rays survive its `discard`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Mask {
+    /// Run every pass on every pixel and rely on the in-shader early-out.
+    #[default]
+    None,
+    /// Active rays get depth 0, the rest 1; passes are drawn at depth 0.5 with
+    /// `GL_GREATER`, so the early depth test culls finished rays before shading.
+    EarlyZ,
+    /// Active rays get stencil 1; passes are drawn with `GL_EQUAL 1`.
+    Stencil,
+}
+
+impl std::fmt::Display for Mask {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Mask::None => "none",
+            Mask::EarlyZ => "early-z",
+            Mask::Stencil => "stencil",
+        })
+    }
+}
+
+/// Precision of the textures that carry rays between passes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Storage {
+    /// Everything in RGBA32F.
+    #[default]
+    F32,
+    /// Ray direction (with t_max, texture s1) and the colour accumulator in RGBA16F, as
+    /// 16-bit-float hardware stored streams. A unit direction keeps 11 significant bits
+    /// (about 5e-4 rad), below a pixel's angle at 512 pixels across. Indices stay exact because
+    /// nothing that holds one is stored in 16 bits: the state code, cell, cursor, list end,
+    /// best triangle and hit t (s0, s2, s3) and the hit records stay RGBA32F. Origins stay
+    /// 32-bit too: rounded to 11 bits, a spawned ray's origin moves by up to 2^-12 of its
+    /// coordinate, far more than the offset that keeps it off its surface, and shadow acne
+    /// darkened most of the image when we tried it (docs/performance.md). Needs
+    /// mixed-format framebuffers (GL 3.0 or ARB_framebuffer_object); refused with a clear
+    /// error elsewhere.
+    F16,
+}
+
+impl std::fmt::Display for Storage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Storage::F32 => "f32",
+            Storage::F16 => "f16",
+        })
+    }
+}
+
+impl Storage {
+    /// Formats of the four ray-state attachments s0..s3.
+    pub(crate) fn state_formats(self) -> [TexFormat; 4] {
+        match self {
+            Storage::F32 => [TexFormat::Rgba32F; 4],
+            Storage::F16 => [
+                TexFormat::Rgba32F,
+                TexFormat::Rgba16F,
+                TexFormat::Rgba32F,
+                TexFormat::Rgba32F,
+            ],
+        }
+    }
+
+    /// Format of the colour accumulator.
+    pub(crate) fn colour_format(self) -> TexFormat {
+        match self {
+            Storage::F32 => TexFormat::Rgba32F,
+            Storage::F16 => TexFormat::Rgba16F,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::ValueEnum;
+
+    /// The derived spellings are the ones the hand-written parsers accepted.
+    #[test]
+    fn option_spellings() {
+        for (s, m) in [
+            ("none", Mask::None),
+            ("early-z", Mask::EarlyZ),
+            ("stencil", Mask::Stencil),
+        ] {
+            assert_eq!(Mask::from_str(s, false), Ok(m));
+            assert_eq!(m.to_string(), s);
+        }
+        for (s, v) in [("f32", Storage::F32), ("f16", Storage::F16)] {
+            assert_eq!(Storage::from_str(s, false), Ok(v));
+            assert_eq!(v.to_string(), s);
+        }
+        assert!(Mask::from_str("earlyz", false).is_err());
+        for k in [Kernel::Multipass, Kernel::Looped, Kernel::Unrolled(7)] {
+            assert_eq!(k.to_string().parse::<Kernel>(), Ok(k));
+        }
+        assert!("unrolled:65".parse::<Kernel>().is_err());
+    }
+}

@@ -1,0 +1,411 @@
+//! The frame of one render: every GL object it needs (programs, scene textures, the
+//! ping-ponged ray state, the per-level hit records, the colour accumulator, queries), and
+//! the primitives the walk is written in: draw a pass into a target, run a ray-state pass
+//! (read one set, write the other, swap), count fragments under an occlusion query.
+//!
+//! Everything a `Frame` holds frees itself when the frame is dropped, also when building it
+//! or rendering with it fails half-way (see [`crate::gpu::context`]).
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use glow::HasContext;
+
+use super::passes::{build_programs, passes_for};
+use crate::accel::Grid;
+use crate::gpu::context::GlContext;
+use crate::gpu::contract::{Unit, REQUIRED_TEXTURE_UNITS};
+use crate::gpu::gl::{
+    FullscreenQuad, OcclusionQuery, Program, RenderTarget, Renderbuffer, Texture, TimerQuery,
+};
+use crate::gpu::layout::SceneTextures;
+use crate::gpu::options::{GpuOptions, Mask, Storage};
+use crate::gpu::shader::{Count, Features, Pass};
+use crate::output::GpuStats;
+use crate::progress::Progress;
+use crate::scene::Scene;
+use crate::{Error, Result};
+
+/// A render in progress: programs, textures and targets.
+pub(super) struct Frame<'a> {
+    pub(super) ctx: &'a GlContext,
+    quad: FullscreenQuad,
+    programs: HashMap<Pass, Program>,
+    /// Scene textures and their units.
+    scene_tex: Vec<(Unit, Texture)>,
+    /// Ray state, two sets of four attachments (s0..s3).
+    pub(super) state: [RenderTarget; 2],
+    /// The set holding the current state.
+    pub(super) cur: usize,
+    /// Per level: records r0 (origin, tri) and r1 (direction, t).
+    rec01: Vec<RenderTarget>,
+    /// Per level: record r2 (weight, exists).
+    rec2: Vec<RenderTarget>,
+    /// Colour accumulator, ping-ponged.
+    pub(super) acc: [RenderTarget; 2],
+    pub(super) acc_cur: usize,
+    count_query: OcclusionQuery,
+    /// Depth or depth-stencil buffer shared by both ray-state targets (`--mask`).
+    pub(super) mask_buffer: Option<Renderbuffer>,
+    timers: Option<TimerPool>,
+    /// Progress display (hidden unless asked for and stderr is a terminal).
+    pub(super) progress: Progress,
+    pub(super) stats: GpuStats,
+    pub(super) opts: GpuOptions,
+    /// Traversal iterations after which a wave that has not finished is a bug.
+    pub(super) max_iterations: u64,
+}
+
+/// Timer queries in flight, resolved in batches so the pipeline is not stalled per pass.
+struct TimerPool {
+    free: Vec<TimerQuery>,
+    pending: Vec<(&'static str, TimerQuery)>,
+    ms: HashMap<String, f64>,
+}
+
+impl TimerPool {
+    fn resolve(&mut self, ctx: &GlContext) -> Result<()> {
+        for (name, q) in self.pending.drain(..) {
+            let ns = q.result_ns(ctx)?;
+            *self.ms.entry(name.to_string()).or_default() += ns as f64 * 1e-6;
+            self.free.push(q);
+        }
+        Ok(())
+    }
+}
+
+/// Names a render target of a [`Frame`].
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Slot {
+    /// Ray-state set 0 or 1.
+    State(usize),
+    /// Records r0 and r1 of a level.
+    Rec01(usize),
+    /// Record r2 of a level.
+    Rec2(usize),
+    /// Colour accumulator 0 or 1.
+    Acc(usize),
+}
+
+/// Binds `tex` to `unit`.
+pub(super) fn bind_texture(gl: &glow::Context, unit: Unit, tex: &Texture) {
+    // SAFETY: the context is current; `tex` is a live texture of this context.
+    unsafe {
+        gl.active_texture(glow::TEXTURE0 + unit.index());
+        gl.bind_texture(glow::TEXTURE_2D, Some(tex.name()));
+    }
+}
+
+impl<'a> Frame<'a> {
+    /// Uploads the scene, compiles the programs `scene` needs (all shading passes when
+    /// `shading`), and allocates `width` x `height` targets for `levels` tree levels.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn new(
+        ctx: &'a GlContext,
+        scene: &Scene,
+        grid: &Grid,
+        width: u32,
+        height: u32,
+        levels: usize,
+        shading: bool,
+        opts: GpuOptions,
+    ) -> Result<Self> {
+        let info = &ctx.info;
+        let max_size = info.max_texture_size.max(0) as u32;
+        info.check_image_size(width, height)?;
+        if info.max_texture_units < REQUIRED_TEXTURE_UNITS {
+            return Err(Error::GlUnavailable(format!(
+                "{} texture image units, fragtrace needs {REQUIRED_TEXTURE_UNITS}",
+                info.max_texture_units
+            )));
+        }
+        // Check memory before allocating: ray state (8), records (3 per level), colour (2).
+        let bytes = (width as u64 * height as u64) * 16 * (8 + 3 * levels as u64 + 2);
+        if bytes > 8 << 30 {
+            return Err(Error::Limit(format!(
+                "{width}x{height} with {levels} ray-tree levels needs {:.1} GiB of ray textures",
+                bytes as f64 / (1u64 << 30) as f64
+            )));
+        }
+        let mut stats = GpuStats {
+            renderer: info.renderer.clone(),
+            gl_version: info.gl_version.clone(),
+            query_every: opts.query_every,
+            ..GpuStats::default()
+        };
+
+        let features = if opts.no_specialize {
+            Features::all()
+        } else {
+            Features::of(scene)
+        };
+        let t_up = Instant::now();
+        let layout = SceneTextures::pack_with(scene, grid, max_size, features.smooth_normals)?;
+        let scene_tex = layout
+            .with_units()
+            .into_iter()
+            .map(|(unit, t)| {
+                Ok((
+                    unit,
+                    Texture::new_f32(ctx, t.width, t.height, Some(&t.data))?,
+                ))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        // SAFETY: the context is current.
+        unsafe { ctx.gl().finish() };
+        stats.upload_ms = t_up.elapsed().as_secs_f64() * 1e3;
+        stats.upload_bytes = layout.bytes();
+
+        // Programs: only the passes this scene and depth use.
+        stats.features = format!("{features:?}");
+        let t_c = Instant::now();
+        let passes = passes_for(scene, levels, shading, opts.kernel);
+        let programs = build_programs(
+            ctx,
+            &passes,
+            features,
+            opts.techniques,
+            &layout,
+            grid,
+            scene,
+            (width, height),
+        )?;
+        stats.compile_ms = t_c.elapsed().as_secs_f64() * 1e3;
+
+        let targets = |n: usize| RenderTarget::new(ctx, width, height, n);
+        let state_formats = opts.storage.state_formats();
+        let state_target = || {
+            RenderTarget::with_formats(ctx, width, height, &state_formats).map_err(|e| match e {
+                Error::GlUnavailable(m) if opts.storage == Storage::F16 => {
+                    Error::GlUnavailable(format!(
+                        "--storage f16 mixes RGBA16F and RGBA32F attachments in one \
+                         framebuffer, which needs GL 3.0 or ARB_framebuffer_object: {m}"
+                    ))
+                }
+                e => e,
+            })
+        };
+        let colour = [opts.storage.colour_format()];
+        let state = [state_target()?, state_target()?];
+        let mask_buffer = match opts.mask {
+            Mask::None => None,
+            Mask::EarlyZ | Mask::Stencil => {
+                let rb = Renderbuffer::new_mask(ctx, width, height, opts.mask == Mask::Stencil)?;
+                for t in &state {
+                    t.attach_mask_buffer(ctx.gl(), &rb)?;
+                }
+                Some(rb)
+            }
+        };
+        Ok(Frame {
+            ctx,
+            quad: FullscreenQuad::new(ctx)?,
+            programs,
+            scene_tex,
+            state,
+            cur: 0,
+            rec01: (0..levels).map(|_| targets(2)).collect::<Result<_>>()?,
+            rec2: (0..levels).map(|_| targets(1)).collect::<Result<_>>()?,
+            acc: [
+                RenderTarget::with_formats(ctx, width, height, &colour)?,
+                RenderTarget::with_formats(ctx, width, height, &colour)?,
+            ],
+            acc_cur: 0,
+            count_query: OcclusionQuery::new(ctx)?,
+            mask_buffer,
+            progress: Progress::hidden(),
+            timers: (opts.timers && info.timer_query).then(|| TimerPool {
+                free: Vec::new(),
+                pending: Vec::new(),
+                ms: HashMap::new(),
+            }),
+            stats,
+            opts,
+            // A DDA visits at most rx+ry+rz cells; each test is one iteration; be generous.
+            max_iterations: 16
+                * (grid.res.iter().map(|&r| r as u64).sum::<u64>()
+                    + grid.tri_indices.len() as u64
+                    + 16),
+        })
+    }
+
+    /// The context's glow table.
+    pub(super) fn gl(&self) -> &glow::Context {
+        self.ctx.gl()
+    }
+
+    fn program(&self, pass: Pass) -> &Program {
+        &self.programs[&pass]
+    }
+
+    /// Makes `pass`'s program current and returns the location of its uniform `name`.
+    fn uniform(&self, pass: Pass, name: &str) -> Option<glow::UniformLocation> {
+        let p = self.program(pass).name();
+        // SAFETY: the context is current and `p` is a linked program of it.
+        unsafe {
+            self.gl().use_program(Some(p));
+            self.gl().get_uniform_location(p, name)
+        }
+    }
+
+    /// Sets uniform `name` of `pass`'s program (a no-op where the program lacks it).
+    pub(super) fn set_vec3(&self, pass: Pass, name: &str, v: [f32; 3]) {
+        let loc = self.uniform(pass, name);
+        // SAFETY: the program is current (see `uniform`).
+        unsafe { self.gl().uniform_3_f32(loc.as_ref(), v[0], v[1], v[2]) };
+    }
+
+    /// As [`Frame::set_vec3`], for a `vec2`.
+    pub(super) fn set_vec2(&self, pass: Pass, name: &str, v: [f32; 2]) {
+        let loc = self.uniform(pass, name);
+        // SAFETY: as in `set_vec3`.
+        unsafe { self.gl().uniform_2_f32(loc.as_ref(), v[0], v[1]) };
+    }
+
+    /// As [`Frame::set_vec3`], for a `float`.
+    pub(super) fn set_float(&self, pass: Pass, name: &str, v: f32) {
+        let loc = self.uniform(pass, name);
+        // SAFETY: as in `set_vec3`.
+        unsafe { self.gl().uniform_1_f32(loc.as_ref(), v) };
+    }
+
+    /// The render target in `slot`.
+    pub(super) fn target(&self, slot: Slot) -> &RenderTarget {
+        match slot {
+            Slot::State(k) => &self.state[k],
+            Slot::Rec01(l) => &self.rec01[l],
+            Slot::Rec2(l) => &self.rec2[l],
+            Slot::Acc(k) => &self.acc[k],
+        }
+    }
+
+    /// Texture of record r`k` (0..3) of `level`.
+    pub(super) fn record_texture(&self, level: usize, k: usize) -> &Texture {
+        match k {
+            0 | 1 => self.rec01[level].texture(k),
+            _ => self.rec2[level].texture(0),
+        }
+    }
+
+    /// Binds level `level`'s records r0..r2 to their units (`u_r*` / `u_p*`).
+    pub(super) fn bind_records(&self, level: usize) {
+        for (k, unit) in Unit::RECORD.into_iter().enumerate() {
+            bind_texture(self.gl(), unit, self.record_texture(level, k));
+        }
+    }
+
+    /// Binds level `level`'s weight record r2 as the node being spawned or counted (`u_c2`).
+    pub(super) fn bind_node(&self, level: usize) {
+        bind_texture(self.gl(), Unit::Node, self.record_texture(level, 2));
+    }
+
+    /// Draws `pass` into the target in `slot`, timing it when timers are on.
+    pub(super) fn draw(&mut self, pass: Pass, slot: Slot) -> Result<()> {
+        // Re-bound every pass: creating or reading textures elsewhere changes the binding
+        // of whatever unit is active, and five binds cost nothing next to a pass.
+        for (unit, tex) in &self.scene_tex {
+            bind_texture(self.gl(), *unit, tex);
+        }
+        self.target(slot).bind(self.gl());
+        let timer = match &mut self.timers {
+            Some(pool) => Some(match pool.free.pop() {
+                Some(q) => q,
+                None => TimerQuery::new(self.ctx)?,
+            }),
+            None => None,
+        };
+        if let Some(t) = &timer {
+            t.begin(self.ctx);
+        }
+        self.quad.draw(self.gl(), self.program(pass));
+        if let Some(t) = timer {
+            t.end(self.ctx);
+            let pool = self.timers.as_mut().expect("timer pool");
+            pool.pending.push((pass.name(), t));
+            if pool.pending.len() >= 256 {
+                pool.resolve(self.ctx)?;
+            }
+        }
+        *self
+            .stats
+            .passes
+            .entry(pass.name().to_string())
+            .or_default() += 1;
+        self.stats.passes_total += 1;
+        Ok(())
+    }
+
+    /// Binds the current ray-state set as input.
+    pub(super) fn bind_state_input(&self) {
+        for (unit, t) in Unit::STATE.into_iter().zip(self.state[self.cur].textures()) {
+            bind_texture(self.gl(), unit, t);
+        }
+    }
+
+    /// Runs a ray-state pass: reads the current set, writes the other, swaps.
+    pub(super) fn state_pass(&mut self, pass: Pass) -> Result<()> {
+        self.bind_state_input();
+        let other = 1 - self.cur;
+        self.draw(pass, Slot::State(other))?;
+        self.cur = other;
+        Ok(())
+    }
+
+    /// Counts fragments that survive the `count` pass (active rays, or pixels where the
+    /// node whose weight record is level `node`'s r2 exists), drawn with colour writes off
+    /// into `slot`.
+    pub(super) fn count_into(
+        &mut self,
+        what: Count,
+        node: Option<usize>,
+        slot: Slot,
+    ) -> Result<u64> {
+        let pass = Pass::Count(what);
+        self.bind_state_input();
+        if let Some(level) = node {
+            self.bind_node(level);
+        }
+        // SAFETY: the context is current.
+        unsafe { self.gl().color_mask(false, false, false, false) };
+        self.count_query.begin(self.ctx);
+        let r = self.draw(pass, slot);
+        self.count_query.end(self.ctx);
+        // SAFETY: as above.
+        unsafe { self.gl().color_mask(true, true, true, true) };
+        r?;
+        self.stats.termination_queries += (what == Count::Rays) as u64;
+        Ok(self.count_query.result(self.ctx)? as u64)
+    }
+
+    /// [`Frame::count_into`] the colour accumulator that is not being read.
+    pub(super) fn count(&mut self, what: Count, node: Option<usize>) -> Result<u64> {
+        self.count_into(what, node, Slot::Acc(1 - self.acc_cur))
+    }
+
+    /// Accumulation pass: reads level `level` records and the colour so far.
+    pub(super) fn accumulate(&mut self, pass: Pass, level: usize) -> Result<()> {
+        self.bind_state_input();
+        self.bind_records(level);
+        bind_texture(self.gl(), Unit::Acc, self.acc[self.acc_cur].texture(0));
+        let other = 1 - self.acc_cur;
+        self.draw(pass, Slot::Acc(other))?;
+        self.acc_cur = other;
+        Ok(())
+    }
+
+    /// Stores the finished wave in level `level`'s records.
+    pub(super) fn record(&mut self, level: usize) -> Result<()> {
+        self.bind_state_input();
+        self.draw(Pass::Record, Slot::Rec01(level))
+    }
+
+    /// Resolves pending timers into the statistics.
+    pub(super) fn finish_timers(&mut self) -> Result<()> {
+        if let Some(pool) = &mut self.timers {
+            pool.resolve(self.ctx)?;
+            self.stats.gpu_ms = pool.ms.clone();
+            self.stats.gpu_ms_total = pool.ms.values().sum();
+        }
+        Ok(())
+    }
+}

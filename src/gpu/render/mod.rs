@@ -1,0 +1,61 @@
+//! The multi-pass GPU renderer: the host side of the thesis's stream design.
+//!
+//! Every pass is one fragment program drawn over the full-screen quad into RGBA32F
+//! textures. The ray state lives in four textures ping-ponged between two framebuffers
+//! (a pass never reads what it writes); every pass copies rays that are not in its state
+//! through unchanged, so either set always holds the whole current state.
+//!
+//! One job per file: `frame` owns the GL objects of a render and draws passes;
+//! `passes` decides which programs a scene needs and builds them; `trace` is the one
+//! termination loop that traces a ray wave (traversal passes until an occlusion query over
+//! the `count` pass, run every K iterations, finds no active ray); `tree` walks the
+//! Whitted ray tree (each level keeps a hit record; a node's children are skipped when an
+//! occlusion query finds no pixel where they exist); `readback` brings images, AOVs and
+//! traced rays back to the host.
+
+mod frame;
+mod passes;
+mod readback;
+mod trace;
+mod tree;
+
+#[cfg(test)]
+mod tests;
+
+pub use super::options::{GpuOptions, Mask, Storage};
+pub use readback::{trace_rays, GpuRay, GpuTrace};
+pub use tree::render_gl;
+
+use crate::image_io::Image;
+use crate::output::{Aov, GpuStats, RayCounts};
+
+/// What [`render_gl`] renders: the image's size, samples and depth, and how.
+#[derive(Clone, Copy, Debug)]
+pub struct ImageRequest {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum reflection/refraction depth.
+    pub max_depth: u32,
+    /// Robustness techniques compiled into the programs (override `gpu.techniques`).
+    pub techniques: crate::technique::Techniques,
+    /// Show a progress display on stderr (drawn only when stderr is a terminal).
+    pub progress: bool,
+    /// Backend options.
+    pub gpu: GpuOptions,
+}
+
+/// Output of a GPU render.
+pub struct GpuOutput {
+    /// Linear RGB image.
+    pub image: Image,
+    /// Primary-ray AOVs (first sample).
+    pub aov: Aov,
+    /// Rays by kind (from occlusion queries).
+    pub rays: RayCounts,
+    /// GPU statistics.
+    pub stats: GpuStats,
+}

@@ -1,0 +1,140 @@
+//! Reading results back to the host: the image, the primary-ray AOVs, and the final ray
+//! states of [`trace_rays`], all through the field declarations of
+//! [`contract`](crate::gpu::contract).
+
+use super::frame::Frame;
+use crate::accel::Grid;
+use crate::gpu::context::GlContext;
+use crate::gpu::contract::{ray, StateTexels, TRI_NONE, TRI_NO_RAY};
+use crate::gpu::options::GpuOptions;
+use crate::gpu::shader::{Query, RayState};
+use crate::output::{Aov, AovPixel};
+use crate::scene::Scene;
+use crate::Result;
+
+/// GL rows start at the bottom; images at the top. Drops alpha.
+pub(super) fn flip_rgba_to_rgb(data: &[f32], w: u32, h: u32) -> Vec<f32> {
+    let mut out = Vec::with_capacity((w * h * 3) as usize);
+    for j in 0..h {
+        let row = (h - 1 - j) as usize * w as usize * 4;
+        for i in 0..w as usize {
+            out.extend_from_slice(&data[row + i * 4..row + i * 4 + 3]);
+        }
+    }
+    out
+}
+
+/// Reads the current ray-state set's textures s0 and s3 (the others stay empty).
+fn read_state(f: &Frame) -> Result<StateTexels> {
+    let st = &f.state[f.cur];
+    let read = |k: usize| st.read_attachment(f.gl(), k);
+    Ok(StateTexels {
+        texels: [read(0)?, Vec::new(), Vec::new(), read(3)?],
+    })
+}
+
+/// Primary-ray AOVs from the finished level-0 wave.
+pub(super) fn read_aov(f: &Frame, scene: &Scene, w: u32, h: u32) -> Result<Aov> {
+    let s = read_state(f)?;
+    let mut pixels = Vec::with_capacity((w * h) as usize);
+    for j in 0..h {
+        let row = (h - 1 - j) as usize * w as usize;
+        for i in 0..w as usize {
+            let k = row + i;
+            let steps = s.get(k, ray::STEPS);
+            let hit = RayState::from_code(s.get(k, ray::STATE)) == Some(RayState::Shading);
+            pixels.push(if hit {
+                let tri_best = s.get(k, ray::TRI_BEST);
+                let v = scene.triangle_vertices(tri_best as usize);
+                let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+                AovPixel {
+                    depth: s.get(k, ray::T_BEST),
+                    primid: tri_best,
+                    normal: n.to_array(),
+                    steps,
+                }
+            } else {
+                AovPixel::miss(steps)
+            });
+        }
+    }
+    Ok(Aov::from_pixels(w, h, &pixels))
+}
+
+/// One ray for [`trace_rays`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpuRay {
+    /// Origin.
+    pub o: glam::Vec3,
+    /// Direction (need not be unit length, must not be zero).
+    pub d: glam::Vec3,
+    /// Upper end of the open interval (0, t_max).
+    pub t_max: f32,
+}
+
+/// What [`trace_rays`] found for one ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpuTrace {
+    /// (t, triangle) of the hit; for [`Query::Any`] the first hit found.
+    pub hit: Option<(f32, u32)>,
+    /// Final ray state.
+    pub state: RayState,
+    /// Cells visited plus triangle tests.
+    pub steps: f32,
+}
+
+/// Traces arbitrary rays through the same traversal and intersection passes a render uses:
+/// how tests put single hand-made rays through the GPU kernel.
+pub fn trace_rays(
+    ctx: &GlContext,
+    scene: &Scene,
+    grid: &Grid,
+    rays: &[GpuRay],
+    query: Query,
+    opts: GpuOptions,
+) -> Result<Vec<GpuTrace>> {
+    if rays.is_empty() {
+        return Ok(Vec::new());
+    }
+    let n = rays.len() as u32;
+    let w = n.min(256);
+    let h = n.div_ceil(w);
+    let mut f = Frame::new(ctx, scene, grid, w, h, 1, false, opts)?;
+    let texels = (w * h) as usize;
+    let mut s = StateTexels {
+        texels: std::array::from_fn(|_| vec![0f32; texels * 4]),
+    };
+    for k in 0..texels {
+        match rays.get(k) {
+            Some(r) => {
+                s.set(k, ray::ORIGIN, &r.o.to_array());
+                s.set(k, ray::STATE, &[RayState::Initial.code()]);
+                s.set(k, ray::DIR, &r.d.to_array());
+                s.set(k, ray::T_MAX, &[r.t_max]);
+                s.set(k, ray::T_BEST, &[r.t_max]);
+                s.set(k, ray::TRI_BEST, &[TRI_NONE]);
+            }
+            None => {
+                s.set(k, ray::STATE, &[RayState::Done.code()]);
+                s.set(k, ray::DIR, &[0.0, 0.0, 1.0]);
+                s.set(k, ray::TRI_BEST, &[TRI_NO_RAY]);
+            }
+        }
+    }
+    for (tex, data) in f.state[f.cur].textures().iter().zip(&s.texels) {
+        tex.upload(ctx.gl(), data)?;
+    }
+    f.trace(query)?;
+    let s = read_state(&f)?;
+    Ok((0..rays.len())
+        .map(|k| {
+            let state = RayState::from_code(s.get(k, ray::STATE)).unwrap_or(RayState::Done);
+            GpuTrace {
+                hit: (state == RayState::Shading)
+                    .then(|| (s.get(k, ray::T_BEST), s.get(k, ray::TRI_BEST) as u32)),
+                state,
+                steps: s.get(k, ray::STEPS),
+            }
+        })
+        .collect())
+}

@@ -1,0 +1,267 @@
+//! GL objects own their lifetime: many renders in one context, some failing half-way,
+//! leave exactly the GL objects that existed before them.
+//!
+//! The count does not trust the crate's own bookkeeping: it asks the driver
+//! (`glIsTexture`, `glIsProgram`, `glIsShader`, `glIsFramebuffer`, `glIsRenderbuffer`,
+//! `glIsBuffer`, `glIsQuery`, `glIsVertexArray`) about every name up to well past the
+//! largest name the driver handed out during the run.
+
+use std::num::NonZeroU32;
+use std::path::{Path, PathBuf};
+
+use glow::HasContext;
+
+use super::passes::BREAK_PASS;
+use super::*;
+use crate::accel::{Grid, GridConfig};
+use crate::gpu::context::{with_test_context, GlContext};
+use crate::gpu::gl::texture::TEST_MAX_TEXTURE_SIZE;
+use crate::gpu::gl::{OcclusionQuery, Program, RenderTarget, Texture};
+use crate::gpu::options::Kernel;
+use crate::gpu::shader::{Pass, Query};
+use crate::scene::{builtin_scene, load_scene_with_search_path, Scene};
+use crate::Error;
+
+/// Live names by kind, as the driver reports them, for names `1..=upto`.
+fn live_objects(ctx: &GlContext, upto: u32) -> Vec<(&'static str, u32)> {
+    let gl = ctx.gl();
+    let mut live = Vec::new();
+    for n in 1..=upto {
+        let id = NonZeroU32::new(n).expect("names start at 1");
+        // SAFETY: glIs* accept any name and only read state.
+        let kinds = unsafe {
+            [
+                ("texture", gl.is_texture(glow::NativeTexture(id))),
+                ("program", gl.is_program(glow::NativeProgram(id))),
+                ("shader", gl.is_shader(glow::NativeShader(id))),
+                (
+                    "framebuffer",
+                    gl.is_framebuffer(glow::NativeFramebuffer(id)),
+                ),
+                (
+                    "renderbuffer",
+                    gl.is_renderbuffer(glow::NativeRenderbuffer(id)),
+                ),
+                ("buffer", gl.is_buffer(glow::NativeBuffer(id))),
+            ]
+        };
+        let (query, vao) = ctx.raw().is_query_and_vertex_array(n);
+        for (kind, is) in kinds
+            .into_iter()
+            .chain([("query", query), ("vertex array", vao)])
+        {
+            if is {
+                live.push((kind, n));
+            }
+        }
+    }
+    live
+}
+
+/// The largest name a fresh object of each kind gets now (a driver that never reuses names
+/// hands out the largest so far; one that reuses the lowest free name, a name below it).
+fn probe_names(ctx: &GlContext) -> u32 {
+    let t = Texture::new_f32(ctx, 1, 1, None).unwrap();
+    let rt = RenderTarget::new(ctx, 1, 1, 1).unwrap();
+    let q = OcclusionQuery::new(ctx).unwrap();
+    let p: Program = crate::gpu::gl::compile_program(
+        ctx,
+        "probe",
+        crate::gpu::gl::QUAD_VERTEX_SHADER,
+        "#version 120\nvoid main() { gl_FragData[0] = vec4(0.0); }\n",
+        &crate::gpu::gl::single_file_line_map("probe.frag"),
+    )
+    .unwrap();
+    // Begin/end once so that the query name becomes an object glIsQuery reports.
+    q.begin(ctx);
+    q.end(ctx);
+    let _ = q.result(ctx);
+    let names = [
+        t.name().0.get(),
+        rt.framebuffer().0.get(),
+        rt.texture(0).name().0.get(),
+        p.name().0.get(),
+    ];
+    names.into_iter().max().unwrap_or(1)
+}
+
+fn scene(name: &str) -> Scene {
+    if name == "builtin" {
+        return builtin_scene();
+    }
+    let models: Vec<PathBuf> = match std::env::var_os("FRAGTRACE_MODEL_PATH") {
+        Some(p) => std::env::split_paths(&p).collect(),
+        None => vec![PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../shared/models"
+        ))],
+    };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.toml"));
+    load_scene_with_search_path(&path, &models).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn request(w: u32, h: u32, gpu: GpuOptions) -> ImageRequest {
+    ImageRequest {
+        width: w,
+        height: h,
+        spp: 1,
+        max_depth: 3,
+        techniques: gpu.techniques,
+        progress: false,
+        gpu,
+    }
+}
+
+/// How a configuration is expected to end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Ends {
+    Ok,
+    /// Fails with `Error::Limit` once some textures and programs exist.
+    LimitHalfWay,
+    /// Fails with `Error::Shader` after other programs were built.
+    ShaderHalfWay,
+}
+
+#[test]
+fn renders_in_one_context_free_every_gl_object() {
+    with_test_context(|ctx| {
+        let scenes: Vec<(&str, Scene)> = ["builtin", "cornell", "glass", "teapot"]
+            .into_iter()
+            .map(|n| (n, scene(n)))
+            .collect();
+        let base = GpuOptions::default();
+        let configs: Vec<(GpuOptions, Ends)> = vec![
+            (
+                GpuOptions {
+                    kernel: Kernel::Multipass,
+                    ..base
+                },
+                Ends::Ok,
+            ),
+            (
+                GpuOptions {
+                    kernel: Kernel::Unrolled(4),
+                    ..base
+                },
+                Ends::Ok,
+            ),
+            (
+                GpuOptions {
+                    kernel: Kernel::Looped,
+                    ..base
+                },
+                Ends::Ok,
+            ),
+            (
+                GpuOptions {
+                    mask: Mask::EarlyZ,
+                    ..base
+                },
+                Ends::Ok,
+            ),
+            (
+                GpuOptions {
+                    mask: Mask::Stencil,
+                    kernel: Kernel::Multipass,
+                    ..base
+                },
+                Ends::Ok,
+            ),
+            (
+                GpuOptions {
+                    storage: Storage::F16,
+                    ..base
+                },
+                Ends::Ok,
+            ),
+            (
+                GpuOptions {
+                    no_specialize: true,
+                    timers: false,
+                    ..base
+                },
+                Ends::Ok,
+            ),
+            (
+                GpuOptions {
+                    mask: Mask::Stencil,
+                    ..base
+                },
+                Ends::LimitHalfWay,
+            ),
+            (
+                GpuOptions {
+                    kernel: Kernel::Multipass,
+                    ..base
+                },
+                Ends::ShaderHalfWay,
+            ),
+        ];
+        let before_upto = probe_names(ctx) + 4096;
+        let before = live_objects(ctx, before_upto);
+        let mut largest = 0;
+        for (name, scene) in &scenes {
+            let grid = Grid::build(scene, &GridConfig::default()).unwrap();
+            for &(gpu, ends) in &configs {
+                let (w, h) = match ends {
+                    // Passes the context's image-size check, but every stream target is
+                    // wider than the lowered limit: fails after the scene textures and
+                    // every program exist.
+                    Ends::LimitHalfWay => (200, 8),
+                    _ => (24, 16),
+                };
+                TEST_MAX_TEXTURE_SIZE.set((ends == Ends::LimitHalfWay).then_some(128));
+                BREAK_PASS.set((ends == Ends::ShaderHalfWay).then_some(Pass::Record));
+                let r = render_gl(ctx, scene, &grid, &request(w, h, gpu));
+                TEST_MAX_TEXTURE_SIZE.set(None);
+                BREAK_PASS.set(None);
+                match (ends, &r) {
+                    (Ends::Ok, Ok(out)) => assert!(out.stats.passes_total > 0),
+                    (Ends::LimitHalfWay, Err(Error::Limit(_)))
+                    | (Ends::ShaderHalfWay, Err(Error::Shader { .. })) => {}
+                    (_, Err(e)) => panic!("{name} {gpu:?}: {e}"),
+                    (_, Ok(_)) => panic!("{name} {gpu:?}: expected {ends:?}"),
+                }
+                // trace_rays builds a frame of its own.
+                let rays = [crate::gpu::render::GpuRay {
+                    o: scene.camera.eye,
+                    d: scene.camera.look_at - scene.camera.eye,
+                    t_max: 1e30,
+                }];
+                trace_rays(ctx, scene, &grid, &rays, Query::Any, gpu).unwrap();
+                largest = largest.max(probe_names(ctx));
+            }
+        }
+        let upto = before_upto.max(largest + 4096);
+        let after = live_objects(ctx, upto);
+        assert_eq!(
+            after,
+            before,
+            "GL objects alive after {} renders differ from before (largest name probed {largest})",
+            scenes.len() * configs.len()
+        );
+        // SAFETY: plain error query.
+        assert_eq!(unsafe { ctx.gl().get_error() }, glow::NO_ERROR);
+    });
+}
+
+/// Objects outliving their `GlContext` value keep the context alive, and dropping them
+/// while another context is current deletes them in their own context.
+#[test]
+fn objects_are_freed_in_their_own_context() {
+    with_test_context(|first| {
+        let before = live_objects(first, probe_names(first) + 256);
+        let second = GlContext::new().expect("second context");
+        let tex = Texture::new_f32(&second, 4, 4, None).unwrap();
+        let name = tex.name();
+        drop(second); // the texture keeps the second context alive
+        first.make_current().unwrap();
+        drop(tex); // deleted in the second context, the first stays current
+                   // SAFETY: plain query in the first context.
+        let current = unsafe { first.gl().get_error() };
+        assert_eq!(current, glow::NO_ERROR);
+        let after = live_objects(first, probe_names(first) + 256);
+        assert_eq!(after, before, "the first context's objects changed");
+        let _ = name;
+    });
+}

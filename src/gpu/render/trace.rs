@@ -1,0 +1,138 @@
+//! Tracing one ray wave to completion: the termination loop, shared by every kernel.
+//!
+//! Traversal set-up, then advancing passes (multipass: a step pass and a test pass per
+//! iteration; unrolled/looped: one pass of several iterations), with an occlusion query over
+//! the `count` pass every `query_every` iterations' worth of passes; the wave is done when it
+//! finds no active ray. With `--mask`, that count pass also writes the mask.
+
+use glow::HasContext;
+
+use super::frame::{Frame, Slot};
+use crate::gpu::options::Mask;
+use crate::gpu::shader::{Count, Pass, Query};
+use crate::{Error, Result};
+
+impl Frame<'_> {
+    /// Traces the current ray wave to completion.
+    ///
+    /// With a mask, a masked pass leaves finished rays unwritten in its target, so the
+    /// ping-pong pair may disagree on them. The first pass after each mask refresh therefore
+    /// runs unmasked: its write-through copies every finished ray into the other target, and
+    /// from then on both hold the same state for every ray outside the mask.
+    pub(super) fn trace(&mut self, query: Query) -> Result<()> {
+        let r = self.trace_inner(query);
+        self.set_mask_test(false);
+        r
+    }
+
+    fn trace_inner(&mut self, query: Query) -> Result<()> {
+        self.state_pass(Pass::TraverseInit)?;
+        let kernel = self.opts.kernel;
+        let advance = Pass::advance(kernel, query);
+        // Several iterations per pass: query every `query_every` iterations' worth.
+        let per_pass = kernel.iterations_per_pass();
+        let every = (self.opts.query_every as u64 / per_pass).max(1);
+        let mut synced = false;
+        let mut passes = 0u64;
+        loop {
+            if passes.is_multiple_of(every) {
+                self.set_mask_test(false);
+                self.progress.passes(self.stats.passes_total);
+                let n = self.count_and_mask()?;
+                self.progress.active(n);
+                if n == 0 {
+                    return Ok(());
+                }
+                synced = false;
+            }
+            self.set_mask_test(synced);
+            match advance {
+                Some(pass) => self.state_pass(pass)?,
+                None => {
+                    self.state_pass(Pass::TraverseStep)?;
+                    self.set_mask_test(true);
+                    self.state_pass(Pass::Intersect(query))?;
+                }
+            }
+            synced = true;
+            passes += 1;
+            if passes * per_pass > self.max_iterations {
+                return Err(Error::Internal(format!(
+                    "traversal did not terminate after {} iterations",
+                    passes * per_pass
+                )));
+            }
+        }
+    }
+
+    /// Counts active rays and, with `--mask`, writes the mask of them: the count pass is
+    /// drawn (colour writes off) into the ray-state target that is not being read, whose
+    /// depth/stencil buffer both state targets share.
+    fn count_and_mask(&mut self) -> Result<u64> {
+        if self.mask_buffer.is_none() {
+            return self.count(Count::Rays, None);
+        }
+        let slot = Slot::State(1 - self.cur);
+        self.target(slot).bind(self.gl());
+        let gl = self.gl();
+        // SAFETY: the context is current; the bound FBO has the mask buffer attached.
+        unsafe {
+            match self.opts.mask {
+                Mask::EarlyZ => {
+                    gl.depth_mask(true);
+                    gl.clear_depth_f64(1.0);
+                    gl.clear(glow::DEPTH_BUFFER_BIT);
+                    gl.enable(glow::DEPTH_TEST);
+                    gl.depth_func(glow::ALWAYS);
+                    // The quad lies at window depth 0.5; a [0, 0] range stores 0 instead.
+                    gl.depth_range_f64(0.0, 0.0);
+                }
+                Mask::Stencil => {
+                    gl.stencil_mask(0xff);
+                    gl.clear_stencil(0);
+                    gl.clear(glow::STENCIL_BUFFER_BIT);
+                    gl.enable(glow::STENCIL_TEST);
+                    gl.stencil_func(glow::ALWAYS, 1, 0xff);
+                    gl.stencil_op(glow::KEEP, glow::KEEP, glow::REPLACE);
+                }
+                Mask::None => unreachable!("no mask buffer without a mask"),
+            }
+        }
+        let n = self.count_into(Count::Rays, None, slot);
+        let gl = self.gl();
+        // SAFETY: as above.
+        unsafe {
+            gl.depth_range_f64(0.0, 1.0);
+            gl.depth_mask(false);
+            gl.stencil_mask(0);
+            gl.disable(glow::DEPTH_TEST);
+            gl.disable(glow::STENCIL_TEST);
+        }
+        n
+    }
+
+    /// Turns the mask test on or off for the draws that follow.
+    fn set_mask_test(&self, on: bool) {
+        let gl = self.gl();
+        // SAFETY: the context is current.
+        unsafe {
+            match (self.opts.mask, on) {
+                (Mask::EarlyZ, true) => {
+                    gl.enable(glow::DEPTH_TEST);
+                    gl.depth_func(glow::GREATER);
+                    gl.depth_mask(false);
+                }
+                (Mask::Stencil, true) => {
+                    gl.enable(glow::STENCIL_TEST);
+                    gl.stencil_func(glow::EQUAL, 1, 0xff);
+                    gl.stencil_op(glow::KEEP, glow::KEEP, glow::KEEP);
+                    gl.stencil_mask(0);
+                }
+                _ => {
+                    gl.disable(glow::DEPTH_TEST);
+                    gl.disable(glow::STENCIL_TEST);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,174 @@
+//! The Whitted ray tree, walked depth-first in the same order for every pixel: primary
+//! rays per sample, then at each level the ambient and light terms (one shadow wave per
+//! light) and the reflected and refracted children, skipping a child's whole subtree when
+//! an occlusion query finds no pixel where it exists.
+
+use std::time::Instant;
+
+use glow::HasContext;
+
+use super::frame::{Frame, Slot};
+use super::readback::{flip_rgba_to_rgb, read_aov};
+use super::{GpuOutput, ImageRequest};
+use crate::accel::Grid;
+use crate::gpu::context::GlContext;
+use crate::gpu::options::GpuOptions;
+use crate::gpu::shader::{Count, Pass, Query};
+use crate::image_io::Image;
+use crate::output::RayCounts;
+use crate::progress::Progress;
+use crate::scene::{camera, Scene};
+use crate::Result;
+
+/// A child of a ray-tree node.
+#[derive(Clone, Copy, Debug)]
+enum Branch {
+    Reflect,
+    Refract,
+}
+
+impl Branch {
+    /// The `u_branch` uniform of the weight and spawn passes.
+    fn uniform(self) -> f32 {
+        match self {
+            Branch::Reflect => 0.0,
+            Branch::Refract => 1.0,
+        }
+    }
+
+    /// Its rays, for the progress display.
+    fn rays_name(self) -> &'static str {
+        match self {
+            Branch::Reflect => "reflected",
+            Branch::Refract => "refracted",
+        }
+    }
+
+    /// Adds `n` rays of this branch to `rays`.
+    fn tally(self, rays: &mut RayCounts, n: u64) {
+        match self {
+            Branch::Reflect => rays.reflected += n,
+            Branch::Refract => rays.refracted += n,
+        }
+    }
+}
+
+/// Renders `scene` over `grid` on the GPU.
+pub fn render_gl(
+    ctx: &GlContext,
+    scene: &Scene,
+    grid: &Grid,
+    req: &ImageRequest,
+) -> Result<GpuOutput> {
+    let (width, height, spp, max_depth) = (req.width, req.height, req.spp, req.max_depth);
+    let levels = max_depth as usize + 1;
+    let gpu = GpuOptions {
+        techniques: req.techniques,
+        ..req.gpu
+    };
+    let mut f = Frame::new(ctx, scene, grid, width, height, levels, true, gpu)?;
+    f.progress = Progress::spinner(req.progress);
+    let secondary = max_depth > 0 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
+    let t_trace = Instant::now();
+    // Clear the colour accumulator.
+    f.acc[0].bind(f.gl());
+    // SAFETY: the context is current.
+    unsafe {
+        f.gl().clear_color(0.0, 0.0, 0.0, 0.0);
+        f.gl().clear(glow::COLOR_BUFFER_BIT);
+    }
+    let offsets = camera::sample_offsets(spp);
+    let corners = scene
+        .camera
+        .window_corners(width, height)
+        .map(|c| c.as_vec3().to_array());
+    let mut rays = RayCounts::default();
+    let mut aov = None;
+    for (k, &(ox, oy)) in offsets.iter().enumerate() {
+        // Level-0 weight: 1/spp everywhere, and every pixel has a primary ray.
+        let w = 1.0 / offsets.len() as f32;
+        f.target(Slot::Rec2(0)).bind(f.gl());
+        // SAFETY: the context is current.
+        unsafe {
+            f.gl().clear_color(w, w, w, 1.0);
+            f.gl().clear(glow::COLOR_BUFFER_BIT);
+        }
+        f.set_vec3(Pass::RayGen, "u_eye", scene.camera.eye.to_array());
+        f.set_vec3(Pass::RayGen, "u_bl", corners[0]);
+        f.set_vec3(Pass::RayGen, "u_br", corners[1]);
+        f.set_vec3(Pass::RayGen, "u_tr", corners[2]);
+        f.set_vec3(Pass::RayGen, "u_tl", corners[3]);
+        f.set_vec2(Pass::RayGen, "u_offset", [ox as f32, oy as f32]);
+        f.progress
+            .stage(format!("sample {}/{}: primary rays", k + 1, offsets.len()));
+        f.state_pass(Pass::RayGen)?;
+        rays.primary += width as u64 * height as u64;
+        f.trace(Query::Closest)?;
+        if k == 0 {
+            aov = Some(read_aov(&f, scene, width, height)?);
+        }
+        f.record(0)?;
+        shade_node(&mut f, scene, 0, max_depth, secondary, &mut rays)?;
+    }
+    let data = f.acc[f.acc_cur].read_attachment(f.gl(), 0)?;
+    f.progress.finish();
+    f.finish_timers()?;
+    f.stats.trace_ms = t_trace.elapsed().as_secs_f64() * 1e3;
+    let image = Image::from_rgb(width, height, flip_rgba_to_rgb(&data, width, height));
+    Ok(GpuOutput {
+        image,
+        aov: aov.expect("at least one sample"),
+        rays: RayCounts::new(rays.primary, rays.shadow, rays.reflected, rays.refracted),
+        stats: std::mem::take(&mut f.stats),
+    })
+}
+
+/// Shades level `level`'s records (ambient, every light) and recurses into the node's
+/// reflected and refracted children.
+fn shade_node(
+    f: &mut Frame,
+    scene: &Scene,
+    level: usize,
+    max_depth: u32,
+    secondary: bool,
+    rays: &mut RayCounts,
+) -> Result<()> {
+    f.accumulate(Pass::AccumAmbient, level)?;
+    for light in &scene.lights {
+        f.set_vec3(Pass::ShadowSpawn, "u_light_pos", light.position.to_array());
+        f.set_vec3(Pass::AccumLight, "u_light_rad", light.radiance().to_array());
+        f.bind_records(level);
+        f.progress.stage(format!("depth {level}: shadow rays"));
+        f.state_pass(Pass::ShadowSpawn)?;
+        let n = f.count(Count::Rays, None)?;
+        rays.shadow += n;
+        if n > 0 {
+            f.trace(Query::Any)?;
+        }
+        f.accumulate(Pass::AccumLight, level)?;
+    }
+    if !secondary || level as u32 >= max_depth {
+        return Ok(());
+    }
+    for branch in [Branch::Reflect, Branch::Refract] {
+        let child = level + 1;
+        f.set_float(Pass::Weight, "u_branch", branch.uniform());
+        f.set_float(Pass::Spawn, "u_branch", branch.uniform());
+        f.bind_records(level);
+        f.draw(Pass::Weight, Slot::Rec2(child))?;
+        let n = f.count(Count::Nodes, Some(child))?;
+        if n == 0 {
+            continue; // no pixel has this node: skip its whole subtree
+        }
+        branch.tally(rays, n);
+        f.progress
+            .stage(format!("depth {child}: {} rays", branch.rays_name()));
+        f.bind_records(level);
+        f.bind_node(child);
+        f.state_pass(Pass::Spawn)?;
+        f.trace(Query::Closest)?;
+        f.record(child)?;
+        shade_node(f, scene, child, max_depth, secondary, rays)?;
+    }
+    Ok(())
+}
