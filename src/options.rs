@@ -68,7 +68,7 @@ pub struct RenderOptions {
     /// Which renderer runs.
     pub backend: Backend,
     /// GPU backend options.
-    pub gpu: crate::gpu::render::GpuOptions,
+    pub gpu: crate::gpu::options::GpuOptions,
     /// Show a progress display on stderr (only drawn when stderr is a terminal).
     pub progress: bool,
     /// Robustness techniques, on every backend (the GL render uses these, not
@@ -87,7 +87,7 @@ impl RenderOptions {
             precision: Precision::F64,
             grid: GridConfig::default(),
             backend: Backend::Cpu,
-            gpu: crate::gpu::render::GpuOptions::default(),
+            gpu: crate::gpu::options::GpuOptions::default(),
             progress: false,
             techniques: crate::technique::Techniques::default(),
         }
@@ -167,7 +167,7 @@ pub struct RenderArgs {
     /// (the thesis: one step per pass, no loops) or unrolled:K (K steps per pass,
     /// straight-line code, no loops). All render the same image.
     #[arg(long, default_value = "looped")]
-    pub kernel: crate::gpu::shader::Kernel,
+    pub kernel: crate::gpu::options::Kernel,
     /// GPU: compile every shading feature in instead of only what the scene needs.
     #[arg(long)]
     pub no_specialize: bool,
@@ -175,11 +175,11 @@ pub struct RenderArgs {
     /// stencil test, refreshed at each termination query; none relies on the in-shader
     /// early-out alone.
     #[arg(long, default_value = "none")]
-    pub mask: crate::gpu::render::Mask,
+    pub mask: crate::gpu::options::Mask,
     /// GPU: ray textures in 32- or 16-bit floats (f16: ray directions and the colour sum;
     /// origins and every index stay in 32-bit textures).
     #[arg(long, default_value = "f32")]
-    pub storage: crate::gpu::render::Storage,
+    pub storage: crate::gpu::options::Storage,
     /// Ray-triangle test: watertight (Woop et al. 2013, the default) or moller-trumbore
     /// (1997; rays can slip through shared edges). For measuring the technique's cost.
     #[arg(long, value_enum, default_value_t = IntersectMethod::Watertight)]

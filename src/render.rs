@@ -1,6 +1,6 @@
 //! Backend-independent rendering front door: dispatch to the CPU reference renderer or the
 //! GPU backend, and the statistics of a render. The options live in [`crate::options`]
-//! (re-exported here for callers that only take the front door).
+//! (one layer down, so the CLI and the bench share them).
 
 use std::time::Instant;
 
@@ -14,7 +14,7 @@ use crate::output::{Aov, GpuStats, RayCounts};
 use crate::scene::Scene;
 use crate::Result;
 
-pub use crate::options::{Backend, Precision, RenderOptions};
+use crate::options::{Backend, Precision, RenderOptions};
 
 /// Statistics of one render (written by `--stats FILE.json`).
 #[derive(Clone, Debug, Serialize)]

@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 
 use fragtrace::compare::compare;
 use fragtrace::gpu::{with_test_context, GlContext};
-use fragtrace::render::{render_cpu, render_gl_with, Backend, Precision, RenderOptions};
+use fragtrace::options::{Backend, Precision, RenderOptions};
+use fragtrace::render::{render_cpu, render_gl_with};
 use fragtrace::scene::{builtin_scene, load_scene_with_search_path, Scene};
 
 /// Image size of the comparisons: small, because llvmpipe on 2 cores runs every pass over
@@ -73,7 +74,7 @@ fn opts(scene: &Scene, precision: Precision) -> RenderOptions {
     o.backend = Backend::Gl;
     // The thesis's faithful kernel is what every scene is checked with; the faster kernels
     // run the same step chunk and are compared against it below.
-    o.gpu.kernel = fragtrace::gpu::shader::Kernel::Multipass;
+    o.gpu.kernel = fragtrace::gpu::options::Kernel::Multipass;
     o
 }
 
@@ -125,7 +126,8 @@ fn check_all_scenes(ctx: &GlContext) -> String {
             ("GL vs f64 CPU", vs64.rmse, RMSE_GL_VS_F64),
             ("f32 CPU vs f64 CPU", cpu32_vs64.rmse, RMSE_F32_VS_F64),
         ] {
-            if !(value <= bound) {
+            // NaN fails too.
+            if value.is_nan() || value > bound {
                 failures.push(format!("{name}: {what} RMSE {value:.3e} > {bound:.0e}"));
             }
         }
@@ -145,7 +147,7 @@ fn check_all_scenes(ctx: &GlContext) -> String {
                 PRIMID_AGREEMENT * 100.0
             ));
         }
-        if !(vs32.rmse <= RMSE_VS_F32) {
+        if vs32.rmse.is_nan() || vs32.rmse > RMSE_VS_F32 {
             failures.push(format!(
                 "{name}: RMSE vs f32 CPU {:.5} > {RMSE_VS_F32}",
                 vs32.rmse
@@ -221,7 +223,7 @@ fn gl21_inner() {
         let e = render_gl_with(ctx, &scene, &o).err().expect("4097 > 4096");
         assert!(e.to_string().contains("4096"), "{e}");
         check_all_scenes(ctx);
-        check_masks_and_storage(ctx, &scene, fragtrace::gpu::shader::Kernel::Unrolled(4));
+        check_masks_and_storage(ctx, &scene, fragtrace::gpu::options::Kernel::Unrolled(4));
     });
 }
 
@@ -263,7 +265,8 @@ fn gpu_trace_rays_equal_cpu_f32_traversal() {
     use fragtrace::accel::{Grid, GridConfig};
     use fragtrace::cpu::real::V3;
     use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
-    use fragtrace::gpu::render::{trace_rays, GpuOptions, GpuRay};
+    use fragtrace::gpu::options::GpuOptions;
+    use fragtrace::gpu::render::{trace_rays, GpuRay};
     use fragtrace::gpu::shader::Query;
     use fragtrace::scene::{Camera, Material};
     use glam::Vec3;
@@ -314,7 +317,7 @@ fn gpu_trace_rays_equal_cpu_f32_traversal() {
         });
     }
     let faithful = GpuOptions {
-        kernel: fragtrace::gpu::shader::Kernel::Multipass,
+        kernel: fragtrace::gpu::options::Kernel::Multipass,
         ..GpuOptions::default()
     };
     let (closest, any) = with_test_context(|ctx| {
@@ -366,7 +369,7 @@ fn gpu_trace_rays_equal_cpu_f32_traversal() {
 /// multipass kernel renders, with fewer passes.
 #[test]
 fn kernel_variants_render_the_same_image() {
-    use fragtrace::gpu::shader::Kernel;
+    use fragtrace::gpu::options::Kernel;
     let scene = builtin_scene();
     with_test_context(|ctx| {
         let mut o = opts(&scene, Precision::F32);
@@ -409,7 +412,7 @@ fn kernel_variants_render_the_same_image() {
 /// the mask to be used. `--storage f16` changes rays slightly: bounded error, no NaN.
 #[test]
 fn masks_are_exact_and_f16_storage_is_close() {
-    use fragtrace::gpu::shader::Kernel;
+    use fragtrace::gpu::options::Kernel;
     let scene = builtin_scene();
     with_test_context(|ctx| check_masks_and_storage(ctx, &scene, Kernel::Unrolled(4)));
 }
@@ -418,9 +421,9 @@ fn masks_are_exact_and_f16_storage_is_close() {
 /// built-in scene at 160x120 and 0.0095 at 48x36 on llvmpipe).
 const F16_RMSE: f64 = 0.03;
 
-fn check_masks_and_storage(ctx: &GlContext, scene: &Scene, fast: fragtrace::gpu::shader::Kernel) {
-    use fragtrace::gpu::render::{Mask, Storage};
-    use fragtrace::gpu::shader::Kernel;
+fn check_masks_and_storage(ctx: &GlContext, scene: &Scene, fast: fragtrace::gpu::options::Kernel) {
+    use fragtrace::gpu::options::Kernel;
+    use fragtrace::gpu::options::{Mask, Storage};
     let mut o = opts(scene, Precision::F32);
     o.width = 48;
     o.height = 36;
@@ -469,7 +472,7 @@ fn unspecialized_build_renders_every_scene_like_the_specialized_one() {
         let mut failures = Vec::new();
         for (name, scene) in shipped_scenes() {
             let mut o = opts(&scene, Precision::F32);
-            o.gpu.kernel = fragtrace::gpu::shader::Kernel::Looped;
+            o.gpu.kernel = fragtrace::gpu::options::Kernel::Looped;
             let spec = render_gl_with(ctx, &scene, &o).unwrap_or_else(|e| panic!("{name}: {e}"));
             o.gpu.no_specialize = true;
             match render_gl_with(ctx, &scene, &o) {

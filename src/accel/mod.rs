@@ -9,3 +9,11 @@ pub mod grid;
 pub mod tribox;
 
 pub use grid::{CellRange, Grid, GridConfig, GridRes, GridStats};
+
+/// Relative margin by which a later (higher-index) triangle must be closer than the current
+/// best hit to replace it. Coplanar duplicates and hits on shared edges give t values that
+/// differ by an ulp or two between f32, f64 and GPU arithmetic; with this margin all of them
+/// keep the lowest index. 2^-19 is about 8 f32 ulps. Part of the traversal contract every
+/// backend follows, so it lives with the structure: `cpu::traverse` uses it and the GLSL
+/// prelude gets it as `TIE_EPS`.
+pub const TIE_EPS: f64 = 1.0 / 524_288.0;

@@ -13,11 +13,7 @@ use super::real::{Real, V3};
 use crate::accel::{CellRange, Grid};
 use crate::technique::Techniques;
 
-/// Relative margin by which a later (higher-index) triangle must be closer than the current
-/// best hit to replace it. Coplanar duplicates and hits on shared edges give t values that
-/// differ by an ulp or two between f32, f64 and GPU arithmetic; with this margin all of them
-/// keep the lowest index. 2^-19 is about 8 f32 ulps.
-pub const TIE_EPS: f64 = 1.0 / 524_288.0;
+pub use crate::accel::TIE_EPS;
 
 /// Upper bound for the next triangle test once a hit at `t_best` is held.
 #[inline(always)]

@@ -59,7 +59,7 @@ const INCLUDABLE: &[&str] = &["intersect.glsl", "traverse.glsl", "shade.glsl", "
 /// Iterations of one `looped` pass at most (a bounded loop, as Shader Model 3 requires).
 pub const LOOP_MAX: u32 = 1024;
 
-pub use super::options::Kernel;
+use super::options::Kernel;
 
 /// Ray states, stored in the 4th component of the ray-origin texture (the thesis's
 /// *kezdeti*, *érvénytelen*, *átszelő*, *metszéspont-tesztelő*, *árnyékoló* states, plus
@@ -383,7 +383,7 @@ fn prelude() -> String {
     s.push_str("#define BIG 1.0e30\n");
     s.push_str(&format!(
         "#define TIE_EPS {:?}\n",
-        crate::cpu::traverse::TIE_EPS as f32
+        crate::accel::TIE_EPS as f32
     ));
     s.push_str(&format!(
         "#define OFFSET_EPSILON {:?}\n",

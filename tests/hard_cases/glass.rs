@@ -3,7 +3,8 @@
 
 use crate::support::*;
 use fragtrace::gpu::with_test_context;
-use fragtrace::render::{render_cpu, Precision};
+use fragtrace::options::Precision;
+use fragtrace::render::render_cpu;
 use fragtrace::scene::Scene;
 use glam::{DVec3, Vec3};
 

@@ -3,10 +3,11 @@
 //! rendered wrongly.
 
 use crate::support::*;
-use fragtrace::gpu::layout::SceneTextures;
 use fragtrace::accel::{GridConfig, GridRes};
+use fragtrace::gpu::layout::SceneTextures;
 use fragtrace::gpu::with_test_context;
-use fragtrace::render::{render_cpu, render_gl_with, Precision};
+use fragtrace::options::Precision;
+use fragtrace::render::{render_cpu, render_gl_with};
 use fragtrace::Error;
 use glam::{DVec3, Vec3};
 use std::path::PathBuf;

@@ -12,7 +12,8 @@ use fragtrace::cpu::shade::{offset_origin, secondary, surface, Secondary, Surfac
 use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
 use fragtrace::gpu::shader::Query;
 use fragtrace::gpu::with_test_context;
-use fragtrace::render::{render_cpu, Precision, Rendered};
+use fragtrace::options::Precision;
+use fragtrace::render::{render_cpu, Rendered};
 use fragtrace::scene::{Material, Scene};
 use fragtrace::technique::{TBound, Techniques};
 use glam::{DVec3, Vec3};

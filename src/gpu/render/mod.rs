@@ -22,7 +22,7 @@ mod tree;
 #[cfg(test)]
 mod tests;
 
-pub use super::options::{GpuOptions, Mask, Storage};
+use super::options::GpuOptions;
 pub use readback::{trace_rays, GpuRay, GpuTrace};
 pub use tree::render_gl;
 

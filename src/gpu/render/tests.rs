@@ -17,7 +17,7 @@ use crate::accel::{Grid, GridConfig};
 use crate::gpu::context::{with_test_context, GlContext};
 use crate::gpu::gl::texture::TEST_MAX_TEXTURE_SIZE;
 use crate::gpu::gl::{OcclusionQuery, Program, RenderTarget, Texture};
-use crate::gpu::options::Kernel;
+use crate::gpu::options::{Kernel, Mask, Storage};
 use crate::gpu::shader::{Pass, Query};
 use crate::scene::{builtin_scene, load_scene_with_search_path, Scene};
 use crate::Error;
