@@ -49,9 +49,13 @@ fn configs(name: &str, cases: u32) -> [Config; 2] {
         cases,
         rng_seed: RngSeed::Fixed(seed),
         rng_algorithm: RngAlgorithm::ChaCha,
-        failure_persistence: Some(Box::new(FileFailurePersistence::SourceParallel(
-            "proptest-regressions",
-        ))),
+        // A direct path: `SourceParallel` looks for a lib.rs or main.rs beside or above
+        // this file, finds none for an integration test, and then neither reads nor writes
+        // the regressions file (it printed "failed to find lib.rs or main.rs").
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/properties.proptest-regressions"
+        )))),
         max_shrink_iters: 2048,
         ..Config::default()
     })
