@@ -144,7 +144,7 @@ mod tests {
     use super::*;
 
     /// Mean FLIP of black against white, as nv-flip 0.1.2 computes it at 67.02 pixels per
-    /// degree.
+    /// degree (and as `flip_of_uniform` derives it independently).
     const BLACK_WHITE: f64 = 0.967_388;
 
     #[test]
@@ -166,6 +166,93 @@ mod tests {
         let one = Image::from_rgb(1, 1, vec![1.0, 1.0, 1.0]);
         assert_eq!(compare(&hi, &one, 0.1, true).unwrap().rmse, 0.0);
         assert_eq!(compare(&hi, &one, 0.1, false).unwrap().rmse, 1.0);
+    }
+
+    /// Mean FLIP of two uniform images (8-bit sRGB colours), derived by hand from the LDR-FLIP
+    /// paper (Andersson et al., HPG 2020, sections 3-4) in f64, independently of nv-flip: on a
+    /// uniform image the contrast-sensitivity filters (normalised, edge-clamped) return the
+    /// image, and the edge and point detectors find nothing, so the error is the colour term
+    /// alone: sRGB -> linear -> XYZ (D65) -> CIELAB -> Hunt-adjusted (a, b scaled by L/100),
+    /// HyAB distance raised to qc = 0.7, then mapped piecewise-linearly so that pc = 0.4 of
+    /// cmax (the green-blue distance) maps to pt = 0.95 and cmax to 1.
+    fn flip_of_uniform(test: [u8; 3], reference: [u8; 3]) -> f64 {
+        let lab = |rgb: [f64; 3]| {
+            // sRGB primaries, D65 white (IEC 61966-2-1).
+            let m = [
+                [0.412_456_4, 0.357_576_1, 0.180_437_5],
+                [0.212_672_9, 0.715_152_2, 0.072_175_0],
+                [0.019_333_9, 0.119_192_0, 0.950_304_1],
+            ];
+            let white = [0.950_47, 1.0, 1.088_83];
+            let f = |t: f64| {
+                let d = 6.0 / 29.0;
+                if t > d * d * d {
+                    t.cbrt()
+                } else {
+                    t / (3.0 * d * d) + 4.0 / 29.0
+                }
+            };
+            let xyz: Vec<f64> = (0..3)
+                .map(|i| (0..3).map(|k| m[i][k] * rgb[k]).sum::<f64>() / white[i])
+                .collect();
+            let l = 116.0 * f(xyz[1]) - 16.0;
+            let (a, b) = (
+                500.0 * (f(xyz[0]) - f(xyz[1])),
+                200.0 * (f(xyz[1]) - f(xyz[2])),
+            );
+            [l, 0.01 * l * a, 0.01 * l * b]
+        };
+        let hyab =
+            |p: [f64; 3], q: [f64; 3]| (p[0] - q[0]).abs() + (p[1] - q[1]).hypot(p[2] - q[2]);
+        let decode = |c: [u8; 3]| {
+            c.map(|v| {
+                let s = v as f64 / 255.0;
+                if s <= 0.040_45 {
+                    s / 12.92
+                } else {
+                    ((s + 0.055) / 1.055).powf(2.4)
+                }
+            })
+        };
+        let (qc, pc, pt) = (0.7, 0.4, 0.95);
+        let cmax = hyab(lab([0.0, 1.0, 0.0]), lab([0.0, 0.0, 1.0])).powf(qc);
+        let e = hyab(lab(decode(test)), lab(decode(reference))).powf(qc);
+        if e < pc * cmax {
+            e * pt / (pc * cmax)
+        } else {
+            pt + (e - pc * cmax) / (cmax - pc * cmax) * (1.0 - pt)
+        }
+    }
+
+    /// nv-flip agrees with the hand derivation above on uniform pairs that take both branches
+    /// of the final mapping. Measured: differences of 3e-6 to 2.3e-5 (nv-flip works in f32
+    /// with its own rounding of the colour matrices); the bound is 1e-4, while a 1-2% change
+    /// of any one constant (qc, pc, pt, the Hunt factor) or the D50 white point instead of
+    /// D65 moves at least one of these values by 9e-3 or more.
+    #[test]
+    fn flip_matches_an_independent_derivation_on_uniform_images() {
+        let (w, h) = (32u32, 24u32);
+        let uniform = |c: [u8; 3]| {
+            let lin = c.map(|v| crate::image_io::srgb_to_linear(v as f32 / 255.0));
+            Image::from_rgb(w, h, lin.repeat((w * h) as usize))
+        };
+        for (t, r) in [
+            ([0, 0, 0], [255, 255, 255]),
+            ([118, 118, 118], [255, 255, 255]),
+            ([255, 0, 0], [0, 255, 0]),
+            ([128, 128, 128], [133, 133, 133]),
+            ([200, 120, 40], [190, 125, 60]),
+        ] {
+            let got = flip_mean(&uniform(t), &uniform(r)).unwrap();
+            let want = flip_of_uniform(t, r);
+            assert!(
+                (got - want).abs() < 1e-4,
+                "{t:?} vs {r:?}: nv-flip {got}, derived {want}"
+            );
+        }
+        // Both branches were taken: a small difference maps below pt, a large one above.
+        assert!(flip_of_uniform([128; 3], [133; 3]) < 0.95);
+        assert!((flip_of_uniform([0; 3], [255; 3]) - BLACK_WHITE).abs() < 1e-4);
     }
 
     #[test]

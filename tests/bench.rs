@@ -1,5 +1,6 @@
 //! `fragtrace bench` as a user runs it: the three output files, one sane CSV row per
-//! configuration, the f64 CPU row exact, the reference cached, bad input refused (exit 2).
+//! configuration, error columns checked against a planted reference and recomputed by hand,
+//! Pareto fronts on hand-made points, the reference cached, bad input refused (exit 2).
 
 mod common;
 use std::path::{Path, PathBuf};
@@ -137,21 +138,30 @@ fn tiny_bench_writes_csv_report_and_plot() {
             assert_eq!(row["gpu_ms"], "");
         }
     }
-    // The f64 CPU configuration is the reference itself: no error, so it is on the RMSE
-    // front whatever its time.
+    // The f64 CPU configuration renders what the reference holds (the CPU renders are
+    // deterministic), so it has no error and is on the RMSE front whatever its time. That
+    // the error column measures anything is shown below, with a planted reference.
     let f64_row = rows.iter().find(|r| r["config"] == "cpu-f64").unwrap();
     assert_eq!(num(f64_row, "rmse"), 0.0);
     assert_eq!(num(f64_row, "flip_mean"), 0.0);
     assert_eq!(f64_row["pareto_rmse"], "true");
-    // Pareto marks agree with the figures in the table.
-    let pts: Vec<(f64, f64)> = rows
-        .iter()
-        .map(|r| (num(r, "time_s"), num(r, "rmse")))
-        .collect();
-    let front = fragtrace::bench::pareto_front(&pts);
-    for (r, on) in rows.iter().zip(front) {
-        assert_eq!(r["pareto_rmse"], on.to_string(), "{r:?}");
+    // Pareto marks agree with the figures in the table, by the definition written out here
+    // (not with `pareto_front`, which made them; that one is tested on hand-made points in
+    // `pareto_front_known_answers`).
+    for (err, mark) in [("rmse", "pareto_rmse"), ("flip_mean", "pareto_flip")] {
+        for r in &rows {
+            let (t, e) = (num(r, "time_s"), num(r, err));
+            let dominated = rows.iter().any(|q| {
+                let (qt, qe) = (num(q, "time_s"), num(q, err));
+                qt <= t && qe <= e && (qt < t || qe < e)
+            });
+            assert_eq!(r[mark], (!dominated).to_string(), "{mark}: {r:?}");
+        }
     }
+    let quick_f32_rmse = num(
+        rows.iter().find(|r| r["config"] == "cpu-f32").unwrap(),
+        "rmse",
+    );
 
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("## whitted"), "{md}");
@@ -191,6 +201,141 @@ fn tiny_bench_writes_csv_report_and_plot() {
     let rows = read_csv(&out.join("results.csv"));
     assert_eq!(rows.len(), 1);
     assert_eq!(num(&rows[0], "rmse"), 0.0);
+
+    // The f32 row's RMSE, recomputed here from the cached reference and an in-process f32
+    // render with the formula written out (not `compare`). The CSV keeps 7 significant
+    // digits: relative 1e-5 allows that rounding, nothing more (measured: 1.054065e-6 in
+    // the CSV, 1.0540646e-6 recomputed).
+    let reference = fragtrace::image_io::read_image(&refs[0]).unwrap();
+    let scene = fragtrace::scene::builtin_scene();
+    let mut o = fragtrace::options::RenderOptions::for_scene(&scene);
+    (o.width, o.height) = (32, 24);
+    o.backend = fragtrace::options::Backend::Cpu;
+    o.precision = fragtrace::options::Precision::F32;
+    let f32_img = fragtrace::render::render_cpu(&scene, &o).unwrap().image;
+    let rmse = |a: &[f32], b: &[f32]| {
+        let sq: f64 = a
+            .iter()
+            .zip(b)
+            .map(|(x, y)| (*x as f64 - *y as f64).powi(2))
+            .sum();
+        (sq / a.len() as f64).sqrt()
+    };
+    let want_f32 = rmse(&f32_img.data, &reference.data);
+    assert!(
+        want_f32 > 0.0 && (quick_f32_rmse - want_f32).abs() <= 1e-5 * want_f32,
+        "cpu-f32 rmse {quick_f32_rmse}, recomputed {want_f32}"
+    );
+
+    // A planted reference with a known error: the cached reference plus 0.25 in every
+    // channel. The f64 row, rendered afresh, must now be exactly 0.25 away from it (up to
+    // the f32 rounding of the planted values, ~1e-7; measured 2.500000e-1), and the f32 row
+    // at the RMSE computed above against the planted image (measured 0.24999996). A bench that re-rendered its reference, or compared
+    // a render with itself, would report 0.
+    let mut planted = reference.clone();
+    planted.data.iter_mut().for_each(|v| *v += 0.25);
+    fragtrace::image_io::write_image(&refs[0], &planted).unwrap();
+    let res = run("cpu-f64,cpu-f32");
+    assert!(
+        res.status.success(),
+        "{}",
+        String::from_utf8_lossy(&res.stderr)
+    );
+    let rows = read_csv(&out.join("results.csv"));
+    let f64_rmse = num(
+        rows.iter().find(|r| r["config"] == "cpu-f64").unwrap(),
+        "rmse",
+    );
+    assert!(
+        (f64_rmse - 0.25).abs() < 1e-6,
+        "planted reference: cpu-f64 rmse {f64_rmse}"
+    );
+    let want_planted = rmse(&f32_img.data, &planted.data);
+    let got = num(
+        rows.iter().find(|r| r["config"] == "cpu-f32").unwrap(),
+        "rmse",
+    );
+    assert!(
+        (got - want_planted).abs() <= 1e-5 * want_planted,
+        "cpu-f32 rmse {got} against the planted reference, recomputed {want_planted}"
+    );
+    let _ = std::fs::remove_file(&refs[0]);
+}
+
+/// The Pareto front on hand-made points with known answers: dominated points, trade-offs,
+/// ties, a single point, and non-finite coordinates (failed configurations).
+#[test]
+fn pareto_front_known_answers() {
+    use fragtrace::bench::pareto_front;
+    let (nan, inf) = (f64::NAN, f64::INFINITY);
+    for (pts, want) in [
+        (vec![], vec![]),
+        (vec![(5.0, 5.0)], vec![true]),
+        (vec![(1.0, 1.0), (2.0, 2.0)], vec![true, false]),
+        // A trade-off curve, one point behind it, one equal in time but worse in error.
+        (
+            vec![(1.0, 3.0), (2.0, 2.0), (3.0, 1.0), (3.0, 3.0), (2.0, 2.5)],
+            vec![true, true, true, false, false],
+        ),
+        // Equal points are all optimal; equal in one coordinate, worse in the other is not.
+        (vec![(1.0, 1.0), (1.0, 1.0)], vec![true, true]),
+        (vec![(1.0, 2.0), (1.0, 1.0)], vec![false, true]),
+        (vec![(2.0, 1.0), (1.0, 1.0)], vec![false, true]),
+        // Non-finite points are never optimal and dominate nothing (-inf would otherwise
+        // dominate everything).
+        (vec![(nan, 0.0), (1.0, 1.0)], vec![false, true]),
+        (vec![(0.0, nan), (1.0, 1.0)], vec![false, true]),
+        (vec![(0.0, -inf), (1.0, 1.0)], vec![false, true]),
+        (vec![(inf, 0.0)], vec![false]),
+        (vec![(nan, nan), (nan, nan)], vec![false, false]),
+    ] {
+        assert_eq!(pareto_front(&pts), want, "{pts:?}");
+    }
+}
+
+/// `mark_pareto` marks each front from its own error column: hand-made rows whose RMSE and
+/// FLIP fronts differ, plus a failed row.
+#[test]
+fn mark_pareto_uses_each_error_column() {
+    let row = |config: &str, time_s: f64, rmse: f64, flip_mean: f64| fragtrace::bench::BenchRow {
+        scene: "s".into(),
+        config: config.into(),
+        args: String::new(),
+        backend: "cpu".into(),
+        width: 1,
+        height: 1,
+        runs: 1,
+        warmup_reused: false,
+        times_s: vec![time_s],
+        time_s,
+        render_ms: 0.0,
+        gpu_ms: None,
+        passes: None,
+        rays: Default::default(),
+        mrays_per_s: 0.0,
+        rmse,
+        flip_mean,
+        // Start from the wrong answer, so a mark left alone shows.
+        pareto_rmse: config == "c",
+        pareto_flip: config == "b",
+        error: None,
+    };
+    let mut rows = vec![
+        row("a", 1.0, 0.3, 0.1),
+        row("b", 2.0, 0.1, 0.2),
+        row("c", 3.0, 0.2, 0.05),
+        row("failed", f64::NAN, f64::NAN, f64::NAN),
+    ];
+    fragtrace::bench::mark_pareto(&mut rows);
+    let marks: Vec<(bool, bool)> = rows
+        .iter()
+        .map(|r| (r.pareto_rmse, r.pareto_flip))
+        .collect();
+    // RMSE: c (3 s, 0.2) is dominated by b (2 s, 0.1). FLIP: b (2 s, 0.2) by a (1 s, 0.1).
+    assert_eq!(
+        marks,
+        [(true, true), (true, false), (false, true), (false, false)]
+    );
 }
 
 #[test]
