@@ -569,7 +569,14 @@ impl Builder<'_> {
         if let Some((m, _)) = self.meshes.get(&found) {
             return Ok((m.clone(), found));
         }
-        let mesh = Rc::new(load_obj(&found)?);
+        // An error inside the OBJ names the OBJ and its line; prefix the scene file, line
+        // and object that loaded it, so a mesh shared by several scenes points at the right one.
+        let mesh = Rc::new(load_obj(&found).map_err(|e| match e {
+            Error::Mesh { .. } | Error::Io { .. } => {
+                self.ctx.err(path.span(), field, e.to_string())
+            }
+            other => other,
+        })?);
         self.warnings.extend(mesh.warnings.iter().cloned());
         self.meshes.insert(found.clone(), (mesh.clone(), None));
         Ok((mesh, found))
