@@ -232,6 +232,13 @@ impl Builder<'_> {
                 "equals camera.eye; the camera has no viewing direction",
             ));
         }
+        if let Some(u) = d.up.as_ref().filter(|_| up.as_dvec3().length() == 0.0) {
+            return Err(ctx.err(
+                u.span(),
+                "camera.up",
+                "up is [0, 0, 0], which has no direction; give the camera's up, e.g. [0, 1, 0]",
+            ));
+        }
         if forward.normalize().cross(up.as_dvec3()).length() < 1e-6 {
             let (span, field) = match &d.up {
                 Some(u) => (u.span(), "camera.up"),
