@@ -359,7 +359,7 @@ pub fn run_compare(args: &CompareArgs) -> Result<bool> {
             args.max_flip,
         ),
     ] {
-        if let Some(bound) = bound.filter(|&b| !(value <= b)) {
+        if let Some(bound) = bound.filter(|&b| value > b || value.is_nan()) {
             ok = false;
             eprintln!(
                 "fragtrace: compare: {name} {value:.6} exceeds {flag} {bound} by {:.6} ({:.1}x the bound)",

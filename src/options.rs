@@ -194,7 +194,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = OffsetMethod::ErrorBound)]
     pub offset: OffsetMethod,
     /// Write primary-ray AOVs next to the image: any of depth,normal,primid,steps
-    /// (`<stem>.aov.exr`; `steps` also as a heat map `<stem>.steps.png`).
+    /// (`<stem>.aov.exr`, and a PNG preview of each, `<stem>.<aov>.png`: depth as grey,
+    /// normals as colour, primid in false colour, steps as a heat map).
     #[arg(long)]
     pub aov: Option<String>,
     /// Write render statistics as JSON to this file.

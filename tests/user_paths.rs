@@ -244,3 +244,128 @@ fn compare_says_which_bound_failed_and_rejects_bad_numbers() {
         );
     }
 }
+
+#[test]
+fn aov_previews_are_written_beside_the_exr() {
+    let d = tmpdir("aov");
+    render(&d, "r.png", &["--aov", "depth,normal,primid,steps"]);
+    for name in [
+        "r.aov.exr",
+        "r.depth.png",
+        "r.normal.png",
+        "r.primid.png",
+        "r.steps.png",
+    ] {
+        assert!(d.join(name).is_file(), "{name} missing");
+    }
+    let ids = image::open(d.join("r.primid.png")).unwrap().to_rgb8();
+    let depth = image::open(d.join("r.depth.png")).unwrap().to_rgb8();
+    // The built-in scene has background at the top corner and geometry at the bottom
+    // centre: a miss is black in both previews, a hit is not.
+    assert_eq!(ids.get_pixel(0, 0).0, [0, 0, 0]);
+    assert_eq!(depth.get_pixel(0, 0).0, [0, 0, 0]);
+    assert_ne!(ids.get_pixel(16, 23).0, [0, 0, 0]);
+    assert_ne!(depth.get_pixel(16, 23).0, [0, 0, 0]);
+    // Several triangles, several colours.
+    let colours: std::collections::BTreeSet<[u8; 3]> = ids.pixels().map(|p| p.0).collect();
+    assert!(colours.len() > 3, "{colours:?}");
+}
+
+#[test]
+fn compare_reads_a_named_aov_channel() {
+    let d = tmpdir("channel");
+    render(&d, "a.png", &["--aov", "depth,primid"]);
+    render(&d, "b.png", &["--aov", "depth,primid"]);
+    // Same render: identical depth, misses (+inf) included.
+    let out = run_in(
+        &d,
+        &[
+            "compare",
+            "a.aov.exr",
+            "b.aov.exr",
+            "--channel",
+            "depth",
+            "--max-rmse",
+            "0",
+        ],
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.starts_with("RMSE 0.000000"), "{text}");
+    // A different camera: hits against misses are infinitely far apart.
+    write(&d, "moved.toml", "[camera]\neye = [0, 3, 9]\nlook_at = [0, 0, 0]\nfov = 30\n[[objects]]\nshape = \"sphere\"\n");
+    let o = run_in(
+        &d,
+        &[
+            "render",
+            "moved.toml",
+            "--backend",
+            "cpu",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "-q",
+            "-o",
+            "m.png",
+            "--aov",
+            "depth",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = run_in(
+        &d,
+        &["compare", "a.aov.exr", "m.aov.exr", "--channel", "depth"],
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.starts_with("RMSE inf"), "{text}");
+    // A channel the file lacks, and a PNG, are bad input.
+    fails(
+        &d,
+        &["compare", "a.aov.exr", "b.aov.exr", "--channel", "steps"],
+        &["a.aov.exr", "no channel `steps`", "depth", "primid"],
+    );
+    fails(
+        &d,
+        &["compare", "a.png", "b.png", "--channel", "depth"],
+        &["a.png", "EXR files only"],
+    );
+}
+
+/// The README's recipe for the models (next to the two commands) makes every shipped
+/// scene load.
+#[test]
+fn readme_model_path_recipe_loads_every_shipped_scene() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let section = readme
+        .split("## The two commands")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .unwrap();
+    let export = section
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("export FRAGTRACE_MODEL_PATH=$PWD/"))
+        .expect("the two-commands section shows how to set FRAGTRACE_MODEL_PATH");
+    let rel = export.split_whitespace().next().unwrap();
+    let models = root.join(rel);
+    if !models.is_dir() {
+        eprintln!("skipped: {} is not here", models.display());
+        return;
+    }
+    let mut n = 0;
+    for e in std::fs::read_dir(root.join("scenes")).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "toml") {
+            fragtrace::scene::load_scene_with_search_path(&p, std::slice::from_ref(&models))
+                .unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            n += 1;
+        }
+    }
+    assert!(n >= 9, "{n} scenes");
+}
