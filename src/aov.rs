@@ -1,6 +1,8 @@
 //! AOV output: per-pixel data of the primary ray for inspection and compositing, written as
-//! a multi-channel OpenEXR file, and the `steps` channel as a heat map with a colour bar
-//! (the classic picture of where a uniform grid costs time).
+//! a multi-channel OpenEXR file, plus a PNG preview of each requested AOV that an image
+//! viewer can show: depth as grey (near bright), normals as colour (`n/2 + 1/2`), primitive
+//! ids in false colour (a stable hash colour per id) with misses black, and `steps` as a
+//! heat map with a colour bar (the classic picture of where a uniform grid costs time).
 
 use std::path::{Path, PathBuf};
 
@@ -65,7 +67,22 @@ pub fn aov_paths(output: &Path) -> (PathBuf, PathBuf) {
     )
 }
 
-/// Writes the requested AOVs next to `output`; returns the files written.
+/// Path of the PNG preview of `kind` next to `output`: `<stem>.<kind>.png` (`depth`,
+/// `normal`, `primid`, `steps`).
+pub fn preview_path(output: &Path, kind: AovKind) -> PathBuf {
+    let stem = output
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "render".into());
+    let name = kind
+        .to_possible_value()
+        .map(|v| v.get_name().to_owned())
+        .unwrap_or_default();
+    output.with_file_name(format!("{stem}.{name}.png"))
+}
+
+/// Writes the requested AOVs next to `output`: the EXR with every channel, then one PNG
+/// preview per kind ([`preview_path`]); returns the files written.
 pub fn write_aovs(output: &Path, aov: &Aov, kinds: &[AovKind]) -> Result<Vec<PathBuf>> {
     let (exr_path, png_path) = aov_paths(output);
     let px = &aov.pixels;
@@ -85,12 +102,61 @@ pub fn write_aovs(output: &Path, aov: &Aov, kinds: &[AovKind]) -> Result<Vec<Pat
     let refs: Vec<(&str, &[f32])> = channels.iter().map(|(n, v)| (*n, v.as_slice())).collect();
     write_exr_channels(&exr_path, aov.width, aov.height, &refs)?;
     let mut written = vec![exr_path];
-    if kinds.contains(&AovKind::Steps) {
-        let steps: Vec<f32> = px.iter().map(|p| p.steps).collect();
-        write_image(&png_path, &heat_map(aov.width, aov.height, &steps))?;
-        written.push(png_path);
+    for &k in kinds {
+        let (path, img) = match k {
+            AovKind::Steps => {
+                let steps: Vec<f32> = px.iter().map(|p| p.steps).collect();
+                (png_path.clone(), heat_map(aov.width, aov.height, &steps))
+            }
+            _ => (preview_path(output, k), preview(aov, k)),
+        };
+        write_image(&path, &img)?;
+        written.push(path);
     }
     Ok(written)
+}
+
+/// A viewable picture of one AOV (not `steps`, which is [`heat_map`]), misses black:
+/// - depth: grey from 1 at the nearest hit to 0.1 at the farthest (so the farthest hit
+///   still differs from a miss);
+/// - normal: `n/2 + 1/2` as RGB, the usual normal-map colours;
+/// - primid: [`id_colour`] of the triangle index.
+///
+/// Values are display values: they are stored so that the PNG holds them as they are.
+pub fn preview(aov: &Aov, kind: AovKind) -> Image {
+    let px = &aov.pixels;
+    let finite = px.iter().map(|p| p.depth).filter(|d| d.is_finite());
+    let (near, far) = finite.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), d| {
+        (a.min(d), b.max(d))
+    });
+    let span = (far - near).max(f32::MIN_POSITIVE);
+    let data = px
+        .iter()
+        .flat_map(|p| {
+            let hit = p.depth.is_finite() && p.primid >= 0.0;
+            let display = match kind {
+                _ if !hit => [0.0; 3],
+                AovKind::Depth => [1.0 - 0.9 * ((p.depth - near) / span).clamp(0.0, 1.0); 3],
+                AovKind::Normal => p.normal.map(|c| (c * 0.5 + 0.5).clamp(0.0, 1.0)),
+                AovKind::PrimId => id_colour(p.primid as u32),
+                AovKind::Steps => [0.0; 3],
+            };
+            // write_image encodes linear values as sRGB; undo that so the file shows these.
+            display.map(crate::image_io::srgb_to_linear)
+        })
+        .collect();
+    Image::from_rgb(aov.width, aov.height, data)
+}
+
+/// A stable, well-spread display colour for a primitive id (the same id is the same
+/// colour in every render), never black or near-black so misses stay distinguishable.
+pub fn id_colour(id: u32) -> [f32; 3] {
+    // splitmix64's finaliser: neighbouring ids get unrelated colours.
+    let mut z = (id as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    [0, 1, 2].map(|c| 0.25 + 0.75 * ((z >> (c * 16)) & 0xFFFF) as f32 / 65535.0)
 }
 
 /// A perceptually ordered colour ramp (dark blue, purple, orange, yellow), linear RGB.
@@ -211,6 +277,39 @@ mod tests {
     }
 
     #[test]
+    fn previews_show_hits_and_black_misses() {
+        let hit = |depth: f32, primid: f32, normal: [f32; 3]| AovPixel {
+            depth,
+            primid,
+            normal,
+            steps: 1.0,
+        };
+        let px = vec![
+            hit(1.0, 0.0, [0.0, 0.0, 1.0]),
+            hit(3.0, 1.0, [1.0, 0.0, 0.0]),
+            AovPixel::miss(1.0),
+        ];
+        let aov = Aov::from_pixels(3, 1, &px);
+        let depth = preview(&aov, AovKind::Depth);
+        let grey = |i: u32| crate::image_io::linear_to_srgb(depth.pixel(i, 0)[0]);
+        assert!((grey(0) - 1.0).abs() < 1e-5 && (grey(1) - 0.1).abs() < 1e-5);
+        assert_eq!(depth.pixel(2, 0), [0.0; 3]);
+        let normal = preview(&aov, AovKind::Normal);
+        let n = normal.pixel(0, 0).map(crate::image_io::linear_to_srgb);
+        assert!(
+            (n[0] - 0.5).abs() < 1e-5 && (n[2] - 1.0).abs() < 1e-5,
+            "{n:?}"
+        );
+        assert_eq!(normal.pixel(2, 0), [0.0; 3]);
+        let ids = preview(&aov, AovKind::PrimId);
+        assert_ne!(ids.pixel(0, 0), ids.pixel(1, 0));
+        assert_eq!(ids.pixel(2, 0), [0.0; 3]);
+        // Stable and never dark.
+        assert_eq!(id_colour(12345), id_colour(12345));
+        assert!((0..1000).all(|i| id_colour(i).iter().all(|&c| c >= 0.25)));
+    }
+
+    #[test]
     fn writes_exr_channels_and_png() {
         let dir = std::env::temp_dir().join(format!("fragtrace-aov-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -230,7 +329,13 @@ mod tests {
             &AovKind::parse_list("depth,normal,primid,steps").unwrap(),
         )
         .unwrap();
-        assert_eq!(files.len(), 2);
+        assert_eq!(files.len(), 5);
+        for (f, name) in files[1..]
+            .iter()
+            .zip(["depth", "normal", "primid", "steps"])
+        {
+            assert_eq!(f, &dir.join(format!("r.{name}.png")));
+        }
         let img = exr::prelude::read_all_flat_layers_from_file(&files[0]).unwrap();
         let ch = &img.layer_data[0].channel_data.list;
         let get = |name: &str| {

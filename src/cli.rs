@@ -62,20 +62,25 @@ pub struct CompareArgs {
     /// The reference image.
     pub b: PathBuf,
     /// Per-pixel threshold (largest channel difference) for the share of differing pixels.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub threshold: f64,
     /// Write a difference image (absolute difference times --gain) here.
     #[arg(long)]
     pub diff: Option<PathBuf>,
     /// Gain applied to the difference image.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, allow_negative_numbers = true)]
     pub gain: f32,
     /// Exit with code 1 when RMSE exceeds this bound.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub max_rmse: Option<f64>,
     /// Exit with code 1 when the mean FLIP error exceeds this bound.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub max_flip: Option<f64>,
+    /// Compare one channel of two AOV EXR files (`depth`, `primid`, `steps`, `normal.x`,
+    /// ...) instead of the colour; misses (infinite depth) are equal to each other and
+    /// infinitely far from any hit.
+    #[arg(long)]
+    pub channel: Option<String>,
 }
 
 /// Arguments of `bench`.
@@ -126,22 +131,39 @@ pub fn one_line_clap_error(e: &clap::Error) -> String {
 /// costs no render time. Probes with (and removes) a temporary file next to `path`; an
 /// existing `path` is never touched.
 pub fn check_writable(path: &Path, what: &str) -> Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
     let fail = |why: String| {
         Error::Usage(format!(
             "{}: cannot write the {what}: {why}",
             path.display()
         ))
     };
-    if path.is_dir() {
-        return Err(fail("is a directory".into()));
+    // `out/` names a folder even when it does not exist yet; the OS would only say
+    // "Not a directory" or "Is a directory" about it.
+    let trailing_slash = path
+        .as_os_str()
+        .to_string_lossy()
+        .ends_with(std::path::MAIN_SEPARATOR);
+    if path.is_dir() || trailing_slash {
+        return Err(fail(format!(
+            "{} a directory (a folder), not a file: name a file inside it, e.g. {}",
+            if path.is_dir() { "is" } else { "names" },
+            path.join(format!(
+                "out.{}",
+                if what == "image" { "png" } else { "json" }
+            ))
+            .display()
+        )));
     }
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
     match std::fs::metadata(dir) {
         Ok(m) if m.is_dir() => {}
         Ok(_) => return Err(fail(format!("{} is not a directory", dir.display()))),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(fail(format!("folder {} does not exist", dir.display())))
+        }
         Err(e) => return Err(fail(format!("folder {}: {e}", dir.display()))),
     }
     if let Ok(m) = std::fs::metadata(path) {
@@ -165,7 +187,22 @@ pub fn check_writable(path: &Path, what: &str) -> Result<()> {
             let _ = std::fs::remove_file(&probe);
             Ok(())
         }
-        Err(e) => Err(fail(format!("folder {}: {e}", dir.display()))),
+        // The folder exists (checked above), so whatever the OS says (EACCES, EROFS, or
+        // ENOENT from a pseudo-filesystem such as /proc), the folder is not writable.
+        Err(e) => Err(fail(format!(
+            "folder {} exists but is not writable (creating a file there failed: {})",
+            dir.display(),
+            io_reason(&e)
+        ))),
+    }
+}
+
+/// An OS error without the `(os error N)` suffix, for one-line messages.
+fn io_reason(e: &std::io::Error) -> String {
+    let s = e.to_string();
+    match s.find(" (os error") {
+        Some(i) => s[..i].to_owned(),
+        None => s,
     }
 }
 
@@ -179,9 +216,10 @@ pub fn load(scene_path: Option<&Path>) -> Result<Scene> {
 
 /// The `render` command: load, render, write the image (and stats).
 pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
-    // Fail on an unusable output path or AOV list before loading or rendering anything.
-    image_io::Format::from_path(&args.output)?;
+    // Fail on an unusable output path or AOV list before loading or rendering anything;
+    // a folder is reported as one, not as a file with an unknown extension.
     check_writable(&args.output, "image")?;
+    image_io::Format::from_path(&args.output)?;
     if let Some(stats) = &args.stats {
         check_writable(stats, "statistics")?;
     }
@@ -288,18 +326,49 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
     out
 }
 
-/// The `compare` command: prints the figures; `Ok(false)` when a bound is exceeded.
+/// The `compare` command: prints the figures; `Ok(false)` when a bound is exceeded, after
+/// one line on stderr per exceeded bound saying by how much.
 pub fn run_compare(args: &CompareArgs) -> Result<bool> {
-    let a = image_io::read_image(&args.a)?;
-    let b = image_io::read_image(&args.b)?;
-    let clamp = image_io::Format::from_path(&args.a)? == image_io::Format::Png
-        || image_io::Format::from_path(&args.b)? == image_io::Format::Png;
-    let c = crate::compare::compare(&a, &b, args.threshold, clamp)?;
-    println!("{c}");
-    if let Some(path) = &args.diff {
-        image_io::write_image(path, &crate::compare::diff_image(&a, &b, args.gain))?;
+    // A negative or NaN bound can never be met and a negative threshold counts every
+    // pixel: reject them before reading anything.
+    for (flag, v) in [
+        ("--threshold", Some(args.threshold)),
+        ("--max-rmse", args.max_rmse),
+        ("--max-flip", args.max_flip),
+        ("--gain", Some(args.gain as f64)),
+    ] {
+        if let Some(v) = v.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(Error::Usage(format!(
+                "{flag} {v} must be a finite number >= 0"
+            )));
+        }
     }
-    Ok(args.max_rmse.is_none_or(|m| c.rmse <= m) && args.max_flip.is_none_or(|m| c.flip_mean <= m))
+    let c =
+        crate::compare::compare_files(&args.a, &args.b, args.channel.as_deref(), args.threshold)?;
+    println!("{}", c.comparison);
+    if let Some(path) = &args.diff {
+        image_io::write_image(path, &crate::compare::diff_image(&c.a, &c.b, args.gain))?;
+    }
+    let mut ok = true;
+    for (name, flag, value, bound) in [
+        ("RMSE", "--max-rmse", c.comparison.rmse, args.max_rmse),
+        (
+            "mean FLIP",
+            "--max-flip",
+            c.comparison.flip_mean,
+            args.max_flip,
+        ),
+    ] {
+        if let Some(bound) = bound.filter(|&b| value > b || value.is_nan()) {
+            ok = false;
+            eprintln!(
+                "fragtrace: compare: {name} {value:.6} exceeds {flag} {bound} by {:.6} ({:.1}x the bound)",
+                value - bound,
+                if bound > 0.0 { value / bound } else { f64::INFINITY }
+            );
+        }
+    }
+    Ok(ok)
 }
 
 /// The `bench` command: resolves scenes and configurations (bad ones are usage errors,
@@ -324,8 +393,35 @@ pub fn run_info() -> Result<bool> {
     Ok(ctx.info.verdict().is_ok())
 }
 
+/// The subcommand a scene path that does not exist was probably meant to be
+/// (`fragtrace rendr` parses as rendering the scene file `rendr`).
+fn mistyped_subcommand(scene: &Path) -> Option<String> {
+    use clap::CommandFactory;
+    if scene.exists() || scene.components().count() != 1 || scene.extension().is_some() {
+        return None;
+    }
+    let word = scene.to_str()?.to_lowercase();
+    let cmd = Cli::command();
+    let names: Vec<&str> = cmd.get_subcommands().map(|c| c.get_name()).collect();
+    let limit = (word.chars().count() / 3).max(1);
+    names
+        .iter()
+        .map(|n| (strsim::osa_distance(&word, n), *n))
+        .filter(|&(d, n)| d <= limit || n.starts_with(word.as_str()))
+        .min_by_key(|&(d, _)| d)
+        .map(|(_, n)| n.to_owned())
+}
+
 /// Runs a parsed command line; `Ok(false)` means "ran, but the answer is no" (exit 1).
 pub fn run(cli: Cli) -> Result<bool> {
+    if let (None, Some(scene)) = (&cli.command, &cli.render.scene) {
+        if let Some(name) = mistyped_subcommand(scene) {
+            return Err(Error::Usage(format!(
+                "no such file `{}`; did you mean the subcommand `{name}`?",
+                scene.display()
+            )));
+        }
+    }
     match cli.command {
         None => run_render(&cli.render).map(|_| true),
         Some(Command::Render(args)) => run_render(&args).map(|_| true),

@@ -76,7 +76,10 @@ pub fn compare(a: &Image, b: &Image, threshold: f64, clamp: bool) -> Result<Comp
     for (pa, pb) in a.data.chunks(3).zip(b.data.chunks(3)) {
         let mut px_max = 0.0f64;
         for k in 0..3 {
-            let d = (c(pa[k]) - c(pb[k])).abs();
+            let (x, y) = (c(pa[k]), c(pb[k]));
+            // Equal values differ by 0 even when infinite: two misses in a depth AOV agree.
+            // A miss against a hit (or a NaN) is infinitely wrong.
+            let d = if x == y { 0.0 } else { (x - y).abs() };
             let d = if d.is_nan() { f64::INFINITY } else { d };
             sq += d * d;
             px_max = px_max.max(d);
@@ -126,6 +129,43 @@ pub fn flip_mean(test: &Image, reference: &Image) -> Result<f64> {
     } else {
         Err(Error::Internal(format!("FLIP returned {mean}")))
     }
+}
+
+/// Two image files compared: the figures and the images they came from.
+#[derive(Clone, Debug)]
+pub struct FileComparison {
+    /// The figures.
+    pub comparison: Comparison,
+    /// The judged image as compared (one channel as grey when a channel was named).
+    pub a: Image,
+    /// The reference image as compared.
+    pub b: Image,
+}
+
+/// Compares image files `a` (judged) and `b` (reference): PNG values clamped to [0, 1] as
+/// they show, EXR raw; with `channel`, that channel of two EXR files (an AOV such as
+/// `depth`), where equal infinities (two misses) agree and a miss against a hit is an
+/// infinite difference.
+pub fn compare_files(
+    a: &std::path::Path,
+    b: &std::path::Path,
+    channel: Option<&str>,
+    threshold: f64,
+) -> Result<FileComparison> {
+    use crate::image_io::{read_exr_channel, read_image, Format};
+    let (ia, ib, clamp) = match channel {
+        Some(ch) => (read_exr_channel(a, ch)?, read_exr_channel(b, ch)?, false),
+        None => (
+            read_image(a)?,
+            read_image(b)?,
+            Format::from_path(a)? == Format::Png || Format::from_path(b)? == Format::Png,
+        ),
+    };
+    Ok(FileComparison {
+        comparison: compare(&ia, &ib, threshold, clamp)?,
+        a: ia,
+        b: ib,
+    })
 }
 
 /// Absolute difference image, scaled by `gain` so small errors are visible.

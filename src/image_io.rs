@@ -170,6 +170,47 @@ pub fn read_image(path: &Path) -> Result<Image> {
     Ok(Image::from_rgb(w, h, data))
 }
 
+/// Reads one named channel (`depth`, `normal.x`, ...) of an EXR file, such as the AOV file
+/// `render --aov` writes, as a grey image (the value in all three components).
+pub fn read_exr_channel(path: &Path, channel: &str) -> Result<Image> {
+    use exr::prelude::read_all_flat_layers_from_file;
+    if Format::from_path(path)? != Format::Exr {
+        return Err(Error::Usage(format!(
+            "{}: --channel reads EXR files only",
+            path.display()
+        )));
+    }
+    let bad = |message: String| Error::Image {
+        path: path.to_path_buf(),
+        message,
+    };
+    let img = read_all_flat_layers_from_file(path).map_err(|e| bad(e.to_string()))?;
+    let mut names = Vec::new();
+    for layer in &img.layer_data {
+        for ch in &layer.channel_data.list {
+            let name = ch.name.to_string();
+            if name == channel {
+                let (w, h) = (layer.size.width() as u32, layer.size.height() as u32);
+                let data = ch
+                    .sample_data
+                    .values_as_f32()
+                    .flat_map(|v| [v, v, v])
+                    .collect();
+                return Ok(Image::from_rgb(w, h, data));
+            }
+            names.push(name);
+        }
+    }
+    Err(bad(format!(
+        "no channel `{channel}` (it has {})",
+        if names.is_empty() {
+            "none".to_owned()
+        } else {
+            names.join(", ")
+        }
+    )))
+}
+
 /// Writes named float channels (all the same size) as a multi-channel OpenEXR file.
 /// The `image` crate only writes RGB(A), so AOVs go through the `exr` crate it depends on.
 pub fn write_exr_channels(

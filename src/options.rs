@@ -11,6 +11,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, ValueEnum};
 use serde::Serialize;
 
+use crate::accel::grid::DEFAULT_DENSITY;
 use crate::accel::{GridConfig, GridRes};
 use crate::scene::Scene;
 use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques};
@@ -137,10 +138,10 @@ pub struct RenderArgs {
     #[arg(short, long, default_value = "render.png")]
     pub output: PathBuf,
     /// Image width (default: the scene's).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
     pub width: Option<u32>,
     /// Image height (default: the scene's).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
     pub height: Option<u32>,
     /// Renderer: auto, cpu or gl.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
@@ -149,19 +150,19 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = Precision::F64)]
     pub precision: Precision,
     /// Maximum reflection/refraction depth (default: the scene's, else 5).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
     pub max_depth: Option<u32>,
     /// Samples per pixel (stratified, fixed seed).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = whole_number)]
     pub spp: u32,
     /// Grid resolution: auto or AxBxC.
     #[arg(long, default_value = "auto")]
     pub grid: GridRes,
     /// Cells per triangle for the auto grid (lambda).
-    #[arg(long)]
-    pub grid_density: Option<f32>,
+    #[arg(long, default_value_t = DEFAULT_DENSITY, allow_negative_numbers = true)]
+    pub grid_density: f32,
     /// GPU: traversal iterations between termination queries (K).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = whole_number)]
     pub query_every: u32,
     /// GPU: traversal kernel: looped (bounded loop per pass, the fast default), multipass
     /// (the thesis: one step per pass, no loops) or unrolled:K (K steps per pass,
@@ -193,7 +194,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = OffsetMethod::ErrorBound)]
     pub offset: OffsetMethod,
     /// Write primary-ray AOVs next to the image: any of depth,normal,primid,steps
-    /// (`<stem>.aov.exr`; `steps` also as a heat map `<stem>.steps.png`).
+    /// (`<stem>.aov.exr`, and a PNG preview of each, `<stem>.<aov>.png`: depth as grey,
+    /// normals as colour, primid in false colour, steps as a heat map).
     #[arg(long)]
     pub aov: Option<String>,
     /// Write render statistics as JSON to this file.
@@ -250,14 +252,13 @@ impl RenderArgs {
             res: args.grid,
             ..GridConfig::default()
         };
-        if let Some(d) = args.grid_density {
-            if !(d.is_finite() && d > 0.0 && d <= 1024.0) {
-                return Err(Error::Usage(format!(
-                    "--grid-density {d} is outside (0, 1024]"
-                )));
-            }
-            grid.density = d;
+        let d = args.grid_density;
+        if !(d.is_finite() && d > 0.0 && d <= 1024.0) {
+            return Err(Error::Usage(format!(
+                "--grid-density {d} is outside (0, 1024]"
+            )));
         }
+        grid.density = d;
         opts.grid = grid;
         if args.query_every == 0 || args.query_every > 4096 {
             return Err(Error::Usage(format!(
@@ -281,6 +282,17 @@ impl RenderArgs {
     }
 }
 
+/// Parses a count flag (`--width`, `--spp`, ...). Negative numbers reach this parser (the
+/// flags allow them) so that `--width -5` says what is wrong with -5 instead of clap's
+/// "unexpected argument" and its tip to write `-- -5`.
+fn whole_number(s: &str) -> std::result::Result<u32, String> {
+    s.parse::<u32>()
+        .map_err(|_| match s.trim().parse::<i128>() {
+            Ok(v) if v < 0 => format!("{v} is negative; a whole number >= 0 is expected"),
+            _ => format!("`{s}` is not a whole number in 0..={}", u32::MAX),
+        })
+}
+
 /// A clap error as one line: clap's own first line without its `error:` prefix and any
 /// further lines of explanation (possible values, a tip), not the usage block.
 pub fn clap_error_line(e: &clap::Error) -> String {
@@ -297,6 +309,11 @@ fn clap_error_lines(e: &clap::Error) -> Vec<String> {
             break;
         }
         if line.is_empty() {
+            continue;
+        }
+        // clap suggests `-- -5` for a value that looks like a flag; after `--` it would be
+        // read as the scene file, so the tip misleads.
+        if line.starts_with("tip: to pass '") && line.contains("use '-- ") {
             continue;
         }
         parts.push(line.strip_prefix("error: ").unwrap_or(line).to_owned());

@@ -40,7 +40,9 @@ pub enum OffsetMethod {
     /// rounding step more: scale-independent.
     #[default]
     ErrorBound,
-    /// Offset by the fixed [`OFFSET_EPSILON`] along the geometric normal.
+    /// Offset by a fixed 1e-4 along the geometric normal: scale-dependent.
+    // The value is OFFSET_EPSILON; this doc is also `render --help` text, where a rustdoc
+    // link would show raw.
     Epsilon,
 }
 

@@ -280,6 +280,64 @@ fn obj_face_index_out_of_range_and_non_finite_coordinates() {
 }
 
 #[test]
+fn obj_face_with_fewer_than_three_vertices_names_scene_object_obj_and_line() {
+    let d = tmpdir("obj-short-face");
+    write(&d, "two.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n");
+    write(&d, "one.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 3\n");
+    write(&d, "none.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf\n");
+    for (obj, needles) in [
+        ("two.obj", ["two.obj: line 5:", "face with 2 vertices"]),
+        ("one.obj", ["one.obj: line 4:", "face with 1 vertex "]),
+        ("none.obj", ["none.obj: line 4:", "face with 0 vertices"]),
+    ] {
+        let scene = format!("{obj}.toml");
+        // The mesh is the third object, so the prefix must name objects[2] and its line.
+        write(
+            &d,
+            &scene,
+            &format!(
+                "{CAM}[[objects]]\nshape = \"box\"\n[[objects]]\nshape = \"box\"\n\
+                 [[objects]]\nmesh = \"{obj}\"\nmaterial = {{}}\n"
+            ),
+        );
+        let line = scene_fails(&d, &scene, &needles);
+        assert!(
+            line.contains(&format!("{scene}:10: objects[2].mesh: ./{obj}: line")),
+            "{line}"
+        );
+    }
+    // A two-point polyline stays legal (it is ignored, as every `l` is).
+    write(&d, "l.obj", &format!("{TRI}l 1 2\n"));
+    write(
+        &d,
+        "l.toml",
+        &format!("{CAM}[[objects]]\nmesh = \"l.obj\"\nmaterial = {{}}\n"),
+    );
+    let out = run_in(
+        &d,
+        &[
+            "render",
+            "l.toml",
+            "--backend",
+            "cpu",
+            "--width",
+            "4",
+            "--height",
+            "4",
+            "-q",
+            "-o",
+            "l.png",
+        ],
+        &[],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
 fn non_finite_toml_numbers_name_the_field() {
     let d = tmpdir("toml-nan");
     for (body, needles) in [

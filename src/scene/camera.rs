@@ -42,6 +42,9 @@ impl Camera {
         if f.length() == 0.0 || !f.is_finite() {
             return Err("eye and look_at coincide".into());
         }
+        if self.up.as_dvec3().length() == 0.0 {
+            return Err("up is zero".into());
+        }
         if f.normalize().cross(self.up.as_dvec3()).length() < 1e-9 {
             return Err("up is parallel to the viewing direction".into());
         }

@@ -413,6 +413,17 @@ fn prescan(text: &str, name: &str) -> Result<Scan> {
                         }
                     }
                 }
+                if kind == "f" && count < 3 {
+                    // tobj drops such a face without a word; a mesh with a hole where the
+                    // author expected a face is worse than a refusal.
+                    return Err(err(
+                        ln,
+                        format!(
+                            "face with {count} vert{} (a face needs at least three)",
+                            if count == 1 { "ex" } else { "ices" }
+                        ),
+                    ));
+                }
                 if count >= 3 {
                     if kind == "f" {
                         scan.tri_has_normals

@@ -232,6 +232,13 @@ impl Builder<'_> {
                 "equals camera.eye; the camera has no viewing direction",
             ));
         }
+        if let Some(u) = d.up.as_ref().filter(|_| up.as_dvec3().length() == 0.0) {
+            return Err(ctx.err(
+                u.span(),
+                "camera.up",
+                "up is [0, 0, 0], which has no direction; give the camera's up, e.g. [0, 1, 0]",
+            ));
+        }
         if forward.normalize().cross(up.as_dvec3()).length() < 1e-6 {
             let (span, field) = match &d.up {
                 Some(u) => (u.span(), "camera.up"),
@@ -569,7 +576,14 @@ impl Builder<'_> {
         if let Some((m, _)) = self.meshes.get(&found) {
             return Ok((m.clone(), found));
         }
-        let mesh = Rc::new(load_obj(&found)?);
+        // An error inside the OBJ names the OBJ and its line; prefix the scene file, line
+        // and object that loaded it, so a mesh shared by several scenes points at the right one.
+        let mesh = Rc::new(load_obj(&found).map_err(|e| match e {
+            Error::Mesh { .. } | Error::Io { .. } => {
+                self.ctx.err(path.span(), field, e.to_string())
+            }
+            other => other,
+        })?);
         self.warnings.extend(mesh.warnings.iter().cloned());
         self.meshes.insert(found.clone(), (mesh.clone(), None));
         Ok((mesh, found))

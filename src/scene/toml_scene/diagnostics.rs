@@ -50,10 +50,42 @@ impl Ctx<'_> {
         let inner = e.inner();
         let span = inner.span();
         let line = span.as_ref().map_or(0, |s| self.line_of(s.start));
-        let field = match (path_field(e.path()), span) {
+        let path = path_field(e.path());
+        // A required top-level table that is absent has no line of its own; toml points at
+        // the whole document, whose first key would be blamed. Name the missing table.
+        if path.is_none() {
+            if let Some(name) = inner
+                .message()
+                .strip_prefix("missing field `")
+                .and_then(|r| r.split_once('`'))
+                .map(|(n, _)| n)
+            {
+                return Error::scene(
+                    self.name,
+                    1,
+                    name,
+                    format!(
+                        "the scene has no `[{name}]` table, which is required{}",
+                        if name == "camera" {
+                            " (e.g. `[camera]` with `eye`, `look_at` and `fov`)"
+                        } else {
+                            ""
+                        }
+                    ),
+                );
+            }
+        }
+        let field = match (path, &span) {
             (Some(f), _) => f,
             (None, Some(s)) => field_at(self.text, s.start),
             (None, None) => String::new(),
+        };
+        // Garbage before any key leaves no field to name: show the text the parser stopped
+        // at instead of an empty field.
+        let field = if field.is_empty() {
+            at_text(self.text, span.map_or(0, |s| s.start))
+        } else {
+            field
         };
         Error::scene(self.name, line, field, improve_message(inner.message()))
     }
@@ -129,6 +161,29 @@ impl Ctx<'_> {
         }
         Ok(x as u32)
     }
+}
+
+/// `at `TEXT`` for the (escaped, shortened) text from byte `offset` to the end of its line,
+/// or `at end of file`: where the parser stopped, when no field can be named.
+pub(super) fn at_text(text: &str, offset: usize) -> String {
+    let start = (0..=offset.min(text.len()))
+        .rev()
+        .find(|&i| text.is_char_boundary(i))
+        .unwrap_or(0);
+    let rest = text[start..].lines().next().unwrap_or("").trim_end();
+    if rest.is_empty() {
+        return "at end of file".into();
+    }
+    let mut shown: String = rest
+        .chars()
+        .take(24)
+        .collect::<String>()
+        .escape_debug()
+        .to_string();
+    if rest.chars().count() > 24 {
+        shown.push_str("...");
+    }
+    format!("at `{shown}`")
 }
 
 /// The dotted field (`objects[2].material.ior`, `objects[0].size[1]`) of a serde path, or

@@ -55,12 +55,22 @@ pub fn load_scene_with_search_path(path: &Path, search: &[PathBuf]) -> Result<Sc
     let bytes = super::read_input_file(path, MAX_SCENE_BYTES, "scene file")?;
     let text = String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
-        let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        let before = &e.as_bytes()[..at];
+        let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+        let column = at
+            - before
+                .iter()
+                .rposition(|&b| b == b'\n')
+                .map_or(0, |i| i + 1)
+            + 1;
         Error::scene(
             path.display().to_string(),
             line,
-            "",
-            "invalid UTF-8 (a TOML scene must be UTF-8 text)",
+            format!("column {column}"),
+            format!(
+                "invalid UTF-8 (byte 0x{:02x}); a TOML scene must be UTF-8 text",
+                e.as_bytes()[at]
+            ),
         )
     })?;
     let base = match path.parent() {
