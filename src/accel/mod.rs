@@ -8,5 +8,6 @@
 pub mod grid;
 pub mod layout;
 pub mod tribox;
+pub mod two_level;
 
 pub use grid::{CellRange, Grid, GridConfig, GridRes, GridStats};

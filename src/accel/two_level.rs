@@ -1,0 +1,608 @@
+//! Two-level grid after Kalojanov, Stich and Slusallek ("Two-Level Grids for Ray Tracing
+//! on GPUs", HPG 2011): a coarse top grid over the scene box, and in every non-empty top
+//! cell a uniform sub-grid over that cell's box, sized by the cell's own triangle count.
+//! Dense regions get fine cells, empty space stays coarse.
+//!
+//! Geometry, all in f32 as the traversals compute it:
+//! - The top grid is exactly a [`Grid`]'s: the same padded scene box `min..max`, cell size
+//!   `cell_size = (max - min) / res`, top cell `i` on an axis starting at
+//!   `min + i * cell_size`; its resolution is [`Grid::auto_resolution`] with the top
+//!   density `lambda1`.
+//! - Top cell `c` with sub-grid resolution `r` (per axis) has sub-cell size
+//!   `sub = cell_size / r` and sub-cell `j` starting at `lo + j * sub`, where
+//!   `lo = min + c * cell_size`. Its resolution is [`Grid::auto_resolution`] on the top
+//!   cell's extent with the cell's triangle count and the leaf density `lambda2`, capped
+//!   at [`MAX_SUB_AXIS`] per axis and about [`MAX_SUB_CELLS`] cells.
+//!
+//! Layout, flat so that it maps onto float textures:
+//! - `top[x + res[0] * (y + res[1] * z)]`: a [`TopCell`], `(leaf_base, r[0], r[1], r[2])`
+//!   (one RGBA texel), `r = [0, 0, 0]` for an empty top cell, which owns no leaves.
+//! - `leaves[leaf_base + x + r[0] * (y + r[1] * z)]`: a [`CellRange`] `(offset, count)`
+//!   into the flat `tri_indices` (two per RGBA texel), the cells of one sub-grid
+//!   contiguous, sub-grids in top-cell order.
+//! - `tri_indices`: triangles, leaf after leaf, ascending within each leaf.
+//!
+//! Binning is exact ([`tri_box_overlap`]) against cell boxes grown as [`Grid`] grows them
+//! (a relative margin plus a few f32 ulps of the coordinates), so a triangle on a cell face
+//! is listed on both sides. Sub-cells on the rim of a sub-grid are grown out to the top
+//! cell's own faces as well: `lo + r * sub` need not round to the next top boundary, and a
+//! triangle on a top face must be in the sub-grids on both sides of it.
+//!
+//! The build is parallel (triangles for the top level, top cells for the leaves) and
+//! deterministic: every parallel result is collected in index order and merged by stable
+//! counting sorts, so the output is identical for any thread count. Leaf cells and
+//! references are each limited to 2^24, the integers an f32 texel holds exactly.
+
+use std::fmt;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use super::grid::{check_vertices, padded_bounds, CellRange, Grid};
+use super::tribox::tri_box_overlap;
+use crate::scene::Scene;
+use crate::{Error, Result};
+
+/// Default `lambda1`: top cells per triangle (see the measurements in the tests' notes).
+pub const DEFAULT_TOP_DENSITY: f32 = 0.5;
+/// Default `lambda2`: leaf cells per triangle reference of a top cell.
+pub const DEFAULT_LEAF_DENSITY: f32 = 4.0;
+/// Largest per-axis resolution of one sub-grid.
+pub const MAX_SUB_AXIS: u32 = 128;
+/// Largest cell count one sub-grid aims at (rounding may exceed it by a few percent).
+pub const MAX_SUB_CELLS: u64 = 1 << 20;
+/// Largest total number of leaf cells: leaf indices live in f32 texels.
+pub const MAX_LEAF_CELLS: usize = 1 << 24;
+/// Largest number of (leaf, triangle) references: list offsets live in f32 texels.
+pub const MAX_REFERENCES: usize = 1 << 24;
+
+/// Growth of each cell's half-size, relative to the cell size (as in [`Grid`]).
+const CELL_PAD_FRACTION: f64 = 1e-5;
+/// f32 ulps of the coordinate magnitude added to the padding (as in [`Grid`]).
+const PAD_ULPS: f64 = 4.0;
+/// Triangles per parallel work item of the top-level binning.
+const CHUNK: usize = 2048;
+
+/// Build parameters of a [`TwoLevelGrid`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwoLevelConfig {
+    /// `lambda1`: target top cells per triangle.
+    pub top_density: f32,
+    /// `lambda2`: target leaf cells per triangle of each top cell.
+    pub leaf_density: f32,
+}
+
+impl Default for TwoLevelConfig {
+    fn default() -> Self {
+        TwoLevelConfig {
+            top_density: DEFAULT_TOP_DENSITY,
+            leaf_density: DEFAULT_LEAF_DENSITY,
+        }
+    }
+}
+
+/// One top cell: where its leaves start and its sub-grid resolution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct TopCell {
+    /// Index of the sub-grid's first leaf in [`TwoLevelGrid::leaves`] (0 when empty).
+    pub leaf_base: u32,
+    /// Sub-grid cells per axis; `[0, 0, 0]` for an empty top cell.
+    pub res: [u32; 3],
+}
+
+impl TopCell {
+    /// True when the top cell holds no triangle (and owns no leaves).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.res[0] == 0
+    }
+
+    /// Number of leaf cells of the sub-grid.
+    #[inline]
+    pub fn leaf_count(&self) -> usize {
+        self.res.iter().map(|&r| r as usize).product()
+    }
+}
+
+/// Size and occupancy figures of a built two-level grid.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct TwoLevelStats {
+    /// Wall-clock build time in milliseconds.
+    pub build_ms: f64,
+    /// Memory of the three tables: `top * 16 + leaves * 8 + references * 4`.
+    pub bytes: usize,
+    /// `bytes / triangles` (0 for an empty scene).
+    pub bytes_per_triangle: f64,
+    /// Top cells.
+    pub top_cells: usize,
+    /// Top cells with no triangle.
+    pub top_empty: usize,
+    /// (top cell, triangle) pairs: what the sub-grids were sized by.
+    pub top_references: usize,
+    /// Leaf cells of all sub-grids.
+    pub leaf_cells: usize,
+    /// Leaf cells with no triangle.
+    pub leaf_empty: usize,
+    /// (leaf, triangle) references, i.e. `tri_indices.len()`.
+    pub references: usize,
+    /// Mean references per non-empty leaf (0 when there is none).
+    pub mean_per_nonempty_leaf: f64,
+    /// Largest reference count of any leaf.
+    pub max_per_leaf: u32,
+    /// Largest sub-grid, in cells.
+    pub max_sub_cells: usize,
+}
+
+impl fmt::Display for TwoLevelStats {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} top cells ({:.1}% empty), {} leaves ({:.1}% empty, largest sub-grid {}), {} refs \
+             (mean {:.2}, max {} per non-empty leaf), {:.2} MiB ({:.1} B/triangle), built in {:.1} ms",
+            self.top_cells,
+            pct(self.top_empty, self.top_cells),
+            self.leaf_cells,
+            pct(self.leaf_empty, self.leaf_cells),
+            self.max_sub_cells,
+            self.references,
+            self.mean_per_nonempty_leaf,
+            self.max_per_leaf,
+            self.bytes as f64 / (1024.0 * 1024.0),
+            self.bytes_per_triangle,
+            self.build_ms
+        )
+    }
+}
+
+/// `100 * a / b`, 0 when `b` is 0.
+fn pct(a: usize, b: usize) -> f64 {
+    if b == 0 {
+        0.0
+    } else {
+        100.0 * a as f64 / b as f64
+    }
+}
+
+/// A two-level grid over a scene's triangles (see the module docs for the layout).
+#[derive(Clone, Debug)]
+pub struct TwoLevelGrid {
+    /// Lower corner of the top grid: the scene bounds padded as [`Grid`] pads them.
+    pub min: Vec3,
+    /// Upper corner of the top grid.
+    pub max: Vec3,
+    /// Top cells per axis.
+    pub res: [u32; 3],
+    /// Top cell size, `(max - min) / res` in f32.
+    pub cell_size: Vec3,
+    /// Per top cell, x fastest: leaf base and sub-grid resolution.
+    pub top: Vec<TopCell>,
+    /// Per leaf cell: its range of `tri_indices`.
+    pub leaves: Vec<CellRange>,
+    /// Triangle indices, leaf after leaf, ascending within each leaf.
+    pub tri_indices: Vec<u32>,
+    /// Build statistics.
+    pub stats: TwoLevelStats,
+}
+
+impl TwoLevelGrid {
+    /// Builds the two-level grid for `scene`.
+    ///
+    /// Errors: [`Error::Scene`] for a non-finite vertex or an out-of-range vertex index,
+    /// [`Error::Usage`] for a non-positive density, and [`Error::Limit`] when the leaf
+    /// cells or the references exceed 2^24.
+    pub fn build(scene: &Scene, cfg: &TwoLevelConfig) -> Result<TwoLevelGrid> {
+        build_with_limits(scene, cfg, MAX_LEAF_CELLS, MAX_REFERENCES)
+    }
+
+    /// Index of top cell `(x, y, z)` in [`TwoLevelGrid::top`].
+    #[inline]
+    pub fn top_index(&self, c: [u32; 3]) -> usize {
+        c[0] as usize
+            + self.res[0] as usize * (c[1] as usize + self.res[1] as usize * c[2] as usize)
+    }
+
+    /// Lower corner of top cell `c` and the cell size of its sub-grid, in f32 exactly as
+    /// the traversal computes them (`min + c * cell_size`, `cell_size / r`).
+    pub fn sub_frame(&self, c: [u32; 3]) -> (Vec3, Vec3) {
+        let t = self.top[self.top_index(c)];
+        let lo = top_corner(self.min, self.cell_size, c);
+        let sub = Vec3::new(
+            self.cell_size.x / t.res[0].max(1) as f32,
+            self.cell_size.y / t.res[1].max(1) as f32,
+            self.cell_size.z / t.res[2].max(1) as f32,
+        );
+        (lo, sub)
+    }
+
+    /// The triangles of leaf `(x, y, z)` of top cell `c`, ascending (empty for an empty
+    /// top cell).
+    pub fn leaf_triangles(&self, c: [u32; 3], l: [u32; 3]) -> &[u32] {
+        let t = self.top[self.top_index(c)];
+        if t.is_empty() {
+            return &[];
+        }
+        let i = t.leaf_base as usize
+            + l[0] as usize
+            + t.res[0] as usize * (l[1] as usize + t.res[1] as usize * l[2] as usize);
+        let r = self.leaves[i];
+        &self.tri_indices[r.offset as usize..(r.offset + r.count) as usize]
+    }
+}
+
+/// `min + c * cs` per axis in f32, written out per component so the rounding is exactly
+/// that of the scalar traversal code (one multiply, one add).
+fn top_corner(min: Vec3, cs: Vec3, c: [u32; 3]) -> Vec3 {
+    Vec3::new(
+        min.x + c[0] as f32 * cs.x,
+        min.y + c[1] as f32 * cs.y,
+        min.z + c[2] as f32 * cs.z,
+    )
+}
+
+/// `PAD_ULPS` f32 ulps of a coordinate of magnitude `mag`.
+fn ulps(mag: f64) -> f64 {
+    PAD_ULPS * mag * f32::EPSILON as f64
+}
+
+/// A uniform grid frame to bin into: cell `j` spans `lo + j * cs .. lo + (j + 1) * cs`,
+/// except that the first and last cell of each axis reach out to `outer_lo`/`outer_hi`.
+struct Frame {
+    lo: DVec3,
+    cs: DVec3,
+    res: [u32; 3],
+    outer_lo: DVec3,
+    outer_hi: DVec3,
+    pad: DVec3,
+}
+
+impl Frame {
+    /// A frame whose padding is [`Grid`]'s: relative to the cell size plus ulps of the
+    /// largest coordinate.
+    fn new(lo: DVec3, cs: DVec3, res: [u32; 3], outer_lo: DVec3, outer_hi: DVec3) -> Frame {
+        let mag = outer_lo.abs().max(outer_hi.abs()).max(lo.abs());
+        Frame {
+            lo,
+            cs,
+            res,
+            outer_lo,
+            outer_hi,
+            pad: CELL_PAD_FRACTION * cs + DVec3::new(ulps(mag.x), ulps(mag.y), ulps(mag.z)),
+        }
+    }
+
+    /// Lower and upper boundary of cell `j` on `axis`.
+    #[inline]
+    fn span(&self, axis: usize, j: u32) -> (f64, f64) {
+        let a = if j == 0 {
+            self.outer_lo[axis].min(self.lo[axis])
+        } else {
+            self.lo[axis] + j as f64 * self.cs[axis]
+        };
+        let b = if j + 1 == self.res[axis] {
+            self.outer_hi[axis].max(self.lo[axis] + self.res[axis] as f64 * self.cs[axis])
+        } else {
+            self.lo[axis] + (j + 1) as f64 * self.cs[axis]
+        };
+        (a, b)
+    }
+
+    /// Appends the index (x fastest) of every cell the triangle overlaps, ascending.
+    fn bin(&self, tri: [DVec3; 3], out: &mut Vec<u32>) {
+        let bb_lo = tri[0].min(tri[1]).min(tri[2]) - self.pad;
+        let bb_hi = tri[0].max(tri[1]).max(tri[2]) + self.pad;
+        let cell = |p: f64, i: usize| -> u32 {
+            // `as i64` saturates, and the clamp absorbs anything outside the frame.
+            let c = ((p - self.lo[i]) / self.cs[i]).floor() as i64;
+            c.clamp(0, self.res[i] as i64 - 1) as u32
+        };
+        let lo = [cell(bb_lo.x, 0), cell(bb_lo.y, 1), cell(bb_lo.z, 2)];
+        let hi = [cell(bb_hi.x, 0), cell(bb_hi.y, 1), cell(bb_hi.z, 2)];
+        for z in lo[2]..=hi[2] {
+            let sz = self.span(2, z);
+            for y in lo[1]..=hi[1] {
+                let sy = self.span(1, y);
+                let row = self.res[0] as usize * (y as usize + self.res[1] as usize * z as usize);
+                for x in lo[0]..=hi[0] {
+                    let sx = self.span(0, x);
+                    let a = DVec3::new(sx.0, sy.0, sz.0);
+                    let b = DVec3::new(sx.1, sy.1, sz.1);
+                    if tri_box_overlap(0.5 * (a + b), 0.5 * (b - a) + self.pad, tri) {
+                        out.push((row + x as usize) as u32);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Sub-grid resolution for a top cell of extent `extent` holding `n` triangles.
+pub fn sub_resolution(extent: Vec3, n: usize, leaf_density: f32) -> [u32; 3] {
+    // Capping the target count caps the cell count (auto_resolution aims at density * n).
+    let density = (leaf_density as f64).min(MAX_SUB_CELLS as f64 / n.max(1) as f64) as f32;
+    Grid::auto_resolution(extent, n, density).map(|r| r.min(MAX_SUB_AXIS))
+}
+
+/// One top cell's finished sub-grid, with leaf offsets relative to its own list.
+struct SubGrid {
+    res: [u32; 3],
+    leaves: Vec<CellRange>,
+    list: Vec<u32>,
+}
+
+/// Stable counting sort of `(cell, triangle)` pairs given triangle after triangle in
+/// ascending order: per-cell ranges and the list, each cell's triangles ascending.
+fn counting_sort(
+    n_cells: usize,
+    pairs: impl Iterator<Item = (u32, u32)> + Clone,
+) -> (Vec<CellRange>, Vec<u32>) {
+    let mut cells = vec![CellRange::default(); n_cells];
+    let mut n = 0usize;
+    for (c, _) in pairs.clone() {
+        cells[c as usize].count += 1;
+        n += 1;
+    }
+    let mut offset = 0u32;
+    for c in &mut cells {
+        c.offset = offset;
+        offset += c.count;
+    }
+    let mut cursor: Vec<u32> = cells.iter().map(|c| c.offset).collect();
+    let mut list = vec![0u32; n];
+    for (c, t) in pairs {
+        let slot = &mut cursor[c as usize];
+        list[*slot as usize] = t;
+        *slot += 1;
+    }
+    (cells, list)
+}
+
+/// [`TwoLevelGrid::build`] with both limits as parameters, so tests can reach them.
+fn build_with_limits(
+    scene: &Scene,
+    cfg: &TwoLevelConfig,
+    max_leaves: usize,
+    max_refs: usize,
+) -> Result<TwoLevelGrid> {
+    let start = Instant::now();
+    for (name, v) in [("top", cfg.top_density), ("leaf", cfg.leaf_density)] {
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(Error::Usage(format!(
+                "two-level grid {name} density must be a positive finite number, got {v}"
+            )));
+        }
+    }
+    check_vertices(scene)?;
+    let n_tris = scene.triangles.len();
+    if n_tris > u32::MAX as usize {
+        return Err(Error::Limit(format!(
+            "{n_tris} triangles, at most {} can be indexed",
+            u32::MAX
+        )));
+    }
+    let Some((lo, hi)) = scene.bounds() else {
+        // Nothing to bin: one empty top cell keeps consumers free of a special case.
+        let (min, max) = (Vec3::splat(-1.0), Vec3::splat(1.0));
+        let top = vec![TopCell::default()];
+        return Ok(finish(
+            start,
+            n_tris,
+            min,
+            max,
+            [1, 1, 1],
+            top,
+            Vec::new(),
+            Vec::new(),
+            0,
+        ));
+    };
+    let (min, max) = padded_bounds(scene, lo, hi)?;
+    let res = Grid::auto_resolution(max - min, n_tris, cfg.top_density);
+    let cell_size = (max - min) / Vec3::new(res[0] as f32, res[1] as f32, res[2] as f32);
+    let n_top = res.iter().map(|&r| r as usize).product::<usize>();
+    let tri64 = |t: usize| scene.triangle_vertices(t).map(|v| v.as_dvec3());
+
+    // Level 1: which top cells each triangle touches, chunk by chunk in triangle order.
+    let frame = Frame::new(
+        min.as_dvec3(),
+        cell_size.as_dvec3(),
+        res,
+        min.as_dvec3(),
+        max.as_dvec3(),
+    );
+    let chunks: Vec<(Vec<u32>, Vec<u32>)> = (0..n_tris)
+        .collect::<Vec<_>>()
+        .par_chunks(CHUNK)
+        .map(|ids| {
+            let mut cells = Vec::new();
+            let mut per_tri = Vec::with_capacity(ids.len());
+            for &t in ids {
+                let before = cells.len();
+                frame.bin(tri64(t), &mut cells);
+                per_tri.push((cells.len() - before) as u32);
+            }
+            (cells, per_tri)
+        })
+        .collect();
+    let pairs = chunks
+        .iter()
+        .enumerate()
+        .flat_map(|(ci, (cells, per_tri))| {
+            per_tri
+                .iter()
+                .enumerate()
+                .flat_map(move |(j, &n)| std::iter::repeat_n((ci * CHUNK + j) as u32, n as usize))
+                .zip(cells.iter().copied())
+                .map(|(t, c)| (c, t))
+        });
+    let (top_ranges, top_list) = counting_sort(n_top, pairs);
+    drop(chunks);
+
+    // Sub-grid sizes first, so the leaf limit is checked before any leaf is binned.
+    let sub_res: Vec<[u32; 3]> = top_ranges
+        .iter()
+        .map(|r| {
+            if r.count == 0 {
+                [0, 0, 0]
+            } else {
+                sub_resolution(cell_size, r.count as usize, cfg.leaf_density)
+            }
+        })
+        .collect();
+    let n_leaves: usize = sub_res
+        .iter()
+        .map(|r| r.iter().map(|&v| v as usize).product::<usize>())
+        .sum();
+    if n_leaves > max_leaves {
+        return Err(Error::Limit(format!(
+            "the two-level grid needs {n_leaves} leaf cells, at most {max_leaves} allowed \
+             (top grid {}x{}x{}, {n_tris} triangles); lower the leaf density",
+            res[0], res[1], res[2]
+        )));
+    }
+
+    // Level 2: every non-empty top cell bins its own triangles into its sub-grid. The
+    // running total only stops the work early once the limit is blown; whether the build
+    // fails is decided on the exact sum below, so it does not depend on scheduling.
+    let total = AtomicUsize::new(0);
+    let subs: Vec<Option<SubGrid>> = (0..n_top)
+        .into_par_iter()
+        .map(|i| {
+            let r = top_ranges[i];
+            let sres = sub_res[i];
+            if r.count == 0 || total.load(Ordering::Relaxed) > max_refs {
+                return None;
+            }
+            let c = [
+                i as u32 % res[0],
+                (i as u32 / res[0]) % res[1],
+                i as u32 / (res[0] * res[1]),
+            ];
+            let lo32 = top_corner(min, cell_size, c);
+            let sub = cell_size / Vec3::new(sres[0] as f32, sres[1] as f32, sres[2] as f32);
+            let cs = cell_size.as_dvec3();
+            let outer_lo = min.as_dvec3() + DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) * cs;
+            let frame = Frame::new(
+                lo32.as_dvec3(),
+                sub.as_dvec3(),
+                sres,
+                outer_lo,
+                outer_lo + cs,
+            );
+            let tris = &top_list[r.offset as usize..(r.offset + r.count) as usize];
+            let mut pairs = Vec::new();
+            let mut cells = Vec::new();
+            for &t in tris {
+                cells.clear();
+                frame.bin(tri64(t as usize), &mut cells);
+                pairs.extend(cells.iter().map(|&l| (l, t)));
+            }
+            total.fetch_add(pairs.len(), Ordering::Relaxed);
+            let n_cells = sres.iter().map(|&v| v as usize).product();
+            let (leaves, list) = counting_sort(n_cells, pairs.iter().copied());
+            Some(SubGrid {
+                res: sres,
+                leaves,
+                list,
+            })
+        })
+        .collect();
+    let n_refs: usize = subs.iter().flatten().map(|s| s.list.len()).sum();
+    if n_refs > max_refs || total.load(Ordering::Relaxed) > max_refs {
+        return Err(Error::Limit(format!(
+            "the two-level grid needs more than {max_refs} triangle references \
+             (top grid {}x{}x{}, {n_tris} triangles); lower the leaf density",
+            res[0], res[1], res[2]
+        )));
+    }
+
+    // Concatenate in top-cell order.
+    let mut top = vec![TopCell::default(); n_top];
+    let mut leaves = Vec::with_capacity(n_leaves);
+    let mut tri_indices = Vec::with_capacity(n_refs);
+    for (t, s) in top.iter_mut().zip(&subs) {
+        if let Some(s) = s {
+            *t = TopCell {
+                leaf_base: leaves.len() as u32,
+                res: s.res,
+            };
+            let base = tri_indices.len() as u32;
+            leaves.extend(s.leaves.iter().map(|r| CellRange {
+                offset: r.offset + base,
+                count: r.count,
+            }));
+            tri_indices.extend_from_slice(&s.list);
+        }
+    }
+    let top_refs = top_list.len();
+    Ok(finish(
+        start,
+        n_tris,
+        min,
+        max,
+        res,
+        top,
+        leaves,
+        tri_indices,
+        top_refs,
+    ))
+}
+
+/// Assembles the grid and its statistics.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    start: Instant,
+    n_tris: usize,
+    min: Vec3,
+    max: Vec3,
+    res: [u32; 3],
+    top: Vec<TopCell>,
+    leaves: Vec<CellRange>,
+    tri_indices: Vec<u32>,
+    top_references: usize,
+) -> TwoLevelGrid {
+    let cell_size = (max - min) / Vec3::new(res[0] as f32, res[1] as f32, res[2] as f32);
+    let leaf_empty = leaves.iter().filter(|c| c.count == 0).count();
+    let nonempty = leaves.len() - leaf_empty;
+    let references = tri_indices.len();
+    let bytes = top.len() * std::mem::size_of::<TopCell>()
+        + leaves.len() * std::mem::size_of::<CellRange>()
+        + references * std::mem::size_of::<u32>();
+    let stats = TwoLevelStats {
+        build_ms: start.elapsed().as_secs_f64() * 1e3,
+        bytes,
+        bytes_per_triangle: if n_tris == 0 {
+            0.0
+        } else {
+            bytes as f64 / n_tris as f64
+        },
+        top_cells: top.len(),
+        top_empty: top.iter().filter(|t| t.is_empty()).count(),
+        top_references,
+        leaf_cells: leaves.len(),
+        leaf_empty,
+        references,
+        mean_per_nonempty_leaf: if nonempty == 0 {
+            0.0
+        } else {
+            references as f64 / nonempty as f64
+        },
+        max_per_leaf: leaves.iter().map(|c| c.count).max().unwrap_or(0),
+        max_sub_cells: top.iter().map(|t| t.leaf_count()).max().unwrap_or(0),
+    };
+    TwoLevelGrid {
+        min,
+        max,
+        res,
+        cell_size,
+        top,
+        leaves,
+        tri_indices,
+        stats,
+    }
+}
+
+#[cfg(test)]
+#[path = "two_level_tests.rs"]
+pub(crate) mod tests;

@@ -1,0 +1,224 @@
+//! Build tests of the two-level grid: structure, completeness of the binning, determinism
+//! across thread counts, limits. Traversal tests are in `cpu/traverse_two_level_tests.rs`.
+
+use super::*;
+use crate::accel::tribox::tests::{test_seed, Rng};
+use crate::scene::{Camera, Material};
+
+/// An empty scene with one material.
+pub(crate) fn empty_scene() -> Scene {
+    let mut s = Scene::empty(Camera {
+        eye: Vec3::new(0.0, 0.0, 5.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+    });
+    s.add_material(Material::default());
+    s
+}
+
+/// A scene of the given triangles.
+pub(crate) fn scene_of(tris: &[[Vec3; 3]]) -> Scene {
+    let mut s = empty_scene();
+    for t in tris {
+        s.add_triangle(t[0], t[1], t[2], 0);
+    }
+    s
+}
+
+/// Random triangle soup in roughly `[-3, 3]^3`: mostly small triangles, some large, some
+/// degenerate and some axis-aligned (as grid.rs's tests use).
+pub(crate) fn soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
+    (0..n)
+        .map(|i| {
+            let a = rng.dvec3(-3.0, 3.0);
+            let s = if i % 7 == 0 { 3.0 } else { 0.5 };
+            let mut b = a + rng.dvec3(-s, s);
+            let mut c = a + rng.dvec3(-s, s);
+            match i % 11 {
+                0 => c = b,
+                1 => (b, c) = (a, a),
+                2 => (b.z, c.z) = (a.z, a.z),
+                3 => c = a + (b - a) * 0.25,
+                _ => {}
+            }
+            [a.as_vec3(), b.as_vec3(), c.as_vec3()]
+        })
+        .collect()
+}
+
+fn with_threads<T: Send>(n: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .expect("thread pool")
+        .install(f)
+}
+
+/// Structural invariants, and completeness: every triangle that overlaps a leaf's
+/// unpadded box (f64, from the f32 frame) is listed in that leaf.
+fn check(g: &TwoLevelGrid, s: &Scene, ctx: &str) {
+    let n_top = g.res.iter().map(|&r| r as usize).product::<usize>();
+    assert_eq!(g.top.len(), n_top, "{ctx}");
+    let mut next_leaf = 0u32;
+    let mut next_ref = 0u32;
+    for z in 0..g.res[2] {
+        for y in 0..g.res[1] {
+            for x in 0..g.res[0] {
+                let c = [x, y, z];
+                let t = g.top[g.top_index(c)];
+                if t.is_empty() {
+                    assert_eq!(t, TopCell::default(), "{ctx}");
+                    continue;
+                }
+                assert_eq!(
+                    t.leaf_base, next_leaf,
+                    "{ctx}: sub-grids must tile the leaves"
+                );
+                assert!(
+                    t.res.iter().all(|&r| (1..=MAX_SUB_AXIS).contains(&r)),
+                    "{ctx}"
+                );
+                next_leaf += t.leaf_count() as u32;
+                let (lo, sub) = g.sub_frame(c);
+                for lz in 0..t.res[2] {
+                    for ly in 0..t.res[1] {
+                        for lx in 0..t.res[0] {
+                            let l = [lx, ly, lz];
+                            let r = g.leaves[t.leaf_base as usize
+                                + (lx + t.res[0] * (ly + t.res[1] * lz)) as usize];
+                            assert_eq!(r.offset, next_ref, "{ctx}: leaves must tile the list");
+                            next_ref += r.count;
+                            let list = g.leaf_triangles(c, l);
+                            assert!(list.windows(2).all(|w| w[0] < w[1]), "{ctx}: {list:?}");
+                            let a = lo.as_dvec3()
+                                + DVec3::new(lx as f64, ly as f64, lz as f64) * sub.as_dvec3();
+                            let half = 0.5 * sub.as_dvec3();
+                            for tri in 0..s.triangles.len() {
+                                let v = s.triangle_vertices(tri).map(|p| p.as_dvec3());
+                                if tri_box_overlap(a + half, half, v) {
+                                    assert!(
+                                        list.contains(&(tri as u32)),
+                                        "{ctx}: triangle {tri} missing from top {c:?} leaf {l:?}"
+                                    );
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert_eq!(next_leaf as usize, g.leaves.len(), "{ctx}");
+    assert_eq!(next_ref as usize, g.tri_indices.len(), "{ctx}");
+    assert_eq!(g.stats.leaf_cells, g.leaves.len(), "{ctx}");
+    assert_eq!(g.stats.references, g.tri_indices.len(), "{ctx}");
+    assert_eq!(
+        g.stats.bytes,
+        g.top.len() * 16 + g.leaves.len() * 8 + g.tri_indices.len() * 4,
+        "{ctx}"
+    );
+}
+
+#[test]
+fn random_soups_complete() {
+    let seed = test_seed("two-level random soups", 0x2_1E7E_0001);
+    let mut rng = Rng::new(seed);
+    for (round, (l1, l2)) in [(0.5, 4.0), (0.05, 2.0), (2.0, 1.0), (0.01, 30.0)]
+        .into_iter()
+        .enumerate()
+    {
+        let s = scene_of(&soup(&mut rng, 150));
+        let cfg = TwoLevelConfig {
+            top_density: l1,
+            leaf_density: l2,
+        };
+        let g = TwoLevelGrid::build(&s, &cfg).unwrap();
+        check(&g, &s, &format!("seed {seed} round {round} {cfg:?}"));
+    }
+}
+
+#[test]
+fn deterministic_across_thread_counts() {
+    let seed = test_seed("two-level determinism", 0x2_1E7E_0002);
+    let mut rng = Rng::new(seed);
+    // Enough triangles for several top-level chunks.
+    let s = scene_of(&soup(&mut rng, 3 * CHUNK + 17));
+    for cfg in [
+        TwoLevelConfig::default(),
+        TwoLevelConfig {
+            top_density: 0.02,
+            leaf_density: 3.0,
+        },
+    ] {
+        let a = with_threads(1, || TwoLevelGrid::build(&s, &cfg).unwrap());
+        let b = with_threads(3, || TwoLevelGrid::build(&s, &cfg).unwrap());
+        assert_eq!((a.min, a.max, a.res), (b.min, b.max, b.res), "seed {seed}");
+        assert_eq!(a.top, b.top, "seed {seed}");
+        assert_eq!(a.leaves, b.leaves, "seed {seed}");
+        assert_eq!(a.tri_indices, b.tri_indices, "seed {seed}");
+    }
+}
+
+#[test]
+fn limits_and_bad_input() {
+    let seed = test_seed("two-level limits", 0x2_1E7E_0003);
+    let mut rng = Rng::new(seed);
+    let s = scene_of(&soup(&mut rng, 200));
+    let cfg = TwoLevelConfig::default();
+    let g = TwoLevelGrid::build(&s, &cfg).unwrap();
+    let (leaves, refs) = (g.leaves.len(), g.tri_indices.len());
+    // Exactly at the limits builds; one below fails with a message naming the limit.
+    assert!(build_with_limits(&s, &cfg, leaves, refs).is_ok());
+    match build_with_limits(&s, &cfg, leaves - 1, refs) {
+        Err(Error::Limit(m)) => assert!(m.contains("leaf cells"), "{m}"),
+        other => panic!("expected a leaf limit error, got {other:?}"),
+    }
+    match build_with_limits(&s, &cfg, leaves, refs - 1) {
+        Err(Error::Limit(m)) => assert!(m.contains("triangle references"), "{m}"),
+        other => panic!("expected a reference limit error, got {other:?}"),
+    }
+    for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+        let c = TwoLevelConfig {
+            top_density: bad,
+            ..cfg
+        };
+        assert!(matches!(TwoLevelGrid::build(&s, &c), Err(Error::Usage(_))));
+        let c = TwoLevelConfig {
+            leaf_density: bad,
+            ..cfg
+        };
+        assert!(matches!(TwoLevelGrid::build(&s, &c), Err(Error::Usage(_))));
+    }
+    let e = TwoLevelGrid::build(&empty_scene(), &cfg).unwrap();
+    assert_eq!((e.res, e.top.len(), e.leaves.len()), ([1, 1, 1], 1, 0));
+}
+
+#[test]
+fn top_grid_is_the_uniform_grids_frame() {
+    let seed = test_seed("two-level frame", 0x2_1E7E_0004);
+    let mut rng = Rng::new(seed);
+    let s = scene_of(&soup(&mut rng, 300));
+    let cfg = TwoLevelConfig::default();
+    let g = TwoLevelGrid::build(&s, &cfg).unwrap();
+    let u = Grid::build(
+        &s,
+        &crate::accel::GridConfig {
+            res: crate::accel::GridRes::Auto,
+            density: cfg.top_density,
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        (g.min, g.max, g.res, g.cell_size),
+        (u.min, u.max, u.res, u.cell_size)
+    );
+    // Same top-level binning: a top cell is non-empty exactly when the uniform cell is.
+    for (i, t) in g.top.iter().enumerate() {
+        assert_eq!(
+            t.is_empty(),
+            u.cells[i].count == 0,
+            "seed {seed} top cell {i}"
+        );
+    }
+}
