@@ -1,22 +1,31 @@
 //! Two-level grid after Kalojanov, Stich and Slusallek ("Two-Level Grids for Ray Tracing
 //! on GPUs", HPG 2011): a coarse top grid over the scene box, and in every non-empty top
-//! cell a uniform sub-grid over that cell's box, sized by the cell's own triangle count.
-//! Dense regions get fine cells, empty space stays coarse.
+//! cell a uniform sub-grid sized by the cell's own triangle count. Dense regions get fine
+//! cells, empty space stays coarse.
+//!
+//! One deviation, measured: each sub-grid spans not its whole top cell but the bounds of
+//! the cell's triangles clipped to the cell (padded as [`Grid`] pads the scene box). With
+//! the whole cell, a mesh on a floor 100 times its size lands in one flat top cell and
+//! gets a tenth of the cells it would get alone (bunny: 1000+ triangle tests per ray
+//! instead of 3 to 12, see `cpu/traverse_two_level_tests.rs`); with the tight box it gets
+//! the same sub-grid as alone. The traversal pays one ray/box clip per non-empty top cell.
 //!
 //! Geometry, all in f32 as the traversals compute it:
 //! - The top grid is exactly a [`Grid`]'s: the same padded scene box `min..max`, cell size
 //!   `cell_size = (max - min) / res`, top cell `i` on an axis starting at
 //!   `min + i * cell_size`; its resolution is [`Grid::auto_resolution`] with the top
 //!   density `lambda1`.
-//! - Top cell `c` with sub-grid resolution `r` (per axis) has sub-cell size
-//!   `sub = cell_size / r` and sub-cell `j` starting at `lo + j * sub`, where
-//!   `lo = min + c * cell_size`. Its resolution is [`Grid::auto_resolution`] on the top
-//!   cell's extent with the cell's triangle count and the leaf density `lambda2`, capped
-//!   at [`MAX_SUB_AXIS`] per axis and about [`MAX_SUB_CELLS`] cells.
+//! - A non-empty top cell stores its sub-grid's corner `lo`, resolution `r` and cell size
+//!   `sub` (`(hi - lo) / r` in f32); sub-cell `j` starts at `lo + j * sub` and the sub-grid
+//!   box is `lo .. lo + r * sub`. The resolution is [`Grid::auto_resolution`] on the box's
+//!   extent with the cell's triangle count and the leaf density `lambda2`, capped at
+//!   [`MAX_SUB_AXIS`] per axis and about [`MAX_SUB_CELLS`] cells.
 //!
 //! Layout, flat so that it maps onto float textures:
-//! - `top[x + res[0] * (y + res[1] * z)]`: a [`TopCell`], `(leaf_base, r[0], r[1], r[2])`
-//!   (one RGBA texel), `r = [0, 0, 0]` for an empty top cell, which owns no leaves.
+//! - `top[x + res[0] * (y + res[1] * z)]`: a [`TopCell`], three RGBA texels
+//!   `(leaf_base, r.x, r.y, r.z)`, `(lo, 0)`, `(sub, 0)` (two if `r` is packed into one
+//!   float, `r.x + 129 * (r.y + 129 * r.z) < 2^24`); `r = [0, 0, 0]` for an empty top cell,
+//!   which owns no leaves.
 //! - `leaves[leaf_base + x + r[0] * (y + r[1] * z)]`: a [`CellRange`] `(offset, count)`
 //!   into the flat `tri_indices` (two per RGBA texel), the cells of one sub-grid
 //!   contiguous, sub-grids in top-cell order.
@@ -24,9 +33,8 @@
 //!
 //! Binning is exact ([`tri_box_overlap`]) against cell boxes grown as [`Grid`] grows them
 //! (a relative margin plus a few f32 ulps of the coordinates), so a triangle on a cell face
-//! is listed on both sides. Sub-cells on the rim of a sub-grid are grown out to the top
-//! cell's own faces as well: `lo + r * sub` need not round to the next top boundary, and a
-//! triangle on a top face must be in the sub-grids on both sides of it.
+//! is listed on both sides; a triangle on a top cell's face is in the sub-grids on both
+//! sides, each sub-grid box containing its part of the triangle with a margin.
 //!
 //! The build is parallel (triangles for the top level, top cells for the leaves) and
 //! deterministic: every parallel result is collected in index order and merged by stable
@@ -83,13 +91,17 @@ impl Default for TwoLevelConfig {
     }
 }
 
-/// One top cell: where its leaves start and its sub-grid resolution.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+/// One top cell: where its leaves start and its sub-grid's frame.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct TopCell {
     /// Index of the sub-grid's first leaf in [`TwoLevelGrid::leaves`] (0 when empty).
     pub leaf_base: u32,
     /// Sub-grid cells per axis; `[0, 0, 0]` for an empty top cell.
     pub res: [u32; 3],
+    /// Sub-grid lower corner (zero when empty).
+    pub lo: Vec3,
+    /// Sub-grid cell size (zero when empty).
+    pub sub: Vec3,
 }
 
 impl TopCell {
@@ -111,7 +123,7 @@ impl TopCell {
 pub struct TwoLevelStats {
     /// Wall-clock build time in milliseconds.
     pub build_ms: f64,
-    /// Memory of the three tables: `top * 16 + leaves * 8 + references * 4`.
+    /// Memory of the three tables: `top * 40 + leaves * 8 + references * 4`.
     pub bytes: usize,
     /// `bytes / triangles` (0 for an empty scene).
     pub bytes_per_triangle: f64,
@@ -203,17 +215,15 @@ impl TwoLevelGrid {
             + self.res[0] as usize * (c[1] as usize + self.res[1] as usize * c[2] as usize)
     }
 
-    /// Lower corner of top cell `c` and the cell size of its sub-grid, in f32 exactly as
-    /// the traversal computes them (`min + c * cell_size`, `cell_size / r`).
+    /// Lower corner of top cell `c`'s sub-grid and its cell size.
     pub fn sub_frame(&self, c: [u32; 3]) -> (Vec3, Vec3) {
         let t = self.top[self.top_index(c)];
-        let lo = top_corner(self.min, self.cell_size, c);
-        let sub = Vec3::new(
-            self.cell_size.x / t.res[0].max(1) as f32,
-            self.cell_size.y / t.res[1].max(1) as f32,
-            self.cell_size.z / t.res[2].max(1) as f32,
-        );
-        (lo, sub)
+        (t.lo, t.sub)
+    }
+
+    /// Corners of top cell `c` in f64 (before any padding), as [`Grid::cell_bounds`].
+    pub fn top_bounds(&self, c: [u32; 3]) -> (DVec3, DVec3) {
+        top_bounds(self.min, self.cell_size, self.res, self.top_index(c))
     }
 
     /// The triangles of leaf `(x, y, z)` of top cell `c`, ascending (empty for an empty
@@ -231,14 +241,16 @@ impl TwoLevelGrid {
     }
 }
 
-/// `min + c * cs` per axis in f32, written out per component so the rounding is exactly
-/// that of the scalar traversal code (one multiply, one add).
-fn top_corner(min: Vec3, cs: Vec3, c: [u32; 3]) -> Vec3 {
-    Vec3::new(
-        min.x + c[0] as f32 * cs.x,
-        min.y + c[1] as f32 * cs.y,
-        min.z + c[2] as f32 * cs.z,
-    )
+/// Corners of top cell `i` (flat index) in f64, as [`Grid::cell_bounds`].
+fn top_bounds(min: Vec3, cs: Vec3, res: [u32; 3], i: usize) -> (DVec3, DVec3) {
+    let i = i as u32;
+    let c = DVec3::new(
+        (i % res[0]) as f64,
+        ((i / res[0]) % res[1]) as f64,
+        (i / (res[0] * res[1])) as f64,
+    );
+    let lo = min.as_dvec3() + c * cs.as_dvec3();
+    (lo, lo + cs.as_dvec3())
 }
 
 /// `PAD_ULPS` f32 ulps of a coordinate of magnitude `mag`.
@@ -327,6 +339,8 @@ pub fn sub_resolution(extent: Vec3, n: usize, leaf_density: f32) -> [u32; 3] {
 /// One top cell's finished sub-grid, with leaf offsets relative to its own list.
 struct SubGrid {
     res: [u32; 3],
+    lo: Vec3,
+    sub: Vec3,
     leaves: Vec<CellRange>,
     list: Vec<u32>,
 }
@@ -439,20 +453,46 @@ fn build_with_limits(
     let (top_ranges, top_list) = counting_sort(n_top, pairs);
     drop(chunks);
 
-    // Sub-grid sizes first, so the leaf limit is checked before any leaf is binned.
-    let sub_res: Vec<[u32; 3]> = top_ranges
-        .iter()
-        .map(|r| {
+    // Sub-grid boxes and sizes first, so the leaf limit is checked before any leaf is
+    // binned: the triangles' bounding boxes clipped to the top cell, then padded.
+    let frames: Vec<Option<(Vec3, Vec3, [u32; 3])>> = (0..n_top)
+        .into_par_iter()
+        .map(|i| {
+            let r = top_ranges[i];
             if r.count == 0 {
-                [0, 0, 0]
-            } else {
-                sub_resolution(cell_size, r.count as usize, cfg.leaf_density)
+                return Ok(None);
             }
+            let (clo, chi) = top_bounds(min, cell_size, res, i);
+            let tris = &top_list[r.offset as usize..(r.offset + r.count) as usize];
+            let (mut a, mut b) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            for &t in tris {
+                let v = tri64(t as usize);
+                // Clamped rather than intersected: a triangle listed only through the
+                // padding still gives a (flat) box on the face.
+                a = a.min(v[0].min(v[1]).min(v[2]).clamp(clo, chi));
+                b = b.max(v[0].max(v[1]).max(v[2]).clamp(clo, chi));
+            }
+            // Rounded outwards to f32, then padded as the scene box is.
+            let lo = a.as_vec3().min(Vec3::new(
+                (a.x as f32).next_down(),
+                (a.y as f32).next_down(),
+                (a.z as f32).next_down(),
+            ));
+            let hi = b.as_vec3().max(Vec3::new(
+                (b.x as f32).next_up(),
+                (b.y as f32).next_up(),
+                (b.z as f32).next_up(),
+            ));
+            let (lo, hi) = padded_bounds(scene, lo, hi)?;
+            let sres = sub_resolution(hi - lo, r.count as usize, cfg.leaf_density);
+            let sub = (hi - lo) / Vec3::new(sres[0] as f32, sres[1] as f32, sres[2] as f32);
+            Ok(Some((lo, sub, sres)))
         })
-        .collect();
-    let n_leaves: usize = sub_res
+        .collect::<Result<_>>()?;
+    let n_leaves: usize = frames
         .iter()
-        .map(|r| r.iter().map(|&v| v as usize).product::<usize>())
+        .flatten()
+        .map(|f| f.2.iter().map(|&v| v as usize).product::<usize>())
         .sum();
     if n_leaves > max_leaves {
         return Err(Error::Limit(format!(
@@ -470,26 +510,14 @@ fn build_with_limits(
         .into_par_iter()
         .map(|i| {
             let r = top_ranges[i];
-            let sres = sub_res[i];
-            if r.count == 0 || total.load(Ordering::Relaxed) > max_refs {
+            let (lo, sub, sres) = frames[i]?;
+            if total.load(Ordering::Relaxed) > max_refs {
                 return None;
             }
-            let c = [
-                i as u32 % res[0],
-                (i as u32 / res[0]) % res[1],
-                i as u32 / (res[0] * res[1]),
-            ];
-            let lo32 = top_corner(min, cell_size, c);
-            let sub = cell_size / Vec3::new(sres[0] as f32, sres[1] as f32, sres[2] as f32);
-            let cs = cell_size.as_dvec3();
-            let outer_lo = min.as_dvec3() + DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) * cs;
-            let frame = Frame::new(
-                lo32.as_dvec3(),
-                sub.as_dvec3(),
-                sres,
-                outer_lo,
-                outer_lo + cs,
-            );
+            let lo64 = lo.as_dvec3();
+            let hi64 =
+                lo64 + DVec3::new(sres[0] as f64, sres[1] as f64, sres[2] as f64) * sub.as_dvec3();
+            let frame = Frame::new(lo64, sub.as_dvec3(), sres, lo64, hi64);
             let tris = &top_list[r.offset as usize..(r.offset + r.count) as usize];
             let mut pairs = Vec::new();
             let mut cells = Vec::new();
@@ -503,6 +531,8 @@ fn build_with_limits(
             let (leaves, list) = counting_sort(n_cells, pairs.iter().copied());
             Some(SubGrid {
                 res: sres,
+                lo,
+                sub,
                 leaves,
                 list,
             })
@@ -526,6 +556,8 @@ fn build_with_limits(
             *t = TopCell {
                 leaf_base: leaves.len() as u32,
                 res: s.res,
+                lo: s.lo,
+                sub: s.sub,
             };
             let base = tri_indices.len() as u32;
             leaves.extend(s.leaves.iter().map(|r| CellRange {

@@ -91,12 +91,17 @@ fn check(g: &TwoLevelGrid, s: &Scene, ctx: &str) {
                             next_ref += r.count;
                             let list = g.leaf_triangles(c, l);
                             assert!(list.windows(2).all(|w| w[0] < w[1]), "{ctx}: {list:?}");
+                            // The leaf box within the top cell: what it must cover.
+                            let (clo, chi) = g.top_bounds(c);
                             let a = lo.as_dvec3()
                                 + DVec3::new(lx as f64, ly as f64, lz as f64) * sub.as_dvec3();
-                            let half = 0.5 * sub.as_dvec3();
+                            let (a, b) = (a.max(clo), (a + sub.as_dvec3()).min(chi));
+                            if (0..3).any(|k| a[k] > b[k]) {
+                                continue;
+                            }
                             for tri in 0..s.triangles.len() {
                                 let v = s.triangle_vertices(tri).map(|p| p.as_dvec3());
-                                if tri_box_overlap(a + half, half, v) {
+                                if tri_box_overlap(0.5 * (a + b), 0.5 * (b - a), v) {
                                     assert!(
                                         list.contains(&(tri as u32)),
                                         "{ctx}: triangle {tri} missing from top {c:?} leaf {l:?}"
@@ -115,7 +120,7 @@ fn check(g: &TwoLevelGrid, s: &Scene, ctx: &str) {
     assert_eq!(g.stats.references, g.tri_indices.len(), "{ctx}");
     assert_eq!(
         g.stats.bytes,
-        g.top.len() * 16 + g.leaves.len() * 8 + g.tri_indices.len() * 4,
+        g.top.len() * std::mem::size_of::<TopCell>() + g.leaves.len() * 8 + g.tri_indices.len() * 4,
         "{ctx}"
     );
 }

@@ -4,9 +4,10 @@
 //! The walk is two nested 3D-DDAs of the kind `cpu/traverse.rs` runs: the top-level DDA
 //! over the top grid (boundaries recomputed from the cell index, ties to the lower axis),
 //! and, in each non-empty top cell entered at `t_in` and left at `t_out`, a DDA over that
-//! cell's sub-grid, started at the leaf holding `o + d * t_in` (clamped into the
-//! sub-grid) and stopped once a leaf's exit reaches `t_out` or the index leaves the
-//! sub-grid. Each leaf is decided as `closest_hit` in `cpu/traverse.rs` decides a cell:
+//! cell's sub-grid: `[t_in, t_out]` is clipped to the sub-grid's box (a miss skips the top
+//! cell), the walk starts at the leaf holding `o + d * t0` for the clipped start `t0`
+//! (clamped into the sub-grid) and stops once a leaf's exit reaches `t_out` or the index
+//! leaves the sub-grid. Each leaf is decided as `closest_hit` in `cpu/traverse.rs` decides a cell:
 //! the leaf's closest hit (ties within `TIE_EPS` to the lower index) is accepted only if it
 //! is within `min(leaf exit, t_out)` plus `gamma(8)` relative slack. `Work::cells` counts
 //! top cells and leaf cells alike.
@@ -22,14 +23,15 @@
 //! - `s3 = (t_best, tri_best, steps, spare)`.
 //!
 //! No t value needs storing: the top exit is recomputed from the top cell index, a leaf's
-//! exit from the leaf index and the top cell's corner `min + c * cell_size` and sub-cell
-//! size `cell_size / r`, and `t_in` is only needed in the pass that enters a top cell.
+//! exit from the leaf index and the sub-grid's stored corner and cell size, and `t_in`
+//! (the previous top exit, or the grid entry) and the box clip are only needed in the pass
+//! that enters a top cell.
 //! States: `TRAVERSING_TOP` (one top DDA step; on entering a non-empty top cell, compute
 //! the start leaf and go to `TESTING` or `TRAVERSING_LEAF`), `TRAVERSING_LEAF` (one leaf
 //! DDA step; leaving the sub-grid or reaching the top exit goes back to `TRAVERSING_TOP`),
 //! `TESTING` (one triangle test; at the list end accept the leaf's best hit if it is
 //! within the exit limit, else back to `TRAVERSING_LEAF`), plus `DONE`/`INVALID` as today.
-//! Textures read: the top table (one texel per top cell: `leaf_base, r.x, r.y, r.z`), the
+//! Textures read: the top table (three texels per top cell: `leaf_base, r`; `lo`; `sub`), the
 //! leaf table (`offset, count`, two leaves per texel), the triangle list (four per texel)
 //! and the triangles, as the uniform kernel reads its cell table, list and triangles.
 
@@ -162,7 +164,7 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
             work.cells += 1;
             let (t_out, axis) = min_axis(&tn);
             let top = self.top[(c[0] + self.res[0] * (c[1] + self.res[1] * c[2])) as usize];
-            if !top.is_empty() && self.walk_leaves(ray, c, top, t_in, t_out, work, &mut visit) {
+            if !top.is_empty() && self.walk_leaves(ray, top, t_in, t_out, work, &mut visit) {
                 return;
             }
             if t_out >= t_leave {
@@ -177,13 +179,11 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
         }
     }
 
-    /// The sub-grid DDA of top cell `c` over `[t_in, t_out]`; true when `visit` stopped.
+    /// The sub-grid DDA of a top cell over `[t_in, t_out]`; true when `visit` stopped.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn walk_leaves(
         &self,
         ray: &Ray<T>,
-        c: [i32; 3],
         top: TopCell,
         t_in: T,
         t_out: T,
@@ -191,10 +191,32 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
         visit: &mut impl FnMut(CellRange, T) -> bool,
     ) -> bool {
         let r = top.res.map(|v| v as i32);
-        // The top cell's corner and the sub-cell size, as the build computed them in f32.
-        let lo = [0, 1, 2].map(|a| self.min[a] + T::from_f32(c[a] as f32) * self.cs[a]);
-        let cs = [0, 1, 2].map(|a| self.cs[a] / T::from_f32(r[a] as f32));
-        let mut l = cell_at(ray, t_in, &lo, &cs, &r);
+        let lo = [0, 1, 2].map(|a| T::from_f32(top.lo[a]));
+        let cs = [0, 1, 2].map(|a| T::from_f32(top.sub[a]));
+        // Clip [t_in, t_out] to the sub-grid box lo .. lo + r * cs.
+        let mut t0 = t_in;
+        let mut t1 = t_out;
+        for a in 0..3 {
+            let hi = lo[a] + T::from_f32(r[a] as f32) * cs[a];
+            let d = ray.d[a];
+            if d == T::ZERO {
+                if ray.o[a] < lo[a] || ray.o[a] > hi {
+                    return false;
+                }
+                continue;
+            }
+            let mut n = (lo[a] - ray.o[a]) / d;
+            let mut f = (hi - ray.o[a]) / d;
+            if n > f {
+                std::mem::swap(&mut n, &mut f);
+            }
+            t0 = t0.max(n);
+            t1 = t1.min(f);
+        }
+        if t0 > t1 {
+            return false;
+        }
+        let mut l = cell_at(ray, t0, &lo, &cs, &r);
         let mut tn = [0, 1, 2].map(|a| far_boundary(ray, lo[a], cs[a], a, l[a]));
         loop {
             work.cells += 1;
