@@ -137,6 +137,7 @@ fn random_soups_complete() {
         let cfg = TwoLevelConfig {
             top_density: l1,
             leaf_density: l2,
+            ..TwoLevelConfig::default()
         };
         let g = TwoLevelGrid::build(&s, &cfg).unwrap();
         check(&g, &s, &format!("seed {seed} round {round} {cfg:?}"));
@@ -154,6 +155,7 @@ fn deterministic_across_thread_counts() {
         TwoLevelConfig {
             top_density: 0.02,
             leaf_density: 3.0,
+            ..TwoLevelConfig::default()
         },
     ] {
         let a = with_threads(1, || TwoLevelGrid::build(&s, &cfg).unwrap());
@@ -195,6 +197,28 @@ fn limits_and_bad_input() {
         };
         assert!(matches!(TwoLevelGrid::build(&s, &c), Err(Error::Usage(_))));
     }
+    for bad in [[0, 1, 1], [1, MAX_FIXED_TOP_AXIS + 1, 1]] {
+        let c = TwoLevelConfig {
+            top_res: Some(bad),
+            ..cfg
+        };
+        assert!(matches!(TwoLevelGrid::build(&s, &c), Err(Error::Usage(_))));
+    }
+    let c = TwoLevelConfig {
+        top_res: Some([4096, 4096, 2]),
+        ..cfg
+    };
+    match TwoLevelGrid::build(&s, &c) {
+        Err(Error::Limit(m)) => assert!(m.contains("top cells"), "{m}"),
+        other => panic!("expected a top cell limit error, got {other:?}"),
+    }
+    let c = TwoLevelConfig {
+        top_res: Some([3, 1, 5]),
+        ..cfg
+    };
+    let g = TwoLevelGrid::build(&s, &c).unwrap();
+    assert_eq!(g.res, [3, 1, 5]);
+    check(&g, &s, &format!("seed {seed} fixed top"));
     let e = TwoLevelGrid::build(&empty_scene(), &cfg).unwrap();
     assert_eq!((e.res, e.top.len(), e.leaves.len()), ([1, 1, 1], 1, 0));
 }

@@ -91,6 +91,7 @@ fn random_scenes_equal_brute_force() {
         let cfg = TwoLevelConfig {
             top_density: l1,
             leaf_density: l2,
+            ..TwoLevelConfig::default()
         };
         let g = TwoLevelGrid::build(&s, &cfg).unwrap();
         let rays = random_rays(&mut rng, 1500, 3.0);
@@ -186,6 +187,7 @@ fn rays_through_corners_faces_and_shared_edges() {
         TwoLevelConfig {
             top_density: 0.05,
             leaf_density: 6.0,
+            ..TwoLevelConfig::default()
         },
     ] {
         let g = TwoLevelGrid::build(&s, &cfg).unwrap();
@@ -285,6 +287,7 @@ fn plane_on_a_top_cell_face_is_watertight() {
     let cfg = TwoLevelConfig {
         top_density: 0.2,
         leaf_density: 4.0,
+        ..TwoLevelConfig::default()
     };
     let g0 = TwoLevelGrid::build(&scene_of(&frame(2.0)), &cfg).unwrap();
     assert!(
@@ -459,6 +462,27 @@ fn measure_bunny() {
         (2.0, 4.0),
         (4.0, 4.0),
     ];
+    // The flat floor scene gets one top cell in height, so the floor runs through the
+    // bunny's top cells; fixed top grids with more layers show what splitting it off buys.
+    for (name, s, top_res) in [
+        ("bunny, 100x floor", &big_floor, [132, 16, 132]),
+        ("bunny, 100x floor", &big_floor, [132, 32, 132]),
+        ("bunny, 100x floor", &big_floor, [132, 64, 132]),
+        ("bunny.toml", &bunny, [77, 16, 77]),
+        ("bunny.toml", &bunny, [77, 32, 77]),
+    ] {
+        let cfg = TwoLevelConfig {
+            top_res: Some(top_res),
+            ..TwoLevelConfig::default()
+        };
+        let g = TwoLevelGrid::build(s, &cfg).unwrap();
+        let (t, c, hits) = measure_two_level(s, &g, &rays);
+        println!(
+            "{name} two-level top {top_res:?} l2 {}: tests {t:.1} cells {c:.1} hits {hits} | \
+             {:.1} B/tri, {:.0} ms, {} leaves",
+            cfg.leaf_density, g.stats.bytes_per_triangle, g.stats.build_ms, g.stats.leaf_cells
+        );
+    }
     for (name, s) in [
         ("bunny.toml", &bunny),
         ("bunny alone", &alone),
@@ -468,6 +492,7 @@ fn measure_bunny() {
             let cfg = TwoLevelConfig {
                 top_density: l1,
                 leaf_density: l2,
+                ..TwoLevelConfig::default()
             };
             let g = TwoLevelGrid::build(s, &cfg).unwrap();
             let (t, c, hits) = measure_two_level(s, &g, &rays);
