@@ -28,10 +28,12 @@
 //!   [`MAX_SUB_AXIS`] per axis and about [`MAX_SUB_CELLS`] cells.
 //!
 //! Layout, flat so that it maps onto float textures:
-//! - `top[x + res[0] * (y + res[1] * z)]`: a [`TopCell`], three RGBA texels
+//! - `top[x + res[0] * (y + res[1] * z)]`: the index of the top cell's [`SubGrid`], or
+//!   [`EMPTY_TOP`] (one float each, four per RGBA texel; -1 for empty there). Empty space
+//!   costs 4 bytes per top cell.
+//! - `subgrids[i]`: one per non-empty top cell, in top-cell order: three RGBA texels
 //!   `(leaf_base, r.x, r.y, r.z)`, `(lo, 0)`, `(sub, 0)` (two if `r` is packed into one
-//!   float, `r.x + 129 * (r.y + 129 * r.z) < 2^24`); `r = [0, 0, 0]` for an empty top cell,
-//!   which owns no leaves.
+//!   float, `r.x + 129 * (r.y + 129 * r.z) < 2^24`).
 //! - `leaves[leaf_base + x + r[0] * (y + r[1] * z)]`: a [`CellRange`] `(offset, count)`
 //!   into the flat `tri_indices` (two per RGBA texel), the cells of one sub-grid
 //!   contiguous, sub-grids in top-cell order.
@@ -105,26 +107,23 @@ impl Default for TwoLevelConfig {
     }
 }
 
-/// One top cell: where its leaves start and its sub-grid's frame.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct TopCell {
-    /// Index of the sub-grid's first leaf in [`TwoLevelGrid::leaves`] (0 when empty).
+/// [`TwoLevelGrid::top`] entry of a top cell without triangles.
+pub const EMPTY_TOP: u32 = u32::MAX;
+
+/// The sub-grid of one non-empty top cell: where its leaves start and its frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SubGrid {
+    /// Index of the sub-grid's first leaf in [`TwoLevelGrid::leaves`].
     pub leaf_base: u32,
-    /// Sub-grid cells per axis; `[0, 0, 0]` for an empty top cell.
+    /// Sub-grid cells per axis, each at least 1.
     pub res: [u32; 3],
-    /// Sub-grid lower corner (zero when empty).
+    /// Sub-grid lower corner.
     pub lo: Vec3,
-    /// Sub-grid cell size (zero when empty).
+    /// Sub-grid cell size.
     pub sub: Vec3,
 }
 
-impl TopCell {
-    /// True when the top cell holds no triangle (and owns no leaves).
-    #[inline]
-    pub fn is_empty(&self) -> bool {
-        self.res[0] == 0
-    }
-
+impl SubGrid {
     /// Number of leaf cells of the sub-grid.
     #[inline]
     pub fn leaf_count(&self) -> usize {
@@ -137,7 +136,7 @@ impl TopCell {
 pub struct TwoLevelStats {
     /// Wall-clock build time in milliseconds.
     pub build_ms: f64,
-    /// Memory of the three tables: `top * 40 + leaves * 8 + references * 4`.
+    /// Memory of the four tables: `top * 4 + subgrids * 40 + leaves * 8 + references * 4`.
     pub bytes: usize,
     /// `bytes / triangles` (0 for an empty scene).
     pub bytes_per_triangle: f64,
@@ -202,8 +201,10 @@ pub struct TwoLevelGrid {
     pub res: [u32; 3],
     /// Top cell size, `(max - min) / res` in f32.
     pub cell_size: Vec3,
-    /// Per top cell, x fastest: leaf base and sub-grid resolution.
-    pub top: Vec<TopCell>,
+    /// Per top cell, x fastest: index into `subgrids`, or [`EMPTY_TOP`].
+    pub top: Vec<u32>,
+    /// One per non-empty top cell, in top-cell order.
+    pub subgrids: Vec<SubGrid>,
     /// Per leaf cell: its range of `tri_indices`.
     pub leaves: Vec<CellRange>,
     /// Triangle indices, leaf after leaf, ascending within each leaf.
@@ -229,10 +230,12 @@ impl TwoLevelGrid {
             + self.res[0] as usize * (c[1] as usize + self.res[1] as usize * c[2] as usize)
     }
 
-    /// Lower corner of top cell `c`'s sub-grid and its cell size.
-    pub fn sub_frame(&self, c: [u32; 3]) -> (Vec3, Vec3) {
-        let t = self.top[self.top_index(c)];
-        (t.lo, t.sub)
+    /// The sub-grid of top cell `c`, `None` when the cell is empty.
+    pub fn subgrid(&self, c: [u32; 3]) -> Option<&SubGrid> {
+        match self.top[self.top_index(c)] {
+            EMPTY_TOP => None,
+            i => Some(&self.subgrids[i as usize]),
+        }
     }
 
     /// Corners of top cell `c` in f64 (before any padding), as [`Grid::cell_bounds`].
@@ -243,10 +246,9 @@ impl TwoLevelGrid {
     /// The triangles of leaf `(x, y, z)` of top cell `c`, ascending (empty for an empty
     /// top cell).
     pub fn leaf_triangles(&self, c: [u32; 3], l: [u32; 3]) -> &[u32] {
-        let t = self.top[self.top_index(c)];
-        if t.is_empty() {
+        let Some(t) = self.subgrid(c) else {
             return &[];
-        }
+        };
         let i = t.leaf_base as usize
             + l[0] as usize
             + t.res[0] as usize * (l[1] as usize + t.res[1] as usize * l[2] as usize);
@@ -351,7 +353,7 @@ pub fn sub_resolution(extent: Vec3, n: usize, leaf_density: f32) -> [u32; 3] {
 }
 
 /// One top cell's finished sub-grid, with leaf offsets relative to its own list.
-struct SubGrid {
+struct SubBuild {
     res: [u32; 3],
     lo: Vec3,
     sub: Vec3,
@@ -412,14 +414,14 @@ fn build_with_limits(
     let Some((lo, hi)) = scene.bounds() else {
         // Nothing to bin: one empty top cell keeps consumers free of a special case.
         let (min, max) = (Vec3::splat(-1.0), Vec3::splat(1.0));
-        let top = vec![TopCell::default()];
         return Ok(finish(
             start,
             n_tris,
             min,
             max,
             [1, 1, 1],
-            top,
+            vec![EMPTY_TOP],
+            Vec::new(),
             Vec::new(),
             Vec::new(),
             0,
@@ -534,7 +536,7 @@ fn build_with_limits(
     // running total only stops the work early once the limit is blown; whether the build
     // fails is decided on the exact sum below, so it does not depend on scheduling.
     let total = AtomicUsize::new(0);
-    let subs: Vec<Option<SubGrid>> = (0..n_top)
+    let subs: Vec<Option<SubBuild>> = (0..n_top)
         .into_par_iter()
         .map(|i| {
             let r = top_ranges[i];
@@ -557,7 +559,7 @@ fn build_with_limits(
             total.fetch_add(pairs.len(), Ordering::Relaxed);
             let n_cells = sres.iter().map(|&v| v as usize).product();
             let (leaves, list) = counting_sort(n_cells, pairs.iter().copied());
-            Some(SubGrid {
+            Some(SubBuild {
                 res: sres,
                 lo,
                 sub,
@@ -576,17 +578,19 @@ fn build_with_limits(
     }
 
     // Concatenate in top-cell order.
-    let mut top = vec![TopCell::default(); n_top];
+    let mut top = vec![EMPTY_TOP; n_top];
+    let mut subgrids = Vec::new();
     let mut leaves = Vec::with_capacity(n_leaves);
     let mut tri_indices = Vec::with_capacity(n_refs);
     for (t, s) in top.iter_mut().zip(&subs) {
         if let Some(s) = s {
-            *t = TopCell {
+            *t = subgrids.len() as u32;
+            subgrids.push(SubGrid {
                 leaf_base: leaves.len() as u32,
                 res: s.res,
                 lo: s.lo,
                 sub: s.sub,
-            };
+            });
             let base = tri_indices.len() as u32;
             leaves.extend(s.leaves.iter().map(|r| CellRange {
                 offset: r.offset + base,
@@ -603,6 +607,7 @@ fn build_with_limits(
         max,
         res,
         top,
+        subgrids,
         leaves,
         tri_indices,
         top_refs,
@@ -617,7 +622,8 @@ fn finish(
     min: Vec3,
     max: Vec3,
     res: [u32; 3],
-    top: Vec<TopCell>,
+    top: Vec<u32>,
+    subgrids: Vec<SubGrid>,
     leaves: Vec<CellRange>,
     tri_indices: Vec<u32>,
     top_references: usize,
@@ -626,7 +632,8 @@ fn finish(
     let leaf_empty = leaves.iter().filter(|c| c.count == 0).count();
     let nonempty = leaves.len() - leaf_empty;
     let references = tri_indices.len();
-    let bytes = top.len() * std::mem::size_of::<TopCell>()
+    let bytes = top.len() * std::mem::size_of::<u32>()
+        + subgrids.len() * std::mem::size_of::<SubGrid>()
         + leaves.len() * std::mem::size_of::<CellRange>()
         + references * std::mem::size_of::<u32>();
     let stats = TwoLevelStats {
@@ -638,7 +645,7 @@ fn finish(
             bytes as f64 / n_tris as f64
         },
         top_cells: top.len(),
-        top_empty: top.iter().filter(|t| t.is_empty()).count(),
+        top_empty: top.len() - subgrids.len(),
         top_references,
         leaf_cells: leaves.len(),
         leaf_empty,
@@ -649,7 +656,7 @@ fn finish(
             references as f64 / nonempty as f64
         },
         max_per_leaf: leaves.iter().map(|c| c.count).max().unwrap_or(0),
-        max_sub_cells: top.iter().map(|t| t.leaf_count()).max().unwrap_or(0),
+        max_sub_cells: subgrids.iter().map(|t| t.leaf_count()).max().unwrap_or(0),
     };
     TwoLevelGrid {
         min,
@@ -657,6 +664,7 @@ fn finish(
         res,
         cell_size,
         top,
+        subgrids,
         leaves,
         tri_indices,
         stats,

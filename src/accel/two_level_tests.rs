@@ -61,16 +61,18 @@ fn check(g: &TwoLevelGrid, s: &Scene, ctx: &str) {
     let n_top = g.res.iter().map(|&r| r as usize).product::<usize>();
     assert_eq!(g.top.len(), n_top, "{ctx}");
     let mut next_leaf = 0u32;
+    let mut next_sub = 0usize;
     let mut next_ref = 0u32;
     for z in 0..g.res[2] {
         for y in 0..g.res[1] {
             for x in 0..g.res[0] {
                 let c = [x, y, z];
-                let t = g.top[g.top_index(c)];
-                if t.is_empty() {
-                    assert_eq!(t, TopCell::default(), "{ctx}");
+                let Some(t) = g.subgrid(c) else {
+                    assert_eq!(g.top[g.top_index(c)], EMPTY_TOP, "{ctx}");
                     continue;
-                }
+                };
+                assert_eq!(g.top[g.top_index(c)] as usize, next_sub, "{ctx}");
+                next_sub += 1;
                 assert_eq!(
                     t.leaf_base, next_leaf,
                     "{ctx}: sub-grids must tile the leaves"
@@ -80,7 +82,7 @@ fn check(g: &TwoLevelGrid, s: &Scene, ctx: &str) {
                     "{ctx}"
                 );
                 next_leaf += t.leaf_count() as u32;
-                let (lo, sub) = g.sub_frame(c);
+                let (lo, sub) = (t.lo, t.sub);
                 for lz in 0..t.res[2] {
                     for ly in 0..t.res[1] {
                         for lx in 0..t.res[0] {
@@ -115,12 +117,13 @@ fn check(g: &TwoLevelGrid, s: &Scene, ctx: &str) {
         }
     }
     assert_eq!(next_leaf as usize, g.leaves.len(), "{ctx}");
+    assert_eq!(next_sub, g.subgrids.len(), "{ctx}");
     assert_eq!(next_ref as usize, g.tri_indices.len(), "{ctx}");
     assert_eq!(g.stats.leaf_cells, g.leaves.len(), "{ctx}");
     assert_eq!(g.stats.references, g.tri_indices.len(), "{ctx}");
     assert_eq!(
         g.stats.bytes,
-        g.top.len() * std::mem::size_of::<TopCell>() + g.leaves.len() * 8 + g.tri_indices.len() * 4,
+        g.top.len() * 4 + g.subgrids.len() * 40 + g.leaves.len() * 8 + g.tri_indices.len() * 4,
         "{ctx}"
     );
 }
@@ -162,6 +165,7 @@ fn deterministic_across_thread_counts() {
         let b = with_threads(3, || TwoLevelGrid::build(&s, &cfg).unwrap());
         assert_eq!((a.min, a.max, a.res), (b.min, b.max, b.res), "seed {seed}");
         assert_eq!(a.top, b.top, "seed {seed}");
+        assert_eq!(a.subgrids, b.subgrids, "seed {seed}");
         assert_eq!(a.leaves, b.leaves, "seed {seed}");
         assert_eq!(a.tri_indices, b.tri_indices, "seed {seed}");
     }
@@ -243,9 +247,9 @@ fn top_grid_is_the_uniform_grids_frame() {
         (u.min, u.max, u.res, u.cell_size)
     );
     // Same top-level binning: a top cell is non-empty exactly when the uniform cell is.
-    for (i, t) in g.top.iter().enumerate() {
+    for (i, &t) in g.top.iter().enumerate() {
         assert_eq!(
-            t.is_empty(),
+            t == EMPTY_TOP,
             u.cells[i].count == 0,
             "seed {seed} top cell {i}"
         );

@@ -31,14 +31,15 @@
 //! DDA step; leaving the sub-grid or reaching the top exit goes back to `TRAVERSING_TOP`),
 //! `TESTING` (one triangle test; at the list end accept the leaf's best hit if it is
 //! within the exit limit, else back to `TRAVERSING_LEAF`), plus `DONE`/`INVALID` as today.
-//! Textures read: the top table (three texels per top cell: `leaf_base, r`; `lo`; `sub`), the
+//! Textures read: the top table (one float per top cell: sub-grid index or -1), the
+//! sub-grid table (three texels each: `leaf_base, r`; `lo`; `sub`), the
 //! leaf table (`offset, count`, two leaves per texel), the triangle list (four per texel)
 //! and the triangles, as the uniform kernel reads its cell table, list and triangles.
 
 use super::intersect::{intersect_with, RayShear};
 use super::real::{Real, V3};
 use super::traverse::{tie_limit, Hit, Ray, Work};
-use crate::accel::two_level::{TopCell, TwoLevelGrid};
+use crate::accel::two_level::{SubGrid, TwoLevelGrid, EMPTY_TOP};
 use crate::accel::CellRange;
 use crate::scene::Scene;
 use crate::technique::Techniques;
@@ -55,8 +56,10 @@ pub struct TwoLevelWalker<'a, T> {
     pub cs: V3<T>,
     /// Top cells per axis.
     pub res: [i32; 3],
-    /// Per top cell: leaf base and sub-grid resolution.
-    pub top: &'a [TopCell],
+    /// Per top cell: index into `subgrids` or `EMPTY_TOP`.
+    pub top: &'a [u32],
+    /// Per non-empty top cell: leaf base and sub-grid frame.
+    pub subgrids: &'a [SubGrid],
     /// Per leaf: range of `list`.
     pub leaves: &'a [CellRange],
     /// Flat triangle-index list.
@@ -114,6 +117,7 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
             cs: V3::from_vec3(grid.cell_size),
             res: grid.res.map(|r| r as i32),
             top: &grid.top,
+            subgrids: &grid.subgrids,
             leaves: &grid.leaves,
             list: &grid.tri_indices,
             techniques,
@@ -164,8 +168,11 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
             work.cells += 1;
             let (t_out, axis) = min_axis(&tn);
             let top = self.top[(c[0] + self.res[0] * (c[1] + self.res[1] * c[2])) as usize];
-            if !top.is_empty() && self.walk_leaves(ray, top, t_in, t_out, work, &mut visit) {
-                return;
+            if top != EMPTY_TOP {
+                let sub = &self.subgrids[top as usize];
+                if self.walk_leaves(ray, sub, t_in, t_out, work, &mut visit) {
+                    return;
+                }
             }
             if t_out >= t_leave {
                 return;
@@ -184,7 +191,7 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
     fn walk_leaves(
         &self,
         ray: &Ray<T>,
-        top: TopCell,
+        top: &SubGrid,
         t_in: T,
         t_out: T,
         work: &mut Work,

@@ -8,7 +8,7 @@ use glam::{DVec3, Vec3};
 use super::*;
 use crate::accel::tribox::tests::{test_seed, Rng};
 use crate::accel::two_level::tests::{scene_of, soup};
-use crate::accel::two_level::TwoLevelConfig;
+use crate::accel::two_level::{TwoLevelConfig, EMPTY_TOP};
 
 /// Checks closest_hit and any_hit against brute force for every ray, in precision `T`.
 /// Returns how many rays hit.
@@ -204,7 +204,9 @@ fn rays_through_corners_faces_and_shared_edges() {
             rays_through(&mut rng, p.as_dvec3(), &mut rays);
         }
         // Points on sub-grid faces (and leaf corners) of non-empty top cells.
-        let full: Vec<usize> = (0..g.top.len()).filter(|&i| !g.top[i].is_empty()).collect();
+        let full: Vec<usize> = (0..g.top.len())
+            .filter(|&i| g.top[i] != EMPTY_TOP)
+            .collect();
         for _ in 0..600 {
             let i = full[(rng.f64() * full.len() as f64) as usize];
             let c = [
@@ -212,8 +214,8 @@ fn rays_through_corners_faces_and_shared_edges() {
                 (i as u32 / g.res[0]) % g.res[1],
                 i as u32 / (g.res[0] * g.res[1]),
             ];
-            let r = g.top[i].res;
-            let (lo, sub) = g.sub_frame(c);
+            let sg = g.subgrid(c).expect("non-empty");
+            let (r, lo, sub) = (sg.res, sg.lo, sg.sub);
             let mut p = lo.as_dvec3() + rng.dvec3(0.0, 1.0) * g.cell_size.as_dvec3();
             for a in 0..3 {
                 if a == 0 || rng.f64() < 0.3 {
