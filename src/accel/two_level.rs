@@ -3,18 +3,23 @@
 //! cell a uniform sub-grid sized by the cell's own triangle count. Dense regions get fine
 //! cells, empty space stays coarse.
 //!
-//! One deviation, measured: each sub-grid spans not its whole top cell but the bounds of
-//! the cell's triangles clipped to the cell (padded as [`Grid`] pads the scene box), so
-//! its cells go where the triangles are. On `scenes/bunny.toml` (256x256 primary rays, f32,
-//! lambda1 0.25, lambda2 4) that took the walk from 13.9 triangle tests and 56.9 cells per
-//! ray to 8.2 and 35.6 (the uniform grid: 326 and 66), and the bunny on a 100x larger floor
-//! from 1634 tests to 683. The traversal pays one ray/box clip per non-empty top cell.
-//! What it does not fix: on a flat scene the top grid has one cell in height, the floor
-//! runs through the mesh's top cells, and their sub-grids, capped at [`MAX_SUB_AXIS`], are
-//! spread over the whole cell, so a mesh on a huge floor still gets far fewer cells than
-//! alone (the case the irregular grid of Perard-Gayot et al. 2017 addresses). More top
-//! layers in height help: the bunny on the 100x floor with a fixed 132x32x132 top grid
-//! takes 27 tests and 20 cells per ray (auto, 132x1x132: 683 and 38).
+//! Two deviations, both measured on 256x256 primary rays in f32 (`measure_bunny` in
+//! `cpu/traverse_two_level_tests.rs`; figures as triangle tests / cells per ray, lambda1
+//! 0.25, lambda2 4):
+//! - Each sub-grid spans not its whole top cell but the bounds of the cell's triangles
+//!   clipped to the cell (padded as [`Grid`] pads the scene box), so its cells go where the
+//!   triangles are: `scenes/bunny.toml` from 13.9 / 56.9 to 8.2 / 35.6 (uniform grid:
+//!   326 / 66). The traversal pays one ray/box clip per non-empty top cell.
+//! - The top grid gets at least [`MIN_TOP_AXIS`] cells per axis ([`top_resolution`]): the
+//!   uniform rule gives a flat scene one cell in height, so a floor runs through every top
+//!   cell of the mesh standing on it. `scenes/bunny.toml`: 5.8 / 35.9; the bunny on a 100x
+//!   larger floor: 86.7 / 17.6 (one layer: 683 / 38; 32 layers: 27 / 20, but 5.2 / 44 on
+//!   `bunny.toml`).
+//!
+//! What neither fixes: the floor's own top cells, 3 m wide next to a 15 cm bunny, still
+//! hold the bunny's lowest triangles in sub-grids spread over the whole floor piece, so a
+//! mesh on a huge floor costs more than alone (the case the irregular grid of Perard-Gayot
+//! et al. 2017 addresses, starting from a two-level grid like this one).
 //!
 //! Geometry, all in f32 as the traversals compute it:
 //! - The top grid is exactly a [`Grid`]'s: the same padded scene box `min..max`, cell size
@@ -63,11 +68,14 @@ use crate::{Error, Result};
 
 /// Default `lambda1`: top cells per triangle. Measured on `scenes/bunny.toml` (primary
 /// rays, `measure_bunny` in `cpu/traverse_two_level_tests.rs`), tests plus cells per ray
-/// stay within 43 to 46 for lambda1 from 1/16 to 1 and lambda2 from 2 to 8; 0.25 with 4
-/// gives 8.2 tests and 35.6 cells per ray in 61 bytes per triangle (uniform: 326, 66, 69).
+/// stay within 37 to 46 for lambda1 from 1/16 to 1 and lambda2 from 2 to 8, cells growing
+/// with lambda1 and tests falling with lambda2; 0.25 with 4 gives 5.8 tests and 35.9 cells
+/// per ray in 67 bytes per triangle (uniform grid: 326, 66, 69).
 pub const DEFAULT_TOP_DENSITY: f32 = 0.25;
 /// Default `lambda2`: leaf cells per triangle of a top cell (see [`DEFAULT_TOP_DENSITY`]).
 pub const DEFAULT_LEAF_DENSITY: f32 = 4.0;
+/// Fewest top cells per axis [`top_resolution`] gives a scene of enough triangles.
+pub const MIN_TOP_AXIS: u32 = 16;
 /// Largest per-axis resolution of one sub-grid.
 pub const MAX_SUB_AXIS: u32 = 128;
 /// Largest cell count one sub-grid aims at (rounding may exceed it by a few percent).
@@ -345,6 +353,24 @@ impl Frame {
     }
 }
 
+/// Top resolution for [`TwoLevelConfig::top_density`]: [`Grid::auto_resolution`], then
+/// every axis raised to at least `min(MIN_TOP_AXIS, ceil(cbrt(density * n)))` cells.
+///
+/// The uniform grid's rule gives a flat scene (a mesh on a large floor) a single cell in
+/// height, so the floor runs through every top cell of the mesh and the mesh's sub-grids
+/// are spread over the whole floor piece. Layers put the floor in its own top cells and
+/// the mesh above it in others, whose tight sub-grid boxes then fit the mesh.
+pub fn top_resolution(extent: Vec3, n: usize, density: f32) -> [u32; 3] {
+    let res = Grid::auto_resolution(extent, n, density);
+    let cubic = (density as f64 * n as f64).cbrt().ceil();
+    let floor = if cubic.is_finite() {
+        (cubic as u32).clamp(1, MIN_TOP_AXIS)
+    } else {
+        1
+    };
+    res.map(|r| r.max(floor))
+}
+
 /// Sub-grid resolution for a top cell of extent `extent` holding `n` triangles.
 pub fn sub_resolution(extent: Vec3, n: usize, leaf_density: f32) -> [u32; 3] {
     // Capping the target count caps the cell count (auto_resolution aims at density * n).
@@ -435,7 +461,7 @@ fn build_with_limits(
             "two-level top resolution {x}x{y}x{z}: each axis needs 1 to {MAX_FIXED_TOP_AXIS} cells"
         )))
         }
-        None => Grid::auto_resolution(max - min, n_tris, cfg.top_density),
+        None => top_resolution(max - min, n_tris, cfg.top_density),
     };
     if res.iter().map(|&v| v as usize).product::<usize>() > MAX_LEAF_CELLS {
         return Err(Error::Limit(format!(

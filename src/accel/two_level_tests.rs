@@ -237,7 +237,7 @@ fn top_grid_is_the_uniform_grids_frame() {
     let u = Grid::build(
         &s,
         &crate::accel::GridConfig {
-            res: crate::accel::GridRes::Auto,
+            res: crate::accel::GridRes::Fixed(g.res),
             density: cfg.top_density,
         },
     )
@@ -254,4 +254,22 @@ fn top_grid_is_the_uniform_grids_frame() {
             "seed {seed} top cell {i}"
         );
     }
+}
+
+#[test]
+fn top_resolution_layers_flat_scenes() {
+    // A mesh on a floor 100 times its size: the uniform rule gives one cell in height.
+    let flat = Vec3::new(400.0, 0.4, 400.0);
+    assert_eq!(Grid::auto_resolution(flat, 69_451, 0.25)[1], 1);
+    let r = top_resolution(flat, 69_451, 0.25);
+    assert_eq!(r[1], MIN_TOP_AXIS);
+    assert_eq!([r[0], r[2]], [132, 132]);
+    // Cubical scenes keep the uniform rule; tiny scenes get no more than a cubical count.
+    let cube = Vec3::splat(1.0);
+    assert_eq!(
+        top_resolution(cube, 69_451, 0.25),
+        Grid::auto_resolution(cube, 69_451, 0.25)
+    );
+    assert_eq!(top_resolution(flat, 8, 1.0), [3, 2, 3]);
+    assert_eq!(top_resolution(flat, 0, 1.0), [1, 1, 1]);
 }
