@@ -7,10 +7,10 @@
 //! cell's sub-grid: `[t_in, t_out]` is clipped to the sub-grid's box (a miss skips the top
 //! cell), the walk starts at the leaf holding `o + d * t0` for the clipped start `t0`
 //! (clamped into the sub-grid) and stops once a leaf's exit reaches `t_out` or the index
-//! leaves the sub-grid. Each leaf is decided as `closest_hit` in `cpu/traverse.rs` decides a cell:
-//! the leaf's closest hit (ties within `TIE_EPS` to the lower index) is accepted only if it
-//! is within `min(leaf exit, t_out)` plus `gamma(8)` relative slack. `Work::cells` counts
-//! top cells and leaf cells alike.
+//! leaves the sub-grid. Each leaf is decided as `closest_hit` in `cpu/traverse.rs` decides
+//! a cell: the leaf's closest hit (ties within `TIE_EPS` to the lower index) is accepted
+//! only if it is within `min(leaf exit, t_out)` plus `gamma(8)` relative slack.
+//! `Work::cells` counts top cells and leaf cells alike.
 //!
 //! # Mapping to the GLSL 1.20 multipass kernel (GeForce 6/7: 4 draw buffers)
 //!
