@@ -324,7 +324,7 @@ fn check_fixed(res: [u32; 3]) -> Result<()> {
 
 /// Rejects what would make the build panic or produce garbage: out-of-range vertex
 /// indices and non-finite vertices.
-fn check_vertices(scene: &Scene) -> Result<()> {
+pub(crate) fn check_vertices(scene: &Scene) -> Result<()> {
     let n = scene.positions.len();
     for (i, t) in scene.triangles.iter().enumerate() {
         for &v in &t.v {
@@ -357,7 +357,7 @@ fn ulps(mag: f64) -> f64 {
 
 /// Grid corners for scene bounds `lo..hi`: thin axes widened, then everything padded so
 /// every vertex lies strictly inside.
-fn padded_bounds(scene: &Scene, lo: Vec3, hi: Vec3) -> Result<(Vec3, Vec3)> {
+pub(crate) fn padded_bounds(scene: &Scene, lo: Vec3, hi: Vec3) -> Result<(Vec3, Vec3)> {
     let (mut a, mut b) = (lo.as_dvec3(), hi.as_dvec3());
     let largest = (b - a).max_element();
     let min_extent = if largest > 0.0 {

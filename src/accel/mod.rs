@@ -7,6 +7,7 @@
 
 pub mod grid;
 pub mod tribox;
+pub mod two_level;
 
 pub use grid::{CellRange, Grid, GridConfig, GridRes, GridStats};
 

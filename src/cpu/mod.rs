@@ -7,5 +7,6 @@ pub mod real;
 pub mod render;
 pub mod shade;
 pub mod traverse;
+pub mod traverse_two_level;
 
 pub use render::{CpuOutput, CpuRenderer};
