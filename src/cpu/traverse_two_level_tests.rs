@@ -430,7 +430,7 @@ fn measure_bunny() {
     println!("{w}x{h} primary rays, f32; tests and cells per ray");
     {
         let g = crate::accel::Grid::build(&bunny, &crate::accel::GridConfig::default()).unwrap();
-        let a = super::super::traverse::Accel::<f32>::new(&bunny, &g);
+        let a = super::super::traverse::GridWalker::<f32>::new(&bunny, &g);
         let mut work = Work::default();
         for &(o, d) in &rays {
             let ray = Ray {
