@@ -1,6 +1,9 @@
 //! The GLSL twins run on hand-made inputs next to their CPU originals, so a difference in
 //! the shader code shows up as a failing case rather than as a blurry image difference.
 
+mod common;
+
+use common::with_test_context;
 use fragtrace::accel::{Grid, GridConfig};
 use fragtrace::cpu::intersect::{intersect_with, RayShear};
 use fragtrace::cpu::real::V3;
@@ -9,7 +12,7 @@ use fragtrace::gpu::gl::{
 };
 use fragtrace::gpu::layout::SceneTextures;
 use fragtrace::gpu::shader::{assemble_text, Features};
-use fragtrace::gpu::{with_test_context, GlContext};
+use fragtrace::gpu::GlContext;
 use fragtrace::scene::{Camera, Material, Scene};
 use fragtrace::technique::{IntersectMethod, TBound, Techniques};
 use glam::Vec3;

@@ -9,10 +9,13 @@
 //! `RMSE_F32_VS_F64` (CPU f32); GL also against its line-for-line twin, the f32 CPU, below
 //! `RMSE_VS_F32`; no NaN or Inf pixel on any backend.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
+use common::with_test_context;
 use fragtrace::compare::compare;
-use fragtrace::gpu::{with_test_context, GlContext};
+use fragtrace::gpu::GlContext;
 use fragtrace::options::{Backend, Precision, RenderOptions};
 use fragtrace::render::{render_cpu, render_gl_with};
 use fragtrace::scene::{builtin_scene, load_scene_with_search_path, Scene};

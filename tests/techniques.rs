@@ -14,6 +14,7 @@
 //!   (case 16).
 
 mod common;
+use common::with_test_context;
 use common::Rng;
 use fragtrace::accel::{Grid, GridConfig};
 use fragtrace::cpu::real::{Real, V3};
@@ -23,7 +24,7 @@ use fragtrace::gpu::options::GpuOptions;
 use fragtrace::gpu::options::Kernel;
 use fragtrace::gpu::render::{trace_rays, GpuRay};
 use fragtrace::gpu::shader::Query;
-use fragtrace::gpu::{with_test_context, GlContext};
+use fragtrace::gpu::GlContext;
 use fragtrace::options::{Backend, Precision, RenderOptions};
 use fragtrace::render::{render_cpu, render_gl_with};
 use fragtrace::scene::{builtin_scene, shapes, Camera, Light, Material, Scene};

@@ -19,7 +19,6 @@
 use std::ffi::c_void;
 use std::fmt;
 use std::rc::Rc;
-use std::sync::Mutex;
 
 use super::egl::{egl_instance, open_session, EglSession};
 use super::info::{gather_info, limit_profile, load_raw_gl, parse_major_minor, GlInfo, RawGl};
@@ -154,8 +153,9 @@ impl GlContext {
 ///
 /// # Panics
 /// When no usable context can be created: tests that need a GPU should fail loudly, not skip.
-pub fn with_test_context<R>(f: impl FnOnce(&GlContext) -> R) -> R {
-    static LOCK: Mutex<()> = Mutex::new(());
+#[cfg(test)]
+pub(crate) fn with_test_context<R>(f: impl FnOnce(&GlContext) -> R) -> R {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _guard = LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
     let ctx = GlContext::new().unwrap_or_else(|e| panic!("{e}"));
     f(&ctx)

@@ -24,5 +24,5 @@ pub mod options;
 pub mod render;
 pub mod shader;
 
-pub use context::{with_test_context, GlContext};
+pub use context::GlContext;
 pub use info::GlInfo;

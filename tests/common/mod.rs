@@ -4,6 +4,9 @@
 
 use std::path::Path;
 use std::process::Command;
+use std::sync::Mutex;
+
+use fragtrace::gpu::GlContext;
 
 use glam::DVec3;
 
@@ -72,4 +75,16 @@ impl Rng {
             }
         }
     }
+}
+
+/// Runs `f` with a fresh headless GL context, one test at a time per test binary (llvmpipe
+/// already uses every core, and GL state must not interleave).
+///
+/// # Panics
+/// When no usable context can be created: tests that need a GPU fail loudly, never skip.
+pub fn with_test_context<R>(f: impl FnOnce(&GlContext) -> R) -> R {
+    static LOCK: Mutex<()> = Mutex::new(());
+    let _guard = LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    let ctx = GlContext::new().unwrap_or_else(|e| panic!("{e}"));
+    f(&ctx)
 }

@@ -1,8 +1,8 @@
 //! Glass cases: total internal reflection in a prism (18) and the camera inside a glass
 //! sphere (19), rendered on the three backends.
 
+use crate::common::with_test_context;
 use crate::support::*;
-use fragtrace::gpu::with_test_context;
 use fragtrace::options::Precision;
 use fragtrace::render::render_cpu;
 use fragtrace::scene::Scene;

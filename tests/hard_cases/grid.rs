@@ -4,10 +4,10 @@
 //! independent answer: a cell count from the origin's index, or brute force over every
 //! triangle.
 
+use crate::common::with_test_context;
 use crate::common::Rng;
 use crate::support::*;
 use fragtrace::gpu::shader::RayState;
-use fragtrace::gpu::with_test_context;
 use glam::{DVec3, Vec3};
 
 /// An 8x8x8 grid whose only triangles sit in the 8 corner cells; axis-aligned rays from

@@ -3,11 +3,11 @@
 //! reflection (18), the camera inside glass (19), and the empty scene, one triangle and the
 //! camera inside the grid (21).
 
+use crate::common::with_test_context;
 use crate::common::Rng;
 use crate::support::*;
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::traverse::{GridWalker, Ray};
-use fragtrace::gpu::with_test_context;
 use fragtrace::render::Rendered;
 use fragtrace::scene::{Material, Scene};
 use glam::{DVec3, Vec3};

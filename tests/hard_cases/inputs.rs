@@ -2,10 +2,10 @@
 //! scenes beyond the GPU's texture limits (22) are refused with clear errors, never
 //! rendered wrongly.
 
+use crate::common::with_test_context;
 use crate::support::*;
 use fragtrace::accel::{GridConfig, GridRes};
 use fragtrace::gpu::layout::SceneTextures;
-use fragtrace::gpu::with_test_context;
 use fragtrace::options::Precision;
 use fragtrace::render::{render_cpu, render_gl_with};
 use fragtrace::Error;

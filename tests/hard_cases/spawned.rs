@@ -4,6 +4,7 @@
 //! spawns in each precision; GL traces the f32 CPU's spawned rays (its spawn pass is the
 //! f32 arithmetic's twin, tests/glsl_twins.rs), so it tests the GPU's intersection kernel.
 
+use crate::common::with_test_context;
 use crate::common::Rng;
 use crate::support::*;
 use fragtrace::accel::Grid;
@@ -11,7 +12,6 @@ use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin, secondary, surface, Secondary, SurfacePoint};
 use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
 use fragtrace::gpu::shader::Query;
-use fragtrace::gpu::with_test_context;
 use fragtrace::options::Precision;
 use fragtrace::render::{render_cpu, Rendered};
 use fragtrace::scene::{Material, Scene};

@@ -3,10 +3,10 @@
 //! plane (12) and coplanar duplicates (15). Each builds its scene and rays, traces them on
 //! the three backends, and bounds a per-backend count.
 
+use crate::common::with_test_context;
 use crate::common::Rng;
 use crate::support::*;
 use fragtrace::gpu::shader::Query;
-use fragtrace::gpu::with_test_context;
 use fragtrace::scene::{shapes, Scene};
 use glam::{DVec3, Vec3};
 
