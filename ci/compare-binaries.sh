@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Renders every shipped scene on every backend and kernel with two fragtrace binaries and
+# compares the images pairwise: the check that a refactor changed no pixel.
+#
+#   ci/compare-binaries.sh OLD_BINARY NEW_BINARY [SIZE]     (SIZE defaults to 64x48)
+#
+# Meshes come from FRAGTRACE_MODEL_PATH (default ../shared/models). Prints one line per
+# image that differs and a total; exits 1 when any image differs or fails to render.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+old=$1 new=$2 size=${3:-64x48}
+w=${size%x*} h=${size#*x}
+export FRAGTRACE_MODEL_PATH="${FRAGTRACE_MODEL_PATH:-$(cd .. && pwd)/shared/models}"
+out=$(mktemp -d)
+configs=(
+    "cpu64:--backend cpu --precision f64" "cpu32:--backend cpu --precision f32"
+    "looped:--backend gl --kernel looped" "unrolled4:--backend gl --kernel unrolled:4"
+    "multipass:--backend gl --kernel multipass"
+    "multipass-earlyz:--backend gl --kernel multipass --mask early-z"
+    "f16:--backend gl --storage f16"
+)
+total=0 same=0
+for scene in builtin scenes/*.toml; do
+    name=$(basename "$scene" .toml)
+    arg=(); [ "$scene" = builtin ] || arg=("$scene")
+    for cfg in "${configs[@]}"; do
+        tag=${cfg%%:*}; read -r -a flags <<< "${cfg#*:}"
+        total=$((total + 1))
+        for which in old new; do
+            bin=$old; [ $which = new ] && bin=$new
+            "$bin" render "${arg[@]}" "${flags[@]}" --width "$w" --height "$h" -q \
+                -o "$out/$name-$tag-$which.exr" || echo "$name $tag: $which binary failed"
+        done
+        r=$("$new" compare "$out/$name-$tag-old.exr" "$out/$name-$tag-new.exr" 2>&1)
+        if [[ $r == *"PSNR identical"* ]]; then same=$((same + 1)); else echo "$name $tag: $r"; fi
+    done
+done
+rm -rf "$out"
+echo "identical: $same of $total"
+[ "$same" -eq "$total" ]
