@@ -371,3 +371,44 @@ fn compare_max_flip_bounds_png_and_exr() {
         assert_eq!(both.status.code(), Some(1), "{ext}");
     }
 }
+
+/// `info` prints every check the README's "Minimum GL feature set" names, each on one line
+/// with its value and outcome (pass, FAIL, or optional for a missing optional capability),
+/// then the verdict.
+#[test]
+fn info_prints_every_check_with_value_and_outcome() {
+    let out = bin().arg("info").output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let checks = [
+        "OpenGL >= 2.1",
+        "GLSL >= 1.20",
+        "float textures",
+        "framebuffer objects",
+        "draw buffers",
+        "occlusion queries",
+        "fragment texture units (GL_MAX_TEXTURE_IMAGE_UNITS >= 14)",
+        "image size (GL_MAX_TEXTURE_SIZE and GL_MAX_VIEWPORT_DIMS",
+        "timer queries",
+        "depth renderbuffer, for --mask early-z",
+        "packed depth-stencil renderbuffer, for --mask stencil",
+        "mixed-format framebuffers (RGBA16F beside RGBA32F), for --storage f16",
+    ];
+    for check in checks {
+        let line = text
+            .lines()
+            .find(|l| l.contains(check))
+            .unwrap_or_else(|| panic!("`{check}` missing in\n{text}"));
+        let outcome = ["[pass] ", "[FAIL] ", "[optional] "]
+            .iter()
+            .any(|s| line.trim_start().starts_with(s));
+        assert!(outcome, "no outcome on `{line}`");
+        let value = line.rsplit_once(": ").map(|(_, v)| v.trim());
+        assert!(value.is_some_and(|v| !v.is_empty()), "no value on `{line}`");
+    }
+    assert!(text.contains("Verdict: OK"), "{text}");
+}
