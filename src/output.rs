@@ -115,5 +115,21 @@ pub struct GpuStats {
     /// K.
     pub query_every: u32,
     /// Scene features compiled in.
-    pub features: String,
+    pub features: Features,
+}
+
+/// Scene features that decide which shading code the GL backend compiles in (decided in
+/// `gpu::shader`, which re-exports it; here so that [`GpuStats`] reports it typed).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
+pub struct Features {
+    /// Some triangle has vertex normals.
+    pub smooth_normals: bool,
+    /// Some material uses the procedural checker.
+    pub checker: bool,
+    /// Some material has a Phong highlight.
+    pub specular: bool,
+    /// Some material refracts.
+    pub refraction: bool,
+    /// Some material uses Fresnel weights.
+    pub fresnel: bool,
 }

@@ -371,3 +371,132 @@ fn compare_max_flip_bounds_png_and_exr() {
         assert_eq!(both.status.code(), Some(1), "{ext}");
     }
 }
+
+/// `info` prints every check the README's "Minimum GL feature set" names, each on one line
+/// with its value and outcome (pass, FAIL, or optional for a missing optional capability),
+/// then the verdict.
+#[test]
+fn info_prints_every_check_with_value_and_outcome() {
+    let out = bin().arg("info").output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let checks = [
+        "OpenGL >= 2.1",
+        "GLSL >= 1.20",
+        "float textures",
+        "framebuffer objects",
+        "draw buffers",
+        "occlusion queries",
+        "fragment texture units (GL_MAX_TEXTURE_IMAGE_UNITS >= 14)",
+        "image size (GL_MAX_TEXTURE_SIZE and GL_MAX_VIEWPORT_DIMS",
+        "timer queries",
+        "depth renderbuffer, for --mask early-z",
+        "packed depth-stencil renderbuffer, for --mask stencil",
+        "mixed-format framebuffers (RGBA16F beside RGBA32F), for --storage f16",
+    ];
+    for check in checks {
+        let line = text
+            .lines()
+            .find(|l| l.trim_start().starts_with('[') && l.contains(check))
+            .unwrap_or_else(|| panic!("`{check}` missing in\n{text}"));
+        let outcome = ["[pass] ", "[FAIL] ", "[optional] "]
+            .iter()
+            .any(|s| line.trim_start().starts_with(s));
+        assert!(outcome, "no outcome on `{line}`");
+        let value = line.rsplit_once(": ").map(|(_, v)| v.trim());
+        assert!(value.is_some_and(|v| !v.is_empty()), "no value on `{line}`");
+    }
+    assert!(text.contains("Verdict: OK"), "{text}");
+}
+
+/// `--stats` on GL reports the compiled-in scene features as an object of named booleans,
+/// not a debug string.
+#[test]
+fn gl_stats_report_features_as_named_booleans() {
+    let d = tmpdir("features");
+    let out = bin()
+        .current_dir(&d)
+        .args([
+            "--backend",
+            "gl",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--stats",
+            "s.json",
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+    let f = s["gpu"]["features"]
+        .as_object()
+        .unwrap_or_else(|| panic!("gpu.features is not an object: {}", s["gpu"]));
+    let mut names: Vec<&str> = f.keys().map(String::as_str).collect();
+    names.sort_unstable();
+    assert_eq!(
+        names,
+        [
+            "checker",
+            "fresnel",
+            "refraction",
+            "smooth_normals",
+            "specular"
+        ]
+    );
+    assert!(f.values().all(|v| v.is_boolean()), "{f:?}");
+}
+
+/// The GL render's progress on a terminal: a percentage of the ray tree walked with an ETA,
+/// never moving back; nothing in a pipe.
+#[test]
+fn gl_progress_shows_a_monotone_percentage_and_eta() {
+    let d = tmpdir("glprogress");
+    let args = "--backend gl --width 64 --height 48 -o p.png";
+    let piped = bin()
+        .current_dir(&d)
+        .args(args.split(' '))
+        .output()
+        .unwrap();
+    assert!(piped.status.success());
+    assert!(
+        !String::from_utf8_lossy(&piped.stderr).contains("% (eta"),
+        "progress drawn into a pipe"
+    );
+    let exe = env!("CARGO_BIN_EXE_fragtrace");
+    let shown = common::on_terminal(&d, &format!("{exe} {args}"));
+    let percents: Vec<u32> = shown
+        .split("% (eta ")
+        .filter_map(|before| {
+            let digits = before
+                .trim_end()
+                .rsplit(|c: char| !c.is_ascii_digit())
+                .next()?;
+            digits.parse().ok()
+        })
+        .collect();
+    assert!(
+        !percents.is_empty(),
+        "no percentage on a terminal:\n{shown}"
+    );
+    assert!(
+        percents.windows(2).all(|w| w[0] <= w[1]),
+        "the percentage moved back: {percents:?}"
+    );
+    assert!(
+        percents.iter().all(|&p| p <= 100) && *percents.last().unwrap() > 0,
+        "{percents:?}"
+    );
+    assert!(shown.contains("rays active"), "{shown}");
+}

@@ -9,6 +9,7 @@ use std::sync::OnceLock;
 
 use glow::HasContext;
 
+use super::contract::REQUIRED_TEXTURE_UNITS;
 use super::egl::EglSession;
 use crate::error::{Error, Result};
 
@@ -16,6 +17,34 @@ use crate::error::{Error, Result};
 const MIN_GL: (u32, u32) = (2, 1);
 /// The passes write up to four output streams at once (one per colour attachment).
 const MIN_DRAW_BUFFERS: i32 = 4;
+/// The image size `info` checks the limits against: the default image (a scene without an
+/// `[image]` table). Larger renders are checked against the limits when they start.
+const CHECK_IMAGE: (u32, u32) = (640, 480);
+
+/// One capability check of [`GlInfo`]: what is checked, the value found, and the outcome.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Check {
+    /// What is needed, naming the GL version, extension or limit that provides it.
+    pub name: String,
+    /// What this context has (a version, a limit, or `yes`/`no`).
+    pub value: String,
+    /// Whether the context passes.
+    pub ok: bool,
+}
+
+impl Check {
+    fn new(name: impl Into<String>, value: impl fmt::Display, ok: bool) -> Self {
+        Check {
+            name: name.into(),
+            value: value.to_string(),
+            ok,
+        }
+    }
+
+    fn flag(name: impl Into<String>, ok: bool) -> Self {
+        Check::new(name, if ok { "yes" } else { "no" }, ok)
+    }
+}
 
 type PfnGetString = unsafe extern "system" fn(u32) -> *const u8;
 type PfnGetQueryObjectuiv = unsafe extern "system" fn(u32, u32, *mut u32);
@@ -147,6 +176,7 @@ pub(crate) fn effective_limit(value: i32, pick: impl Fn(&LimitProfile) -> i32) -
 ///
 /// Filled once when the context is created. `features` lists every *required* capability
 /// with its outcome; [`GlInfo::verdict`] turns the failures into one explanation.
+/// `optional` lists the capabilities only some options need.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GlInfo {
     /// How the EGL display was obtained (platform, device) and how the context was made current.
@@ -184,8 +214,11 @@ pub struct GlInfo {
     /// Every extension the context advertises.
     pub extensions: Vec<String>,
     /// Each required capability (human-readable, naming the GL version/extension that
-    /// provides it) and whether this context has it.
-    pub features: Vec<(String, bool)>,
+    /// provides it), the value found and whether this context has it.
+    pub features: Vec<Check>,
+    /// Each optional capability and the option that needs it: without one, only that
+    /// option is refused (or, for timer queries, per-pass times are left out).
+    pub optional: Vec<Check>,
 }
 
 impl GlInfo {
@@ -224,8 +257,8 @@ impl GlInfo {
         let missing: Vec<&str> = self
             .features
             .iter()
-            .filter(|(_, ok)| !ok)
-            .map(|(name, _)| name.as_str())
+            .filter(|c| !c.ok)
+            .map(|c| c.name.as_str())
             .collect();
         if missing.is_empty() {
             Ok(())
@@ -251,26 +284,74 @@ impl GlInfo {
         let fbo = gl >= (3, 0)
             || ext("GL_ARB_framebuffer_object")
             || (ext("GL_EXT_framebuffer_object") && fbo_entry_points);
+        let float_tex = gl >= (3, 0) || ext("GL_ARB_texture_float");
+        let (tw, th) = (self.max_texture_size, self.max_texture_size);
+        let (vw, vh) = self.max_viewport_dims;
+        let (iw, ih) = (tw.min(vw).max(0) as u32, th.min(vh).max(0) as u32);
+        // The mask buffer is a depth renderbuffer attached to the ray-state framebuffers
+        // (any FBO has depth attachments); the stencil mask needs it packed with stencil.
+        let packed =
+            gl >= (3, 0) || ext("GL_ARB_framebuffer_object") || ext("GL_EXT_packed_depth_stencil");
+        // Attachments of different formats in one framebuffer: EXT_framebuffer_object
+        // alone requires one format for all of them.
+        let mixed = (gl >= (3, 0) || ext("GL_ARB_framebuffer_object")) && float_tex;
         self.features = vec![
-            (format!("OpenGL >= {}.{}", MIN_GL.0, MIN_GL.1), gl >= MIN_GL),
-            ("GLSL >= 1.20 (#version 120)".to_string(), glsl_ok),
-            (
-                "float textures (OpenGL 3.0 or GL_ARB_texture_float)".to_string(),
-                gl >= (3, 0) || ext("GL_ARB_texture_float"),
+            Check::new(
+                format!("OpenGL >= {}.{}", MIN_GL.0, MIN_GL.1),
+                format!("{}.{}", gl.0, gl.1),
+                gl >= MIN_GL,
             ),
-            (
-                "framebuffer objects (OpenGL 3.0, GL_ARB_framebuffer_object or GL_EXT_framebuffer_object)"
-                    .to_string(),
+            Check::new("GLSL >= 1.20 (#version 120)", &self.glsl_version, glsl_ok),
+            Check::flag(
+                "float textures (OpenGL 3.0 or GL_ARB_texture_float)",
+                float_tex,
+            ),
+            Check::flag(
+                "framebuffer objects (OpenGL 3.0, GL_ARB_framebuffer_object or GL_EXT_framebuffer_object)",
                 fbo,
             ),
-            (
+            Check::new(
                 format!("draw buffers (OpenGL 2.0, GL_MAX_DRAW_BUFFERS >= {MIN_DRAW_BUFFERS})"),
+                self.max_draw_buffers,
                 gl >= (2, 0) && self.max_draw_buffers >= MIN_DRAW_BUFFERS,
             ),
-            (
-                "occlusion queries (OpenGL 1.5 or GL_ARB_occlusion_query, counter bits > 0)"
-                    .to_string(),
+            Check::new(
+                "occlusion queries (OpenGL 1.5 or GL_ARB_occlusion_query, counter bits > 0)",
+                format!("{} bits", self.occlusion_query_bits),
                 (gl >= (1, 5) || ext("GL_ARB_occlusion_query")) && self.occlusion_query_bits > 0,
+            ),
+            Check::new(
+                format!(
+                    "fragment texture units (GL_MAX_TEXTURE_IMAGE_UNITS >= {REQUIRED_TEXTURE_UNITS})"
+                ),
+                self.max_texture_units,
+                self.max_texture_units >= REQUIRED_TEXTURE_UNITS,
+            ),
+            Check::new(
+                format!(
+                    "image size (GL_MAX_TEXTURE_SIZE and GL_MAX_VIEWPORT_DIMS >= {}x{}, the default image)",
+                    CHECK_IMAGE.0, CHECK_IMAGE.1
+                ),
+                format!("up to {iw}x{ih}"),
+                iw >= CHECK_IMAGE.0 && ih >= CHECK_IMAGE.1,
+            ),
+        ];
+        self.optional = vec![
+            Check::flag(
+                "timer queries, for per-pass GPU times (OpenGL 3.3, GL_ARB_timer_query or GL_EXT_timer_query)",
+                self.timer_query,
+            ),
+            Check::flag(
+                "depth renderbuffer, for --mask early-z (framebuffer objects)",
+                fbo,
+            ),
+            Check::flag(
+                "packed depth-stencil renderbuffer, for --mask stencil (OpenGL 3.0, GL_ARB_framebuffer_object or GL_EXT_packed_depth_stencil)",
+                fbo && packed,
+            ),
+            Check::flag(
+                "mixed-format framebuffers (RGBA16F beside RGBA32F), for --storage f16 (OpenGL 3.0 or GL_ARB_framebuffer_object)",
+                mixed,
             ),
         ];
     }
@@ -278,7 +359,6 @@ impl GlInfo {
 
 impl fmt::Display for GlInfo {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let yes_no = |b: bool| if b { "yes" } else { "NO " };
         writeln!(f, "EGL platform:     {}", self.egl_platform)?;
         writeln!(f, "EGL vendor:       {}", self.egl_vendor)?;
         writeln!(f, "EGL version:      {}", self.egl_version)?;
@@ -311,16 +391,18 @@ impl fmt::Display for GlInfo {
             self.occlusion_query_bits
         )?;
         writeln!(f, "Extensions:       {} advertised", self.extensions.len())?;
-        writeln!(f, "Required features:")?;
-        for (name, ok) in &self.features {
-            writeln!(f, "  [{}] {}", yes_no(*ok), name)?;
+        // Each check on one line: outcome, what is checked, the value found. A missing
+        // optional capability reads "optional": it only refuses the option it names.
+        writeln!(f, "Required:")?;
+        for c in &self.features {
+            let status = if c.ok { "pass" } else { "FAIL" };
+            writeln!(f, "  [{status}] {}: {}", c.name, c.value)?;
         }
-        writeln!(f, "Optional features:")?;
-        writeln!(
-            f,
-            "  [{}] timer queries (OpenGL 3.3, GL_ARB_timer_query or GL_EXT_timer_query)",
-            yes_no(self.timer_query)
-        )?;
+        writeln!(f, "Optional:")?;
+        for c in &self.optional {
+            let status = if c.ok { "pass" } else { "optional" };
+            writeln!(f, "  [{status}] {}: {}", c.name, c.value)?;
+        }
         match self.verdict() {
             Ok(()) => write!(f, "Verdict: OK, the GPU backend can run on this context"),
             Err(reason) => write!(f, "Verdict: UNUSABLE, {reason}"),
@@ -412,6 +494,7 @@ pub(super) fn gather_info(
         timer_query: false,
         extensions,
         features: Vec::new(),
+        optional: Vec::new(),
     };
 
     // Mesa's eglGetProcAddress returns a dispatch stub for *any* gl* name, so whether a
@@ -479,6 +562,7 @@ mod tests {
                 "GL_ARB_framebuffer_object".into(),
             ],
             features: Vec::new(),
+            optional: Vec::new(),
         };
         info.compute_features(true);
         info
@@ -515,6 +599,35 @@ mod tests {
         assert!(reason.contains("draw buffers"), "{reason}");
         assert!(!reason.contains("occlusion"), "{reason}");
         assert!(old.to_string().contains("Verdict: UNUSABLE"));
+    }
+
+    #[test]
+    fn optional_checks_do_not_decide_the_verdict() {
+        let mut info = sample_info();
+        info.extensions = vec![
+            "GL_ARB_texture_float".into(),
+            "GL_EXT_framebuffer_object".into(),
+        ];
+        // EXT_framebuffer_object with core entry points: usable, but one format per
+        // framebuffer and no packed depth-stencil.
+        info.compute_features(true);
+        assert_eq!(info.verdict(), Ok(()));
+        let report = info.to_string();
+        for line in ["--mask stencil", "--storage f16", "timer queries"] {
+            let l = report.lines().find(|l| l.contains(line)).unwrap();
+            assert!(l.contains("[optional]") && l.ends_with(": no"), "{l}");
+        }
+        assert!(report.contains("[pass] depth renderbuffer"), "{report}");
+
+        info.max_texture_units = 8;
+        info.max_viewport_dims = (512, 4096);
+        info.compute_features(true);
+        let reason = info.verdict().unwrap_err();
+        assert!(reason.contains("texture units"), "{reason}");
+        assert!(reason.contains("image size"), "{reason}");
+        let report = info.to_string();
+        assert!(report.contains("[FAIL] fragment texture units"), "{report}");
+        assert!(report.contains(": up to 512x4096"), "{report}");
     }
 
     #[test]

@@ -278,20 +278,9 @@ impl Pass {
     }
 }
 
-/// Scene features that decide which shading code is compiled in.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Features {
-    /// Some triangle has vertex normals.
-    pub smooth_normals: bool,
-    /// Some material uses the procedural checker.
-    pub checker: bool,
-    /// Some material has a Phong highlight.
-    pub specular: bool,
-    /// Some material refracts.
-    pub refraction: bool,
-    /// Some material uses Fresnel weights.
-    pub fresnel: bool,
-}
+// The struct lives with the statistics that report it (`--stats` writes it as an object of
+// named booleans); the GL side decides it and turns it into defines here.
+pub use crate::output::Features;
 
 impl Features {
     /// What `scene` needs.

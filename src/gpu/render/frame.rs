@@ -157,7 +157,7 @@ impl<'a> Frame<'a> {
         stats.upload_bytes = layout.bytes();
 
         // Programs: only the passes this scene and depth use.
-        stats.features = format!("{features:?}");
+        stats.features = features;
         let t_c = Instant::now();
         let passes = passes_for(scene, levels, shading, opts.kernel);
         let programs = build_programs(

@@ -43,6 +43,19 @@ impl Frame<'_> {
                 if n == 0 {
                     return Ok(());
                 }
+                // The bound is judged here, where rays are known to be still active, and on
+                // the iterations every ray has had: a pass advances each ray by up to
+                // `per_pass` iterations (a looped pass runs a ray until it finishes or
+                // LOOP_MAX), so a ray still active after them has really run that many.
+                // Judged after each pass instead, one looped pass (1024 nominal iterations)
+                // overshot the bound of a small grid (304 for an empty scene) before any
+                // query could see that every ray had finished.
+                let iterations = passes * per_pass;
+                if iterations > self.max_iterations {
+                    return Err(Error::Internal(format!(
+                        "traversal did not terminate after {iterations} iterations"
+                    )));
+                }
                 synced = false;
             }
             self.set_mask_test(synced);
@@ -56,12 +69,6 @@ impl Frame<'_> {
             }
             synced = true;
             passes += 1;
-            if passes * per_pass > self.max_iterations {
-                return Err(Error::Internal(format!(
-                    "traversal did not terminate after {} iterations",
-                    passes * per_pass
-                )));
-            }
         }
     }
 

@@ -67,7 +67,7 @@ pub fn render_gl(
         ..req.gpu
     };
     let mut f = Frame::new(ctx, scene, grid, width, height, levels, true, gpu)?;
-    f.progress = Progress::spinner(req.progress);
+    f.progress = Progress::tree_bar(req.progress);
     let secondary = max_depth > 0 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
     let t_trace = Instant::now();
     // Clear the colour accumulator.
@@ -85,6 +85,7 @@ pub fn render_gl(
     let mut rays = RayCounts::default();
     let mut aov = None;
     for (k, &(ox, oy)) in offsets.iter().enumerate() {
+        f.progress.begin_sample(k, offsets.len());
         // Level-0 weight: 1/spp everywhere, and every pixel has a primary ray.
         let w = 1.0 / offsets.len() as f32;
         f.target(Slot::Rec2(0)).bind(f.gl());
@@ -103,6 +104,8 @@ pub fn render_gl(
             .stage(format!("sample {}/{}: primary rays", k + 1, offsets.len()));
         f.state_pass(Pass::RayGen)?;
         rays.primary += width as u64 * height as u64;
+        f.progress
+            .begin_node(node_traces(scene, 0, max_depth, secondary));
         f.trace(Query::Closest)?;
         if k == 0 {
             aov = Some(read_aov(&f, scene, width, height)?);
@@ -134,7 +137,35 @@ fn shade_node(
     rays: &mut RayCounts,
 ) -> Result<()> {
     f.accumulate(Pass::AccumAmbient, level)?;
+    let r = shade_children(f, scene, level, max_depth, secondary, rays);
+    // The node's share of the progress bar is done (or abandoned on an error).
+    f.progress.end_node();
+    r
+}
+
+/// How many equal parts a node's share of the progress bar is split into: its own rays,
+/// one shadow trace per light, and a reflected and a refracted subtree where the node may
+/// have children (the order `shade_node` runs them in).
+fn node_traces(scene: &Scene, level: usize, max_depth: u32, secondary: bool) -> u32 {
+    let children = if secondary && (level as u32) < max_depth {
+        2
+    } else {
+        0
+    };
+    1 + scene.lights.len() as u32 + children
+}
+
+/// The body of [`shade_node`]: the lights, then the children.
+fn shade_children(
+    f: &mut Frame,
+    scene: &Scene,
+    level: usize,
+    max_depth: u32,
+    secondary: bool,
+    rays: &mut RayCounts,
+) -> Result<()> {
     for light in &scene.lights {
+        f.progress.next_part();
         f.set_vec3(Pass::ShadowSpawn, "u_light_pos", light.position.to_array());
         f.set_vec3(Pass::AccumLight, "u_light_rad", light.radiance().to_array());
         f.bind_records(level);
@@ -151,6 +182,7 @@ fn shade_node(
         return Ok(());
     }
     for branch in [Branch::Reflect, Branch::Refract] {
+        f.progress.next_part();
         let child = level + 1;
         f.set_float(Pass::Weight, "u_branch", branch.uniform());
         f.set_float(Pass::Spawn, "u_branch", branch.uniform());
@@ -166,6 +198,8 @@ fn shade_node(
         f.bind_records(level);
         f.bind_node(child);
         f.state_pass(Pass::Spawn)?;
+        f.progress
+            .begin_node(node_traces(scene, child, max_depth, secondary));
         f.trace(Query::Closest)?;
         f.record(child)?;
         shade_node(f, scene, child, max_depth, secondary, rays)?;
