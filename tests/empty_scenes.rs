@@ -7,10 +7,12 @@
 //! because one looped pass counted as more iterations than the bound of a tiny grid. A
 //! two-triangle scene seen face on, which rays do traverse, checks the same on the kernels.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
+use common::with_test_context;
 use fragtrace::gpu::options::{Kernel, Mask};
-use fragtrace::gpu::with_test_context;
 use fragtrace::options::{Backend, Precision, RenderOptions};
 use fragtrace::output::AovPixel;
 use fragtrace::render::{render_cpu, render_gl_with, Rendered};
