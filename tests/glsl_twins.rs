@@ -112,6 +112,36 @@ impl Rng {
     }
 }
 
+/// Distance in units in the last place between two f32 (0 when equal, +0 and -0 equal);
+/// `u32::MAX` when either is NaN, so a NaN never passes a bound.
+fn ulps(a: f32, b: f32) -> u32 {
+    if a.is_nan() || b.is_nan() {
+        return u32::MAX;
+    }
+    // Map the sign-magnitude bit patterns onto one monotonic integer line.
+    let key = |x: f32| {
+        let i = x.to_bits() as i32;
+        if i < 0 {
+            i32::MIN.wrapping_sub(i) as i64
+        } else {
+            i as i64
+        }
+    };
+    (key(a) - key(b)).unsigned_abs().min(u32::MAX as u64) as u32
+}
+
+/// Barycentrics of the watertight test, GLSL vs CPU f32, in ulps. The same operations in
+/// the same order: measured bit-exact (0 ulps) on llvmpipe over the 4 x 720 hits below; the
+/// bound leaves room for a driver that contracts a*b+c into an fma. Adding 1e-7 to the
+/// GLSL's b2 (under one f32::EPSILON) made 268 of the 720 default-technique hits fail.
+const B_ULPS_WATERTIGHT: u32 = 4;
+
+/// Barycentrics of Möller–Trumbore, GLSL vs CPU f32, as |difference| / f32::EPSILON (an
+/// absolute bound: b0 = 1 - u - v cancels, so ulps of a small b0 say little). llvmpipe
+/// compiles GLSL's `cross`/`dot` to other roundings (order, fusing), so they differ: measured
+/// 9 x EPSILON at most; the bound is about 3.5 times that.
+const B_EPS_MOLLER_TRUMBORE: f32 = 32.0;
+
 #[test]
 fn intersect_glsl_equals_cpu_f32() {
     let seed = 0xfeed_beef_u64;
@@ -158,28 +188,47 @@ fn intersect_glsl_equals_cpu_f32() {
     ];
     for tech in settings {
         let got = with_test_context(|ctx| run_cases_grid(ctx, body, &cases, None, tech));
-        let (mut hits, mut mismatches) = (0, Vec::new());
+        let (mut hits, mut mismatches, mut max_b_ulps, mut max_b_abs) =
+            (0, Vec::new(), 0u32, 0.0f32);
         for (i, (c, g)) in cases.iter().zip(&got).enumerate() {
             let v = |t: [f32; 4]| V3::<f32>::new(t[0], t[1], t[2]);
             let tri = [v(c[2]), v(c[3]), v(c[4])];
             let (o, dir) = (v(c[0]), v(c[1]));
             let want = intersect_with(o, dir, &RayShear::new(dir), &tri, c[0][3], c[1][3], &tech);
+            // Every check is written so that a NaN fails it: `!(x <= bound)` is true for NaN.
             match want {
                 Some(h) => {
                     hits += 1;
-                    if !(g[0] > 0.0 && (g[0] - h.t).abs() <= 1e-5 * h.t.abs().max(1.0)) {
-                        mismatches.push(format!("case {i}: cpu t {} gpu {:?}", h.t, g));
+                    let t_ok = g[0] > 0.0 && (g[0] - h.t).abs() <= 1e-5 * h.t.abs().max(1.0);
+                    let b_ulps = (0..3).map(|k| ulps(g[k + 1], h.b[k])).fold(0u32, u32::max);
+                    // NaN-propagating max: f32::max would drop a NaN.
+                    let b_abs = (0..3)
+                        .map(|k| (g[k + 1] - h.b[k]).abs() / f32::EPSILON)
+                        .fold(0.0f32, |a, x| if a >= x { a } else { x });
+                    max_b_ulps = max_b_ulps.max(b_ulps);
+                    max_b_abs = if max_b_abs >= b_abs { max_b_abs } else { b_abs };
+                    let b_ok = match tech.intersect {
+                        IntersectMethod::Watertight => b_ulps <= B_ULPS_WATERTIGHT,
+                        IntersectMethod::MollerTrumbore => b_abs <= B_EPS_MOLLER_TRUMBORE,
+                    };
+                    if !t_ok || !b_ok {
+                        mismatches.push(format!(
+                            "case {i}: cpu t {} b {:?}, gpu {:?} ({b_ulps} ulps, {b_abs} eps)",
+                            h.t, h.b, g
+                        ));
                     }
                 }
                 None => {
-                    if g[0] > 0.0 {
+                    // A miss is exactly t = -1.0 (GLSL's miss value); NaN or any other
+                    // value is a mismatch.
+                    if g[0] != -1.0 {
                         mismatches.push(format!("case {i}: cpu miss, gpu {:?}", g));
                     }
                 }
             }
         }
         println!(
-            "{}: {hits} hits, {} mismatches",
+            "{}: {hits} hits, {} mismatches, barycentrics within {max_b_ulps} ulps, {max_b_abs} x f32::EPSILON",
             tech.tag(),
             mismatches.len()
         );
