@@ -1,5 +1,7 @@
 // raygen.frag: primary ray generation (pass 1 of the thesis).
-// Reads: uniforms u_eye, u_bl, u_br, u_tl, u_tr (window corners on the projection plane),
+// Reads: uniforms u_eye, u_bl, u_br, u_tl, u_tr (window corners on the projection plane,
+//        relative to the eye: computed in f64 on the host, so that a far eye does not round
+//        the directions to the f32 spacing at its coordinates),
 //        u_size (W, H), u_offset (sub-pixel sample position), grid uniforms.
 // Writes: s0 = (eye, INITIAL or INVALID when the ray misses the grid box),
 //         s1 = (direction, BIG), s2 = 0, s3 = (BIG, TRI_NONE, 0, 0).
@@ -19,7 +21,7 @@ void main() {
     float x = (gl_FragCoord.x - 0.5 + u_offset.x) / u_size.x;
     float y = (gl_FragCoord.y + 0.5 - u_offset.y) / u_size.y;
     vec3 p = mix(mix(u_bl, u_br, x), mix(u_tl, u_tr, x), y);
-    vec3 d = normalize(p - u_eye);
+    vec3 d = normalize(p);
     vec2 span = clip_grid(u_eye, d, 0.0, BIG);
     float state = span.x > span.y ? ST_INVALID : ST_INITIAL;
     gl_FragData[0] = S0_TEXEL(u_eye, state);

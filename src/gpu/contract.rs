@@ -240,11 +240,13 @@ pub mod mat {
     pub const CHECKER_AXES: Field = Field::new(5, 3, 1, "checker_axes");
     /// m6.x: 1 when reflection and refraction use Fresnel weights.
     pub const FRESNEL: Field = Field::new(6, 0, 1, "fresnel");
-    /// m6.yzw: unused, zero.
-    pub const PAD: Field = Field::new(6, 1, 3, "pad");
+    /// m6.yz: checker phase ([`Checker::phase`](crate::scene::Checker::phase)).
+    pub const CHECKER_PHASE: Field = Field::new(6, 1, 2, "checker_phase");
+    /// m6.w: unused, zero.
+    pub const PAD: Field = Field::new(6, 3, 1, "pad");
 
     /// Every field, texel by texel.
-    pub const ALL: [Field; 14] = [
+    pub const ALL: [Field; 15] = [
         ALBEDO,
         KA,
         KS,
@@ -258,6 +260,7 @@ pub mod mat {
         CHECKER_B,
         CHECKER_AXES,
         FRESNEL,
+        CHECKER_PHASE,
         PAD,
     ];
 

@@ -78,10 +78,13 @@ pub fn render_gl(
         f.gl().clear(glow::COLOR_BUFFER_BIT);
     }
     let offsets = camera::sample_offsets(spp);
+    // Relative to the eye in f64: absolute f32 corners far from the origin would round the
+    // primary directions to the f32 spacing at the eye.
+    let eye = scene.camera.eye.as_dvec3();
     let corners = scene
         .camera
         .window_corners(width, height)
-        .map(|c| c.as_vec3().to_array());
+        .map(|c| (c - eye).as_vec3().to_array());
     let mut rays = RayCounts::default();
     let mut aov = None;
     for (k, &(ox, oy)) in offsets.iter().enumerate() {
