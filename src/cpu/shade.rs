@@ -124,7 +124,10 @@ pub fn albedo<T: Real>(m: &Material, p: V3<T>) -> V3<T> {
         Some(c) => {
             let (a, b) = c.axes.indices();
             let inv = T::ONE / T::from_f32(c.scale);
-            let (u, v) = (p[a] + T::from_f32(c.phase[0]), p[b] + T::from_f32(c.phase[1]));
+            let (u, v) = (
+                p[a] + T::from_f32(c.phase[0]),
+                p[b] + T::from_f32(c.phase[1]),
+            );
             let s = (u * inv).floor() + (v * inv).floor();
             let half = s * T::from_f32(0.5);
             if half.floor() == half {
