@@ -228,6 +228,11 @@ impl Scene {
         (self.triangles.len() - 1) as u32
     }
 
+    /// World position of a stored (local) position: `p + origin`, in f64.
+    pub fn world(&self, p: Vec3) -> DVec3 {
+        p.as_dvec3() + self.origin
+    }
+
     /// The three vertex positions of triangle `i`.
     pub fn triangle_vertices(&self, i: usize) -> [Vec3; 3] {
         let t = &self.triangles[i];
