@@ -38,7 +38,8 @@ pub enum Unit {
     Rec1,
     /// Hit record r2 (weight, exists), as `u_r2` or `u_p2`.
     Rec2,
-    /// The weight record of the ray-tree node being spawned or counted (`u_c2`).
+    /// The weight record of the ray-tree node being spawned or counted (`u_c2`); in the
+    /// ray-generation pass, which reads no record, the primary directions (`u_dir`).
     Node,
     /// Colour accumulated so far (`u_acc`).
     Acc,
@@ -104,7 +105,7 @@ impl Unit {
             Unit::Rec0 => &["u_r0", "u_p0"],
             Unit::Rec1 => &["u_r1", "u_p1"],
             Unit::Rec2 => &["u_r2", "u_p2"],
-            Unit::Node => &["u_c2"],
+            Unit::Node => &["u_c2", "u_dir"],
             Unit::Acc => &["u_acc"],
         }
     }
