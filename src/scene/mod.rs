@@ -121,7 +121,7 @@ impl Material {
 /// A point light with no distance attenuation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Light {
-    /// World-space position.
+    /// Position, relative to [`Scene::origin`].
     pub position: Vec3,
     /// Colour (linear RGB).
     pub color: Vec3,
@@ -155,7 +155,7 @@ impl Triangle {
     }
 }
 
-/// A complete, renderable scene in world space.
+/// A complete, renderable scene, stored relative to its local origin.
 #[derive(Clone, Debug)]
 pub struct Scene {
     /// Where the scene came from (file path or `<builtin>`), for messages and stats.
@@ -174,9 +174,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Maximum number of reflection/refraction bounces.
     pub max_depth: u32,
-    /// World-space vertex positions.
+    /// Vertex positions, relative to [`Scene::origin`].
     pub positions: Vec<Vec3>,
-    /// World-space unit vertex normals.
+    /// Unit vertex normals (directions: the same in world and local space).
     pub normals: Vec<Vec3>,
     /// Triangles in load order (their index is the primitive id).
     pub triangles: Vec<Triangle>,
