@@ -71,6 +71,7 @@ vec3 albedo_at(float mat, vec3 p) {
         // axes code: 0 = xy, 1 = xz, 2 = yz
         float axes = cb.M5_CHECKER_AXES;
         vec2 uv = axes < 0.5 ? p.xy : (axes < 1.5 ? p.xz : p.yz);
+        uv += mat_texel(mat, M6_SLOT).M6_CHECKER_PHASE;
         float inv = 1.0 / ca.M4_CHECKER_SCALE;
         float s = floor(uv.x * inv) + floor(uv.y * inv);
         float half_s = s * 0.5;

@@ -224,10 +224,12 @@ fn every_technique_renders_finite_images() {
                     assert!(d.max <= 1e-4, "{what}: {}", d.max);
                 } else if tech == no_t_bound() {
                     // Acne: lit surfaces shadow themselves, so pixels only get darker, and
-                    // many do (measured 0 brighter; 542..554 of 3072, 18%, by > 1e-2).
+                    // many do (measured 0 brighter; 84..111 of 3072, 2.7..3.6%, by > 1e-2;
+                    // 18% before scenes were stored relative to the camera eye, whose
+                    // smaller coordinates leave less rounding to shadow a surface).
                     assert_eq!(d.brighter, 0, "{what}");
                     let share = d.above_1e2 as f64 / pixels;
-                    assert!((0.10..=0.25).contains(&share), "{what}: {share}");
+                    assert!((0.01..=0.10).contains(&share), "{what}: {share}");
                 } else {
                     // Spawned rays start 1e-4 along the normal instead of the error bound:
                     // small shifts of what they see (measured 7 pixels by > 1e-3, max 0.033).

@@ -124,7 +124,11 @@ pub fn albedo<T: Real>(m: &Material, p: V3<T>) -> V3<T> {
         Some(c) => {
             let (a, b) = c.axes.indices();
             let inv = T::ONE / T::from_f32(c.scale);
-            let s = (p[a] * inv).floor() + (p[b] * inv).floor();
+            let (u, v) = (
+                p[a] + T::from_f32(c.phase[0]),
+                p[b] + T::from_f32(c.phase[1]),
+            );
+            let s = (u * inv).floor() + (v * inv).floor();
             let half = s * T::from_f32(0.5);
             if half.floor() == half {
                 V3::from_vec3(c.color_a)

@@ -38,7 +38,8 @@ pub enum Unit {
     Rec1,
     /// Hit record r2 (weight, exists), as `u_r2` or `u_p2`.
     Rec2,
-    /// The weight record of the ray-tree node being spawned or counted (`u_c2`).
+    /// The weight record of the ray-tree node being spawned or counted (`u_c2`); in the
+    /// ray-generation pass, which reads no record, the primary directions (`u_dir`).
     Node,
     /// Colour accumulated so far (`u_acc`).
     Acc,
@@ -104,7 +105,7 @@ impl Unit {
             Unit::Rec0 => &["u_r0", "u_p0"],
             Unit::Rec1 => &["u_r1", "u_p1"],
             Unit::Rec2 => &["u_r2", "u_p2"],
-            Unit::Node => &["u_c2"],
+            Unit::Node => &["u_c2", "u_dir"],
             Unit::Acc => &["u_acc"],
         }
     }
@@ -240,11 +241,13 @@ pub mod mat {
     pub const CHECKER_AXES: Field = Field::new(5, 3, 1, "checker_axes");
     /// m6.x: 1 when reflection and refraction use Fresnel weights.
     pub const FRESNEL: Field = Field::new(6, 0, 1, "fresnel");
-    /// m6.yzw: unused, zero.
-    pub const PAD: Field = Field::new(6, 1, 3, "pad");
+    /// m6.yz: checker phase ([`Checker::phase`](crate::scene::Checker::phase)).
+    pub const CHECKER_PHASE: Field = Field::new(6, 1, 2, "checker_phase");
+    /// m6.w: unused, zero.
+    pub const PAD: Field = Field::new(6, 3, 1, "pad");
 
     /// Every field, texel by texel.
-    pub const ALL: [Field; 14] = [
+    pub const ALL: [Field; 15] = [
         ALBEDO,
         KA,
         KS,
@@ -258,6 +261,7 @@ pub mod mat {
         CHECKER_B,
         CHECKER_AXES,
         FRESNEL,
+        CHECKER_PHASE,
         PAD,
     ];
 

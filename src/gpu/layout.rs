@@ -167,9 +167,9 @@ impl SceneTextures {
         }
         let mut mat = vec![[0f32; 4]; scene.materials.len() * MAT_TEXELS as usize];
         for (i, m) in scene.materials.iter().enumerate() {
-            let (ca, cb, scale, axes) = match &m.checker {
-                Some(c) => (c.color_a, c.color_b, c.scale, axes_code(c.axes)),
-                None => (glam::Vec3::ZERO, glam::Vec3::ZERO, 0.0, 0.0),
+            let (ca, cb, scale, axes, phase) = match &m.checker {
+                Some(c) => (c.color_a, c.color_b, c.scale, axes_code(c.axes), c.phase),
+                None => (glam::Vec3::ZERO, glam::Vec3::ZERO, 0.0, 0.0, [0.0; 2]),
             };
             let texels = &mut mat[i * MAT_TEXELS as usize..][..MAT_TEXELS as usize];
             let mut put = |f: Field, v: &[f32]| {
@@ -188,6 +188,7 @@ impl SceneTextures {
             put(slot::CHECKER_B, &cb.to_array());
             put(slot::CHECKER_AXES, &[axes]);
             put(slot::FRESNEL, &[if m.fresnel { 1.0 } else { 0.0 }]);
+            put(slot::CHECKER_PHASE, &phase);
         }
         let cell = grid
             .cells

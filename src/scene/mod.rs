@@ -1,6 +1,7 @@
-//! Scene model: what the renderers see. Everything is triangles in world space (f32, the
-//! precision the GPU stores), with per-triangle material indices and optional vertex
-//! normals. Loaders (`toml_scene`, `obj`, `shapes`) produce a [`Scene`]; renderers never see
+//! Scene model: what the renderers see. Everything is triangles in f32 (the precision the
+//! GPU stores), with per-triangle material indices and optional vertex normals. Positions,
+//! lights and the camera are stored relative to a local origin ([`Scene::origin`], kept in
+//! f64), so that a scene far from the world origin keeps the f32 precision it has near it. Loaders (`toml_scene`, `obj`, `shapes`) produce a [`Scene`]; renderers never see
 //! files, transforms or analytic shapes.
 
 pub mod camera;
@@ -8,7 +9,7 @@ pub mod obj;
 pub mod shapes;
 pub mod toml_scene;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 pub use camera::Camera;
 pub use obj::{load_obj, parse_obj_with_mtl, ObjMesh};
@@ -54,6 +55,10 @@ pub struct Checker {
     pub scale: f32,
     /// The world axes the squares lie in.
     pub axes: CheckerAxes,
+    /// Added to the two local coordinates before the squares are counted: the scene's
+    /// local origin along those axes, reduced modulo two squares in f64, so that the pattern
+    /// stays where it is in world space (zero when the origin is).
+    pub phase: [f32; 2],
 }
 
 /// Surface description for the Whitted model
@@ -116,7 +121,7 @@ impl Material {
 /// A point light with no distance attenuation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Light {
-    /// World-space position.
+    /// Position, relative to [`Scene::origin`].
     pub position: Vec3,
     /// Colour (linear RGB).
     pub color: Vec3,
@@ -150,7 +155,7 @@ impl Triangle {
     }
 }
 
-/// A complete, renderable scene in world space.
+/// A complete, renderable scene, stored relative to its local origin.
 #[derive(Clone, Debug)]
 pub struct Scene {
     /// Where the scene came from (file path or `<builtin>`), for messages and stats.
@@ -169,14 +174,20 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Maximum number of reflection/refraction bounces.
     pub max_depth: u32,
-    /// World-space vertex positions.
+    /// Vertex positions, relative to [`Scene::origin`].
     pub positions: Vec<Vec3>,
-    /// World-space unit vertex normals.
+    /// Unit vertex normals (directions: the same in world and local space).
     pub normals: Vec<Vec3>,
     /// Triangles in load order (their index is the primitive id).
     pub triangles: Vec<Triangle>,
     /// Materials referenced by the triangles.
     pub materials: Vec<Material>,
+    /// World position of the local origin: every position above (vertices, lights, camera
+    /// eye and target) is `world - origin`, subtracted in f64 before rounding to f32. Zero
+    /// for scenes built in code; the TOML loader puts it at the camera eye (see
+    /// `toml_scene::build`). Depths, normals and primitive ids do not depend on it; anything
+    /// that reports a world position adds it back.
+    pub origin: DVec3,
 }
 
 impl Scene {
@@ -195,6 +206,7 @@ impl Scene {
             normals: Vec::new(),
             triangles: Vec::new(),
             materials: Vec::new(),
+            origin: DVec3::ZERO,
         }
     }
 
@@ -214,6 +226,11 @@ impl Scene {
             material,
         });
         (self.triangles.len() - 1) as u32
+    }
+
+    /// World position of a stored (local) position: `p + origin`, in f64.
+    pub fn world(&self, p: Vec3) -> DVec3 {
+        p.as_dvec3() + self.origin
     }
 
     /// The three vertex positions of triangle `i`.

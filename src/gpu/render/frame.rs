@@ -255,13 +255,6 @@ impl<'a> Frame<'a> {
         unsafe { self.gl().uniform_3_f32(loc.as_ref(), v[0], v[1], v[2]) };
     }
 
-    /// As [`Frame::set_vec3`], for a `vec2`.
-    pub(super) fn set_vec2(&self, pass: Pass, name: &str, v: [f32; 2]) {
-        let loc = self.uniform(pass, name);
-        // SAFETY: as in `set_vec3`.
-        unsafe { self.gl().uniform_2_f32(loc.as_ref(), v[0], v[1]) };
-    }
-
     /// As [`Frame::set_vec3`], for a `float`.
     pub(super) fn set_float(&self, pass: Pass, name: &str, v: f32) {
         let loc = self.uniform(pass, name);

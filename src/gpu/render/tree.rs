@@ -7,11 +7,13 @@ use std::time::Instant;
 
 use glow::HasContext;
 
-use super::frame::{Frame, Slot};
+use super::frame::{bind_texture, Frame, Slot};
 use super::readback::{flip_rgba_to_rgb, read_aov};
 use super::{GpuOutput, ImageRequest};
 use crate::accel::Grid;
 use crate::gpu::context::GlContext;
+use crate::gpu::contract::Unit;
+use crate::gpu::gl::Texture;
 use crate::gpu::options::GpuOptions;
 use crate::gpu::shader::{Count, Pass, Query};
 use crate::image_io::Image;
@@ -78,10 +80,6 @@ pub fn render_gl(
         f.gl().clear(glow::COLOR_BUFFER_BIT);
     }
     let offsets = camera::sample_offsets(spp);
-    let corners = scene
-        .camera
-        .window_corners(width, height)
-        .map(|c| c.as_vec3().to_array());
     let mut rays = RayCounts::default();
     let mut aov = None;
     for (k, &(ox, oy)) in offsets.iter().enumerate() {
@@ -95,11 +93,24 @@ pub fn render_gl(
             f.gl().clear(glow::COLOR_BUFFER_BIT);
         }
         f.set_vec3(Pass::RayGen, "u_eye", scene.camera.eye.to_array());
-        f.set_vec3(Pass::RayGen, "u_bl", corners[0]);
-        f.set_vec3(Pass::RayGen, "u_br", corners[1]);
-        f.set_vec3(Pass::RayGen, "u_tr", corners[2]);
-        f.set_vec3(Pass::RayGen, "u_tl", corners[3]);
-        f.set_vec2(Pass::RayGen, "u_offset", [ox as f32, oy as f32]);
+        // The primary directions, computed on the host in f64 by the camera's formula and
+        // rounded to f32: bit for bit the directions the f32 CPU traces. Interpolating
+        // window corners in f32 on the GPU instead picks the other side of an exact tie (a
+        // ray through the edge where two walls meet) on some pixels, and with absolute
+        // corners far from the origin rounds every direction to the spacing at the eye.
+        let mut dirs = Vec::with_capacity(width as usize * height as usize * 4);
+        for row in 0..height {
+            let j = height - 1 - row; // GL rows run from the bottom
+            for i in 0..width {
+                let d = scene
+                    .camera
+                    .direction_at(width, height, i as f64 + ox, j as f64 + oy)
+                    .as_vec3();
+                dirs.extend([d.x, d.y, d.z, 0.0]);
+            }
+        }
+        let dir_tex = Texture::new_f32(f.ctx, width, height, Some(&dirs))?;
+        bind_texture(f.gl(), Unit::Node, &dir_tex);
         f.progress
             .stage(format!("sample {}/{}: primary rays", k + 1, offsets.len()));
         f.state_pass(Pass::RayGen)?;

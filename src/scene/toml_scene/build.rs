@@ -1,6 +1,10 @@
 //! Turning a parsed [`SceneDef`] into a [`Scene`]: range checks with file/line/field errors,
 //! named and inline materials, analytic shapes, OBJ meshes (resolved against the scene's
 //! folder and the search path, loaded once per file) and their placement transforms.
+//!
+//! Positions are kept in f64 world space (the placement is f64) until the scene is complete;
+//! then the local origin is subtracted, still in f64, and only the difference is rounded to
+//! f32 ([`local_origin`] says where the origin goes and why).
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -37,6 +41,7 @@ pub(super) fn build_scene(
             up: Vec3::Y,
             vfov_deg: 45.0,
         }),
+        world: World::default(),
         named: HashMap::new(),
         default_material: None,
         meshes: HashMap::new(),
@@ -112,16 +117,25 @@ impl Placement {
         }
     }
 
+    #[cfg(test)]
     pub(super) fn point(&self, p: Vec3) -> Vec3 {
-        (self.linear * p.as_dvec3() + self.translate).as_vec3()
+        self.point_f64(p).as_vec3()
     }
 
-    /// Transforms geometry in place. A mirroring transform (negative determinant) would turn
-    /// triangles inside out, so their winding is reversed to keep geometric normals outward.
-    fn apply(&self, g: &mut Geometry) {
+    /// [`Placement::point`] before rounding: the world position in f64.
+    fn point_f64(&self, p: Vec3) -> DVec3 {
+        self.linear * p.as_dvec3() + self.translate
+    }
+
+    /// Transforms geometry in place (positions rounded to f32, for the finiteness check)
+    /// and returns the world positions in f64. A mirroring transform (negative determinant)
+    /// would turn triangles inside out, so their winding is reversed to keep geometric
+    /// normals outward.
+    fn apply(&self, g: &mut Geometry) -> Vec<DVec3> {
         let normal_matrix = self.linear.inverse().transpose();
-        for p in &mut g.positions {
-            *p = self.point(*p);
+        let world: Vec<DVec3> = g.positions.iter().map(|&p| self.point_f64(p)).collect();
+        for (p, w) in g.positions.iter_mut().zip(&world) {
+            *p = w.as_vec3();
         }
         for n in &mut g.normals {
             // Unit input and a non-singular matrix give a non-zero result.
@@ -133,7 +147,39 @@ impl Placement {
                 t.n.swap(1, 2);
             }
         }
+        world
     }
+}
+
+/// World positions in f64, parallel to the scene's f32 ones until [`Builder::localise`].
+#[derive(Default)]
+struct World {
+    eye: DVec3,
+    look_at: DVec3,
+    lights: Vec<DVec3>,
+    positions: Vec<DVec3>,
+}
+
+/// The local origin of a scene: its camera eye.
+///
+/// Measured against the scene's bounding-box centre on tests/far_from_origin.rs
+/// (docs/robustness.md): both keep a scene translated by up to 1e6 or scaled by 1e-4..1e4
+/// identical to the untranslated one, but a large object far behind the camera moves the
+/// centre away from the view and costs the visible objects their precision (lit/shadowed
+/// flips against f64), while the eye does not. The eye is chosen because the f32
+/// error it leaves grows with the distance from the eye, as the footprint of a pixel does:
+/// geometry near the camera, which covers the most pixels per unit of area, gets the finest
+/// spacing, and primary rays start exactly at zero. The centre instead spends precision
+/// evenly over the scene and leaves a camera near the edge of a large scene (a stadium,
+/// a city) with the coarse spacing of the scene's radius right in front of it.
+fn local_origin(world: &World) -> DVec3 {
+    world.eye
+}
+
+/// `[x, y, z]` of a TOML triple in f64 (its range is checked by `Ctx::vec3`).
+fn triple_f64(v: &S<super::schema::Triple>) -> DVec3 {
+    let a = v.get_ref();
+    DVec3::new(a[0], a[1], a[2])
 }
 
 /// A loaded mesh and the resolved path it is cached under.
@@ -144,6 +190,8 @@ struct Builder<'a> {
     /// The scene's folder and the mesh search path; `None` when no file may be read.
     files: Option<(&'a Path, &'a [PathBuf])>,
     scene: Scene,
+    /// World positions in f64, before the local origin is subtracted.
+    world: World,
     /// Named material → index in `scene.materials`.
     named: HashMap<String, u32>,
     default_material: Option<u32>,
@@ -184,8 +232,10 @@ impl Builder<'_> {
                 }
                 None => 1.0,
             };
+            let position = ctx.vec3(&l.get_ref().position, &format!("{f}.position"))?;
+            self.world.lights.push(triple_f64(&l.get_ref().position));
             self.scene.lights.push(Light {
-                position: ctx.vec3(&l.get_ref().position, &format!("{f}.position"))?,
+                position,
                 color: ctx.opt_color(&l.get_ref().color, &format!("{f}.color"), Vec3::ONE)?,
                 intensity,
             });
@@ -200,7 +250,36 @@ impl Builder<'_> {
         for (i, o) in def.objects.iter().enumerate() {
             self.object(i, o)?;
         }
+        self.localise();
         Ok(())
+    }
+
+    /// Moves the scene to its local origin: subtracts it from every world position in f64,
+    /// rounds the differences to f32 and gives each checker the phase that keeps its squares
+    /// in place.
+    fn localise(&mut self) {
+        let o = local_origin(&self.world);
+        let s = &mut self.scene;
+        s.origin = o;
+        let local = |p: DVec3| (p - o).as_vec3();
+        s.camera.eye = local(self.world.eye);
+        s.camera.look_at = local(self.world.look_at);
+        for (l, &w) in s.lights.iter_mut().zip(&self.world.lights) {
+            l.position = local(w);
+        }
+        for (p, &w) in s.positions.iter_mut().zip(&self.world.positions) {
+            *p = local(w);
+        }
+        for m in &mut s.materials {
+            if let Some(c) = &mut m.checker {
+                let (a, b) = c.axes.indices();
+                let period = 2.0 * c.scale as f64;
+                c.phase = [
+                    o[a].rem_euclid(period) as f32,
+                    o[b].rem_euclid(period) as f32,
+                ];
+            }
+        }
     }
 
     fn camera(&mut self, c: &S<CameraDef>) -> Result<()> {
@@ -256,6 +335,8 @@ impl Builder<'_> {
         // Camera::check is the renderers' contract; keep it authoritative.
         cam.check().map_err(|m| ctx.err(c.span(), "camera", m))?;
         self.scene.camera = cam;
+        self.world.eye = triple_f64(&d.eye);
+        self.world.look_at = triple_f64(&d.look_at);
         Ok(())
     }
 
@@ -280,6 +361,7 @@ impl Builder<'_> {
                         None => 1.0,
                     },
                     axes: c.axes.unwrap_or(CheckerAxes::Xz),
+                    phase: [0.0; 2],
                 })
             }
             None => None,
@@ -428,11 +510,16 @@ impl Builder<'_> {
             None => DVec3::ZERO,
         };
         let translate = match &d.translate {
-            Some(t) => ctx.vec3(t, &f("translate"))?.as_dvec3(),
+            // f64 as written: a far translation keeps its digits until the local origin is
+            // subtracted.
+            Some(t) => {
+                ctx.vec3(t, &f("translate"))?;
+                triple_f64(t)
+            }
             None => DVec3::ZERO,
         };
         let placement = Placement::new(scale, rotate, translate);
-        placement.apply(&mut geometry);
+        let world = placement.apply(&mut geometry);
         if let Some(p) = geometry.positions.iter().find(|p| !p.is_finite()) {
             return Err(ctx.err(
                 o.span(),
@@ -469,7 +556,9 @@ impl Builder<'_> {
                 Box::new(move |_| idx)
             }
         };
-        self.append(geometry, &*material_map, o.span(), i)
+        self.append(geometry, &*material_map, o.span(), i)?;
+        self.world.positions.extend(world);
+        Ok(())
     }
 
     fn shape(

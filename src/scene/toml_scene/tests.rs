@@ -151,7 +151,7 @@ fn shipped_scenes_have_the_promised_content() {
     assert!(cornell
         .lights
         .iter()
-        .all(|l| l.position.y < 1.98 && l.position.y > 1.5));
+        .all(|l| cornell.world(l.position).y < 1.98 && cornell.world(l.position).y > 1.5));
     let stadium = load("stadium.toml");
     let (lo, hi) = stadium.bounds().unwrap();
     assert!((hi - lo).max_element() > 100.0, "stadium must be huge");
@@ -472,6 +472,8 @@ fn transforms_place_vertices_and_normals() {
     // A box scaled, rotated 90° about Y (x -> -z), then translated.
     let s = load(&format!("{CAM}[[objects]]\nshape = \"box\"\nscale = [2, 4, 6]\nrotate = [0, 90, 0]\ntranslate = [10, 20, 30]\n")).unwrap();
     let (lo, hi) = s.bounds().unwrap();
+    // Stored relative to the local origin (the eye); world = stored + origin.
+    let (lo, hi) = (s.world(lo).as_vec3(), s.world(hi).as_vec3());
     assert!(lo.abs_diff_eq(Vec3::new(7.0, 18.0, 29.0), 1e-5), "{lo}");
     assert!(hi.abs_diff_eq(Vec3::new(13.0, 22.0, 31.0), 1e-5), "{hi}");
 
@@ -501,7 +503,7 @@ fn transforms_place_vertices_and_normals() {
     .inverse();
     for t in &s.triangles {
         for k in 0..3 {
-            let p = s.positions[t.v[k] as usize].as_dvec3();
+            let p = s.world(s.positions[t.v[k] as usize]);
             let n = s.normals[t.n[k] as usize].as_dvec3();
             assert!((n.length() - 1.0).abs() < 1e-6);
             // Ellipsoid |inv·p| = 1 has gradient invᵀ·inv·p.
@@ -518,7 +520,7 @@ fn transforms_place_vertices_and_normals() {
 fn mirroring_scale_keeps_winding_outward() {
     let s = load(&format!("{CAM}[[objects]]\nshape = \"box\"\nscale = [-1, 1, 1]\n[[objects]]\nshape = \"sphere\"\nsubdivisions = 1\nscale = [1, -2, 1]\n")).unwrap();
     for (i, t) in s.triangles.iter().enumerate() {
-        let [a, b, c] = [0, 1, 2].map(|k| s.positions[t.v[k] as usize]);
+        let [a, b, c] = [0, 1, 2].map(|k| s.world(s.positions[t.v[k] as usize]).as_vec3());
         let g = (b - a).cross(c - a);
         let centroid = (a + b + c) / 3.0;
         assert!(g.dot(centroid) > 0.0, "triangle {i} turned inside out");
@@ -534,7 +536,7 @@ fn quad_and_sphere_sizes() {
     let quad_pts: Vec<Vec3> = s.triangles[..2]
         .iter()
         .flat_map(|t| t.v)
-        .map(|v| s.positions[v as usize])
+        .map(|v| s.world(s.positions[v as usize]).as_vec3())
         .collect();
     let lo = quad_pts.iter().copied().reduce(Vec3::min).unwrap();
     let hi = quad_pts.iter().copied().reduce(Vec3::max).unwrap();
@@ -544,7 +546,7 @@ fn quad_and_sphere_sizes() {
     );
     for t in &s.triangles[2..] {
         for &v in &t.v {
-            assert!((s.positions[v as usize].length() - 0.5).abs() < 1e-6);
+            assert!((s.world(s.positions[v as usize]).length() - 0.5).abs() < 1e-6);
         }
     }
     assert_eq!(s.triangles.len(), 2 + 20);
