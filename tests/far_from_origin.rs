@@ -21,7 +21,9 @@
 //! After (local origin at the camera eye, GL directions relative to the eye): every
 //! variant 100% / 0 flips on every backend (see docs/robustness.md).
 
-use fragtrace::gpu::with_test_context;
+mod common;
+
+use common::with_test_context;
 use fragtrace::options::{Backend, Precision, RenderOptions};
 use fragtrace::render::{render_cpu, render_gl_with, Rendered};
 use fragtrace::scene::{load_scene_str, Scene};

@@ -30,6 +30,8 @@ fn shading_scene() -> Scene {
             color_b: Vec3::new(0.1, 0.3, 0.8),
             scale: 0.25,
             axes: CheckerAxes::Xz,
+            // Non-zero, so the phase (a scene's local origin, folded) is part of the twin.
+            phase: [0.125, 0.3],
         }),
         ..Material::default()
     });
