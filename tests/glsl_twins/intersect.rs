@@ -21,6 +21,11 @@ const B_ULPS_WATERTIGHT: u32 = 4;
 /// 9 x EPSILON at most; the bound is about 3.5 times that.
 const B_EPS_MOLLER_TRUMBORE: f32 = 32.0;
 
+/// Barycentrics of both tests on a driver that contracts into fmas ([`exact_driver`] false),
+/// as |difference| / f32::EPSILON. Measured on the H200: 48.5 (watertight), 62.5
+/// (Moller-Trumbore); about 2x.
+const B_EPS_CONTRACTING: f32 = 128.0;
+
 #[test]
 fn intersect_glsl_equals_cpu_f32() {
     let seed = 0xfeed_beef_u64;
@@ -66,7 +71,12 @@ fn intersect_glsl_equals_cpu_f32() {
             .with_t_bound(TBound::Off),
     ];
     for tech in settings {
-        let got = with_test_context(|ctx| run_cases_grid(ctx, body, &cases, None, tech));
+        let (got, exact) = with_test_context(|ctx| {
+            (
+                run_cases_grid(ctx, body, &cases, None, tech),
+                exact_driver(ctx),
+            )
+        });
         let (mut hits, mut mismatches, mut max_b_ulps, mut max_b_abs) =
             (0, Vec::new(), 0u32, 0.0f32);
         for (i, (c, g)) in cases.iter().zip(&got).enumerate() {
@@ -86,9 +96,10 @@ fn intersect_glsl_equals_cpu_f32() {
                         .fold(0.0f32, |a, x| if a >= x { a } else { x });
                     max_b_ulps = max_b_ulps.max(b_ulps);
                     max_b_abs = if max_b_abs >= b_abs { max_b_abs } else { b_abs };
-                    let b_ok = match tech.intersect {
-                        IntersectMethod::Watertight => b_ulps <= B_ULPS_WATERTIGHT,
-                        IntersectMethod::MollerTrumbore => b_abs <= B_EPS_MOLLER_TRUMBORE,
+                    let b_ok = match (exact, tech.intersect) {
+                        (true, IntersectMethod::Watertight) => b_ulps <= B_ULPS_WATERTIGHT,
+                        (true, IntersectMethod::MollerTrumbore) => b_abs <= B_EPS_MOLLER_TRUMBORE,
+                        (false, _) => b_abs <= B_EPS_CONTRACTING,
                     };
                     if !t_ok || !b_ok {
                         mismatches.push(format!(

@@ -178,6 +178,9 @@ void main() {
 /// breaks in shade.glsl fail: total internal reflection keeping kr instead of kr + kt, 88 of
 /// the 1024 cases; the Fresnel average times 0.45 instead of 0.5, 180.
 const SHADE_EPS_SURFACE: f32 = 4.0;
+/// The surface bound on a driver that contracts into fmas ([`exact_driver`] false).
+/// Measured on the H200: 40.6 (secondary 13 and light 5.75 stay within the bounds above).
+const SHADE_EPS_SURFACE_CONTRACTING: f32 = 128.0;
 const SHADE_EPS_SECONDARY: f32 = 32.0;
 const SHADE_EPS_LIGHT: f32 = 16.0;
 
@@ -212,7 +215,7 @@ fn shading_glsl_equals_cpu_f32() {
         ("u_in3", &in3[..]),
     ];
     let tech = Techniques::default();
-    let (surf, sec) = with_test_context(|ctx| {
+    let (surf, sec, exact) = with_test_context(|ctx| {
         let run = |defs: &[&str]| {
             run_program(
                 ctx,
@@ -226,8 +229,13 @@ fn shading_glsl_equals_cpu_f32() {
                 5,
             )
         };
-        (run(&["OUT_SURFACE"]), run(&[]))
+        (run(&["OUT_SURFACE"]), run(&[]), exact_driver(ctx))
     });
+    let surface_bound = if exact {
+        SHADE_EPS_SURFACE
+    } else {
+        SHADE_EPS_SURFACE_CONTRACTING
+    };
     let (mut worst, mut bad) = ([0.0f32; 3], Vec::new());
     let (mut tir, mut fresnel, mut refracted, mut lit, mut tilted) = (0, 0, 0, 0, 0);
     for (i, c) in cases.iter().enumerate() {
@@ -270,7 +278,7 @@ fn shading_glsl_equals_cpu_f32() {
         tilted += (sp.ns.dot(sp.nf) < 0.999) as u32;
         let e_light = eps_diff(&g(&sec, 4)[..3], &v3(lt));
         lit += (lt.max_elem() > 0.0) as u32;
-        if !(e_surf <= SHADE_EPS_SURFACE
+        if !(e_surf <= surface_bound
             && flags_ok
             && e_sec <= SHADE_EPS_SECONDARY
             && e_light <= SHADE_EPS_LIGHT)
@@ -355,10 +363,12 @@ fn spawn_passes_equal_cpu_f32() {
     ];
     let initial = RayState::Initial.code();
     let (mut worst_o, mut worst_d, mut spawned, mut none) = (0u32, 0.0f32, 0, 0);
+    // Origin differences in epsilons too, the measure of the contracting bound.
+    let mut worst_o_eps = 0.0f32;
     let mut bad = Vec::new();
     for offset in [OffsetMethod::ErrorBound, OffsetMethod::Epsilon] {
         let tech = Techniques::default().with_offset(offset);
-        let (children, shadows) = with_test_context(|ctx| {
+        let (children, shadows, exact) = with_test_context(|ctx| {
             let children: Vec<_> = [(0.0, &ones), (1.0, &c2)]
                 .into_iter()
                 .map(|(branch, node)| {
@@ -377,8 +387,23 @@ fn spawn_passes_equal_cpu_f32() {
                     run_program(ctx, text, &[], &layout, tech, &inputs, &u3, &[], 4)
                 })
                 .collect::<Vec<_>>();
-            (children, shadows)
+            (children, shadows, exact_driver(ctx))
         });
+        // Origins: per-component ulps where the driver is exact; otherwise epsilons
+        // relative to max(|x|, 1), since a few epsilons of a coordinate near zero are
+        // thousands of its ulps.
+        let origin_ok = |s0: &[f32; 4], o: V3<f32>| {
+            if exact {
+                origin_ulps(s0, o) <= SPAWN_ULPS_ORIGIN
+            } else {
+                eps_diff(&s0[..3], &v3(o)) <= SPAWN_EPS_ORIGIN_CONTRACTING
+            }
+        };
+        let dir_bound = if exact {
+            SPAWN_EPS_DIR
+        } else {
+            SPAWN_EPS_DIR_CONTRACTING
+        };
         for (i, sp) in sps.iter().enumerate() {
             let s = &secs[i];
             // Child rays: reflected always, refracted where it exists.
@@ -397,9 +422,10 @@ fn spawn_passes_equal_cpu_f32() {
                 let o = offset_origin_with(sp, dir, offset);
                 let (eo, ed) = (origin_ulps(&s0, o), eps_diff(&s1[..3], &v3(dir)));
                 worst_o = worst_o.max(eo);
+                worst_o_eps = worst_o_eps.max(eps_diff(&s0[..3], &v3(o)));
                 worst_d = worst_d.max(ed);
-                if !(eo <= SPAWN_ULPS_ORIGIN
-                    && ed <= SPAWN_EPS_DIR
+                if !(origin_ok(&s0, o)
+                    && ed <= dir_bound
                     && s0[3] == initial
                     && tri_best == TRI_NONE)
                 {
@@ -426,9 +452,10 @@ fn spawn_passes_equal_cpu_f32() {
                 let eo = origin_ulps(&s0, o);
                 let ed = eps_diff(&s1, &[l.x, l.y, l.z, dist]);
                 worst_o = worst_o.max(eo);
+                worst_o_eps = worst_o_eps.max(eps_diff(&s0[..3], &v3(o)));
                 worst_d = worst_d.max(ed);
-                if !(eo <= SPAWN_ULPS_ORIGIN
-                    && ed <= SPAWN_EPS_DIR
+                if !(origin_ok(&s0, o)
+                    && ed <= dir_bound
                     && s0[3] == initial
                     && s3[0] == s1[3]
                     && s3[1] == TRI_NONE)
@@ -439,7 +466,7 @@ fn spawn_passes_equal_cpu_f32() {
         }
     }
     println!(
-        "{} hits x 2 offsets: {spawned} shadow rays, {none} below a horizon; worst origin {worst_o} ulps, direction {worst_d} eps",
+        "{} hits x 2 offsets: {spawned} shadow rays, {none} below a horizon; worst origin {worst_o} ulps ({worst_o_eps} eps), direction {worst_d} eps",
         cases.len()
     );
     assert!(
@@ -467,3 +494,9 @@ fn spawn_passes_equal_cpu_f32() {
 const SPAWN_ULPS_ORIGIN: u32 = 1;
 /// Spawned directions (and the shadow ray's t_max). Measured: 4; the bound is 4 times that.
 const SPAWN_EPS_DIR: f32 = 16.0;
+/// Spawned origins on a driver that contracts into fmas, in epsilons relative to
+/// max(|x|, 1): they inherit the surface point's difference (measured on the H200: 40.6,
+/// which is 2,546 ulps of a coordinate near zero).
+const SPAWN_EPS_ORIGIN_CONTRACTING: f32 = 128.0;
+/// Spawned directions on such a driver. Measured on the H200: 14.75; about 4x.
+const SPAWN_EPS_DIR_CONTRACTING: f32 = 64.0;
