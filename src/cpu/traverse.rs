@@ -203,33 +203,8 @@ impl<'a, T: Real> GridWalker<'a, T> {
         let mut tests = 0u64;
         self.walk(ray, work, |range, t_exit| {
             let limit = t_exit + t_exit.abs() * slack;
-            let mut best: Option<Hit<T>> = None;
-            let mut t_best = ray.t_max;
-            for &tri in &self.list[range.offset as usize..(range.offset + range.count) as usize] {
-                tests += 1;
-                let hi = if best.is_some() {
-                    tie_limit(t_best)
-                } else {
-                    t_best
-                };
-                if let Some(h) = intersect_with(
-                    ray.o,
-                    ray.d,
-                    &shear,
-                    &self.tris[tri as usize],
-                    ray.t_min,
-                    hi,
-                    &self.techniques,
-                ) {
-                    t_best = h.t;
-                    best = Some(Hit {
-                        t: h.t,
-                        tri,
-                        b: h.b,
-                    });
-                }
-            }
-            match best {
+            let cell = cell_list(self.list, range).iter().copied();
+            match closest_of(ray, &shear, &self.tris, cell, &self.techniques, &mut tests) {
                 Some(h) if h.t <= limit => {
                     found = Some(h);
                     true
@@ -244,27 +219,12 @@ impl<'a, T: Real> GridWalker<'a, T> {
     /// True when anything is hit in (t_min, t_max): the shadow-ray query.
     pub fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool {
         let shear = RayShear::new(ray.d);
-        let mut found = false;
         let mut tests = 0u64;
+        let mut found = false;
         self.walk(ray, work, |range, _| {
-            for &tri in &self.list[range.offset as usize..(range.offset + range.count) as usize] {
-                tests += 1;
-                if intersect_with(
-                    ray.o,
-                    ray.d,
-                    &shear,
-                    &self.tris[tri as usize],
-                    ray.t_min,
-                    ray.t_max,
-                    &self.techniques,
-                )
-                .is_some()
-                {
-                    found = true;
-                    return true;
-                }
-            }
-            false
+            let cell = cell_list(self.list, range).iter().copied();
+            found = any_of(ray, &shear, &self.tris, cell, &self.techniques, &mut tests);
+            found
         });
         work.tests += tests;
         found
@@ -273,26 +233,84 @@ impl<'a, T: Real> GridWalker<'a, T> {
     /// Brute-force closest hit over all triangles, with the same tie rule: the oracle for
     /// tests.
     pub fn brute_force(&self, ray: &Ray<T>) -> Option<Hit<T>> {
-        let shear = RayShear::new(ray.d);
-        let mut best: Option<Hit<T>> = None;
-        let mut t_best = ray.t_max;
-        for (i, tri) in self.tris.iter().enumerate() {
-            let hi = if best.is_some() {
-                tie_limit(t_best)
-            } else {
-                t_best
-            };
-            if let Some(h) =
-                intersect_with(ray.o, ray.d, &shear, tri, ray.t_min, hi, &self.techniques)
-            {
-                t_best = h.t;
-                best = Some(Hit {
-                    t: h.t,
-                    tri: i as u32,
-                    b: h.b,
-                });
-            }
-        }
-        best
+        brute_force(ray, &self.tris, &self.techniques)
     }
+}
+
+/// The triangle indices of one cell's range of `list`.
+#[inline(always)]
+pub(crate) fn cell_list(list: &[u32], range: CellRange) -> &[u32] {
+    &list[range.offset as usize..(range.offset + range.count) as usize]
+}
+
+/// The closest hit among triangles `cell` (indices into `tris`) in (t_min, t_max), ties
+/// within [`TIE_EPS`] going to the earlier index: the per-cell step of every walker's
+/// `closest_hit`. Adds the tests run to `tests`.
+#[inline(always)]
+pub(crate) fn closest_of<T: Real>(
+    ray: &Ray<T>,
+    shear: &RayShear<T>,
+    tris: &[[V3<T>; 3]],
+    cell: impl IntoIterator<Item = u32>,
+    techniques: &Techniques,
+    tests: &mut u64,
+) -> Option<Hit<T>> {
+    let mut best: Option<Hit<T>> = None;
+    let mut t_best = ray.t_max;
+    for tri in cell {
+        *tests += 1;
+        let hi = if best.is_some() {
+            tie_limit(t_best)
+        } else {
+            t_best
+        };
+        if let Some(h) = intersect_with(
+            ray.o,
+            ray.d,
+            shear,
+            &tris[tri as usize],
+            ray.t_min,
+            hi,
+            techniques,
+        ) {
+            t_best = h.t;
+            best = Some(Hit {
+                t: h.t,
+                tri,
+                b: h.b,
+            });
+        }
+    }
+    best
+}
+
+/// Whether any of triangles `cell` is hit in (t_min, t_max): the per-cell step of every
+/// walker's `any_hit`. Adds the tests run to `tests`.
+#[inline(always)]
+pub(crate) fn any_of<T: Real>(
+    ray: &Ray<T>,
+    shear: &RayShear<T>,
+    tris: &[[V3<T>; 3]],
+    cell: impl IntoIterator<Item = u32>,
+    techniques: &Techniques,
+    tests: &mut u64,
+) -> bool {
+    for tri in cell {
+        *tests += 1;
+        let t = &tris[tri as usize];
+        if intersect_with(ray.o, ray.d, shear, t, ray.t_min, ray.t_max, techniques).is_some() {
+            return true;
+        }
+    }
+    false
+}
+
+/// Brute-force closest hit over all of `tris` with the walkers' tie rule: the oracle.
+pub(crate) fn brute_force<T: Real>(
+    ray: &Ray<T>,
+    tris: &[[V3<T>; 3]],
+    techniques: &Techniques,
+) -> Option<Hit<T>> {
+    let shear = RayShear::new(ray.d);
+    closest_of(ray, &shear, tris, 0..tris.len() as u32, techniques, &mut 0)
 }

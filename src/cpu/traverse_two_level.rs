@@ -36,9 +36,9 @@
 //! leaf table (`offset, count`, two leaves per texel), the triangle list (four per texel)
 //! and the triangles, as the uniform kernel reads its cell table, list and triangles.
 
-use super::intersect::{intersect_with, RayShear};
+use super::intersect::RayShear;
 use super::real::{Real, V3};
-use super::traverse::{tie_limit, Hit, Ray, Work};
+use super::traverse::{any_of, brute_force, cell_list, closest_of, Hit, Ray, Work};
 use crate::accel::two_level::{SubGrid, TwoLevelGrid, EMPTY_TOP};
 use crate::accel::CellRange;
 use crate::scene::Scene;
@@ -243,8 +243,9 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
         }
     }
 
-    /// Closest hit in (t_min, t_max), with the per-cell rule of `Accel::closest_hit` in
-    /// `cpu/traverse.rs` applied per leaf (see the module docs).
+    /// Closest hit in (t_min, t_max), with the per-cell rule of
+    /// [`GridWalker::closest_hit`](super::traverse::GridWalker::closest_hit) applied per leaf
+    /// (see the module docs).
     pub fn closest_hit(&self, ray: &Ray<T>, work: &mut Work) -> Option<Hit<T>> {
         let shear = RayShear::new(ray.d);
         let mut found: Option<Hit<T>> = None;
@@ -252,33 +253,8 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
         let mut tests = 0u64;
         self.walk(ray, work, |range, t_exit| {
             let limit = t_exit + t_exit.abs() * slack;
-            let mut best: Option<Hit<T>> = None;
-            let mut t_best = ray.t_max;
-            for &tri in &self.list[range.offset as usize..(range.offset + range.count) as usize] {
-                tests += 1;
-                let hi = if best.is_some() {
-                    tie_limit(t_best)
-                } else {
-                    t_best
-                };
-                if let Some(h) = intersect_with(
-                    ray.o,
-                    ray.d,
-                    &shear,
-                    &self.tris[tri as usize],
-                    ray.t_min,
-                    hi,
-                    &self.techniques,
-                ) {
-                    t_best = h.t;
-                    best = Some(Hit {
-                        t: h.t,
-                        tri,
-                        b: h.b,
-                    });
-                }
-            }
-            match best {
+            let cell = cell_list(self.list, range).iter().copied();
+            match closest_of(ray, &shear, &self.tris, cell, &self.techniques, &mut tests) {
                 Some(h) if h.t <= limit => {
                     found = Some(h);
                     true
@@ -293,27 +269,12 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
     /// True when anything is hit in (t_min, t_max): the shadow-ray query.
     pub fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool {
         let shear = RayShear::new(ray.d);
-        let mut found = false;
         let mut tests = 0u64;
+        let mut found = false;
         self.walk(ray, work, |range, _| {
-            for &tri in &self.list[range.offset as usize..(range.offset + range.count) as usize] {
-                tests += 1;
-                if intersect_with(
-                    ray.o,
-                    ray.d,
-                    &shear,
-                    &self.tris[tri as usize],
-                    ray.t_min,
-                    ray.t_max,
-                    &self.techniques,
-                )
-                .is_some()
-                {
-                    found = true;
-                    return true;
-                }
-            }
-            false
+            let cell = cell_list(self.list, range).iter().copied();
+            found = any_of(ray, &shear, &self.tris, cell, &self.techniques, &mut tests);
+            found
         });
         work.tests += tests;
         found
@@ -321,27 +282,7 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
 
     /// Brute-force closest hit over all triangles with the same tie rule: the oracle.
     pub fn brute_force(&self, ray: &Ray<T>) -> Option<Hit<T>> {
-        let shear = RayShear::new(ray.d);
-        let mut best: Option<Hit<T>> = None;
-        let mut t_best = ray.t_max;
-        for (i, tri) in self.tris.iter().enumerate() {
-            let hi = if best.is_some() {
-                tie_limit(t_best)
-            } else {
-                t_best
-            };
-            if let Some(h) =
-                intersect_with(ray.o, ray.d, &shear, tri, ray.t_min, hi, &self.techniques)
-            {
-                t_best = h.t;
-                best = Some(Hit {
-                    t: h.t,
-                    tri: i as u32,
-                    b: h.b,
-                });
-            }
-        }
-        best
+        brute_force(ray, &self.tris, &self.techniques)
     }
 }
 

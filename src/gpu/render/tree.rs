@@ -82,6 +82,10 @@ pub fn render_gl(
     let offsets = camera::sample_offsets(spp);
     let mut rays = RayCounts::default();
     let mut aov = None;
+    f.set_vec3(Pass::RayGen, "u_eye", scene.camera.eye.to_array());
+    // The primary directions of one sample, re-filled per sample into one texture.
+    let dir_tex = Texture::new_f32(f.ctx, width, height, None)?;
+    let mut dirs = Vec::with_capacity(width as usize * height as usize * 4);
     for (k, &(ox, oy)) in offsets.iter().enumerate() {
         f.progress.begin_sample(k, offsets.len());
         // Level-0 weight: 1/spp everywhere, and every pixel has a primary ray.
@@ -92,13 +96,12 @@ pub fn render_gl(
             f.gl().clear_color(w, w, w, 1.0);
             f.gl().clear(glow::COLOR_BUFFER_BIT);
         }
-        f.set_vec3(Pass::RayGen, "u_eye", scene.camera.eye.to_array());
         // The primary directions, computed on the host in f64 by the camera's formula and
         // rounded to f32: bit for bit the directions the f32 CPU traces. Interpolating
         // window corners in f32 on the GPU instead picks the other side of an exact tie (a
         // ray through the edge where two walls meet) on some pixels, and with absolute
         // corners far from the origin rounds every direction to the spacing at the eye.
-        let mut dirs = Vec::with_capacity(width as usize * height as usize * 4);
+        dirs.clear();
         for row in 0..height {
             let j = height - 1 - row; // GL rows run from the bottom
             for i in 0..width {
@@ -109,7 +112,7 @@ pub fn render_gl(
                 dirs.extend([d.x, d.y, d.z, 0.0]);
             }
         }
-        let dir_tex = Texture::new_f32(f.ctx, width, height, Some(&dirs))?;
+        dir_tex.upload(f.gl(), &dirs)?;
         bind_texture(f.gl(), Unit::Node, &dir_tex);
         f.progress
             .stage(format!("sample {}/{}: primary rays", k + 1, offsets.len()));
