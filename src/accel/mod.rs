@@ -5,7 +5,9 @@
 //! parallel counting sort, statistics); [`tribox`] holds the exact triangle/box overlap
 //! test the binning relies on.
 
+pub mod binning;
 pub mod grid;
+pub mod irregular;
 pub mod tribox;
 pub mod two_level;
 

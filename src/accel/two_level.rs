@@ -44,7 +44,7 @@
 //!   contiguous, sub-grids in top-cell order.
 //! - `tri_indices`: triangles, leaf after leaf, ascending within each leaf.
 //!
-//! Binning is exact ([`tri_box_overlap`]) against cell boxes grown as [`Grid`] grows them
+//! Binning is exact ([`tri_box_overlap`](super::tribox::tri_box_overlap)) against cell boxes grown as [`Grid`] grows them
 //! (a relative margin plus a few f32 ulps of the coordinates), so a triangle on a cell face
 //! is listed on both sides; a triangle on a top cell's face is in the sub-grids on both
 //! sides, each sub-grid box containing its part of the triangle with a margin.
@@ -61,8 +61,8 @@ use std::time::Instant;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use super::binning::{counting_sort, Frame};
 use super::grid::{check_vertices, padded_bounds, CellRange, Grid};
-use super::tribox::tri_box_overlap;
 use crate::scene::Scene;
 use crate::{Error, Result};
 
@@ -87,10 +87,6 @@ pub const MAX_LEAF_CELLS: usize = 1 << 24;
 /// Largest number of (leaf, triangle) references: list offsets live in f32 texels.
 pub const MAX_REFERENCES: usize = 1 << 24;
 
-/// Growth of each cell's half-size, relative to the cell size (as in [`Grid`]).
-const CELL_PAD_FRACTION: f64 = 1e-5;
-/// f32 ulps of the coordinate magnitude added to the padding (as in [`Grid`]).
-const PAD_ULPS: f64 = 4.0;
 /// Triangles per parallel work item of the top-level binning.
 const CHUNK: usize = 2048;
 
@@ -277,82 +273,6 @@ fn top_bounds(min: Vec3, cs: Vec3, res: [u32; 3], i: usize) -> (DVec3, DVec3) {
     (lo, lo + cs.as_dvec3())
 }
 
-/// `PAD_ULPS` f32 ulps of a coordinate of magnitude `mag`.
-fn ulps(mag: f64) -> f64 {
-    PAD_ULPS * mag * f32::EPSILON as f64
-}
-
-/// A uniform grid frame to bin into: cell `j` spans `lo + j * cs .. lo + (j + 1) * cs`,
-/// except that the first and last cell of each axis reach out to `outer_lo`/`outer_hi`.
-struct Frame {
-    lo: DVec3,
-    cs: DVec3,
-    res: [u32; 3],
-    outer_lo: DVec3,
-    outer_hi: DVec3,
-    pad: DVec3,
-}
-
-impl Frame {
-    /// A frame whose padding is [`Grid`]'s: relative to the cell size plus ulps of the
-    /// largest coordinate.
-    fn new(lo: DVec3, cs: DVec3, res: [u32; 3], outer_lo: DVec3, outer_hi: DVec3) -> Frame {
-        let mag = outer_lo.abs().max(outer_hi.abs()).max(lo.abs());
-        Frame {
-            lo,
-            cs,
-            res,
-            outer_lo,
-            outer_hi,
-            pad: CELL_PAD_FRACTION * cs + DVec3::new(ulps(mag.x), ulps(mag.y), ulps(mag.z)),
-        }
-    }
-
-    /// Lower and upper boundary of cell `j` on `axis`.
-    #[inline]
-    fn span(&self, axis: usize, j: u32) -> (f64, f64) {
-        let a = if j == 0 {
-            self.outer_lo[axis].min(self.lo[axis])
-        } else {
-            self.lo[axis] + j as f64 * self.cs[axis]
-        };
-        let b = if j + 1 == self.res[axis] {
-            self.outer_hi[axis].max(self.lo[axis] + self.res[axis] as f64 * self.cs[axis])
-        } else {
-            self.lo[axis] + (j + 1) as f64 * self.cs[axis]
-        };
-        (a, b)
-    }
-
-    /// Appends the index (x fastest) of every cell the triangle overlaps, ascending.
-    fn bin(&self, tri: [DVec3; 3], out: &mut Vec<u32>) {
-        let bb_lo = tri[0].min(tri[1]).min(tri[2]) - self.pad;
-        let bb_hi = tri[0].max(tri[1]).max(tri[2]) + self.pad;
-        let cell = |p: f64, i: usize| -> u32 {
-            // `as i64` saturates, and the clamp absorbs anything outside the frame.
-            let c = ((p - self.lo[i]) / self.cs[i]).floor() as i64;
-            c.clamp(0, self.res[i] as i64 - 1) as u32
-        };
-        let lo = [cell(bb_lo.x, 0), cell(bb_lo.y, 1), cell(bb_lo.z, 2)];
-        let hi = [cell(bb_hi.x, 0), cell(bb_hi.y, 1), cell(bb_hi.z, 2)];
-        for z in lo[2]..=hi[2] {
-            let sz = self.span(2, z);
-            for y in lo[1]..=hi[1] {
-                let sy = self.span(1, y);
-                let row = self.res[0] as usize * (y as usize + self.res[1] as usize * z as usize);
-                for x in lo[0]..=hi[0] {
-                    let sx = self.span(0, x);
-                    let a = DVec3::new(sx.0, sy.0, sz.0);
-                    let b = DVec3::new(sx.1, sy.1, sz.1);
-                    if tri_box_overlap(0.5 * (a + b), 0.5 * (b - a) + self.pad, tri) {
-                        out.push((row + x as usize) as u32);
-                    }
-                }
-            }
-        }
-    }
-}
-
 /// Top resolution for [`TwoLevelConfig::top_density`]: [`Grid::auto_resolution`], then
 /// every axis raised to at least `min(MIN_TOP_AXIS, ceil(cbrt(density * n)))` cells.
 ///
@@ -385,33 +305,6 @@ struct SubBuild {
     sub: Vec3,
     leaves: Vec<CellRange>,
     list: Vec<u32>,
-}
-
-/// Stable counting sort of `(cell, triangle)` pairs given triangle after triangle in
-/// ascending order: per-cell ranges and the list, each cell's triangles ascending.
-fn counting_sort(
-    n_cells: usize,
-    pairs: impl Iterator<Item = (u32, u32)> + Clone,
-) -> (Vec<CellRange>, Vec<u32>) {
-    let mut cells = vec![CellRange::default(); n_cells];
-    let mut n = 0usize;
-    for (c, _) in pairs.clone() {
-        cells[c as usize].count += 1;
-        n += 1;
-    }
-    let mut offset = 0u32;
-    for c in &mut cells {
-        c.offset = offset;
-        offset += c.count;
-    }
-    let mut cursor: Vec<u32> = cells.iter().map(|c| c.offset).collect();
-    let mut list = vec![0u32; n];
-    for (c, t) in pairs {
-        let slot = &mut cursor[c as usize];
-        list[*slot as usize] = t;
-        *slot += 1;
-    }
-    (cells, list)
 }
 
 /// [`TwoLevelGrid::build`] with both limits as parameters, so tests can reach them.

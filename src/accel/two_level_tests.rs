@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::accel::tribox::tests::{test_seed, Rng};
+use crate::accel::tribox::tri_box_overlap;
 use crate::scene::{Camera, Material};
 
 /// An empty scene with one material.
@@ -47,7 +48,7 @@ pub(crate) fn soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
         .collect()
 }
 
-fn with_threads<T: Send>(n: usize, f: impl FnOnce() -> T + Send) -> T {
+pub(crate) fn with_threads<T: Send>(n: usize, f: impl FnOnce() -> T + Send) -> T {
     rayon::ThreadPoolBuilder::new()
         .num_threads(n)
         .build()

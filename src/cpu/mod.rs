@@ -7,6 +7,7 @@ pub mod real;
 pub mod render;
 pub mod shade;
 pub mod traverse;
+pub mod traverse_irregular;
 pub mod traverse_two_level;
 
 pub use render::{CpuOutput, CpuRenderer};

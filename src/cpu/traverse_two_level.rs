@@ -288,4 +288,4 @@ impl<'a, T: Real> TwoLevelWalker<'a, T> {
 
 #[cfg(test)]
 #[path = "traverse_two_level_tests.rs"]
-mod tests;
+pub(crate) mod tests;

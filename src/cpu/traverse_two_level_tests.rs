@@ -56,7 +56,7 @@ fn check_both(s: &Scene, g: &TwoLevelGrid, rays: &[(DVec3, DVec3, f64)], ctx: &s
 
 /// Random rays: from inside and outside the box `[-r, r]^3` towards random points in it,
 /// some with zeroed direction components (axis-parallel) and some with a finite t_max.
-fn random_rays(rng: &mut Rng, n: usize, r: f64) -> Vec<(DVec3, DVec3, f64)> {
+pub(crate) fn random_rays(rng: &mut Rng, n: usize, r: f64) -> Vec<(DVec3, DVec3, f64)> {
     (0..n)
         .map(|i| {
             let o = rng.dvec3(-2.0 * r, 2.0 * r);
@@ -101,7 +101,7 @@ fn random_scenes_equal_brute_force() {
 }
 
 /// Closed UV sphere of `n` x `2n` quads (each two triangles) with bitwise-shared vertices.
-fn sphere(center: Vec3, radius: f32, n: usize) -> Vec<[Vec3; 3]> {
+pub(crate) fn sphere(center: Vec3, radius: f32, n: usize) -> Vec<[Vec3; 3]> {
     let p = |i: usize, j: usize| {
         let th = std::f32::consts::PI * i as f32 / n as f32;
         let ph = std::f32::consts::PI * (j % (2 * n)) as f32 / n as f32;
@@ -160,7 +160,7 @@ fn mesh_in_a_stadium() {
 }
 
 /// Rays from random origins through `target` (and axis-parallel ones where possible).
-fn rays_through(rng: &mut Rng, target: DVec3, out: &mut Vec<(DVec3, DVec3, f64)>) {
+pub(crate) fn rays_through(rng: &mut Rng, target: DVec3, out: &mut Vec<(DVec3, DVec3, f64)>) {
     for _ in 0..3 {
         let o = target + rng.dvec3(-4.0, 4.0);
         out.push((o, target - o, 1.0e30));
@@ -366,7 +366,7 @@ fn work_counts_top_and_leaf_cells() {
 
 /// Primary rays of `s.camera` at w x h (one sample at each pixel centre, as the CPU
 /// renderer's first sample).
-fn primary_rays(s: &Scene, w: u32, h: u32) -> Vec<(DVec3, DVec3)> {
+pub(crate) fn primary_rays(s: &Scene, w: u32, h: u32) -> Vec<(DVec3, DVec3)> {
     let (ox, oy) = crate::scene::camera::sample_offsets(1)[0];
     let eye = s.camera.eye.as_dvec3();
     (0..h)

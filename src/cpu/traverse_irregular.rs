@@ -1,0 +1,244 @@
+//! Closest-hit and any-hit traversal of the irregular grid ([`IrregularGrid`]), generic
+//! over precision like `cpu/traverse.rs`, with the same per-cell semantics.
+//! GLSL twins: `irregular_start`/`irregular_next`/`irregular_exit` in
+//! `glsl120/traverse.glsl`, run one step per pass by `traverse_init.frag`,
+//! `traverse_step.frag` and `intersect.frag` (and unrolled or looped by the fast kernels).
+//!
+//! One step: the ray leaves the current cell through its exit box at
+//! `t_exit = min over axes of (min + k * cell_size - o) / d` (`k` the box's far face on
+//! that axis: the expression of the uniform DDA, so the same rounding), ties to the lower
+//! axis. The next virtual cell is, on the exit axis, the first one beyond the face; on the
+//! other axes the one holding `o + d * t_exit`, clamped into the exit box's range (the exit
+//! point lies on that face, so the clamp only absorbs rounding and guarantees progress).
+//! The voxel map gives the cell holding it. A cell's closest hit is accepted when it is
+//! within `t_exit` plus `gamma(8)` relative slack, as `closest_hit` in `cpu/traverse.rs`
+//! accepts a cell's; the exit box holds no other triangle, so nothing closer can follow.
+//! `Work::cells` counts steps.
+
+use super::intersect::RayShear;
+use super::real::{Real, V3};
+use super::traverse::{any_of, brute_force, cell_list, closest_of, Hit, Ray, Work};
+use crate::accel::irregular::{IrrCell, IrregularGrid};
+use crate::accel::CellRange;
+use crate::scene::Scene;
+use crate::technique::Techniques;
+
+/// Most steps of one walk: a safety net, never reached by a walk that makes progress (each
+/// step leaves an exit box for a cell beyond its face).
+pub const MAX_STEPS: u64 = 1 << 20;
+
+/// A scene and its irregular grid converted to precision `T` once per render.
+pub struct IrregularWalker<'a, T> {
+    /// Vertices of every triangle, in load order.
+    pub tris: Vec<[V3<T>; 3]>,
+    /// Grid lower corner.
+    pub min: V3<T>,
+    /// Grid upper corner.
+    pub max: V3<T>,
+    /// Virtual cell size.
+    pub cs: V3<T>,
+    /// The grid (voxel map, cells, lists).
+    pub grid: &'a IrregularGrid,
+    /// Intersection test and t bound used by every query.
+    pub techniques: Techniques,
+}
+
+impl<'a, T: Real> IrregularWalker<'a, T> {
+    /// Prepares `scene` and its irregular grid for traversal in precision `T`.
+    pub fn new(scene: &Scene, grid: &'a IrregularGrid, techniques: Techniques) -> Self {
+        let tris = (0..scene.triangles.len())
+            .map(|i| scene.triangle_vertices(i).map(V3::from_vec3))
+            .collect();
+        IrregularWalker {
+            tris,
+            min: V3::from_vec3(grid.min),
+            max: V3::from_vec3(grid.max),
+            cs: V3::from_vec3(grid.cell_size),
+            grid,
+            techniques,
+        }
+    }
+
+    /// Clips the ray to the grid box: (t_enter, t_exit) or `None` when it misses.
+    #[inline(always)]
+    fn clip(&self, ray: &Ray<T>) -> Option<(T, T)> {
+        let mut t0 = ray.t_min;
+        let mut t1 = ray.t_max;
+        for a in 0..3 {
+            let d = ray.d[a];
+            if d == T::ZERO {
+                if ray.o[a] < self.min[a] || ray.o[a] > self.max[a] {
+                    return None;
+                }
+                continue;
+            }
+            let mut n = (self.min[a] - ray.o[a]) / d;
+            let mut f = (self.max[a] - ray.o[a]) / d;
+            if n > f {
+                std::mem::swap(&mut n, &mut f);
+            }
+            t0 = t0.max(n);
+            t1 = t1.min(f);
+        }
+        if t0 > t1 {
+            None
+        } else {
+            Some((t0, t1))
+        }
+    }
+
+    /// Virtual cell of the ray's point at `t` on `axis`, clamped into `lo ..= hi`.
+    #[inline(always)]
+    fn virtual_at(&self, ray: &Ray<T>, t: T, axis: usize, lo: u32, hi: u32) -> u32 {
+        let p = ray.o[axis] + ray.d[axis] * t;
+        let f = ((p - self.min[axis]) / self.cs[axis]).floor().to_f64();
+        (f.max(lo as f64) as u32).min(hi)
+    }
+
+    /// Parameter at which the ray crosses virtual boundary `k` of `axis` (d != 0): the
+    /// expression of [`IrregularWalker::exit`] and of the uniform DDA.
+    #[inline(always)]
+    fn crossing(&self, ray: &Ray<T>, axis: usize, k: u32) -> T {
+        (self.min[axis] + T::from_f32(k as f32) * self.cs[axis] - ray.o[axis]) / ray.d[axis]
+    }
+
+    /// Virtual cell on a lateral `axis` at the exit parameter `t`, within `lo ..= hi`: the
+    /// cell of the exit point, then moved (at most two cells each way) until its own
+    /// crossings bracket `t`, so the choice agrees with the crossing parameters the next
+    /// exits are computed from. The point alone can be a cell off where rounding of
+    /// `o + d * t` meets a boundary, and then two cells can hand the ray back and forth.
+    #[inline(always)]
+    fn lateral(&self, ray: &Ray<T>, t: T, axis: usize, lo: u32, hi: u32) -> u32 {
+        let mut k = self.virtual_at(ray, t, axis, lo, hi);
+        let d = ray.d[axis];
+        if d == T::ZERO {
+            return k;
+        }
+        // Entering boundary of cell k: its lower face when d > 0, else its upper one.
+        let (enter, leave) = if d > T::ZERO { (0, 1) } else { (1, 0) };
+        for _ in 0..2 {
+            if d > T::ZERO && k > lo && self.crossing(ray, axis, k + enter) > t {
+                k -= 1;
+            } else if d < T::ZERO && k < hi && self.crossing(ray, axis, k + enter) > t {
+                k += 1;
+            }
+        }
+        for _ in 0..2 {
+            if d > T::ZERO && k < hi && self.crossing(ray, axis, k + leave) <= t {
+                k += 1;
+            } else if d < T::ZERO && k > lo && self.crossing(ray, axis, k + leave) <= t {
+                k -= 1;
+            }
+        }
+        k
+    }
+
+    /// Exit parameter of `cell`'s exit box and the axis it leaves through (ties to the
+    /// lower axis); `BIG` on an axis the ray does not move along.
+    #[inline(always)]
+    pub fn exit(&self, ray: &Ray<T>, cell: &IrrCell) -> (T, usize) {
+        let tn = [0, 1, 2].map(|a| {
+            let d = ray.d[a];
+            if d == T::ZERO {
+                return T::BIG;
+            }
+            let k = if d > T::ZERO {
+                cell.exit_hi[a]
+            } else {
+                cell.exit_lo[a]
+            };
+            (self.min[a] + T::from_f32(k as f32) * self.cs[a] - ray.o[a]) / d
+        });
+        if tn[0] <= tn[1] && tn[0] <= tn[2] {
+            (tn[0], 0)
+        } else if tn[1] <= tn[2] {
+            (tn[1], 1)
+        } else {
+            (tn[2], 2)
+        }
+    }
+
+    /// Runs the walk, calling `visit(cell_range, t_exit)` for each cell in order until it
+    /// returns true (stop) or the ray leaves the grid or its interval.
+    #[inline(always)]
+    fn walk(&self, ray: &Ray<T>, work: &mut Work, mut visit: impl FnMut(CellRange, T) -> bool) {
+        let Some((t_enter, t_leave)) = self.clip(ray) else {
+            return;
+        };
+        let g = self.grid;
+        let k = [0, 1, 2].map(|a| self.virtual_at(ray, t_enter, a, 0, g.res[a] - 1));
+        let mut id = g.lookup(k);
+        for _ in 0..MAX_STEPS {
+            work.cells += 1;
+            let cell = &g.cells[id as usize];
+            let (t_exit, axis) = self.exit(ray, cell);
+            if visit(cell.range, t_exit) || t_exit >= t_leave {
+                return;
+            }
+            let mut k = [0u32; 3];
+            for (a, ka) in k.iter_mut().enumerate() {
+                *ka = if a != axis {
+                    self.lateral(ray, t_exit, a, cell.exit_lo[a], cell.exit_hi[a] - 1)
+                } else if ray.d[a] > T::ZERO {
+                    if cell.exit_hi[a] >= g.res[a] {
+                        return;
+                    }
+                    cell.exit_hi[a]
+                } else {
+                    if cell.exit_lo[a] == 0 {
+                        return;
+                    }
+                    cell.exit_lo[a] - 1
+                };
+            }
+            id = g.lookup(k);
+        }
+    }
+
+    /// Closest hit in (t_min, t_max), with the per-cell rule of
+    /// [`GridWalker::closest_hit`](super::traverse::GridWalker::closest_hit).
+    pub fn closest_hit(&self, ray: &Ray<T>, work: &mut Work) -> Option<Hit<T>> {
+        let shear = RayShear::new(ray.d);
+        let mut found: Option<Hit<T>> = None;
+        let slack = T::gamma(8);
+        let mut tests = 0u64;
+        let list = &self.grid.tri_indices;
+        self.walk(ray, work, |range, t_exit| {
+            let limit = t_exit + t_exit.abs() * slack;
+            let cell = cell_list(list, range).iter().copied();
+            match closest_of(ray, &shear, &self.tris, cell, &self.techniques, &mut tests) {
+                Some(h) if h.t <= limit => {
+                    found = Some(h);
+                    true
+                }
+                _ => false,
+            }
+        });
+        work.tests += tests;
+        found
+    }
+
+    /// True when anything is hit in (t_min, t_max): the shadow-ray query.
+    pub fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool {
+        let shear = RayShear::new(ray.d);
+        let mut tests = 0u64;
+        let mut found = false;
+        let list = &self.grid.tri_indices;
+        self.walk(ray, work, |range, _| {
+            let cell = cell_list(list, range).iter().copied();
+            found = any_of(ray, &shear, &self.tris, cell, &self.techniques, &mut tests);
+            found
+        });
+        work.tests += tests;
+        found
+    }
+
+    /// Brute-force closest hit over all triangles with the same tie rule: the oracle.
+    pub fn brute_force(&self, ray: &Ray<T>) -> Option<Hit<T>> {
+        brute_force(ray, &self.tris, &self.techniques)
+    }
+}
+
+#[cfg(test)]
+#[path = "traverse_irregular_tests.rs"]
+mod tests;
