@@ -1,12 +1,34 @@
 // step.glsl: one traversal step and one triangle test as functions on a ray's state
 // (s0..s3, see common.glsl). The faithful passes run one of them per pass; the unrolled
 // kernel repeats the pair as straight-line code; the looped kernel runs them in a bounded
-// loop. CPU twin: src/cpu/traverse.rs (walk, closest_hit, any_hit).
+// loop. CPU twins: src/cpu/traverse.rs (walk, closest_hit, any_hit) and, with
+// ACCEL_IRREGULAR, src/cpu/traverse_irregular.rs.
 // Needs intersect.glsl and traverse.glsl.
 
 // One 3D-DDA step for a ray in state TRAVERSING (else nothing).
 void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     if (!in_state(s0.S0_STATE, ST_TRAVERSING)) return;
+#ifdef ACCEL_IRREGULAR
+    // One irregular-grid step (CPU twin: cpu/traverse_irregular.rs, walk).
+    vec3 o = s0.S0_ORIGIN;
+    vec3 d = s1.S1_DIR;
+    float id = s2.S2_CELL.x;
+    vec3 lo = irr_lo(id).xyz;
+    vec3 hi = irr_hi(id).xyz;
+    vec2 ex = irr_exit(o, d, lo, hi);
+    float t_leave = clip_grid(o, d, 0.0, s1.S1_T_MAX).y;
+    float next = ex.x >= t_leave ? -1.0 : irr_next(o, d, ex, lo, hi);
+    if (next < 0.0) {
+        s0.S0_STATE = ST_DONE;
+        return;
+    }
+    vec4 nlo = irr_lo(next);
+    vec4 nhi = irr_hi(next);
+    s2 = S2_TEXEL(vec3(next, 0.0, 0.0), nlo.w);
+    s3.S3_CURSOR_END = nlo.w + nhi.w;
+    s3.S3_STEPS += 1.0;
+    s0.S0_STATE = nhi.w > 0.0 ? ST_TESTING : ST_TRAVERSING;
+#else
     vec3 o = s0.S0_ORIGIN;
     vec3 d = s1.S1_DIR;
     vec3 c = s2.S2_CELL;
@@ -30,6 +52,7 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     s3.S3_CURSOR_END = cell.x + cell.y;
     s3.S3_STEPS += 1.0;
     s0.S0_STATE = cell.y > 0.0 ? ST_TESTING : ST_TRAVERSING;
+#endif
 }
 
 // One ray-triangle test for a ray in state TESTING (else nothing).
@@ -71,8 +94,8 @@ void intersect_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     if (s2.S2_CURSOR >= s3.S3_CURSOR_END) {
         // The cell's closest hit counts only inside the cell: a closer hit may lie in the
         // next one, where this triangle is binned too (CPU twin: closest_hit).
-        vec3 tn = boundaries(s0.S0_ORIGIN, s1.S1_DIR, s2.S2_CELL);
-        if (s3.S3_TRI_BEST >= 0.0 && s3.S3_T_BEST <= exit_limit(min(min(tn.x, tn.y), tn.z))) {
+        float t_exit = cell_exit(s0.S0_ORIGIN, s1.S1_DIR, s2);
+        if (s3.S3_TRI_BEST >= 0.0 && s3.S3_T_BEST <= exit_limit(t_exit)) {
             s0.S0_STATE = ST_SHADING;
         } else {
             s3.S3_HIT = vec2(s1.S1_T_MAX, TRI_NONE);

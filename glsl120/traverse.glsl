@@ -66,3 +66,87 @@ float cell_linear(vec3 c) {
 float exit_limit(float t_exit) {
     return t_exit + abs(t_exit) * gamma_n(8.0);
 }
+
+#ifdef ACCEL_IRREGULAR
+// Irregular grid: one cell per step, leaving each through its exit box. CPU twin:
+// src/cpu/traverse_irregular.rs (`exit`, `lateral`, `walk`). u_cell_size and u_grid_res
+// are the virtual grid's; irr_lookup (the voxel-map descent) is generated with the layout.
+
+// Cell texels: (exit box lower corner, list offset) and (exit box upper corner, count).
+vec4 irr_lo(float id) { return fetch_cell(id * 2.0); }
+vec4 irr_hi(float id) { return fetch_cell(id * 2.0 + 1.0); }
+
+// Parameter at which the ray crosses virtual boundary k of one axis (d != 0): the
+// expression of boundary1 above.
+float irr_crossing(float o, float d, float mn, float cs, float k) {
+    return (mn + k * cs - o) / d;
+}
+
+// (t_exit, axis) of the box lo..hi; ties go to the lower axis.
+vec2 irr_exit(vec3 o, vec3 d, vec3 lo, vec3 hi) {
+    vec3 tn = vec3(
+        d.x == 0.0 ? BIG : irr_crossing(o.x, d.x, u_grid_min.x, u_cell_size.x, d.x > 0.0 ? hi.x : lo.x),
+        d.y == 0.0 ? BIG : irr_crossing(o.y, d.y, u_grid_min.y, u_cell_size.y, d.y > 0.0 ? hi.y : lo.y),
+        d.z == 0.0 ? BIG : irr_crossing(o.z, d.z, u_grid_min.z, u_cell_size.z, d.z > 0.0 ? hi.z : lo.z));
+    if (tn.x <= tn.y && tn.x <= tn.z) return vec2(tn.x, 0.0);
+    if (tn.y <= tn.z) return vec2(tn.y, 1.0);
+    return vec2(tn.z, 2.0);
+}
+
+// One correction of a lateral cell index towards the cell whose crossings bracket t:
+// `back` moves against the direction when the cell's entering crossing is after t,
+// otherwise forward when its leaving crossing is at or before t.
+float irr_fix(float k, bool back, float o, float d, float t, float mn, float cs, float lo, float hi) {
+    float enter = d > 0.0 ? 0.0 : 1.0;
+    if (back) {
+        if (d > 0.0 && k > lo && irr_crossing(o, d, mn, cs, k + enter) > t) return k - 1.0;
+        if (d < 0.0 && k < hi && irr_crossing(o, d, mn, cs, k + enter) > t) return k + 1.0;
+    } else {
+        if (d > 0.0 && k < hi && irr_crossing(o, d, mn, cs, k + 1.0 - enter) <= t) return k + 1.0;
+        if (d < 0.0 && k > lo && irr_crossing(o, d, mn, cs, k + 1.0 - enter) <= t) return k - 1.0;
+    }
+    return k;
+}
+
+// Virtual cell on a lateral axis at the exit parameter t, within lo..hi (inclusive).
+float irr_lateral(float o, float d, float t, float mn, float cs, float lo, float hi) {
+    float k = clamp(floor((o + d * t - mn) / cs), lo, hi);
+    if (d == 0.0) return k;
+    k = irr_fix(k, true, o, d, t, mn, cs, lo, hi);
+    k = irr_fix(k, true, o, d, t, mn, cs, lo, hi);
+    k = irr_fix(k, false, o, d, t, mn, cs, lo, hi);
+    return irr_fix(k, false, o, d, t, mn, cs, lo, hi);
+}
+
+// Virtual cell on the exit axis: the first one beyond the face.
+float irr_beyond(float d, float lo, float hi) {
+    return d > 0.0 ? hi : lo - 1.0;
+}
+
+// The cell after leaving box lo..hi at ex = (t_exit, axis): its id, or -1 when the ray
+// leaves the grid.
+float irr_next(vec3 o, vec3 d, vec2 ex, vec3 lo, vec3 hi) {
+    float t = ex.x;
+    vec3 k = vec3(
+        ex.y == 0.0 ? irr_beyond(d.x, lo.x, hi.x)
+                    : irr_lateral(o.x, d.x, t, u_grid_min.x, u_cell_size.x, lo.x, hi.x - 1.0),
+        ex.y == 1.0 ? irr_beyond(d.y, lo.y, hi.y)
+                    : irr_lateral(o.y, d.y, t, u_grid_min.y, u_cell_size.y, lo.y, hi.y - 1.0),
+        ex.y == 2.0 ? irr_beyond(d.z, lo.z, hi.z)
+                    : irr_lateral(o.z, d.z, t, u_grid_min.z, u_cell_size.z, lo.z, hi.z - 1.0));
+    if (any(lessThan(k, vec3(0.0))) || any(greaterThanEqual(k, u_grid_res))) return -1.0;
+    return irr_lookup(k);
+}
+#endif
+
+// Exit parameter of the ray's current cell (s2): the DDA cell's far faces, or the
+// irregular cell's exit box.
+float cell_exit(vec3 o, vec3 d, vec4 s2) {
+#ifdef ACCEL_IRREGULAR
+    float id = s2.S2_CELL.x;
+    return irr_exit(o, d, irr_lo(id).xyz, irr_hi(id).xyz).x;
+#else
+    vec3 tn = boundaries(o, d, s2.S2_CELL);
+    return min(min(tn.x, tn.y), tn.z);
+#endif
+}

@@ -1,5 +1,6 @@
-// traverse_step.frag: one 3D-DDA step (pass 3 of the thesis) for rays in state TRAVERSING.
-// Reads: s0..s3, grid uniforms, the cell table.
+// traverse_step.frag: one 3D-DDA step (pass 3 of the thesis), or one irregular-grid step
+// with ACCEL_IRREGULAR, for rays in state TRAVERSING.
+// Reads: s0..s3, grid uniforms, the cell table (and the voxel map with ACCEL_IRREGULAR).
 // Writes: s0 state -> DONE (left the grid or its interval: a miss), TESTING (the new cell
 //         has triangles) or TRAVERSING; s2 = (new cell, first list index);
 //         s3 = (t_best, tri_best, list end, steps + 1). Other rays are copied through.

@@ -2,7 +2,7 @@
 // faithful passes run one at a time) as straight-line code, for `--kernel unrolled:K`
 // (no loops: still period hardware) and, with LOOPED, a bounded loop for
 // `--kernel looped` (Shader Model 3 era).
-// Reads: s0..s3, grid uniforms, cell table, triangle list, triangles.
+// Reads: s0..s3, grid uniforms, cell table (and voxel map), triangle list, triangles.
 // Writes: s0..s3 advanced by up to UNROLL (or LOOP_MAX) iterations.
 #include "intersect.glsl"
 #include "traverse.glsl"

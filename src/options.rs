@@ -11,8 +11,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, ValueEnum};
 use serde::Serialize;
 
-use crate::accel::grid::DEFAULT_DENSITY;
-use crate::accel::{GridConfig, GridRes};
+use crate::accel::{AccelKind, GridConfig, GridRes, IrregularConfig};
 use crate::scene::Scene;
 use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques};
 use crate::{Error, Result};
@@ -64,8 +63,12 @@ pub struct RenderOptions {
     pub max_depth: u32,
     /// CPU arithmetic precision.
     pub precision: Precision,
-    /// Grid resolution and density.
+    /// Which acceleration structure is built.
+    pub accel: AccelKind,
+    /// Uniform grid resolution and density.
     pub grid: GridConfig,
+    /// Irregular grid parameters.
+    pub irregular: IrregularConfig,
     /// Which renderer runs.
     pub backend: Backend,
     /// GPU backend options.
@@ -86,7 +89,9 @@ impl RenderOptions {
             spp: 1,
             max_depth: scene.max_depth,
             precision: Precision::F64,
+            accel: AccelKind::default(),
             grid: GridConfig::default(),
+            irregular: IrregularConfig::default(),
             backend: Backend::Cpu,
             gpu: crate::gpu::options::GpuOptions::default(),
             progress: false,
@@ -155,12 +160,18 @@ pub struct RenderArgs {
     /// Samples per pixel (stratified, fixed seed).
     #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = whole_number)]
     pub spp: u32,
-    /// Grid resolution: auto or AxBxC.
+    /// Acceleration structure: irregular (adaptive cells with exit boxes grown over empty
+    /// space, after Perard-Gayot et al. 2017; the default) or uniform (the thesis's grid
+    /// over the scene box).
+    #[arg(long, value_enum, default_value_t = AccelKind::default())]
+    pub accel: AccelKind,
+    /// Uniform grid resolution: auto or AxBxC (with --accel uniform).
     #[arg(long, default_value = "auto")]
     pub grid: GridRes,
-    /// Cells per triangle for the auto grid (lambda).
-    #[arg(long, default_value_t = DEFAULT_DENSITY, allow_negative_numbers = true)]
-    pub grid_density: f32,
+    /// Cells per triangle for the auto uniform grid (lambda; with --accel uniform), or top
+    /// cells per triangle of the irregular grid (default 0.125 there).
+    #[arg(long, allow_negative_numbers = true)]
+    pub grid_density: Option<f32>,
     /// GPU: traversal iterations between termination queries (K).
     #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = whole_number)]
     pub query_every: u32,
@@ -248,17 +259,28 @@ impl RenderArgs {
         opts.max_depth = args.max_depth.unwrap_or(scene.max_depth);
         opts.precision = args.precision;
         opts.backend = args.backend;
+        opts.accel = args.accel;
         let mut grid = GridConfig {
             res: args.grid,
             ..GridConfig::default()
         };
-        let d = args.grid_density;
-        if !(d.is_finite() && d > 0.0 && d <= 1024.0) {
+        if let Some(d) = args.grid_density {
+            if !(d.is_finite() && d > 0.0 && d <= 1024.0) {
+                return Err(Error::Usage(format!(
+                    "--grid-density {d} is outside (0, 1024]"
+                )));
+            }
+            match args.accel {
+                AccelKind::Uniform => grid.density = d,
+                AccelKind::Irregular => opts.irregular.top_density = d,
+            }
+        }
+        if args.accel != AccelKind::Uniform && args.grid != GridRes::Auto {
             return Err(Error::Usage(format!(
-                "--grid-density {d} is outside (0, 1024]"
+                "--grid {} sets the uniform grid; add --accel uniform",
+                args.grid
             )));
         }
-        grid.density = d;
         opts.grid = grid;
         if args.query_every == 0 || args.query_every > 4096 {
             return Err(Error::Usage(format!(

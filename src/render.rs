@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::accel::Grid;
+use crate::accel::{Accel, AccelSummary};
 use crate::cpu::CpuRenderer;
 use crate::gpu::GlContext;
 use crate::image_io::Image;
@@ -37,13 +37,13 @@ pub struct RenderStats {
     pub max_depth: u32,
     /// Triangle count.
     pub triangles: usize,
-    /// Grid cells per axis.
+    /// Cells per axis of the structure (the irregular grid's virtual resolution).
     pub grid: [u32; 3],
-    /// Grid statistics.
-    pub grid_stats: crate::accel::GridStats,
+    /// The acceleration structure: kind, size, memory, build time.
+    pub accel: AccelSummary,
     /// Robustness techniques that differ from the default (`default` when none).
     pub techniques: String,
-    /// Grid build time.
+    /// Acceleration-structure build time.
     pub grid_build_ms: f64,
     /// Render time (excluding grid build).
     pub render_ms: f64,
@@ -73,16 +73,17 @@ pub struct Rendered {
     pub stats: RenderStats,
 }
 
-/// Builds the grid and renders `scene` on the CPU.
+/// Builds the acceleration structure and renders `scene` on the CPU.
 pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     opts.validate()?;
-    let grid = Grid::build(scene, &opts.grid)?;
+    let accel = Accel::build(scene, opts.accel, &opts.grid, &opts.irregular)?;
+    let summary = accel.as_ref().summary(scene.triangles.len());
     let progress = crate::progress::Progress::bar(opts.progress, opts.height as u64, "rows");
     let t0 = Instant::now();
     let out = match opts.precision {
-        Precision::F64 => CpuRenderer::<f64>::new(scene, &grid, opts.max_depth, opts.techniques)
+        Precision::F64 => CpuRenderer::<f64>::new(scene, &accel, opts.max_depth, opts.techniques)
             .render_with_progress(opts.width, opts.height, opts.spp, &progress),
-        Precision::F32 => CpuRenderer::<f32>::new(scene, &grid, opts.max_depth, opts.techniques)
+        Precision::F32 => CpuRenderer::<f32>::new(scene, &accel, opts.max_depth, opts.techniques)
             .render_with_progress(opts.width, opts.height, opts.spp, &progress),
     };
     let render_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -100,9 +101,9 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
         spp: opts.spp,
         max_depth: opts.max_depth,
         triangles: scene.triangles.len(),
-        grid: grid.res,
-        grid_build_ms: grid.stats.build_ms,
-        grid_stats: grid.stats.clone(),
+        grid: summary.resolution,
+        grid_build_ms: summary.build_ms,
+        accel: summary,
         techniques: opts.techniques.tag(),
         render_ms,
         rays: out.rays,
@@ -118,12 +119,13 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     })
 }
 
-/// Builds the grid and renders `scene` with the GLSL 1.20 multi-pass backend in `ctx`.
+/// Builds the acceleration structure and renders `scene` with the GLSL 1.20 multi-pass backend in `ctx`.
 pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     opts.validate()?;
     // The image must fit the driver's textures and viewport before any work is done.
     ctx.info.check_image_size(opts.width, opts.height)?;
-    let grid = Grid::build(scene, &opts.grid)?;
+    let accel = Accel::build(scene, opts.accel, &opts.grid, &opts.irregular)?;
+    let summary = accel.as_ref().summary(scene.triangles.len());
     let t0 = Instant::now();
     let req = crate::gpu::render::ImageRequest {
         width: opts.width,
@@ -134,7 +136,7 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
         progress: opts.progress,
         gpu: opts.gpu,
     };
-    let out = crate::gpu::render::render_gl(ctx, scene, &grid, &req)?;
+    let out = crate::gpu::render::render_gl(ctx, scene, &accel, &req)?;
     let render_ms = t0.elapsed().as_secs_f64() * 1e3;
     let stats = RenderStats {
         backend: "gl".into(),
@@ -146,9 +148,9 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
         spp: opts.spp,
         max_depth: opts.max_depth,
         triangles: scene.triangles.len(),
-        grid: grid.res,
-        grid_build_ms: grid.stats.build_ms,
-        grid_stats: grid.stats.clone(),
+        grid: summary.resolution,
+        grid_build_ms: summary.build_ms,
+        accel: summary,
         techniques: opts.techniques.tag(),
         render_ms,
         rays: out.rays,

@@ -1,9 +1,10 @@
-//! Acceleration structure: a uniform grid over the scene's triangles, built on the CPU and
-//! traversed with a 3D-DDA by both renderers.
+//! Acceleration structures over the scene's triangles, built on the CPU and walked one
+//! step at a time by every backend: the thesis's uniform grid ([`grid`], a 3D-DDA) and the
+//! irregular grid ([`irregular`], adaptive cells with exit boxes), chosen with `--accel`
+//! ([`AccelKind`]); [`two_level`] is the two-level grid they were measured against.
 //!
-//! [`grid`] holds the grid itself and its build (auto resolution, conservative binning,
-//! parallel counting sort, statistics); [`tribox`] holds the exact triangle/box overlap
-//! test the binning relies on.
+//! [`binning`] bins triangles into a level's cells conservatively; [`tribox`] holds the
+//! exact triangle/box overlap test the binning relies on.
 
 pub mod binning;
 pub mod grid;
@@ -20,3 +21,164 @@ pub use grid::{CellRange, Grid, GridConfig, GridRes, GridStats};
 /// backend follows, so it lives with the structure: `cpu::traverse` uses it and the GLSL
 /// prelude gets it as `TIE_EPS`.
 pub const TIE_EPS: f64 = 1.0 / 524_288.0;
+
+pub use irregular::{IrregularConfig, IrregularGrid};
+
+use crate::scene::Scene;
+use crate::Result;
+
+/// Which acceleration structure a render builds (`--accel`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum AccelKind {
+    /// The thesis's uniform grid over the scene box, walked by a 3D-DDA.
+    Uniform,
+    /// The irregular grid ([`irregular`]): adaptive cells with exit boxes grown over empty
+    /// space, walked one cell at a time.
+    #[default]
+    Irregular,
+}
+
+impl AccelKind {
+    /// The name `--accel` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            AccelKind::Uniform => "uniform",
+            AccelKind::Irregular => "irregular",
+        }
+    }
+}
+
+/// A built acceleration structure.
+#[derive(Clone, Debug)]
+pub enum Accel {
+    /// Uniform grid.
+    Uniform(Grid),
+    /// Irregular grid.
+    Irregular(IrregularGrid),
+}
+
+/// A borrowed acceleration structure: what renderers take, so that a `&Grid` or a
+/// `&IrregularGrid` can be passed where a structure is expected.
+#[derive(Clone, Copy, Debug)]
+pub enum AccelRef<'a> {
+    /// Uniform grid.
+    Uniform(&'a Grid),
+    /// Irregular grid.
+    Irregular(&'a IrregularGrid),
+}
+
+impl<'a> From<&'a Grid> for AccelRef<'a> {
+    fn from(g: &'a Grid) -> Self {
+        AccelRef::Uniform(g)
+    }
+}
+
+impl<'a> From<&'a IrregularGrid> for AccelRef<'a> {
+    fn from(g: &'a IrregularGrid) -> Self {
+        AccelRef::Irregular(g)
+    }
+}
+
+impl<'a> From<&'a Accel> for AccelRef<'a> {
+    fn from(a: &'a Accel) -> Self {
+        match a {
+            Accel::Uniform(g) => AccelRef::Uniform(g),
+            Accel::Irregular(g) => AccelRef::Irregular(g),
+        }
+    }
+}
+
+/// What `--stats` reports of the structure, whichever it is.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AccelSummary {
+    /// Which structure.
+    pub kind: AccelKind,
+    /// Cells per axis: the uniform grid's, or the irregular grid's virtual resolution.
+    pub resolution: [u32; 3],
+    /// Top cells per axis (irregular grid only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub top_resolution: Option<[u32; 3]>,
+    /// Wall-clock build time in milliseconds.
+    pub build_ms: f64,
+    /// Memory of the tables as the GPU stores them.
+    pub bytes: usize,
+    /// `bytes / triangles` (0 for an empty scene).
+    pub bytes_per_triangle: f64,
+    /// Cells.
+    pub cells: usize,
+    /// Cells with no triangle.
+    pub empty_cells: usize,
+    /// (cell, triangle) references.
+    pub references: usize,
+    /// The structure's own one-line description.
+    pub detail: String,
+}
+
+impl Accel {
+    /// Builds the structure `kind` for `scene`, with `grid` for the uniform grid and
+    /// `irregular` for the irregular one.
+    pub fn build(
+        scene: &Scene,
+        kind: AccelKind,
+        grid: &GridConfig,
+        irregular: &IrregularConfig,
+    ) -> Result<Accel> {
+        Ok(match kind {
+            AccelKind::Uniform => Accel::Uniform(Grid::build(scene, grid)?),
+            AccelKind::Irregular => Accel::Irregular(IrregularGrid::build(scene, irregular)?),
+        })
+    }
+
+    /// The structure borrowed.
+    pub fn as_ref(&self) -> AccelRef<'_> {
+        self.into()
+    }
+}
+
+impl AccelRef<'_> {
+    /// Which structure this is.
+    pub fn kind(&self) -> AccelKind {
+        match self {
+            AccelRef::Uniform(_) => AccelKind::Uniform,
+            AccelRef::Irregular(_) => AccelKind::Irregular,
+        }
+    }
+
+    /// The figures `--stats` reports; `triangles` for the per-triangle memory.
+    pub fn summary(&self, triangles: usize) -> AccelSummary {
+        let per_tri = |b: usize| {
+            if triangles == 0 {
+                0.0
+            } else {
+                b as f64 / triangles as f64
+            }
+        };
+        match self {
+            AccelRef::Uniform(g) => AccelSummary {
+                kind: AccelKind::Uniform,
+                resolution: g.res,
+                top_resolution: None,
+                build_ms: g.stats.build_ms,
+                bytes: g.stats.bytes,
+                bytes_per_triangle: per_tri(g.stats.bytes),
+                cells: g.stats.cells,
+                empty_cells: g.stats.empty_cells,
+                references: g.stats.references,
+                detail: g.stats.to_string(),
+            },
+            AccelRef::Irregular(g) => AccelSummary {
+                kind: AccelKind::Irregular,
+                resolution: g.res,
+                top_resolution: Some(g.top_res),
+                build_ms: g.stats.build_ms,
+                bytes: g.stats.bytes,
+                bytes_per_triangle: g.stats.bytes_per_triangle,
+                cells: g.stats.cells,
+                empty_cells: g.stats.empty_cells,
+                references: g.stats.references,
+                detail: g.stats.to_string(),
+            },
+        }
+    }
+}

@@ -1,4 +1,4 @@
-//! The CPU reference renderer: recursive Whitted ray tracing over the uniform grid,
+//! The CPU reference renderer: recursive Whitted ray tracing over the uniform or irregular grid,
 //! generic over precision (f64 is the ground truth, f32 mirrors the GPU). Rows are rendered
 //! in parallel with rayon; every pixel is computed independently, so the image does not
 //! depend on the thread count.
@@ -7,8 +7,9 @@ use rayon::prelude::*;
 
 use super::real::{Real, V3};
 use super::shade::{albedo, light_term, offset_origin_with, secondary, surface};
-use super::traverse::{GridWalker, Hit, Ray, Work};
-use crate::accel::Grid;
+use super::traverse::{Hit, Ray, Work};
+use super::walker::Walker;
+use crate::accel::AccelRef;
 use crate::image_io::Image;
 use crate::output::{Aov, AovPixel, RayCounts};
 use crate::progress::Progress;
@@ -28,7 +29,7 @@ struct Tally {
 /// A scene prepared for CPU rendering in precision `T`.
 pub struct CpuRenderer<'a, T> {
     scene: &'a Scene,
-    walker: GridWalker<'a, T>,
+    walker: Walker<'a, T>,
     max_depth: u32,
     background: V3<T>,
     ambient: V3<T>,
@@ -50,12 +51,18 @@ pub struct CpuOutput {
 }
 
 impl<'a, T: Real> CpuRenderer<'a, T> {
-    /// Prepares `scene` with its `grid`; `max_depth` bounds the recursion; `techniques`
-    /// selects the robustness techniques (`Techniques::default()` for the normal ones).
-    pub fn new(scene: &'a Scene, grid: &'a Grid, max_depth: u32, techniques: Techniques) -> Self {
+    /// Prepares `scene` with its acceleration structure (a `&Grid`, `&IrregularGrid` or
+    /// `&Accel`); `max_depth` bounds the recursion; `techniques` selects the robustness
+    /// techniques (`Techniques::default()` for the normal ones).
+    pub fn new(
+        scene: &'a Scene,
+        accel: impl Into<AccelRef<'a>>,
+        max_depth: u32,
+        techniques: Techniques,
+    ) -> Self {
         CpuRenderer {
             scene,
-            walker: GridWalker::with_techniques(scene, grid, techniques),
+            walker: Walker::new(scene, accel.into(), techniques),
             offset: techniques.offset,
             max_depth,
             background: V3::from_vec3(scene.background),
@@ -73,7 +80,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
 
     /// Whitted shading of a hit (see `cpu::shade` for the conventions).
     fn shade(&self, ray: &Ray<T>, hit: &Hit<T>, depth: u32, tally: &mut Tally) -> V3<T> {
-        let verts = &self.walker.tris[hit.tri as usize];
+        let verts = &self.walker.tris()[hit.tri as usize];
         let sp = surface(self.scene, verts, hit, ray.d);
         let m = &self.scene.materials[sp.material as usize];
         let alb = albedo(m, sp.p);
@@ -208,7 +215,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
         match hit {
             None => AovPixel::miss(steps as f32),
             Some(hit) => {
-                let verts = &self.walker.tris[hit.tri as usize];
+                let verts = &self.walker.tris()[hit.tri as usize];
                 let sp = surface(self.scene, verts, hit, ray.d);
                 AovPixel {
                     depth: hit.t.to_f64() as f32,

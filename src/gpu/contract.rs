@@ -18,7 +18,8 @@ pub enum Unit {
     Tri,
     /// Materials (`u_mat`).
     Mat,
-    /// Grid cell table (`u_cell`).
+    /// Cell table of the grid (`u_cell`): one texel per uniform cell, two per irregular
+    /// cell.
     Cell,
     /// Triangle-index list (`u_list`).
     List,
@@ -43,11 +44,13 @@ pub enum Unit {
     Node,
     /// Colour accumulated so far (`u_acc`).
     Acc,
+    /// The irregular grid's voxel map (`u_vmap`; bound only with `--accel irregular`).
+    Vmap,
 }
 
 impl Unit {
     /// Every unit.
-    pub const ALL: [Unit; 14] = [
+    pub const ALL: [Unit; 15] = [
         Unit::Tri,
         Unit::Mat,
         Unit::Cell,
@@ -62,6 +65,7 @@ impl Unit {
         Unit::Rec2,
         Unit::Node,
         Unit::Acc,
+        Unit::Vmap,
     ];
 
     /// The ray-state units, in attachment order s0..s3.
@@ -87,6 +91,7 @@ impl Unit {
             Unit::Rec2 => 11,
             Unit::Node => 12,
             Unit::Acc => 13,
+            Unit::Vmap => 14,
         }
     }
 
@@ -107,6 +112,7 @@ impl Unit {
             Unit::Rec2 => &["u_r2", "u_p2"],
             Unit::Node => &["u_c2", "u_dir"],
             Unit::Acc => &["u_acc"],
+            Unit::Vmap => &["u_vmap"],
         }
     }
 }
@@ -166,7 +172,7 @@ pub mod ray {
     pub const DIR: Field = Field::new(1, 0, 3, "dir");
     /// s1.w: upper end of the ray's interval.
     pub const T_MAX: Field = Field::new(1, 3, 1, "t_max");
-    /// s2.xyz: current grid cell.
+    /// s2.xyz: current grid cell (uniform grid), or (cell id, 0, 0) (irregular grid).
     pub const CELL: Field = Field::new(2, 0, 3, "cell");
     /// s2.w: next index into the triangle list.
     pub const CURSOR: Field = Field::new(2, 3, 1, "cursor");

@@ -13,11 +13,17 @@
 //! | `tri` | 3 per triangle | (v0, material), (v1, has_normals), (v2, 0) |
 //! | `nrm` | 3 per triangle | vertex normals n0, n1, n2 (only when the scene has any) |
 //! | `mat` | 7 per material | see [`contract::mat`](super::contract::mat) |
-//! | `cell` | 1 per grid cell | (offset into `list`, count, 0, 0) |
+//! | `cell` | 1 per uniform grid cell | (offset into `list`, count, 0, 0) |
+//! | `cell` | 2 per irregular cell | (exit box lower corner, offset), (exit box upper corner, count) |
+//! | `vmap` | 1 per 4 voxel-map entries | irregular grid only: cell id, or -(child block + 1) |
 //! | `list` | 1 per 4 references | four triangle indices |
+//!
+//! For the irregular grid the layout also generates `irr_lookup(k)`, the voxel-map descent
+//! from a virtual cell to its cell id, unrolled level by level with the split masks of the
+//! built grid as constants (no loop: the multipass kernel's programs have none).
 
 use super::contract::{mat as slot, Field, Unit};
-use crate::accel::Grid;
+use crate::accel::{AccelRef, IrregularGrid};
 use crate::scene::{CheckerAxes, Scene};
 use crate::{Error, Result};
 
@@ -119,10 +125,109 @@ pub struct SceneTextures {
     pub nrm: Option<PackedTexture>,
     /// Materials.
     pub mat: PackedTexture,
-    /// Grid cell table.
+    /// Cell table of the grid.
     pub cell: PackedTexture,
     /// Triangle-index list.
     pub list: PackedTexture,
+    /// The irregular grid's voxel map and descent (`None` for the uniform grid).
+    pub irregular: Option<IrregularLayout>,
+}
+
+/// The irregular grid's part of the layout: its voxel map and the constants of the descent.
+#[derive(Clone, Debug)]
+pub struct IrregularLayout {
+    /// Voxel map, four entries per texel.
+    pub vmap: PackedTexture,
+    /// Top cells per axis.
+    pub top_res: [u32; 3],
+    /// Split masks, top-down.
+    pub levels: Vec<[bool; 3]>,
+    /// Splits per axis.
+    pub shift: [u32; 3],
+}
+
+/// Exact decimal literal of 2^-n (every such power has a finite decimal expansion).
+fn pow2_literal(n: u32) -> String {
+    format!("{:e}", 2f64.powi(-(n as i32)))
+}
+
+impl IrregularLayout {
+    fn pack(g: &IrregularGrid, max_size: u32) -> Result<Self> {
+        let entries: Vec<f32> = g
+            .vmap
+            .iter()
+            .map(|&e| {
+                if e & crate::accel::irregular::NODE != 0 {
+                    -((e & !crate::accel::irregular::NODE) as f32) - 1.0
+                } else {
+                    e as f32
+                }
+            })
+            .collect();
+        let texels = entries
+            .chunks(4)
+            .map(|c| {
+                let mut t = [0f32; 4];
+                t[..c.len()].copy_from_slice(c);
+                t
+            })
+            .collect();
+        Ok(IrregularLayout {
+            vmap: PackedTexture::pack("vmap", texels, max_size)?,
+            top_res: g.top_res,
+            levels: g.levels.clone(),
+            shift: g.shift,
+        })
+    }
+
+    /// GLSL: the voxel-map fetch and `irr_lookup`, the descent unrolled over the levels.
+    fn glsl(&self) -> String {
+        let v3 = |v: [String; 3]| format!("vec3({}, {}, {})", v[0], v[1], v[2]);
+        let mut s = String::from(
+            "#define ACCEL_IRREGULAR 1
+             // Voxel-map entry i (four per texel).
+             float vmap_entry(float i) {
+                 float texel = floor(i * 0.25);
+                 vec4 sel = vec4(equal(vec4(i - texel * 4.0), vec4(0.0, 1.0, 2.0, 3.0)));
+                 return dot(fetch_vmap(texel), sel);
+             }
+             // Cell id of virtual cell k: the top entry, then one child block per level while
+             // the entry is a node (CPU twin: IrregularGrid::lookup). Every product is an
+             // integer times a power of two, so exact.
+             float irr_lookup(vec3 k) {
+",
+        );
+        s += &format!(
+            "    vec3 t = floor(k * {});
+    float e = vmap_entry(t.x + {:.1} * (t.y + {:.1} * t.z));
+",
+            v3(self.shift.map(pow2_literal)),
+            self.top_res[0] as f32,
+            self.top_res[1] as f32
+        );
+        let mut rem = self.shift;
+        for mask in &self.levels {
+            let mut stride = [0u32; 3];
+            let mut st = 1;
+            for a in 0..3 {
+                if mask[a] {
+                    rem[a] -= 1;
+                    stride[a] = st;
+                    st *= 2;
+                }
+            }
+            s += &format!(
+                "    if (e < 0.0) e = vmap_entry(-e - 1.0 + dot(mod(floor(k * {}), 2.0), {}));
+",
+                v3(rem.map(pow2_literal)),
+                v3(stride.map(|v| format!("{v:.1}")))
+            );
+        }
+        s += "    return e;
+}
+";
+        s
+    }
 }
 
 /// Numeric code of a checker's axes in the material texture (and in GLSL).
@@ -137,14 +242,20 @@ pub fn axes_code(a: CheckerAxes) -> f32 {
 impl SceneTextures {
     /// Packs `scene` and `grid` for a GPU whose textures may be `max_size` texels wide/high;
     /// the vertex-normal texture only when the scene has vertex normals.
-    pub fn pack(scene: &Scene, grid: &Grid, max_size: u32) -> Result<Self> {
-        Self::pack_with(scene, grid, max_size, scene.has_smooth_normals())
+    pub fn pack<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, max_size: u32) -> Result<Self> {
+        Self::pack_with(scene, accel, max_size, scene.has_smooth_normals())
     }
 
     /// As [`SceneTextures::pack`], with the vertex-normal texture packed when `normals` is
     /// set even if no triangle has normals (all zero then): shaders built with every feature
     /// on (`--no-specialize`) fetch from it, behind the per-triangle flag.
-    pub fn pack_with(scene: &Scene, grid: &Grid, max_size: u32, normals: bool) -> Result<Self> {
+    pub fn pack_with<'a>(
+        scene: &Scene,
+        accel: impl Into<AccelRef<'a>>,
+        max_size: u32,
+        normals: bool,
+    ) -> Result<Self> {
+        let accel = accel.into();
         let smooth = normals || scene.has_smooth_normals();
         let mut tri = Vec::with_capacity(scene.triangles.len() * 3);
         let mut nrm = Vec::new();
@@ -190,13 +301,29 @@ impl SceneTextures {
             put(slot::FRESNEL, &[if m.fresnel { 1.0 } else { 0.0 }]);
             put(slot::CHECKER_PHASE, &phase);
         }
-        let cell = grid
-            .cells
-            .iter()
-            .map(|c| [c.offset as f32, c.count as f32, 0.0, 0.0])
-            .collect();
-        let list = grid
-            .tri_indices
+        let (cell, tri_indices, irregular) = match accel {
+            AccelRef::Uniform(grid) => (
+                grid.cells
+                    .iter()
+                    .map(|c| [c.offset as f32, c.count as f32, 0.0, 0.0])
+                    .collect(),
+                &grid.tri_indices,
+                None,
+            ),
+            AccelRef::Irregular(g) => (
+                g.cells
+                    .iter()
+                    .flat_map(|c| {
+                        let f =
+                            |v: [u32; 3], w: u32| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
+                        [f(c.exit_lo, c.range.offset), f(c.exit_hi, c.range.count)]
+                    })
+                    .collect(),
+                &g.tri_indices,
+                Some(IrregularLayout::pack(g, max_size)?),
+            ),
+        };
+        let list = tri_indices
             .chunks(LIST_PER_TEXEL as usize)
             .map(|c| {
                 let mut t = [0f32; 4];
@@ -223,6 +350,7 @@ impl SceneTextures {
             mat: PackedTexture::pack("mat", mat, max_size)?,
             cell: PackedTexture::pack("cell", cell, max_size)?,
             list: PackedTexture::pack("list", list, max_size)?,
+            irregular,
         })
     }
 
@@ -242,6 +370,9 @@ impl SceneTextures {
         if let Some(n) = &self.nrm {
             v.push((Unit::Nrm, n));
         }
+        if let Some(i) = &self.irregular {
+            v.push((Unit::Vmap, &i.vmap));
+        }
         v
     }
 
@@ -252,6 +383,9 @@ impl SceneTextures {
         );
         for t in self.all() {
             s.push_str(&t.glsl());
+        }
+        if let Some(i) = &self.irregular {
+            s.push_str(&i.glsl());
         }
         s
     }

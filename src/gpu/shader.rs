@@ -509,14 +509,14 @@ pub fn all_passes() -> Vec<Pass> {
 /// for every combination of scene features, one sub-folder each, plus one sub-folder
 /// `techniques-<tag>` per non-default technique setting of [`Techniques::one_off`], with
 /// every scene feature on), plus the vertex shader. Returns the files written.
-pub fn dump_shaders(
+pub fn dump_shaders<'a>(
     scene: &Scene,
-    grid: &crate::accel::Grid,
+    accel: impl Into<crate::accel::AccelRef<'a>>,
     dir: &std::path::Path,
     all_variants: bool,
 ) -> Result<Vec<std::path::PathBuf>> {
     // Variants with smooth normals on fetch from the normal texture, so it is declared.
-    let layout = SceneTextures::pack_with(scene, grid, layout::MAX_ROW, all_variants)?;
+    let layout = SceneTextures::pack_with(scene, accel, layout::MAX_ROW, all_variants)?;
     let d = Techniques::default();
     let sets: Vec<(Features, Techniques, Option<String>)> = if all_variants {
         all_feature_sets()

@@ -12,7 +12,7 @@ use std::time::Instant;
 use glow::HasContext;
 
 use super::passes::{build_programs, passes_for};
-use crate::accel::Grid;
+use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::{Unit, REQUIRED_TEXTURE_UNITS};
 use crate::gpu::gl::{
@@ -103,7 +103,7 @@ impl<'a> Frame<'a> {
     pub(super) fn new(
         ctx: &'a GlContext,
         scene: &Scene,
-        grid: &Grid,
+        accel: AccelRef<'_>,
         width: u32,
         height: u32,
         levels: usize,
@@ -140,7 +140,7 @@ impl<'a> Frame<'a> {
             Features::of(scene)
         };
         let t_up = Instant::now();
-        let layout = SceneTextures::pack_with(scene, grid, max_size, features.smooth_normals)?;
+        let layout = SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?;
         let scene_tex = layout
             .with_units()
             .into_iter()
@@ -166,7 +166,7 @@ impl<'a> Frame<'a> {
             features,
             opts.techniques,
             &layout,
-            grid,
+            accel,
             scene,
             (width, height),
         )?;
@@ -221,11 +221,15 @@ impl<'a> Frame<'a> {
             }),
             stats,
             opts,
-            // A DDA visits at most rx+ry+rz cells; each test is one iteration; be generous.
-            max_iterations: 16
-                * (grid.res.iter().map(|&r| r as u64).sum::<u64>()
-                    + grid.tri_indices.len() as u64
-                    + 16),
+            // A DDA visits at most rx+ry+rz cells (an irregular walk at most as many as its
+            // virtual grid's); each test is one iteration; be generous.
+            max_iterations: {
+                let (res, refs) = match accel {
+                    AccelRef::Uniform(g) => (g.res, g.tri_indices.len()),
+                    AccelRef::Irregular(g) => (g.res, g.tri_indices.len()),
+                };
+                16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs as u64 + 16)
+            },
         })
     }
 

@@ -6,7 +6,7 @@ use std::collections::HashMap;
 
 use glow::HasContext;
 
-use crate::accel::Grid;
+use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::Unit;
 use crate::gpu::gl::{compile_program, Program, QUAD_VERTEX_SHADER};
@@ -58,7 +58,7 @@ pub(super) fn build_programs(
     features: Features,
     techniques: Techniques,
     layout: &SceneTextures,
-    grid: &Grid,
+    accel: AccelRef<'_>,
     scene: &Scene,
     (width, height): (u32, u32),
 ) -> Result<HashMap<Pass, Program>> {
@@ -91,10 +91,14 @@ pub(super) fn build_programs(
                     gl.uniform_3_f32(Some(&loc), v.x, v.y, v.z);
                 }
             };
-            set3("u_grid_min", grid.min);
-            set3("u_grid_max", grid.max);
-            set3("u_cell_size", grid.cell_size);
-            set3("u_grid_res", glam::UVec3::from(grid.res).as_vec3());
+            let (min, max, cell_size, res) = match accel {
+                AccelRef::Uniform(g) => (g.min, g.max, g.cell_size, g.res),
+                AccelRef::Irregular(g) => (g.min, g.max, g.cell_size, g.res),
+            };
+            set3("u_grid_min", min);
+            set3("u_grid_max", max);
+            set3("u_cell_size", cell_size);
+            set3("u_grid_res", glam::UVec3::from(res).as_vec3());
             set3("u_ambient", scene.ambient);
             set3("u_background", scene.background);
             if let Some(loc) = gl.get_uniform_location(p, "u_size") {

@@ -3,7 +3,7 @@
 //! [`contract`](crate::gpu::contract).
 
 use super::frame::Frame;
-use crate::accel::Grid;
+use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::{ray, StateTexels, TRI_NONE, TRI_NO_RAY};
 use crate::gpu::options::GpuOptions;
@@ -85,10 +85,10 @@ pub struct GpuTrace {
 
 /// Traces arbitrary rays through the same traversal and intersection passes a render uses:
 /// how tests put single hand-made rays through the GPU kernel.
-pub fn trace_rays(
+pub fn trace_rays<'a>(
     ctx: &GlContext,
     scene: &Scene,
-    grid: &Grid,
+    accel: impl Into<AccelRef<'a>>,
     rays: &[GpuRay],
     query: Query,
     opts: GpuOptions,
@@ -99,7 +99,7 @@ pub fn trace_rays(
     let n = rays.len() as u32;
     let w = n.min(256);
     let h = n.div_ceil(w);
-    let mut f = Frame::new(ctx, scene, grid, w, h, 1, false, opts)?;
+    let mut f = Frame::new(ctx, scene, accel.into(), w, h, 1, false, opts)?;
     let texels = (w * h) as usize;
     let mut s = StateTexels {
         texels: std::array::from_fn(|_| vec![0f32; texels * 4]),

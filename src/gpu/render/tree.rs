@@ -10,7 +10,7 @@ use glow::HasContext;
 use super::frame::{bind_texture, Frame, Slot};
 use super::readback::{flip_rgba_to_rgb, read_aov};
 use super::{GpuOutput, ImageRequest};
-use crate::accel::Grid;
+use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::Unit;
 use crate::gpu::gl::Texture;
@@ -55,11 +55,12 @@ impl Branch {
     }
 }
 
-/// Renders `scene` over `grid` on the GPU.
-pub fn render_gl(
+/// Renders `scene` over its acceleration structure (a `&Grid`, `&IrregularGrid` or
+/// `&Accel`) on the GPU.
+pub fn render_gl<'a>(
     ctx: &GlContext,
     scene: &Scene,
-    grid: &Grid,
+    accel: impl Into<AccelRef<'a>>,
     req: &ImageRequest,
 ) -> Result<GpuOutput> {
     let (width, height, spp, max_depth) = (req.width, req.height, req.spp, req.max_depth);
@@ -68,7 +69,7 @@ pub fn render_gl(
         techniques: req.techniques,
         ..req.gpu
     };
-    let mut f = Frame::new(ctx, scene, grid, width, height, levels, true, gpu)?;
+    let mut f = Frame::new(ctx, scene, accel.into(), width, height, levels, true, gpu)?;
     f.progress = Progress::tree_bar(req.progress);
     let secondary = max_depth > 0 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
     let t_trace = Instant::now();
