@@ -641,10 +641,8 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     let used = [0, 1, 2].map(|a| levels.iter().filter(|m| m[a]).count() as u32);
     let drop = [0, 1, 2].map(|a| shift[a] - used[a]);
     for c in &mut cells {
-        for a in 0..3 {
-            c.lo[a] >>= drop[a];
-            c.hi[a] >>= drop[a];
-        }
+        c.lo = [0, 1, 2].map(|a| c.lo[a] >> drop[a]);
+        c.hi = [0, 1, 2].map(|a| c.hi[a] >> drop[a]);
         c.exit_lo = c.lo;
         c.exit_hi = c.hi;
     }
