@@ -1,7 +1,8 @@
 //! Irregular grid after Perard-Gayot, Kalojanov and Slusallek ("GPU Ray Tracing using
 //! Irregular Grids", Eurographics 2017): a uniform top grid whose cells are subdivided
 //! adaptively (an octree-like voxel map below each top cell, to a common virtual
-//! resolution), every leaf cell then given an *exit box* grown over its empty neighbours.
+//! resolution), every empty leaf cell then given an *exit box* grown over its empty
+//! neighbours.
 //! A ray walks it one cell at a time: it leaves the current cell through the exit box, the
 //! cell holding the exit point is looked up in the voxel map, and so on. Empty space costs
 //! one step per exit box, however many cells it spans, so a mesh on a huge floor costs
@@ -40,7 +41,8 @@
 //! - `vmap[0 .. top cells]`: one entry per top cell, x fastest; then the child blocks, in
 //!   depth-first order. An entry is a cell id, or [`NODE`] plus the index of the node's child
 //!   block (in GLSL: `id >= 0`, or `-(block + 1)`).
-//! - `cells[id]`: the cell's own box `lo .. hi` and its exit box `exit_lo .. exit_hi`
+//! - `cells[id]`: the cell's own box `lo .. hi` and its exit box `exit_lo .. exit_hi` (the
+//!   own box for a cell with triangles)
 //!   (virtual coordinates, upper bound exclusive) and its range of `tri_indices`, cells in
 //!   depth-first order. Empty top cells and empty voxel-map leaves are cells too.
 //! - `tri_indices`: triangles, cell after cell, ascending within each cell.
@@ -88,7 +90,7 @@ pub const MAX_ENTRIES: usize = 1 << 24;
 /// Flag of a [`IrregularGrid::vmap`] entry that points to a child block.
 pub const NODE: u32 = 1 << 31;
 /// Rounds of exit-box growth (each round tries all six faces once).
-const GROW_ROUNDS: usize = 24;
+const GROW_ROUNDS: usize = 4;
 /// Smallest cell side in f32 ulps of the largest coordinate: the traversal's boundary
 /// parameters stay distinct and ordered from cell to cell.
 const MIN_CELL_ULPS: f64 = 64.0;
@@ -304,6 +306,12 @@ impl IrregularGrid {
     ) -> bool {
         if e & NODE == 0 {
             return self.cells[e as usize].range.count == 0;
+        }
+        // A node was split for its triangles, so one the box covers whole is not empty
+        // (conservatively: its triangles may only touch its padding; the box then just
+        // does not grow there). Only nodes the box cuts are descended.
+        if (0..3).all(|a| lo[a] <= node_lo[a] && node_lo[a] + (1 << rem[a]) <= hi[a]) {
+            return false;
         }
         let mask = self.levels[level];
         let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
@@ -677,7 +685,19 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         },
     };
     let expand_start = Instant::now();
-    let exits: Vec<([u32; 3], [u32; 3])> = g.cells.par_iter().map(|c| grow(&g, c)).collect();
+    // Only empty cells grow: growing the others too (the paper does) changed the bunny's
+    // 11.0 cells per ray by 0.1 for more than twice the growth work.
+    let exits: Vec<([u32; 3], [u32; 3])> = g
+        .cells
+        .par_iter()
+        .map(|c| {
+            if c.range.count > 0 {
+                (c.lo, c.hi)
+            } else {
+                grow(&g, c)
+            }
+        })
+        .collect();
     for (c, (lo, hi)) in g.cells.iter_mut().zip(exits) {
         c.exit_lo = lo;
         c.exit_hi = hi;

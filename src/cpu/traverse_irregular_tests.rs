@@ -348,8 +348,15 @@ fn measure_bunny() {
         ("bunny alone", &alone),
         ("bunny, 100x floor", &big_floor),
     ] {
-        for density in [0.03125f32, 0.125, 0.5] {
-            for leaf in [2u32, 4, 8] {
+        let quick = std::env::var("FRAGTRACE_MEASURE_QUICK").is_ok();
+        let densities: &[f32] = if quick {
+            &[0.125]
+        } else {
+            &[0.03125, 0.125, 0.5]
+        };
+        let leaves: &[u32] = if quick { &[8] } else { &[2, 4, 8] };
+        for &density in densities {
+            for &leaf in leaves {
                 let cfg = IrregularConfig {
                     top_density: density,
                     leaf_max: leaf,
