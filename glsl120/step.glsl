@@ -15,7 +15,7 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     float id = s2.S2_CELL.x;
     vec3 lo = irr_lo(id).xyz;
     vec3 hi = irr_hi(id).xyz;
-    vec2 ex = irr_exit(o, d, lo, hi);
+    vec2 ex = irr_exit(o, d, lo, hi, s2.S2_CELL.y);
     float t_leave = clip_grid(o, d, 0.0, s1.S1_T_MAX).y;
     float next = ex.x >= t_leave ? -1.0 : irr_next(o, d, ex, lo, hi);
     if (next < 0.0) {
@@ -24,7 +24,7 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     }
     vec4 nlo = irr_lo(next);
     vec4 nhi = irr_hi(next);
-    s2 = S2_TEXEL(vec3(next, 0.0, 0.0), nlo.w);
+    s2 = S2_TEXEL(vec3(next, ex.x, 0.0), nlo.w);
     s3.S3_CURSOR_END = nlo.w + nhi.w;
     s3.S3_STEPS += 1.0;
     s0.S0_STATE = nhi.w > 0.0 ? ST_TESTING : ST_TRAVERSING;

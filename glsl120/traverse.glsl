@@ -82,12 +82,19 @@ float irr_crossing(float o, float d, float mn, float cs, float k) {
     return (mn + k * cs - o) / d;
 }
 
-// (t_exit, axis) of the box lo..hi; ties go to the lower axis.
-vec2 irr_exit(vec3 o, vec3 d, vec3 lo, vec3 hi) {
-    vec3 tn = vec3(
-        d.x == 0.0 ? BIG : irr_crossing(o.x, d.x, u_grid_min.x, u_cell_size.x, d.x > 0.0 ? hi.x : lo.x),
-        d.y == 0.0 ? BIG : irr_crossing(o.y, d.y, u_grid_min.y, u_cell_size.y, d.y > 0.0 ? hi.y : lo.y),
-        d.z == 0.0 ? BIG : irr_crossing(o.z, d.z, u_grid_min.z, u_cell_size.z, d.z > 0.0 ? hi.z : lo.z));
+// Crossing of one axis's far face, BIG where the ray does not move along the axis or
+// crossed the face before t_prev (exits never go back in t: see the CPU twin).
+float irr_far(float o, float d, float mn, float cs, float lo, float hi, float t_prev) {
+    if (d == 0.0) return BIG;
+    float t = irr_crossing(o, d, mn, cs, d > 0.0 ? hi : lo);
+    return t < t_prev ? BIG : t;
+}
+
+// (t_exit, axis) of the box lo..hi after the previous exit t_prev; ties go to the lower axis.
+vec2 irr_exit(vec3 o, vec3 d, vec3 lo, vec3 hi, float t_prev) {
+    vec3 tn = vec3(irr_far(o.x, d.x, u_grid_min.x, u_cell_size.x, lo.x, hi.x, t_prev),
+                   irr_far(o.y, d.y, u_grid_min.y, u_cell_size.y, lo.y, hi.y, t_prev),
+                   irr_far(o.z, d.z, u_grid_min.z, u_cell_size.z, lo.z, hi.z, t_prev));
     if (tn.x <= tn.y && tn.x <= tn.z) return vec2(tn.x, 0.0);
     if (tn.y <= tn.z) return vec2(tn.y, 1.0);
     return vec2(tn.z, 2.0);
@@ -144,7 +151,7 @@ float irr_next(vec3 o, vec3 d, vec2 ex, vec3 lo, vec3 hi) {
 float cell_exit(vec3 o, vec3 d, vec4 s2) {
 #ifdef ACCEL_IRREGULAR
     float id = s2.S2_CELL.x;
-    return irr_exit(o, d, irr_lo(id).xyz, irr_hi(id).xyz).x;
+    return irr_exit(o, d, irr_lo(id).xyz, irr_hi(id).xyz, s2.S2_CELL.y).x;
 #else
     vec3 tn = boundaries(o, d, s2.S2_CELL);
     return min(min(tn.x, tn.y), tn.z);

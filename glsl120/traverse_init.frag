@@ -2,8 +2,8 @@
 // Reads: s0..s3, grid uniforms, the cell table (fetch_cell) and, with ACCEL_IRREGULAR, the
 //        voxel map (irr_lookup).
 // Writes: s0 state -> INVALID (misses the grid), TESTING (start cell has triangles) or
-//         TRAVERSING; s2 = (start cell, or (cell id, 0, 0) with ACCEL_IRREGULAR, first list
-//         index); s3 = (t_max, TRI_NONE, list end, steps + 1). Rays in other states are copied through unchanged.
+//         TRAVERSING; s2 = (start cell, or (cell id, t_enter, 0) with ACCEL_IRREGULAR, first
+//         list index); s3 = (t_max, TRI_NONE, list end, steps + 1). Rays in other states are copied through unchanged.
 #include "traverse.glsl"
 
 void main() {
@@ -21,7 +21,7 @@ void main() {
             // The cell holding the virtual cell of the entry point.
             float id = irr_lookup(c);
             vec4 cell = vec4(irr_lo(id).w, irr_hi(id).w, 0.0, 0.0);
-            c = vec3(id, 0.0, 0.0);
+            c = vec3(id, span.x, 0.0);
 #else
             vec4 cell = fetch_cell(cell_linear(c));
 #endif

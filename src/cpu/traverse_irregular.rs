@@ -134,9 +134,13 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
     }
 
     /// Exit parameter of `cell`'s exit box and the axis it leaves through (ties to the
-    /// lower axis); `BIG` on an axis the ray does not move along.
+    /// lower axis); `BIG` on an axis the ray does not move along, and on a face the ray
+    /// crossed before `t_prev` (the previous exit): exits never go back in t, so the walk
+    /// cannot cycle even where the GPU evaluates one crossing two ways (an fma here, a
+    /// multiply-add there). With the bracketed lateral choice no such face arises in
+    /// IEEE arithmetic, so the CPU's walk is the same with or without the rule.
     #[inline(always)]
-    pub fn exit(&self, ray: &Ray<T>, cell: &IrrCell) -> (T, usize) {
+    pub fn exit(&self, ray: &Ray<T>, cell: &IrrCell, t_prev: T) -> (T, usize) {
         let tn = [0, 1, 2].map(|a| {
             let d = ray.d[a];
             if d == T::ZERO {
@@ -147,7 +151,12 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
             } else {
                 cell.exit_lo[a]
             };
-            (self.min[a] + T::from_f32(k as f32) * self.cs[a] - ray.o[a]) / d
+            let t = (self.min[a] + T::from_f32(k as f32) * self.cs[a] - ray.o[a]) / d;
+            if t < t_prev {
+                T::BIG
+            } else {
+                t
+            }
         });
         if tn[0] <= tn[1] && tn[0] <= tn[2] {
             (tn[0], 0)
@@ -168,10 +177,11 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
         let g = self.grid;
         let k = [0, 1, 2].map(|a| self.virtual_at(ray, t_enter, a, 0, g.res[a] - 1));
         let mut id = g.lookup(k);
+        let mut t_prev = t_enter;
         for _ in 0..MAX_STEPS {
             work.cells += 1;
             let cell = &g.cells[id as usize];
-            let (t_exit, axis) = self.exit(ray, cell);
+            let (t_exit, axis) = self.exit(ray, cell, t_prev);
             if visit(cell.range, t_exit) || t_exit >= t_leave {
                 return;
             }
@@ -192,6 +202,7 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
                 };
             }
             id = g.lookup(k);
+            t_prev = t_exit;
         }
     }
 
