@@ -185,6 +185,8 @@ impl IrregularLayout {
         let v3 = |v: [String; 3]| format!("vec3({}, {}, {})", v[0], v[1], v[2]);
         let mut s = String::from(
             "#define ACCEL_IRREGULAR 1
+             // NVIDIA: no fast-math contraction, so one crossing is evaluated alike everywhere.
+             #pragma optionNV(fastmath off)
              // Voxel-map entry i (four per texel).
              float vmap_entry(float i) {
                  float texel = floor(i * 0.25);
