@@ -253,7 +253,7 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
     if !args.quiet {
         let s = &out.stats;
         eprintln!(
-            "{}: {}x{} spp {} on {} [{}{}], {} triangles, grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
+            "{}: {}x{} spp {} on {} [{}{}], {} triangles, {} grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
             args.output.display(),
             s.width,
             s.height,
@@ -266,6 +266,7 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
                 format!(", {}", s.techniques)
             },
             s.triangles,
+            s.accel.kind.name(),
             s.grid[0],
             s.grid[1],
             s.grid[2],
@@ -284,7 +285,12 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
 /// The `-v` log: per pass kind, how many passes and how much GPU time; for the CPU, the
 /// traversal work. One line per entry, most expensive first.
 pub fn verbose_report(s: &render::RenderStats) -> String {
-    let mut out = String::new();
+    let mut out = format!(
+        "{}: {}\nprimary rays: {:.1} steps (cells + triangle tests) per ray\n",
+        s.accel.kind.name(),
+        s.accel.detail,
+        s.primary_steps_per_ray
+    );
     if let (Some(c), Some(t)) = (s.cells_visited, s.triangle_tests) {
         out += &format!(
             "cpu: {c} cells visited, {t} triangle tests ({:.1} cells and {:.1} tests per ray)\n",

@@ -71,6 +71,15 @@ pub struct Aov {
 }
 
 impl Aov {
+    /// Mean of the `steps` AOV (cells visited plus triangle tests per primary ray): the
+    /// traversal work every backend reports alike, the GPU counting it in its ray state.
+    pub fn mean_steps(&self) -> f64 {
+        if self.pixels.is_empty() {
+            return 0.0;
+        }
+        self.pixels.iter().map(|p| p.steps as f64).sum::<f64>() / self.pixels.len() as f64
+    }
+
     /// From pixels in row order.
     pub fn from_pixels(width: u32, height: u32, pixels: &[AovPixel]) -> Self {
         assert_eq!(pixels.len(), (width * height) as usize);

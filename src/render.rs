@@ -56,6 +56,9 @@ pub struct RenderStats {
     /// Ray-triangle tests by all rays (CPU only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub triangle_tests: Option<u64>,
+    /// Cells visited plus triangle tests per primary ray (first sample), from the `steps`
+    /// AOV: what the GPU reports of its traversal work, and the CPU alike for comparison.
+    pub primary_steps_per_ray: f64,
     /// Million rays per second over `render_ms`.
     pub mrays_per_s: f64,
     /// Backend-specific extras (GPU pass counts and timings).
@@ -109,6 +112,7 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
         rays: out.rays,
         cells_visited: Some(out.cells),
         triangle_tests: Some(out.tests),
+        primary_steps_per_ray: out.aov.mean_steps(),
         mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
         gpu: None,
     };
@@ -156,6 +160,7 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
         rays: out.rays,
         cells_visited: None,
         triangle_tests: None,
+        primary_steps_per_ray: out.aov.mean_steps(),
         mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
         gpu: Some(out.stats),
     };

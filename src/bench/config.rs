@@ -37,9 +37,19 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
         presets: DQ,
     },
     ConfigRow {
+        name: "cpu-f32-uniform",
+        args: "--backend cpu --precision f32 --accel uniform",
+        presets: D,
+    },
+    ConfigRow {
         name: "gl-looped",
         args: "--backend gl --kernel looped",
         presets: DQ,
+    },
+    ConfigRow {
+        name: "gl-looped-uniform",
+        args: "--backend gl --kernel looped --accel uniform",
+        presets: D,
     },
     ConfigRow {
         name: "gl-unrolled:16",
@@ -50,6 +60,11 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
         name: "gl-multipass",
         args: "--backend gl --kernel multipass",
         presets: D,
+    },
+    ConfigRow {
+        name: "gl-multipass-uniform",
+        args: "--backend gl --kernel multipass --accel uniform",
+        presets: A,
     },
     ConfigRow {
         name: "gl-looped-no-specialize",
