@@ -421,7 +421,7 @@ fn a_failing_configuration_is_recorded_not_fatal() {
     let file = d.join("c.toml");
     std::fs::write(
         &file,
-        "[configs]\nref = \"--backend cpu\"\nhuge = \"--backend cpu --grid 4000x4000x4000\"\n",
+        "[configs]\nref = \"--backend cpu\"\nhuge = \"--backend cpu --accel uniform --grid 4000x4000x4000\"\n",
     )
     .unwrap();
     let out = bin()
@@ -450,7 +450,7 @@ fn a_failing_configuration_is_recorded_not_fatal() {
     );
     let md = std::fs::read_to_string(d.join("out").join("report.md")).unwrap();
     assert!(
-        md.contains("huge (`--backend cpu --grid 4000x4000x4000`) failed"),
+        md.contains("huge (`--backend cpu --accel uniform --grid 4000x4000x4000`) failed"),
         "{md}"
     );
 }
