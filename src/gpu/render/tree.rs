@@ -6,6 +6,7 @@
 use std::time::Instant;
 
 use glow::HasContext;
+use rayon::prelude::*;
 
 use super::frame::{bind_texture, Frame, Slot};
 use super::readback::{flip_rgba_to_rgb, read_aov};
@@ -102,17 +103,19 @@ pub fn render_gl<'a>(
         // window corners in f32 on the GPU instead picks the other side of an exact tie (a
         // ray through the edge where two walls meet) on some pixels, and with absolute
         // corners far from the origin rounds every direction to the spacing at the eye.
-        dirs.clear();
-        for row in 0..height {
-            let j = height - 1 - row; // GL rows run from the bottom
-            for i in 0..width {
-                let d = scene
-                    .camera
-                    .direction_at(width, height, i as f64 + ox, j as f64 + oy)
-                    .as_vec3();
-                dirs.extend([d.x, d.y, d.z, 0.0]);
-            }
-        }
+        dirs.resize(width as usize * height as usize * 4, 0.0);
+        dirs.par_chunks_mut(width as usize * 4)
+            .enumerate()
+            .for_each(|(row, out)| {
+                let j = height - 1 - row as u32; // GL rows run from the bottom
+                for (i, px) in out.chunks_mut(4).enumerate() {
+                    let d = scene
+                        .camera
+                        .direction_at(width, height, i as f64 + ox, j as f64 + oy)
+                        .as_vec3();
+                    px.copy_from_slice(&[d.x, d.y, d.z, 0.0]);
+                }
+            });
         dir_tex.upload(f.gl(), &dirs)?;
         bind_texture(f.gl(), Unit::Node, &dir_tex);
         f.progress
