@@ -257,6 +257,10 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
     let grid = Grid::build(&scene, &ro.grid)?;
     let mut event_loop: EventLoop<()> = window::event_loop()?;
     let (win, ctx) = window::open(&event_loop, ro.width, ro.height, "fragtrace view")?;
+    eprintln!(
+        "fragtrace view: {}: OpenGL {} ({})",
+        ctx.info.egl_platform, ctx.info.gl_version, ctx.info.renderer
+    );
     let mut presenter = Presenter::new(&ctx)?;
     let inner = win.window.inner_size();
     let mut size = (inner.width, inner.height);

@@ -146,9 +146,21 @@ pub(super) fn open(
         .with_context_api(ContextApi::OpenGl(Some(Version::new(2, 1))))
         .with_profile(GlProfile::Compatibility)
         .build(Some(handle));
-    // SAFETY: the handle belongs to `window`, which outlives the context (see WindowGl).
-    let not_current = unsafe { display.create_context(&config, &attrs) }
-        .map_err(|e| unavailable("cannot create an OpenGL 2.1 context", &e))?;
+    // SAFETY (both): the handle belongs to `window`, which outlives the context (see
+    // WindowGl).
+    let not_current = unsafe { display.create_context(&config, &attrs) }.or_else(|e| {
+        // A driver below 2.1 refuses the request; take what it has, so that the verdict
+        // names what is missing.
+        let any = ContextAttributesBuilder::new().build(Some(handle));
+        unsafe { display.create_context(&config, &any) }
+            .map_err(|_| {
+                unavailable(
+                    "cannot create an OpenGL 2.1 context (fragtrace needs OpenGL >= 2.1 \
+                     with GLSL >= 1.20)",
+                    &e,
+                )
+            })
+    })?;
     let surface_attrs = window
         .build_surface_attributes(Default::default())
         .map_err(|e| unavailable("window surface", &e))?;
