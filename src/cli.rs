@@ -63,8 +63,8 @@ pub struct ViewArgs {
     #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
     pub max_depth: Option<u32>,
     /// Samples per pixel accumulated while the camera stands still (stratified, the
-    /// pattern of `render --spp`).
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = whole_number)]
+    /// pattern of `render --spp`); the picture is refined after each.
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = whole_number)]
     pub spp: u32,
     /// Grid resolution: auto or AxBxC.
     #[arg(long, default_value = "auto")]

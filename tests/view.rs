@@ -153,7 +153,7 @@ fn screenshot_equals_headless_render_mesh_scene() {
         return;
     }
     let scene = mesh_scene();
-    let flags = ["--width", "64", "--height", "48", "--kernel", "multipass"];
+    let flags = ["--width", "64", "--height", "48", "--spp", "1", "--kernel", "multipass"];
     let (rmse, log) = view_against_render("mesh", Some(&scene), &flags, &[]);
     eprintln!("cornell, default context: RMSE {rmse:.6}\n{log}");
     assert!(rmse <= MAX_RMSE, "RMSE {rmse}");
@@ -166,7 +166,7 @@ fn screenshot_equals_headless_render_in_gl21() {
     {
         return;
     }
-    let flags = ["--width", "64", "--height", "48"];
+    let flags = ["--width", "64", "--height", "48", "--spp", "2"];
     let (rmse, log) = view_against_render("default21", None, &flags, &GL21);
     eprintln!("default scene, GL 2.1: RMSE {rmse:.6}\n{log}");
     assert!(rmse <= MAX_RMSE, "RMSE {rmse}");
@@ -174,7 +174,7 @@ fn screenshot_equals_headless_render_in_gl21() {
     assert!(log.contains("OpenGL 2.1 "), "{log}");
 
     let scene = mesh_scene();
-    let flags = ["--width", "64", "--height", "48", "--kernel", "multipass"];
+    let flags = ["--width", "64", "--height", "48", "--spp", "1", "--kernel", "multipass"];
     let (rmse, log) = view_against_render("mesh21", Some(&scene), &flags, &GL21);
     eprintln!("cornell, GL 2.1, multipass: RMSE {rmse:.6}\n{log}");
     assert!(rmse <= MAX_RMSE, "RMSE {rmse}");
@@ -191,7 +191,7 @@ fn frames_of_a_render_in_progress_show_the_wave() {
     }
     let shot = scratch("wave.png");
     let done = scratch("wave-done.png");
-    let size = ["--width", "64", "--height", "48", "--kernel", "multipass"];
+    let size = ["--width", "64", "--height", "48", "--spp", "1", "--kernel", "multipass"];
     let mut args = vec!["view"];
     args.extend(size);
     args.extend(["--passes-per-frame", "50", "--frames", "2", "--screenshot"]);

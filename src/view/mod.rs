@@ -284,6 +284,10 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
     let budget = Duration::from_secs_f64(opts.frame_ms.max(0.0) / 1e3);
     let automated = opts.automated();
     loop {
+        // Checked before waiting: a quit seen during a render must not wait for an event.
+        if h.quit {
+            return Ok(());
+        }
         let wait = if h.restart || automated {
             Some(Duration::ZERO)
         } else {
@@ -319,6 +323,10 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
         }
         if h.screenshot {
             h.screenshot = false;
+            if !presenter.has_picture() {
+                eprintln!("fragtrace: no finished frame to save yet");
+                continue;
+            }
             presenter.draw_picture(&ctx, size.0, size.1);
             let path = screenshot_name();
             screenshot(&ctx, size, &path)?;
