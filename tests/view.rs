@@ -81,7 +81,9 @@ fn scratch(name: &str) -> PathBuf {
 
 fn mesh_scene() -> String {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    root.join("scenes/cornell.toml").to_string_lossy().into_owned()
+    root.join("scenes/cornell.toml")
+        .to_string_lossy()
+        .into_owned()
 }
 
 /// 8-bit RGB of a PNG.
@@ -153,7 +155,16 @@ fn screenshot_equals_headless_render_mesh_scene() {
         return;
     }
     let scene = mesh_scene();
-    let flags = ["--width", "64", "--height", "48", "--spp", "1", "--kernel", "multipass"];
+    let flags = [
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "1",
+        "--kernel",
+        "multipass",
+    ];
     let (rmse, log) = view_against_render("mesh", Some(&scene), &flags, &[]);
     eprintln!("cornell, default context: RMSE {rmse:.6}\n{log}");
     assert!(rmse <= MAX_RMSE, "RMSE {rmse}");
@@ -174,7 +185,16 @@ fn screenshot_equals_headless_render_in_gl21() {
     assert!(log.contains("OpenGL 2.1 "), "{log}");
 
     let scene = mesh_scene();
-    let flags = ["--width", "64", "--height", "48", "--spp", "1", "--kernel", "multipass"];
+    let flags = [
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "1",
+        "--kernel",
+        "multipass",
+    ];
     let (rmse, log) = view_against_render("mesh21", Some(&scene), &flags, &GL21);
     eprintln!("cornell, GL 2.1, multipass: RMSE {rmse:.6}\n{log}");
     assert!(rmse <= MAX_RMSE, "RMSE {rmse}");
@@ -191,18 +211,37 @@ fn frames_of_a_render_in_progress_show_the_wave() {
     }
     let shot = scratch("wave.png");
     let done = scratch("wave-done.png");
-    let size = ["--width", "64", "--height", "48", "--spp", "1", "--kernel", "multipass"];
+    let size = [
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "1",
+        "--kernel",
+        "multipass",
+    ];
     let mut args = vec!["view"];
     args.extend(size);
     args.extend(["--passes-per-frame", "50", "--frames", "2", "--screenshot"]);
     args.push(shot.to_str().unwrap());
     ok(&run(&args, &[]), "view --frames 2");
-    let mut args = vec!["render", "--backend", "gl", "-q", "-o", done.to_str().unwrap()];
+    let mut args = vec![
+        "render",
+        "--backend",
+        "gl",
+        "-q",
+        "-o",
+        done.to_str().unwrap(),
+    ];
     args.extend(size);
     ok(&run(&args, &[]), "render");
     let rmse = rmse8(&shot, &done);
     // Measured 0.43: the frame is mostly black (nothing shaded yet) with the wave tinted.
-    assert!(rmse > 0.1, "the frame in progress looks finished: RMSE {rmse}");
+    assert!(
+        rmse > 0.1,
+        "the frame in progress looks finished: RMSE {rmse}"
+    );
     let (_, _, px) = rgb8(&shot);
     let tinted = px
         .chunks_exact(3)
@@ -310,7 +349,11 @@ fn synthetic_mouse_events_orbit_and_zoom_by_the_formula() {
         + r1 * glam::DVec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos());
     let err = (cam.eye.as_dvec3() - expect).length();
     // Measured 2.4e-7 (f32 storage of the eye); a wrong sign or factor is off by > 0.05.
-    assert!(err < 1e-5, "eye {:?}, expected {expect:?} (off by {err})", cam.eye);
+    assert!(
+        err < 1e-5,
+        "eye {:?}, expected {expect:?} (off by {err})",
+        cam.eye
+    );
     assert_eq!(cam.look_at, start.look_at);
     assert_eq!(cam.up, start.up);
 

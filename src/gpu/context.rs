@@ -230,9 +230,8 @@ fn load(
             names[0]
         ))
     })?;
-    let gl_major_minor = parse_major_minor(&gl_version).ok_or_else(|| {
-        Error::GlUnavailable(format!("cannot parse GL_VERSION `{gl_version}`"))
-    })?;
+    let gl_major_minor = parse_major_minor(&gl_version)
+        .ok_or_else(|| Error::GlUnavailable(format!("cannot parse GL_VERSION `{gl_version}`")))?;
     // SAFETY: the context is current on this thread and `loader` resolves its functions.
     let gl = unsafe { glow::Context::from_loader_function(loader) };
     let info = gather_info(&gl, &mut raw, names, gl_version, gl_major_minor, loader);

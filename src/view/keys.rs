@@ -125,7 +125,9 @@ mod tests {
             assert_eq!(action_for(key), Some(action), "{key}");
             let shown = if key == "Escape" { "Esc" } else { key };
             assert!(
-                KEYS_HELP.lines().any(|l| l.split_whitespace().any(|w| w == shown)),
+                KEYS_HELP
+                    .lines()
+                    .any(|l| l.split_whitespace().any(|w| w == shown)),
                 "{key} missing from the help"
             );
         }

@@ -178,7 +178,11 @@ fn title(s: &Settings, spp: u32, t: &TitleStats) -> String {
     let rays = t
         .mrays_per_s
         .map_or("- Mrays/s".to_string(), |r| format!("{r:.2} Mrays/s"));
-    let mask = if s.mask == Mask::EarlyZ { " | early-z" } else { "" };
+    let mask = if s.mask == Mask::EarlyZ {
+        " | early-z"
+    } else {
+        ""
+    };
     format!(
         "fragtrace view: {} | depth {} | {} passes | {rays} | {:.0} ms/frame | {}/{spp} spp | {}{}{mask}",
         s.kernel,
@@ -199,7 +203,11 @@ fn picture(out: &GpuOutput, display: Display) -> (Vec<u8>, String) {
         Display::Image => (to_srgb8(&out.image), String::new()),
         Display::Aov(AovKind::Steps) => {
             let steps: Vec<f32> = out.aov.pixels.iter().map(|p| p.steps).collect();
-            let max = steps.iter().copied().filter(|s| s.is_finite()).fold(0.0, f32::max);
+            let max = steps
+                .iter()
+                .copied()
+                .filter(|s| s.is_finite())
+                .fold(0.0, f32::max);
             // The heat map carries its colour bar on the right; the window shows the map.
             let map = aov::heat_map(w, h, &steps);
             let mut data = Vec::with_capacity((w * h * 3) as usize);
@@ -415,7 +423,8 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
                 stats.ms_per_frame = ms;
                 stats.passes = out.stats.passes_total;
                 stats.samples_done = ro.spp;
-                stats.mrays_per_s = Some(out.rays.total as f64 / (out.stats.trace_ms.max(1e-6) * 1e3));
+                stats.mrays_per_s =
+                    Some(out.rays.total as f64 / (out.stats.trace_ms.max(1e-6) * 1e3));
                 let (rgb, note) = picture(&out, h.settings.display);
                 stats.note = note;
                 presenter.set_picture(&ctx, size.0, size.1, &rgb)?;

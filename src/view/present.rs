@@ -154,7 +154,13 @@ impl Presenter {
     }
 
     /// Keeps `rgb8` (8-bit sRGB RGB, top row first, `w` x `h`) as the picture to show.
-    pub(super) fn set_picture(&mut self, ctx: &GlContext, w: u32, h: u32, rgb8: &[u8]) -> Result<()> {
+    pub(super) fn set_picture(
+        &mut self,
+        ctx: &GlContext,
+        w: u32,
+        h: u32,
+        rgb8: &[u8],
+    ) -> Result<()> {
         // As floats k/255, which the 8-bit window stores back as exactly k.
         let mut data = Vec::with_capacity(w as usize * h as usize * 4);
         for row in (0..h as usize).rev() {
@@ -176,12 +182,17 @@ impl Presenter {
     /// Draws the finished picture into the window's back buffer (`w` x `h`).
     pub(super) fn draw_picture(&self, ctx: &GlContext, w: u32, h: u32) {
         if let Some(img) = &self.picture {
-            self.draw_into(ctx, None, (w, h), &DrawCall {
-                img,
-                state: None,
-                mode: 0.0,
-                scale: 1.0,
-            });
+            self.draw_into(
+                ctx,
+                None,
+                (w, h),
+                &DrawCall {
+                    img,
+                    state: None,
+                    mode: 0.0,
+                    scale: 1.0,
+                },
+            );
         }
     }
 
@@ -194,7 +205,13 @@ impl Presenter {
     /// first sample is finished, the colour so far (the first sample growing term by term
     /// and bounce by bounce); after, the average of the finished samples. Rays of the wave
     /// in flight are tinted either way.
-    pub(super) fn draw_live(&mut self, ctx: &GlContext, snap: &Snapshot, w: u32, h: u32) -> Result<()> {
+    pub(super) fn draw_live(
+        &mut self,
+        ctx: &GlContext,
+        snap: &Snapshot,
+        w: u32,
+        h: u32,
+    ) -> Result<()> {
         let saved = SavedState::save(ctx.gl());
         let r = self.draw_live_inner(ctx, snap, w, h);
         saved.restore(ctx.gl());
@@ -238,7 +255,13 @@ impl Presenter {
 
     /// Draws the quad into `target` (the window when `None`), state saved by the caller
     /// where it matters.
-    fn draw_into(&self, ctx: &GlContext, target: Option<&RenderTarget>, size: (u32, u32), call: &DrawCall) {
+    fn draw_into(
+        &self,
+        ctx: &GlContext,
+        target: Option<&RenderTarget>,
+        size: (u32, u32),
+        call: &DrawCall,
+    ) {
         let gl = ctx.gl();
         let p = self.program.name();
         // SAFETY: the context is current; every name is a live object of it.

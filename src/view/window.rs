@@ -85,7 +85,10 @@ pub(super) fn event_loop() -> Result<EventLoop<()>> {
     EventLoop::new().map_err(|e| {
         // winit says where in its source the error arose (`os error at FILE.rs:LINE: `).
         let msg = e.to_string();
-        let why = match msg.find(".rs:").and_then(|i| msg[i..].find(": ").map(|j| i + j + 2)) {
+        let why = match msg
+            .find(".rs:")
+            .and_then(|i| msg[i..].find(": ").map(|j| i + j + 2))
+        {
             Some(k) => &msg[k..],
             None => &msg,
         };
@@ -99,7 +102,16 @@ fn pick_config(configs: Box<dyn Iterator<Item = Config> + '_>) -> Option<Config>
     use glutin::config::ColorBufferType;
     configs
         .filter(|c| c.num_samples() == 0)
-        .filter(|c| matches!(c.color_buffer_type(), Some(ColorBufferType::Rgb { r_size: 8, g_size: 8, b_size: 8 })))
+        .filter(|c| {
+            matches!(
+                c.color_buffer_type(),
+                Some(ColorBufferType::Rgb {
+                    r_size: 8,
+                    g_size: 8,
+                    b_size: 8
+                })
+            )
+        })
         .min_by_key(|c| (c.alpha_size(), c.depth_size(), c.stencil_size()))
 }
 
@@ -112,7 +124,11 @@ pub(super) fn open(
     title: &str,
 ) -> Result<(Rc<WindowGl>, GlContext)> {
     let unavailable = |what: &str, e: &dyn std::fmt::Display| {
-        let why = e.to_string().split_whitespace().collect::<Vec<_>>().join(" ");
+        let why = e
+            .to_string()
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ");
         Error::GlUnavailable(format!("{what}: {why}"))
     };
     let attrs = WindowAttributes::default()
@@ -152,14 +168,13 @@ pub(super) fn open(
         // A driver below 2.1 refuses the request; take what it has, so that the verdict
         // names what is missing.
         let any = ContextAttributesBuilder::new().build(Some(handle));
-        unsafe { display.create_context(&config, &any) }
-            .map_err(|_| {
-                unavailable(
-                    "cannot create an OpenGL 2.1 context (fragtrace needs OpenGL >= 2.1 \
+        unsafe { display.create_context(&config, &any) }.map_err(|_| {
+            unavailable(
+                "cannot create an OpenGL 2.1 context (fragtrace needs OpenGL >= 2.1 \
                      with GLSL >= 1.20)",
-                    &e,
-                )
-            })
+                &e,
+            )
+        })
     })?;
     let surface_attrs = window
         .build_surface_attributes(Default::default())
