@@ -88,6 +88,7 @@ impl SavedState {
                 gl.active_texture(glow::TEXTURE0 + k);
                 (k, gl.get_parameter_texture(glow::TEXTURE_BINDING_2D))
             });
+            gl.active_texture(active_unit);
             SavedState {
                 framebuffer: gl.get_parameter_framebuffer(glow::FRAMEBUFFER_BINDING),
                 viewport,
@@ -325,4 +326,60 @@ pub(super) fn read_window(ctx: &GlContext, w: u32, h: u32) -> Result<Vec<u8>> {
         }
     }
     Ok(rgb)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::context::with_test_context;
+
+    /// Presenting between two passes leaves every piece of GL state it touches as it was
+    /// (the renderer today re-binds what it uses before each pass, so only this test notices
+    /// a presenter that does not restore).
+    #[test]
+    fn draw_live_restores_the_renderers_gl_state() {
+        with_test_context(|ctx| {
+            let gl = ctx.gl();
+            let mut p = Presenter::new(ctx).unwrap();
+            let radiance = Texture::new_f32(ctx, 8, 4, None).unwrap();
+            let state: Vec<Texture> = (0..4)
+                .map(|_| Texture::new_f32(ctx, 8, 4, None).unwrap())
+                .collect();
+            let target = RenderTarget::new(ctx, 5, 3, 1).unwrap();
+            let other = Texture::new_f32(ctx, 2, 2, None).unwrap();
+            // A renderer's state in the middle of an early-z traversal.
+            target.bind(gl);
+            // SAFETY: the context is current; every name is live.
+            unsafe {
+                gl.enable(glow::DEPTH_TEST);
+                gl.active_texture(glow::TEXTURE1);
+                gl.bind_texture(glow::TEXTURE_2D, Some(other.name()));
+                gl.active_texture(glow::TEXTURE0 + 5);
+            }
+            let before = SavedState::save(gl);
+            for samples_done in [0, 1] {
+                // Without a window the default framebuffer is incomplete: drawing into it
+                // is an error the driver records (cleared here), not a presenter failure.
+                // SAFETY: plain error query.
+                unsafe { while gl.get_error() != glow::NO_ERROR {} }
+                let snap = Snapshot {
+                    radiance: &radiance,
+                    state: &state,
+                    samples_done,
+                    samples: 2,
+                    passes: 10,
+                };
+                p.draw_live(ctx, &snap, 8, 4).unwrap();
+                let after = SavedState::save(gl);
+                assert_eq!(after.framebuffer, before.framebuffer);
+                assert_eq!(after.viewport, [0, 0, 5, 3]);
+                assert_eq!(after.program, before.program);
+                assert_eq!(after.active_unit, glow::TEXTURE0 + 5);
+                assert_eq!(after.units, before.units);
+                assert!(after.depth_test && !after.stencil_test);
+            }
+            // SAFETY: plain error query.
+            unsafe { while gl.get_error() != glow::NO_ERROR {} }
+        });
+    }
 }
