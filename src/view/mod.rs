@@ -373,10 +373,12 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
                 if h.interrupted() {
                     return Flow::Cancel;
                 }
-                let due = match opts.passes_per_frame {
-                    Some(p) => snap.passes >= passes_at_present + p,
-                    None => last_present.elapsed() >= budget,
-                };
+                // `s` during a render saves the frame in progress: present it now.
+                let due = h.screenshot
+                    || match opts.passes_per_frame {
+                        Some(p) => snap.passes >= passes_at_present + p,
+                        None => last_present.elapsed() >= budget,
+                    };
                 if !due {
                     return Flow::Continue;
                 }
@@ -393,6 +395,12 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
                             (Some(path), Some(n)) if frames >= n => {
                                 done = true;
                                 screenshot(&ctx, size, path)
+                            }
+                            _ if h.screenshot => {
+                                h.screenshot = false;
+                                let path = screenshot_name();
+                                println!("fragtrace: wrote {}", path.display());
+                                screenshot(&ctx, size, &path)
                             }
                             _ => {
                                 done = opts.frames.is_some_and(|n| frames >= n);
