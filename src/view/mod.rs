@@ -450,7 +450,9 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
                 win.swap()?;
             }
             Err(Error::Cancelled) if done => return Ok(()),
-            Err(Error::Cancelled) => {} // input arrived: the loop starts over
+            // Input arrived: start over once it is handled (a resize to the same size, say,
+            // changes nothing but still stopped this render).
+            Err(Error::Cancelled) => h.restart = true,
             Err(e) => return Err(e),
         }
     }
