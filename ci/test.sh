@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # CI entry point: installs what a clean Debian machine lacks for headless EGL on Mesa
-# (llvmpipe), for validating the shaders as GLSL 1.20 (glslang-tools) and for building the
-# FLIP library's C++ (g++, for the nv-flip crate), then runs the README's test command plus
+# (llvmpipe), for validating the shaders as GLSL 1.20 (glslang-tools), for building the
+# FLIP library's C++ (g++, for the nv-flip crate) and for an X server to open windows in
+# (xvfb, with xauth for xvfb-run), then runs the README's test command plus
 # the format and lint gates.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need=()
-for pkg in libegl1 libegl-mesa0 libgl1-mesa-dri glslang-tools g++; do
+for pkg in libegl1 libegl-mesa0 libgl1-mesa-dri glslang-tools g++ xvfb xauth; do
     dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then
@@ -28,5 +29,6 @@ cargo clippy --release --all-targets -- -D warnings
 # so an API change cannot leave them uncompilable unnoticed (running them needs cargo-fuzz
 # and nightly; docs/fuzzing.md).
 cargo check --manifest-path fuzz/Cargo.toml --bins --target-dir target/fuzz-check
-# The README's test command:
-cargo test --release
+# The README's test command, under Xvfb so that `fragtrace view`'s window tests
+# (tests/view.rs) have an X display; every other test ignores it:
+xvfb-run -a cargo test --release

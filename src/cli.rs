@@ -7,7 +7,7 @@ use clap::{Args, Parser, Subcommand};
 
 use crate::accel::GridConfig;
 use crate::image_io;
-use crate::options::{clap_error_line, RenderArgs};
+use crate::options::{clap_error_line, whole_number, RenderArgs};
 use crate::render;
 use crate::scene::{self, Scene};
 use crate::{Error, Result};
@@ -39,6 +39,65 @@ pub enum Command {
     Info,
     /// Write the final GLSL source of every pass for a scene (`builtin` for the built-in).
     DumpShaders(DumpArgs),
+    /// Render in a window (X11), showing the render as it happens: the same GPU renderer,
+    /// the window's GL context. Mouse orbits, pans and zooms; keys below.
+    #[command(after_help = crate::view::KEYS_HELP)]
+    View(ViewArgs),
+}
+
+/// Arguments of `view`: the render flags that make sense interactively, and automation.
+#[derive(Args, Debug, Clone)]
+pub struct ViewArgs {
+    /// Scene file (TOML); the built-in default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Initial window width (default: the scene's).
+    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    pub width: Option<u32>,
+    /// Initial window height (default: the scene's).
+    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    pub height: Option<u32>,
+    /// Traversal kernel: looped, multipass or unrolled:K (key `k` switches).
+    #[arg(long, default_value = "looped")]
+    pub kernel: crate::gpu::options::Kernel,
+    /// Maximum reflection/refraction depth (default: the scene's, else 5; keys `+`/`-`).
+    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    pub max_depth: Option<u32>,
+    /// Samples per pixel accumulated while the camera stands still (stratified, the
+    /// pattern of `render --spp`); the picture is refined after each.
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = whole_number)]
+    pub spp: u32,
+    /// Acceleration structure: irregular (the default) or uniform (the thesis's grid).
+    #[arg(long, value_enum, default_value_t = crate::accel::AccelKind::default())]
+    pub accel: crate::accel::AccelKind,
+    /// Uniform grid resolution: auto or AxBxC (with --accel uniform).
+    #[arg(long, default_value = "auto")]
+    pub grid: crate::accel::GridRes,
+    /// Cells per triangle of the auto uniform grid, or top cells per triangle of the
+    /// irregular grid.
+    #[arg(long, allow_negative_numbers = true)]
+    pub grid_density: Option<f32>,
+    /// Traversal iterations between termination queries (K).
+    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = whole_number)]
+    pub query_every: u32,
+    /// Keep finished rays out of traversal passes: none, early-z or stencil (key `z`).
+    #[arg(long, default_value = "none")]
+    pub mask: crate::gpu::options::Mask,
+    /// Ray textures in 32- or 16-bit floats.
+    #[arg(long, default_value = "f32")]
+    pub storage: crate::gpu::options::Storage,
+    /// Present the render in progress at most every this many milliseconds.
+    #[arg(long, default_value_t = 50.0)]
+    pub frame_ms: f64,
+    /// Present every P passes instead of by time (reproducible frames for --screenshot).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    pub passes_per_frame: Option<u64>,
+    /// Without input: stop after N presented frames, or when the render is complete.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    pub frames: Option<u64>,
+    /// Without input: write the window's content (PNG) when stopping and exit; alone,
+    /// stop when the render is complete.
+    #[arg(long)]
+    pub screenshot: Option<PathBuf>,
 }
 
 /// Arguments of `dump-shaders`.
@@ -399,6 +458,60 @@ pub fn run_info() -> Result<bool> {
     Ok(ctx.info.verdict().is_ok())
 }
 
+/// The `view` command: check the screenshot path, load the scene, open the window.
+pub fn run_view(args: &ViewArgs) -> Result<()> {
+    if let Some(path) = &args.screenshot {
+        check_writable(path, "screenshot")?;
+        if image_io::Format::from_path(path)? != image_io::Format::Png {
+            return Err(Error::Usage(format!(
+                "{}: --screenshot writes PNG; use a .png name",
+                path.display()
+            )));
+        }
+    }
+    if !(args.frame_ms.is_finite() && args.frame_ms >= 0.0) {
+        return Err(Error::Usage(format!(
+            "--frame-ms {} is not a finite number >= 0",
+            args.frame_ms
+        )));
+    }
+    let scene = load(args.scene.as_deref())?;
+    // The render flags go through `render`'s own conversion and checks.
+    let render_args = RenderArgs {
+        scene: args.scene.clone(),
+        output: PathBuf::from("render.png"),
+        width: args.width,
+        height: args.height,
+        backend: crate::options::Backend::Gl,
+        precision: crate::options::Precision::F32,
+        max_depth: args.max_depth,
+        spp: args.spp,
+        accel: args.accel,
+        grid: args.grid,
+        grid_density: args.grid_density,
+        query_every: args.query_every,
+        kernel: args.kernel,
+        no_specialize: false,
+        mask: args.mask,
+        storage: args.storage,
+        intersect: Default::default(),
+        t_bound: Default::default(),
+        offset: Default::default(),
+        aov: None,
+        stats: None,
+        quiet: true,
+        verbose: false,
+    };
+    let opts = crate::view::ViewOptions {
+        render: render_args.to_options(&scene)?,
+        frames: args.frames,
+        screenshot: args.screenshot.clone(),
+        passes_per_frame: args.passes_per_frame,
+        frame_ms: args.frame_ms,
+    };
+    crate::view::run(scene, &opts)
+}
+
 /// The subcommand a scene path that does not exist was probably meant to be
 /// (`fragtrace rendr` parses as rendering the scene file `rendr`).
 fn mistyped_subcommand(scene: &Path) -> Option<String> {
@@ -434,6 +547,7 @@ pub fn run(cli: Cli) -> Result<bool> {
         Some(Command::Compare(args)) => run_compare(&args),
         Some(Command::Bench(args)) => run_bench(&args).map(|_| true),
         Some(Command::Info) => run_info(),
+        Some(Command::View(args)) => run_view(&args).map(|()| true),
         Some(Command::DumpShaders(args)) => {
             let scene = if args.scene.as_os_str() == "builtin" {
                 load(None)?

@@ -64,6 +64,10 @@ pub enum Error {
     /// A resource limit would be exceeded (texture size, index range, memory).
     #[error("limit exceeded: {0}")]
     Limit(String),
+    /// A render's observer asked it to stop (`fragtrace view` when the camera moves); the
+    /// caller that installed the observer expects it and never shows it to the user.
+    #[error("render cancelled")]
+    Cancelled,
     /// A bug or an unexpected driver failure.
     #[error("internal error: {0}")]
     Internal(String),
@@ -80,7 +84,7 @@ impl Error {
             | Error::Image { .. }
             | Error::Limit(_) => 2,
             Error::GlUnavailable(_) => 2,
-            Error::Shader { .. } | Error::Internal(_) => 1,
+            Error::Shader { .. } | Error::Internal(_) | Error::Cancelled => 1,
         }
     }
 

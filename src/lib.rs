@@ -24,5 +24,6 @@ pub mod progress;
 pub mod render;
 pub mod scene;
 pub mod technique;
+pub mod view;
 
 pub use error::{Error, Result};

@@ -307,7 +307,7 @@ impl RenderArgs {
 /// Parses a count flag (`--width`, `--spp`, ...). Negative numbers reach this parser (the
 /// flags allow them) so that `--width -5` says what is wrong with -5 instead of clap's
 /// "unexpected argument" and its tip to write `-- -5`.
-fn whole_number(s: &str) -> std::result::Result<u32, String> {
+pub fn whole_number(s: &str) -> std::result::Result<u32, String> {
     s.parse::<u32>()
         .map_err(|_| match s.trim().parse::<i128>() {
             Ok(v) if v < 0 => format!("{v} is negative; a whole number >= 0 is expected"),

@@ -15,6 +15,15 @@
 //! another context is current on the thread (tests and tools may hold several), it makes its
 //! own context current for the delete and then restores the previous one, so a name is never
 //! deleted in the wrong context's namespace. Nothing is freed by hand.
+//!
+//! # Contexts fragtrace does not create
+//!
+//! [`GlContext::from_external`] wraps a context someone else created and made current (a
+//! window's, in `fragtrace view`) behind the [`ExternalContext`] trait, so the same
+//! renderer runs in it. `GlShared` then holds that owner instead of an EGL session
+//! ([`Session`]); because it holds it (an `Rc` of the window's GL state, say), the
+//! foreign context too lives until the last GL object made in it is gone, and Drop makes
+//! it current through the trait before deleting a name.
 
 use std::ffi::c_void;
 use std::fmt;
@@ -24,23 +33,59 @@ use super::egl::{egl_instance, open_session, EglSession};
 use super::info::{gather_info, limit_profile, load_raw_gl, parse_major_minor, GlInfo, RawGl};
 use crate::error::{Error, Result};
 
-/// What a context's GL objects share with it: the function tables and the EGL session.
+/// A GL context created and owned outside fragtrace (a window's), for
+/// [`GlContext::from_external`]. The implementor keeps the context alive for as long as it
+/// lives itself; `GlContext` keeps the implementor until the last GL object is dropped.
+pub trait ExternalContext {
+    /// Makes the context current on the calling thread (a no-op when it is); false when
+    /// that fails, in which case a GL object's delete is skipped rather than sent to
+    /// whatever context is current.
+    fn make_current(&self) -> bool;
+    /// The address of GL function `name`, or null.
+    fn get_proc_address(&self, name: &str) -> *const c_void;
+    /// How the context was made, for the report's `EGL platform` line (e.g. `glutin EGL,
+    /// X11 window`).
+    fn platform(&self) -> String;
+    /// The display API's version string (EGL's or GLX's), for the report.
+    fn api_version(&self) -> String;
+}
+
+/// How a [`GlContext`]'s context is reached: its own headless EGL session, or a context
+/// owned elsewhere. Only `with_current` and `make_current` differ.
+enum Session {
+    /// A headless context fragtrace created ([`super::egl`]).
+    Egl(EglSession),
+    /// A context created by someone else (see [`ExternalContext`]).
+    External(Box<dyn ExternalContext>),
+}
+
+/// What a context's GL objects share with it: the function tables and the session.
 ///
-/// Field order is drop order: the EGL context (in `session`) goes last.
+/// Field order is drop order: the context (in `session`) goes last.
 pub(crate) struct GlShared {
     /// The glow function table.
     pub(crate) gl: glow::Context,
     /// The directly loaded entry points.
     pub(crate) raw: RawGl,
-    session: EglSession,
+    session: Session,
 }
 
 impl GlShared {
     /// Runs `f` with this context current: directly when it already is, otherwise after
     /// making it current, restoring the thread's previous context afterwards. If it cannot be
     /// made current, `f` is skipped (leaking a name beats deleting another context's).
+    ///
+    /// An external context is made current and left current: its owner runs one context
+    /// per thread (the window's), so there is no previous one to restore.
     pub(crate) fn with_current(&self, f: impl FnOnce(&glow::Context)) {
-        self.session.with_current(|| f(&self.gl));
+        match &self.session {
+            Session::Egl(s) => s.with_current(|| f(&self.gl)),
+            Session::External(e) => {
+                if e.make_current() {
+                    f(&self.gl)
+                }
+            }
+        }
     }
 }
 
@@ -98,35 +143,60 @@ impl GlContext {
                 .unwrap_or(std::ptr::null())
         };
 
-        let raw = load_raw_gl(&loader)?;
-        // glow panics on a NULL or unparsable GL_VERSION, so vet it first.
-        let gl_version = raw.string(glow::VERSION).ok_or_else(|| {
-            Error::GlUnavailable(format!(
-                "glGetString(GL_VERSION) returned NULL on {} although the context is current",
-                session.platform
-            ))
-        })?;
-        let gl_major_minor = parse_major_minor(&gl_version).ok_or_else(|| {
-            Error::GlUnavailable(format!("cannot parse GL_VERSION `{gl_version}`"))
-        })?;
-        // SAFETY: the context is current on this thread and `loader` resolves its functions.
-        let gl = unsafe { glow::Context::from_loader_function(loader) };
-
-        let mut raw = raw;
-        let info = gather_info(&gl, &mut raw, &session, gl_version, gl_major_minor, &loader);
+        let names = [
+            session.platform.clone(),
+            session.vendor.clone(),
+            session.version.clone(),
+        ];
+        let (gl, raw, info) = load(&loader, &names)?;
+        // The loader's borrow of `session` ends here; the session moves into the context.
         Ok(GlContext {
-            shared: Rc::new(GlShared { gl, raw, session }),
+            shared: Rc::new(GlShared {
+                gl,
+                raw,
+                session: Session::Egl(session),
+            }),
             info,
         })
+    }
+
+    /// Runs fragtrace in a context created elsewhere, current on this thread (a window's:
+    /// see [`ExternalContext`]), and fails with [`Error::GlUnavailable`] unless it
+    /// satisfies all of fragtrace's requirements, as [`GlContext::new`] does.
+    pub fn from_external(context: Box<dyn ExternalContext>) -> Result<GlContext> {
+        limit_profile().map_err(Error::Usage)?;
+        if !context.make_current() {
+            return Err(Error::GlUnavailable(format!(
+                "cannot make the {} context current",
+                context.platform()
+            )));
+        }
+        let names = [context.platform(), String::new(), context.api_version()];
+        let loader = |name: &str| context.get_proc_address(name);
+        let (gl, raw, info) = load(&loader, &names)?;
+        let ctx = GlContext {
+            shared: Rc::new(GlShared {
+                gl,
+                raw,
+                session: Session::External(context),
+            }),
+            info,
+        };
+        ctx.info.verdict().map_err(Error::GlUnavailable)?;
+        Ok(ctx)
     }
 
     /// Makes this context current on the calling thread (needed only when one thread owns
     /// several contexts; creation already makes it current).
     pub fn make_current(&self) -> Result<()> {
-        self.shared
-            .session
-            .make_current()
-            .map_err(|e| Error::Internal(format!("eglMakeCurrent failed: {e}")))
+        match &self.shared.session {
+            Session::Egl(s) => s
+                .make_current()
+                .map_err(|e| Error::Internal(format!("eglMakeCurrent failed: {e}"))),
+            Session::External(e) => e.make_current().then_some(()).ok_or_else(|| {
+                Error::Internal(format!("cannot make the {} context current", e.platform()))
+            }),
+        }
     }
 
     /// The glow function table. Every call assumes this context is current.
@@ -143,6 +213,29 @@ impl GlContext {
     pub(crate) fn shared(&self) -> &Rc<GlShared> {
         &self.shared
     }
+}
+
+/// Loads the function tables of the current context through `loader`, vets its
+/// GL_VERSION and gathers the report; `names` are the display API's platform, vendor and
+/// version, as reported.
+fn load(
+    loader: &dyn Fn(&str) -> *const c_void,
+    names: &[String; 3],
+) -> Result<(glow::Context, RawGl, GlInfo)> {
+    let mut raw = load_raw_gl(loader)?;
+    // glow panics on a NULL or unparsable GL_VERSION, so vet it first.
+    let gl_version = raw.string(glow::VERSION).ok_or_else(|| {
+        Error::GlUnavailable(format!(
+            "glGetString(GL_VERSION) returned NULL on {} although the context is current",
+            names[0]
+        ))
+    })?;
+    let gl_major_minor = parse_major_minor(&gl_version)
+        .ok_or_else(|| Error::GlUnavailable(format!("cannot parse GL_VERSION `{gl_version}`")))?;
+    // SAFETY: the context is current on this thread and `loader` resolves its functions.
+    let gl = unsafe { glow::Context::from_loader_function(loader) };
+    let info = gather_info(&gl, &mut raw, names, gl_version, gl_major_minor, loader);
+    Ok((gl, raw, info))
 }
 
 /// Serialises GL use across threads of one process and hands `f` a fresh, checked context.

@@ -10,7 +10,6 @@ use std::sync::OnceLock;
 use glow::HasContext;
 
 use super::contract::REQUIRED_TEXTURE_UNITS;
-use super::egl::EglSession;
 use crate::error::{Error, Result};
 
 /// The lowest GL version whose API (GLSL 1.20, MRT, VBOs, occlusion queries) the backend uses.
@@ -443,10 +442,11 @@ pub(super) fn load_raw_gl(loader: &dyn Fn(&str) -> *const c_void) -> Result<RawG
 }
 
 /// Reads version strings, limits and extensions, and evaluates the requirements.
+/// `session` is the display API's platform, vendor and version, as reported.
 pub(super) fn gather_info(
     gl: &glow::Context,
     raw: &mut RawGl,
-    session: &EglSession,
+    session: &[String; 3],
     gl_version: String,
     gl_major_minor: (u32, u32),
     loader: &dyn Fn(&str) -> *const c_void,
@@ -469,9 +469,9 @@ pub(super) fn gather_info(
         },
     };
     let mut info = GlInfo {
-        egl_platform: session.platform.clone(),
-        egl_vendor: session.vendor.clone(),
-        egl_version: session.version.clone(),
+        egl_platform: session[0].clone(),
+        egl_vendor: session[1].clone(),
+        egl_version: session[2].clone(),
         gl_version,
         gl_major_minor,
         renderer: string(glow::RENDERER),

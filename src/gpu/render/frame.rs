@@ -54,6 +54,8 @@ pub(super) struct Frame<'a> {
     pub(super) opts: GpuOptions,
     /// Traversal iterations after which a wave that has not finished is a bug.
     pub(super) max_iterations: u64,
+    /// The render's observer, if any (the hook of `tree::render_gl_observed`).
+    pub(super) watch: Option<super::tree::Watch<'a>>,
 }
 
 /// Timer queries in flight, resolved in batches so the pipeline is not stalled per pass.
@@ -230,6 +232,7 @@ impl<'a> Frame<'a> {
                 };
                 16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs as u64 + 16)
             },
+            watch: None,
         })
     }
 
@@ -345,7 +348,7 @@ impl<'a> Frame<'a> {
         let other = 1 - self.cur;
         self.draw(pass, Slot::State(other))?;
         self.cur = other;
-        Ok(())
+        self.observe()
     }
 
     /// Counts fragments that survive the `count` pass (active rays, or pixels where the
@@ -387,7 +390,7 @@ impl<'a> Frame<'a> {
         let other = 1 - self.acc_cur;
         self.draw(pass, Slot::Acc(other))?;
         self.acc_cur = other;
-        Ok(())
+        self.observe()
     }
 
     /// Stores the finished wave in level `level`'s records.

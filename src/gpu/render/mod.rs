@@ -12,6 +12,11 @@
 //! Whitted ray tree (each level keeps a hit record; a node's children are skipped when an
 //! occlusion query finds no pixel where they exist); `readback` brings images, AOVs and
 //! traced rays back to the host.
+//!
+//! A render can be watched while it runs ([`render_gl_observed`]): an [`Observer`] is
+//! called after every ray-state and accumulation pass with a [`Snapshot`] of the colour so
+//! far and the ray state, and may cancel the render. This is how `fragtrace view` shows the
+//! wave of rays advancing; the headless path passes no observer and is unchanged.
 
 mod frame;
 mod passes;
@@ -24,8 +29,9 @@ mod tests;
 
 use super::options::GpuOptions;
 pub use readback::{trace_rays, GpuRay, GpuTrace};
-pub use tree::render_gl;
+pub use tree::{render_gl, render_gl_observed};
 
+use crate::gpu::gl::Texture;
 use crate::image_io::Image;
 use crate::output::{Aov, GpuStats, RayCounts};
 
@@ -59,3 +65,37 @@ pub struct GpuOutput {
     /// GPU statistics.
     pub stats: GpuStats,
 }
+
+/// What an [`Observer`] sees between two passes of a render in progress.
+///
+/// The textures belong to the render and are only valid during the call; the observer may
+/// draw with them in the same context (it must leave the GL state as it found it: see
+/// `view::present` for one that does).
+pub struct Snapshot<'f> {
+    /// The colour accumulated so far (RGBA, linear RGB in `.rgb`): the finished samples
+    /// and the finished parts of the one in flight, each sample weighted 1/`samples`.
+    pub radiance: &'f Texture,
+    /// The current ray-state textures s0..s3 (see `gpu::contract::ray`): the wave in
+    /// flight, or the last one traced.
+    pub state: &'f [Texture],
+    /// Samples per pixel finished so far.
+    pub samples_done: u32,
+    /// Samples per pixel of the whole render.
+    pub samples: u32,
+    /// Passes drawn so far in this render.
+    pub passes: u64,
+}
+
+/// An observer's answer: go on, or stop the render (which then returns
+/// [`crate::Error::Cancelled`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    /// Draw the next pass.
+    Continue,
+    /// Abandon the render now.
+    Cancel,
+}
+
+/// The hook [`render_gl_observed`] calls after every ray-state and accumulation pass (and
+/// after each finished sample), with this render's context current.
+pub type Observer<'o> = dyn FnMut(&Snapshot<'_>) -> Flow + 'o;

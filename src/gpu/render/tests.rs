@@ -265,3 +265,62 @@ fn objects_are_freed_in_their_own_context() {
         let _ = name;
     });
 }
+
+/// The render hook (`render_gl_observed`): watching changes nothing in the image, the
+/// observer sees passes advance and samples finish, and a cancel stops the render at the
+/// pass it was asked in, with every GL object of the frame freed.
+#[test]
+fn an_observer_watches_without_changing_and_cancels_at_once() {
+    with_test_context(|ctx| {
+        let scene = builtin_scene();
+        let grid = Grid::build(&scene, &GridConfig::default()).unwrap();
+        let gpu = GpuOptions {
+            kernel: Kernel::Multipass,
+            ..GpuOptions::default()
+        };
+        let req = ImageRequest {
+            spp: 2,
+            ..request(24, 16, gpu)
+        };
+        let plain = render_gl(ctx, &scene, &grid, &req).unwrap();
+
+        let (mut calls, mut last, mut done) = (0u64, 0u64, Vec::new());
+        let mut watch = |s: &Snapshot| {
+            calls += 1;
+            assert!(s.passes >= last, "passes went back");
+            last = s.passes;
+            assert_eq!((s.samples, s.state.len()), (2, 4));
+            assert_eq!(s.radiance.width(), 24);
+            if done.last() != Some(&s.samples_done) {
+                done.push(s.samples_done);
+            }
+            Flow::Continue
+        };
+        let watched = render_gl_observed(ctx, &scene, &grid, &req, Some(&mut watch)).unwrap();
+        assert_eq!(watched.image.data, plain.image.data);
+        assert_eq!(watched.stats.passes_total, plain.stats.passes_total);
+        assert_eq!(done, vec![0, 1, 2]);
+        // Called between passes: at least once per traversal iteration of the primary wave.
+        assert!(
+            calls > 100 && calls <= plain.stats.passes_total + 2,
+            "{calls}"
+        );
+
+        let before_upto = probe_names(ctx) + 4096;
+        let before = live_objects(ctx, before_upto);
+        let mut calls = 0u64;
+        let mut cancel = |_: &Snapshot| {
+            calls += 1;
+            if calls == 50 {
+                Flow::Cancel
+            } else {
+                Flow::Continue
+            }
+        };
+        let r = render_gl_observed(ctx, &scene, &grid, &req, Some(&mut cancel));
+        assert!(matches!(r, Err(Error::Cancelled)), "{:?}", r.err());
+        assert_eq!(calls, 50, "the render went on after the cancel");
+        let upto = before_upto.max(probe_names(ctx) + 4096);
+        assert_eq!(live_objects(ctx, upto), before, "a cancelled render leaked");
+    });
+}

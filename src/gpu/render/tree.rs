@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use super::frame::{bind_texture, Frame, Slot};
 use super::readback::{flip_rgba_to_rgb, read_aov};
-use super::{GpuOutput, ImageRequest};
+use super::{Flow, GpuOutput, ImageRequest, Observer, Snapshot};
 use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::Unit;
@@ -21,7 +21,7 @@ use crate::image_io::Image;
 use crate::output::RayCounts;
 use crate::progress::Progress;
 use crate::scene::{camera, Scene};
-use crate::Result;
+use crate::{Error, Result};
 
 /// A child of a ray-tree node.
 #[derive(Clone, Copy, Debug)]
@@ -64,6 +64,49 @@ pub fn render_gl<'a>(
     accel: impl Into<AccelRef<'a>>,
     req: &ImageRequest,
 ) -> Result<GpuOutput> {
+    render_gl_observed(ctx, scene, accel, req, None)
+}
+
+/// A render's observer and what it is told besides the frame (see [`Frame::observe`]).
+pub(super) struct Watch<'a> {
+    observer: &'a mut Observer<'a>,
+    samples_done: u32,
+    samples: u32,
+}
+
+impl Frame<'_> {
+    /// The one hook of an observed render, called after every ray-state and accumulation
+    /// pass and after each finished sample: shows the observer a [`Snapshot`] and turns
+    /// its [`Flow::Cancel`] into [`Error::Cancelled`], which unwinds the walk (every GL
+    /// object of the frame frees itself).
+    pub(super) fn observe(&mut self) -> Result<()> {
+        let Some(w) = self.watch.as_mut() else {
+            return Ok(());
+        };
+        let snap = Snapshot {
+            radiance: self.acc[self.acc_cur].texture(0),
+            state: self.state[self.cur].textures(),
+            samples_done: w.samples_done,
+            samples: w.samples,
+            passes: self.stats.passes_total,
+        };
+        match (w.observer)(&snap) {
+            Flow::Continue => Ok(()),
+            Flow::Cancel => Err(Error::Cancelled),
+        }
+    }
+}
+
+/// [`render_gl`] with an observer called between passes, which may cancel the render
+/// (`fragtrace view` draws the render as it happens from it). Without one it is
+/// `render_gl`.
+pub fn render_gl_observed<'a, 'g>(
+    ctx: &'a GlContext,
+    scene: &Scene,
+    accel: impl Into<AccelRef<'g>>,
+    req: &ImageRequest,
+    observer: Option<&'a mut Observer<'a>>,
+) -> Result<GpuOutput> {
     let (width, height, spp, max_depth) = (req.width, req.height, req.spp, req.max_depth);
     let levels = max_depth as usize + 1;
     let gpu = GpuOptions {
@@ -72,6 +115,12 @@ pub fn render_gl<'a>(
     };
     let mut f = Frame::new(ctx, scene, accel.into(), width, height, levels, true, gpu)?;
     f.progress = Progress::tree_bar(req.progress);
+    let samples = camera::sample_offsets(spp).len() as u32;
+    f.watch = observer.map(|observer| Watch {
+        observer,
+        samples_done: 0,
+        samples,
+    });
     let secondary = max_depth > 0 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
     let t_trace = Instant::now();
     // Clear the colour accumulator.
@@ -130,6 +179,10 @@ pub fn render_gl<'a>(
         }
         f.record(0)?;
         shade_node(&mut f, scene, 0, max_depth, secondary, &mut rays)?;
+        if let Some(w) = f.watch.as_mut() {
+            w.samples_done = k as u32 + 1;
+        }
+        f.observe()?;
     }
     let data = f.acc[f.acc_cur].read_attachment(f.gl(), 0)?;
     f.progress.finish();

@@ -1,0 +1,459 @@
+//! `fragtrace view`: the GPU renderer in a window, drawing the render as it happens.
+//!
+//! The window is another surface, not another ray tracer: its GL context (glutin, on X11)
+//! is wrapped as a [`GlContext`] ([`GlContext::from_external`]) and the same
+//! [`render_gl_observed`] as the headless path renders into it. Its observer, called
+//! between passes, pumps the window's events (a camera change cancels the render within
+//! one pass) and presents the render in progress every `--frame-ms` milliseconds or every
+//! `--passes-per-frame` passes, so the multipass wave is seen advancing; a finished
+//! render is shown as the exact bytes `fragtrace render` would write.
+//!
+//! - [`control`]: orbit, pan and zoom as pure functions, and the mouse controller;
+//! - [`keys`]: the key table and actions;
+//! - `present`: drawing into the window and reading it back;
+//! - `window`: the winit window and glutin context.
+
+pub mod control;
+pub mod keys;
+mod present;
+mod window;
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::platform::pump_events::{EventLoopExtPumpEvents, PumpStatus};
+use winit::window::WindowId;
+
+use crate::accel::Grid;
+use crate::aov::{self, AovKind};
+use crate::gpu::options::{Kernel, Mask};
+use crate::gpu::render::{render_gl_observed, Flow, GpuOutput, ImageRequest, Snapshot};
+use crate::gpu::GlContext;
+use crate::image_io::{to_srgb8, write_atomic, Image};
+use crate::options::{RenderOptions, MAX_DEPTH};
+use crate::scene::Scene;
+use crate::{Error, Result};
+
+pub use keys::KEYS_HELP;
+/// Re-exported so that callers (the tests) can build the window events the controller
+/// takes ([`control::translate`]).
+pub use winit;
+
+use control::Controller;
+use keys::{Action, Display};
+use present::Presenter;
+
+/// How `view` runs: the render options (size, samples, depth, kernel, mask, ...) and the
+/// automation flags.
+#[derive(Clone, Debug)]
+pub struct ViewOptions {
+    /// The render: the window's initial size is `render.width` x `render.height`.
+    pub render: RenderOptions,
+    /// Stop after this many presented frames (or when the render is complete).
+    pub frames: Option<u64>,
+    /// Write the window's content here (PNG) when stopping for `frames` or completion.
+    pub screenshot: Option<PathBuf>,
+    /// Present every this many passes instead of by time (reproducible frames).
+    pub passes_per_frame: Option<u64>,
+    /// Present at most this often while rendering (milliseconds).
+    pub frame_ms: f64,
+}
+
+impl ViewOptions {
+    /// Whether the view runs without a person: it stops on its own.
+    fn automated(&self) -> bool {
+        self.frames.is_some() || self.screenshot.is_some()
+    }
+}
+
+/// The settings the keys change.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Settings {
+    kernel: Kernel,
+    max_depth: u32,
+    mask: Mask,
+    display: Display,
+}
+
+/// Input state between two pumps of the event loop.
+struct Handler {
+    controller: Controller,
+    settings: Settings,
+    /// The render must start over (camera, settings or size changed).
+    restart: bool,
+    /// The picture must be shown again (exposed, or the display changed).
+    redraw: bool,
+    /// `s` was pressed.
+    screenshot: bool,
+    quit: bool,
+    resized: Option<winit::dpi::PhysicalSize<u32>>,
+}
+
+impl Handler {
+    fn apply(&mut self, action: Action) {
+        let s = &mut self.settings;
+        match action {
+            Action::NextKernel => s.kernel = keys::next_kernel(s.kernel),
+            Action::DepthUp => s.max_depth = (s.max_depth + 1).min(MAX_DEPTH),
+            Action::DepthDown => s.max_depth = s.max_depth.saturating_sub(1),
+            Action::ToggleMask => {
+                s.mask = match s.mask {
+                    Mask::None => Mask::EarlyZ,
+                    _ => Mask::None,
+                }
+            }
+            Action::NextDisplay => {
+                s.display = s.display.next();
+                self.redraw = true;
+                return;
+            }
+            Action::Screenshot => {
+                self.screenshot = true;
+                return;
+            }
+            Action::ResetCamera => {
+                self.restart |= self.controller.reset();
+                return;
+            }
+            Action::Help => {
+                println!("{KEYS_HELP}");
+                return;
+            }
+            Action::Quit => {
+                self.quit = true;
+                return;
+            }
+        }
+        self.restart = true;
+    }
+
+    /// Whether the render in flight must stop.
+    fn interrupted(&self) -> bool {
+        self.quit || self.restart || self.resized.is_some()
+    }
+}
+
+impl ApplicationHandler for Handler {
+    fn resumed(&mut self, _: &ActiveEventLoop) {}
+
+    fn window_event(&mut self, _: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
+        if let Some(input) = control::translate(&event) {
+            self.restart |= self.controller.handle(input);
+            return;
+        }
+        match event {
+            WindowEvent::CloseRequested | WindowEvent::Destroyed => self.quit = true,
+            WindowEvent::Resized(size) => self.resized = Some(size),
+            WindowEvent::RedrawRequested => self.redraw = true,
+            WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                let key = match &event.logical_key {
+                    Key::Character(c) => c.to_string(),
+                    Key::Named(NamedKey::Escape) => "Escape".to_string(),
+                    _ => return,
+                };
+                if let Some(action) = keys::action_for(&key) {
+                    self.apply(action);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// The figures the title shows.
+#[derive(Default)]
+struct TitleStats {
+    passes: u64,
+    samples_done: u32,
+    mrays_per_s: Option<f64>,
+    ms_per_frame: f64,
+    note: String,
+}
+
+fn title(s: &Settings, spp: u32, t: &TitleStats) -> String {
+    let rays = t
+        .mrays_per_s
+        .map_or("- Mrays/s".to_string(), |r| format!("{r:.2} Mrays/s"));
+    let mask = if s.mask == Mask::EarlyZ {
+        " | early-z"
+    } else {
+        ""
+    };
+    format!(
+        "fragtrace view: {} | depth {} | {} passes | {rays} | {:.0} ms/frame | {}/{spp} spp | {}{}{mask}",
+        s.kernel,
+        s.max_depth,
+        t.passes,
+        t.ms_per_frame,
+        t.samples_done,
+        s.display.name(),
+        t.note,
+    )
+}
+
+/// The picture of a finished render for `display`: 8-bit sRGB RGB, top row first, and a
+/// note for the title.
+fn picture(out: &GpuOutput, display: Display) -> (Vec<u8>, String) {
+    let (w, h) = (out.image.width, out.image.height);
+    match display {
+        Display::Image => (to_srgb8(&out.image), String::new()),
+        Display::Aov(AovKind::Steps) => {
+            let steps: Vec<f32> = out.aov.pixels.iter().map(|p| p.steps).collect();
+            let max = steps
+                .iter()
+                .copied()
+                .filter(|s| s.is_finite())
+                .fold(0.0, f32::max);
+            // The heat map carries its colour bar on the right; the window shows the map.
+            let map = aov::heat_map(w, h, &steps);
+            let mut data = Vec::with_capacity((w * h * 3) as usize);
+            for j in 0..h {
+                let row = (j * map.width * 3) as usize;
+                data.extend_from_slice(&map.data[row..row + (w * 3) as usize]);
+            }
+            (
+                to_srgb8(&Image::from_rgb(w, h, data)),
+                format!(" (max {max})"),
+            )
+        }
+        Display::Aov(kind) => (to_srgb8(&aov::preview(&out.aov, kind)), String::new()),
+    }
+}
+
+/// Writes 8-bit RGB (top row first) as a PNG, atomically.
+fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> Result<()> {
+    write_atomic(path, |tmp| {
+        image::save_buffer_with_format(
+            tmp,
+            rgb,
+            w,
+            h,
+            image::ExtendedColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| Error::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
+    })
+}
+
+/// Reads the window's back buffer and writes it to `path`.
+fn screenshot(ctx: &GlContext, size: (u32, u32), path: &Path) -> Result<()> {
+    let rgb = present::read_window(ctx, size.0, size.1)?;
+    write_png(path, size.0, size.1, &rgb)
+}
+
+/// `fragtrace-view-N.png` with the first N not taken in the current folder.
+fn screenshot_name() -> PathBuf {
+    (1..)
+        .map(|n| PathBuf::from(format!("fragtrace-view-{n}.png")))
+        .find(|p| !p.exists())
+        .expect("some free name")
+}
+
+/// Opens the window and runs the view until it is closed (or, automated, until the frames
+/// are shown and the screenshot written). No display or no adequate GL context is
+/// [`Error::GlUnavailable`].
+pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
+    let ro = &opts.render;
+    ro.validate()?;
+    let grid = Grid::build(&scene, &ro.grid)?;
+    let mut event_loop: EventLoop<()> = window::event_loop()?;
+    let (win, ctx) = window::open(&event_loop, ro.width, ro.height, "fragtrace view")?;
+    eprintln!(
+        "fragtrace view: {}: OpenGL {} ({})",
+        ctx.info.egl_platform, ctx.info.gl_version, ctx.info.renderer
+    );
+    let mut presenter = Presenter::new(&ctx)?;
+    let inner = win.window.inner_size();
+    let mut size = (inner.width, inner.height);
+    let mut h = Handler {
+        controller: Controller::new(scene.camera, size.1),
+        settings: Settings {
+            kernel: ro.gpu.kernel,
+            max_depth: ro.max_depth,
+            mask: ro.gpu.mask,
+            display: Display::Image,
+        },
+        restart: true,
+        redraw: false,
+        screenshot: false,
+        quit: false,
+        resized: None,
+    };
+    let mut last: Option<GpuOutput> = None;
+    let mut stats = TitleStats::default();
+    let mut frames = 0u64;
+    let budget = Duration::from_secs_f64(opts.frame_ms.max(0.0) / 1e3);
+    let automated = opts.automated();
+    loop {
+        // Checked before waiting: a quit seen during a render must not wait for an event.
+        if h.quit {
+            return Ok(());
+        }
+        let wait = if h.restart || automated {
+            Some(Duration::ZERO)
+        } else {
+            None
+        };
+        if let PumpStatus::Exit(_) = event_loop.pump_app_events(wait, &mut h) {
+            return Ok(());
+        }
+        if h.quit {
+            return Ok(());
+        }
+        if let Some(s) = h.resized.take() {
+            win.resize(s);
+            if (s.width, s.height) != size && s.width > 0 && s.height > 0 {
+                size = (s.width, s.height);
+                h.controller.height = size.1;
+                h.restart = true;
+            }
+            h.redraw = true;
+        }
+        if h.redraw {
+            h.redraw = false;
+            if let Some(out) = &last {
+                let (rgb, note) = picture(out, h.settings.display);
+                presenter.set_picture(&ctx, out.image.width, out.image.height, &rgb)?;
+                stats.note = note;
+                win.window.set_title(&title(&h.settings, ro.spp, &stats));
+            }
+            if presenter.has_picture() {
+                presenter.draw_picture(&ctx, size.0, size.1);
+                win.swap()?;
+            }
+        }
+        if h.screenshot {
+            h.screenshot = false;
+            if !presenter.has_picture() {
+                eprintln!("fragtrace: no finished frame to save yet");
+                continue;
+            }
+            presenter.draw_picture(&ctx, size.0, size.1);
+            let path = screenshot_name();
+            screenshot(&ctx, size, &path)?;
+            win.swap()?;
+            println!("fragtrace: wrote {}", path.display());
+        }
+        if !h.restart {
+            continue;
+        }
+        h.restart = false;
+
+        // One render of the whole image at the current camera and settings.
+        scene.camera = h.controller.camera;
+        let req = ImageRequest {
+            width: size.0,
+            height: size.1,
+            spp: ro.spp,
+            max_depth: h.settings.max_depth,
+            techniques: ro.techniques,
+            progress: false,
+            gpu: crate::gpu::options::GpuOptions {
+                kernel: h.settings.kernel,
+                mask: h.settings.mask,
+                ..ro.gpu
+            },
+        };
+        presenter.start_render();
+        let t0 = Instant::now();
+        let mut last_present = t0;
+        let mut passes_at_present = 0u64;
+        let mut failure: Option<Error> = None;
+        let mut done = false;
+        let result = {
+            let mut observer = |snap: &Snapshot| -> Flow {
+                let _ = event_loop.pump_app_events(Some(Duration::ZERO), &mut h);
+                if h.interrupted() {
+                    return Flow::Cancel;
+                }
+                // `s` during a render saves the frame in progress: present it now.
+                let due = h.screenshot
+                    || match opts.passes_per_frame {
+                        Some(p) => snap.passes >= passes_at_present + p,
+                        None => last_present.elapsed() >= budget,
+                    };
+                if !due {
+                    return Flow::Continue;
+                }
+                stats.ms_per_frame = last_present.elapsed().as_secs_f64() * 1e3;
+                stats.passes = snap.passes;
+                stats.samples_done = snap.samples_done;
+                passes_at_present = snap.passes;
+                last_present = Instant::now();
+                let shown = presenter
+                    .draw_live(&ctx, snap, size.0, size.1)
+                    .and_then(|()| {
+                        frames += 1;
+                        match (&opts.screenshot, opts.frames) {
+                            (Some(path), Some(n)) if frames >= n => {
+                                done = true;
+                                screenshot(&ctx, size, path)
+                            }
+                            _ if h.screenshot => {
+                                h.screenshot = false;
+                                let path = screenshot_name();
+                                println!("fragtrace: wrote {}", path.display());
+                                screenshot(&ctx, size, &path)
+                            }
+                            _ => {
+                                done = opts.frames.is_some_and(|n| frames >= n);
+                                Ok(())
+                            }
+                        }
+                    })
+                    .and_then(|()| win.swap());
+                win.window.set_title(&title(&h.settings, ro.spp, &stats));
+                if let Err(e) = shown {
+                    failure = Some(e);
+                    return Flow::Cancel;
+                }
+                if done {
+                    Flow::Cancel
+                } else {
+                    Flow::Continue
+                }
+            };
+            render_gl_observed(&ctx, &scene, &grid, &req, Some(&mut observer))
+        };
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        match result {
+            Ok(out) => {
+                let ms = t0.elapsed().as_secs_f64() * 1e3;
+                stats.ms_per_frame = ms;
+                stats.passes = out.stats.passes_total;
+                stats.samples_done = ro.spp;
+                stats.mrays_per_s =
+                    Some(out.rays.total as f64 / (out.stats.trace_ms.max(1e-6) * 1e3));
+                let (rgb, note) = picture(&out, h.settings.display);
+                stats.note = note;
+                presenter.set_picture(&ctx, size.0, size.1, &rgb)?;
+                presenter.draw_picture(&ctx, size.0, size.1);
+                frames += 1;
+                last = Some(out);
+                win.window.set_title(&title(&h.settings, ro.spp, &stats));
+                if automated {
+                    if let Some(path) = &opts.screenshot {
+                        screenshot(&ctx, size, path)?;
+                    }
+                    win.swap()?;
+                    return Ok(());
+                }
+                win.swap()?;
+            }
+            Err(Error::Cancelled) if done => return Ok(()),
+            // Input arrived: start over once it is handled (a resize to the same size, say,
+            // changes nothing but still stopped this render).
+            Err(Error::Cancelled) => h.restart = true,
+            Err(e) => return Err(e),
+        }
+    }
+}

@@ -1,0 +1,385 @@
+//! Drawing into the window: a finished picture (the render's image or an AOV, encoded to
+//! 8-bit sRGB on the host by the same code that writes PNGs, so the window holds exactly
+//! the bytes `fragtrace render` would write), or a render in progress from its
+//! [`Snapshot`]: the colour so far, with the rays of the wave in flight tinted, so the
+//! wave is seen advancing pass by pass. Also reads the window back for screenshots.
+//!
+//! The presenter draws in the render's own context between two of its passes, so it
+//! saves and restores every piece of GL state it touches ([`SavedState`]): the renderer
+//! never learns that it was watched.
+
+use glow::HasContext;
+
+use crate::gpu::contract::ray;
+use crate::gpu::gl::{
+    compile_program, single_file_line_map, FullscreenQuad, Program, RenderTarget, Texture,
+};
+use crate::gpu::render::Snapshot;
+use crate::gpu::shader::RayState;
+use crate::gpu::GlContext;
+use crate::{Error, Result};
+
+/// The presenter's fragment program (GLSL 1.20). `u_mode`: 0 shows `u_img` as it is (display
+/// values already encoded), 1 scales linear radiance by `u_scale` and encodes it as sRGB,
+/// 2 writes the scaled linear radiance unencoded (to keep the average of finished samples).
+/// With `u_wave` on, rays of `u_state` that are still traversing or testing are tinted.
+fn fragment_source() -> String {
+    format!(
+        "#version 120
+uniform sampler2D u_img;
+uniform sampler2D u_state;
+uniform float u_mode;
+uniform float u_scale;
+uniform float u_wave;
+varying vec2 v_uv;
+float srgb(float v) {{
+    v = clamp(v, 0.0, 1.0);
+    return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
+}}
+void main() {{
+    vec3 c = texture2D(u_img, v_uv).rgb;
+    if (u_mode > 0.5) c *= u_scale;
+    if (u_mode > 0.5 && u_mode < 1.5) c = vec3(srgb(c.r), srgb(c.g), srgb(c.b));
+    if (u_wave > 0.5) {{
+        float s = texture2D(u_state, v_uv).{state};
+        if (abs(s - {traversing:.1}) < 0.25 || abs(s - {testing:.1}) < 0.25)
+            c = mix(c, vec3(1.0, 0.55, 0.1), 0.65);
+    }}
+    gl_FragColor = vec4(c, 1.0);
+}}
+",
+        state = ray::STATE.swizzle(),
+        traversing = RayState::Traversing.code(),
+        testing = RayState::Testing.code(),
+    )
+}
+
+/// The presenter's GL objects.
+pub(super) struct Presenter {
+    program: Program,
+    quad: FullscreenQuad,
+    /// The last finished picture, display values (`w` x `h`).
+    picture: Option<Texture>,
+    /// The average of the finished samples of the render in flight (linear).
+    still: Option<RenderTarget>,
+    /// Samples in `still`.
+    still_samples: u32,
+}
+
+/// The GL state the presenter changes, saved before and put back after it draws.
+struct SavedState {
+    framebuffer: Option<glow::Framebuffer>,
+    viewport: [i32; 4],
+    program: Option<glow::Program>,
+    active_unit: u32,
+    units: [(u32, Option<glow::Texture>); 2],
+    depth_test: bool,
+    stencil_test: bool,
+}
+
+impl SavedState {
+    fn save(gl: &glow::Context) -> SavedState {
+        // SAFETY (here and in `restore`): the context is current; plain state queries.
+        unsafe {
+            let mut viewport = [0; 4];
+            gl.get_parameter_i32_slice(glow::VIEWPORT, &mut viewport);
+            let active_unit = gl.get_parameter_i32(glow::ACTIVE_TEXTURE) as u32;
+            let units = [0, 1].map(|k| {
+                gl.active_texture(glow::TEXTURE0 + k);
+                (k, gl.get_parameter_texture(glow::TEXTURE_BINDING_2D))
+            });
+            gl.active_texture(active_unit);
+            SavedState {
+                framebuffer: gl.get_parameter_framebuffer(glow::FRAMEBUFFER_BINDING),
+                viewport,
+                program: gl.get_parameter_program(glow::CURRENT_PROGRAM),
+                active_unit,
+                units,
+                depth_test: gl.is_enabled(glow::DEPTH_TEST),
+                stencil_test: gl.is_enabled(glow::STENCIL_TEST),
+            }
+        }
+    }
+
+    fn restore(&self, gl: &glow::Context) {
+        unsafe {
+            for (k, t) in self.units {
+                gl.active_texture(glow::TEXTURE0 + k);
+                gl.bind_texture(glow::TEXTURE_2D, t);
+            }
+            gl.active_texture(self.active_unit);
+            gl.bind_framebuffer(glow::FRAMEBUFFER, self.framebuffer);
+            let [x, y, w, h] = self.viewport;
+            gl.viewport(x, y, w, h);
+            gl.use_program(self.program);
+            for (cap, on) in [
+                (glow::DEPTH_TEST, self.depth_test),
+                (glow::STENCIL_TEST, self.stencil_test),
+            ] {
+                if on {
+                    gl.enable(cap)
+                } else {
+                    gl.disable(cap)
+                }
+            }
+        }
+    }
+}
+
+/// How one draw samples its inputs.
+struct DrawCall<'t> {
+    img: &'t Texture,
+    state: Option<&'t Texture>,
+    mode: f32,
+    scale: f32,
+}
+
+impl Presenter {
+    /// Compiles the program and makes the quad.
+    pub(super) fn new(ctx: &GlContext) -> Result<Presenter> {
+        let src = fragment_source();
+        let program = compile_program(
+            ctx,
+            "present",
+            crate::gpu::gl::QUAD_VERTEX_SHADER,
+            &src,
+            &single_file_line_map("<present>"),
+        )?;
+        Ok(Presenter {
+            program,
+            quad: FullscreenQuad::new(ctx)?,
+            picture: None,
+            still: None,
+            still_samples: 0,
+        })
+    }
+
+    /// Keeps `rgb8` (8-bit sRGB RGB, top row first, `w` x `h`) as the picture to show.
+    pub(super) fn set_picture(
+        &mut self,
+        ctx: &GlContext,
+        w: u32,
+        h: u32,
+        rgb8: &[u8],
+    ) -> Result<()> {
+        // As floats k/255, which the 8-bit window stores back as exactly k.
+        let mut data = Vec::with_capacity(w as usize * h as usize * 4);
+        for row in (0..h as usize).rev() {
+            let line = &rgb8[row * w as usize * 3..(row + 1) * w as usize * 3];
+            for px in line.chunks_exact(3) {
+                data.extend(px.iter().map(|&b| b as f32 / 255.0));
+                data.push(1.0);
+            }
+        }
+        self.picture = Some(Texture::new_f32(ctx, w, h, Some(&data))?);
+        Ok(())
+    }
+
+    /// Whether there is a finished picture to show.
+    pub(super) fn has_picture(&self) -> bool {
+        self.picture.is_some()
+    }
+
+    /// Draws the finished picture into the window's back buffer (`w` x `h`).
+    pub(super) fn draw_picture(&self, ctx: &GlContext, w: u32, h: u32) {
+        if let Some(img) = &self.picture {
+            self.draw_into(
+                ctx,
+                None,
+                (w, h),
+                &DrawCall {
+                    img,
+                    state: None,
+                    mode: 0.0,
+                    scale: 1.0,
+                },
+            );
+        }
+    }
+
+    /// Forgets the average of finished samples (a new render starts).
+    pub(super) fn start_render(&mut self) {
+        self.still_samples = 0;
+    }
+
+    /// Draws a render in progress into the window's back buffer (`w` x `h`): before its
+    /// first sample is finished, the colour so far (the first sample growing term by term
+    /// and bounce by bounce); after, the average of the finished samples. Rays of the wave
+    /// in flight are tinted either way.
+    pub(super) fn draw_live(
+        &mut self,
+        ctx: &GlContext,
+        snap: &Snapshot,
+        w: u32,
+        h: u32,
+    ) -> Result<()> {
+        let saved = SavedState::save(ctx.gl());
+        let r = self.draw_live_inner(ctx, snap, w, h);
+        saved.restore(ctx.gl());
+        r
+    }
+
+    fn draw_live_inner(&mut self, ctx: &GlContext, snap: &Snapshot, w: u32, h: u32) -> Result<()> {
+        let (rw, rh) = (snap.radiance.width(), snap.radiance.height());
+        if snap.samples_done > self.still_samples && snap.samples_done > 0 {
+            if self.still.as_ref().map(|t| (t.width(), t.height())) != Some((rw, rh)) {
+                self.still = Some(RenderTarget::new(ctx, rw, rh, 1)?);
+            }
+            let target = self.still.as_ref().expect("just made");
+            let call = DrawCall {
+                img: snap.radiance,
+                state: None,
+                mode: 2.0,
+                scale: snap.samples as f32 / snap.samples_done as f32,
+            };
+            self.draw_into(ctx, Some(target), (rw, rh), &call);
+            self.still_samples = snap.samples_done;
+        }
+        let state = snap.state.first();
+        let call = match (&self.still, self.still_samples) {
+            (Some(t), n) if n > 0 => DrawCall {
+                img: t.texture(0),
+                state,
+                mode: 1.0,
+                scale: 1.0,
+            },
+            _ => DrawCall {
+                img: snap.radiance,
+                state,
+                mode: 1.0,
+                scale: snap.samples as f32,
+            },
+        };
+        self.draw_into(ctx, None, (w, h), &call);
+        Ok(())
+    }
+
+    /// Draws the quad into `target` (the window when `None`), state saved by the caller
+    /// where it matters.
+    fn draw_into(
+        &self,
+        ctx: &GlContext,
+        target: Option<&RenderTarget>,
+        size: (u32, u32),
+        call: &DrawCall,
+    ) {
+        let gl = ctx.gl();
+        let p = self.program.name();
+        // SAFETY: the context is current; every name is a live object of it.
+        unsafe {
+            match target {
+                Some(t) => t.bind(gl),
+                None => {
+                    gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+                    gl.viewport(0, 0, size.0 as i32, size.1 as i32);
+                }
+            }
+            gl.disable(glow::DEPTH_TEST);
+            gl.disable(glow::STENCIL_TEST);
+            gl.active_texture(glow::TEXTURE0);
+            gl.bind_texture(glow::TEXTURE_2D, Some(call.img.name()));
+            gl.active_texture(glow::TEXTURE1);
+            gl.bind_texture(glow::TEXTURE_2D, call.state.map(|t| t.name()));
+            gl.use_program(Some(p));
+            let set = |name: &str, v: f32| {
+                let loc = gl.get_uniform_location(p, name);
+                gl.uniform_1_f32(loc.as_ref(), v);
+            };
+            let loc = gl.get_uniform_location(p, "u_img");
+            gl.uniform_1_i32(loc.as_ref(), 0);
+            let loc = gl.get_uniform_location(p, "u_state");
+            gl.uniform_1_i32(loc.as_ref(), 1);
+            set("u_mode", call.mode);
+            set("u_scale", call.scale);
+            set("u_wave", if call.state.is_some() { 1.0 } else { 0.0 });
+        }
+        self.quad.draw(gl, &self.program);
+    }
+}
+
+/// Reads the window's back buffer (`w` x `h`) as 8-bit RGB, top row first.
+pub(super) fn read_window(ctx: &GlContext, w: u32, h: u32) -> Result<Vec<u8>> {
+    let gl = ctx.gl();
+    let mut rgba = vec![0u8; w as usize * h as usize * 4];
+    // SAFETY: the context is current and the buffer holds w*h RGBA bytes.
+    unsafe {
+        gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+        gl.read_buffer(glow::BACK);
+        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 1);
+        gl.read_pixels(
+            0,
+            0,
+            w as i32,
+            h as i32,
+            glow::RGBA,
+            glow::UNSIGNED_BYTE,
+            glow::PixelPackData::Slice(Some(&mut rgba)),
+        );
+        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
+    }
+    crate::gpu::gl::check_gl_error(gl, "reading the window back")
+        .map_err(|e| Error::Internal(e.to_string()))?;
+    let mut rgb = Vec::with_capacity(w as usize * h as usize * 3);
+    for row in (0..h as usize).rev() {
+        for px in rgba[row * w as usize * 4..(row + 1) * w as usize * 4].chunks_exact(4) {
+            rgb.extend_from_slice(&px[..3]);
+        }
+    }
+    Ok(rgb)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::context::with_test_context;
+
+    /// Presenting between two passes leaves every piece of GL state it touches as it was
+    /// (the renderer today re-binds what it uses before each pass, so only this test notices
+    /// a presenter that does not restore).
+    #[test]
+    fn draw_live_restores_the_renderers_gl_state() {
+        with_test_context(|ctx| {
+            let gl = ctx.gl();
+            let mut p = Presenter::new(ctx).unwrap();
+            let radiance = Texture::new_f32(ctx, 8, 4, None).unwrap();
+            let state: Vec<Texture> = (0..4)
+                .map(|_| Texture::new_f32(ctx, 8, 4, None).unwrap())
+                .collect();
+            let target = RenderTarget::new(ctx, 5, 3, 1).unwrap();
+            let other = Texture::new_f32(ctx, 2, 2, None).unwrap();
+            // A renderer's state in the middle of an early-z traversal.
+            target.bind(gl);
+            // SAFETY: the context is current; every name is live.
+            unsafe {
+                gl.enable(glow::DEPTH_TEST);
+                gl.active_texture(glow::TEXTURE1);
+                gl.bind_texture(glow::TEXTURE_2D, Some(other.name()));
+                gl.active_texture(glow::TEXTURE0 + 5);
+            }
+            let before = SavedState::save(gl);
+            for samples_done in [0, 1] {
+                // Without a window the default framebuffer is incomplete: drawing into it
+                // is an error the driver records (cleared here), not a presenter failure.
+                // SAFETY: plain error query.
+                unsafe { while gl.get_error() != glow::NO_ERROR {} }
+                let snap = Snapshot {
+                    radiance: &radiance,
+                    state: &state,
+                    samples_done,
+                    samples: 2,
+                    passes: 10,
+                };
+                p.draw_live(ctx, &snap, 8, 4).unwrap();
+                let after = SavedState::save(gl);
+                assert_eq!(after.framebuffer, before.framebuffer);
+                assert_eq!(after.viewport, [0, 0, 5, 3]);
+                assert_eq!(after.program, before.program);
+                assert_eq!(after.active_unit, glow::TEXTURE0 + 5);
+                assert_eq!(after.units, before.units);
+                assert!(after.depth_test && !after.stencil_test);
+            }
+            // SAFETY: plain error query.
+            unsafe { while gl.get_error() != glow::NO_ERROR {} }
+        });
+    }
+}

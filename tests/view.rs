@@ -1,0 +1,398 @@
+//! `fragtrace view` as a user meets it, under an X display (CI runs the suite under
+//! `xvfb-run -a`): the window's screenshot after a complete frame equals the headless
+//! render of the same scene, size and kernel (default scene and a mesh scene, in the
+//! default context and in a GL 2.1 / GLSL 1.20 one), frames of a render in progress are
+//! shown, the exits of a missing display and an inadequate context, and mouse input
+//! (synthetic winit events through the same translation and controller as the window)
+//! moving the camera to where the closed-form formula says.
+//!
+//! Without a display these tests fail, saying so, unless `FRAGTRACE_ALLOW_SKIP=1`
+//! acknowledges the skip (docs/testing.md).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use fragtrace::view::control::{self, Controller, ORBIT_RAD_PER_PX, ZOOM_PER_LINE};
+use fragtrace::view::winit::dpi::PhysicalPosition;
+use fragtrace::view::winit::event::{
+    DeviceId, ElementState, MouseButton, MouseScrollDelta, TouchPhase, WindowEvent,
+};
+
+/// The GL 2.1 / GLSL 1.20 override (Mesa).
+const GL21: [(&str, &str); 2] = [
+    ("MESA_GL_VERSION_OVERRIDE", "2.1"),
+    ("MESA_GLSL_VERSION_OVERRIDE", "120"),
+];
+
+/// Whether an X display is there; without one, panics unless the skip is acknowledged.
+fn display_or_acknowledged_skip(test: &str) -> bool {
+    if std::env::var_os("DISPLAY").is_some_and(|d| !d.is_empty()) {
+        return true;
+    }
+    let why = format!("{test} needs an X display (DISPLAY is unset)");
+    if std::env::var("FRAGTRACE_ALLOW_SKIP").as_deref() == Ok("1") {
+        eprintln!("SKIPPED (FRAGTRACE_ALLOW_SKIP=1): {why}");
+        false
+    } else {
+        panic!(
+            "{why}: run the tests under `xvfb-run -a` (apt-get install -y xvfb), or set \
+             FRAGTRACE_ALLOW_SKIP=1 to acknowledge the skip"
+        );
+    }
+}
+
+/// Whether the GL driver is Mesa (whose override variables force GL 2.1); off Mesa,
+/// panics unless the skip is acknowledged, as the GL unit tests do.
+fn mesa_or_acknowledged_skip(test: &str) -> bool {
+    let version = common::with_test_context(|ctx| ctx.info.gl_version.clone());
+    if version.contains("Mesa") {
+        return true;
+    }
+    let why = format!("{test} forces GL 2.1 through Mesa's overrides; the driver is {version:?}");
+    if std::env::var("FRAGTRACE_ALLOW_SKIP").as_deref() == Ok("1") {
+        eprintln!("SKIPPED (FRAGTRACE_ALLOW_SKIP=1): {why}");
+        false
+    } else {
+        panic!("{why}: run it on Mesa, or set FRAGTRACE_ALLOW_SKIP=1 to acknowledge the skip");
+    }
+}
+
+fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+        .args(args)
+        .envs(env.iter().copied())
+        .output()
+        .expect("run fragtrace")
+}
+
+fn ok(out: &Output, what: &str) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{what} failed: {err}");
+    err
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("fragtrace-view-tests-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn mesh_scene() -> String {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    root.join("scenes/cornell.toml")
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// 8-bit RGB of a PNG.
+fn rgb8(path: &Path) -> (u32, u32, Vec<u8>) {
+    let img = image::open(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_rgb8();
+    (img.width(), img.height(), img.into_raw())
+}
+
+/// RMSE of two 8-bit images on the [0, 1] scale.
+fn rmse8(a: &Path, b: &Path) -> f64 {
+    let (wa, ha, pa) = rgb8(a);
+    let (wb, hb, pb) = rgb8(b);
+    assert_eq!((wa, ha), (wb, hb), "sizes differ");
+    let sum: f64 = pa
+        .iter()
+        .zip(&pb)
+        .map(|(&x, &y)| ((x as f64 - y as f64) / 255.0).powi(2))
+        .sum();
+    (sum / pa.len() as f64).sqrt()
+}
+
+/// Renders `scene` (None: the built-in) headless and in the window with the same size,
+/// kernel and samples, and returns the RMSE between the screenshot and the image, and the
+/// view's stderr. The window presents the render in progress every `every` passes, each
+/// time drawing in the renderer's context between two of its passes, so equality also says
+/// that watching does not disturb the render (that the presenter restores the GL state it
+/// touches is checked directly by `view::present`'s unit test).
+fn view_against_render(
+    tag: &str,
+    scene: Option<&str>,
+    flags: &[&str],
+    every: &str,
+    env: &[(&str, &str)],
+) -> (f64, String) {
+    let shot = scratch(&format!("{tag}-view.png"));
+    let reference = scratch(&format!("{tag}-render.png"));
+    let mut view_args = vec!["view"];
+    let mut render_args = vec!["render", "--backend", "gl", "-q", "-o"];
+    render_args.push(reference.to_str().unwrap());
+    if let Some(s) = scene {
+        view_args.push(s);
+        render_args.push(s);
+    }
+    view_args.extend(flags);
+    render_args.extend(flags);
+    view_args.extend([
+        "--passes-per-frame",
+        every,
+        "--screenshot",
+        shot.to_str().unwrap(),
+    ]);
+    ok(&run(&render_args, env), "render");
+    let log = ok(&run(&view_args, env), "view");
+    (rmse8(&shot, &reference), log)
+}
+
+// Measured on Mesa llvmpipe (22.3.6), here and under GL 2.1: RMSE 0 in all four cases (the
+// window shows the image's own 8-bit encoding, and both contexts trace the same rays with
+// the same programs). The bound is the issue's 1e-3: about 6% of the values one step off.
+const MAX_RMSE: f64 = 1e-3;
+
+#[test]
+fn screenshot_equals_headless_render_default_scene() {
+    if !display_or_acknowledged_skip("screenshot_equals_headless_render_default_scene") {
+        return;
+    }
+    let flags = ["--width", "64", "--height", "48", "--spp", "4"];
+    let (rmse, log) = view_against_render("default", None, &flags, "1", &[]);
+    eprintln!("default scene, default context: RMSE {rmse:.6}\n{log}");
+    assert!(rmse <= MAX_RMSE, "RMSE {rmse}");
+}
+
+#[test]
+fn screenshot_equals_headless_render_mesh_scene() {
+    if !display_or_acknowledged_skip("screenshot_equals_headless_render_mesh_scene") {
+        return;
+    }
+    let scene = mesh_scene();
+    let flags = [
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "1",
+        "--kernel",
+        "multipass",
+    ];
+    let (rmse, log) = view_against_render("mesh", Some(&scene), &flags, "7", &[]);
+    eprintln!("cornell, default context: RMSE {rmse:.6}\n{log}");
+    assert!(rmse <= MAX_RMSE, "RMSE {rmse}");
+}
+
+#[test]
+fn screenshot_equals_headless_render_in_gl21() {
+    if !display_or_acknowledged_skip("screenshot_equals_headless_render_in_gl21")
+        || !mesa_or_acknowledged_skip("screenshot_equals_headless_render_in_gl21")
+    {
+        return;
+    }
+    let flags = ["--width", "64", "--height", "48", "--spp", "2"];
+    let (rmse, log) = view_against_render("default21", None, &flags, "1", &GL21);
+    eprintln!("default scene, GL 2.1: RMSE {rmse:.6}\n{log}");
+    assert!(rmse <= MAX_RMSE, "RMSE {rmse}");
+    // The window's context really is the forced one.
+    assert!(log.contains("OpenGL 2.1 "), "{log}");
+
+    let scene = mesh_scene();
+    // With the early-z mask, whose depth test the presenter turns off while it draws.
+    let flags = [
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "1",
+        "--kernel",
+        "multipass",
+        "--mask",
+        "early-z",
+    ];
+    let (rmse, log) = view_against_render("mesh21", Some(&scene), &flags, "7", &GL21);
+    eprintln!("cornell, GL 2.1, multipass: RMSE {rmse:.6}\n{log}");
+    assert!(rmse <= MAX_RMSE, "RMSE {rmse}");
+    assert!(log.contains("OpenGL 2.1 "), "{log}");
+}
+
+/// A frame of a render in progress is shown and can be captured: after 2 frames of 50
+/// passes, the multipass primary wave is still in flight, so the screenshot is far from the
+/// finished image and shows the tint of active rays.
+#[test]
+fn frames_of_a_render_in_progress_show_the_wave() {
+    if !display_or_acknowledged_skip("frames_of_a_render_in_progress_show_the_wave") {
+        return;
+    }
+    let shot = scratch("wave.png");
+    let done = scratch("wave-done.png");
+    let size = [
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "1",
+        "--kernel",
+        "multipass",
+    ];
+    let mut args = vec!["view"];
+    args.extend(size);
+    args.extend(["--passes-per-frame", "50", "--frames", "2", "--screenshot"]);
+    args.push(shot.to_str().unwrap());
+    ok(&run(&args, &[]), "view --frames 2");
+    let mut args = vec![
+        "render",
+        "--backend",
+        "gl",
+        "-q",
+        "-o",
+        done.to_str().unwrap(),
+    ];
+    args.extend(size);
+    ok(&run(&args, &[]), "render");
+    let rmse = rmse8(&shot, &done);
+    eprintln!("frame 2 against the finished image: RMSE {rmse:.4}");
+    // Measured 0.52: the frame is black (nothing shaded yet) but for the tinted wave.
+    assert!(
+        rmse > 0.1,
+        "the frame in progress looks finished: RMSE {rmse}"
+    );
+    let (_, _, px) = rgb8(&shot);
+    let tinted = px
+        .chunks_exact(3)
+        .filter(|p| p[0] > 150 && p[1] > 60 && p[1] < 130 && p[2] < 60)
+        .count();
+    eprintln!("{tinted} tinted pixels of {}", px.len() / 3);
+    // Measured 1651 of 3072 pixels still traversing after 100 passes.
+    assert!(tinted > 300, "only {tinted} rays of the wave are tinted");
+}
+
+#[test]
+fn no_display_is_one_line_and_exit_2() {
+    let out = Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+        .args(["view", "--width", "32", "--height", "24", "--frames", "1"])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .expect("run fragtrace");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("fragtrace: error: "), "{err}");
+    assert!(err.contains("display"), "{err}");
+}
+
+/// A context too old for the kernels (Mesa forced to GL 2.0) is refused the same way.
+#[test]
+fn inadequate_context_is_one_line_and_exit_2() {
+    if !display_or_acknowledged_skip("inadequate_context_is_one_line_and_exit_2")
+        || !mesa_or_acknowledged_skip("inadequate_context_is_one_line_and_exit_2")
+    {
+        return;
+    }
+    let out = run(
+        &["view", "--width", "32", "--height", "24", "--frames", "1"],
+        &[
+            ("MESA_GL_VERSION_OVERRIDE", "2.0"),
+            ("MESA_GLSL_VERSION_OVERRIDE", "110"),
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("OpenGL >= 2.1"), "{err}");
+}
+
+/// A bad screenshot path fails before any window opens.
+#[test]
+fn screenshot_must_be_a_writable_png() {
+    let out = run(&["view", "--screenshot", "/nonexistent/x.png"], &[]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = run(&["view", "--screenshot", "x.exr"], &[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("PNG"), "{err}");
+}
+
+fn cursor(x: f64, y: f64) -> WindowEvent {
+    WindowEvent::CursorMoved {
+        device_id: DeviceId::dummy(),
+        position: PhysicalPosition::new(x, y),
+    }
+}
+
+fn button(button: MouseButton, state: ElementState) -> WindowEvent {
+    WindowEvent::MouseInput {
+        device_id: DeviceId::dummy(),
+        state,
+        button,
+    }
+}
+
+/// Synthetic window events drive the controller as the window does (translate, then
+/// handle): a left drag orbits, the wheel zooms, and the camera ends where the spherical
+/// coordinates about the look-at point say; a right drag pans without turning.
+#[test]
+fn synthetic_mouse_events_orbit_and_zoom_by_the_formula() {
+    let scene = fragtrace::scene::builtin_scene();
+    let start = scene.camera;
+    let mut c = Controller::new(start, 480);
+    let mut feed = |e: WindowEvent| {
+        let input = control::translate(&e).expect("a mouse event");
+        c.handle(input);
+    };
+    // Left drag from (100, 100) to (130, 90) in two moves: dx = 30, dy = -10.
+    feed(cursor(100.0, 100.0));
+    feed(button(MouseButton::Left, ElementState::Pressed));
+    feed(cursor(112.0, 96.0));
+    feed(cursor(130.0, 90.0));
+    feed(button(MouseButton::Left, ElementState::Released));
+    feed(cursor(300.0, 300.0)); // moving without a button does nothing
+    feed(WindowEvent::MouseWheel {
+        device_id: DeviceId::dummy(),
+        delta: MouseScrollDelta::LineDelta(0.0, 2.0),
+        phase: TouchPhase::Moved,
+    });
+    let cam = c.camera;
+
+    // Closed form (up = +y): azimuth atan2(x, z) and elevation asin(y / r) of eye - look_at.
+    let o = (start.eye - start.look_at).as_dvec3();
+    let r = o.length();
+    let (az0, el0) = (o.x.atan2(o.z), (o.y / r).asin());
+    let (az, el) = (az0 - 30.0 * ORBIT_RAD_PER_PX, el0 - 10.0 * ORBIT_RAD_PER_PX);
+    let r1 = r * ZOOM_PER_LINE.powi(2);
+    let expect = start.look_at.as_dvec3()
+        + r1 * glam::DVec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos());
+    let err = (cam.eye.as_dvec3() - expect).length();
+    eprintln!("orbit + zoom: eye off the formula by {err:e}");
+    // Measured 2.3e-8. The eye is stored in f32, which rounds coordinates near 6 by up to
+    // 2.4e-7 each; a wrong sign or factor is off by more than 0.05.
+    assert!(
+        err < 1e-6,
+        "eye {:?}, expected {expect:?} (off by {err})",
+        cam.eye
+    );
+    assert_eq!(cam.look_at, start.look_at);
+    assert_eq!(cam.up, start.up);
+
+    // Right drag by (-20, 8): eye and target shift by (20 r + 8 u) * 2 d tan(fov/2) / H.
+    let before = c.camera;
+    let fr = before.frame();
+    let d = (before.look_at - before.eye).length() as f64;
+    for e in [
+        cursor(50.0, 50.0),
+        button(MouseButton::Right, ElementState::Pressed),
+        cursor(30.0, 58.0),
+        button(MouseButton::Right, ElementState::Released),
+    ] {
+        c.handle(control::translate(&e).unwrap());
+    }
+    let shift = (20.0 * fr.r + 8.0 * fr.u) * (2.0 * d * fr.s / 480.0);
+    let moved = c.camera.eye.as_dvec3() - before.eye.as_dvec3();
+    let moved_target = c.camera.look_at.as_dvec3() - before.look_at.as_dvec3();
+    eprintln!("pan: off by {:e}", (moved - shift).length());
+    // Measured 6.2e-8; the bound is the f32 rounding above.
+    assert!((moved - shift).length() < 1e-6, "{moved:?} vs {shift:?}");
+    assert!((moved_target - shift).length() < 1e-6, "{moved_target:?}");
+    assert!(c.reset());
+    assert_eq!(c.camera, start);
+}
