@@ -44,6 +44,9 @@ const RMSE_F32_VS_F64: f64 = 2e-5;
 /// with the f32 CPU). Measured: 100% on every shipped scene on llvmpipe and the H200; the
 /// bound allows one pixel of 3,072.
 const PRIMID_AGREEMENT: f64 = 0.9996;
+// On the irregular grid (every kernel) llvmpipe measured the same figures as on the
+// uniform grid, scene by scene, to the printed digit: 100% primary hits, RMSE against f32
+// at most 4.34e-7 and against f64 at most 4.45e-6 (dragon); the bounds above hold for both.
 
 fn model_path() -> Vec<PathBuf> {
     match std::env::var_os("FRAGTRACE_MODEL_PATH") {

@@ -310,7 +310,7 @@ fn case_17_close_parallel_surfaces() {
     }
     // (primary hits on every backend, GL hits of the f32 CPU's transmitted rays per
     // structure)
-    let gl: Vec<([Vec<Found>; NB], [Vec<Found>; 2])> = with_test_context(|ctx| {
+    let gl: Vec<(AllFound, PerStructure)> = with_test_context(|ctx| {
         prepared
             .iter()
             .zip(&cpu)
@@ -349,6 +349,11 @@ fn case_17_close_parallel_surfaces() {
     }
     checks.done();
 }
+
+/// Closest hits on every backend, in `BACKENDS` order.
+type AllFound = [Vec<Found>; NB];
+/// One GL batch per structure, in `ACCELS` order.
+type PerStructure = [Vec<Found>; 2];
 
 /// A solid of case 16's scene, for an analytic shadow test: an icosphere between its
 /// inscribed and circumscribed balls, or the box itself.

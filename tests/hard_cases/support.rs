@@ -64,7 +64,7 @@ pub fn accel_of(bi: usize) -> AccelKind {
 
 /// The precision of backend `bi` of [`BACKENDS`] (GL computes in f32).
 pub fn precision_of(bi: usize) -> Precision {
-    if bi % PER == 0 {
+    if bi.is_multiple_of(PER) {
         Precision::F64
     } else {
         Precision::F32
