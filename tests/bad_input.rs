@@ -638,3 +638,45 @@ fn clap_usage_errors_are_one_line_with_exit_code_2() {
     let out = run_in(&d, &["--help"], &[]);
     assert_eq!(out.status.code(), Some(0));
 }
+
+/// `--grid AxBxC` sets the uniform grid's resolution: with the irregular grid (the default,
+/// or `--accel irregular`) it is a usage error naming the flag and the fix, one line, exit
+/// code 2; an unknown `--accel` value and a `--grid-density` out of range likewise, for
+/// either structure.
+#[test]
+fn grid_without_accel_uniform_and_bad_accel_flags_are_usage_errors() {
+    let d = tmpdir("accel");
+    for args in [
+        &["render", "--backend", "cpu", "--grid", "8x8x8"][..],
+        &[
+            "render",
+            "--backend",
+            "cpu",
+            "--accel",
+            "irregular",
+            "--grid",
+            "8x8x8",
+        ],
+    ] {
+        fails(&d, args, &[], &["--grid 8x8x8", "--accel uniform"]);
+    }
+    fails(&d, &["render", "--accel", "bvh"], &[], &["bvh", "--accel"]);
+    for accel in ["uniform", "irregular"] {
+        fails(
+            &d,
+            &[
+                "render",
+                "--backend",
+                "cpu",
+                "--accel",
+                accel,
+                "--grid-density",
+                "0",
+            ],
+            &[],
+            &["--grid-density 0"],
+        );
+    }
+    // Nothing was rendered by any of them.
+    only_inputs(&d, &[]);
+}

@@ -391,7 +391,8 @@ fn info_prints_every_check_with_value_and_outcome() {
         "framebuffer objects",
         "draw buffers",
         "occlusion queries",
-        "fragment texture units (GL_MAX_TEXTURE_IMAGE_UNITS >= 14)",
+        // 15 since the irregular grid's voxel map (still within a GeForce 6/7's 16).
+        "fragment texture units (GL_MAX_TEXTURE_IMAGE_UNITS >= 15)",
         "image size (GL_MAX_TEXTURE_SIZE and GL_MAX_VIEWPORT_DIMS",
         "timer queries",
         "depth renderbuffer, for --mask early-z",
@@ -499,4 +500,180 @@ fn gl_progress_shows_a_monotone_percentage_and_eta() {
         "{percents:?}"
     );
     assert!(shown.contains("rays active"), "{shown}");
+}
+
+/// Runs the binary in `d` with `args`, requires success, and returns the `--stats` JSON
+/// it wrote to `stats`.
+fn stats_of(d: &std::path::Path, args: &[&str], stats: &str) -> serde_json::Value {
+    let out = bin()
+        .current_dir(d)
+        .args(args)
+        .args(["--stats", stats, "-q"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&std::fs::read(d.join(stats)).unwrap()).unwrap()
+}
+
+/// `--accel uniform` and `--accel irregular` render on the CPU and on GL, and `--stats`
+/// reports the structure built: its kind (irregular by default), resolution, memory and
+/// cell counts (the top resolution only for the irregular grid). The two structures find
+/// the same closest hits, so the f64 CPU renders the same PNG on both (measured: every
+/// byte equal).
+#[test]
+fn accel_flag_selects_the_structure_and_stats_report_it() {
+    let d = tmpdir("accel");
+    let size = ["--width", "40", "--height", "30"];
+    let mut pngs = Vec::new();
+    for (accel, backend) in [
+        (None, "cpu"),
+        (Some("uniform"), "cpu"),
+        (Some("irregular"), "cpu"),
+        (Some("uniform"), "gl"),
+        (Some("irregular"), "gl"),
+    ] {
+        let png = format!("{}-{backend}.png", accel.unwrap_or("default"));
+        let mut args = vec!["--backend", backend, "-o", &png];
+        args.extend(size);
+        if let Some(a) = accel {
+            args.extend(["--accel", a]);
+        }
+        let s = stats_of(&d, &args, "s.json");
+        let a = &s["accel"];
+        let want = accel.unwrap_or("irregular");
+        assert_eq!(a["kind"], want, "{args:?}: {a}");
+        assert_eq!(s["backend"], backend);
+        let res = a["resolution"].as_array().unwrap();
+        assert_eq!(res.len(), 3, "{a}");
+        assert!(res.iter().all(|r| r.as_u64().unwrap() >= 1), "{a}");
+        assert_eq!(
+            a.get("top_resolution").is_some(),
+            want == "irregular",
+            "{a}"
+        );
+        let cells = a["cells"].as_u64().unwrap();
+        assert!(
+            cells > 0 && a["empty_cells"].as_u64().unwrap() < cells,
+            "{a}"
+        );
+        assert!(a["references"].as_u64().unwrap() >= s["triangles"].as_u64().unwrap());
+        assert!(a["bytes"].as_u64().unwrap() > 0, "{a}");
+        assert!(a["bytes_per_triangle"].as_f64().unwrap() > 0.0, "{a}");
+        assert!(a["build_ms"].as_f64().unwrap() >= 0.0, "{a}");
+        assert!(!a["detail"].as_str().unwrap().is_empty(), "{a}");
+        let img = image::open(d.join(&png)).unwrap();
+        assert_eq!((img.width(), img.height()), (40, 30));
+        if backend == "cpu" && accel.is_some() {
+            pngs.push(img.to_rgb8().into_raw());
+        }
+    }
+    assert!(
+        pngs[0] == pngs[1],
+        "uniform and irregular f64 renders differ"
+    );
+}
+
+/// `--grid-density` sets the uniform grid's cells per triangle with `--accel uniform` and
+/// the irregular grid's top cells per triangle with `--accel irregular` (the default):
+/// 8x the density gives 8x the cells up to rounding of each axis (bounds 4x..16x; the
+/// built-in scene's uniform and top grids are flat, so one axis rounds coarsely).
+/// `--grid AxBxC` fixes the uniform grid's resolution.
+#[test]
+fn grid_density_applies_to_either_structure() {
+    let d = tmpdir("density");
+    let base = [
+        "--backend",
+        "cpu",
+        "--width",
+        "8",
+        "--height",
+        "6",
+        "-o",
+        "x.png",
+    ];
+    let cells = |extra: &[&str], key: &str| -> u64 {
+        let mut args = base.to_vec();
+        args.extend(extra);
+        let s = stats_of(&d, &args, "s.json");
+        s["accel"][key]
+            .as_array()
+            .unwrap_or_else(|| panic!("{extra:?}: no {key} in {}", s["accel"]))
+            .iter()
+            .map(|v| v.as_u64().unwrap())
+            .product()
+    };
+    for (accel, key, lo, hi) in [
+        ("uniform", "resolution", "1", "8"),
+        ("irregular", "top_resolution", "0.125", "1"),
+    ] {
+        let a = cells(&["--accel", accel, "--grid-density", lo], key);
+        let b = cells(&["--accel", accel, "--grid-density", hi], key);
+        println!("{accel}: density {lo}: {a} cells, {hi}: {b} cells");
+        assert!(b >= 4 * a && b <= 16 * a, "{accel}: {a} -> {b} cells");
+    }
+    let fixed = stats_of(
+        &d,
+        &[&base[..], &["--accel", "uniform", "--grid", "8x8x8"]].concat(),
+        "s.json",
+    );
+    assert_eq!(fixed["accel"]["resolution"], serde_json::json!([8, 8, 8]));
+}
+
+/// The irregular grid in a GL 2.1 / GLSL 1.20 context (Mesa's version override) with the
+/// faithful multipass kernel renders what the f32 CPU renders on the same structure, on
+/// the built-in scene and the bunny. Bound: RMSE 2e-5 of the linear EXR values, as
+/// tests/gpu_backend.rs bounds GL against its f32 twin (measured here: see the printed
+/// values).
+#[test]
+fn gl21_irregular_multipass_equals_cpu_f32() {
+    let d = tmpdir("gl21");
+    let models = std::env::var("FRAGTRACE_MODEL_PATH")
+        .unwrap_or_else(|_| concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/models").to_string());
+    let bunny = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bunny.toml");
+    for scene in [None, Some(bunny)] {
+        let mut images = Vec::new();
+        for (backend, out) in [("gl", "gl.exr"), ("cpu", "cpu.exr")] {
+            let mut cmd = bin();
+            cmd.current_dir(&d)
+                .env("FRAGTRACE_MODEL_PATH", &models)
+                .args(["render", "--backend", backend, "--precision", "f32"])
+                .args(["--accel", "irregular", "--kernel", "multipass"])
+                .args(["--width", "48", "--height", "36", "--stats", "s.json", "-q"])
+                .args(["-o", out]);
+            if backend == "gl" {
+                cmd.env("MESA_GL_VERSION_OVERRIDE", "2.1")
+                    .env("MESA_GLSL_VERSION_OVERRIDE", "120");
+            }
+            if let Some(s) = scene {
+                cmd.arg(s);
+            }
+            let o = cmd.output().unwrap();
+            assert!(
+                o.status.success(),
+                "{backend} {scene:?}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            let s: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+            assert_eq!(s["accel"]["kind"], "irregular");
+            if backend == "gl" {
+                let v = s["gpu"]["gl_version"].as_str().unwrap().to_owned();
+                let mesa = v.contains("Mesa");
+                assert!(!mesa || v.starts_with("2.1"), "not a GL 2.1 context: {v}");
+            }
+            images.push(fragtrace::image_io::read_image(&d.join(out)).unwrap());
+        }
+        let c = fragtrace::compare::compare(&images[0], &images[1], 0.02, true).unwrap();
+        println!(
+            "{}: GL 2.1 irregular multipass vs CPU f32: RMSE {:.2e}, {c}",
+            scene.unwrap_or("builtin"),
+            c.rmse
+        );
+        assert!(images[0].all_finite());
+        assert!(c.rmse <= 2e-5, "{scene:?}: {c}");
+    }
 }

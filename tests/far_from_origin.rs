@@ -217,3 +217,57 @@ fn a_far_object_does_not_cost_the_view_its_precision() {
     eprintln!("{report}");
     assert!(ok, "{report}");
 }
+
+/// The irregular grid of a closed icosphere(5) (20,480 triangles) over a ground quad splits
+/// its top cells the same way wherever the scene sits: translated by (1e5, 1e5, 1e5) it
+/// must reach a virtual resolution within 2x of the untranslated one's per axis. Measured
+/// at 4c4f014: [832, 128, 832] at the origin, [26, 4, 26] at 1e5, which is the top grid
+/// itself (no cell split at all), so GL tracing 65,536 rays from inside the sphere takes
+/// 84.8 s against 18.9 s on the uniform grid (tests/hard_cases case 04, llvmpipe); the
+/// answers stay exact (0 misses), only the structure is lost.
+#[test]
+#[ignore = "known bug: the irregular build does not split far from the origin"]
+fn irregular_grid_splits_far_from_the_origin_as_at_the_origin() {
+    use fragtrace::accel::{IrregularConfig, IrregularGrid};
+    use fragtrace::scene::{shapes, Camera, Material};
+    use glam::{DVec3, Vec3};
+    let build = |offset: DVec3| {
+        let mut s = Scene::empty(Camera {
+            eye: (offset + DVec3::Z * 10.0).as_vec3(),
+            look_at: offset.as_vec3(),
+            up: Vec3::Y,
+            vfov_deg: 45.0,
+        });
+        let m = s.add_material(Material::default());
+        let (p, _, t) = shapes::sphere(5);
+        let at = |q: DVec3| (q + offset).as_vec3();
+        for tri in &t {
+            let v = tri.map(|i| at(p[i as usize].as_dvec3()));
+            s.add_triangle(v[0], v[1], v[2], m);
+        }
+        let g = |x: f64, z: f64| at(DVec3::new(x, -1.2, z));
+        s.add_triangle(g(-8.0, -8.0), g(-8.0, 8.0), g(8.0, 8.0), m);
+        s.add_triangle(g(-8.0, -8.0), g(8.0, 8.0), g(8.0, -8.0), m);
+        IrregularGrid::build(&s, &IrregularConfig::default()).unwrap()
+    };
+    let near = build(DVec3::ZERO);
+    let far = build(DVec3::splat(1e5));
+    let line = |g: &IrregularGrid| {
+        format!(
+            "top {:?}, virtual {:?}, {} levels, {} cells",
+            g.top_res,
+            g.res,
+            g.levels.len(),
+            g.cells.len()
+        )
+    };
+    println!("origin: {}\n1e5: {}", line(&near), line(&far));
+    for a in 0..3 {
+        assert!(
+            far.res[a] * 2 >= near.res[a],
+            "axis {a}: virtual resolution {} at 1e5, {} at the origin",
+            far.res[a],
+            near.res[a]
+        );
+    }
+}

@@ -1,6 +1,7 @@
 //! The hard-case robustness suite: 22 geometric and numeric corner cases, each run on every
 //! backend — the CPU reference in f64 (ground truth), the CPU in f32 (the GPU's arithmetic)
-//! and the GLSL 1.20 backend (llvmpipe here) — through single rays (`GridWalker::<T>` and
+//! and the GLSL 1.20 backend (llvmpipe here) — and on both acceleration structures (the
+//! uniform grid and the irregular grid, `--accel`), through single rays (`Walker::<T>` and
 //! `gpu::render::trace_rays`) or small images (`render_cpu` / `render_gl_with`).
 //!
 //! Every case reads as its set-up and its bound: the shared machinery (the f32 test ray,
@@ -8,7 +9,7 @@
 //! is in `hard_cases/support.rs`, the cases are grouped by what they exercise:
 //!
 //! - `watertight`: cases 1-4, 6, 12, 15 (the intersection test);
-//! - `grid`: cases 7-11 (the traversal);
+//! - `grid`: cases 7-11 (the traversal; case 7 on the uniform grid only);
 //! - `spawned`: cases 5, 16, 17 (rays spawned at hits);
 //! - `images`: cases 13, 14, 21 (whole images); `glass`: cases 18, 19;
 //! - `inputs`: cases 20, 22 (bad input and limits).

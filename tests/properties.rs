@@ -1,6 +1,6 @@
 //! Property tests (proptest): scene text loads or fails with an error (and what loads
-//! renders finite), OBJ text likewise, and the grid traversal finds exactly what brute
-//! force finds, in f64 and f32.
+//! renders finite), OBJ text likewise, and the traversal of either structure (the uniform
+//! grid and the irregular grid) finds exactly what brute force finds, in f64 and f32.
 //!
 //! Each property runs twice: with a fixed RNG seed (so CI is reproducible), then with a
 //! fresh seed taken from the clock, on an eighth of the cases, so every run also explores
@@ -12,9 +12,10 @@ use glam::Vec3;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, RngSeed};
 
-use fragtrace::accel::{Grid, GridConfig, GridRes};
+use fragtrace::accel::{AccelRef, Grid, GridConfig, GridRes, IrregularConfig, IrregularGrid};
 use fragtrace::cpu::real::{Real, V3};
-use fragtrace::cpu::traverse::{GridWalker, Hit, Ray, Work};
+use fragtrace::cpu::traverse::{Hit, Ray, Work};
+use fragtrace::cpu::walker::Walker;
 use fragtrace::options::{Backend, Precision, RenderOptions};
 use fragtrace::scene::{
     parse_obj_with_mtl, parse_scene_str, Camera, Material, Scene, Triangle, NO_NORMAL,
@@ -366,13 +367,18 @@ fn obj_text_loads_or_fails_with_an_error() {
 /// A random mesh: `n` triangles whose vertices come from a small pool (so edges and
 /// vertices are shared, as in real meshes), some snapped to a coarse lattice (axis-aligned
 /// and coplanar triangles, cell-face coincidences).
-fn mesh() -> impl Strategy<Value = (Vec<Vec3>, Vec<[u32; 3]>)> {
+fn mesh() -> impl Strategy<Value = (Vec<Vec3>, Vec<[u32; 3]>)> + Clone {
+    mesh_from_pool(3)
+}
+
+/// [`mesh`] with a vertex pool of at least `min_pool` vertices.
+fn mesh_from_pool(min_pool: usize) -> impl Strategy<Value = (Vec<Vec3>, Vec<[u32; 3]>)> + Clone {
     let coord = prop_oneof![
         3 => -4.0f32..4.0,
         1 => (-8i32..=8).prop_map(|k| k as f32 * 0.5),
     ];
     let vertex = (coord.clone(), coord.clone(), coord).prop_map(|(x, y, z)| Vec3::new(x, y, z));
-    prop::collection::vec(vertex, 3..40).prop_flat_map(|pool| {
+    prop::collection::vec(vertex, min_pool..40).prop_flat_map(|pool| {
         let n = pool.len() as u32;
         let tri = (0..n, 0..n, 0..n).prop_map(|(a, b, c)| [a, b, c]);
         (Just(pool), prop::collection::vec(tri, 1..60))
@@ -416,11 +422,16 @@ struct Tally {
 /// edge-aimed rays too (184,320 rays each), so any such tie is now a failure.
 fn agree<T: Real>(
     s: &Scene,
-    grid: &Grid,
+    grid: AccelRef<'_>,
     rays: &[([f64; 3], [f64; 3])],
     tally: &mut Tally,
 ) -> Result<(), TestCaseError> {
-    let accel = GridWalker::<T>::new(s, grid);
+    let accel = Walker::<T>::new(s, grid, Default::default());
+    // Brute force over every triangle, whichever walker holds them (the same function).
+    let brute = |ray: &Ray<T>| match &accel {
+        Walker::Uniform(w) => w.brute_force(ray),
+        Walker::Irregular(w) => w.brute_force(ray),
+    };
     for (o, d) in rays {
         let v = |a: &[f64; 3]| V3::new(T::from_f64(a[0]), T::from_f64(a[1]), T::from_f64(a[2]));
         let ray = Ray {
@@ -434,7 +445,7 @@ fn agree<T: Real>(
         }
         tally.rays += 1;
         let got = accel.closest_hit(&ray, &mut Work::default());
-        let want = accel.brute_force(&ray);
+        let want = brute(&ray);
         if let Some(w) = &want {
             tally.hits += 1;
             let low =
@@ -466,21 +477,77 @@ fn agree<T: Real>(
     Ok(())
 }
 
+/// Build parameters of either structure.
+#[derive(Clone, Debug)]
+enum Structure {
+    Uniform(GridRes),
+    Irregular(IrregularConfig),
+}
+
 #[test]
 fn grid_traversal_agrees_with_brute_force() {
+    let grid_res = prop_oneof![
+        Just(GridRes::Auto),
+        prop::array::uniform3(1u32..9).prop_map(GridRes::Fixed)
+    ];
+    traversal_agrees_with_brute_force(
+        "grid traversal",
+        mesh(),
+        grid_res.prop_map(Structure::Uniform),
+    );
+}
+
+/// Smallest vertex pool of the irregular grid's meshes. Pools of 3-6 vertices with 20-60
+/// triangles (many coincident and zero-area triangles along the same few edges) make
+/// `IrregularGrid::build` split to its depth limit: up to 225,522 cells and 9.7 s for one
+/// 57-triangle mesh (see `irregular_build_of_coincident_degenerate_triangles_stays_small`),
+/// which would take the property's run from seconds to many minutes. Lower it to 3 when
+/// that build is bounded.
+const IRREGULAR_MIN_POOL: usize = 8;
+
+/// The irregular grid's walk against brute force, with the default build and with top
+/// densities from 1/64 (one top cell for these meshes: everything is in the voxel map's
+/// split) to 8 cells per triangle, and leaves split down to 1..8 triangles. Measured with
+/// the tie check counted instead of failing (fixed seed plus a fresh eighth, 8 s): f64
+/// 184,400 rays, 82,351 hits (44.7%), 24,253 within 1e-6 of an edge (13.2%); f32 75,007
+/// hits (40.7%), 15,978 at an edge (8.7%); the bounds below (25%, 4%) hold with margin.
+/// It fails on one f32 ray of 184,400: the walk returns triangle 1 at t = 0.99999994 where
+/// brute force gives the tie to triangle 0 at t = 1 (shrunk:
+/// `irregular_tie_at_a_shared_vertex_goes_to_the_lowest_index`).
+#[test]
+#[ignore = "known bug: f32 irregular walk breaks the lowest-index tie \
+            (irregular_tie_at_a_shared_vertex_goes_to_the_lowest_index); un-ignore when fixed"]
+fn irregular_traversal_agrees_with_brute_force() {
+    let cfg = prop_oneof![
+        Just(IrregularConfig::default()),
+        (0.015625f32..8.0, 1u32..9).prop_map(|(top_density, leaf_max)| IrregularConfig {
+            top_density,
+            leaf_max
+        })
+    ];
+    traversal_agrees_with_brute_force(
+        "irregular traversal",
+        mesh_from_pool(IRREGULAR_MIN_POOL),
+        cfg.prop_map(Structure::Irregular),
+    );
+}
+
+/// Random meshes, free rays and rays aimed at triangle edges and vertices: the walk of the
+/// structure `structure` builds finds what brute force finds, in f64 and f32.
+fn traversal_agrees_with_brute_force(
+    name: &str,
+    meshes: impl Strategy<Value = (Vec<Vec3>, Vec<[u32; 3]>)> + Clone,
+    structure: impl Strategy<Value = Structure> + Clone,
+) {
     let cam = Camera {
         eye: Vec3::new(0.0, 0.0, 10.0),
         look_at: Vec3::ZERO,
         up: Vec3::Y,
         vfov_deg: 45.0,
     };
-    let grid_res = prop_oneof![
-        Just(GridRes::Auto),
-        prop::array::uniform3(1u32..9).prop_map(GridRes::Fixed)
-    ];
     let tally = std::cell::RefCell::new([Tally::default(), Tally::default()]);
-    for cfg in configs("grid traversal", 4096) {
-        proptest!(cfg, |((positions, tris) in mesh(), res in grid_res.clone(), free in prop::collection::vec(ray(), 24), aimed in prop::collection::vec(aimed_ray(), 16))| {
+    for cfg in configs(name, 4096) {
+        proptest!(cfg, |((positions, tris) in meshes.clone(), st in structure.clone(), free in prop::collection::vec(ray(), 24), aimed in prop::collection::vec(aimed_ray(), 16))| {
             let mut s = Scene::empty(cam);
             let m = s.add_material(Material::default());
             s.positions = positions;
@@ -498,28 +565,152 @@ fn grid_traversal_agrees_with_brute_force() {
                 let target = a + (b - a) * along;
                 rays.push((o, (target - glam::DVec3::from_array(o)).to_array()));
             }
-            let grid = Grid::build(&s, &GridConfig { res, ..GridConfig::default() }).unwrap();
+            let (grid, irregular);
+            let accel: AccelRef = match st {
+                Structure::Uniform(res) => {
+                    grid = Grid::build(&s, &GridConfig { res, ..GridConfig::default() }).unwrap();
+                    (&grid).into()
+                }
+                Structure::Irregular(cfg) => {
+                    irregular = IrregularGrid::build(&s, &cfg).unwrap();
+                    (&irregular).into()
+                }
+            };
             let mut t = tally.borrow_mut();
-            agree::<f64>(&s, &grid, &rays, &mut t[0])?;
-            agree::<f32>(&s, &grid, &rays, &mut t[1])?;
+            agree::<f64>(&s, accel, &rays, &mut t[0])?;
+            agree::<f32>(&s, accel, &rays, &mut t[1])?;
         });
     }
-    for (name, t) in ["f64", "f32"].iter().zip(tally.borrow().iter()) {
+    for (prec, t) in ["f64", "f32"].iter().zip(tally.borrow().iter()) {
         eprintln!(
-            "grid traversal {name}: {} rays, {} hits, {} within 1e-6 of an edge",
+            "{name} {prec}: {} rays, {} hits, {} within 1e-6 of an edge",
             t.rays, t.hits, t.edge_hits
         );
         // The property says something only if rays hit, and hit edges. Measured (fixed
         // seed plus a fresh eighth): 43% of the rays hit in f64, 39% in f32; 15% (f64)
         // and 10% (f32) of all rays hit within 1e-6 of an edge, all of them aimed rays.
         // Bounds: 25% and 4%. Without the aimed rays 12% hit and none near an edge,
-        // and both bounds fail (tried).
+        // and both bounds fail (tried). The irregular grid's run (meshes from pools of at
+        // least 8 vertices) measured 45% / 41% hits and 13% / 8.7% edge hits.
         let share = |n: usize| n as f64 / t.rays.max(1) as f64;
-        assert!(share(t.hits) >= 0.25, "{name}: hit share {}", share(t.hits));
+        assert!(
+            share(t.hits) >= 0.25,
+            "{name} {prec}: hit share {}",
+            share(t.hits)
+        );
         assert!(
             share(t.edge_hits) >= 0.04,
-            "{name}: edge-hit share {}",
+            "{name} {prec}: edge-hit share {}",
             share(t.edge_hits)
         );
     }
+}
+
+/// The first mesh the irregular property found (minimal after shrinking, fixed seed): 36
+/// triangles of 8 vertices, many of them zero-area, default build. The ray is one of the
+/// property's edge-aimed rays: it passes exactly through vertex 4 at t = 1, shared by
+/// triangles 7 = (2, 4, 1) and 14 = (7, 4, 0). Brute force gives the tie to the lowest
+/// index, 7 (the tie rule of every backend); the irregular walk returns 14 (found at
+/// 4c4f014) in f32; f64 returns 7, and so does the uniform grid in both precisions.
+#[test]
+#[ignore = "known bug: the irregular walk breaks the lowest-index tie at a shared vertex"]
+fn irregular_tie_at_a_shared_vertex_goes_to_the_lowest_index() {
+    let v = Vec3::new;
+    let positions = vec![
+        v(0.0, 1.926633, 4.0),
+        v(-0.61507684, -1.5361048, -0.23404135),
+        v(-1.0718173, -2.2072625, 1.991431),
+        v(1.2216182, -3.5, -0.7779404),
+        v(0.40074542, -3.0, 1.515402),
+        v(-2.9772787, 2.5, -1.0),
+        v(3.5, 3.0, 0.9271845),
+        v(3.5, -3.0, 1.0),
+    ];
+    #[rustfmt::skip]
+    let tris: [[u32; 3]; 36] = [
+        [0, 0, 0], [0, 0, 0], [4, 4, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0], [2, 4, 1],
+        [0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0], [1, 2, 3], [5, 6, 5], [7, 4, 0], [0, 2, 6],
+        [3, 0, 0], [1, 4, 3], [4, 2, 2], [0, 0, 4], [5, 1, 5], [5, 5, 2], [6, 7, 6], [4, 2, 4],
+        [3, 3, 3], [3, 3, 0], [5, 0, 6], [5, 3, 5], [2, 6, 5], [7, 2, 2], [1, 5, 6], [5, 4, 0],
+        [6, 7, 2], [1, 1, 1], [0, 2, 1], [4, 3, 5],
+    ];
+    let mut s = Scene::empty(Camera {
+        eye: Vec3::new(0.0, 0.0, 10.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+    });
+    let m = s.add_material(Material::default());
+    s.positions = positions;
+    s.triangles = tris
+        .iter()
+        .map(|&v| Triangle {
+            v,
+            n: [NO_NORMAL; 3],
+            material: m,
+        })
+        .collect();
+    let ray = (
+        [3.5635393917881357, -3.2413478447709942, 5.209184557984009],
+        [-3.16279397014011, 0.24134784477099425, -3.6937825985647583],
+    );
+    let grid = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
+    let uniform = Grid::build(&s, &GridConfig::default()).unwrap();
+    let mut t = Tally::default();
+    // The uniform grid keeps the tie rule on this ray (control).
+    agree::<f64>(&s, (&uniform).into(), &[ray], &mut t).unwrap();
+    agree::<f32>(&s, (&uniform).into(), &[ray], &mut t).unwrap();
+    let r64 = agree::<f64>(&s, (&grid).into(), &[ray], &mut t);
+    let r32 = agree::<f32>(&s, (&grid).into(), &[ray], &mut t);
+    assert!(r64.is_ok() && r32.is_ok(), "f64: {r64:?}\nf32: {r32:?}");
+}
+
+/// Thirty zero-area triangles lying on the three edges of one triangle (ten per edge, as
+/// (a, a, b)): the default irregular build splits to its depth limit (17 levels, virtual
+/// resolution 131072 x 393216 x 131072) and makes 3,129,493 cells in 216 s (measured at
+/// 4c4f014, this machine); the uniform grid needs 240. Random meshes with 3-6 vertices
+/// and 20-60 triangles do the same on a smaller scale (225,522 cells, 9.7 s for 57
+/// triangles), which is why the irregular property draws pools of at least
+/// `IRREGULAR_MIN_POOL` vertices. Bound: 32 cells per triangle (bunny.toml's irregular
+/// grid has 2.2).
+#[test]
+#[ignore = "known bug: the irregular build explodes on coincident zero-area triangles (minutes)"]
+fn irregular_build_of_coincident_degenerate_triangles_stays_small() {
+    let mut s = Scene::empty(Camera {
+        eye: Vec3::new(0.0, 0.0, 10.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+    });
+    let m = s.add_material(Material::default());
+    s.positions = vec![
+        Vec3::new(-0.8702472, 2.868926, 0.059936617),
+        Vec3::new(0.79125667, -3.0, -2.0),
+        Vec3::new(0.41053656, 2.9636889, -1.5538367),
+    ];
+    s.triangles = (0..30u32)
+        .map(|k| {
+            let a = k % 3;
+            Triangle {
+                v: [a, a, (a + 1) % 3],
+                n: [NO_NORMAL; 3],
+                material: m,
+            }
+        })
+        .collect();
+    let t0 = std::time::Instant::now();
+    let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
+    let ms = t0.elapsed().as_secs_f64() * 1e3;
+    println!(
+        "{} cells, virtual resolution {:?}, {} levels, built in {ms:.0} ms",
+        g.cells.len(),
+        g.res,
+        g.levels.len()
+    );
+    assert!(
+        g.cells.len() <= 32 * s.triangles.len(),
+        "{} cells for {} triangles",
+        g.cells.len(),
+        s.triangles.len()
+    );
 }

@@ -1,4 +1,4 @@
-//! Render cases: whole images on the three backends, each compared with a reference:
+//! Render cases: whole images on every backend and structure, each compared with a reference:
 //! silhouettes of a smooth mesh (13), degenerate triangles (14), total internal
 //! reflection (18), the camera inside glass (19), and the empty scene, one triangle and the
 //! camera inside the grid (21).
@@ -97,7 +97,7 @@ fn case_13_silhouettes_of_smooth_mesh() {
     let s = smooth_sphere_scene();
     let renders = with_test_context(|ctx| render_all(ctx, &s));
     let mut checks = Checks::new();
-    for bi in 1..3 {
+    for bi in (0..NB).filter(|&bi| bi != F64) {
         let (b, r) = (BACKENDS[bi], &renders[bi]);
         assert!(r.image.all_finite(), "{b}: NaN or Inf pixel");
         let v = VsReference::new(r, &renders[F64]);
@@ -179,11 +179,19 @@ fn case_14_degenerate_triangles() {
     let (with, first) = degenerate_scene(true);
     let (without, _) = degenerate_scene(false);
     let n_deg = with.triangles.len() as u32 - first;
-    let grid = auto_grid(&with);
-    let binned = (first..first + n_deg)
-        .filter(|i| grid.tri_indices.contains(i))
-        .count();
-    assert_eq!(binned as u32, n_deg, "degenerate triangles must be binned");
+    let grid = accels(&with);
+    for (name, tri_indices) in [
+        ("uniform", &grid.uniform.tri_indices),
+        ("irregular", &grid.irregular.tri_indices),
+    ] {
+        let binned = (first..first + n_deg)
+            .filter(|i| tri_indices.contains(i))
+            .count();
+        assert_eq!(
+            binned as u32, n_deg,
+            "{name}: degenerate triangles must be binned"
+        );
+    }
     // Single rays at their vertices, midpoints and along their lines.
     let mut rays = Vec::new();
     for i in first..first + n_deg {
@@ -331,10 +339,13 @@ fn case_21_empty_single_triangle_camera_inside_grid() {
     const RMSE: f64 = 5e-7;
     let (empty, single, tri_colour, room) = empty_single_room();
     let grid = auto_grid(&room);
-    assert!(
-        room.camera.eye.cmpgt(grid.min).all() && room.camera.eye.cmplt(grid.max).all(),
-        "the camera must be inside the grid"
-    );
+    let irregular = &accels(&room).irregular;
+    for (min, max) in [(grid.min, grid.max), (irregular.min, irregular.max)] {
+        assert!(
+            room.camera.eye.cmpgt(min).all() && room.camera.eye.cmplt(max).all(),
+            "the camera must be inside the grid"
+        );
+    }
     let covered = coverage(&single);
     let ambiguous = covered.iter().filter(|c| c.is_none()).count();
     let brute: Vec<f32> = {

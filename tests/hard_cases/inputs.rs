@@ -4,7 +4,7 @@
 
 use crate::common::with_test_context;
 use crate::support::*;
-use fragtrace::accel::{GridConfig, GridRes};
+use fragtrace::accel::{AccelKind, AccelRef, GridConfig, GridRes};
 use fragtrace::gpu::layout::SceneTextures;
 use fragtrace::options::Precision;
 use fragtrace::render::{render_cpu, render_gl_with};
@@ -126,12 +126,20 @@ fn case_22_texture_limits_are_clear_errors() {
     let (mut s, m) = plain_scene();
     add_sphere(&mut s, 4, true, m, 1.0, DVec3::ZERO); // 5120 triangles: 15360 tri texels
     let grid = fixed_grid(&s, [64, 64, 64]); // 262144 cells
+    let both = accels(&s);
     let mut checks = Checks::new();
-    for (max, what) in [(64u32, "tri"), (128, "cell")] {
-        match SceneTextures::pack(&s, &grid, max) {
+    for (accel, max, what) in [
+        (AccelRef::from(&grid), 64u32, "tri"),
+        ((&grid).into(), 128, "cell"),
+        (both.get(AccelKind::Irregular), 64, "tri"),
+    ] {
+        match SceneTextures::pack(&s, accel, max) {
             Err(e @ Error::Limit(_)) => {
                 let msg = e.to_string();
-                println!("[case 22] all backends: pack with GL_MAX_TEXTURE_SIZE {max}: {msg}");
+                let kind = accel.kind().name();
+                println!(
+                    "[case 22] all backends, {kind}: pack with GL_MAX_TEXTURE_SIZE {max}: {msg}"
+                );
                 if !msg.contains("GL_MAX_TEXTURE_SIZE")
                     || !msg.contains(&format!("`{what}`"))
                     || e.exit_code() != 2
@@ -145,7 +153,8 @@ fn case_22_texture_limits_are_clear_errors() {
             )),
         }
     }
-    // More cells than exact float indices: only the GL backend must refuse.
+    // More cells than exact float indices: only the GL backend must refuse (the uniform
+    // grid's fixed resolution: `opts` builds the uniform grid).
     let (mut tiny, m) = plain_scene();
     tiny.add_triangle(
         Vec3::new(-1.0, -1.0, 0.0),
@@ -162,7 +171,9 @@ fn case_22_texture_limits_are_clear_errors() {
     };
     let (gl_err, real_ok, ctx_max) = with_test_context(|ctx| {
         let gl_err = render_gl_with(ctx, &tiny, &o).err();
-        let real = SceneTextures::pack(&s, &grid, ctx.info.max_texture_size as u32).is_ok();
+        let max = ctx.info.max_texture_size as u32;
+        let real = SceneTextures::pack(&s, &grid, max).is_ok()
+            && SceneTextures::pack(&s, &both.irregular, max).is_ok();
         (gl_err, real, ctx.info.max_texture_size)
     });
     match &gl_err {
@@ -179,7 +190,7 @@ fn case_22_texture_limits_are_clear_errors() {
     }
     let cpu = render_cpu(&tiny, &o);
     println!(
-        "[case 22] CPU f32: the same 2^24+ cell grid renders: {}; real GL_MAX_TEXTURE_SIZE {ctx_max} packs the 5120-triangle scene: {real_ok}",
+        "[case 22] CPU f32: the same 2^24+ cell grid renders: {}; real GL_MAX_TEXTURE_SIZE {ctx_max} packs the 5120-triangle scene on both structures: {real_ok}",
         cpu.is_ok()
     );
     if cpu.is_err() || !real_ok {

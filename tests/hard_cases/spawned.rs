@@ -7,10 +7,12 @@
 use crate::common::with_test_context;
 use crate::common::Rng;
 use crate::support::*;
-use fragtrace::accel::Grid;
+use fragtrace::accel::AccelKind;
+use fragtrace::accel::AccelRef;
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin, secondary, surface, Secondary, SurfacePoint};
-use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
+use fragtrace::cpu::traverse::{Ray, Work};
+use fragtrace::cpu::walker::Walker;
 use fragtrace::gpu::shader::Query;
 use fragtrace::options::Precision;
 use fragtrace::render::{render_cpu, Rendered};
@@ -31,13 +33,13 @@ struct Spawned<T: Real> {
 /// the triangle, the surface point and the secondary directions of material 0.
 fn hit_and_secondary<T: Real>(
     scene: &Scene,
-    accel: &GridWalker<T>,
+    accel: &Walker<T>,
     r: &TRay,
 ) -> Option<(u32, SurfacePoint<T>, Secondary<T>)> {
     let mut ray = r.cpu::<T>();
     ray.d = ray.d.normalize();
     let hit = accel.closest_hit(&ray, &mut Work::default())?;
-    let sp = surface(scene, &accel.tris[hit.tri as usize], &hit, ray.d);
+    let sp = surface(scene, &accel.tris()[hit.tri as usize], &hit, ray.d);
     let sec = secondary(&scene.materials[0], &sp, ray.d);
     Some((hit.tri, sp, sec))
 }
@@ -60,8 +62,12 @@ fn spawn<T: Real>(own: u32, kind: usize, sp: &SurfacePoint<T>, d: V3<T>, t_max: 
 }
 
 /// The triangle each spawned ray hits first, in its own precision.
-fn trace_spawned<T: Real>(s: &Scene, grid: &Grid, spawned: &[Spawned<T>]) -> Vec<Option<u32>> {
-    let accel = GridWalker::<T>::new(s, grid);
+fn trace_spawned<T: Real>(
+    s: &Scene,
+    grid: AccelRef<'_>,
+    spawned: &[Spawned<T>],
+) -> Vec<Option<u32>> {
+    let accel = Walker::<T>::new(s, grid, Techniques::default());
     spawned
         .iter()
         .map(|x| {
@@ -95,7 +101,7 @@ fn for_gl(spawned: &[Spawned<f32>]) -> Vec<(u32, usize, TRay)> {
 struct Decade {
     scale: f64,
     scene: Scene,
-    grid: Grid,
+    grid: Accels,
     primary: Vec<TRay>,
 }
 
@@ -129,7 +135,7 @@ impl Decade {
         scene
             .lights
             .push(light((offset + rng.dir() * 30.0 * s).as_vec3(), 1.0));
-        let grid = auto_grid(&scene);
+        let grid = accels(&scene);
         let primary: Vec<TRay> = (0..1500)
             .map(|_| {
                 let i = rng.below(300);
@@ -149,9 +155,9 @@ impl Decade {
     }
 
     /// The reflected (kind 0), refracted (1) and light (2, t_max = distance) rays spawned
-    /// at every primary hit, in precision `T`.
-    fn spawn<T: Real>(&self) -> Vec<Spawned<T>> {
-        let accel = GridWalker::<T>::new(&self.scene, &self.grid);
+    /// at every primary hit, in precision `T`, primary rays traced through `accel`.
+    fn spawn<T: Real>(&self, accel: AccelKind) -> Vec<Spawned<T>> {
+        let accel = Walker::<T>::new(&self.scene, self.grid.get(accel), Techniques::default());
         let light = V3::<T>::from_vec3(self.scene.lights[0].position);
         let mut out = Vec::new();
         for r in &self.primary {
@@ -185,12 +191,17 @@ fn case_05_no_self_intersection() {
     let own = |own: u32, hit: Option<u32>| hit == Some(own);
     let mut checks = Checks::new();
     let mut gl_batches = Vec::new();
-    for d in &decades {
-        let s64 = d.spawn::<f64>();
-        let s32 = d.spawn::<f32>();
-        let h64 = per_kind(&s64, &trace_spawned(&d.scene, &d.grid, &s64), own);
-        let h32 = per_kind(&s32, &trace_spawned(&d.scene, &d.grid, &s32), own);
-        for (b, h, n) in [(BACKENDS[0], h64, s64.len()), (BACKENDS[1], h32, s32.len())] {
+    for (d, kind) in decades.iter().flat_map(|d| ACCELS.map(|k| (d, k))) {
+        let accel = d.grid.get(kind);
+        let s64 = d.spawn::<f64>(kind);
+        let s32 = d.spawn::<f32>(kind);
+        let h64 = per_kind(&s64, &trace_spawned(&d.scene, accel, &s64), own);
+        let h32 = per_kind(&s32, &trace_spawned(&d.scene, accel, &s32), own);
+        let first = ACCELS.iter().position(|&k| k == kind).unwrap() * PER;
+        for (b, h, n) in [
+            (BACKENDS[first], h64, s64.len()),
+            (BACKENDS[first + 1], h32, s32.len()),
+        ] {
             let line = format!(
                 "scale {:.0e}: {n} spawned rays, self-hits reflected/refracted/light = {h:?}",
                 d.scale
@@ -202,13 +213,13 @@ fn case_05_no_self_intersection() {
                 line,
             );
         }
-        gl_batches.push(for_gl(&s32));
+        gl_batches.push((d, kind, first + 2, for_gl(&s32)));
     }
     with_test_context(|ctx| {
-        for (d, batch) in decades.iter().zip(&gl_batches) {
+        for (d, kind, bi, batch) in &gl_batches {
             let rays: Vec<TRay> = batch.iter().map(|b| b.2).collect();
-            let closest = gl_trace(ctx, &d.scene, &d.grid, &rays, Query::Closest);
-            let any = gl_trace(ctx, &d.scene, &d.grid, &rays, Query::Any);
+            let closest = gl_trace(ctx, &d.scene, d.grid.get(*kind), &rays, Query::Closest);
+            let any = gl_trace(ctx, &d.scene, d.grid.get(*kind), &rays, Query::Any);
             let mut n = [0usize; 3];
             let mut n_any = 0;
             for (k, &(own, kind, _)) in batch.iter().enumerate() {
@@ -220,7 +231,8 @@ fn case_05_no_self_intersection() {
                 d.scale,
                 rays.len()
             );
-            checks.line("case 05", "GL", n.iter().sum::<usize>() + n_any == 0, line);
+            let ok = n.iter().sum::<usize>() + n_any == 0;
+            checks.line("case 05", BACKENDS[*bi], ok, line);
         }
     });
     checks.done();
@@ -248,7 +260,7 @@ fn case_17_close_parallel_surfaces() {
         };
         add_quad(&mut s, quad(0.0), m); // 0, 1: front (z = 0)
         add_quad(&mut s, quad(-gap), m); // 2, 3: back
-        let grid = auto_grid(&s);
+        let grid = accels(&s);
         let mut rays = Vec::new();
         let mut want_front = Vec::new();
         for k in 0..4000 {
@@ -274,8 +286,8 @@ fn case_17_close_parallel_surfaces() {
         prepared.push((offset, s, grid, rays, want_front));
     }
     /// The transmitted continuation of each ray that hits.
-    fn transmit<T: Real>(s: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Spawned<T>> {
-        let accel = GridWalker::<T>::new(s, grid);
+    fn transmit<T: Real>(s: &Scene, grid: AccelRef<'_>, rays: &[TRay]) -> Vec<Spawned<T>> {
+        let accel = Walker::<T>::new(s, grid, Techniques::default());
         rays.iter()
             .filter_map(|r| hit_and_secondary(s, &accel, r))
             .map(|(tri, sp, sec)| spawn(tri, 0, &sp, sec.refracted, T::BIG))
@@ -284,25 +296,30 @@ fn case_17_close_parallel_surfaces() {
     // Front quad: triangles 0 and 1.
     let wrong_side = |own: u32, got: Option<u32>| got.is_none_or(|t| (own < 2) == (t < 2));
     let mut checks = Checks::new();
+    // Per scene and structure: (CPU f64 and f32 bad transmissions, f32 spawned rays).
     let mut cpu = Vec::new();
     for (_, s, grid, rays, _) in &prepared {
-        let sp64 = transmit::<f64>(s, grid, rays);
-        let sp32 = transmit::<f32>(s, grid, rays);
-        let bad64 = per_kind(&sp64, &trace_spawned(s, grid, &sp64), wrong_side)[0];
-        let bad32 = per_kind(&sp32, &trace_spawned(s, grid, &sp32), wrong_side)[0];
-        cpu.push((bad64, bad32, for_gl(&sp32)));
+        cpu.push(ACCELS.map(|kind| {
+            let grid = grid.get(kind);
+            let sp64 = transmit::<f64>(s, grid, rays);
+            let sp32 = transmit::<f32>(s, grid, rays);
+            let bad64 = per_kind(&sp64, &trace_spawned(s, grid, &sp64), wrong_side)[0];
+            let bad32 = per_kind(&sp32, &trace_spawned(s, grid, &sp32), wrong_side)[0];
+            (bad64, bad32, for_gl(&sp32))
+        }));
     }
-    // (primary hits on the three backends, GL hits of the f32 CPU's transmitted rays)
-    let gl: Vec<([Vec<Found>; 3], Vec<Found>)> = with_test_context(|ctx| {
+    // (primary hits on every backend, GL hits of the f32 CPU's transmitted rays per
+    // structure)
+    let gl: Vec<(AllFound, PerStructure)> = with_test_context(|ctx| {
         prepared
             .iter()
             .zip(&cpu)
-            .map(|((_, s, grid, rays, _), (_, _, sp))| {
-                let spawned: Vec<TRay> = sp.iter().map(|x| x.2).collect();
-                (
-                    closest_all(ctx, s, grid, rays),
-                    gl_trace(ctx, s, grid, &spawned, Query::Closest),
-                )
+            .map(|((_, s, grid, rays, _), per)| {
+                let through = std::array::from_fn(|a| {
+                    let spawned: Vec<TRay> = per[a].2.iter().map(|x| x.2).collect();
+                    gl_trace(ctx, s, grid.get(ACCELS[a]), &spawned, Query::Closest)
+                });
+                (closest_all(ctx, s, grid, rays), through)
             })
             .collect()
     });
@@ -311,24 +328,32 @@ fn case_17_close_parallel_surfaces() {
         let leaks = count(primary, |j, f| {
             f.tri().map(|t| t < 2) != Some(want_front[j])
         });
-        let (bad64, bad32, sp) = &cpu[k];
-        let bad_gl = sp
-            .iter()
-            .zip(gl_through)
-            .filter(|((own, _, _), f)| wrong_side(*own, f.tri()))
-            .count();
-        for (bi, bad) in [*bad64, *bad32, bad_gl].into_iter().enumerate() {
+        for (bi, leak) in leaks.into_iter().enumerate() {
+            let (bad64, bad32, sp) = &cpu[k][bi / PER];
+            let bad = match bi % PER {
+                0 => *bad64,
+                1 => *bad32,
+                _ => sp
+                    .iter()
+                    .zip(&gl_through[bi / PER])
+                    .filter(|((own, _, _), f)| wrong_side(*own, f.tri()))
+                    .count(),
+            };
             let line = format!(
-                "offset {}: {} rays: {} hit the far surface or nothing; transmitted rays that missed the other surface: {bad}",
+                "offset {}: {} rays: {leak} hit the far surface or nothing; transmitted rays that missed the other surface: {bad}",
                 offset.x,
                 rays.len(),
-                leaks[bi]
             );
-            checks.line("case 17", BACKENDS[bi], leaks[bi] + bad == 0, line);
+            checks.line("case 17", BACKENDS[bi], leak + bad == 0, line);
         }
     }
     checks.done();
 }
+
+/// Closest hits on every backend, in `BACKENDS` order.
+type AllFound = [Vec<Found>; NB];
+/// One GL batch per structure, in `ACCELS` order.
+type PerStructure = [Vec<Found>; 2];
 
 /// A solid of case 16's scene, for an analytic shadow test: an icosphere between its
 /// inscribed and circumscribed balls, or the box itself.
@@ -537,7 +562,7 @@ fn acne_check(a: &AcneScene, r: &Rendered, reference: &Rendered, is_ref: bool) -
 #[test]
 fn case_16_scaled_scene_no_shadow_acne() {
     let scenes: Vec<AcneScene> = [1.0, 1e-3, 1e3].map(acne_scene).into();
-    let renders: Vec<[Rendered; 3]> =
+    let renders: Vec<[Rendered; NB]> =
         with_test_context(|ctx| scenes.iter().map(|a| render_all(ctx, &a.scene)).collect());
     let mut checks = Checks::new();
     for (a, r) in scenes.iter().zip(&renders) {
@@ -564,7 +589,7 @@ fn case_16_scaled_scene_no_shadow_acne() {
 fn case_16_check_fails_without_the_t_bound() {
     let off = Techniques::default().with_t_bound(TBound::Off);
     let scenes: Vec<AcneScene> = [1.0, 1e-3, 1e3].map(acne_scene).into();
-    let renders: Vec<([Rendered; 3], Rendered)> = with_test_context(|ctx| {
+    let renders: Vec<([Rendered; NB], Rendered)> = with_test_context(|ctx| {
         scenes
             .iter()
             .map(|a| {

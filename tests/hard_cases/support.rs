@@ -1,13 +1,22 @@
-//! What the hard cases share: one f32 test ray that every backend traces, tracing on the
-//! three backends, rendering on the three backends, scene builders, and the per-backend
-//! report that prints every backend's line before a case fails.
+//! What the hard cases share: one f32 test ray that every backend traces, tracing and
+//! rendering on every backend and structure, scene builders, and the per-backend report
+//! that prints every backend's line before a case fails.
+//!
+//! The acceleration structure is a dimension of the backend list: each of the three
+//! backends (CPU f64, CPU f32, GL) runs once on the uniform grid and once on the irregular
+//! grid, so a case's `[_; 6]` results read in [`BACKENDS`] order and every per-backend loop
+//! covers both structures. The reference, [`F64`], is the f64 CPU on the uniform grid: for
+//! the irregular backends it is an answer from another structure.
 
 use std::time::Instant;
 
-use fragtrace::accel::{Grid, GridConfig, GridRes};
+use fragtrace::accel::{
+    AccelKind, AccelRef, Grid, GridConfig, GridRes, IrregularConfig, IrregularGrid,
+};
 use fragtrace::compare::compare;
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
+use fragtrace::cpu::walker::Walker;
 use fragtrace::gpu::options::GpuOptions;
 use fragtrace::gpu::options::Kernel;
 use fragtrace::gpu::render::{trace_rays, GpuRay};
@@ -23,10 +32,44 @@ use rayon::prelude::*;
 
 /// "No upper bound" for a ray, as every backend spells it (GLSL 1.20 has no infinity).
 pub const BIG: f32 = 1.0e30;
-/// Backend names, in the order results are reported: every `[_; 3]` below is in this order.
-pub const BACKENDS: [&str; 3] = ["CPU f64", "CPU f32", "GL"];
-/// Index of the f64 CPU, the reference, in [`BACKENDS`].
+/// The structures every case runs on, in [`BACKENDS`] order.
+pub const ACCELS: [AccelKind; 2] = [AccelKind::Uniform, AccelKind::Irregular];
+/// Backends per structure (CPU f64, CPU f32, GL).
+pub const PER: usize = 3;
+/// Backends times structures.
+pub const NB: usize = 6;
+/// Backend names, in the order results are reported: every `[_; NB]` below is in this
+/// order, the uniform grid's three first (a `[_; PER]` of one structure is in this order
+/// too).
+pub const BACKENDS: [&str; NB] = [
+    "CPU f64 uniform",
+    "CPU f32 uniform",
+    "GL uniform",
+    "CPU f64 irregular",
+    "CPU f32 irregular",
+    "GL irregular",
+];
+/// Index of the f64 CPU on the uniform grid, the reference, in [`BACKENDS`].
 pub const F64: usize = 0;
+
+/// True for the GL backends of [`BACKENDS`].
+pub fn is_gl(bi: usize) -> bool {
+    bi % PER == 2
+}
+
+/// The structure of backend `bi` of [`BACKENDS`].
+pub fn accel_of(bi: usize) -> AccelKind {
+    ACCELS[bi / PER]
+}
+
+/// The precision of backend `bi` of [`BACKENDS`] (GL computes in f32).
+pub fn precision_of(bi: usize) -> Precision {
+    if bi.is_multiple_of(PER) {
+        Precision::F64
+    } else {
+        Precision::F32
+    }
+}
 /// Image width of the render cases.
 pub const W: u32 = 48;
 /// Image height of the render cases.
@@ -220,12 +263,61 @@ pub fn add_quad_outward(s: &mut Scene, q: [Vec3; 4], inside: Vec3, material: u32
     }
 }
 
-/// The grid with the default (automatic) resolution.
+/// Both structures of one scene, built once and traced by every backend.
+pub struct Accels {
+    /// The uniform grid.
+    pub uniform: Grid,
+    /// The irregular grid.
+    pub irregular: IrregularGrid,
+}
+
+impl Accels {
+    /// The structure `kind`, borrowed.
+    pub fn get(&self, kind: AccelKind) -> AccelRef<'_> {
+        match kind {
+            AccelKind::Uniform => (&self.uniform).into(),
+            AccelKind::Irregular => (&self.irregular).into(),
+        }
+    }
+
+    /// Both resolutions, for the report (the irregular grid's top and virtual ones).
+    pub fn describe(&self) -> String {
+        format!(
+            "uniform {:?}, irregular top {:?} virtual {:?}",
+            self.uniform.res, self.irregular.top_res, self.irregular.res
+        )
+    }
+}
+
+/// Both structures with their default (automatic) parameters.
+pub fn accels(scene: &Scene) -> Accels {
+    Accels {
+        uniform: auto_grid(scene),
+        irregular: IrregularGrid::build(scene, &IrregularConfig::default()).unwrap(),
+    }
+}
+
+/// A uniform grid of exactly `res` cells, and an irregular grid with as many top cells
+/// per triangle as that grid has cells (it has no fixed resolution; its top grid is as
+/// fine, so the case's triangles are split over as many cells, with its own cell faces).
+pub fn accels_fixed(scene: &Scene, res: [u32; 3]) -> Accels {
+    let cells = res.iter().map(|&r| r as f32).product::<f32>();
+    let cfg = IrregularConfig {
+        top_density: cells / scene.triangles.len().max(1) as f32,
+        ..IrregularConfig::default()
+    };
+    Accels {
+        uniform: fixed_grid(scene, res),
+        irregular: IrregularGrid::build(scene, &cfg).unwrap(),
+    }
+}
+
+/// The uniform grid with the default (automatic) resolution.
 pub fn auto_grid(scene: &Scene) -> Grid {
     Grid::build(scene, &GridConfig::default()).unwrap()
 }
 
-/// A grid of exactly `res` cells.
+/// A uniform grid of exactly `res` cells.
 pub fn fixed_grid(scene: &Scene, res: [u32; 3]) -> Grid {
     Grid::build(
         scene,
@@ -307,9 +399,13 @@ impl Found {
     }
 }
 
-/// Closest hits on the CPU in precision `T`.
-pub fn cpu_closest<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Found> {
-    let accel = GridWalker::<T>::new(scene, grid);
+/// Closest hits on the CPU in precision `T`, through either structure.
+pub fn cpu_closest<'a, T: Real>(
+    scene: &Scene,
+    accel: impl Into<AccelRef<'a>>,
+    rays: &[TRay],
+) -> Vec<Found> {
+    let accel = Walker::<T>::new(scene, accel.into(), Techniques::default());
     rays.par_iter()
         .map(|r| {
             let mut w = Work::default();
@@ -323,9 +419,13 @@ pub fn cpu_closest<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Fo
         .collect()
 }
 
-/// Any-hit answers on the CPU in precision `T`.
-pub fn cpu_any<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<bool> {
-    let accel = GridWalker::<T>::new(scene, grid);
+/// Any-hit answers on the CPU in precision `T`, through either structure.
+pub fn cpu_any<'a, T: Real>(
+    scene: &Scene,
+    accel: impl Into<AccelRef<'a>>,
+    rays: &[TRay],
+) -> Vec<bool> {
+    let accel = Walker::<T>::new(scene, accel.into(), Techniques::default());
     rays.par_iter()
         .map(|r| accel.any_hit(&r.cpu::<T>(), &mut Work::default()))
         .collect()
@@ -346,16 +446,16 @@ pub fn brute<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Option<(
 /// Traces rays through the GL traversal and intersection passes. Asserts the basics every
 /// case needs: the trace terminates (an error otherwise), every ray ends in a final state,
 /// and no hit parameter or step count is NaN.
-pub fn gl_trace(
+pub fn gl_trace<'a>(
     ctx: &GlContext,
     scene: &Scene,
-    grid: &Grid,
+    accel: impl Into<AccelRef<'a>>,
     rays: &[TRay],
     q: Query,
 ) -> Vec<Found> {
     let gpu: Vec<GpuRay> = rays.iter().map(TRay::gpu).collect();
     let t0 = Instant::now();
-    let out = trace_rays(ctx, scene, grid, &gpu, q, faithful())
+    let out = trace_rays(ctx, scene, accel, &gpu, q, faithful())
         .unwrap_or_else(|e| panic!("trace_rays failed: {e}"));
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     if ms > 500.0 {
@@ -386,17 +486,38 @@ pub fn gl_trace(
         .collect()
 }
 
-/// Closest hits on all three backends, in [`BACKENDS`] order.
-pub fn closest_all(ctx: &GlContext, scene: &Scene, grid: &Grid, rays: &[TRay]) -> [Vec<Found>; 3] {
+/// Closest hits on the three backends through one structure, in [`BACKENDS`] order.
+pub fn closest_one<'a>(
+    ctx: &GlContext,
+    scene: &Scene,
+    accel: impl Into<AccelRef<'a>>,
+    rays: &[TRay],
+) -> [Vec<Found>; PER] {
+    let accel = accel.into();
     [
-        cpu_closest::<f64>(scene, grid, rays),
-        cpu_closest::<f32>(scene, grid, rays),
-        gl_trace(ctx, scene, grid, rays, Query::Closest),
+        cpu_closest::<f64>(scene, accel, rays),
+        cpu_closest::<f32>(scene, accel, rays),
+        gl_trace(ctx, scene, accel, rays, Query::Closest),
     ]
 }
 
+/// Closest hits on every backend and structure, in [`BACKENDS`] order.
+pub fn closest_all(
+    ctx: &GlContext,
+    scene: &Scene,
+    accels: &Accels,
+    rays: &[TRay],
+) -> [Vec<Found>; NB] {
+    let [a, b, c] = closest_one(ctx, scene, &accels.uniform, rays);
+    let [d, e, f] = closest_one(ctx, scene, &accels.irregular, rays);
+    [a, b, c, d, e, f]
+}
+
 /// Per backend, how many of `res`'s rays `bad` holds for (`bad` gets the ray's index).
-pub fn count(res: &[Vec<Found>; 3], bad: impl Fn(usize, &Found) -> bool) -> [usize; 3] {
+pub fn count<const N: usize>(
+    res: &[Vec<Found>; N],
+    bad: impl Fn(usize, &Found) -> bool,
+) -> [usize; N] {
     res.each_ref()
         .map(|r| r.iter().enumerate().filter(|(k, f)| bad(*k, f)).count())
 }
@@ -414,41 +535,49 @@ pub fn faithful() -> GpuOptions {
     }
 }
 
-/// Render options for a `W`x`H` image of `scene`.
+/// Render options for a `W`x`H` image of `scene` on the uniform grid (the reference's
+/// structure; [`opts_on`] for another).
 pub fn opts(scene: &Scene, precision: Precision) -> RenderOptions {
+    opts_on(scene, precision, AccelKind::Uniform)
+}
+
+/// Render options for a `W`x`H` image of `scene` on the structure `accel`.
+pub fn opts_on(scene: &Scene, precision: Precision, accel: AccelKind) -> RenderOptions {
     let mut o = RenderOptions::for_scene(scene);
     o.gpu = faithful();
     o.width = W;
     o.height = H;
     o.precision = precision;
+    o.accel = accel;
     o.backend = Backend::Cpu;
     o
 }
 
-/// Renders `scene` on all three backends, in [`BACKENDS`] order.
-pub fn render_all(ctx: &GlContext, scene: &Scene) -> [Rendered; 3] {
+/// Renders `scene` on every backend and structure, in [`BACKENDS`] order.
+pub fn render_all(ctx: &GlContext, scene: &Scene) -> [Rendered; NB] {
     render_all_with(ctx, scene, Techniques::default())
 }
 
 /// [`render_all`] with the given robustness techniques (to show that a check fails when
 /// the technique it guards is switched off).
-pub fn render_all_with(ctx: &GlContext, scene: &Scene, techniques: Techniques) -> [Rendered; 3] {
-    let o = |p| RenderOptions {
-        techniques,
-        ..opts(scene, p)
-    };
-    let t0 = Instant::now();
-    let gl =
-        render_gl_with(ctx, scene, &o(Precision::F32)).unwrap_or_else(|e| panic!("GL render: {e}"));
-    let ms = t0.elapsed().as_secs_f64() * 1e3;
-    if ms > 1000.0 {
-        println!("    (GL render: {ms:.0} ms)");
-    }
-    [
-        render_cpu(scene, &o(Precision::F64)).unwrap(),
-        render_cpu(scene, &o(Precision::F32)).unwrap(),
-        gl,
-    ]
+pub fn render_all_with(ctx: &GlContext, scene: &Scene, techniques: Techniques) -> [Rendered; NB] {
+    std::array::from_fn(|bi| {
+        let o = RenderOptions {
+            techniques,
+            ..opts_on(scene, precision_of(bi), accel_of(bi))
+        };
+        if !is_gl(bi) {
+            return render_cpu(scene, &o).unwrap();
+        }
+        let t0 = Instant::now();
+        let gl = render_gl_with(ctx, scene, &o)
+            .unwrap_or_else(|e| panic!("{} render: {e}", BACKENDS[bi]));
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        if ms > 1000.0 {
+            println!("    ({} render: {ms:.0} ms)", BACKENDS[bi]);
+        }
+        gl
+    })
 }
 
 /// RMSE of two images (linear values clamped to [0, 1]).

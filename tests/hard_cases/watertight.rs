@@ -7,6 +7,7 @@ use crate::common::with_test_context;
 use crate::common::Rng;
 use crate::support::*;
 use fragtrace::gpu::shader::Query;
+use fragtrace::options::Precision;
 use fragtrace::scene::{shapes, Scene};
 use glam::{DVec3, Vec3};
 
@@ -157,7 +158,7 @@ fn case_01_02_seams_vertices_and_edges() {
     ];
     let mut checks = Checks::new();
     with_test_context(|ctx| {
-        let res = closest_all(ctx, &seam, &auto_grid(&seam), &seam_rays);
+        let res = closest_all(ctx, &seam, &accels(&seam), &seam_rays);
         let misses = count(&res, |_, f| f.hit.is_none());
         for (b, (r, n)) in BACKENDS.iter().zip(res.iter().zip(misses)) {
             let first = if r[0].hit.is_some() { "hits" } else { "MISSES" };
@@ -169,7 +170,7 @@ fn case_01_02_seams_vertices_and_edges() {
         }
         for (name, (scene, rays)) in &aimed {
             let plain: Vec<TRay> = rays.iter().map(|r| r.0).collect();
-            let res = closest_all(ctx, scene, &auto_grid(scene), &plain);
+            let res = closest_all(ctx, scene, &accels(scene), &plain);
             for (b, r) in BACKENDS.iter().zip(&res) {
                 let (mut misses, mut wrong_place, mut worst) = (0, 0, 0.0f64);
                 for (f, (ray, target)) in r.iter().zip(rays) {
@@ -222,7 +223,7 @@ fn case_03_04_rays_from_inside_closed_mesh() {
             if ground {
                 add_ground(&mut s, -1.2, 8.0, offset, m);
             }
-            let grid = auto_grid(&s);
+            let grid = accels(&s);
             let mut rng = Rng::new(case, 0x1a5_1de + k as u64);
             let rays: Vec<TRay> = (0..CPU_RAYS)
                 .map(|_| TRay::new((offset + rng.in_ball(0.9)).as_vec3(), rng.dir().as_vec3()))
@@ -238,39 +239,42 @@ fn case_03_04_rays_from_inside_closed_mesh() {
             })
             .count()
     };
-    // CPU first (outside the GL lock), then one GL context for the four batches.
-    let cpu: Vec<[usize; 2]> = prepared
+    // CPU first (outside the GL lock), then one GL context for the GL batches; per
+    // configuration, (leaks, rays) in BACKENDS order.
+    let mut counts: Vec<[(usize, usize); NB]> = prepared
         .iter()
         .map(|(s, grid, range, rays)| {
-            [
-                leaks(&cpu_closest::<f64>(s, grid, rays), range),
-                leaks(&cpu_closest::<f32>(s, grid, rays), range),
-            ]
+            std::array::from_fn(|bi| match (is_gl(bi), precision_of(bi)) {
+                (true, _) => (0, GL_RAYS),
+                (false, Precision::F64) => (
+                    leaks(&cpu_closest::<f64>(s, grid.get(accel_of(bi)), rays), range),
+                    CPU_RAYS,
+                ),
+                (false, Precision::F32) => (
+                    leaks(&cpu_closest::<f32>(s, grid.get(accel_of(bi)), rays), range),
+                    CPU_RAYS,
+                ),
+            })
         })
         .collect();
-    let gl: Vec<usize> = with_test_context(|ctx| {
-        prepared
-            .iter()
-            .map(|(s, grid, range, rays)| {
-                leaks(
-                    &gl_trace(ctx, s, grid, &rays[..GL_RAYS], Query::Closest),
+    with_test_context(|ctx| {
+        for ((s, grid, range, rays), c) in prepared.iter().zip(&mut counts) {
+            for bi in (0..NB).filter(|&bi| is_gl(bi)) {
+                let accel = grid.get(accel_of(bi));
+                c[bi].0 = leaks(
+                    &gl_trace(ctx, s, accel, &rays[..GL_RAYS], Query::Closest),
                     range,
-                )
-            })
-            .collect()
+                );
+            }
+        }
     });
     let mut checks = Checks::new();
     for (k, &(case, name, _, _)) in configs.iter().enumerate() {
-        let counts = [
-            (cpu[k][0], CPU_RAYS),
-            (cpu[k][1], CPU_RAYS),
-            (gl[k], GL_RAYS),
-        ];
-        for (b, &(n, total)) in BACKENDS.iter().zip(&counts) {
+        for (b, &(n, total)) in BACKENDS.iter().zip(&counts[k]) {
             let rate = n as f64 / total as f64;
             let line = format!(
-                "{name} (grid {:?}): {n} of {total} rays missed or leaked = {:.4}%",
-                prepared[k].1.res,
+                "{name} ({}): {n} of {total} rays missed or leaked = {:.4}%",
+                prepared[k].1.describe(),
                 rate * 100.0
             );
             checks.line(case, b, rate <= EMBREE, line);
@@ -294,7 +298,7 @@ fn case_06_sliver_triangle_is_missed() {
         Vec3::new(-1113.45459, -79.2090149, -56.2431908),
         m,
     );
-    let grid = auto_grid(&s);
+    let grid = accels(&s);
     let ray = [TRay {
         o: Vec3::new(-1081.47925, 99.9999542, 87.7701111),
         d: Vec3::new(-32.1072998, -183.355865, -144.607635),
@@ -303,14 +307,21 @@ fn case_06_sliver_triangle_is_missed() {
     let (closest, gl_any) = with_test_context(|ctx| {
         (
             closest_all(ctx, &s, &grid, &ray),
-            gl_trace(ctx, &s, &grid, &ray, Query::Any)[0].hit.is_some(),
+            ACCELS.map(|k| {
+                gl_trace(ctx, &s, grid.get(k), &ray, Query::Any)[0]
+                    .hit
+                    .is_some()
+            }),
         )
     });
-    let any = [
-        cpu_any::<f64>(&s, &grid, &ray)[0],
-        cpu_any::<f32>(&s, &grid, &ray)[0],
-        gl_any,
-    ];
+    let any: [bool; NB] = std::array::from_fn(|bi| {
+        let accel = grid.get(accel_of(bi));
+        match (is_gl(bi), precision_of(bi)) {
+            (true, _) => gl_any[bi / PER],
+            (false, Precision::F64) => cpu_any::<f64>(&s, accel, &ray)[0],
+            (false, Precision::F32) => cpu_any::<f32>(&s, accel, &ray)[0],
+        }
+    });
     let mut checks = Checks::new();
     for (b, (c, a)) in BACKENDS.iter().zip(closest.iter().zip(any)) {
         let hit = c[0].hit;
@@ -342,7 +353,7 @@ fn case_12_rays_in_triangle_plane() {
     ] {
         s.add_triangle(t[0], t[1], t[2], m);
     }
-    let grid = auto_grid(&s);
+    let grid = accels(&s);
     // Dyadic values with few bits, so every difference is exact.
     let dy = |rng: &mut Rng, lo: f64, hi: f64| (rng.range(lo, hi) * 16.0).round() as f32 / 16.0;
     // (own triangle, ray in its plane, the same ray tilted off the plane)
@@ -470,10 +481,13 @@ fn case_15_coplanar_duplicates_pick_lowest_index() {
         expected.push(want);
     }
     let grids = [
-        ("auto grid", auto_grid(&s)),
-        ("9x7x5 grid", fixed_grid(&s, [9, 7, 5])),
+        ("auto grids", accels(&s)),
+        (
+            "9x7x5 grid (irregular: as many top cells)",
+            accels_fixed(&s, [9, 7, 5]),
+        ),
     ];
-    let results: Vec<[Vec<Found>; 3]> = with_test_context(|ctx| {
+    let results: Vec<[Vec<Found>; NB]> = with_test_context(|ctx| {
         grids
             .iter()
             .map(|(_, g)| closest_all(ctx, &s, g, &rays))
