@@ -93,7 +93,7 @@ pub const NODE: u32 = 1 << 31;
 const GROW_ROUNDS: usize = 4;
 /// Smallest cell side in f32 ulps of the largest coordinate: the traversal's boundary
 /// parameters stay distinct and ordered from cell to cell.
-const MIN_CELL_ULPS: f64 = 64.0;
+const MIN_CELL_ULPS: f64 = 4.0;
 /// Cost of one traversal step relative to one triangle test, for the split decision.
 const STEP_COST: f64 = 1.0;
 /// Triangles per parallel work item of the top-level binning.
@@ -494,7 +494,14 @@ impl Ctx<'_> {
         let share = sa(ccs) / sa(hi64 - lo64);
         let split_cost =
             2.0 * STEP_COST + share * child_tris.iter().map(|c| c.len()).sum::<usize>() as f64;
-        if split_cost >= tris.len() as f64 {
+        // And not when two or more children would each keep every triangle: then the
+        // triangles all pass through one line or plane (zero-area or coincident
+        // triangles, the line where planes meet), splitting never separates them, and the
+        // cost estimate alone would split along it level after level (8 x 2^levels
+        // cells). One child keeping them all is a small object in a large node: the split
+        // isolates empty space and the next levels separate.
+        let full = child_tris.iter().filter(|c| c.len() == tris.len()).count();
+        if split_cost >= tris.len() as f64 || full >= 2 {
             return Node::Leaf { lo, hi, tris };
         }
         let make = |(i, ct): (usize, Vec<u32>)| {
