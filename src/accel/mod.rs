@@ -33,8 +33,8 @@ use crate::Result;
 pub enum AccelKind {
     /// The thesis's uniform grid over the scene box, walked by a 3D-DDA.
     Uniform,
-    /// The irregular grid ([`irregular`]): adaptive cells with exit boxes grown over empty
-    /// space, walked one cell at a time.
+    /// The irregular grid (after Perard-Gayot et al. 2017): adaptive cells, empty ones with
+    /// exit boxes grown over empty space, walked one cell at a time.
     #[default]
     Irregular,
 }
