@@ -15,6 +15,36 @@ use crate::technique::Techniques;
 
 pub use crate::accel::TIE_EPS;
 
+/// Clips the ray's interval to the box `min..max` (slabs): (t_enter, t_exit), or `None`
+/// when it misses. A ±0 direction component makes its slab unbounded when the origin is
+/// inside it. Every structure's walk starts with it (GLSL twin: `clip_grid`).
+#[inline(always)]
+pub fn clip_box<T: Real>(ray: &Ray<T>, min: V3<T>, max: V3<T>) -> Option<(T, T)> {
+    let mut t0 = ray.t_min;
+    let mut t1 = ray.t_max;
+    for a in 0..3 {
+        let d = ray.d[a];
+        if d == T::ZERO {
+            if ray.o[a] < min[a] || ray.o[a] > max[a] {
+                return None;
+            }
+            continue;
+        }
+        let mut n = (min[a] - ray.o[a]) / d;
+        let mut f = (max[a] - ray.o[a]) / d;
+        if n > f {
+            std::mem::swap(&mut n, &mut f);
+        }
+        t0 = t0.max(n);
+        t1 = t1.min(f);
+    }
+    if t0 > t1 {
+        None
+    } else {
+        Some((t0, t1))
+    }
+}
+
 /// Upper bound for the next triangle test once a hit at `t_best` is held.
 #[inline(always)]
 pub fn tie_limit<T: Real>(t_best: T) -> T {
@@ -118,29 +148,7 @@ impl<'a, T: Real> GridWalker<'a, T> {
     /// A ±0 direction component makes the slab unbounded when the origin is inside it.
     #[inline(always)]
     pub fn clip(&self, ray: &Ray<T>) -> Option<(T, T)> {
-        let mut t0 = ray.t_min;
-        let mut t1 = ray.t_max;
-        for a in 0..3 {
-            let d = ray.d[a];
-            if d == T::ZERO {
-                if ray.o[a] < self.min[a] || ray.o[a] > self.max[a] {
-                    return None;
-                }
-                continue;
-            }
-            let mut n = (self.min[a] - ray.o[a]) / d;
-            let mut f = (self.max[a] - ray.o[a]) / d;
-            if n > f {
-                std::mem::swap(&mut n, &mut f);
-            }
-            t0 = t0.max(n);
-            t1 = t1.min(f);
-        }
-        if t0 > t1 {
-            None
-        } else {
-            Some((t0, t1))
-        }
+        clip_box(ray, self.min, self.max)
     }
 
     /// Starting cell of a ray entering at `t_enter`, clamped into the grid.

@@ -17,7 +17,7 @@
 
 use super::intersect::RayShear;
 use super::real::{Real, V3};
-use super::traverse::{any_of, brute_force, cell_list, closest_of, Hit, Ray, Work};
+use super::traverse::{any_of, brute_force, cell_list, clip_box, closest_of, Hit, Ray, Work};
 use crate::accel::irregular::{IrrCell, IrregularGrid};
 use crate::accel::CellRange;
 use crate::scene::Scene;
@@ -62,29 +62,7 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
     /// Clips the ray to the grid box: (t_enter, t_exit) or `None` when it misses.
     #[inline(always)]
     fn clip(&self, ray: &Ray<T>) -> Option<(T, T)> {
-        let mut t0 = ray.t_min;
-        let mut t1 = ray.t_max;
-        for a in 0..3 {
-            let d = ray.d[a];
-            if d == T::ZERO {
-                if ray.o[a] < self.min[a] || ray.o[a] > self.max[a] {
-                    return None;
-                }
-                continue;
-            }
-            let mut n = (self.min[a] - ray.o[a]) / d;
-            let mut f = (self.max[a] - ray.o[a]) / d;
-            if n > f {
-                std::mem::swap(&mut n, &mut f);
-            }
-            t0 = t0.max(n);
-            t1 = t1.min(f);
-        }
-        if t0 > t1 {
-            None
-        } else {
-            Some((t0, t1))
-        }
+        clip_box(ray, self.min, self.max)
     }
 
     /// Virtual cell of the ray's point at `t` on `axis`, clamped into `lo ..= hi`.
