@@ -163,12 +163,12 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
     },
     ConfigRow {
         name: "gl-looped-density-1",
-        args: "--backend gl --kernel looped --grid-density 1",
+        args: "--backend gl --kernel looped --accel uniform --grid-density 1",
         presets: A,
     },
     ConfigRow {
         name: "gl-looped-density-4",
-        args: "--backend gl --kernel looped --grid-density 4",
+        args: "--backend gl --kernel looped --accel uniform --grid-density 4",
         presets: A,
     },
 ];
@@ -467,7 +467,7 @@ mod tests {
             .into_iter()
             .map(|c| c.name)
             .collect();
-        assert_eq!(default.len(), 10);
+        assert_eq!(default.len(), 12);
         assert_eq!(default[0], "cpu-f64");
         let quick = resolve_configs("quick").unwrap();
         assert!(quick.len() >= 3 && quick.iter().any(|c| c.name == "cpu-f64"));
