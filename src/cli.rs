@@ -554,9 +554,15 @@ pub fn run(cli: Cli) -> Result<bool> {
             } else {
                 load(Some(&args.scene))?
             };
-            let grid = crate::accel::Grid::build(&scene, &GridConfig::default())?;
+            // The default structure's shaders: what `render` compiles.
+            let accel = crate::accel::Accel::build(
+                &scene,
+                crate::accel::AccelKind::default(),
+                &GridConfig::default(),
+                &crate::accel::IrregularConfig::default(),
+            )?;
             let files =
-                crate::gpu::shader::dump_shaders(&scene, &grid, &args.dir, args.all_variants)?;
+                crate::gpu::shader::dump_shaders(&scene, &accel, &args.dir, args.all_variants)?;
             println!("{} files written to {}", files.len(), args.dir.display());
             Ok(true)
         }

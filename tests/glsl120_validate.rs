@@ -76,6 +76,30 @@ fn every_generated_shader_is_valid_glsl_120() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The irregular grid's variant of every pass (its traversal under `ACCEL_IRREGULAR` and the
+/// generated voxel-map descent, unrolled over the levels of the bunny-sized grid of the
+/// built-in scene) is valid GLSL 1.20 too.
+#[test]
+fn irregular_grid_shaders_are_valid_glsl_120() {
+    use fragtrace::accel::{IrregularConfig, IrregularGrid};
+    let dir = std::env::temp_dir().join(format!("fragtrace-glsl-irr-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let scene = builtin_scene();
+    let grid = IrregularGrid::build(&scene, &IrregularConfig::default()).unwrap();
+    assert!(!grid.levels.is_empty(), "the built-in scene's grid never splits");
+    let files = dump_shaders(&scene, &grid, &dir, false).unwrap();
+    let mut checked = 0;
+    for f in files.iter().filter(|f| f.extension().is_some_and(|e| e == "frag")) {
+        let text = std::fs::read_to_string(f).unwrap();
+        assert!(text.contains("#define ACCEL_IRREGULAR"), "{}", f.display());
+        let (ok, log) = validate(f);
+        assert!(ok, "{}:\n{log}", f.display());
+        checked += 1;
+    }
+    assert!(checked >= 8, "only {checked} fragment programs");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// The validator really enforces 1.20: a GLSL 1.30 built-in is rejected.
 #[test]
 fn validator_rejects_post_120_features() {

@@ -184,25 +184,22 @@ impl IrregularLayout {
     fn glsl(&self) -> String {
         let v3 = |v: [String; 3]| format!("vec3({}, {}, {})", v[0], v[1], v[2]);
         let mut s = String::from(
-            "#define ACCEL_IRREGULAR 1
-             // NVIDIA: no fast-math contraction, so one crossing is evaluated alike everywhere.
-             #pragma optionNV(fastmath off)
-             // Voxel-map entry i (four per texel).
-             float vmap_entry(float i) {
-                 float texel = floor(i * 0.25);
-                 vec4 sel = vec4(equal(vec4(i - texel * 4.0), vec4(0.0, 1.0, 2.0, 3.0)));
-                 return dot(fetch_vmap(texel), sel);
-             }
-             // Cell id of virtual cell k: the top entry, then one child block per level while
-             // the entry is a node (CPU twin: IrregularGrid::lookup). Every product is an
-             // integer times a power of two, so exact.
-             float irr_lookup(vec3 k) {
-",
+            "#define ACCEL_IRREGULAR 1\n\
+             // NVIDIA: no fast-math contraction, so one crossing is evaluated alike everywhere.\n\
+             #pragma optionNV(fastmath off)\n\
+             // Voxel-map entry i (four per texel).\n\
+             float vmap_entry(float i) {\n\
+             \x20   float texel = floor(i * 0.25);\n\
+             \x20   vec4 sel = vec4(equal(vec4(i - texel * 4.0), vec4(0.0, 1.0, 2.0, 3.0)));\n\
+             \x20   return dot(fetch_vmap(texel), sel);\n\
+             }\n\
+             // Cell id of virtual cell k: the top entry, then one child block per level while\n\
+             // the entry is a node (CPU twin: IrregularGrid::lookup). Every product is an\n\
+             // integer times a power of two, so exact.\n\
+             float irr_lookup(vec3 k) {\n",
         );
         s += &format!(
-            "    vec3 t = floor(k * {});
-    float e = vmap_entry(t.x + {:.1} * (t.y + {:.1} * t.z));
-",
+            "    vec3 t = floor(k * {});\n    float e = vmap_entry(t.x + {:.1} * (t.y + {:.1} * t.z));\n",
             v3(self.shift.map(pow2_literal)),
             self.top_res[0] as f32,
             self.top_res[1] as f32
@@ -219,15 +216,12 @@ impl IrregularLayout {
                 }
             }
             s += &format!(
-                "    if (e < 0.0) e = vmap_entry(-e - 1.0 + dot(mod(floor(k * {}), 2.0), {}));
-",
+                "    if (e < 0.0) e = vmap_entry(-e - 1.0 + dot(mod(floor(k * {}), 2.0), {}));\n",
                 v3(rem.map(pow2_literal)),
                 v3(stride.map(|v| format!("{v:.1}")))
             );
         }
-        s += "    return e;
-}
-";
+        s += "    return e;\n}\n";
         s
     }
 }
