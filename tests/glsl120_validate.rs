@@ -86,10 +86,16 @@ fn irregular_grid_shaders_are_valid_glsl_120() {
     let _ = std::fs::remove_dir_all(&dir);
     let scene = builtin_scene();
     let grid = IrregularGrid::build(&scene, &IrregularConfig::default()).unwrap();
-    assert!(!grid.levels.is_empty(), "the built-in scene's grid never splits");
+    assert!(
+        !grid.levels.is_empty(),
+        "the built-in scene's grid never splits"
+    );
     let files = dump_shaders(&scene, &grid, &dir, false).unwrap();
     let mut checked = 0;
-    for f in files.iter().filter(|f| f.extension().is_some_and(|e| e == "frag")) {
+    for f in files
+        .iter()
+        .filter(|f| f.extension().is_some_and(|e| e == "frag"))
+    {
         let text = std::fs::read_to_string(f).unwrap();
         assert!(text.contains("#define ACCEL_IRREGULAR"), "{}", f.display());
         let (ok, log) = validate(f);
