@@ -40,6 +40,14 @@ const RMSE_GL_VS_F64: f64 = 2e-5;
 /// A wrong f32 path (a lost t bound, a flipped normal, a missed light) moves RMSE by 1e-2
 /// or more.
 const RMSE_F32_VS_F64: f64 = 2e-5;
+/// Both f64 bounds for `scenes/ground.toml`: a checker floor 400 m wide seen to the horizon,
+/// where f32 hit points (any f32 renderer: the CPU's and the GPU's alike) fall in other
+/// checker squares than f64's. Measured: GL vs f64 and f32 CPU vs f64 both 6.68e-3 on both
+/// structures (llvmpipe); 1.5x. GL stays held to the f32 CPU by `RMSE_VS_F32` there too
+/// (5.5e-8 measured).
+const RMSE_VS_F64_HORIZON: f64 = 1e-2;
+/// The scenes whose f64 bounds are [`RMSE_VS_F64_HORIZON`].
+const HORIZON_SCENES: &[&str] = &["ground"];
 /// Share of pixels whose primary-hit triangle must agree with the f64 reference (and GL's
 /// with the f32 CPU). Measured: 100% on every shipped scene on llvmpipe and the H200; the
 /// bound allows one pixel of 3,072.
@@ -154,9 +162,28 @@ fn check_all_scenes(ctx: &GlContext) -> String {
                 ));
             }
         }
+        let horizon = HORIZON_SCENES
+            .iter()
+            .any(|h| name.split(' ').next() == Some(*h));
         for (what, value, bound) in [
-            ("GL vs f64 CPU", vs64.rmse, RMSE_GL_VS_F64),
-            ("f32 CPU vs f64 CPU", cpu32_vs64.rmse, RMSE_F32_VS_F64),
+            (
+                "GL vs f64 CPU",
+                vs64.rmse,
+                if horizon {
+                    RMSE_VS_F64_HORIZON
+                } else {
+                    RMSE_GL_VS_F64
+                },
+            ),
+            (
+                "f32 CPU vs f64 CPU",
+                cpu32_vs64.rmse,
+                if horizon {
+                    RMSE_VS_F64_HORIZON
+                } else {
+                    RMSE_F32_VS_F64
+                },
+            ),
         ] {
             // NaN fails too.
             if value.is_nan() || value > bound {
