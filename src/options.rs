@@ -168,8 +168,8 @@ pub struct RenderArgs {
     /// Uniform grid resolution: auto or AxBxC (with --accel uniform).
     #[arg(long, default_value = "auto")]
     pub grid: GridRes,
-    /// Cells per triangle for the auto uniform grid (lambda; with --accel uniform), or top
-    /// cells per triangle of the irregular grid (default 0.125 there).
+    /// Cells per triangle of the auto uniform grid (lambda, default 8; with --accel
+    /// uniform), or top cells per triangle of the irregular grid (default 0.125).
     #[arg(long, allow_negative_numbers = true)]
     pub grid_density: Option<f32>,
     /// GPU: traversal iterations between termination queries (K).
