@@ -9,6 +9,7 @@
 pub mod binning;
 pub mod grid;
 pub mod irregular;
+mod irregular_grow;
 pub mod tribox;
 pub mod two_level;
 
