@@ -21,8 +21,7 @@ void main() {
         if (r0.R0_TRI >= 0.0) {
             vec4 r1 = texture2D(u_r1, v_uv);
             Surface s = surface(r0.R0_ORIGIN, r1.R1_DIR, r0.R0_TRI);
-            float ka = mat_texel(s.mat, M0_SLOT).M0_KA;
-            acc.xyz += r2.R2_WEIGHT * (albedo_at(s.mat, s.p) * u_ambient * ka);
+            acc.xyz += r2.R2_WEIGHT * ambient_term(s, u_ambient);
         } else if (r0.R0_TRI > -1.5) {
             acc.xyz += r2.R2_WEIGHT * u_background;
         }

@@ -146,3 +146,30 @@ vec3 light_term(float mat, vec3 albedo, Surface s, vec3 l, vec3 v, vec3 radiance
 #endif
     return c * radiance;
 }
+
+// Ambient term ka A albedo at s (accum_ambient.frag; the compute kernel).
+vec3 ambient_term(Surface s, vec3 ambient) {
+    float ka = mat_texel(s.mat, M0_SLOT).M0_KA;
+    return albedo_at(s.mat, s.p) * ambient * ka;
+}
+
+// The shadow ray from s towards a point light at light_pos: false where the light is below
+// the geometric or shading horizon (it then contributes nothing), else the ray's origin,
+// unit direction l and length dist (shadow_spawn.frag; the compute kernel).
+bool shadow_ray(Surface s, vec3 light_pos, out vec3 o, out vec3 l, out float dist) {
+    o = vec3(0.0);
+    l = vec3(0.0, 0.0, 1.0);
+    dist = 0.0;
+    vec3 to_l = light_pos - s.p;
+    if (!(dot(to_l, s.nf) > 0.0 && dot(s.ns, to_l) > 0.0)) return false;
+    o = offset_origin(s, to_l);
+    vec3 dl = light_pos - o;
+    dist = length(dl);
+    l = dl * (1.0 / dist);
+    return true;
+}
+
+// True where a child with effective weight k exists (weight.frag; the compute kernel).
+bool child_exists(vec3 k) {
+    return max(max(k.x, k.y), k.z) > 0.0;
+}

@@ -14,24 +14,21 @@ uniform vec3 u_light_pos;
 void main() {
     vec4 r0 = texture2D(u_r0, v_uv);
     bool spawned = false;
+    vec3 o;
+    vec3 l;
+    float dist;
     if (r0.R0_TRI >= 0.0) {
         vec4 r1 = texture2D(u_r1, v_uv);
         Surface s = surface(r0.R0_ORIGIN, r1.R1_DIR, r0.R0_TRI);
-        vec3 to_l = u_light_pos - s.p;
-        if (dot(to_l, s.nf) > 0.0 && dot(s.ns, to_l) > 0.0) {
-            vec3 o = offset_origin(s, to_l);
-            vec3 dl = u_light_pos - o;
-            float dist = length(dl);
-            gl_FragData[0] = S0_TEXEL(o, ST_INITIAL);
-            gl_FragData[1] = S1_TEXEL(dl * (1.0 / dist), dist);
-            spawned = true;
-        }
+        spawned = shadow_ray(s, u_light_pos, o, l, dist);
     }
-    if (!spawned) {
+    if (spawned) {
+        gl_FragData[0] = S0_TEXEL(o, ST_INITIAL);
+        gl_FragData[1] = S1_TEXEL(l, dist);
+    } else {
         gl_FragData[0] = S0_TEXEL(vec3(0.0), ST_DONE);
         gl_FragData[1] = S1_TEXEL(vec3(0.0, 0.0, 1.0), 0.0);
     }
     gl_FragData[2] = S2_TEXEL(vec3(0.0), 0.0);
-    gl_FragData[3] = S3_TEXEL(spawned ? gl_FragData[1].S1_T_MAX : 0.0,
-                              spawned ? TRI_NONE : TRI_NO_RAY, 0.0, 0.0);
+    gl_FragData[3] = S3_TEXEL(spawned ? dist : 0.0, spawned ? TRI_NONE : TRI_NO_RAY, 0.0, 0.0);
 }

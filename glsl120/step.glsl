@@ -5,6 +5,29 @@
 // ACCEL_IRREGULAR, src/cpu/traverse_irregular.rs.
 // Needs intersect.glsl and traverse.glsl.
 
+// Traversal set-up for a ray in state INITIAL (else nothing): the start cell, or INVALID
+// when the ray misses the grid's box (pass 2 of the thesis; traverse_init.frag runs it).
+void traverse_setup(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
+    if (!in_state(s0.S0_STATE, ST_INITIAL)) return;
+    vec2 span = clip_grid(s0.S0_ORIGIN, s1.S1_DIR, 0.0, s1.S1_T_MAX);
+    if (span.x > span.y) {
+        s0.S0_STATE = ST_INVALID;
+        return;
+    }
+    vec3 c = start_cell(s0.S0_ORIGIN, s1.S1_DIR, span.x);
+#ifdef ACCEL_IRREGULAR
+    // The cell holding the virtual cell of the entry point.
+    float id = irr_lookup(c);
+    vec4 cell = vec4(irr_lo(id).w, irr_hi(id).w, 0.0, 0.0);
+    c = vec3(id, span.x, 0.0);
+#else
+    vec4 cell = fetch_cell(cell_linear(c));
+#endif
+    s2 = S2_TEXEL(c, cell.x);
+    s3 = S3_TEXEL(s1.S1_T_MAX, TRI_NONE, cell.x + cell.y, s3.S3_STEPS + 1.0);
+    s0.S0_STATE = cell.y > 0.0 ? ST_TESTING : ST_TRAVERSING;
+}
+
 // One 3D-DDA step for a ray in state TRAVERSING (else nothing).
 void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     if (!in_state(s0.S0_STATE, ST_TRAVERSING)) return;
@@ -55,8 +78,11 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
 #endif
 }
 
-// One ray-triangle test for a ray in state TESTING (else nothing).
-void intersect_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
+// One ray-triangle test for a ray in state TESTING (else nothing); any_hit: a shadow ray's
+// query (the first hit below t_max ends it), else the closest hit. A constant at every call,
+// so compilers fold the branch away: the fragment passes get it from ANY_HIT
+// (intersect_step), the compute kernel traces both kinds with one program.
+void intersect_test(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3, const bool any_hit) {
     if (!in_state(s0.S0_STATE, ST_TESTING)) return;
     float k = s2.S2_CURSOR;
     float texel = floor(k * (1.0 / LIST_PER_TEXEL));
@@ -70,24 +96,22 @@ void intersect_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
 #ifdef INTERSECT_WATERTIGHT
     shear_setup(s1.S1_DIR, P, S);
 #endif
-#ifdef ANY_HIT
-    float t_hi = s3.S3_T_BEST;
-#else
-    // Ties: once a hit is held, a later (higher-index) triangle must be closer by more
-    // than TIE_EPS relative, as in the CPU twin (cpu/traverse.rs, tie_limit).
-    float t_hi = s3.S3_TRI_BEST >= 0.0 ? s3.S3_T_BEST - abs(s3.S3_T_BEST) * TIE_EPS : s3.S3_T_BEST;
-#endif
+    // Ties (closest hit): once a hit is held, a later (higher-index) triangle must be closer
+    // by more than TIE_EPS relative, as in the CPU twin (cpu/traverse.rs, tie_limit).
+    float t_hi = (!any_hit && s3.S3_TRI_BEST >= 0.0) ? s3.S3_T_BEST - abs(s3.S3_T_BEST) * TIE_EPS
+                                                     : s3.S3_T_BEST;
     vec4 h = intersect_tri(s0.S0_ORIGIN, s1.S1_DIR, P, S, p0, p1, p2, 0.0, t_hi);
     s2.S2_CURSOR = k + 1.0;
     s3.S3_STEPS += 1.0;
-#ifdef ANY_HIT
-    if (h.x > 0.0) {
-        s3.S3_HIT = vec2(h.x, tri);
-        s0.S0_STATE = ST_SHADING;
-    } else if (s2.S2_CURSOR >= s3.S3_CURSOR_END) {
-        s0.S0_STATE = ST_TRAVERSING;
+    if (any_hit) {
+        if (h.x > 0.0) {
+            s3.S3_HIT = vec2(h.x, tri);
+            s0.S0_STATE = ST_SHADING;
+        } else if (s2.S2_CURSOR >= s3.S3_CURSOR_END) {
+            s0.S0_STATE = ST_TRAVERSING;
+        }
+        return;
     }
-#else
     if (h.x > 0.0) {
         s3.S3_HIT = vec2(h.x, tri);
     }
@@ -102,7 +126,17 @@ void intersect_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
             s0.S0_STATE = ST_TRAVERSING;
         }
     }
+}
+
+#ifdef ANY_HIT
+#define QUERY_ANY true
+#else
+#define QUERY_ANY false
 #endif
+
+// intersect_test for the fragment passes, whose query is fixed at assembly (ANY_HIT).
+void intersect_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
+    intersect_test(s0, s1, s2, s3, QUERY_ANY);
 }
 
 // True while the ray still needs traversal or intersection work.

@@ -23,7 +23,7 @@ void main() {
         vec3 refr;
         secondary(s.mat, s, p1.R1_DIR, kr, kt, refl, refr);
         vec3 k = u_branch < 0.5 ? kr : kt;
-        if (max(max(k.x, k.y), k.z) > 0.0) {
+        if (child_exists(k)) {
             outw = R2_TEXEL(p2.R2_WEIGHT * k, 1.0);
         }
     }

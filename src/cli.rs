@@ -312,13 +312,17 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
     if !args.quiet {
         let s = &out.stats;
         eprintln!(
-            "{}: {}x{} spp {} on {} [{}{}], {} triangles, {} grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
+            "{}: {}x{} spp {} on {} [{}{}{}], {} triangles, {} grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
             args.output.display(),
             s.width,
             s.height,
             s.spp,
             s.backend,
             s.precision,
+            match &s.gpu {
+                Some(g) => format!(", {} kernel", g.kernel),
+                None => String::new(),
+            },
             if s.techniques == "default" {
                 String::new()
             } else {

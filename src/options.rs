@@ -175,10 +175,12 @@ pub struct RenderArgs {
     /// GPU: traversal iterations between termination queries (K).
     #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = whole_number)]
     pub query_every: u32,
-    /// GPU: traversal kernel: looped (bounded loop per pass, the fast default), multipass
-    /// (the thesis: one step per pass, no loops) or unrolled:K (K steps per pass,
-    /// straight-line code, no loops). All render the same image.
-    #[arg(long, default_value = "looped")]
+    /// GPU: kernel: auto (the fastest the context runs: compute on GL 4.3, looped on GL 3.x,
+    /// multipass on GL 2.x), compute (GLSL 4.30: the whole ray tree per pixel in one
+    /// dispatch), looped (bounded loop per pass), multipass (the thesis: one step per pass,
+    /// no loops) or unrolled:K (K steps per pass, straight-line code, no loops). All render
+    /// the same image.
+    #[arg(long, default_value = "auto")]
     pub kernel: crate::gpu::options::Kernel,
     /// GPU: compile every shading feature in instead of only what the scene needs.
     #[arg(long)]

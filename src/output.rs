@@ -103,7 +103,10 @@ pub struct GpuStats {
     pub renderer: String,
     /// GL_VERSION.
     pub gl_version: String,
-    /// Passes drawn, by kind.
+    /// The kernel that ran (`--kernel auto` resolved): compute, looped, unrolled:K or
+    /// multipass.
+    pub kernel: String,
+    /// Passes drawn, by kind (the compute kernel: dispatches).
     pub passes: HashMap<String, u64>,
     /// Total passes drawn.
     pub passes_total: u64,

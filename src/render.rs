@@ -49,11 +49,11 @@ pub struct RenderStats {
     pub render_ms: f64,
     /// Rays by kind.
     pub rays: RayCounts,
-    /// Grid cells visited by all rays (CPU only: the GPU counts per primary ray, see the
-    /// `steps` AOV).
+    /// Grid cells visited by all rays (CPU and the compute kernel: the fragment kernels count
+    /// per primary ray, see the `steps` AOV).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cells_visited: Option<u64>,
-    /// Ray-triangle tests by all rays (CPU only).
+    /// Ray-triangle tests by all rays (CPU and the compute kernel).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub triangle_tests: Option<u64>,
     /// Cells visited plus triangle tests per primary ray (first sample), from the `steps`
@@ -158,8 +158,8 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
         techniques: opts.techniques.tag(),
         render_ms,
         rays: out.rays,
-        cells_visited: None,
-        triangle_tests: None,
+        cells_visited: out.work.map(|w| w.cells),
+        triangle_tests: out.work.map(|w| w.tests),
         primary_steps_per_ray: out.aov.mean_steps(),
         mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
         gpu: Some(out.stats),

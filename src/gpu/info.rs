@@ -210,6 +210,9 @@ pub struct GlInfo {
     /// Whether `GL_TIME_ELAPSED` queries work (GL 3.3, ARB_timer_query or EXT_timer_query);
     /// optional, used only for per-pass timings.
     pub timer_query: bool,
+    /// Whether the compute kernel can run: OpenGL 4.3 and GLSL 4.30 (compute shaders,
+    /// storage buffers, image load/store, f64 arithmetic for the primary directions).
+    pub compute: bool,
     /// Every extension the context advertises.
     pub extensions: Vec<String>,
     /// Each required capability (human-readable, naming the GL version/extension that
@@ -335,7 +338,13 @@ impl GlInfo {
                 iw >= CHECK_IMAGE.0 && ih >= CHECK_IMAGE.1,
             ),
         ];
+        self.compute =
+            gl >= (4, 3) && parse_major_minor(&self.glsl_version).is_some_and(|v| v >= (4, 30));
         self.optional = vec![
+            Check::flag(
+                "compute shaders, for --kernel compute and its choice by --kernel auto (OpenGL 4.3, GLSL 4.30)",
+                self.compute,
+            ),
             Check::flag(
                 "timer queries, for per-pass GPU times (OpenGL 3.3, GL_ARB_timer_query or GL_EXT_timer_query)",
                 self.timer_query,
@@ -492,6 +501,7 @@ pub(super) fn gather_info(
         limit_profile: limit_profile().ok().flatten().map(|p| p.name.to_string()),
         occlusion_query_bits: raw.query_iv(glow::SAMPLES_PASSED, glow::QUERY_COUNTER_BITS),
         timer_query: false,
+        compute: false,
         extensions,
         features: Vec::new(),
         optional: Vec::new(),
@@ -557,6 +567,7 @@ mod tests {
             limit_profile: None,
             occlusion_query_bits: 32,
             timer_query: false,
+            compute: false,
             extensions: vec![
                 "GL_ARB_texture_float".into(),
                 "GL_ARB_framebuffer_object".into(),

@@ -39,6 +39,15 @@ pub const MAX_EXACT_INDEX: u64 = 1 << 24;
 /// scenes and matches the limits of 2005-era cards.
 pub const MAX_ROW: u32 = 4096;
 
+/// How the generated `fetch_<name>(i)` functions read a texel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fetch {
+    /// `texture2D` at the texel's centre (GLSL 1.20: the fragment kernels).
+    Texture2D,
+    /// `texelFetch` at integer coordinates (GLSL 1.30+: the compute kernel).
+    TexelFetch,
+}
+
 /// One packed RGBA32F texture.
 #[derive(Clone, Debug)]
 pub struct PackedTexture {
@@ -82,7 +91,24 @@ impl PackedTexture {
         })
     }
 
-    /// GLSL: size constants and an exact fetch by linear index.
+    /// GLSL: size constants and an exact fetch by linear index, through `fetch`.
+    pub fn glsl_with(&self, fetch: Fetch) -> String {
+        match fetch {
+            Fetch::Texture2D => self.glsl(),
+            Fetch::TexelFetch => format!(
+                "uniform sampler2D u_{n};\n\
+                 vec4 fetch_{n}(float i) {{\n\
+                 \x20   int k = int(i);\n\
+                 \x20   return texelFetch(u_{n}, ivec2(k & {mask}, k >> {shift}), 0);\n\
+                 }}\n",
+                n = self.name,
+                mask = self.width - 1,
+                shift = self.width.trailing_zeros(),
+            ),
+        }
+    }
+
+    /// GLSL 1.20: size constants and an exact fetch by linear index.
     pub fn glsl(&self) -> String {
         let up = self.name.to_ascii_uppercase();
         format!(
@@ -372,13 +398,18 @@ impl SceneTextures {
         v
     }
 
-    /// GLSL declarations of every texture and the layout constants.
+    /// GLSL 1.20 declarations of every texture and the layout constants.
     pub fn glsl(&self) -> String {
+        self.glsl_with(Fetch::Texture2D)
+    }
+
+    /// GLSL declarations of every texture and the layout constants, fetching through `fetch`.
+    pub fn glsl_with(&self, fetch: Fetch) -> String {
         let mut s = format!(
             "#define TRI_TEXELS {TRI_TEXELS}.0\n#define MAT_TEXELS {MAT_TEXELS}.0\n#define LIST_PER_TEXEL {LIST_PER_TEXEL}.0\n"
         );
         for t in self.all() {
-            s.push_str(&t.glsl());
+            s.push_str(&t.glsl_with(fetch));
         }
         if let Some(i) = &self.irregular {
             s.push_str(&i.glsl());

@@ -19,9 +19,9 @@ pub struct GpuOptions {
     pub timers: bool,
     /// Compile every shading feature in, whatever the scene needs.
     pub no_specialize: bool,
-    /// How traversal iterations map onto passes. Default: `Looped`, which renders the same
-    /// image as the thesis's `Multipass` kernel from the same step chunk, 25-107x faster
-    /// (docs/performance.md); `Multipass` is the faithful GL 2.1 design.
+    /// How traversal iterations map onto passes or dispatches. Default: `Auto`, the fastest
+    /// kernel the context runs ([`Kernel::resolve`]); `Multipass` is the faithful GL 2.1
+    /// design, and every kernel renders the same image from the same step chunk.
     pub kernel: Kernel,
     /// How rays that finished are kept out of the traversal passes.
     pub mask: Mask,
@@ -39,7 +39,7 @@ impl Default for GpuOptions {
             query_every: 8,
             timers: true,
             no_specialize: false,
-            kernel: Kernel::Looped,
+            kernel: Kernel::Auto,
             mask: Mask::None,
             storage: Storage::F32,
             techniques: Techniques::default(),
@@ -56,17 +56,49 @@ pub enum Kernel {
     Unrolled(u32),
     /// Up to [`LOOP_MAX`] iterations per pass in a bounded loop.
     Looped,
+    /// GLSL 4.30 compute: the whole ray tree of every pixel in one dispatch (GL 4.3).
+    Compute,
+    /// The fastest kernel the context runs: `Compute` on GL 4.3, `Looped` on GL 3.x,
+    /// `Multipass` on period (GL 2.x) contexts. Resolved before a render starts.
+    Auto,
 }
 
 impl Kernel {
-    /// Traversal iterations one advancing pass performs at most (multipass: one step pass
-    /// plus one test pass count as one).
+    /// Traversal iterations one advancing fragment pass performs at most (multipass: one
+    /// step pass plus one test pass count as one). Only fragment kernels draw passes; the
+    /// others answer the looped figure.
     pub fn iterations_per_pass(self) -> u64 {
         match self {
             Kernel::Multipass => 1,
             Kernel::Unrolled(k) => k as u64,
-            Kernel::Looped => LOOP_MAX as u64,
+            Kernel::Looped | Kernel::Compute | Kernel::Auto => LOOP_MAX as u64,
         }
+    }
+
+    /// The kernel a render in a context described by `info` runs: `Auto` becomes the
+    /// fastest one the context supports (compute where GL 4.3 is; a bounded loop on a GL
+    /// 3.x driver; the multipass design of the period in a GL 2.x context, whose hardware
+    /// had no dynamic loops to rely on); `Compute` without GL 4.3 is refused.
+    pub fn resolve(self, info: &super::info::GlInfo) -> crate::Result<Kernel> {
+        match self {
+            Kernel::Auto if info.compute => Ok(Kernel::Compute),
+            Kernel::Auto if info.gl_major_minor >= (3, 0) => Ok(Kernel::Looped),
+            Kernel::Auto => Ok(Kernel::Multipass),
+            Kernel::Compute if !info.compute => Err(crate::Error::GlUnavailable(format!(
+                "--kernel compute needs OpenGL 4.3 and GLSL 4.30; {} offers OpenGL {} and GLSL {}",
+                info.renderer, info.gl_version, info.glsl_version
+            ))),
+            k => Ok(k),
+        }
+    }
+
+    /// Whether this kernel draws fragment passes (the others dispatch compute programs or
+    /// are not resolved yet).
+    pub fn is_fragment(self) -> bool {
+        matches!(
+            self,
+            Kernel::Multipass | Kernel::Unrolled(_) | Kernel::Looped
+        )
     }
 }
 
@@ -76,9 +108,11 @@ impl std::str::FromStr for Kernel {
         match s {
             "multipass" => Ok(Kernel::Multipass),
             "looped" => Ok(Kernel::Looped),
+            "compute" => Ok(Kernel::Compute),
+            "auto" => Ok(Kernel::Auto),
             _ => match s.strip_prefix("unrolled:").map(str::parse::<u32>) {
                 Some(Ok(k)) if (1..=64).contains(&k) => Ok(Kernel::Unrolled(k)),
-                _ => Err(format!("unknown kernel `{s}` (expected multipass, unrolled:K with K in 1..=64, or looped)")),
+                _ => Err(format!("unknown kernel `{s}` (expected auto, compute, looped, multipass, or unrolled:K with K in 1..=64)")),
             },
         }
     }
@@ -90,6 +124,8 @@ impl std::fmt::Display for Kernel {
             Kernel::Multipass => write!(f, "multipass"),
             Kernel::Unrolled(k) => write!(f, "unrolled:{k}"),
             Kernel::Looped => write!(f, "looped"),
+            Kernel::Compute => write!(f, "compute"),
+            Kernel::Auto => write!(f, "auto"),
         }
     }
 }
@@ -194,7 +230,13 @@ mod tests {
             assert_eq!(v.to_string(), s);
         }
         assert!(Mask::from_str("earlyz", false).is_err());
-        for k in [Kernel::Multipass, Kernel::Looped, Kernel::Unrolled(7)] {
+        for k in [
+            Kernel::Multipass,
+            Kernel::Looped,
+            Kernel::Unrolled(7),
+            Kernel::Compute,
+            Kernel::Auto,
+        ] {
             assert_eq!(k.to_string().parse::<Kernel>(), Ok(k));
         }
         assert!("unrolled:65".parse::<Kernel>().is_err());

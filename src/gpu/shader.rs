@@ -6,7 +6,7 @@
 //! back to (file, line).
 
 use super::contract;
-use super::layout::{self, SceneTextures};
+use super::layout::{self, Fetch, SceneTextures};
 use crate::scene::Scene;
 use crate::technique::Techniques;
 use crate::{Error, Result};
@@ -51,10 +51,19 @@ const SOURCES: &[(&str, &str)] = &[
         include_str!("../../glsl120/accum_ambient.frag"),
     ),
     ("count.frag", include_str!("../../glsl120/count.frag")),
+    ("compute.glsl", include_str!("../../glsl120/compute.glsl")),
+    ("render.comp", include_str!("../../glsl120/render.comp")),
+    ("wave.comp", include_str!("../../glsl120/wave.comp")),
 ];
 
 /// Files a pass may `#include`.
-const INCLUDABLE: &[&str] = &["intersect.glsl", "traverse.glsl", "shade.glsl", "step.glsl"];
+const INCLUDABLE: &[&str] = &[
+    "intersect.glsl",
+    "traverse.glsl",
+    "shade.glsl",
+    "step.glsl",
+    "compute.glsl",
+];
 
 /// Iterations of one `looped` pass at most (a bounded loop, as Shader Model 3 requires).
 pub const LOOP_MAX: u32 = 1024;
@@ -274,6 +283,8 @@ impl Pass {
             Kernel::Multipass => None,
             Kernel::Unrolled(k) => Some(Pass::Unrolled(query, k)),
             Kernel::Looped => Some(Pass::Looped(query)),
+            // Resolved or dispatched before any pass is drawn (Frame::new refuses them).
+            Kernel::Compute | Kernel::Auto => None,
         }
     }
 }
@@ -413,11 +424,47 @@ pub fn assemble_text(
     techniques: Techniques,
     layout: &SceneTextures,
 ) -> Result<Assembled> {
+    let target = Target {
+        version: "#version 120",
+        fetch: Fetch::Texture2D,
+        extra: String::new(),
+    };
+    assemble_for(
+        &target,
+        pass_name,
+        file,
+        text,
+        extra_defines,
+        features,
+        techniques,
+        layout,
+    )
+}
+
+/// What separates the fragment kernels' GLSL 1.20 from the compute kernel's GLSL 4.30
+/// around the same sources: the version line, the fetch functions and extra generated text.
+struct Target {
+    version: &'static str,
+    fetch: Fetch,
+    extra: String,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn assemble_for(
+    target: &Target,
+    pass_name: &str,
+    file: &str,
+    text: &str,
+    extra_defines: &[&str],
+    features: Features,
+    techniques: Techniques,
+    layout: &SceneTextures,
+) -> Result<Assembled> {
     let mut a = Assembled {
         source: String::new(),
         lines: Vec::new(),
     };
-    a.push_text("<generated>", "#version 120");
+    a.push_text("<generated>", target.version);
     let mut defs = String::new();
     for d in features
         .defines()
@@ -429,7 +476,10 @@ pub fn assemble_text(
     }
     a.push_text("<generated defines>", &defs);
     a.push_text("<generated prelude>", &prelude());
-    a.push_text("<generated layout>", &layout.glsl());
+    if !target.extra.is_empty() {
+        a.push_text("<generated compute prelude>", &target.extra);
+    }
+    a.push_text("<generated layout>", &layout.glsl_with(target.fetch));
     a.push_text("common.glsl", source("common.glsl")?);
     let mut included = Vec::new();
     for (k, line) in text.lines().enumerate() {
@@ -458,6 +508,105 @@ pub fn assemble_text(
         }
     }
     Ok(a)
+}
+
+/// The compute kernel's programs (`--kernel compute`, GLSL 4.30).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ComputePass {
+    /// The whole ray tree of every pixel and sample (`render.comp`).
+    Render,
+    /// A wave of given rays traced to their end (`wave.comp`, for `trace_rays`).
+    Wave(Query),
+}
+
+/// Work-group size of the compute programs (8 x 8 invocations: two warps on NVIDIA, and
+/// square tiles keep neighbouring rays, which walk the same cells, together).
+pub const LOCAL_SIZE: (u32, u32) = (8, 8);
+
+/// What a compute program is specialised for besides the scene's features.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ComputeSpec {
+    /// Samples per pixel (the loop over them runs in the program).
+    pub samples: u32,
+    /// Point lights.
+    pub lights: u32,
+    /// Maximum ray-tree depth.
+    pub max_depth: u32,
+    /// Whether any material reflects or refracts (else no children are ever spawned).
+    pub secondary: bool,
+    /// Traversal iterations after which a ray is cut off and counted as unfinished.
+    pub max_iterations: u32,
+}
+
+impl ComputePass {
+    /// Its source file.
+    pub fn file(self) -> &'static str {
+        match self {
+            ComputePass::Render => "render.comp",
+            ComputePass::Wave(_) => "wave.comp",
+        }
+    }
+
+    /// A short name for messages and statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            ComputePass::Render => "compute",
+            ComputePass::Wave(Query::Closest) => "compute_wave",
+            ComputePass::Wave(Query::Any) => "compute_wave_any",
+        }
+    }
+
+    fn defines(self, spec: &ComputeSpec) -> Vec<String> {
+        let mut d = vec![
+            "KERNEL_COMPUTE".to_string(),
+            format!("LOCAL_X {}", LOCAL_SIZE.0),
+            format!("LOCAL_Y {}", LOCAL_SIZE.1),
+            format!("MAX_ITERATIONS {}", spec.max_iterations),
+        ];
+        match self {
+            ComputePass::Render => {
+                d.push(format!("SAMPLES {}", spec.samples.max(1)));
+                d.push(format!("LIGHTS {}", spec.lights));
+                d.push(format!("MAX_DEPTH {}", spec.max_depth));
+                d.push(format!("STACK_SIZE {}", spec.max_depth + 1));
+                if spec.secondary && spec.max_depth > 0 {
+                    d.push("HAS_SECONDARY".into());
+                }
+            }
+            ComputePass::Wave(Query::Any) => d.push("ANY_HIT".into()),
+            ComputePass::Wave(Query::Closest) => {}
+        }
+        d
+    }
+}
+
+/// Assembles a compute program: `#version 430`, the same generated prelude and shared GLSL
+/// as the fragment passes, fetch functions through `texelFetch`, and the compute contract
+/// ([`contract::compute`]).
+pub fn assemble_compute(
+    pass: ComputePass,
+    spec: &ComputeSpec,
+    features: Features,
+    techniques: Techniques,
+    layout: &SceneTextures,
+) -> Result<Assembled> {
+    let target = Target {
+        version: "#version 430",
+        fetch: Fetch::TexelFetch,
+        extra: contract::compute::compute_glsl(),
+    };
+    let defines = pass.defines(spec);
+    let defines: Vec<&str> = defines.iter().map(String::as_str).collect();
+    assemble_for(
+        &target,
+        pass.name(),
+        pass.file(),
+        source(pass.file())?,
+        &defines,
+        features,
+        techniques,
+        layout,
+    )
 }
 
 /// Every combination of scene features (for `dump-shaders --all-variants`).

@@ -1,7 +1,8 @@
 //! Owning GL objects and the low-level helpers the render passes are built from: float
 //! textures and mask renderbuffers ([`texture`]), multi-target FBOs ([`target`]), programs
 //! compiled with source-mapped errors and the full-screen quad ([`program`]), and
-//! occlusion/timer queries ([`query`]).
+//! occlusion/timer queries ([`query`]), and for the compute kernel (GL 4.3) compute programs,
+//! storage buffers and image bindings ([`compute`]).
 //!
 //! Every object here owns its GL name and deletes it in `Drop`, in its own context: the rule
 //! is stated once in [`super::context`]. Constructors take the [`GlContext`] (which must be
@@ -24,11 +25,13 @@ use glow::HasContext;
 use super::context::{GlContext, GlShared};
 use crate::error::{Error, Result};
 
+pub mod compute;
 pub mod program;
 pub mod query;
 pub mod target;
 pub mod texture;
 
+pub use compute::{bind_image, compile_compute, StorageBuffer};
 pub use program::{
     compile_program, single_file_line_map, FullscreenQuad, Program, ATTRIB_POS, ATTRIB_UV,
     QUAD_VERTEX_SHADER,

@@ -47,6 +47,11 @@ pub struct Program {
 }
 
 impl Program {
+    /// Wraps a program name created elsewhere in this module's crate (compute programs).
+    pub(super) fn from_owned(obj: Owned<ProgramKind>) -> Self {
+        Program { obj }
+    }
+
     /// The raw name, for `glUseProgram` and uniform look-ups.
     pub fn name(&self) -> glow::Program {
         self.obj.name()

@@ -89,6 +89,17 @@ pub(super) enum Slot {
     Acc(usize),
 }
 
+/// Traversal iterations after which a ray that has not finished is a bug: a DDA visits at
+/// most rx+ry+rz cells (an irregular walk at most as many as its virtual grid's) and each
+/// test is one iteration; generously.
+pub(super) fn max_iterations(accel: AccelRef<'_>) -> u64 {
+    let (res, refs) = match accel {
+        AccelRef::Uniform(g) => (g.res, g.tri_indices.len()),
+        AccelRef::Irregular(g) => (g.res, g.tri_indices.len()),
+    };
+    16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs as u64 + 16)
+}
+
 /// Binds `tex` to `unit`.
 pub(super) fn bind_texture(gl: &glow::Context, unit: Unit, tex: &Texture) {
     // SAFETY: the context is current; `tex` is a live texture of this context.
@@ -112,6 +123,12 @@ impl<'a> Frame<'a> {
         shading: bool,
         opts: GpuOptions,
     ) -> Result<Self> {
+        if !opts.kernel.is_fragment() {
+            return Err(Error::Internal(format!(
+                "the fragment-pass frame was asked to run kernel `{}`",
+                opts.kernel
+            )));
+        }
         let info = &ctx.info;
         let max_size = info.max_texture_size.max(0) as u32;
         info.check_image_size(width, height)?;
@@ -223,15 +240,7 @@ impl<'a> Frame<'a> {
             }),
             stats,
             opts,
-            // A DDA visits at most rx+ry+rz cells (an irregular walk at most as many as its
-            // virtual grid's); each test is one iteration; be generous.
-            max_iterations: {
-                let (res, refs) = match accel {
-                    AccelRef::Uniform(g) => (g.res, g.tri_indices.len()),
-                    AccelRef::Irregular(g) => (g.res, g.tri_indices.len()),
-                };
-                16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs as u64 + 16)
-            },
+            max_iterations: max_iterations(accel),
             watch: None,
         })
     }

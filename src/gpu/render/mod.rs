@@ -18,6 +18,7 @@
 //! far and the ray state, and may cancel the render. This is how `fragtrace view` shows the
 //! wave of rays advancing; the headless path passes no observer and is unchanged.
 
+mod compute;
 mod frame;
 mod passes;
 mod readback;
@@ -60,10 +61,22 @@ pub struct GpuOutput {
     pub image: Image,
     /// Primary-ray AOVs (first sample).
     pub aov: Aov,
-    /// Rays by kind (from occlusion queries).
+    /// Rays by kind (from occlusion queries, or the compute kernel's counters).
     pub rays: RayCounts,
+    /// Traversal work of all rays, where the kernel counts it (compute; the fragment
+    /// kernels count cells and tests together per primary ray, in the `steps` AOV).
+    pub work: Option<Work>,
     /// GPU statistics.
     pub stats: GpuStats,
+}
+
+/// Traversal work of a render's rays, counted as the CPU's `Work` counts it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Work {
+    /// Grid cells entered (the start cell included).
+    pub cells: u64,
+    /// Ray-triangle tests.
+    pub tests: u64,
 }
 
 /// What an [`Observer`] sees between two passes of a render in progress.

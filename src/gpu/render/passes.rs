@@ -75,37 +75,52 @@ pub(super) fn build_programs(
         let program = compile_program(ctx, pass.name(), QUAD_VERTEX_SHADER, &a.source, &|n| {
             a.origin(n)
         })?;
-        let p = program.name();
-        // SAFETY: the context is current and `p` is linked.
+        set_scene_uniforms(gl, &program, accel, scene);
+        // SAFETY: the context is current and the program is current (set_scene_uniforms).
         unsafe {
-            gl.use_program(Some(p));
-            for unit in Unit::ALL {
-                for sampler in unit.samplers() {
-                    if let Some(loc) = gl.get_uniform_location(p, sampler) {
-                        gl.uniform_1_i32(Some(&loc), unit.index() as i32);
-                    }
-                }
-            }
-            let set3 = |name: &str, v: glam::Vec3| {
-                if let Some(loc) = gl.get_uniform_location(p, name) {
-                    gl.uniform_3_f32(Some(&loc), v.x, v.y, v.z);
-                }
-            };
-            let (min, max, cell_size, res) = match accel {
-                AccelRef::Uniform(g) => (g.min, g.max, g.cell_size, g.res),
-                AccelRef::Irregular(g) => (g.min, g.max, g.cell_size, g.res),
-            };
-            set3("u_grid_min", min);
-            set3("u_grid_max", max);
-            set3("u_cell_size", cell_size);
-            set3("u_grid_res", glam::UVec3::from(res).as_vec3());
-            set3("u_ambient", scene.ambient);
-            set3("u_background", scene.background);
-            if let Some(loc) = gl.get_uniform_location(p, "u_size") {
+            if let Some(loc) = gl.get_uniform_location(program.name(), "u_size") {
                 gl.uniform_2_f32(Some(&loc), width as f32, height as f32);
             }
         }
         programs.insert(pass, program);
     }
     Ok(programs)
+}
+
+/// Makes `program` current and sets what every program of a render shares: each sampler's
+/// texture unit, the grid's box and resolution, ambient and background (uniforms the
+/// program lacks are skipped).
+pub(super) fn set_scene_uniforms(
+    gl: &glow::Context,
+    program: &Program,
+    accel: AccelRef<'_>,
+    scene: &Scene,
+) {
+    let p = program.name();
+    // SAFETY: the context is current and `p` is linked.
+    unsafe {
+        gl.use_program(Some(p));
+        for unit in Unit::ALL {
+            for sampler in unit.samplers() {
+                if let Some(loc) = gl.get_uniform_location(p, sampler) {
+                    gl.uniform_1_i32(Some(&loc), unit.index() as i32);
+                }
+            }
+        }
+        let set3 = |name: &str, v: glam::Vec3| {
+            if let Some(loc) = gl.get_uniform_location(p, name) {
+                gl.uniform_3_f32(Some(&loc), v.x, v.y, v.z);
+            }
+        };
+        let (min, max, cell_size, res) = match accel {
+            AccelRef::Uniform(g) => (g.min, g.max, g.cell_size, g.res),
+            AccelRef::Irregular(g) => (g.min, g.max, g.cell_size, g.res),
+        };
+        set3("u_grid_min", min);
+        set3("u_grid_max", max);
+        set3("u_cell_size", cell_size);
+        set3("u_grid_res", glam::UVec3::from(res).as_vec3());
+        set3("u_ambient", scene.ambient);
+        set3("u_background", scene.background);
+    }
 }

@@ -6,11 +6,12 @@ use super::frame::Frame;
 use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::{ray, StateTexels, TRI_NONE, TRI_NO_RAY};
-use crate::gpu::options::GpuOptions;
+use crate::gpu::gl::Texture;
+use crate::gpu::options::{GpuOptions, Kernel};
 use crate::gpu::shader::{Query, RayState};
 use crate::output::{Aov, AovPixel};
 use crate::scene::Scene;
-use crate::Result;
+use crate::{Error, Result};
 use rayon::prelude::*;
 
 /// GL rows start at the bottom; images at the top. Drops alpha.
@@ -48,24 +49,29 @@ pub(super) fn read_aov(f: &Frame, scene: &Scene, w: u32, h: u32) -> Result<Aov> 
             let row = (h as usize - 1 - j) * w as usize;
             for (i, px) in out.iter_mut().enumerate() {
                 let k = row + i;
-                let steps = s.get(k, ray::STEPS);
                 let hit = RayState::from_code(s.get(k, ray::STATE)) == Some(RayState::Shading);
-                *px = if hit {
-                    let tri_best = s.get(k, ray::TRI_BEST);
-                    let v = scene.triangle_vertices(tri_best as usize);
-                    let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
-                    AovPixel {
-                        depth: s.get(k, ray::T_BEST),
-                        primid: tri_best,
-                        normal: n.to_array(),
-                        steps,
-                    }
-                } else {
-                    AovPixel::miss(steps)
-                };
+                let best = hit.then(|| (s.get(k, ray::T_BEST), s.get(k, ray::TRI_BEST)));
+                *px = aov_pixel(scene, best, s.get(k, ray::STEPS));
             }
         });
     Ok(Aov::from_pixels(w, h, &pixels))
+}
+
+/// One primary ray's AOV pixel: its hit (t, triangle) if any and its traversal steps.
+pub(super) fn aov_pixel(scene: &Scene, hit: Option<(f32, f32)>, steps: f32) -> AovPixel {
+    match hit {
+        Some((t, tri)) => {
+            let v = scene.triangle_vertices(tri as usize);
+            let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+            AovPixel {
+                depth: t,
+                primid: tri,
+                normal: n.to_array(),
+                steps,
+            }
+        }
+        None => AovPixel::miss(steps),
+    }
 }
 
 /// One ray for [`trace_rays`].
@@ -106,8 +112,24 @@ pub fn trace_rays<'a>(
     let n = rays.len() as u32;
     let w = n.min(256);
     let h = n.div_ceil(w);
-    let mut f = Frame::new(ctx, scene, accel.into(), w, h, 1, false, opts)?;
-    let texels = (w * h) as usize;
+    let accel = accel.into();
+    let kernel = opts.kernel.resolve(&ctx.info)?;
+    let opts = GpuOptions { kernel, ..opts };
+    if kernel == Kernel::Compute {
+        return trace_rays_compute(ctx, scene, accel, rays, query, &opts, (w, h));
+    }
+    let mut f = Frame::new(ctx, scene, accel, w, h, 1, false, opts)?;
+    let s = initial_state(rays, (w * h) as usize);
+    for (tex, data) in f.state[f.cur].textures().iter().zip(&s.texels) {
+        tex.upload(ctx.gl(), data)?;
+    }
+    f.trace(query)?;
+    Ok(traces_from(&read_state(&f)?, rays.len()))
+}
+
+/// The initial ray-state texels of a wave of `rays` padded with finished non-rays to
+/// `texels`.
+fn initial_state(rays: &[GpuRay], texels: usize) -> StateTexels {
     let mut s = StateTexels {
         texels: std::array::from_fn(|_| vec![0f32; texels * 4]),
     };
@@ -128,12 +150,46 @@ pub fn trace_rays<'a>(
             }
         }
     }
-    for (tex, data) in f.state[f.cur].textures().iter().zip(&s.texels) {
-        tex.upload(ctx.gl(), data)?;
+    s
+}
+
+/// [`trace_rays`] with the compute kernel: the wave in four textures, `wave.comp` over them.
+fn trace_rays_compute(
+    ctx: &GlContext,
+    scene: &Scene,
+    accel: AccelRef<'_>,
+    rays: &[GpuRay],
+    query: Query,
+    opts: &GpuOptions,
+    (w, h): (u32, u32),
+) -> Result<Vec<GpuTrace>> {
+    let s = initial_state(rays, (w * h) as usize);
+    let textures = s
+        .texels
+        .iter()
+        .map(|data| Texture::new_f32(ctx, w, h, Some(data)))
+        .collect::<Result<Vec<_>>>()?;
+    super::compute::trace_wave(ctx, scene, accel, &textures, (w, h), query, opts)?;
+    let read = |k: usize| textures[k].read(ctx.gl());
+    let s = StateTexels {
+        texels: [read(0)?, Vec::new(), Vec::new(), read(3)?],
+    };
+    let out = traces_from(&s, rays.len());
+    if let Some(k) = out
+        .iter()
+        .position(|t| matches!(t.state, RayState::Traversing | RayState::Testing))
+    {
+        return Err(Error::Internal(format!(
+            "traversal of ray {k} did not terminate (state {:?})",
+            out[k].state
+        )));
     }
-    f.trace(query)?;
-    let s = read_state(&f)?;
-    Ok((0..rays.len())
+    Ok(out)
+}
+
+/// The results of the first `n` rays of a finished wave.
+fn traces_from(s: &StateTexels, n: usize) -> Vec<GpuTrace> {
+    (0..n)
         .map(|k| {
             let state = RayState::from_code(s.get(k, ray::STATE)).unwrap_or(RayState::Done);
             GpuTrace {
@@ -143,5 +199,5 @@ pub fn trace_rays<'a>(
                 steps: s.get(k, ray::STEPS),
             }
         })
-        .collect())
+        .collect()
 }

@@ -15,7 +15,7 @@ use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::Unit;
 use crate::gpu::gl::Texture;
-use crate::gpu::options::GpuOptions;
+use crate::gpu::options::{GpuOptions, Kernel};
 use crate::gpu::shader::{Count, Pass, Query};
 use crate::image_io::Image;
 use crate::output::RayCounts;
@@ -109,11 +109,18 @@ pub fn render_gl_observed<'a, 'g>(
 ) -> Result<GpuOutput> {
     let (width, height, spp, max_depth) = (req.width, req.height, req.spp, req.max_depth);
     let levels = max_depth as usize + 1;
+    let kernel = req.gpu.kernel.resolve(&ctx.info)?;
     let gpu = GpuOptions {
         techniques: req.techniques,
+        kernel,
         ..req.gpu
     };
+    if kernel == Kernel::Compute {
+        let req = ImageRequest { gpu, ..*req };
+        return super::compute::render_compute(ctx, scene, accel.into(), &req, observer);
+    }
     let mut f = Frame::new(ctx, scene, accel.into(), width, height, levels, true, gpu)?;
+    f.stats.kernel = kernel.to_string();
     f.progress = Progress::tree_bar(req.progress);
     let samples = camera::sample_offsets(spp).len() as u32;
     f.watch = observer.map(|observer| Watch {
@@ -193,6 +200,7 @@ pub fn render_gl_observed<'a, 'g>(
         image,
         aov: aov.expect("at least one sample"),
         rays: RayCounts::new(rays.primary, rays.shadow, rays.reflected, rays.refracted),
+        work: None,
         stats: std::mem::take(&mut f.stats),
     })
 }

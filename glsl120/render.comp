@@ -1,0 +1,151 @@
+// render.comp: `--kernel compute`, the whole Whitted ray tree of every pixel and every
+// sample in one dispatch. The one GLSL 4.30 file: everything it computes is the GLSL 1.20
+// the fragment kernels run (traverse_setup, traverse_step and intersect_test of step.glsl;
+// surface, shadow_ray, light_term, secondary of shade.glsl), walked in the same order
+// (gpu/render/tree.rs): per sample the primary ray, then at each node ambient, the lights in
+// order, the reflected subtree, the refracted subtree, depth first. A small per-invocation
+// stack holds the pending children (at most one per level: STACK_SIZE = max depth + 1).
+// Reads: the scene textures through the generated texelFetch fetch functions, grid
+//        uniforms, u_eye, u_ambient, u_background, u_sample_weight, the camera buffer (the
+//        f64 frame and sample offsets: primary directions by the camera's formula in f64,
+//        rounded to f32, as the host computes them for the fragment kernels) and the lights
+//        buffer (position, radiance).
+// Writes: u_radiance (linear RGB summed over samples), u_aov (first sample's primary ray:
+//         t_best, tri_best or TRI_NONE, steps, state), one COUNTERS-slot record per work group
+//         (rays by kind, cells entered, triangle tests, rays cut off by MAX_ITERATIONS).
+#include "intersect.glsl"
+#include "traverse.glsl"
+#include "step.glsl"
+#include "shade.glsl"
+#include "compute.glsl"
+
+layout(local_size_x = LOCAL_X, local_size_y = LOCAL_Y) in;
+layout(rgba32f, binding = 0) uniform writeonly image2D u_radiance;
+layout(rgba32f, binding = 1) uniform writeonly image2D u_aov;
+// CAM_*: the camera frame (forward, right, up; tan(vfov/2), aspect, width, height), then
+// (ox, oy) per sample from CAM_OFFSETS on.
+layout(std430, binding = 0) readonly buffer CameraBuffer { double cam[]; };
+// Per light: (position, 0), (radiance, 0).
+layout(std430, binding = 1) readonly buffer LightBuffer { vec4 lights[]; };
+layout(std430, binding = 2) writeonly buffer CounterBuffer { uint counters[]; };
+uniform vec3 u_eye;
+uniform vec3 u_ambient;
+uniform vec3 u_background;
+uniform float u_sample_weight;
+uniform ivec2 u_size;
+
+shared uint g_count[COUNTERS];
+
+// The primary direction through image position (px, py) (camera rows from the top):
+// Camera::direction_at in f64, operation for operation (precise: no fused multiply-adds),
+// rounded to f32.
+vec3 primary_dir(double px, double py) {
+    dvec3 f = dvec3(cam[CAM_F], cam[CAM_F + 1], cam[CAM_F + 2]);
+    dvec3 r = dvec3(cam[CAM_R], cam[CAM_R + 1], cam[CAM_R + 2]);
+    dvec3 u = dvec3(cam[CAM_U], cam[CAM_U + 1], cam[CAM_U + 2]);
+    double s = cam[CAM_S];
+    precise double a = (2.0LF * px / cam[CAM_W] - 1.0LF) * s * cam[CAM_ASPECT];
+    precise double b = (1.0LF - 2.0LF * py / cam[CAM_H]) * s;
+    precise dvec3 v = f + a * r + b * u;
+    precise double len2 = v.x * v.x + v.y * v.y + v.z * v.z;
+    precise double inv = 1.0LF / sqrt(len2);
+    return vec3(v * inv);
+}
+
+// One pending node of the ray tree: its ray and its weight.
+struct Node {
+    vec3 o;
+    vec3 d;
+    vec3 w;
+    int level;
+};
+
+// Adds the radiance of the ray tree rooted at the primary ray (eye, d0) with weight w0 to
+// `colour`; with `first`, stores the primary ray's AOV texel in `aov`.
+void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov) {
+    Node stack[STACK_SIZE];
+    stack[0] = Node(u_eye, d0, vec3(w0), 0);
+    int top = 1;
+    while (top > 0) {
+        Node n = stack[--top];
+        vec4 s0;
+        vec4 s1;
+        vec4 s2;
+        vec4 s3;
+        new_ray(n.o, n.d, BIG, s0, s1, s2, s3);
+        trace(s0, s1, s2, s3, false);
+        bool hit = in_state(s0.S0_STATE, ST_SHADING);
+        if (first && n.level == 0) {
+            aov = vec4(s3.S3_T_BEST, hit ? s3.S3_TRI_BEST : TRI_NONE, s3.S3_STEPS, s0.S0_STATE);
+        }
+        if (!hit) {
+            colour += n.w * u_background;
+            continue;
+        }
+        Surface s = surface(n.o, n.d, s3.S3_TRI_BEST);
+        colour += n.w * ambient_term(s, u_ambient);
+        for (int k = 0; k < LIGHTS; k++) {
+            vec3 o;
+            vec3 l;
+            float dist;
+            if (!shadow_ray(s, lights[2 * k].xyz, o, l, dist)) continue;
+            n_count[C_SHADOW] += 1u;
+            new_ray(o, l, dist, s0, s1, s2, s3);
+            trace(s0, s1, s2, s3, true);
+            if (!in_state(s0.S0_STATE, ST_SHADING)) {
+                vec3 c = light_term(s.mat, albedo_at(s.mat, s.p), s, l, -n.d, lights[2 * k + 1].xyz);
+                colour += n.w * c;
+            }
+        }
+#ifdef HAS_SECONDARY
+        if (n.level < MAX_DEPTH) {
+            vec3 kr;
+            vec3 kt;
+            vec3 refl;
+            vec3 refr;
+            secondary(s.mat, s, n.d, kr, kt, refl, refr);
+            // Refracted below reflected: the reflected subtree is walked first.
+            if (child_exists(kt)) {
+                n_count[C_REFRACTED] += 1u;
+                stack[top++] = Node(offset_origin(s, refr), refr, n.w * kt, n.level + 1);
+            }
+            if (child_exists(kr)) {
+                n_count[C_REFLECTED] += 1u;
+                stack[top++] = Node(offset_origin(s, refl), refl, n.w * kr, n.level + 1);
+            }
+        }
+#endif
+    }
+}
+
+void main() {
+    for (int k = 0; k < COUNTERS; k++) n_count[k] = 0u;
+    if (gl_LocalInvocationIndex == 0u) {
+        for (int k = 0; k < COUNTERS; k++) g_count[k] = 0u;
+    }
+    barrier();
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
+    if (all(lessThan(px, u_size))) {
+        vec3 colour = vec3(0.0);
+        vec4 aov = vec4(0.0);
+        // GL rows run from the bottom, camera rows from the top.
+        double row = double(u_size.y - 1 - px.y);
+        for (int k = 0; k < SAMPLES; k++) {
+            double ox = cam[CAM_OFFSETS + 2 * k];
+            double oy = cam[CAM_OFFSETS + 2 * k + 1];
+            vec3 d = primary_dir(double(px.x) + ox, row + oy);
+            n_count[C_PRIMARY] += 1u;
+            shade_tree(d, u_sample_weight, k == 0, colour, aov);
+        }
+        imageStore(u_radiance, px, vec4(colour, 1.0));
+        imageStore(u_aov, px, aov);
+    }
+    for (int k = 0; k < COUNTERS; k++) {
+        if (n_count[k] != 0u) atomicAdd(g_count[k], n_count[k]);
+    }
+    barrier();
+    if (gl_LocalInvocationIndex == 0u) {
+        uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+        for (int k = 0; k < COUNTERS; k++) counters[group * uint(COUNTERS) + uint(k)] = g_count[k];
+    }
+}

@@ -1,0 +1,145 @@
+//! What the compute kernel adds to the GL objects (GL 4.3): compute programs compiled with
+//! source-mapped errors, shader storage buffers, and binding a texture as an image.
+
+use glow::HasContext;
+
+use super::program::{parse_error_line, Program};
+use super::{check_gl_error, BufferKind, Owned, ShaderKind, Texture};
+use crate::error::{Error, Result};
+use crate::gpu::context::GlContext;
+
+/// Compiles and links a compute program from `src` (GLSL 4.30). Errors as
+/// [`super::compile_program`]'s: [`Error::Shader`] with the driver's log and the first error
+/// line mapped to its `(file, line)` by `line_map`.
+pub fn compile_compute(
+    ctx: &GlContext,
+    pass: &str,
+    src: &str,
+    line_map: &dyn Fn(usize) -> (String, usize),
+) -> Result<Program> {
+    let gl = ctx.gl();
+    let shader_error = |(file, line): (String, usize), log: String| Error::Shader {
+        pass: pass.to_string(),
+        file,
+        line,
+        log: log.trim_end().to_string(),
+    };
+    // SAFETY: the context is current; every name used is created and owned here.
+    unsafe {
+        let cs = Owned::<ShaderKind>::new(
+            ctx,
+            gl.create_shader(glow::COMPUTE_SHADER)
+                .map_err(|e| Error::Internal(format!("glCreateShader(GL_COMPUTE_SHADER): {e}")))?,
+        );
+        gl.shader_source(cs.name(), src);
+        gl.compile_shader(cs.name());
+        if !gl.get_shader_compile_status(cs.name()) {
+            let log = gl.get_shader_info_log(cs.name());
+            let at = match parse_error_line(&log) {
+                Some(n) => line_map(n),
+                None => ("<compute shader>".to_string(), 0),
+            };
+            return Err(shader_error(at, log));
+        }
+        let program = Program::from_owned(Owned::new(
+            ctx,
+            gl.create_program()
+                .map_err(|e| Error::Internal(format!("glCreateProgram: {e}")))?,
+        ));
+        let p = program.name();
+        gl.attach_shader(p, cs.name());
+        gl.link_program(p);
+        gl.detach_shader(p, cs.name());
+        drop(cs);
+        if !gl.get_program_link_status(p) {
+            let log = gl.get_program_info_log(p);
+            let line = parse_error_line(&log).unwrap_or(0);
+            return Err(shader_error(("<link>".into(), line), log));
+        }
+        check_gl_error(gl, &format!("building the `{pass}` program"))?;
+        Ok(program)
+    }
+}
+
+/// A shader storage buffer; deleted when dropped.
+#[derive(Debug)]
+pub struct StorageBuffer {
+    obj: Owned<BufferKind>,
+    bytes: usize,
+}
+
+impl StorageBuffer {
+    /// A buffer holding `data` (at least 16 bytes are allocated: GL refuses empty ones and
+    /// an unsized array in a block still needs a binding).
+    pub fn new(ctx: &GlContext, data: &[u8]) -> Result<Self> {
+        let gl = ctx.gl();
+        // SAFETY: the context is current; the data slice is valid for the call.
+        unsafe {
+            let obj = Owned::new(
+                ctx,
+                gl.create_buffer()
+                    .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
+            );
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, Some(obj.name()));
+            let mut padded;
+            let bytes = if data.len() < 16 {
+                padded = data.to_vec();
+                padded.resize(16, 0);
+                &padded[..]
+            } else {
+                data
+            };
+            gl.buffer_data_u8_slice(glow::SHADER_STORAGE_BUFFER, bytes, glow::DYNAMIC_COPY);
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, None);
+            check_gl_error(gl, "creating a storage buffer")?;
+            Ok(StorageBuffer {
+                obj,
+                bytes: bytes.len(),
+            })
+        }
+    }
+
+    /// A buffer of `n` zeroed `u32`s.
+    pub fn zeroed_u32(ctx: &GlContext, n: usize) -> Result<Self> {
+        Self::new(ctx, &vec![0u8; n * 4])
+    }
+
+    /// Binds the buffer to storage-block binding `index`.
+    pub fn bind(&self, gl: &glow::Context, index: u32) {
+        // SAFETY: the context is current and the buffer is alive.
+        unsafe { gl.bind_buffer_base(glow::SHADER_STORAGE_BUFFER, index, Some(self.obj.name())) };
+    }
+
+    /// Reads the whole buffer back as `u32`s (after the writes it waits for).
+    pub fn read_u32(&self, gl: &glow::Context) -> Result<Vec<u32>> {
+        let mut bytes = vec![0u8; self.bytes];
+        // SAFETY: the context is current; `bytes` is exactly the buffer's size.
+        unsafe {
+            gl.memory_barrier(glow::BUFFER_UPDATE_BARRIER_BIT);
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, Some(self.obj.name()));
+            gl.get_buffer_sub_data(glow::SHADER_STORAGE_BUFFER, 0, &mut bytes);
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, None);
+        }
+        check_gl_error(gl, "reading a storage buffer")?;
+        Ok(bytes
+            .chunks_exact(4)
+            .map(|b| u32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
+            .collect())
+    }
+}
+
+/// Binds level 0 of RGBA32F `tex` to image unit `unit` for reading and writing.
+pub fn bind_image(gl: &glow::Context, unit: u32, tex: &Texture) {
+    // SAFETY: the context is current and the texture is alive.
+    unsafe {
+        gl.bind_image_texture(
+            unit,
+            Some(tex.name()),
+            0,
+            false,
+            0,
+            glow::READ_WRITE,
+            glow::RGBA32F,
+        )
+    };
+}
