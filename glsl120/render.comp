@@ -10,9 +10,10 @@
 //        f64 frame and sample offsets: primary directions by the camera's formula in f64,
 //        rounded to f32, as the host computes them for the fragment kernels) and the lights
 //        buffer (position, radiance).
-// Writes: u_radiance (linear RGB summed over samples), u_aov (first sample's primary ray:
-//         t_best, tri_best or TRI_NONE, steps, state), one COUNTERS-slot record per work group
-//         (rays by kind, cells entered, triangle tests, rays cut off by MAX_ITERATIONS).
+// Writes: radiance (linear RGB summed over samples) and aov_out (first sample's primary
+//         ray: t_best, tri_best or TRI_NONE, steps, state), both in image order; one
+//         COUNTERS-slot record per work group (rays by kind, cells entered, triangle tests,
+//         rays cut off by MAX_ITERATIONS).
 #include "intersect.glsl"
 #include "traverse.glsl"
 #include "step.glsl"
@@ -20,8 +21,10 @@
 #include "compute.glsl"
 
 layout(local_size_x = LOCAL_X, local_size_y = LOCAL_Y) in;
-layout(rgba32f, binding = 0) uniform writeonly image2D u_radiance;
-layout(rgba32f, binding = 1) uniform writeonly image2D u_aov;
+// Both outputs in image order (rows from the top), so the host reads them straight into
+// its image: RGB per pixel, and (t_best, tri_best or TRI_NONE, steps, state) per pixel.
+layout(std430, binding = 3) writeonly buffer RadianceBuffer { float radiance[]; };
+layout(std430, binding = 4) writeonly buffer AovBuffer { vec4 aov_out[]; };
 // CAM_*: the camera frame (forward, right, up; tan(vfov/2), aspect, width, height), then
 // (ox, oy) per sample from CAM_OFFSETS on.
 layout(std430, binding = 0) readonly buffer CameraBuffer { double cam[]; };
@@ -118,28 +121,56 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
     }
 }
 
+// Radiance and AOV of pixel px (GL rows from the bottom) into the output buffers.
+void render_pixel(ivec2 px) {
+    vec3 colour = vec3(0.0);
+    vec4 aov = vec4(0.0);
+    // GL rows run from the bottom, camera rows from the top.
+    double row = double(u_size.y - 1 - px.y);
+    for (int k = 0; k < SAMPLES; k++) {
+        double ox = cam[CAM_OFFSETS + 2 * k];
+        double oy = cam[CAM_OFFSETS + 2 * k + 1];
+        vec3 d = primary_dir(double(px.x) + ox, row + oy);
+        n_count[C_PRIMARY] += 1u;
+        shade_tree(d, u_sample_weight, k == 0, colour, aov);
+    }
+    uint k = uint(u_size.y - 1 - px.y) * uint(u_size.x) + uint(px.x);
+    radiance[3u * k] = colour.r;
+    radiance[3u * k + 1u] = colour.g;
+    radiance[3u * k + 2u] = colour.b;
+    aov_out[k] = aov;
+}
+
+#ifdef PERSISTENT
+// Persistent work groups: each takes the next LOCAL_X x LOCAL_Y tile from a counter until
+// none is left, so groups whose tiles finish early take more instead of idling.
+layout(std430, binding = 5) buffer TileBuffer { uint next_tile; };
+shared uint g_tile;
+#endif
+
 void main() {
     for (int k = 0; k < COUNTERS; k++) n_count[k] = 0u;
     if (gl_LocalInvocationIndex == 0u) {
         for (int k = 0; k < COUNTERS; k++) g_count[k] = 0u;
     }
+#ifdef PERSISTENT
+    uint tiles_x = uint((u_size.x + LOCAL_X - 1) / LOCAL_X);
+    uint tiles = tiles_x * uint((u_size.y + LOCAL_Y - 1) / LOCAL_Y);
+    for (;;) {
+        if (gl_LocalInvocationIndex == 0u) g_tile = atomicAdd(next_tile, 1u);
+        barrier();
+        uint tile = g_tile;
+        barrier();
+        if (tile >= tiles) break;
+        ivec2 px = ivec2(tile % tiles_x, tile / tiles_x) * ivec2(LOCAL_X, LOCAL_Y)
+                 + ivec2(gl_LocalInvocationID.xy);
+        if (all(lessThan(px, u_size))) render_pixel(px);
+    }
+#else
     barrier();
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    if (all(lessThan(px, u_size))) {
-        vec3 colour = vec3(0.0);
-        vec4 aov = vec4(0.0);
-        // GL rows run from the bottom, camera rows from the top.
-        double row = double(u_size.y - 1 - px.y);
-        for (int k = 0; k < SAMPLES; k++) {
-            double ox = cam[CAM_OFFSETS + 2 * k];
-            double oy = cam[CAM_OFFSETS + 2 * k + 1];
-            vec3 d = primary_dir(double(px.x) + ox, row + oy);
-            n_count[C_PRIMARY] += 1u;
-            shade_tree(d, u_sample_weight, k == 0, colour, aov);
-        }
-        imageStore(u_radiance, px, vec4(colour, 1.0));
-        imageStore(u_aov, px, aov);
-    }
+    if (all(lessThan(px, u_size))) render_pixel(px);
+#endif
     for (int k = 0; k < COUNTERS; k++) {
         if (n_count[k] != 0u) atomicAdd(g_count[k], n_count[k]);
     }

@@ -90,6 +90,16 @@ impl Aov {
         }
     }
 
+    /// [`Aov::from_pixels`] taking the pixels by value (no copy of a large image).
+    pub fn from_vec(width: u32, height: u32, pixels: Vec<AovPixel>) -> Self {
+        assert_eq!(pixels.len(), (width * height) as usize);
+        Aov {
+            width,
+            height,
+            pixels,
+        }
+    }
+
     /// The pixel at (i, j).
     pub fn at(&self, i: u32, j: u32) -> &AovPixel {
         &self.pixels[(j * self.width + i) as usize]
@@ -114,6 +124,9 @@ pub struct GpuStats {
     pub gpu_ms: HashMap<String, f64>,
     /// Sum of `gpu_ms`.
     pub gpu_ms_total: f64,
+    /// Wall time of the compute kernel's phases (setup, dispatch, read_back, aov); empty
+    /// for the fragment kernels, whose time is per pass in `gpu_ms`.
+    pub phases_ms: HashMap<String, f64>,
     /// Shader compile and link time.
     pub compile_ms: f64,
     /// Scene texture upload time.

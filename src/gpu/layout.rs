@@ -46,7 +46,14 @@ pub enum Fetch {
     Texture2D,
     /// `texelFetch` at integer coordinates (GLSL 1.30+: the compute kernel).
     TexelFetch,
+    /// A shader storage buffer of texels, the k-th texture at binding
+    /// [`STORAGE_BINDING_BASE`] + k (GLSL 4.30: the compute kernel).
+    Storage,
 }
+
+/// Storage-buffer binding of the first scene texture under [`Fetch::Storage`] (the compute
+/// kernel's camera, light, counter, radiance, AOV and tile buffers take 0..6).
+pub const STORAGE_BINDING_BASE: u32 = 6;
 
 /// One packed RGBA32F texture.
 #[derive(Clone, Debug)]
@@ -91,10 +98,18 @@ impl PackedTexture {
         })
     }
 
-    /// GLSL: size constants and an exact fetch by linear index, through `fetch`.
-    pub fn glsl_with(&self, fetch: Fetch) -> String {
+    /// GLSL: size constants and an exact fetch by linear index, through `fetch` (`binding`:
+    /// the storage-buffer binding under [`Fetch::Storage`]).
+    pub fn glsl_with(&self, fetch: Fetch, binding: u32) -> String {
         match fetch {
             Fetch::Texture2D => self.glsl(),
+            Fetch::Storage => format!(
+                "layout(std430, binding = {binding}) readonly buffer Buf_{n} {{ vec4 buf_{n}[]; }};\n\
+                 vec4 fetch_{n}(float i) {{\n\
+                 \x20   return buf_{n}[int(i)];\n\
+                 }}\n",
+                n = self.name,
+            ),
             Fetch::TexelFetch => format!(
                 "uniform sampler2D u_{n};\n\
                  vec4 fetch_{n}(float i) {{\n\
@@ -408,8 +423,8 @@ impl SceneTextures {
         let mut s = format!(
             "#define TRI_TEXELS {TRI_TEXELS}.0\n#define MAT_TEXELS {MAT_TEXELS}.0\n#define LIST_PER_TEXEL {LIST_PER_TEXEL}.0\n"
         );
-        for t in self.all() {
-            s.push_str(&t.glsl_with(fetch));
+        for (k, t) in self.all().into_iter().enumerate() {
+            s.push_str(&t.glsl_with(fetch, STORAGE_BINDING_BASE + k as u32));
         }
         if let Some(i) = &self.irregular {
             s.push_str(&i.glsl());

@@ -6,7 +6,8 @@
 //! back to (file, line).
 
 use super::contract;
-use super::layout::{self, Fetch, SceneTextures};
+pub use super::layout::Fetch;
+use super::layout::{self, SceneTextures};
 use crate::scene::Scene;
 use crate::technique::Techniques;
 use crate::{Error, Result};
@@ -536,6 +537,13 @@ pub struct ComputeSpec {
     pub secondary: bool,
     /// Traversal iterations after which a ray is cut off and counted as unfinished.
     pub max_iterations: u32,
+    /// Work-group size.
+    pub local: (u32, u32),
+    /// How the scene is read: texelFetch or storage buffers.
+    pub fetch: Fetch,
+    /// Persistent work groups (this many, pulling tiles from a counter) instead of one
+    /// group per tile.
+    pub persistent: Option<u32>,
 }
 
 impl ComputePass {
@@ -559,8 +567,8 @@ impl ComputePass {
     fn defines(self, spec: &ComputeSpec) -> Vec<String> {
         let mut d = vec![
             "KERNEL_COMPUTE".to_string(),
-            format!("LOCAL_X {}", LOCAL_SIZE.0),
-            format!("LOCAL_Y {}", LOCAL_SIZE.1),
+            format!("LOCAL_X {}", spec.local.0),
+            format!("LOCAL_Y {}", spec.local.1),
             format!("MAX_ITERATIONS {}", spec.max_iterations),
         ];
         match self {
@@ -571,6 +579,9 @@ impl ComputePass {
                 d.push(format!("STACK_SIZE {}", spec.max_depth + 1));
                 if spec.secondary && spec.max_depth > 0 {
                     d.push("HAS_SECONDARY".into());
+                }
+                if spec.persistent.is_some() {
+                    d.push("PERSISTENT".into());
                 }
             }
             ComputePass::Wave(Query::Any) => d.push("ANY_HIT".into()),
@@ -592,7 +603,7 @@ pub fn assemble_compute(
 ) -> Result<Assembled> {
     let target = Target {
         version: "#version 430",
-        fetch: Fetch::TexelFetch,
+        fetch: spec.fetch,
         extra: contract::compute::compute_glsl(),
     };
     let defines = pass.defines(spec);

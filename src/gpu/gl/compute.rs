@@ -104,6 +104,47 @@ impl StorageBuffer {
         Self::new(ctx, &vec![0u8; n * 4])
     }
 
+    /// A buffer of `bytes` bytes whose contents the GPU writes first (nothing uploaded).
+    pub fn uninit(ctx: &GlContext, bytes: usize) -> Result<Self> {
+        let gl = ctx.gl();
+        let bytes = bytes.max(16);
+        let size = i32::try_from(bytes).map_err(|_| {
+            Error::Limit(format!(
+                "a storage buffer of {bytes} bytes exceeds GL's 2 GiB size argument"
+            ))
+        })?;
+        // SAFETY: the context is current.
+        unsafe {
+            let obj = Owned::new(
+                ctx,
+                gl.create_buffer()
+                    .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
+            );
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, Some(obj.name()));
+            gl.buffer_data_size(glow::SHADER_STORAGE_BUFFER, size, glow::DYNAMIC_COPY);
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, None);
+            check_gl_error(gl, "allocating a storage buffer")?;
+            Ok(StorageBuffer { obj, bytes })
+        }
+    }
+
+    /// Reads the first `out.len()` floats of the buffer into `out` (after the writes it
+    /// waits for).
+    pub fn read_f32_into(&self, gl: &glow::Context, out: &mut [f32]) -> Result<()> {
+        assert!(out.len() * 4 <= self.bytes, "read past the buffer");
+        // SAFETY: the context is current; `out` is within the buffer's size; f32 accepts
+        // any bit pattern.
+        unsafe {
+            let bytes =
+                std::slice::from_raw_parts_mut(out.as_mut_ptr().cast::<u8>(), out.len() * 4);
+            gl.memory_barrier(glow::BUFFER_UPDATE_BARRIER_BIT);
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, Some(self.obj.name()));
+            gl.get_buffer_sub_data(glow::SHADER_STORAGE_BUFFER, 0, bytes);
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, None);
+        }
+        check_gl_error(gl, "reading a storage buffer")
+    }
+
     /// Binds the buffer to storage-block binding `index`.
     pub fn bind(&self, gl: &glow::Context, index: u32) {
         // SAFETY: the context is current and the buffer is alive.

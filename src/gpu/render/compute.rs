@@ -15,16 +15,18 @@ use rayon::prelude::*;
 
 use super::frame::{bind_texture, max_iterations};
 use super::passes::set_scene_uniforms;
-use super::readback::{aov_pixel, flip_rgba_to_rgb};
+use super::readback::aov_pixel;
 use super::{Flow, GpuOutput, ImageRequest, Observer, Snapshot, Work};
 use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::compute::{camera_buffer, Counter, COUNTERS};
 use crate::gpu::contract::Unit;
 use crate::gpu::gl::{bind_image, compile_compute, Program, StorageBuffer, Texture, TimerQuery};
-use crate::gpu::layout::SceneTextures;
+use crate::gpu::layout::{SceneTextures, STORAGE_BINDING_BASE};
 use crate::gpu::options::{GpuOptions, Storage};
-use crate::gpu::shader::{assemble_compute, ComputePass, ComputeSpec, Features, LOCAL_SIZE};
+use crate::gpu::shader::{
+    assemble_compute, ComputePass, ComputeSpec, Features, Fetch, LOCAL_SIZE,
+};
 use crate::image_io::Image;
 use crate::output::{Aov, AovPixel, GpuStats, RayCounts};
 use crate::scene::{camera, Scene};
@@ -33,8 +35,14 @@ use crate::{Error, Result};
 /// The scene uploaded and one compute program built for it.
 struct Setup {
     program: Program,
-    /// Scene textures, bound to their units for the dispatch.
+    /// Scene textures, bound to their units for the dispatch (texelFetch).
     scene_tex: Vec<(Unit, Texture)>,
+    /// The same texels as storage buffers, at their bindings (`Fetch::Storage`).
+    scene_buf: Vec<(u32, StorageBuffer)>,
+    /// Work-group size.
+    local: (u32, u32),
+    /// Persistent work groups, if any.
+    persistent: Option<u32>,
     stats: GpuStats,
 }
 
@@ -71,16 +79,22 @@ impl Setup {
         let t_up = Instant::now();
         let max_size = info.max_texture_size.max(0) as u32;
         let layout = SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?;
-        let scene_tex = layout
-            .with_units()
-            .into_iter()
-            .map(|(unit, t)| {
-                Ok((
+        let (mut scene_tex, mut scene_buf) = (Vec::new(), Vec::new());
+        for (k, (unit, t)) in layout.with_units().into_iter().enumerate() {
+            match spec.fetch {
+                Fetch::Storage => {
+                    let bytes: Vec<u8> = t.data.iter().flat_map(|v| v.to_ne_bytes()).collect();
+                    scene_buf.push((
+                        STORAGE_BINDING_BASE + k as u32,
+                        StorageBuffer::new(ctx, &bytes)?,
+                    ));
+                }
+                Fetch::TexelFetch | Fetch::Texture2D => scene_tex.push((
                     unit,
                     Texture::new_f32(ctx, t.width, t.height, Some(&t.data))?,
-                ))
-            })
-            .collect::<Result<Vec<_>>>()?;
+                )),
+            }
+        }
         // SAFETY: the context is current.
         unsafe { ctx.gl().finish() };
         stats.upload_ms = t_up.elapsed().as_secs_f64() * 1e3;
@@ -94,6 +108,9 @@ impl Setup {
         Ok(Setup {
             program,
             scene_tex,
+            scene_buf,
+            local: spec.local,
+            persistent: spec.persistent,
             stats,
         })
     }
@@ -132,6 +149,9 @@ impl Setup {
         for (unit, tex) in &self.scene_tex {
             bind_texture(gl, *unit, tex);
         }
+        for (binding, buf) in &self.scene_buf {
+            buf.bind(gl, *binding);
+        }
         let timer = (timers && ctx.info.timer_query)
             .then(|| TimerQuery::new(ctx))
             .transpose()?;
@@ -142,11 +162,14 @@ impl Setup {
         // program reads are bound.
         unsafe {
             gl.use_program(Some(self.program.name()));
-            gl.dispatch_compute(
-                width.div_ceil(LOCAL_SIZE.0),
-                height.div_ceil(LOCAL_SIZE.1),
-                1,
-            );
+            match self.persistent {
+                Some(groups) => gl.dispatch_compute(groups, 1, 1),
+                None => gl.dispatch_compute(
+                    width.div_ceil(self.local.0),
+                    height.div_ceil(self.local.1),
+                    1,
+                ),
+            }
             gl.memory_barrier(glow::ALL_BARRIER_BITS);
         }
         if let Some(t) = timer {
@@ -160,6 +183,28 @@ impl Setup {
         self.stats.passes_total += 1;
         Ok(())
     }
+}
+
+/// Work-group size and fetch method: the defaults, or `FRAGTRACE_COMPUTE_TUNING=WxH,fetch`
+/// (fetch: texel or ssbo) while they are being measured.
+fn tuning() -> ((u32, u32), Fetch, Option<u32>) {
+    let mut t = (LOCAL_SIZE, Fetch::TexelFetch, None);
+    if let Ok(v) = std::env::var("FRAGTRACE_COMPUTE_TUNING") {
+        for part in v.split(',') {
+            if let Some((w, h)) = part.split_once('x') {
+                if let (Ok(w), Ok(h)) = (w.parse(), h.parse()) {
+                    t.0 = (w, h);
+                }
+            }
+            if part == "ssbo" {
+                t.1 = Fetch::Storage;
+            }
+            if let Some(Ok(n)) = part.strip_prefix("p=").map(str::parse) {
+                t.2 = Some(n);
+            }
+        }
+    }
+    t
 }
 
 /// Sums the per-work-group counter records.
@@ -191,6 +236,9 @@ pub(super) fn render_compute(
         max_depth: req.max_depth,
         secondary,
         max_iterations: max_iterations(accel).min(i32::MAX as u64) as u32,
+        local: tuning().0,
+        fetch: tuning().1,
+        persistent: tuning().2,
     };
     let opts = GpuOptions {
         techniques: req.techniques,
@@ -214,20 +262,28 @@ pub(super) fn render_compute(
         })
         .flat_map(f32::to_ne_bytes)
         .collect();
-    let groups = width.div_ceil(LOCAL_SIZE.0) as usize * height.div_ceil(LOCAL_SIZE.1) as usize;
+    let groups = match spec.persistent {
+        Some(n) => n as usize,
+        None => width.div_ceil(spec.local.0) as usize * height.div_ceil(spec.local.1) as usize,
+    };
+    let tile_buf = StorageBuffer::zeroed_u32(ctx, 1)?;
+    tile_buf.bind(gl, 5);
     let cam_buf = StorageBuffer::new(ctx, &cam_bytes)?;
     let light_buf = StorageBuffer::new(ctx, &lights)?;
     let counter_buf = StorageBuffer::zeroed_u32(ctx, groups * COUNTERS)?;
     cam_buf.bind(gl, 0);
     light_buf.bind(gl, 1);
     counter_buf.bind(gl, 2);
-    let radiance = Texture::new_f32(ctx, width, height, None)?;
-    let aov_tex = Texture::new_f32(ctx, width, height, None)?;
-    bind_image(gl, 0, &radiance);
-    bind_image(gl, 1, &aov_tex);
+    let pixels = width as usize * height as usize;
+    let radiance_buf = StorageBuffer::uninit(ctx, pixels * 3 * 4)?;
+    let aov_buf = StorageBuffer::uninit(ctx, pixels * 4 * 4)?;
+    radiance_buf.bind(gl, 3);
+    aov_buf.bind(gl, 4);
+    setup.stats.phases_ms.insert("setup".into(), ms_since(t_trace));
+    let t = Instant::now();
     setup.dispatch(ctx, width, height, opts.timers)?;
-
     let total = sum_counters(&counter_buf.read_u32(gl)?);
+    setup.stats.phases_ms.insert("dispatch".into(), ms_since(t));
     if total[Counter::Unfinished.slot()] > 0 {
         return Err(Error::Internal(format!(
             "traversal did not terminate for {} rays within {} iterations",
@@ -235,7 +291,27 @@ pub(super) fn render_compute(
             spec.max_iterations
         )));
     }
+    let t = Instant::now();
+    let mut rgb = vec![0f32; pixels * 3];
+    radiance_buf.read_f32_into(gl, &mut rgb)?;
+    let mut aov_data = vec![0f32; pixels * 4];
+    aov_buf.read_f32_into(gl, &mut aov_data)?;
+    setup.stats.phases_ms.insert("read_back".into(), ms_since(t));
+    let t = Instant::now();
+    let image = Image::from_rgb(width, height, rgb);
+    let aov = aov_from_texels(scene, &aov_data, width, height);
+    setup.stats.phases_ms.insert("aov".into(), ms_since(t));
     if let Some(observer) = observer {
+        // The observer draws from a texture (GL rows from the bottom, RGBA).
+        let mut rgba = vec![0f32; pixels * 4];
+        for (j, row) in image.data.chunks(width as usize * 3).enumerate() {
+            let gl_row = height as usize - 1 - j;
+            for (i, px) in row.chunks(3).enumerate() {
+                let at = (gl_row * width as usize + i) * 4;
+                rgba[at..at + 3].copy_from_slice(px);
+            }
+        }
+        let radiance = Texture::new_f32(ctx, width, height, Some(&rgba))?;
         let snap = Snapshot {
             radiance: &radiance,
             state: &[],
@@ -247,10 +323,6 @@ pub(super) fn render_compute(
             return Err(Error::Cancelled);
         }
     }
-    let data = radiance.read(gl)?;
-    let aov_data = aov_tex.read(gl)?;
-    let image = Image::from_rgb(width, height, flip_rgba_to_rgb(&data, width, height));
-    let aov = aov_from_texels(scene, &aov_data, width, height);
     setup.stats.trace_ms = t_trace.elapsed().as_secs_f64() * 1e3;
     let n = |c: Counter| total[c.slot()];
     Ok(GpuOutput {
@@ -270,22 +342,24 @@ pub(super) fn render_compute(
     })
 }
 
-/// The primary-ray AOVs from `render.comp`'s AOV image: per pixel (t_best, tri_best or
-/// TRI_NONE, steps, state), GL rows from the bottom.
+/// The primary-ray AOVs from `render.comp`'s AOV buffer: per pixel (t_best, tri_best or
+/// TRI_NONE, steps, state), in image order.
 fn aov_from_texels(scene: &Scene, data: &[f32], w: u32, h: u32) -> Aov {
     let mut pixels = vec![AovPixel::miss(0.0); (w * h) as usize];
     pixels
         .par_chunks_mut(w as usize)
-        .enumerate()
-        .for_each(|(j, out)| {
-            let row = (h as usize - 1 - j) * w as usize;
-            for (i, px) in out.iter_mut().enumerate() {
-                let t = &data[(row + i) * 4..(row + i) * 4 + 4];
+        .zip(data.par_chunks(w as usize * 4))
+        .for_each(|(out, row)| {
+            for (px, t) in out.iter_mut().zip(row.chunks_exact(4)) {
                 let hit = t[1] >= 0.0;
                 *px = aov_pixel(scene, hit.then_some((t[0], t[1])), t[2]);
             }
         });
-    Aov::from_pixels(w, h, &pixels)
+    Aov::from_vec(w, h, pixels)
+}
+
+fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
 }
 
 /// Traces a wave of rays held in the four state textures `state` (s0..s3, `w` x `h`, every
@@ -306,6 +380,9 @@ pub(super) fn trace_wave(
         max_depth: 0,
         secondary: false,
         max_iterations: max_iterations(accel).min(i32::MAX as u64) as u32,
+        local: LOCAL_SIZE,
+        fetch: Fetch::TexelFetch,
+        persistent: None,
     };
     let mut setup = Setup::new(ctx, scene, accel, ComputePass::Wave(query), &spec, opts)?;
     let gl = ctx.gl();

@@ -54,7 +54,7 @@ pub(super) fn read_aov(f: &Frame, scene: &Scene, w: u32, h: u32) -> Result<Aov> 
                 *px = aov_pixel(scene, best, s.get(k, ray::STEPS));
             }
         });
-    Ok(Aov::from_pixels(w, h, &pixels))
+    Ok(Aov::from_vec(w, h, pixels))
 }
 
 /// One primary ray's AOV pixel: its hit (t, triangle) if any and its traversal steps.
