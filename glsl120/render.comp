@@ -21,8 +21,9 @@
 #include "compute.glsl"
 
 layout(local_size_x = LOCAL_X, local_size_y = LOCAL_Y) in;
-// Both outputs in image order (rows from the top), so the host reads them straight into
-// its image: RGB per pixel, and (t_best, tri_best or TRI_NONE, steps, state) per pixel.
+// Both outputs in image order (rows from the top) for the band's rows, so the host reads
+// them straight into its image: RGB per pixel, and (t_best, tri_best or TRI_NONE, steps,
+// state) per pixel.
 layout(std430, binding = 3) writeonly buffer RadianceBuffer { float radiance[]; };
 layout(std430, binding = 4) writeonly buffer AovBuffer { vec4 aov_out[]; };
 // CAM_*: the camera frame (forward, right, up; tan(vfov/2), aspect, width, height), then
@@ -36,6 +37,9 @@ uniform vec3 u_ambient;
 uniform vec3 u_background;
 uniform float u_sample_weight;
 uniform ivec2 u_size;
+// The band of GL rows this dispatch renders: first row, row count (bands keep each output
+// buffer under GL_MAX_SHADER_STORAGE_BLOCK_SIZE).
+uniform ivec2 u_band;
 
 shared uint g_count[COUNTERS];
 
@@ -121,7 +125,8 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
     }
 }
 
-// Radiance and AOV of pixel px (GL rows from the bottom) into the output buffers.
+// Radiance and AOV of pixel px (GL rows from the bottom) into the output buffers, which
+// hold this band's rows in image order.
 void render_pixel(ivec2 px) {
     vec3 colour = vec3(0.0);
     vec4 aov = vec4(0.0);
@@ -134,43 +139,21 @@ void render_pixel(ivec2 px) {
         n_count[C_PRIMARY] += 1u;
         shade_tree(d, u_sample_weight, k == 0, colour, aov);
     }
-    uint k = uint(u_size.y - 1 - px.y) * uint(u_size.x) + uint(px.x);
+    uint k = uint(u_band.x + u_band.y - 1 - px.y) * uint(u_size.x) + uint(px.x);
     radiance[3u * k] = colour.r;
     radiance[3u * k + 1u] = colour.g;
     radiance[3u * k + 2u] = colour.b;
     aov_out[k] = aov;
 }
 
-#ifdef PERSISTENT
-// Persistent work groups: each takes the next LOCAL_X x LOCAL_Y tile from a counter until
-// none is left, so groups whose tiles finish early take more instead of idling.
-layout(std430, binding = 5) buffer TileBuffer { uint next_tile; };
-shared uint g_tile;
-#endif
-
 void main() {
     for (int k = 0; k < COUNTERS; k++) n_count[k] = 0u;
     if (gl_LocalInvocationIndex == 0u) {
         for (int k = 0; k < COUNTERS; k++) g_count[k] = 0u;
     }
-#ifdef PERSISTENT
-    uint tiles_x = uint((u_size.x + LOCAL_X - 1) / LOCAL_X);
-    uint tiles = tiles_x * uint((u_size.y + LOCAL_Y - 1) / LOCAL_Y);
-    for (;;) {
-        if (gl_LocalInvocationIndex == 0u) g_tile = atomicAdd(next_tile, 1u);
-        barrier();
-        uint tile = g_tile;
-        barrier();
-        if (tile >= tiles) break;
-        ivec2 px = ivec2(tile % tiles_x, tile / tiles_x) * ivec2(LOCAL_X, LOCAL_Y)
-                 + ivec2(gl_LocalInvocationID.xy);
-        if (all(lessThan(px, u_size))) render_pixel(px);
-    }
-#else
     barrier();
-    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    if (all(lessThan(px, u_size))) render_pixel(px);
-#endif
+    ivec2 px = ivec2(gl_GlobalInvocationID.xy) + ivec2(0, u_band.x);
+    if (px.x < u_size.x && px.y < u_band.x + u_band.y) render_pixel(px);
     for (int k = 0; k < COUNTERS; k++) {
         if (n_count[k] != 0u) atomicAdd(g_count[k], n_count[k]);
     }

@@ -19,7 +19,9 @@ void traverse_setup(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     // The cell holding the virtual cell of the entry point.
     float id = irr_lookup(c);
     vec4 cell = vec4(irr_lo(id).w, irr_hi(id).w, 0.0, 0.0);
-    c = vec3(id, span.x, 0.0);
+    // (cell id, previous exit t, where the ray leaves the grid's box): the box exit is
+    // kept so that steps need not clip the ray against the box again.
+    c = vec3(id, span.x, span.y);
 #else
     vec4 cell = fetch_cell(cell_linear(c));
 #endif
@@ -39,7 +41,7 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     vec3 lo = irr_lo(id).xyz;
     vec3 hi = irr_hi(id).xyz;
     vec2 ex = irr_exit(o, d, lo, hi, s2.S2_CELL.y);
-    float t_leave = clip_grid(o, d, 0.0, s1.S1_T_MAX).y;
+    float t_leave = s2.S2_CELL.z; // clip_grid(o, d, 0.0, t_max).y, from traverse_setup
     float next = ex.x >= t_leave ? -1.0 : irr_next(o, d, ex, lo, hi);
     if (next < 0.0) {
         s0.S0_STATE = ST_DONE;
@@ -47,7 +49,7 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     }
     vec4 nlo = irr_lo(next);
     vec4 nhi = irr_hi(next);
-    s2 = S2_TEXEL(vec3(next, ex.x, 0.0), nlo.w);
+    s2 = S2_TEXEL(vec3(next, ex.x, t_leave), nlo.w);
     s3.S3_CURSOR_END = nlo.w + nhi.w;
     s3.S3_STEPS += 1.0;
     s0.S0_STATE = nhi.w > 0.0 ? ST_TESTING : ST_TRAVERSING;

@@ -2,7 +2,7 @@
 // Reads: s0..s3, grid uniforms, the cell table (fetch_cell) and, with ACCEL_IRREGULAR, the
 //        voxel map (irr_lookup).
 // Writes: s0 state -> INVALID (misses the grid), TESTING (start cell has triangles) or
-//         TRAVERSING; s2 = (start cell, or (cell id, t_enter, 0) with ACCEL_IRREGULAR, first
+//         TRAVERSING; s2 = (start cell, or (cell id, t_enter, t_leave) with ACCEL_IRREGULAR, first
 //         list index); s3 = (t_max, TRI_NONE, list end, steps + 1). Rays in other states are
 //         copied through unchanged. The set-up itself is step.glsl's traverse_setup.
 #include "intersect.glsl"

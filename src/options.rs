@@ -187,8 +187,8 @@ pub struct RenderArgs {
     pub no_specialize: bool,
     /// GPU: keep finished rays out of traversal passes with the depth test (early-z) or the
     /// stencil test, refreshed at each termination query; none relies on the in-shader
-    /// early-out alone.
-    #[arg(long, default_value = "none")]
+    /// early-out alone; auto is early-z for the multipass kernel and none for the others.
+    #[arg(long, default_value = "auto")]
     pub mask: crate::gpu::options::Mask,
     /// GPU: ray textures in 32- or 16-bit floats (f16: ray directions and the colour sum;
     /// origins and every index stay in 32-bit textures).

@@ -172,8 +172,8 @@ pub mod ray {
     pub const DIR: Field = Field::new(1, 0, 3, "dir");
     /// s1.w: upper end of the ray's interval.
     pub const T_MAX: Field = Field::new(1, 3, 1, "t_max");
-    /// s2.xyz: current grid cell (uniform grid), or (cell id, previous exit t, 0)
-    /// (irregular grid).
+    /// s2.xyz: current grid cell (uniform grid), or (cell id, previous exit t, t where the
+    /// ray leaves the grid's box) (irregular grid).
     pub const CELL: Field = Field::new(2, 0, 3, "cell");
     /// s2.w: next index into the triangle list.
     pub const CURSOR: Field = Field::new(2, 3, 1, "cursor");

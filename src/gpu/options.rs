@@ -40,7 +40,7 @@ impl Default for GpuOptions {
             timers: true,
             no_specialize: false,
             kernel: Kernel::Auto,
-            mask: Mask::None,
+            mask: Mask::Auto,
             storage: Storage::F32,
             techniques: Techniques::default(),
         }
@@ -138,8 +138,11 @@ impl std::fmt::Display for Kernel {
 /// count pass writes the mask as a side effect (only active rays survive its `discard`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum Mask {
-    /// Run every pass on every pixel and rely on the in-shader early-out.
+    /// early-z for the multipass kernel (it cut the multipass render time 3x on llvmpipe
+    /// and 7x on the H200: docs/performance.md), none for the others
     #[default]
+    Auto,
+    /// Run every pass on every pixel and rely on the in-shader early-out.
     None,
     /// Active rays get depth 0, the rest 1; passes are drawn at depth 0.5 with
     /// `GL_GREATER`, so the early depth test culls finished rays before shading.
@@ -148,9 +151,21 @@ pub enum Mask {
     Stencil,
 }
 
+impl Mask {
+    /// The mask a render with `kernel` uses: `Auto` resolved, the others as given.
+    pub fn resolve(self, kernel: Kernel) -> Mask {
+        match (self, kernel) {
+            (Mask::Auto, Kernel::Multipass) => Mask::EarlyZ,
+            (Mask::Auto, _) => Mask::None,
+            (m, _) => m,
+        }
+    }
+}
+
 impl std::fmt::Display for Mask {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
+            Mask::Auto => "auto",
             Mask::None => "none",
             Mask::EarlyZ => "early-z",
             Mask::Stencil => "stencil",
@@ -218,6 +233,7 @@ mod tests {
     #[test]
     fn option_spellings() {
         for (s, m) in [
+            ("auto", Mask::Auto),
             ("none", Mask::None),
             ("early-z", Mask::EarlyZ),
             ("stencil", Mask::Stencil),

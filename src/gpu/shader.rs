@@ -520,9 +520,10 @@ pub enum ComputePass {
     Wave(Query),
 }
 
-/// Work-group size of the compute programs (8 x 8 invocations: two warps on NVIDIA, and
-/// square tiles keep neighbouring rays, which walk the same cells, together).
-pub const LOCAL_SIZE: (u32, u32) = (8, 8);
+/// Work-group size of the compute programs: 8 x 4 invocations, one NVIDIA warp over a
+/// compact tile (neighbouring rays walk the same cells). Measured on the H200 against 8x8,
+/// 16x8, 16x16 and 32x4 (docs/performance.md).
+pub const LOCAL_SIZE: (u32, u32) = (8, 4);
 
 /// What a compute program is specialised for besides the scene's features.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -541,9 +542,6 @@ pub struct ComputeSpec {
     pub local: (u32, u32),
     /// How the scene is read: texelFetch or storage buffers.
     pub fetch: Fetch,
-    /// Persistent work groups (this many, pulling tiles from a counter) instead of one
-    /// group per tile.
-    pub persistent: Option<u32>,
 }
 
 impl ComputePass {
@@ -579,9 +577,6 @@ impl ComputePass {
                 d.push(format!("STACK_SIZE {}", spec.max_depth + 1));
                 if spec.secondary && spec.max_depth > 0 {
                     d.push("HAS_SECONDARY".into());
-                }
-                if spec.persistent.is_some() {
-                    d.push("PERSISTENT".into());
                 }
             }
             ComputePass::Wave(Query::Any) => d.push("ANY_HIT".into()),

@@ -24,9 +24,7 @@ use crate::gpu::contract::Unit;
 use crate::gpu::gl::{bind_image, compile_compute, Program, StorageBuffer, Texture, TimerQuery};
 use crate::gpu::layout::{SceneTextures, STORAGE_BINDING_BASE};
 use crate::gpu::options::{GpuOptions, Storage};
-use crate::gpu::shader::{
-    assemble_compute, ComputePass, ComputeSpec, Features, Fetch, LOCAL_SIZE,
-};
+use crate::gpu::shader::{assemble_compute, ComputePass, ComputeSpec, Features, Fetch, LOCAL_SIZE};
 use crate::image_io::Image;
 use crate::output::{Aov, AovPixel, GpuStats, RayCounts};
 use crate::scene::{camera, Scene};
@@ -41,8 +39,9 @@ struct Setup {
     scene_buf: Vec<(u32, StorageBuffer)>,
     /// Work-group size.
     local: (u32, u32),
-    /// Persistent work groups, if any.
-    persistent: Option<u32>,
+    /// How the program reads the scene.
+    fetch: Fetch,
+
     stats: GpuStats,
 }
 
@@ -79,6 +78,18 @@ impl Setup {
         let t_up = Instant::now();
         let max_size = info.max_texture_size.max(0) as u32;
         let layout = SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?;
+        // Storage buffers where the context has blocks for every scene texture beside the
+        // kernel's own (measured faster on the H200), else texelFetch.
+        let fetch = match spec.fetch {
+            Fetch::Storage
+                if Limits::query(ctx.gl()).blocks
+                    < layout.all().len() as u32 + STORAGE_BINDING_BASE =>
+            {
+                Fetch::TexelFetch
+            }
+            f => f,
+        };
+        let spec = &ComputeSpec { fetch, ..*spec };
         let (mut scene_tex, mut scene_buf) = (Vec::new(), Vec::new());
         for (k, (unit, t)) in layout.with_units().into_iter().enumerate() {
             match spec.fetch {
@@ -110,7 +121,7 @@ impl Setup {
             scene_tex,
             scene_buf,
             local: spec.local,
-            persistent: spec.persistent,
+            fetch,
             stats,
         })
     }
@@ -162,14 +173,11 @@ impl Setup {
         // program reads are bound.
         unsafe {
             gl.use_program(Some(self.program.name()));
-            match self.persistent {
-                Some(groups) => gl.dispatch_compute(groups, 1, 1),
-                None => gl.dispatch_compute(
-                    width.div_ceil(self.local.0),
-                    height.div_ceil(self.local.1),
-                    1,
-                ),
-            }
+            gl.dispatch_compute(
+                width.div_ceil(self.local.0),
+                height.div_ceil(self.local.1),
+                1,
+            );
             gl.memory_barrier(glow::ALL_BARRIER_BITS);
         }
         if let Some(t) = timer {
@@ -185,10 +193,11 @@ impl Setup {
     }
 }
 
-/// Work-group size and fetch method: the defaults, or `FRAGTRACE_COMPUTE_TUNING=WxH,fetch`
-/// (fetch: texel or ssbo) while they are being measured.
-fn tuning() -> ((u32, u32), Fetch, Option<u32>) {
-    let mut t = (LOCAL_SIZE, Fetch::TexelFetch, None);
+/// Work-group size, fetch method and read-back path: the defaults, or
+/// `FRAGTRACE_COMPUTE_TUNING=WxH,fetch,get` (fetch: texel or ssbo; get: glGetBufferSubData
+/// instead of the staged copy) while they are being measured.
+fn tuning() -> ((u32, u32), Option<Fetch>, bool) {
+    let mut t = (LOCAL_SIZE, None, true);
     if let Ok(v) = std::env::var("FRAGTRACE_COMPUTE_TUNING") {
         for part in v.split(',') {
             if let Some((w, h)) = part.split_once('x') {
@@ -196,11 +205,11 @@ fn tuning() -> ((u32, u32), Fetch, Option<u32>) {
                     t.0 = (w, h);
                 }
             }
-            if part == "ssbo" {
-                t.1 = Fetch::Storage;
-            }
-            if let Some(Ok(n)) = part.strip_prefix("p=").map(str::parse) {
-                t.2 = Some(n);
+            match part {
+                "ssbo" => t.1 = Some(Fetch::Storage),
+                "texel" => t.1 = Some(Fetch::TexelFetch),
+                "get" => t.2 = false,
+                _ => {}
             }
         }
     }
@@ -228,6 +237,8 @@ pub(super) fn render_compute(
 ) -> Result<GpuOutput> {
     let (width, height) = (req.width, req.height);
     ctx.info.check_image_size(width, height)?;
+    let gl = ctx.gl();
+    let limits = Limits::query(gl);
     let offsets = camera::sample_offsets(req.spp);
     let secondary = scene.materials.iter().any(|m| m.reflects() || m.refracts());
     let spec = ComputeSpec {
@@ -237,16 +248,19 @@ pub(super) fn render_compute(
         secondary,
         max_iterations: max_iterations(accel).min(i32::MAX as u64) as u32,
         local: tuning().0,
-        fetch: tuning().1,
-        persistent: tuning().2,
+        // Decided by Setup::new from the limits, once it knows the scene's textures.
+        fetch: tuning().1.unwrap_or(Fetch::Storage),
     };
     let opts = GpuOptions {
         techniques: req.techniques,
         ..req.gpu
     };
     let mut setup = Setup::new(ctx, scene, accel, ComputePass::Render, &spec, &opts)?;
+    let spec = ComputeSpec {
+        fetch: setup.fetch,
+        ..spec
+    };
     let t_trace = Instant::now();
-    let gl = ctx.gl();
     setup.set_vec3(gl, "u_eye", scene.camera.eye.to_array());
     setup.set_float(gl, "u_sample_weight", 1.0 / offsets.len() as f32);
     setup.set_ivec2(gl, "u_size", (width, height));
@@ -262,28 +276,61 @@ pub(super) fn render_compute(
         })
         .flat_map(f32::to_ne_bytes)
         .collect();
-    let groups = match spec.persistent {
-        Some(n) => n as usize,
-        None => width.div_ceil(spec.local.0) as usize * height.div_ceil(spec.local.1) as usize,
-    };
-    let tile_buf = StorageBuffer::zeroed_u32(ctx, 1)?;
-    tile_buf.bind(gl, 5);
     let cam_buf = StorageBuffer::new(ctx, &cam_bytes)?;
     let light_buf = StorageBuffer::new(ctx, &lights)?;
-    let counter_buf = StorageBuffer::zeroed_u32(ctx, groups * COUNTERS)?;
     cam_buf.bind(gl, 0);
     light_buf.bind(gl, 1);
+
+    // Bands of rows whose outputs fit one storage block (the AOV's 16 bytes per pixel are
+    // the larger), aligned so every band starts a whole number of rows in.
+    let rows = limits.band_rows(width, height)?;
+    let band_groups = width.div_ceil(spec.local.0) as usize * rows.div_ceil(spec.local.1) as usize;
+    let counter_buf = StorageBuffer::zeroed_u32(ctx, band_groups * COUNTERS)?;
     counter_buf.bind(gl, 2);
-    let pixels = width as usize * height as usize;
-    let radiance_buf = StorageBuffer::uninit(ctx, pixels * 3 * 4)?;
-    let aov_buf = StorageBuffer::uninit(ctx, pixels * 4 * 4)?;
+    let band_px = width as usize * rows as usize;
+    let radiance_buf = StorageBuffer::uninit(ctx, band_px * 3 * 4)?;
+    let aov_buf = StorageBuffer::uninit(ctx, band_px * 4 * 4)?;
     radiance_buf.bind(gl, 3);
     aov_buf.bind(gl, 4);
-    setup.stats.phases_ms.insert("setup".into(), ms_since(t_trace));
-    let t = Instant::now();
-    setup.dispatch(ctx, width, height, opts.timers)?;
-    let total = sum_counters(&counter_buf.read_u32(gl)?);
-    setup.stats.phases_ms.insert("dispatch".into(), ms_since(t));
+    let pixels = width as usize * height as usize;
+    let mut rgb = vec![0f32; pixels * 3];
+    let mut aov_data = vec![0f32; pixels * 4];
+    setup
+        .stats
+        .phases_ms
+        .insert("setup".into(), ms_since(t_trace));
+    let mut total = [0u64; COUNTERS];
+    let staged = tuning().2;
+    // Bands from the top of the image, so each band's rows follow the last in the outputs.
+    for top in (0..height).step_by(rows as usize) {
+        let n = rows.min(height - top);
+        let gl_row0 = height - top - n;
+        setup.set_ivec2(gl, "u_band", (gl_row0, n));
+        let t = Instant::now();
+        setup.dispatch(ctx, width, n, opts.timers)?;
+        // Only this band's groups: a shorter last band leaves the records beyond stale.
+        let groups = width.div_ceil(spec.local.0) as usize * n.div_ceil(spec.local.1) as usize;
+        let records = counter_buf.read_u32(gl)?;
+        for (t, c) in total
+            .iter_mut()
+            .zip(sum_counters(&records[..groups * COUNTERS]))
+        {
+            *t += c;
+        }
+        *setup.stats.phases_ms.entry("dispatch".into()).or_default() += ms_since(t);
+        let t = Instant::now();
+        let (at, len) = (top as usize * width as usize, n as usize * width as usize);
+        let rgb_band = &mut rgb[at * 3..(at + len) * 3];
+        let aov_band = &mut aov_data[at * 4..(at + len) * 4];
+        if staged {
+            radiance_buf.read_f32_staged(ctx, 0, rgb_band)?;
+            aov_buf.read_f32_staged(ctx, 0, aov_band)?;
+        } else {
+            radiance_buf.read_f32_into(gl, rgb_band)?;
+            aov_buf.read_f32_into(gl, aov_band)?;
+        }
+        *setup.stats.phases_ms.entry("read_back".into()).or_default() += ms_since(t);
+    }
     if total[Counter::Unfinished.slot()] > 0 {
         return Err(Error::Internal(format!(
             "traversal did not terminate for {} rays within {} iterations",
@@ -291,12 +338,6 @@ pub(super) fn render_compute(
             spec.max_iterations
         )));
     }
-    let t = Instant::now();
-    let mut rgb = vec![0f32; pixels * 3];
-    radiance_buf.read_f32_into(gl, &mut rgb)?;
-    let mut aov_data = vec![0f32; pixels * 4];
-    aov_buf.read_f32_into(gl, &mut aov_data)?;
-    setup.stats.phases_ms.insert("read_back".into(), ms_since(t));
     let t = Instant::now();
     let image = Image::from_rgb(width, height, rgb);
     let aov = aov_from_texels(scene, &aov_data, width, height);
@@ -342,6 +383,58 @@ pub(super) fn render_compute(
     })
 }
 
+/// The context's storage-buffer limits that shape a compute render.
+struct Limits {
+    /// GL_MAX_COMPUTE_SHADER_STORAGE_BLOCKS.
+    blocks: u32,
+    /// GL_MAX_SHADER_STORAGE_BLOCK_SIZE (capped at what GL's 32-bit sizes express).
+    block_bytes: u64,
+}
+
+impl Limits {
+    fn query(gl: &glow::Context) -> Self {
+        #[cfg(test)]
+        if let Some(block_bytes) = tests::BLOCK_BYTES.get() {
+            return Limits {
+                blocks: 0,
+                block_bytes,
+            };
+        }
+        // SAFETY: the context is current; plain state queries.
+        unsafe {
+            Limits {
+                blocks: gl
+                    .get_parameter_i32(glow::MAX_COMPUTE_SHADER_STORAGE_BLOCKS)
+                    .max(0) as u32,
+                block_bytes: (gl
+                    .get_parameter_i64(glow::MAX_SHADER_STORAGE_BLOCK_SIZE)
+                    .max(0) as u64)
+                    .min(i32::MAX as u64),
+            }
+        }
+    }
+
+    /// Rows per band: as many as keep the AOV output (16 bytes per pixel) within one
+    /// storage block, a multiple of 256 rows (so every band's byte offsets keep any
+    /// alignment GL asks of a range) unless the whole image fits.
+    fn band_rows(&self, width: u32, height: u32) -> Result<u32> {
+        let per_row = width as u64 * 16;
+        let fit = self.block_bytes / per_row;
+        if fit >= height as u64 {
+            return Ok(height);
+        }
+        let rows = fit / 256 * 256;
+        if rows == 0 {
+            return Err(Error::Limit(format!(
+                "a {width}-pixel row needs 256 x {per_row} bytes of output per band; \
+                 GL_MAX_SHADER_STORAGE_BLOCK_SIZE is {}",
+                self.block_bytes
+            )));
+        }
+        Ok(rows as u32)
+    }
+}
+
 /// The primary-ray AOVs from `render.comp`'s AOV buffer: per pixel (t_best, tri_best or
 /// TRI_NONE, steps, state), in image order.
 fn aov_from_texels(scene: &Scene, data: &[f32], w: u32, h: u32) -> Aov {
@@ -382,7 +475,6 @@ pub(super) fn trace_wave(
         max_iterations: max_iterations(accel).min(i32::MAX as u64) as u32,
         local: LOCAL_SIZE,
         fetch: Fetch::TexelFetch,
-        persistent: None,
     };
     let mut setup = Setup::new(ctx, scene, accel, ComputePass::Wave(query), &spec, opts)?;
     let gl = ctx.gl();
@@ -391,4 +483,75 @@ pub(super) fn trace_wave(
         bind_image(gl, k as u32, tex);
     }
     setup.dispatch(ctx, w, h, false)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
+    use crate::gpu::context::with_test_context;
+    use crate::gpu::options::Kernel;
+    use crate::scene::builtin_scene;
+
+    thread_local! {
+        /// Test hook: a storage-block size (and no storage blocks for the scene) in place
+        /// of the context's, to force bands and texelFetch.
+        pub(super) static BLOCK_BYTES: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
+    }
+
+    #[test]
+    fn band_rows_fit_the_block_and_keep_alignment() {
+        let l = |block_bytes| Limits {
+            blocks: 16,
+            block_bytes,
+        };
+        assert_eq!(l(1 << 30).band_rows(640, 480).unwrap(), 480);
+        // 600 rows of 300 pixels at 16 bytes: 256 rows fit in 1.5 MB, 2 x 256 do not.
+        assert_eq!(l(300 * 16 * 300).band_rows(300, 600).unwrap(), 256);
+        assert!(l(300 * 16 * 255).band_rows(300, 600).is_err());
+    }
+
+    /// Rendering in bands (with texelFetch, as a context with few storage blocks would)
+    /// gives the same bits as one dispatch with storage buffers.
+    #[test]
+    fn bands_and_fetch_paths_render_the_same_bits() {
+        with_test_context(|ctx| {
+            if !ctx.info.compute {
+                eprintln!("SKIPPED: no GL 4.3 compute in this context");
+                return;
+            }
+            let scene = builtin_scene();
+            let accel = Accel::build(
+                &scene,
+                AccelKind::Irregular,
+                &GridConfig::default(),
+                &IrregularConfig::default(),
+            )
+            .unwrap();
+            let req = ImageRequest {
+                width: 96,
+                height: 600,
+                spp: 1,
+                max_depth: scene.max_depth,
+                techniques: Default::default(),
+                progress: false,
+                gpu: GpuOptions {
+                    kernel: Kernel::Compute,
+                    ..GpuOptions::default()
+                },
+            };
+            let whole = render_compute(ctx, &scene, accel.as_ref(), &req, None).unwrap();
+            BLOCK_BYTES.set(Some(96 * 16 * 256));
+            let banded = render_compute(ctx, &scene, accel.as_ref(), &req, None);
+            BLOCK_BYTES.set(None);
+            let banded = banded.unwrap();
+            assert_eq!(banded.stats.passes_total, 3, "600 rows in bands of 256");
+            assert_eq!(whole.stats.passes_total, 1);
+            assert_eq!(whole.image.data, banded.image.data);
+            assert_eq!(whole.rays.total, banded.rays.total);
+            assert_eq!(whole.work, banded.work);
+            let ids = |o: &GpuOutput| o.aov.pixels.iter().map(|p| p.primid).collect::<Vec<_>>();
+            assert_eq!(ids(&whole), ids(&banded));
+        });
+    }
 }

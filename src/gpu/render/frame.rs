@@ -129,6 +129,10 @@ impl<'a> Frame<'a> {
                 opts.kernel
             )));
         }
+        let opts = GpuOptions {
+            mask: opts.mask.resolve(opts.kernel),
+            ..opts
+        };
         let info = &ctx.info;
         let max_size = info.max_texture_size.max(0) as u32;
         info.check_image_size(width, height)?;
@@ -207,7 +211,7 @@ impl<'a> Frame<'a> {
         let colour = [opts.storage.colour_format()];
         let state = [state_target()?, state_target()?];
         let mask_buffer = match opts.mask {
-            Mask::None => None,
+            Mask::None | Mask::Auto => None,
             Mask::EarlyZ | Mask::Stencil => {
                 let rb = Renderbuffer::new_mask(ctx, width, height, opts.mask == Mask::Stencil)?;
                 for t in &state {

@@ -102,7 +102,7 @@ impl Frame<'_> {
                     gl.stencil_func(glow::ALWAYS, 1, 0xff);
                     gl.stencil_op(glow::KEEP, glow::KEEP, glow::REPLACE);
                 }
-                Mask::None => unreachable!("no mask buffer without a mask"),
+                Mask::None | Mask::Auto => unreachable!("no mask buffer without a mask"),
             }
         }
         let n = self.count_into(Count::Rays, None, slot);
