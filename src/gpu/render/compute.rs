@@ -438,16 +438,15 @@ impl Limits {
 /// The primary-ray AOVs from `render.comp`'s AOV buffer: per pixel (t_best, tri_best or
 /// TRI_NONE, steps, state), in image order.
 fn aov_from_texels(scene: &Scene, data: &[f32], w: u32, h: u32) -> Aov {
-    let mut pixels = vec![AovPixel::miss(0.0); (w * h) as usize];
-    pixels
-        .par_chunks_mut(w as usize)
-        .zip(data.par_chunks(w as usize * 4))
-        .for_each(|(out, row)| {
-            for (px, t) in out.iter_mut().zip(row.chunks_exact(4)) {
-                let hit = t[1] >= 0.0;
-                *px = aov_pixel(scene, hit.then_some((t[0], t[1])), t[2]);
-            }
-        });
+    // Collected in parallel: at 4096x4096 a serial fill of the 400 MB of pixels alone took
+    // longer than the dispatch.
+    let pixels: Vec<AovPixel> = data
+        .par_chunks_exact(4)
+        .map(|t| {
+            let hit = t[1] >= 0.0;
+            aov_pixel(scene, hit.then_some((t[0], t[1])), t[2])
+        })
+        .collect();
     Aov::from_vec(w, h, pixels)
 }
 
