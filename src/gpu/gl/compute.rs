@@ -130,8 +130,9 @@ impl StorageBuffer {
 
     /// Reads `out.len()` floats from byte `offset` of the buffer into `out` through a
     /// host-side staging buffer: one DMA copy on the GPU, then a parallel copy out of the
-    /// mapped staging memory. On the H200 this reads 4096x4096 images at several GB/s where
-    /// `glGetBufferSubData` on the device buffer managed 0.7 GB/s (docs/performance.md).
+    /// mapped staging memory. On the H200 this read a 4096x4096 render's 448 MB of outputs
+    /// in 176 ms where `glGetBufferSubData` on the device buffer took 731 ms
+    /// (docs/performance.md).
     pub fn read_f32_staged(&self, ctx: &GlContext, offset: usize, out: &mut [f32]) -> Result<()> {
         use rayon::prelude::*;
         let gl = ctx.gl();
@@ -174,37 +175,6 @@ impl StorageBuffer {
             gl.unmap_buffer(glow::COPY_WRITE_BUFFER);
             gl.bind_buffer(glow::COPY_READ_BUFFER, None);
             gl.bind_buffer(glow::COPY_WRITE_BUFFER, None);
-        }
-        check_gl_error(gl, "reading a storage buffer")
-    }
-
-    /// Binds bytes `offset..offset + size` of the buffer to storage-block binding `index`.
-    pub fn bind_range(&self, gl: &glow::Context, index: u32, offset: usize, size: usize) {
-        // SAFETY: the context is current and the buffer is alive; GL checks the range.
-        unsafe {
-            gl.bind_buffer_range(
-                glow::SHADER_STORAGE_BUFFER,
-                index,
-                Some(self.obj.name()),
-                offset as i32,
-                size as i32,
-            )
-        };
-    }
-
-    /// Reads the first `out.len()` floats of the buffer into `out` with
-    /// `glGetBufferSubData` (after the writes it waits for).
-    pub fn read_f32_into(&self, gl: &glow::Context, out: &mut [f32]) -> Result<()> {
-        assert!(out.len() * 4 <= self.bytes, "read past the buffer");
-        // SAFETY: the context is current; `out` is within the buffer's size; f32 accepts
-        // any bit pattern.
-        unsafe {
-            let bytes =
-                std::slice::from_raw_parts_mut(out.as_mut_ptr().cast::<u8>(), out.len() * 4);
-            gl.memory_barrier(glow::BUFFER_UPDATE_BARRIER_BIT);
-            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, Some(self.obj.name()));
-            gl.get_buffer_sub_data(glow::SHADER_STORAGE_BUFFER, 0, bytes);
-            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, None);
         }
         check_gl_error(gl, "reading a storage buffer")
     }
