@@ -230,6 +230,11 @@ impl RenderTarget {
             gl.bind_framebuffer(glow::FRAMEBUFFER, Some(self.framebuffer.name()));
             gl.read_buffer(glow::COLOR_ATTACHMENT0 + index as u32);
             gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
+            if out.len() >= PACK_BUFFER_MIN_FLOATS && gl.version().major >= 3 {
+                read_through_pack_buffer(gl, (x, y, width, height), &mut out)?;
+                check_gl_error(gl, "reading a render target attachment")?;
+                return Ok(out);
+            }
             gl.read_pixels(
                 x as i32,
                 y as i32,
@@ -243,6 +248,60 @@ impl RenderTarget {
         check_gl_error(gl, "reading a render target attachment")?;
         Ok(out)
     }
+}
+
+/// Reads at least this many floats through a pixel pack buffer (smaller reads, such as a
+/// reduction's few texels, are not worth a buffer).
+const PACK_BUFFER_MIN_FLOATS: usize = 1 << 18;
+
+/// `glReadPixels` of the bound read buffer's rectangle `(x, y, w, h)` into a
+/// `GL_STREAM_READ` pixel pack buffer, then a parallel copy out of the mapped buffer: on the
+/// H200 a 4096x4096 RGBA32F read went from 0.7 GB/s straight into client memory to several
+/// GB/s this way (the compute kernel's read-back, docs/performance.md). GL 3.0 (mapping a
+/// range); the pack buffer is deleted before returning, also on failure.
+///
+/// # Safety
+/// The context must be current with the framebuffer and read buffer to read from bound,
+/// and `out` must hold exactly `w * h * 4` floats.
+unsafe fn read_through_pack_buffer(
+    gl: &glow::Context,
+    (x, y, w, h): (u32, u32, u32, u32),
+    out: &mut [f32],
+) -> Result<()> {
+    use rayon::prelude::*;
+    let bytes = out.len() * 4;
+    let size = i32::try_from(bytes)
+        .map_err(|_| Error::Limit(format!("a read of {bytes} bytes exceeds GL's 2 GiB size")))?;
+    let pbo = gl
+        .create_buffer()
+        .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?;
+    gl.bind_buffer(glow::PIXEL_PACK_BUFFER, Some(pbo));
+    gl.buffer_data_size(glow::PIXEL_PACK_BUFFER, size, glow::STREAM_READ);
+    gl.read_pixels(
+        x as i32,
+        y as i32,
+        w as i32,
+        h as i32,
+        glow::RGBA,
+        glow::FLOAT,
+        glow::PixelPackData::BufferOffset(0),
+    );
+    let ptr = gl.map_buffer_range(glow::PIXEL_PACK_BUFFER, 0, size, glow::MAP_READ_BIT);
+    let r = if ptr.is_null() {
+        Err(Error::Internal(
+            "glMapBufferRange of the pixel pack buffer returned null".into(),
+        ))
+    } else {
+        let src = std::slice::from_raw_parts(ptr.cast::<f32>().cast_const(), out.len());
+        out.par_chunks_mut(1 << 16)
+            .zip(src.par_chunks(1 << 16))
+            .for_each(|(d, s)| d.copy_from_slice(s));
+        gl.unmap_buffer(glow::PIXEL_PACK_BUFFER);
+        Ok(())
+    };
+    gl.bind_buffer(glow::PIXEL_PACK_BUFFER, None);
+    gl.delete_buffer(pbo);
+    r
 }
 
 fn framebuffer_status_name(status: u32) -> String {
