@@ -142,7 +142,7 @@ fn view_against_render(
     (rmse8(&shot, &reference), log)
 }
 
-// Measured on Mesa llvmpipe (22.3.6), here and under GL 2.1: RMSE 0 in all four cases (the
+// Measured on Mesa llvmpipe (22.3.6), here and under GL 2.1: RMSE 0 in all five cases (the
 // window shows the image's own 8-bit encoding, and both contexts trace the same rays with
 // the same programs). The bound is the 1e-3: about 6% of the values one step off.
 const MAX_RMSE: f64 = 1e-3;
