@@ -123,6 +123,9 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
         }
 #endif
     }
+    // Pending nodes left: the loop was ended from outside (llvmpipe ends every loop of an
+    // invocation once 65535 iterations of them all have run); the tree is incomplete.
+    if (top > 0) n_count[C_UNFINISHED] += 1u;
 }
 
 // Radiance and AOV of pixel px (GL rows from the bottom) into the output buffers, which

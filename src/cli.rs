@@ -345,8 +345,8 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
     Ok(out)
 }
 
-/// The `-v` log: per pass kind, how many passes and how much GPU time; for the CPU, the
-/// traversal work. One line per entry, most expensive first.
+/// The `-v` log: per pass kind, how many passes and how much GPU time; where the backend
+/// counts it (CPU, compute kernel), the traversal work of all rays. One line per entry, most expensive first.
 pub fn verbose_report(s: &render::RenderStats) -> String {
     let mut out = format!(
         "{}: {}\nprimary rays: {:.1} steps (cells + triangle tests) per ray\n",
@@ -356,7 +356,7 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
     );
     if let (Some(c), Some(t)) = (s.cells_visited, s.triangle_tests) {
         out += &format!(
-            "cpu: {c} cells visited, {t} triangle tests ({:.1} cells and {:.1} tests per ray)\n",
+            "all rays: {c} cells visited, {t} triangle tests ({:.1} cells and {:.1} tests per ray)\n",
             c as f64 / s.rays.total.max(1) as f64,
             t as f64 / s.rays.total.max(1) as f64
         );

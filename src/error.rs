@@ -69,6 +69,11 @@ pub enum Error {
     #[error("render cancelled")]
     Cancelled,
     /// A bug or an unexpected driver failure.
+    /// A GPU kernel whose loops were ended before its work was done (a driver's limit on
+    /// loop iterations, such as llvmpipe's, or a traversal bug): its image would be missing
+    /// rays. `--kernel auto` then renders with a fragment kernel instead.
+    #[error("the compute kernel did not finish: {0}")]
+    Unfinished(String),
     #[error("internal error: {0}")]
     Internal(String),
 }
@@ -84,7 +89,9 @@ impl Error {
             | Error::Image { .. }
             | Error::Limit(_) => 2,
             Error::GlUnavailable(_) => 2,
-            Error::Shader { .. } | Error::Internal(_) | Error::Cancelled => 1,
+            Error::Shader { .. } | Error::Internal(_) | Error::Unfinished(_) | Error::Cancelled => {
+                1
+            }
         }
     }
 

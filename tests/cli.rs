@@ -250,13 +250,15 @@ fn compare_reports_and_bounds() {
     assert!(d.join("d.png").exists());
 }
 
-/// `-v` logs every pass kind with its count (GPU) or the traversal work (CPU).
+/// `-v` logs every pass kind with its count (GPU fragment kernels; the compute kernel's one
+/// dispatch) or the traversal work (CPU, and the compute kernel's counters).
 #[test]
 fn verbose_logs_pass_kinds_and_cpu_work() {
     let d = tmpdir("verbose");
-    let run = |backend: &str| {
+    let run = |backend: &str, kernel: &[&str]| {
         let out = bin()
             .current_dir(&d)
+            .args(kernel)
             .args([
                 "--backend",
                 backend,
@@ -277,12 +279,13 @@ fn verbose_logs_pass_kinds_and_cpu_work() {
         );
         String::from_utf8_lossy(&out.stderr).into_owned()
     };
-    let cpu = run("cpu");
+    let cpu = run("cpu", &[]);
     assert!(
         cpu.contains("cells visited") && cpu.contains("triangle tests"),
         "{cpu}"
     );
-    let gl = run("gl");
+    // The fragment passes: the default kernel (`auto`) is the compute kernel on GL 4.3.
+    let gl = run("gl", &["--kernel", "looped"]);
     for pass in [
         "raygen",
         "traverse_init",
@@ -297,6 +300,17 @@ fn verbose_logs_pass_kinds_and_cpu_work() {
         );
     }
     assert!(gl.contains("termination queries"), "{gl}");
+    let compute = run("gl", &["--kernel", "compute"]);
+    assert!(
+        compute
+            .lines()
+            .any(|l| l.split_whitespace().take(2).eq(["compute", "1"])),
+        "no `compute 1` line in:\n{compute}"
+    );
+    assert!(
+        compute.contains("cells visited") && compute.contains("triangle tests"),
+        "{compute}"
+    );
 }
 
 /// On a terminal the render shows a progress display; off a terminal (this test's pipes)
@@ -460,11 +474,12 @@ fn gl_stats_report_features_as_named_booleans() {
 }
 
 /// The GL render's progress on a terminal: a percentage of the ray tree walked with an ETA,
-/// never moving back; nothing in a pipe.
+/// never moving back; nothing in a pipe. The fragment kernels report it between passes
+/// (the compute kernel's one dispatch has no in-between).
 #[test]
 fn gl_progress_shows_a_monotone_percentage_and_eta() {
     let d = tmpdir("glprogress");
-    let args = "--backend gl --width 64 --height 48 -o p.png";
+    let args = "--backend gl --kernel looped --width 64 --height 48 -o p.png";
     let piped = bin()
         .current_dir(&d)
         .args(args.split(' '))

@@ -1,6 +1,7 @@
 //! Scenes with nothing (or almost nothing) to hit, on every backend and kernel: no objects,
 //! only lights, an empty OBJ. They render the background with every AOV saying "miss" on
-//! the CPU (f64, f32) and on GL (multipass, unrolled:4, looped; with and without a mask).
+//! the CPU (f64, f32) and on GL (multipass, unrolled:4, looped, with and without a mask;
+//! compute).
 //!
 //! Their grid is the smallest there is, so they are also where the traversal bound is
 //! tightest: the default `looped` kernel once failed them ("traversal did not terminate")
@@ -63,7 +64,8 @@ fn opts(scene: &Scene) -> RenderOptions {
     o
 }
 
-/// The GL configurations: every kernel, unmasked and with both masks.
+/// The GL configurations: every fragment kernel, unmasked and with both masks, and the
+/// compute kernel (which has no passes to mask).
 fn gl_configs() -> Vec<(Kernel, Mask)> {
     let mut v = Vec::new();
     for kernel in [Kernel::Multipass, Kernel::Unrolled(4), Kernel::Looped] {
@@ -71,6 +73,7 @@ fn gl_configs() -> Vec<(Kernel, Mask)> {
             v.push((kernel, mask));
         }
     }
+    v.push((Kernel::Compute, Mask::None));
     v
 }
 

@@ -1,7 +1,9 @@
-//! Historical-hardware proof: every shader variant fragtrace can generate (every pass,
-//! every kernel, every combination of scene features) is valid GLSL 1.20 according to the
-//! Khronos reference compiler, glslangValidator (Debian package glslang-tools), which checks
-//! the `#version 120` rules independently of any driver.
+//! Historical-hardware proof: every fragment-pass variant fragtrace can generate (every
+//! pass, every fragment kernel, every combination of scene features) is valid GLSL 1.20
+//! according to the Khronos reference compiler, glslangValidator (Debian package
+//! glslang-tools), which checks the `#version 120` rules independently of any driver. The
+//! compute kernel's programs (`render.comp`, `wave.comp`; `.comp` files, so the validator
+//! takes them as compute shaders) are checked the same way as GLSL 4.30.
 
 use std::path::Path;
 use std::process::Command;
@@ -57,6 +59,13 @@ fn every_generated_shader_is_valid_glsl_120() {
             assert!(text.contains(marker), "{} lacks {marker}", f.display());
         }
     }
+    // Per feature set and technique folder: the full ray-tree program, the primary-only
+    // one and both wave programs.
+    let compute = files
+        .iter()
+        .filter(|f| f.extension().is_some_and(|e| e == "comp"))
+        .count();
+    assert_eq!(compute, 4 * (32 + 3), "compute programs written");
     let mut bad = Vec::new();
     for f in &files {
         let (ok, log) = validate(f);
@@ -64,7 +73,12 @@ fn every_generated_shader_is_valid_glsl_120() {
             bad.push(format!("{}:\n{log}", f.display()));
         }
         let text = std::fs::read_to_string(f).unwrap();
-        assert!(text.starts_with("#version 120\n"), "{}", f.display());
+        let version = if f.extension().is_some_and(|e| e == "comp") {
+            "#version 430\n"
+        } else {
+            "#version 120\n"
+        };
+        assert!(text.starts_with(version), "{}", f.display());
     }
     assert!(
         bad.is_empty(),
@@ -72,7 +86,11 @@ fn every_generated_shader_is_valid_glsl_120() {
         bad.len(),
         bad[..bad.len().min(3)].join("\n")
     );
-    println!("{} shaders validated as GLSL 1.20", files.len());
+    println!(
+        "{} shaders validated ({} as GLSL 1.20, {compute} compute programs as GLSL 4.30)",
+        files.len(),
+        files.len() - compute
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -92,17 +110,21 @@ fn irregular_grid_shaders_are_valid_glsl_120() {
     );
     let files = dump_shaders(&scene, &grid, &dir, false).unwrap();
     let mut checked = 0;
+    let mut compute = 0;
     for f in files
         .iter()
-        .filter(|f| f.extension().is_some_and(|e| e == "frag"))
+        .filter(|f| f.extension().is_some_and(|e| e == "frag" || e == "comp"))
     {
+        compute += f.extension().is_some_and(|e| e == "comp") as usize;
         let text = std::fs::read_to_string(f).unwrap();
         assert!(text.contains("#define ACCEL_IRREGULAR"), "{}", f.display());
         let (ok, log) = validate(f);
         assert!(ok, "{}:\n{log}", f.display());
         checked += 1;
     }
-    assert!(checked >= 8, "only {checked} fragment programs");
+    assert!(checked >= 8, "only {checked} programs");
+    // The render program and both wave programs of the scene.
+    assert_eq!(compute, 3, "compute programs");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

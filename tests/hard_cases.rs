@@ -1,11 +1,12 @@
 //! The hard-case robustness suite: 22 geometric and numeric corner cases, each run on every
-//! backend — the CPU reference in f64 (ground truth), the CPU in f32 (the GPU's arithmetic)
-//! and the GLSL 1.20 backend (llvmpipe here) — and on both acceleration structures (the
+//! backend — the CPU reference in f64 (ground truth), the CPU in f32 (the GPU's arithmetic),
+//! the GLSL 1.20 backend with the faithful multipass kernel and the GL backend with the
+//! GLSL 4.30 compute kernel (llvmpipe here) — and on both acceleration structures (the
 //! uniform grid and the irregular grid, `--accel`), through single rays (`Walker::<T>` and
 //! `gpu::render::trace_rays`) or small images (`render_cpu` / `render_gl_with`).
 //!
 //! Every case reads as its set-up and its bound: the shared machinery (the f32 test ray,
-//! tracing and rendering on the three backends, scene builders, the per-backend report)
+//! tracing and rendering on the four backends, scene builders, the per-backend report)
 //! is in `hard_cases/support.rs`, the cases are grouped by what they exercise:
 //!
 //! - `watertight`: cases 1-4, 6, 12, 15 (the intersection test);
@@ -18,10 +19,10 @@
 //! `docs/robustness.md` tabulates those numbers. Reproduce with
 //! `cargo test --release --test hard_cases -- --nocapture`.
 //!
-//! Rays are built in f32 (the precision the GPU stores), so all three backends trace the
+//! Rays are built in f32 (the precision the GPU stores), so every backend traces the
 //! very same ray; the f64 backend converts them exactly. Seeded randomness prints its seed.
 //! GL work is kept small (llvmpipe on two cores): images are 48x36, ray batches one
-//! `trace_rays` call per scene and query.
+//! `trace_rays` call per scene, query and GL kernel.
 
 mod common;
 #[path = "hard_cases/glass.rs"]

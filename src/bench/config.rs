@@ -52,6 +52,16 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
         presets: D,
     },
     ConfigRow {
+        name: "gl-compute",
+        args: "--backend gl --kernel compute",
+        presets: D,
+    },
+    ConfigRow {
+        name: "gl-compute-uniform",
+        args: "--backend gl --kernel compute --accel uniform",
+        presets: A,
+    },
+    ConfigRow {
         name: "gl-unrolled:16",
         args: "--backend gl --kernel unrolled:16",
         presets: D,
@@ -460,6 +470,12 @@ mod tests {
     fn every_shipped_configuration_parses_and_presets_resolve() {
         for r in CONFIG_TABLE {
             BenchConfig::parse(r.name, r.args).unwrap();
+            // A row measures one kernel whatever the default (`auto`) resolves to.
+            assert!(
+                !r.args.contains("--backend gl") || r.args.contains("--kernel "),
+                "{}: a GL row must name its kernel",
+                r.name
+            );
         }
         assert_eq!(resolve_configs("all").unwrap().len(), CONFIG_TABLE.len());
         let default: Vec<String> = resolve_configs("default")
@@ -467,7 +483,8 @@ mod tests {
             .into_iter()
             .map(|c| c.name)
             .collect();
-        assert_eq!(default.len(), 12);
+        assert_eq!(default.len(), 13);
+        assert!(default.iter().any(|c| c == "gl-compute"), "{default:?}");
         assert_eq!(default[0], "cpu-f64");
         let quick = resolve_configs("quick").unwrap();
         assert!(quick.len() >= 3 && quick.iter().any(|c| c.name == "cpu-f64"));

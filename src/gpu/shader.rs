@@ -7,10 +7,13 @@
 
 use super::contract;
 pub use super::layout::Fetch;
-use super::layout::{self, SceneTextures};
+use super::layout::SceneTextures;
 use crate::scene::Scene;
 use crate::technique::Techniques;
 use crate::{Error, Result};
+
+mod dump;
+pub use dump::{all_feature_sets, all_passes, dump_shaders};
 
 /// The GLSL sources, embedded in the binary.
 const SOURCES: &[(&str, &str)] = &[
@@ -613,106 +616,6 @@ pub fn assemble_compute(
         techniques,
         layout,
     )
-}
-
-/// Every combination of scene features (for `dump-shaders --all-variants`).
-pub fn all_feature_sets() -> Vec<Features> {
-    (0..32u32)
-        .map(|b| Features {
-            smooth_normals: b & 1 != 0,
-            checker: b & 2 != 0,
-            specular: b & 4 != 0,
-            refraction: b & 8 != 0,
-            fresnel: b & 16 != 0,
-        })
-        .collect()
-}
-
-impl Features {
-    /// A short tag naming the features on, e.g. `n-c-s-r-f` or `none`.
-    pub fn tag(self) -> String {
-        let on: Vec<&str> = [
-            (self.smooth_normals, "normals"),
-            (self.checker, "checker"),
-            (self.specular, "specular"),
-            (self.refraction, "refraction"),
-            (self.fresnel, "fresnel"),
-        ]
-        .into_iter()
-        .filter_map(|(b, n)| b.then_some(n))
-        .collect();
-        if on.is_empty() {
-            "plain".into()
-        } else {
-            on.join("+")
-        }
-    }
-}
-
-/// Every pass program a render can use, for every kernel variant (unrolled at 4 and 16).
-pub fn all_passes() -> Vec<Pass> {
-    let mut v = Pass::ALL.to_vec();
-    for q in [Query::Closest, Query::Any] {
-        v.push(Pass::Unrolled(q, 4));
-        v.push(Pass::Unrolled(q, 16));
-        v.push(Pass::Looped(q));
-    }
-    v
-}
-
-/// Writes the final sources of every pass for `scene` into `dir` (with `all_variants`,
-/// for every combination of scene features, one sub-folder each, plus one sub-folder
-/// `techniques-<tag>` per non-default technique setting of [`Techniques::one_off`], with
-/// every scene feature on), plus the vertex shader. Returns the files written.
-pub fn dump_shaders<'a>(
-    scene: &Scene,
-    accel: impl Into<crate::accel::AccelRef<'a>>,
-    dir: &std::path::Path,
-    all_variants: bool,
-) -> Result<Vec<std::path::PathBuf>> {
-    // Variants with smooth normals on fetch from the normal texture, so it is declared.
-    let layout = SceneTextures::pack_with(scene, accel, layout::MAX_ROW, all_variants)?;
-    let d = Techniques::default();
-    let sets: Vec<(Features, Techniques, Option<String>)> = if all_variants {
-        all_feature_sets()
-            .into_iter()
-            .map(|f| (f, d, Some(f.tag())))
-            .chain(
-                Techniques::one_off()
-                    .into_iter()
-                    .map(|t| (Features::all(), t, Some(format!("techniques-{}", t.tag())))),
-            )
-            .collect()
-    } else {
-        vec![(Features::of(scene), d, None)]
-    };
-    let io = |path: &std::path::Path, e: std::io::Error| Error::Io {
-        path: path.to_path_buf(),
-        source: e,
-    };
-    let mut written = Vec::new();
-    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
-    let vert = dir.join("quad.vert");
-    std::fs::write(&vert, super::gl::QUAD_VERTEX_SHADER).map_err(|e| io(&vert, e))?;
-    written.push(vert);
-    for (f, t, tag) in sets {
-        let sub = match tag {
-            Some(tag) => dir.join(tag),
-            None => dir.to_path_buf(),
-        };
-        std::fs::create_dir_all(&sub).map_err(|e| io(&sub, e))?;
-        for pass in all_passes() {
-            let name = match pass {
-                Pass::Unrolled(_, k) => format!("{}{k}.frag", pass.name()),
-                _ => format!("{}.frag", pass.name()),
-            };
-            let path = sub.join(name);
-            std::fs::write(&path, assemble(pass, f, t, &layout)?.source)
-                .map_err(|e| io(&path, e))?;
-            written.push(path);
-        }
-    }
-    Ok(written)
 }
 
 #[cfg(test)]

@@ -213,13 +213,18 @@ fn case_05_no_self_intersection() {
                 line,
             );
         }
-        gl_batches.push((d, kind, first + 2, for_gl(&s32)));
+        let batch = for_gl(&s32);
+        for bi in (first..first + PER).filter(|&bi| is_gl(bi)) {
+            gl_batches.push((d, kind, bi, batch.clone()));
+        }
     }
     with_test_context(|ctx| {
         for (d, kind, bi, batch) in &gl_batches {
             let rays: Vec<TRay> = batch.iter().map(|b| b.2).collect();
-            let closest = gl_trace(ctx, &d.scene, d.grid.get(*kind), &rays, Query::Closest);
-            let any = gl_trace(ctx, &d.scene, d.grid.get(*kind), &rays, Query::Any);
+            let accel = d.grid.get(*kind);
+            let k = kernel_of(*bi);
+            let closest = gl_trace(ctx, &d.scene, accel, &rays, Query::Closest, k);
+            let any = gl_trace(ctx, &d.scene, accel, &rays, Query::Any, k);
             let mut n = [0usize; 3];
             let mut n_any = 0;
             for (k, &(own, kind, _)) in batch.iter().enumerate() {
@@ -308,16 +313,20 @@ fn case_17_close_parallel_surfaces() {
             (bad64, bad32, for_gl(&sp32))
         }));
     }
-    // (primary hits on every backend, GL hits of the f32 CPU's transmitted rays per
-    // structure)
-    let gl: Vec<(AllFound, PerStructure)> = with_test_context(|ctx| {
+    // (primary hits on every backend, GL hits of the f32 CPU's transmitted rays per GL
+    // backend, empty for the CPU ones)
+    let gl: Vec<(AllFound, AllFound)> = with_test_context(|ctx| {
         prepared
             .iter()
             .zip(&cpu)
             .map(|((_, s, grid, rays, _), per)| {
-                let through = std::array::from_fn(|a| {
-                    let spawned: Vec<TRay> = per[a].2.iter().map(|x| x.2).collect();
-                    gl_trace(ctx, s, grid.get(ACCELS[a]), &spawned, Query::Closest)
+                let through = std::array::from_fn(|bi| {
+                    if !is_gl(bi) {
+                        return Vec::new();
+                    }
+                    let spawned: Vec<TRay> = per[bi / PER].2.iter().map(|x| x.2).collect();
+                    let accel = grid.get(accel_of(bi));
+                    gl_trace(ctx, s, accel, &spawned, Query::Closest, kernel_of(bi))
                 });
                 (closest_all(ctx, s, grid, rays), through)
             })
@@ -335,7 +344,7 @@ fn case_17_close_parallel_surfaces() {
                 1 => *bad32,
                 _ => sp
                     .iter()
-                    .zip(&gl_through[bi / PER])
+                    .zip(&gl_through[bi])
                     .filter(|((own, _, _), f)| wrong_side(*own, f.tri()))
                     .count(),
             };
@@ -352,8 +361,6 @@ fn case_17_close_parallel_surfaces() {
 
 /// Closest hits on every backend, in `BACKENDS` order.
 type AllFound = [Vec<Found>; NB];
-/// One GL batch per structure, in `ACCELS` order.
-type PerStructure = [Vec<Found>; 2];
 
 /// A solid of case 16's scene, for an analytic shadow test: an icosphere between its
 /// inscribed and circumscribed balls, or the box itself.

@@ -2,10 +2,13 @@
 //! rendering on every backend and structure, scene builders, and the per-backend report
 //! that prints every backend's line before a case fails.
 //!
-//! The acceleration structure is a dimension of the backend list: each of the three
-//! backends (CPU f64, CPU f32, GL) runs once on the uniform grid and once on the irregular
-//! grid, so a case's `[_; 6]` results read in [`BACKENDS`] order and every per-backend loop
-//! covers both structures. The reference, [`F64`], is the f64 CPU on the uniform grid: for
+//! The acceleration structure is a dimension of the backend list: each of the four
+//! backends (CPU f64, CPU f32, GL with the faithful multipass kernel, GL with the compute
+//! kernel) runs once on the uniform grid and once on the irregular grid, so a case's
+//! `[_; 8]` results read in [`BACKENDS`] order and every per-backend loop covers both
+//! structures and both GL kernels (the fragment kernels share the multipass kernel's step
+//! chunk pass by pass, tests/gpu_backend.rs; the compute kernel runs it in one dispatch:
+//! `trace_rays` through `wave.comp`, renders through `render.comp`). The reference, [`F64`], is the f64 CPU on the uniform grid: for
 //! the irregular backends it is an answer from another structure.
 
 use std::time::Instant;
@@ -34,10 +37,10 @@ use rayon::prelude::*;
 pub const BIG: f32 = 1.0e30;
 /// The structures every case runs on, in [`BACKENDS`] order.
 pub const ACCELS: [AccelKind; 2] = [AccelKind::Uniform, AccelKind::Irregular];
-/// Backends per structure (CPU f64, CPU f32, GL).
-pub const PER: usize = 3;
+/// Backends per structure (CPU f64, CPU f32, GL multipass, GL compute).
+pub const PER: usize = 4;
 /// Backends times structures.
-pub const NB: usize = 6;
+pub const NB: usize = 8;
 /// Backend names, in the order results are reported: every `[_; NB]` below is in this
 /// order, the uniform grid's three first (a `[_; PER]` of one structure is in this order
 /// too).
@@ -45,17 +48,31 @@ pub const BACKENDS: [&str; NB] = [
     "CPU f64 uniform",
     "CPU f32 uniform",
     "GL uniform",
+    "GL compute uniform",
     "CPU f64 irregular",
     "CPU f32 irregular",
     "GL irregular",
+    "GL compute irregular",
 ];
 /// Index of the f64 CPU on the uniform grid, the reference, in [`BACKENDS`].
 pub const F64: usize = 0;
 
 /// True for the GL backends of [`BACKENDS`].
 pub fn is_gl(bi: usize) -> bool {
-    bi % PER == 2
+    bi % PER >= 2
 }
+
+/// The GL kernel of backend `bi` of [`BACKENDS`] (only meaningful where [`is_gl`]).
+pub fn kernel_of(bi: usize) -> Kernel {
+    if bi % PER == 3 {
+        Kernel::Compute
+    } else {
+        Kernel::Multipass
+    }
+}
+
+/// The GL kernels of one structure's backends, in [`BACKENDS`] order.
+pub const GL_KERNELS: [Kernel; 2] = [Kernel::Multipass, Kernel::Compute];
 
 /// The structure of backend `bi` of [`BACKENDS`].
 pub fn accel_of(bi: usize) -> AccelKind {
@@ -443,23 +460,32 @@ pub fn brute<T: Real>(scene: &Scene, grid: &Grid, rays: &[TRay]) -> Vec<Option<(
         .collect()
 }
 
-/// Traces rays through the GL traversal and intersection passes. Asserts the basics every
-/// case needs: the trace terminates (an error otherwise), every ray ends in a final state,
-/// and no hit parameter or step count is NaN.
+/// Traces rays through the GL traversal and intersection passes of `kernel` (the compute
+/// kernel: `wave.comp`). Asserts the basics every case needs: the trace terminates (an
+/// error otherwise), every ray ends in a final state, and no hit parameter or step count
+/// is NaN.
 pub fn gl_trace<'a>(
     ctx: &GlContext,
     scene: &Scene,
     accel: impl Into<AccelRef<'a>>,
     rays: &[TRay],
     q: Query,
+    kernel: Kernel,
 ) -> Vec<Found> {
     let gpu: Vec<GpuRay> = rays.iter().map(TRay::gpu).collect();
     let t0 = Instant::now();
-    let out = trace_rays(ctx, scene, accel, &gpu, q, faithful())
-        .unwrap_or_else(|e| panic!("trace_rays failed: {e}"));
+    let opts = GpuOptions {
+        kernel,
+        ..faithful()
+    };
+    let out = trace_rays(ctx, scene, accel, &gpu, q, opts)
+        .unwrap_or_else(|e| panic!("trace_rays ({kernel}) failed: {e}"));
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     if ms > 500.0 {
-        println!("    (GL trace_rays of {} rays: {ms:.0} ms)", rays.len());
+        println!(
+            "    (GL {kernel} trace_rays of {} rays: {ms:.0} ms)",
+            rays.len()
+        );
     }
     out.iter()
         .enumerate()
@@ -486,7 +512,7 @@ pub fn gl_trace<'a>(
         .collect()
 }
 
-/// Closest hits on the three backends through one structure, in [`BACKENDS`] order.
+/// Closest hits on the four backends through one structure, in [`BACKENDS`] order.
 pub fn closest_one<'a>(
     ctx: &GlContext,
     scene: &Scene,
@@ -494,10 +520,12 @@ pub fn closest_one<'a>(
     rays: &[TRay],
 ) -> [Vec<Found>; PER] {
     let accel = accel.into();
+    let [multipass, compute] = GL_KERNELS;
     [
         cpu_closest::<f64>(scene, accel, rays),
         cpu_closest::<f32>(scene, accel, rays),
-        gl_trace(ctx, scene, accel, rays, Query::Closest),
+        gl_trace(ctx, scene, accel, rays, Query::Closest, multipass),
+        gl_trace(ctx, scene, accel, rays, Query::Closest, compute),
     ]
 }
 
@@ -508,9 +536,9 @@ pub fn closest_all(
     accels: &Accels,
     rays: &[TRay],
 ) -> [Vec<Found>; NB] {
-    let [a, b, c] = closest_one(ctx, scene, &accels.uniform, rays);
-    let [d, e, f] = closest_one(ctx, scene, &accels.irregular, rays);
-    [a, b, c, d, e, f]
+    let [a, b, c, d] = closest_one(ctx, scene, &accels.uniform, rays);
+    let [e, f, g, h] = closest_one(ctx, scene, &accels.irregular, rays);
+    [a, b, c, d, e, f, g, h]
 }
 
 /// Per backend, how many of `res`'s rays `bad` holds for (`bad` gets the ray's index).
@@ -526,8 +554,9 @@ pub fn count<const N: usize>(
 // Images on every backend
 // ---------------------------------------------------------------------------------------
 
-/// GPU options with the thesis's faithful multipass kernel: the hard cases test it, and
-/// the other kernels run the same step chunk (tests/gpu_backend.rs checks they agree).
+/// GPU options with the thesis's faithful multipass kernel: the hard cases test it and the
+/// compute kernel ([`kernel_of`]); the other fragment kernels run the multipass kernel's
+/// step chunk pass by pass (tests/gpu_backend.rs checks they agree).
 pub fn faithful() -> GpuOptions {
     GpuOptions {
         kernel: Kernel::Multipass,
@@ -562,13 +591,14 @@ pub fn render_all(ctx: &GlContext, scene: &Scene) -> [Rendered; NB] {
 /// the technique it guards is switched off).
 pub fn render_all_with(ctx: &GlContext, scene: &Scene, techniques: Techniques) -> [Rendered; NB] {
     std::array::from_fn(|bi| {
-        let o = RenderOptions {
+        let mut o = RenderOptions {
             techniques,
             ..opts_on(scene, precision_of(bi), accel_of(bi))
         };
         if !is_gl(bi) {
             return render_cpu(scene, &o).unwrap();
         }
+        o.gpu.kernel = kernel_of(bi);
         let t0 = Instant::now();
         let gl = render_gl_with(ctx, scene, &o)
             .unwrap_or_else(|e| panic!("{} render: {e}", BACKENDS[bi]));

@@ -304,11 +304,21 @@ pub(super) fn render_compute(
         aov_buf.read_f32_staged(ctx, 0, aov_band)?;
         *setup.stats.phases_ms.entry("read_back".into()).or_default() += ms_since(t);
     }
-    if total[Counter::Unfinished.slot()] > 0 {
-        return Err(Error::Internal(format!(
-            "traversal did not terminate for {} rays within {} iterations",
-            total[Counter::Unfinished.slot()],
-            spec.max_iterations
+    // Rays cut off, ray trees left incomplete, or samples never started: the program's
+    // loops did not run to their end. Besides a traversal bug, a driver can cause it:
+    // llvmpipe ends every loop of a shader invocation once 65535 iterations of them all have
+    // run (pixels with many samples, deep trees or long walks), and an image from such a
+    // run is silently missing rays.
+    let primaries = u64::from(width) * u64::from(height) * u64::from(spec.samples);
+    let cut = total[Counter::Unfinished.slot()];
+    if cut > 0 || total[Counter::Primary.slot()] != primaries {
+        return Err(Error::Unfinished(format!(
+            "{cut} rays or ray trees cut off (traversal \
+             bound {} iterations), {} of {primaries} primary rays traced; the driver may \
+             limit the loop iterations of one invocation (llvmpipe: 65535); --kernel looped \
+             splits the work into passes",
+            spec.max_iterations,
+            total[Counter::Primary.slot()],
         )));
     }
     let t = Instant::now();

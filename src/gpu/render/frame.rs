@@ -92,7 +92,7 @@ pub(super) enum Slot {
 /// Traversal iterations after which a ray that has not finished is a bug: a DDA visits at
 /// most rx+ry+rz cells (an irregular walk at most as many as its virtual grid's) and each
 /// test is one iteration; generously.
-pub(super) fn max_iterations(accel: AccelRef<'_>) -> u64 {
+pub(crate) fn max_iterations(accel: AccelRef<'_>) -> u64 {
     let (res, refs) = match accel {
         AccelRef::Uniform(g) => (g.res, g.tri_indices.len()),
         AccelRef::Irregular(g) => (g.res, g.tri_indices.len()),

@@ -29,6 +29,7 @@ mod tree;
 mod tests;
 
 use super::options::GpuOptions;
+pub(crate) use frame::max_iterations;
 pub use readback::{trace_rays, GpuRay, GpuTrace};
 pub use tree::{render_gl, render_gl_observed};
 

@@ -113,11 +113,19 @@ pub fn trace_rays<'a>(
     let w = n.min(256);
     let h = n.div_ceil(w);
     let accel = accel.into();
-    let kernel = opts.kernel.resolve(&ctx.info)?;
-    let opts = GpuOptions { kernel, ..opts };
+    let mut kernel = opts.resolve_kernel(&ctx.info)?;
     if kernel == Kernel::Compute {
-        return trace_rays_compute(ctx, scene, accel, rays, query, &opts, (w, h));
+        let copts = GpuOptions { kernel, ..opts };
+        match trace_rays_compute(ctx, scene, accel, rays, query, &copts, (w, h)) {
+            // As in render_gl: `auto` falls back to a fragment kernel where the driver cut
+            // the compute kernel's loops short.
+            Err(Error::Unfinished(_)) if opts.kernel == Kernel::Auto => {
+                kernel = GpuOptions::fallback_kernel(&ctx.info);
+            }
+            r => return r,
+        }
     }
+    let opts = GpuOptions { kernel, ..opts };
     let mut f = Frame::new(ctx, scene, accel, w, h, 1, false, opts)?;
     let s = initial_state(rays, (w * h) as usize);
     for (tex, data) in f.state[f.cur].textures().iter().zip(&s.texels) {
@@ -179,8 +187,9 @@ fn trace_rays_compute(
         .iter()
         .position(|t| matches!(t.state, RayState::Traversing | RayState::Testing))
     {
-        return Err(Error::Internal(format!(
-            "traversal of ray {k} did not terminate (state {:?})",
+        return Err(Error::Unfinished(format!(
+            "the walk of ray {k} was cut off in state {:?} (a traversal bug, or the driver's \
+             limit on loop iterations: llvmpipe's is 65535)",
             out[k].state
         )));
     }

@@ -129,8 +129,13 @@ fn renders_in_one_context_free_every_gl_object() {
             .into_iter()
             .map(|n| (n, scene(n)))
             .collect();
-        let base = GpuOptions::default();
-        let configs: Vec<(GpuOptions, Ends)> = vec![
+        // The fragment kernels' configurations pin their kernel (the default, `auto`, runs
+        // the compute kernel on a GL 4.3 driver); the compute kernel has its own below.
+        let base = GpuOptions {
+            kernel: Kernel::Looped,
+            ..GpuOptions::default()
+        };
+        let mut configs: Vec<(GpuOptions, Ends)> = vec![
             (
                 GpuOptions {
                     kernel: Kernel::Multipass,
@@ -197,6 +202,16 @@ fn renders_in_one_context_free_every_gl_object() {
                 Ends::ShaderHalfWay,
             ),
         ];
+        if ctx.info.compute {
+            for no_specialize in [false, true] {
+                let gpu = GpuOptions {
+                    kernel: Kernel::Compute,
+                    no_specialize,
+                    ..base
+                };
+                configs.push((gpu, Ends::Ok));
+            }
+        }
         let before_upto = probe_names(ctx) + 4096;
         let before = live_objects(ctx, before_upto);
         let mut largest = 0;

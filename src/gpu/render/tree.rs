@@ -109,17 +109,37 @@ pub fn render_gl_observed<'a, 'g>(
 ) -> Result<GpuOutput> {
     let (width, height, spp, max_depth) = (req.width, req.height, req.spp, req.max_depth);
     let levels = max_depth as usize + 1;
-    let kernel = req.gpu.kernel.resolve(&ctx.info)?;
+    let accel = accel.into();
+    let mut kernel = req.gpu.resolve_kernel(&ctx.info)?;
+    let mut observer = observer;
+    if kernel == Kernel::Compute {
+        let creq = ImageRequest {
+            gpu: GpuOptions {
+                techniques: req.techniques,
+                kernel,
+                ..req.gpu
+            },
+            ..*req
+        };
+        match super::compute::render_compute(ctx, scene, accel, &creq, observer.as_deref_mut()) {
+            // `auto` chose compute; where the driver cut its loops short, the fragment
+            // kernels split the same work into passes and finish it.
+            Err(Error::Unfinished(why)) if req.gpu.kernel == Kernel::Auto => {
+                kernel = GpuOptions::fallback_kernel(&ctx.info);
+                eprintln!(
+                    "fragtrace: notice: the compute kernel did not finish ({why}); \
+                     rendering with the {kernel} kernel"
+                );
+            }
+            r => return r,
+        }
+    }
     let gpu = GpuOptions {
         techniques: req.techniques,
         kernel,
         ..req.gpu
     };
-    if kernel == Kernel::Compute {
-        let req = ImageRequest { gpu, ..*req };
-        return super::compute::render_compute(ctx, scene, accel.into(), &req, observer);
-    }
-    let mut f = Frame::new(ctx, scene, accel.into(), width, height, levels, true, gpu)?;
+    let mut f = Frame::new(ctx, scene, accel, width, height, levels, true, gpu)?;
     f.stats.kernel = kernel.to_string();
     f.progress = Progress::tree_bar(req.progress);
     let samples = camera::sample_offsets(spp).len() as u32;
