@@ -59,13 +59,13 @@ fn every_generated_shader_is_valid_glsl_120() {
             assert!(text.contains(marker), "{} lacks {marker}", f.display());
         }
     }
-    // Per feature set and technique folder: the full ray-tree program, the primary-only
-    // one and both wave programs.
+    // Per feature set and technique folder: the full ray-tree program (storage-buffer and
+    // texelFetch scene reads), the primary-only one and both wave programs.
     let compute = files
         .iter()
         .filter(|f| f.extension().is_some_and(|e| e == "comp"))
         .count();
-    assert_eq!(compute, 4 * (32 + 3), "compute programs written");
+    assert_eq!(compute, 5 * (32 + 3), "compute programs written");
     let mut bad = Vec::new();
     for f in &files {
         let (ok, log) = validate(f);

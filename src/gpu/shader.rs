@@ -525,7 +525,8 @@ pub enum ComputePass {
 
 /// Work-group size of the compute programs: 8 x 4 invocations, one NVIDIA warp over a
 /// compact tile (neighbouring rays walk the same cells). Measured on the H200 against 8x8,
-/// 16x8, 16x16 and 32x4 (docs/performance.md).
+/// 16x8, 16x4, 16x16, 32x4 and 32x2: the lowest sum over bunny.toml and the default scene
+/// (docs/performance.md).
 pub const LOCAL_SIZE: (u32, u32) = (8, 4);
 
 /// What a compute program is specialised for besides the scene's features.
