@@ -15,10 +15,10 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-use common::with_test_context;
+use common::{model_path, shipped_scenes, with_test_context};
 use fragtrace::accel::AccelKind;
 use fragtrace::compare::compare;
 use fragtrace::gpu::options::Kernel;
@@ -51,35 +51,6 @@ const PRIMID_AGREEMENT: f64 = 0.9996;
 /// grid, where compute counts 19 more cells of 242,291 (7.8e-5) and 69 more tests of
 /// 554,834 (1.2e-4) for the same rays; about 4x.
 const WORK_REL: f64 = 5e-4;
-
-fn model_path() -> Vec<PathBuf> {
-    match std::env::var_os("FRAGTRACE_MODEL_PATH") {
-        Some(p) => std::env::split_paths(&p).collect(),
-        None => vec![PathBuf::from(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../shared/models"
-        ))],
-    }
-}
-
-/// The built-in scene and every file in scenes/.
-fn shipped_scenes() -> Vec<(String, Scene)> {
-    let mut v = vec![("builtin".to_string(), builtin_scene())];
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
-    for f in files {
-        let name = f.file_stem().unwrap().to_string_lossy().into_owned();
-        let scene =
-            load_scene_with_search_path(&f, &model_path()).unwrap_or_else(|e| panic!("{e}"));
-        v.push((name, scene));
-    }
-    v
-}
 
 /// Whether `ctx` runs compute programs (GL 4.3); without them the comparison cannot run,
 /// and the test fails saying so unless `FRAGTRACE_ALLOW_SKIP=1` acknowledges the skip.

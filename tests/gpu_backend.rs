@@ -12,15 +12,13 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-
-use common::with_test_context;
+use common::{shipped_scenes, with_test_context};
 use fragtrace::accel::AccelKind;
 use fragtrace::compare::compare;
 use fragtrace::gpu::GlContext;
 use fragtrace::options::{Backend, Precision, RenderOptions};
 use fragtrace::render::{render_cpu, render_gl_with};
-use fragtrace::scene::{builtin_scene, load_scene_with_search_path, Scene};
+use fragtrace::scene::{builtin_scene, Scene};
 
 /// Image size of the comparisons: small, because llvmpipe on 2 cores runs every pass over
 /// every pixel and the pass count (set by the longest ray) does not shrink with the image.
@@ -55,35 +53,6 @@ const PRIMID_AGREEMENT: f64 = 0.9996;
 // On the irregular grid (every kernel) llvmpipe measured the same figures as on the
 // uniform grid, scene by scene, to the printed digit: 100% primary hits, RMSE against f32
 // at most 4.34e-7 and against f64 at most 4.45e-6 (dragon); the bounds above hold for both.
-
-fn model_path() -> Vec<PathBuf> {
-    match std::env::var_os("FRAGTRACE_MODEL_PATH") {
-        Some(p) => std::env::split_paths(&p).collect(),
-        None => vec![PathBuf::from(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../shared/models"
-        ))],
-    }
-}
-
-/// The built-in scene and every file in scenes/.
-fn shipped_scenes() -> Vec<(String, Scene)> {
-    let mut v = vec![("builtin".to_string(), builtin_scene())];
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
-    for f in files {
-        let name = f.file_stem().unwrap().to_string_lossy().into_owned();
-        let scene =
-            load_scene_with_search_path(&f, &model_path()).unwrap_or_else(|e| panic!("{e}"));
-        v.push((name, scene));
-    }
-    v
-}
 
 /// Both structures: every comparison below runs on each (the CPU on the same one as GL).
 const ACCELS: [AccelKind; 2] = [AccelKind::Uniform, AccelKind::Irregular];

@@ -2,11 +2,12 @@
 //! crate uses every helper).
 #![allow(dead_code)]
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Mutex;
 
 use fragtrace::gpu::GlContext;
+use fragtrace::scene::{builtin_scene, load_scene_with_search_path, Scene};
 
 use glam::DVec3;
 
@@ -87,4 +88,34 @@ pub fn with_test_context<R>(f: impl FnOnce(&GlContext) -> R) -> R {
     let _guard = LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
     let ctx = GlContext::new().unwrap_or_else(|e| panic!("{e}"));
     f(&ctx)
+}
+
+/// Where the tests look for meshes: FRAGTRACE_MODEL_PATH, else ../shared/models.
+pub fn model_path() -> Vec<PathBuf> {
+    match std::env::var_os("FRAGTRACE_MODEL_PATH") {
+        Some(p) => std::env::split_paths(&p).collect(),
+        None => vec![PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../shared/models"
+        ))],
+    }
+}
+
+/// The built-in scene and every file in scenes/.
+pub fn shipped_scenes() -> Vec<(String, Scene)> {
+    let mut v = vec![("builtin".to_string(), builtin_scene())];
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    for f in files {
+        let name = f.file_stem().unwrap().to_string_lossy().into_owned();
+        let scene =
+            load_scene_with_search_path(&f, &model_path()).unwrap_or_else(|e| panic!("{e}"));
+        v.push((name, scene));
+    }
+    v
 }

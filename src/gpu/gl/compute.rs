@@ -72,31 +72,12 @@ impl StorageBuffer {
     /// A buffer holding `data` (at least 16 bytes are allocated: GL refuses empty ones and
     /// an unsized array in a block still needs a binding).
     pub fn new(ctx: &GlContext, data: &[u8]) -> Result<Self> {
-        let gl = ctx.gl();
-        // SAFETY: the context is current; the data slice is valid for the call.
-        unsafe {
-            let obj = Owned::new(
-                ctx,
-                gl.create_buffer()
-                    .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
-            );
-            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, Some(obj.name()));
-            let mut padded;
-            let bytes = if data.len() < 16 {
-                padded = data.to_vec();
-                padded.resize(16, 0);
-                &padded[..]
-            } else {
-                data
-            };
-            gl.buffer_data_u8_slice(glow::SHADER_STORAGE_BUFFER, bytes, glow::DYNAMIC_COPY);
-            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, None);
-            check_gl_error(gl, "creating a storage buffer")?;
-            Ok(StorageBuffer {
-                obj,
-                bytes: bytes.len(),
-            })
-        }
+        let mut padded = data.to_vec();
+        padded.resize(data.len().max(16), 0);
+        // SAFETY: the slice is valid for the call.
+        Self::create(ctx, padded.len(), |gl| unsafe {
+            gl.buffer_data_u8_slice(glow::SHADER_STORAGE_BUFFER, &padded, glow::DYNAMIC_COPY)
+        })
     }
 
     /// A buffer of `n` zeroed `u32`s.
@@ -106,26 +87,35 @@ impl StorageBuffer {
 
     /// A buffer of `bytes` bytes whose contents the GPU writes first (nothing uploaded).
     pub fn uninit(ctx: &GlContext, bytes: usize) -> Result<Self> {
-        let gl = ctx.gl();
         let bytes = bytes.max(16);
         let size = i32::try_from(bytes).map_err(|_| {
             Error::Limit(format!(
                 "a storage buffer of {bytes} bytes exceeds GL's 2 GiB size argument"
             ))
         })?;
-        // SAFETY: the context is current.
-        unsafe {
+        // SAFETY: allocation only.
+        Self::create(ctx, bytes, |gl| unsafe {
+            gl.buffer_data_size(glow::SHADER_STORAGE_BUFFER, size, glow::DYNAMIC_COPY)
+        })
+    }
+
+    /// A new buffer of `bytes` bytes whose storage `fill` specifies while it is bound.
+    fn create(ctx: &GlContext, bytes: usize, fill: impl FnOnce(&glow::Context)) -> Result<Self> {
+        let gl = ctx.gl();
+        // SAFETY: the context is current; the buffer is created and owned here.
+        let obj = unsafe {
             let obj = Owned::new(
                 ctx,
                 gl.create_buffer()
                     .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
             );
             gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, Some(obj.name()));
-            gl.buffer_data_size(glow::SHADER_STORAGE_BUFFER, size, glow::DYNAMIC_COPY);
+            fill(gl);
             gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, None);
-            check_gl_error(gl, "allocating a storage buffer")?;
-            Ok(StorageBuffer { obj, bytes })
-        }
+            obj
+        };
+        check_gl_error(gl, "allocating a storage buffer")?;
+        Ok(StorageBuffer { obj, bytes })
     }
 
     /// Reads `out.len()` floats from byte `offset` of the buffer into `out` through a

@@ -93,19 +93,6 @@ fn compute_programs(
                 },
             ),
             (
-                "compute_texelfetch",
-                ComputePass::Render,
-                ComputeSpec {
-                    samples: 4,
-                    lights: 2,
-                    max_depth: 5,
-                    secondary: true,
-                    max_iterations,
-                    local: LOCAL_SIZE,
-                    fetch: Fetch::TexelFetch,
-                },
-            ),
-            (
                 "compute_primary",
                 ComputePass::Render,
                 ComputeSpec {
@@ -134,6 +121,19 @@ fn compute_programs(
             },
         )]
     };
+    if all_variants {
+        // The same full program reading the scene through texelFetch (contexts with too few
+        // storage blocks).
+        let (_, pass, spec) = v[0];
+        v.push((
+            "compute_texelfetch",
+            pass,
+            ComputeSpec {
+                fetch: Fetch::TexelFetch,
+                ..spec
+            },
+        ));
+    }
     for q in [Query::Closest, Query::Any] {
         let pass = ComputePass::Wave(q);
         v.push((pass.name(), pass, waves));
