@@ -119,9 +119,10 @@ void intersect_test(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3, const 
     }
     if (s2.S2_CURSOR >= s3.S3_CURSOR_END) {
         // The cell's closest hit counts only inside the cell: a closer hit may lie in the
-        // next one, where this triangle is binned too (CPU twin: closest_hit).
-        float t_exit = cell_exit(s0.S0_ORIGIN, s1.S1_DIR, s2);
-        if (s3.S3_TRI_BEST >= 0.0 && s3.S3_T_BEST <= exit_limit(t_exit)) {
+        // next one, where this triangle is binned too (CPU twin: closest_hit). The exit is
+        // computed only when a hit is held (&& evaluates its right side only then).
+        if (s3.S3_TRI_BEST >= 0.0
+            && s3.S3_T_BEST <= exit_limit(cell_exit(s0.S0_ORIGIN, s1.S1_DIR, s2))) {
             s0.S0_STATE = ST_SHADING;
         } else {
             s3.S3_HIT = vec2(s1.S1_T_MAX, TRI_NONE);
