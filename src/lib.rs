@@ -18,6 +18,7 @@ pub mod cpu;
 pub mod error;
 pub mod gpu;
 pub mod image_io;
+pub mod numeric;
 pub mod options;
 pub mod output;
 pub mod progress;

@@ -3,6 +3,7 @@
 //! two-level and the irregular grid builds, which bin level after level into frames of
 //! their own.
 
+use crate::numeric::Floor;
 use glam::DVec3;
 
 use super::grid::CellRange;
@@ -72,7 +73,7 @@ impl Frame {
         let bb_hi = tri[0].max(tri[1]).max(tri[2]) + self.pad;
         let cell = |p: f64, i: usize| -> u32 {
             // `as i64` saturates, and the clamp absorbs anything outside the frame.
-            let c = ((p - self.lo[i]) / self.cs[i]).floor() as i64;
+            let c = ((p - self.lo[i]) / self.cs[i]).floor_exact() as i64;
             c.clamp(0, self.res[i] as i64 - 1) as u32
         };
         let lo = [cell(bb_lo.x, 0), cell(bb_lo.y, 1), cell(bb_lo.z, 2)];

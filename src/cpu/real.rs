@@ -99,7 +99,7 @@ macro_rules! impl_real {
             }
             #[inline(always)]
             fn floor(self) -> Self {
-                <$t>::floor(self)
+                crate::numeric::Floor::floor_exact(self)
             }
             #[inline(always)]
             fn powf(self, y: Self) -> Self {
