@@ -35,22 +35,18 @@ pub struct GpuOptions {
 
 impl GpuOptions {
     /// The kernel these options run in a context described by `info` (see
-    /// [`Kernel::resolve_for`]: an explicit mask or `--storage f16` keeps `auto` on the
+    /// [`Kernel::resolve`]: an explicit mask or `--storage f16` keeps `auto` on the
     /// fragment kernels, which are the ones that have them).
     pub fn resolve_kernel(&self, info: &super::info::GlInfo) -> crate::Result<Kernel> {
         let fragment_only =
             matches!(self.mask, Mask::EarlyZ | Mask::Stencil) || self.storage == Storage::F16;
-        self.kernel.resolve_for(info, fragment_only)
+        self.kernel.resolve(info, fragment_only)
     }
 
     /// The fragment kernel `auto` falls back to when the compute kernel cannot finish a
     /// render in this context (llvmpipe's loop limit): looped where GL 3 is, else multipass.
     pub fn fallback_kernel(info: &super::info::GlInfo) -> Kernel {
-        if info.gl_major_minor >= (3, 0) {
-            Kernel::Looped
-        } else {
-            Kernel::Multipass
-        }
+        Kernel::fastest_fragment(info)
     }
 }
 
@@ -99,28 +95,28 @@ impl Kernel {
     /// The kernel a render in a context described by `info` runs: `Auto` becomes the
     /// fastest one the context supports (compute where GL 4.3 is; a bounded loop on a GL
     /// 3.x driver; the multipass design of the period in a GL 2.x context, whose hardware
-    /// had no dynamic loops to rely on); `Compute` without GL 4.3 is refused.
-    pub fn resolve(self, info: &super::info::GlInfo) -> crate::Result<Kernel> {
-        self.resolve_for(info, false)
-    }
-
-    /// [`Kernel::resolve`] for a render that asks for something only the fragment kernels
-    /// have (`fragment_only`: a mask or 16-bit ray storage), which `Auto` then honours by
-    /// choosing among them.
-    pub fn resolve_for(
-        self,
-        info: &super::info::GlInfo,
-        fragment_only: bool,
-    ) -> crate::Result<Kernel> {
+    /// had no dynamic loops to rely on), and the fastest fragment kernel when the render
+    /// asks for something only those have (`fragment_only`: a mask or 16-bit ray storage);
+    /// `Compute` without GL 4.3 is refused.
+    pub fn resolve(self, info: &super::info::GlInfo, fragment_only: bool) -> crate::Result<Kernel> {
         match self {
             Kernel::Auto if info.compute && !fragment_only => Ok(Kernel::Compute),
-            Kernel::Auto if info.gl_major_minor >= (3, 0) => Ok(Kernel::Looped),
-            Kernel::Auto => Ok(Kernel::Multipass),
+            Kernel::Auto => Ok(Kernel::fastest_fragment(info)),
             Kernel::Compute if !info.compute => Err(crate::Error::GlUnavailable(format!(
                 "--kernel compute needs OpenGL 4.3 and GLSL 4.30; {} offers OpenGL {} and GLSL {}",
                 info.renderer, info.gl_version, info.glsl_version
             ))),
             k => Ok(k),
+        }
+    }
+
+    /// The fastest fragment kernel for `info`: looped on GL 3.x and later, the multipass
+    /// design of the period on GL 2.x, whose hardware had no dynamic loops to rely on.
+    fn fastest_fragment(info: &super::info::GlInfo) -> Kernel {
+        if info.gl_major_minor >= (3, 0) {
+            Kernel::Looped
+        } else {
+            Kernel::Multipass
         }
     }
 

@@ -542,8 +542,6 @@ pub struct ComputeSpec {
     pub secondary: bool,
     /// Traversal iterations after which a ray is cut off and counted as unfinished.
     pub max_iterations: u32,
-    /// Work-group size.
-    pub local: (u32, u32),
     /// How the scene is read: texelFetch or storage buffers.
     pub fetch: Fetch,
 }
@@ -569,8 +567,8 @@ impl ComputePass {
     fn defines(self, spec: &ComputeSpec) -> Vec<String> {
         let mut d = vec![
             "KERNEL_COMPUTE".to_string(),
-            format!("LOCAL_X {}", spec.local.0),
-            format!("LOCAL_Y {}", spec.local.1),
+            format!("LOCAL_X {}", LOCAL_SIZE.0),
+            format!("LOCAL_Y {}", LOCAL_SIZE.1),
             format!("MAX_ITERATIONS {}", spec.max_iterations),
         ];
         match self {

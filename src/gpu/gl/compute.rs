@@ -118,16 +118,16 @@ impl StorageBuffer {
         Ok(StorageBuffer { obj, bytes })
     }
 
-    /// Reads `out.len()` floats from byte `offset` of the buffer into `out` through a
+    /// Reads the first `out.len()` floats of the buffer into `out` through a
     /// host-side staging buffer: one DMA copy on the GPU, then a parallel copy out of the
     /// mapped staging memory. On the H200 this read a 4096x4096 render's 448 MB of outputs
     /// in 176 ms where `glGetBufferSubData` on the device buffer took 731 ms
     /// (docs/performance.md).
-    pub fn read_f32_staged(&self, ctx: &GlContext, offset: usize, out: &mut [f32]) -> Result<()> {
+    pub fn read_f32_staged(&self, ctx: &GlContext, out: &mut [f32]) -> Result<()> {
         use rayon::prelude::*;
         let gl = ctx.gl();
         let bytes = out.len() * 4;
-        assert!(offset + bytes <= self.bytes, "read past the buffer");
+        assert!(bytes <= self.bytes, "read past the buffer");
         if bytes == 0 {
             return Ok(());
         }
@@ -146,7 +146,7 @@ impl StorageBuffer {
             gl.copy_buffer_sub_data(
                 glow::COPY_READ_BUFFER,
                 glow::COPY_WRITE_BUFFER,
-                offset as i32,
+                0,
                 0,
                 bytes as i32,
             );

@@ -37,8 +37,6 @@ struct Setup {
     scene_tex: Vec<(Unit, Texture)>,
     /// The same texels as storage buffers, at their bindings (`Fetch::Storage`).
     scene_buf: Vec<(u32, StorageBuffer)>,
-    /// Work-group size.
-    local: (u32, u32),
     /// How the program reads the scene.
     fetch: Fetch,
 
@@ -120,7 +118,6 @@ impl Setup {
             program,
             scene_tex,
             scene_buf,
-            local: spec.local,
             fetch,
             stats,
         })
@@ -174,8 +171,8 @@ impl Setup {
         unsafe {
             gl.use_program(Some(self.program.name()));
             gl.dispatch_compute(
-                width.div_ceil(self.local.0),
-                height.div_ceil(self.local.1),
+                width.div_ceil(LOCAL_SIZE.0),
+                height.div_ceil(LOCAL_SIZE.1),
                 1,
             );
             gl.memory_barrier(glow::ALL_BARRIER_BITS);
@@ -224,7 +221,6 @@ pub(super) fn render_compute(
         max_depth: req.max_depth,
         secondary,
         max_iterations: max_iterations(accel).min(i32::MAX as u64) as u32,
-        local: LOCAL_SIZE,
         // Storage buffers, measured faster than texelFetch on the H200 (874 vs 604 M rays/s
         // on bunny.toml at 4096x4096); Setup::new falls back to texelFetch where the
         // context has too few storage blocks.
@@ -263,7 +259,7 @@ pub(super) fn render_compute(
     // Bands of rows whose outputs fit one storage block (the AOV's 16 bytes per pixel are
     // the larger), aligned so every band starts a whole number of rows in.
     let rows = limits.band_rows(width, height)?;
-    let band_groups = width.div_ceil(spec.local.0) as usize * rows.div_ceil(spec.local.1) as usize;
+    let band_groups = width.div_ceil(LOCAL_SIZE.0) as usize * rows.div_ceil(LOCAL_SIZE.1) as usize;
     let counter_buf = StorageBuffer::zeroed_u32(ctx, band_groups * COUNTERS)?;
     counter_buf.bind(gl, 2);
     let band_px = width as usize * rows as usize;
@@ -287,7 +283,7 @@ pub(super) fn render_compute(
         let t = Instant::now();
         setup.dispatch(ctx, width, n, opts.timers)?;
         // Only this band's groups: a shorter last band leaves the records beyond stale.
-        let groups = width.div_ceil(spec.local.0) as usize * n.div_ceil(spec.local.1) as usize;
+        let groups = width.div_ceil(LOCAL_SIZE.0) as usize * n.div_ceil(LOCAL_SIZE.1) as usize;
         let records = counter_buf.read_u32(gl)?;
         for (t, c) in total
             .iter_mut()
@@ -300,8 +296,8 @@ pub(super) fn render_compute(
         let (at, len) = (top as usize * width as usize, n as usize * width as usize);
         let rgb_band = &mut rgb[at * 3..(at + len) * 3];
         let aov_band = &mut aov_data[at * 4..(at + len) * 4];
-        radiance_buf.read_f32_staged(ctx, 0, rgb_band)?;
-        aov_buf.read_f32_staged(ctx, 0, aov_band)?;
+        radiance_buf.read_f32_staged(ctx, rgb_band)?;
+        aov_buf.read_f32_staged(ctx, aov_band)?;
         *setup.stats.phases_ms.entry("read_back".into()).or_default() += ms_since(t);
     }
     // Rays cut off, ray trees left incomplete, or samples never started: the program's
@@ -455,7 +451,6 @@ pub(super) fn trace_wave(
         max_depth: 0,
         secondary: false,
         max_iterations: max_iterations(accel).min(i32::MAX as u64) as u32,
-        local: LOCAL_SIZE,
         fetch: Fetch::TexelFetch,
     };
     let mut setup = Setup::new(ctx, scene, accel, ComputePass::Wave(query), &spec, opts)?;

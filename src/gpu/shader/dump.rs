@@ -3,9 +3,7 @@
 //! glsl120_validate.rs): every fragment pass (GLSL 1.20, `.frag`) and the compute kernel's
 //! programs (GLSL 4.30, `.comp`, the extension that makes the validator pick the stage).
 
-use super::{
-    assemble, assemble_compute, ComputePass, ComputeSpec, Features, Fetch, Pass, Query, LOCAL_SIZE,
-};
+use super::{assemble, assemble_compute, ComputePass, ComputeSpec, Features, Fetch, Pass, Query};
 use crate::accel::AccelRef;
 use crate::gpu::layout::{self, SceneTextures};
 use crate::scene::Scene;
@@ -74,7 +72,6 @@ fn compute_programs(
         max_depth: 0,
         secondary: false,
         max_iterations,
-        local: LOCAL_SIZE,
         fetch: Fetch::Storage,
     };
     let mut v = if all_variants {
@@ -88,7 +85,6 @@ fn compute_programs(
                     max_depth: 5,
                     secondary: true,
                     max_iterations,
-                    local: LOCAL_SIZE,
                     fetch: Fetch::Storage,
                 },
             ),
@@ -101,7 +97,6 @@ fn compute_programs(
                     max_depth: 0,
                     secondary: false,
                     max_iterations,
-                    local: LOCAL_SIZE,
                     fetch: Fetch::Storage,
                 },
             ),
@@ -116,7 +111,6 @@ fn compute_programs(
                 max_depth: scene.max_depth,
                 secondary: scene.materials.iter().any(|m| m.reflects() || m.refracts()),
                 max_iterations,
-                local: LOCAL_SIZE,
                 fetch: Fetch::Storage,
             },
         )]
