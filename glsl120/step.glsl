@@ -18,7 +18,10 @@ void traverse_setup(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
 #ifdef ACCEL_IRREGULAR
     // The cell holding the virtual cell of the entry point.
     float id = irr_lookup(c);
-    vec4 cell = vec4(irr_lo(id).w, irr_hi(id).w, 0.0, 0.0);
+    vec4 lo = irr_lo(id);
+    vec4 hi = irr_hi(id);
+    irr_enter(lo, hi);
+    vec4 cell = vec4(lo.w, hi.w, 0.0, 0.0);
     // (cell id, previous exit t, where the ray leaves the grid's box): the box exit is
     // kept so that steps need not clip the ray against the box again.
     c = vec3(id, span.x, span.y);
@@ -38,8 +41,8 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     vec3 o = s0.S0_ORIGIN;
     vec3 d = s1.S1_DIR;
     float id = s2.S2_CELL.x;
-    vec3 lo = irr_lo(id).xyz;
-    vec3 hi = irr_hi(id).xyz;
+    vec3 lo = irr_cur_lo(id).xyz;
+    vec3 hi = irr_cur_hi(id).xyz;
     vec2 ex = irr_exit(o, d, lo, hi, s2.S2_CELL.y);
     float t_leave = s2.S2_CELL.z; // clip_grid(o, d, 0.0, t_max).y, from traverse_setup
     float next = ex.x >= t_leave ? -1.0 : irr_next(o, d, ex, lo, hi);
@@ -49,6 +52,7 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     }
     vec4 nlo = irr_lo(next);
     vec4 nhi = irr_hi(next);
+    irr_enter(nlo, nhi);
     s2 = S2_TEXEL(vec3(next, ex.x, t_leave), nlo.w);
     s3.S3_CURSOR_END = nlo.w + nhi.w;
     s3.S3_STEPS += 1.0;

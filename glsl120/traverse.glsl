@@ -76,6 +76,26 @@ float exit_limit(float t_exit) {
 vec4 irr_lo(float id) { return fetch_cell(id * 2.0); }
 vec4 irr_hi(float id) { return fetch_cell(id * 2.0 + 1.0); }
 
+#ifdef KERNEL_COMPUTE
+// The compute kernels trace one ray to its end in a loop, so the texels of the cell a ray
+// is in stay in registers from the step that entered it (irr_enter) instead of being
+// fetched again by the next step and by the closest-hit test's cell exit: two of a step's
+// five fetches. The fragment kernels fetch them again (their ray state lives in textures
+// between passes). Same values either way, so the same images.
+vec4 g_cell_lo;
+vec4 g_cell_hi;
+void irr_enter(vec4 lo, vec4 hi) {
+    g_cell_lo = lo;
+    g_cell_hi = hi;
+}
+vec4 irr_cur_lo(float id) { return g_cell_lo; }
+vec4 irr_cur_hi(float id) { return g_cell_hi; }
+#else
+void irr_enter(vec4 lo, vec4 hi) {}
+vec4 irr_cur_lo(float id) { return irr_lo(id); }
+vec4 irr_cur_hi(float id) { return irr_hi(id); }
+#endif
+
 // Parameter at which the ray crosses virtual boundary k of one axis (d != 0): the
 // expression of boundary1 above.
 float irr_crossing(float o, float d, float mn, float cs, float k) {
@@ -151,7 +171,7 @@ float irr_next(vec3 o, vec3 d, vec2 ex, vec3 lo, vec3 hi) {
 float cell_exit(vec3 o, vec3 d, vec4 s2) {
 #ifdef ACCEL_IRREGULAR
     float id = s2.S2_CELL.x;
-    return irr_exit(o, d, irr_lo(id).xyz, irr_hi(id).xyz, s2.S2_CELL.y).x;
+    return irr_exit(o, d, irr_cur_lo(id).xyz, irr_cur_hi(id).xyz, s2.S2_CELL.y).x;
 #else
     vec3 tn = boundaries(o, d, s2.S2_CELL);
     return min(min(tn.x, tn.y), tn.z);
