@@ -91,9 +91,7 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
 void intersect_test(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3, const bool any_hit) {
     if (!in_state(s0.S0_STATE, ST_TESTING)) return;
     float k = s2.S2_CURSOR;
-    float texel = floor(k * (1.0 / LIST_PER_TEXEL));
-    float comp = k - texel * LIST_PER_TEXEL;
-    float tri = dot(fetch_list(texel), vec4(equal(vec4(comp), vec4(0.0, 1.0, 2.0, 3.0))));
+    float tri = entry_list(k);
     vec3 p0 = fetch_tri(tri * TRI_TEXELS).xyz;
     vec3 p1 = fetch_tri(tri * TRI_TEXELS + 1.0).xyz;
     vec3 p2 = fetch_tri(tri * TRI_TEXELS + 2.0).xyz;

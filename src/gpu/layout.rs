@@ -55,6 +55,10 @@ pub enum Fetch {
 /// kernel's camera, light, counter, radiance, AOV and tile buffers take 0..6).
 pub const STORAGE_BINDING_BASE: u32 = 6;
 
+/// The textures that hold four scalar entries per texel (cell lists, the voxel map): they
+/// get `entry_<name>(i)`, and a float view under [`Fetch::Storage`].
+const ENTRY_TEXTURES: [&str; 2] = ["list", "vmap"];
+
 /// One packed RGBA32F texture.
 #[derive(Clone, Debug)]
 pub struct PackedTexture {
@@ -99,8 +103,19 @@ impl PackedTexture {
     }
 
     /// GLSL: size constants and an exact fetch by linear index, through `fetch` (`binding`:
-    /// the storage-buffer binding under [`Fetch::Storage`]).
+    /// the storage-buffer binding under [`Fetch::Storage`]); for [`ENTRY_TEXTURES`] also
+    /// `entry_<name>(i)`, the i-th float in texel order.
     pub fn glsl_with(&self, fetch: Fetch, binding: u32) -> String {
+        let mut s = self.texel_glsl(fetch, binding);
+        if ENTRY_TEXTURES.contains(&self.name) {
+            s += &self.entry_glsl(fetch, binding);
+        }
+        s
+    }
+
+    /// `fetch_<name>(i)` alone.
+    fn texel_glsl(&self, fetch: Fetch, binding: u32) -> String {
+        let n = self.name;
         match fetch {
             Fetch::Texture2D => self.glsl(),
             Fetch::Storage => format!(
@@ -108,7 +123,6 @@ impl PackedTexture {
                  vec4 fetch_{n}(float i) {{\n\
                  \x20   return buf_{n}[int(i)];\n\
                  }}\n",
-                n = self.name,
             ),
             Fetch::TexelFetch => format!(
                 "uniform sampler2D u_{n};\n\
@@ -116,9 +130,30 @@ impl PackedTexture {
                  \x20   int k = int(i);\n\
                  \x20   return texelFetch(u_{n}, ivec2(k & {mask}, k >> {shift}), 0);\n\
                  }}\n",
-                n = self.name,
                 mask = self.width - 1,
                 shift = self.width.trailing_zeros(),
+            ),
+        }
+    }
+
+    /// `entry_<name>(i)`. Under [`Fetch::Storage`] a float view of the same buffer beside
+    /// the texel view: an entry is one 4-byte load, not a texel and a select. Otherwise the
+    /// texel, then its component (exact: the one-hot select adds zeros to a finite entry).
+    fn entry_glsl(&self, fetch: Fetch, binding: u32) -> String {
+        let n = self.name;
+        match fetch {
+            Fetch::Storage => format!(
+                "layout(std430, binding = {binding}) readonly buffer Entries_{n} {{ float entries_{n}[]; }};\n\
+                 float entry_{n}(float i) {{\n\
+                 \x20   return entries_{n}[int(i)];\n\
+                 }}\n",
+            ),
+            Fetch::Texture2D | Fetch::TexelFetch => format!(
+                "float entry_{n}(float i) {{\n\
+                 \x20   float texel = floor(i * 0.25);\n\
+                 \x20   vec4 sel = vec4(equal(vec4(i - texel * 4.0), vec4(0.0, 1.0, 2.0, 3.0)));\n\
+                 \x20   return dot(fetch_{n}(texel), sel);\n\
+                 }}\n",
             ),
         }
     }
@@ -228,12 +263,8 @@ impl IrregularLayout {
             "#define ACCEL_IRREGULAR 1\n\
              // NVIDIA: no fast-math contraction, so one crossing is evaluated alike everywhere.\n\
              #pragma optionNV(fastmath off)\n\
-             // Voxel-map entry i (four per texel).\n\
-             float vmap_entry(float i) {\n\
-             \x20   float texel = floor(i * 0.25);\n\
-             \x20   vec4 sel = vec4(equal(vec4(i - texel * 4.0), vec4(0.0, 1.0, 2.0, 3.0)));\n\
-             \x20   return dot(fetch_vmap(texel), sel);\n\
-             }\n\
+             // Voxel-map entry i.\n\
+             float vmap_entry(float i) { return entry_vmap(i); }\n\
              // Cell id of virtual cell k: the top entry, then one child block per level while\n\
              // the entry is a node (CPU twin: IrregularGrid::lookup). Every product is an\n\
              // integer times a power of two, so exact.\n\
@@ -430,6 +461,12 @@ impl SceneTextures {
             s.push_str(&i.glsl());
         }
         s
+    }
+
+    /// Storage blocks the textures take under [`Fetch::Storage`]: one per texture, and the
+    /// float views the kernels read entries through (the list's, the voxel map's).
+    pub fn storage_blocks(&self) -> u32 {
+        self.all().len() as u32 + 1 + u32::from(self.irregular.is_some())
     }
 
     /// Total bytes uploaded.

@@ -81,7 +81,7 @@ impl Setup {
         let fetch = match spec.fetch {
             Fetch::Storage
                 if Limits::query(ctx.gl()).blocks
-                    < layout.all().len() as u32 + STORAGE_BINDING_BASE =>
+                    < layout.storage_blocks() + STORAGE_BINDING_BASE =>
             {
                 Fetch::TexelFetch
             }
