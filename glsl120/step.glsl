@@ -5,10 +5,33 @@
 // ACCEL_IRREGULAR, src/cpu/traverse_irregular.rs.
 // Needs intersect.glsl and traverse.glsl.
 
+#ifdef KERNEL_COMPUTE
+// The compute kernels trace one ray to its end in a loop, so the ray's shear (watertight
+// test) is set up once, by traverse_setup, and kept in registers for its triangle tests;
+// the fragment kernels set it up per test (the ray state has no room for it). Same values.
+mat3 g_shear_p;
+vec3 g_shear_s;
+void ray_shear_setup(vec3 d) {
+#ifdef INTERSECT_WATERTIGHT
+    shear_setup(d, g_shear_p, g_shear_s);
+#endif
+}
+void ray_shear(vec3 d, out mat3 P, out vec3 S) {
+    P = g_shear_p;
+    S = g_shear_s;
+}
+#else
+void ray_shear_setup(vec3 d) {}
+void ray_shear(vec3 d, out mat3 P, out vec3 S) {
+    shear_setup(d, P, S);
+}
+#endif
+
 // Traversal set-up for a ray in state INITIAL (else nothing): the start cell, or INVALID
 // when the ray misses the grid's box (pass 2 of the thesis; traverse_init.frag runs it).
 void traverse_setup(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     if (!in_state(s0.S0_STATE, ST_INITIAL)) return;
+    ray_shear_setup(s1.S1_DIR);
     vec2 span = clip_grid(s0.S0_ORIGIN, s1.S1_DIR, 0.0, s1.S1_T_MAX);
     if (span.x > span.y) {
         s0.S0_STATE = ST_INVALID;
@@ -98,7 +121,7 @@ void intersect_test(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3, const 
     mat3 P = mat3(1.0);
     vec3 S = vec3(1.0);
 #ifdef INTERSECT_WATERTIGHT
-    shear_setup(s1.S1_DIR, P, S);
+    ray_shear(s1.S1_DIR, P, S);
 #endif
     // Ties (closest hit): once a hit is held, a later (higher-index) triangle must be closer
     // by more than TIE_EPS relative, as in the CPU twin (cpu/traverse.rs, tie_limit).
