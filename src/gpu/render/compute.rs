@@ -22,6 +22,7 @@ use crate::gpu::context::GlContext;
 use crate::gpu::contract::compute::{camera_buffer, Counter, COUNTERS};
 use crate::gpu::contract::Unit;
 use crate::gpu::gl::{bind_image, compile_compute, Program, StorageBuffer, Texture, TimerQuery};
+use crate::gpu::info::GlInfo;
 use crate::gpu::layout::{SceneTextures, STORAGE_BINDING_BASE};
 use crate::gpu::options::{GpuOptions, Storage};
 use crate::gpu::shader::{assemble_compute, ComputePass, ComputeSpec, Features, Fetch, LOCAL_SIZE};
@@ -201,6 +202,22 @@ fn sum_counters(records: &[u32]) -> [u64; COUNTERS] {
     total
 }
 
+/// How the render kernel reads the scene on this driver, the faster of the two measured:
+/// storage buffers on the H200 (bunny.toml 4096x4096: 874 vs 604 M rays/s with texelFetch),
+/// texelFetch on llvmpipe, whose storage loads run lane by lane with a bounds check each
+/// (bunny.toml 160x120: 1.24 G instructions of shader code against 1.47 G, callgrind).
+fn preferred_fetch(info: &GlInfo) -> Fetch {
+    #[cfg(test)]
+    if let Some(fetch) = tests::FETCH.get() {
+        return fetch;
+    }
+    if info.renderer.starts_with("llvmpipe") {
+        Fetch::TexelFetch
+    } else {
+        Fetch::Storage
+    }
+}
+
 /// Renders `scene` with the compute kernel (see the module documentation).
 pub(super) fn render_compute(
     ctx: &GlContext,
@@ -221,10 +238,8 @@ pub(super) fn render_compute(
         max_depth: req.max_depth,
         secondary,
         max_iterations: max_iterations(accel).min(i32::MAX as u64) as u32,
-        // Storage buffers, measured faster than texelFetch on the H200 (874 vs 604 M rays/s
-        // on bunny.toml at 4096x4096); Setup::new falls back to texelFetch where the
-        // context has too few storage blocks.
-        fetch: Fetch::Storage,
+        // Setup::new falls back to texelFetch where the context has too few storage blocks.
+        fetch: preferred_fetch(&ctx.info),
     };
     let opts = GpuOptions {
         techniques: req.techniques,
@@ -474,6 +489,8 @@ mod tests {
         /// Test hook: a storage-block size (and no storage blocks for the scene) in place
         /// of the context's, to force bands and texelFetch.
         pub(super) static BLOCK_BYTES: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
+        /// Test hook: the fetch to ask for in place of the driver's preferred one.
+        pub(super) static FETCH: std::cell::Cell<Option<Fetch>> = const { std::cell::Cell::new(None) };
     }
 
     #[test]
@@ -517,7 +534,11 @@ mod tests {
                     ..GpuOptions::default()
                 },
             };
-            let whole = render_compute(ctx, &scene, accel.as_ref(), &req, None).unwrap();
+            // Storage buffers asked for (llvmpipe's preferred fetch is texelFetch).
+            FETCH.set(Some(Fetch::Storage));
+            let whole = render_compute(ctx, &scene, accel.as_ref(), &req, None);
+            FETCH.set(None);
+            let whole = whole.unwrap();
             BLOCK_BYTES.set(Some(96 * 16 * 256));
             let banded = render_compute(ctx, &scene, accel.as_ref(), &req, None);
             BLOCK_BYTES.set(None);
