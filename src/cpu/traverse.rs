@@ -322,3 +322,7 @@ pub(crate) fn brute_force<T: Real>(
     let shear = RayShear::new(ray.d);
     closest_of(ray, &shear, tris, 0..tris.len() as u32, techniques, &mut 0)
 }
+
+#[cfg(test)]
+#[path = "traverse_tests.rs"]
+mod tests;
