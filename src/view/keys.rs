@@ -10,7 +10,7 @@ Mouse:
   right/middle drag  pan
   wheel              zoom
 Keys:
-  k                  next kernel (multipass, unrolled:8, looped)
+  k                  next kernel (multipass, unrolled:8, looped, compute on GL 4.3)
   + / -              maximum depth up / down
   a                  next display: image, steps heat map, depth, normals, primitive ids
   z                  early-z mask on / off
@@ -60,13 +60,24 @@ pub fn action_for(key: &str) -> Option<Action> {
     })
 }
 
-/// The kernels `k` cycles through.
-pub const KERNELS: [Kernel; 3] = [Kernel::Multipass, Kernel::Unrolled(8), Kernel::Looped];
+/// The kernels `k` cycles through (compute only where the context has compute shaders).
+pub const KERNELS: [Kernel; 4] = [
+    Kernel::Multipass,
+    Kernel::Unrolled(8),
+    Kernel::Looped,
+    Kernel::Compute,
+];
 
-/// The kernel after `k` in [`KERNELS`] (the first when `k` is not in the list).
-pub fn next_kernel(k: Kernel) -> Kernel {
+/// The kernel after `k` in [`KERNELS`] (the first when `k` is not in the list, as `auto`
+/// is not), skipping `compute` where the context lacks compute shaders.
+pub fn next_kernel(k: Kernel, compute: bool) -> Kernel {
     let i = KERNELS.iter().position(|&x| x == k);
-    KERNELS[i.map_or(0, |i| (i + 1) % KERNELS.len())]
+    let next = KERNELS[i.map_or(0, |i| (i + 1) % KERNELS.len())];
+    if next == Kernel::Compute && !compute {
+        KERNELS[0]
+    } else {
+        next
+    }
 }
 
 /// What the window shows.
@@ -132,11 +143,26 @@ mod tests {
             );
         }
         assert_eq!(action_for("x"), None);
-        let mut k = Kernel::Looped;
-        for _ in 0..KERNELS.len() {
-            k = next_kernel(k);
-        }
-        assert_eq!(k, Kernel::Looped);
+        // With compute shaders the cycle has every kernel once; without, compute never.
+        let cycle = |compute: bool, from: Kernel| {
+            let mut k = from;
+            (0..KERNELS.len())
+                .map(|_| {
+                    k = next_kernel(k, compute);
+                    k
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            cycle(true, Kernel::Compute),
+            KERNELS.to_vec(),
+            "the full cycle from compute"
+        );
+        assert_eq!(
+            cycle(false, Kernel::Looped),
+            [KERNELS[..3].to_vec(), vec![Kernel::Multipass]].concat()
+        );
+        assert_eq!(next_kernel(Kernel::Auto, true), Kernel::Multipass);
         let mut d = Display::Image;
         for _ in 0..5 {
             d = d.next();

@@ -91,13 +91,15 @@ struct Handler {
     screenshot: bool,
     quit: bool,
     resized: Option<winit::dpi::PhysicalSize<u32>>,
+    /// The window's context has compute shaders (`k` offers the compute kernel).
+    compute: bool,
 }
 
 impl Handler {
     fn apply(&mut self, action: Action) {
         let s = &mut self.settings;
         match action {
-            Action::NextKernel => s.kernel = keys::next_kernel(s.kernel),
+            Action::NextKernel => s.kernel = keys::next_kernel(s.kernel, self.compute),
             Action::DepthUp => s.max_depth = (s.max_depth + 1).min(MAX_DEPTH),
             Action::DepthDown => s.max_depth = s.max_depth.saturating_sub(1),
             Action::ToggleMask => {
@@ -285,6 +287,7 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
         screenshot: false,
         quit: false,
         resized: None,
+        compute: ctx.info.compute,
     };
     let mut last: Option<GpuOutput> = None;
     let mut stats = TitleStats::default();
