@@ -175,6 +175,20 @@ fn walk_visits_the_dda_cells_in_order() {
     assert_eq!(seen.len(), 4);
     assert_eq!(seen[0], ([0, 3, 3], 3.0));
     assert_eq!(seen[3], ([3, 3, 3], 6.0));
+    // Entering through the x = 0 face at y = 2.2: the start cell is where the ray enters,
+    // not the clamp of some other point (y boundaries at (k - 1.7) / 0.5).
+    let y = |k: f64| (k - 1.7) / 0.5;
+    let slanted = ray::<f64>([-1.0, 1.7, 0.5], [1.0, 0.5, 0.0], 0.0, 100.0);
+    assert_eq!(
+        walk_cells(&w, &slanted).0,
+        vec![
+            ([0, 2, 0], 2.0),
+            ([1, 2, 0], y(3.0)),
+            ([1, 3, 0], 3.0),
+            ([2, 3, 0], 4.0),
+            ([3, 3, 0], y(4.0)),
+        ]
+    );
     let miss = ray::<f64>([-2.0, 5.0, 3.5], [1.0, 0.0, 0.0], 0.0, 100.0);
     assert!(walk_cells(&w, &miss).0.is_empty());
 }
