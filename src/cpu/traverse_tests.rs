@@ -260,6 +260,10 @@ fn check_against_brute_force<T: Real>(
         };
         let mut work = Work::default();
         let got = w.closest_hit(&r, &mut work);
+        // A hit took a cell and a test at least: the counts reach the stats.
+        if got.is_some() {
+            assert!(work.cells >= 1 && work.tests >= 1, "{ctx}: ray {i}: {work:?}");
+        }
         let want = w.brute_force(&r);
         let key = |h: Option<Hit<T>>| h.map(|h| (h.tri, h.t.to_f64().to_bits()));
         match (got, want) {
