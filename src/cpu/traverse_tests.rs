@@ -262,7 +262,10 @@ fn check_against_brute_force<T: Real>(
         let got = w.closest_hit(&r, &mut work);
         // A hit took a cell and a test at least: the counts reach the stats.
         if got.is_some() {
-            assert!(work.cells >= 1 && work.tests >= 1, "{ctx}: ray {i}: {work:?}");
+            assert!(
+                work.cells >= 1 && work.tests >= 1,
+                "{ctx}: ray {i}: {work:?}"
+            );
         }
         let want = w.brute_force(&r);
         let key = |h: Option<Hit<T>>| h.map(|h| (h.tri, h.t.to_f64().to_bits()));
@@ -285,12 +288,15 @@ fn check_against_brute_force<T: Real>(
                 T::NAME
             ),
         }
-        assert_eq!(
-            w.any_hit(&r, &mut work),
-            want.is_some(),
-            "{ctx} {}: any_hit, ray {i}",
-            T::NAME
-        );
+        let mut any_work = Work::default();
+        let any = w.any_hit(&r, &mut any_work);
+        assert_eq!(any, want.is_some(), "{ctx} {}: any_hit, ray {i}", T::NAME);
+        if any {
+            assert!(
+                any_work.cells >= 1 && any_work.tests >= 1,
+                "{ctx}: ray {i}: {any_work:?}"
+            );
+        }
         hits += want.is_some() as usize;
     }
     (hits, ties)
