@@ -10,7 +10,9 @@ use crate::accel::irregular::IrregularConfig;
 use crate::accel::tribox::tests::{test_seed, Rng};
 use crate::accel::two_level::tests::{scene_of, soup};
 use crate::cpu::real::Real;
-use crate::cpu::traverse_two_level::tests::{primary_rays, random_rays, rays_through, sphere};
+use crate::cpu::traverse_two_level::tests::{
+    primary_rays, random_rays, ray_of, rays_through, sphere,
+};
 
 /// Checks closest_hit and any_hit against brute force for every ray, in precision `T`.
 /// Returns how many rays hit.
@@ -49,12 +51,7 @@ fn check_rays_ties<T: Real>(
     let w = IrregularWalker::<T>::new(s, g, Techniques::default());
     let mut hits = 0;
     for (i, &(o, d, t_max)) in rays.iter().enumerate() {
-        let ray = Ray {
-            o: V3::from_dvec3(o),
-            d: V3::from_dvec3(d),
-            t_min: T::ZERO,
-            t_max: T::from_f64(t_max),
-        };
+        let ray = ray_of::<T>(o, d, t_max);
         let mut work = Work::default();
         let got = w.closest_hit(&ray, &mut work);
         let want = w.brute_force(&ray);

@@ -11,7 +11,7 @@ use super::*;
 use crate::accel::tribox::tests::{test_seed, Rng};
 use crate::accel::two_level::tests::{scene_of, soup};
 use crate::accel::GridConfig;
-use crate::cpu::traverse_two_level::tests::random_rays;
+use crate::cpu::traverse_two_level::tests::{random_rays, ray_of};
 
 fn ray<T: Real>(o: [f64; 3], d: [f64; 3], t_min: f64, t_max: f64) -> Ray<T> {
     Ray {
@@ -252,12 +252,7 @@ fn check_against_brute_force<T: Real>(
     let w = GridWalker::<T>::new(s, g);
     let (mut hits, mut ties) = (0, 0);
     for (i, &(o, d, t_max)) in rays.iter().enumerate() {
-        let r = Ray {
-            o: V3::from_dvec3(o),
-            d: V3::from_dvec3(d),
-            t_min: T::ZERO,
-            t_max: T::from_f64(t_max),
-        };
+        let r = ray_of::<T>(o, d, t_max);
         let mut work = Work::default();
         let got = w.closest_hit(&r, &mut work);
         // A hit took a cell and a test at least: the counts reach the stats.

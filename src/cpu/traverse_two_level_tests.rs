@@ -21,12 +21,7 @@ fn check_rays<T: Real>(
     let w = TwoLevelWalker::<T>::new(s, g, Techniques::default());
     let mut hits = 0;
     for (i, &(o, d, t_max)) in rays.iter().enumerate() {
-        let ray = Ray {
-            o: V3::from_dvec3(o),
-            d: V3::from_dvec3(d),
-            t_min: T::ZERO,
-            t_max: T::from_f64(t_max),
-        };
+        let ray = ray_of::<T>(o, d, t_max);
         let mut work = Work::default();
         let got = w.closest_hit(&ray, &mut work);
         let want = w.brute_force(&ray);
@@ -52,6 +47,16 @@ fn check_rays<T: Real>(
 fn check_both(s: &Scene, g: &TwoLevelGrid, rays: &[(DVec3, DVec3, f64)], ctx: &str) -> usize {
     check_rays::<f64>(s, g, rays, ctx);
     check_rays::<f32>(s, g, rays, ctx)
+}
+
+/// The ray (o, d) over (0, t_max) in precision `T`, as the random ray lists give them.
+pub(crate) fn ray_of<T: Real>(o: DVec3, d: DVec3, t_max: f64) -> Ray<T> {
+    Ray {
+        o: V3::from_dvec3(o),
+        d: V3::from_dvec3(d),
+        t_min: T::ZERO,
+        t_max: T::from_f64(t_max),
+    }
 }
 
 /// Random rays: from inside and outside the box `[-r, r]^3` towards random points in it,

@@ -31,7 +31,7 @@ use crate::{Error, Result};
 pub const TRI_TEXELS: u32 = 3;
 /// Texels per material; the slots are declared in [`contract::mat`](super::contract::mat).
 pub const MAT_TEXELS: u32 = slot::TEXELS;
-/// Triangle indices per `list` texel.
+/// Entries per texel of the [`ENTRY_TEXTURES`] (triangle indices in `list`, voxel-map entries).
 pub const LIST_PER_TEXEL: u32 = 4;
 /// Largest index stored in a float that is still exact.
 pub const MAX_EXACT_INDEX: u64 = 1 << 24;
@@ -150,10 +150,12 @@ impl PackedTexture {
             ),
             Fetch::Texture2D | Fetch::TexelFetch => format!(
                 "float entry_{n}(float i) {{\n\
-                 \x20   float texel = floor(i * 0.25);\n\
-                 \x20   vec4 sel = vec4(equal(vec4(i - texel * 4.0), vec4(0.0, 1.0, 2.0, 3.0)));\n\
+                 \x20   float texel = floor(i * {inv:?});\n\
+                 \x20   vec4 sel = vec4(equal(vec4(i - texel * {per:.1}), vec4(0.0, 1.0, 2.0, 3.0)));\n\
                  \x20   return dot(fetch_{n}(texel), sel);\n\
                  }}\n",
+                inv = 1.0 / LIST_PER_TEXEL as f32,
+                per = LIST_PER_TEXEL as f32,
             ),
         }
     }
@@ -241,7 +243,7 @@ impl IrregularLayout {
             })
             .collect();
         let texels = entries
-            .chunks(4)
+            .chunks(LIST_PER_TEXEL as usize)
             .map(|c| {
                 let mut t = [0f32; 4];
                 t[..c.len()].copy_from_slice(c);
@@ -451,9 +453,8 @@ impl SceneTextures {
 
     /// GLSL declarations of every texture and the layout constants, fetching through `fetch`.
     pub fn glsl_with(&self, fetch: Fetch) -> String {
-        let mut s = format!(
-            "#define TRI_TEXELS {TRI_TEXELS}.0\n#define MAT_TEXELS {MAT_TEXELS}.0\n#define LIST_PER_TEXEL {LIST_PER_TEXEL}.0\n"
-        );
+        let mut s =
+            format!("#define TRI_TEXELS {TRI_TEXELS}.0\n#define MAT_TEXELS {MAT_TEXELS}.0\n");
         for (k, t) in self.all().into_iter().enumerate() {
             s.push_str(&t.glsl_with(fetch, STORAGE_BINDING_BASE + k as u32));
         }
