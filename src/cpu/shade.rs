@@ -235,3 +235,7 @@ pub fn light_term<T: Real>(
     }
     c.mul_elem(radiance)
 }
+
+#[cfg(test)]
+#[path = "shade_tests.rs"]
+mod tests;

@@ -1,0 +1,527 @@
+//! Unit tests of the shading model (`shade.rs`), each against an independent answer:
+//! surface points, normals and error bounds of triangles worked out by hand, spawn offsets
+//! checked against the f64 plane of the triangle they leave, checker squares counted by
+//! hand, and reflection, Snell refraction and the Fresnel equations against their textbook
+//! closed forms (sines and tangents of the two angles, which the renderer does not use).
+//! Written after `cargo mutants` found the shading model covered only by the integration
+//! tests (docs/testing.md).
+
+use glam::Vec3;
+
+use super::*;
+use crate::accel::tribox::tests::{test_seed, Rng};
+use crate::accel::two_level::tests::scene_of;
+use crate::cpu::intersect::{intersect_watertight, RayShear};
+use crate::scene::{Checker, CheckerAxes, Triangle};
+use crate::technique::TBound;
+
+fn v(x: f64, y: f64, z: f64) -> V3<f64> {
+    V3::new(x, y, z)
+}
+
+fn assert_close(a: V3<f64>, b: V3<f64>, tol: f64, what: &str) {
+    let e = (a - b).abs().max_elem();
+    assert!(
+        e <= tol,
+        "{what}: {a:?} vs {b:?} (error {e:e}, bound {tol:e})"
+    );
+}
+
+/// pbrt's γ(n) = n·u / (1 − n·u) for f64, written out here rather than taken from `Real`.
+fn gamma64(n: f64) -> f64 {
+    let u = f64::EPSILON / 2.0;
+    n * u / (1.0 - n * u)
+}
+
+/// A flat surface point at `p` with unit geometric normal `ng`, hit from the side `d`
+/// comes from, shading normal equal to the facing normal unless `ns` is given.
+fn point(p: V3<f64>, ng: V3<f64>, d: V3<f64>, ns: Option<V3<f64>>) -> SurfacePoint<f64> {
+    let entering = d.dot(ng) < 0.0;
+    let nf = if entering { ng } else { -ng };
+    SurfacePoint {
+        p,
+        p_err: V3::splat(0.0),
+        ng,
+        nf,
+        ns: ns.unwrap_or(nf),
+        entering,
+        material: 0,
+    }
+}
+
+fn deg(a: f64) -> f64 {
+    a.to_radians()
+}
+
+#[test]
+fn surface_of_a_flat_triangle_from_both_sides() {
+    // (v1 - v0) x (v2 - v0) = (2,0,0) x (0,4,0) = (0,0,8): the winding normal is +z.
+    let tri = [
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(2.0, 0.0, 1.0),
+        Vec3::new(0.0, 4.0, 1.0),
+    ];
+    let mut scene = scene_of(&[tri]);
+    scene.add_material(Material::default());
+    scene.triangles[0].material = 1;
+    let verts = tri.map(V3::<f64>::from_vec3);
+    let hit = Hit {
+        t: 3.0,
+        tri: 0,
+        b: [0.25, 0.5, 0.25],
+    };
+    let front = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
+    // 0.25·(0,0,1) + 0.5·(2,0,1) + 0.25·(0,4,1), every product and sum exact.
+    assert_eq!(front.p, v(1.0, 1.0, 1.0));
+    // Σ|v_i b_i| = (0,0,.25) + (1,0,.5) + (0,1,.25) = (1,1,1), times γ(7).
+    assert_eq!(front.p_err, V3::splat(gamma64(7.0)));
+    assert_eq!(front.ng, v(0.0, 0.0, 1.0));
+    assert_eq!(front.nf, v(0.0, 0.0, 1.0));
+    assert_eq!(front.ns, v(0.0, 0.0, 1.0));
+    assert!(front.entering);
+    assert_eq!(front.material, 1);
+
+    let back = surface(&scene, &verts, &hit, v(0.1, 0.2, 1.0));
+    assert_eq!(
+        back.ng,
+        v(0.0, 0.0, 1.0),
+        "ng follows the winding, not the ray"
+    );
+    assert_eq!(back.nf, v(0.0, 0.0, -1.0));
+    assert_eq!(back.ns, v(0.0, 0.0, -1.0));
+    assert!(!back.entering);
+    // A ray in the plane (d·ng = 0) is not entering.
+    assert!(!surface(&scene, &verts, &hit, v(1.0, 0.0, 0.0)).entering);
+}
+
+#[test]
+fn surface_of_a_zero_area_triangle_is_finite() {
+    // Collinear: the normal is the zero vector; the guard substitutes +y, never NaN.
+    let tri = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+    let scene = scene_of(&[tri]);
+    let verts = tri.map(V3::<f64>::from_vec3);
+    let hit = Hit {
+        t: 1.0,
+        tri: 0,
+        b: [0.5, 0.5, 0.0],
+    };
+    let sp = surface(&scene, &verts, &hit, v(0.0, -1.0, 0.0));
+    assert_eq!(sp.ng, v(0.0, 1.0, 0.0));
+    assert_eq!(sp.ns, v(0.0, 1.0, 0.0));
+    assert!(sp.entering);
+}
+
+/// One triangle in z = 0 (winding normal +z) with the given vertex normals.
+fn smooth_scene(normals: [Vec3; 3]) -> (Scene, [V3<f64>; 3]) {
+    let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    let mut scene = scene_of(&[tri]);
+    scene.normals = normals.to_vec();
+    scene.triangles[0] = Triangle {
+        n: [0, 1, 2],
+        ..scene.triangles[0]
+    };
+    (scene, tri.map(V3::from_vec3))
+}
+
+#[test]
+fn smooth_normals_interpolate_and_face_the_ray() {
+    let (scene, verts) = smooth_scene([
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(0.6, 0.0, 0.8),
+        Vec3::new(0.0, 0.6, 0.8),
+    ]);
+    let hit = Hit {
+        t: 1.0,
+        tri: 0,
+        b: [0.5, 0.25, 0.25],
+    };
+    // 0.5·(0,0,1) + 0.25·(.6,0,.8) + 0.25·(0,.6,.8) = (.15, .15, .9), then normalised.
+    let s = v(0.15, 0.15, 0.9) * (1.0 / (0.15f64 * 0.15 * 2.0 + 0.81).sqrt());
+    let front = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
+    assert_close(front.ns, s, 1e-7, "front shading normal");
+    assert!((front.ns.length() - 1.0).abs() < 1e-15);
+    assert_eq!(
+        front.nf,
+        v(0.0, 0.0, 1.0),
+        "the geometric normal stays flat"
+    );
+    let back = surface(&scene, &verts, &hit, v(0.0, 0.0, 1.0));
+    assert_close(
+        back.ns,
+        -s,
+        1e-7,
+        "back shading normal, flipped to face the ray",
+    );
+
+    // Vertex normals that cancel at the hit leave the facing geometric normal.
+    let (scene, verts) = smooth_scene([Vec3::Z, -Vec3::Z, Vec3::Z]);
+    let hit = Hit {
+        t: 1.0,
+        tri: 0,
+        b: [0.5, 0.5, 0.0],
+    };
+    let sp = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
+    assert_eq!(sp.ns, v(0.0, 0.0, 1.0));
+}
+
+#[test]
+fn offset_moves_one_ulp_past_the_error_bound_on_the_side_of_w() {
+    let tri = [
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(2.0, 0.0, 1.0),
+        Vec3::new(0.0, 4.0, 1.0),
+    ];
+    let scene = scene_of(&[tri]);
+    let verts = tri.map(V3::<f64>::from_vec3);
+    let hit = Hit {
+        t: 3.0,
+        tri: 0,
+        b: [0.25, 0.5, 0.25],
+    };
+    let sp = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
+    // p = (1,1,1), p_err = γ(7)·(1,1,1), ng = +z: the bound along the normal is γ(7).
+    let z0 = 1.0 + gamma64(7.0);
+    let up = offset_origin(&sp, v(0.3, 0.0, 1.0));
+    assert_eq!(up.x, 1.0, "no offset along x, so no nudge");
+    assert_eq!(up.y, 1.0);
+    // One more rounding step: |z|·2u (+1e-30) is just over one ulp of z in [1, 2).
+    assert_eq!(up.z, z0 + f64::EPSILON);
+    let down = offset_origin(&sp, v(0.3, 0.0, -1.0));
+    assert_eq!((down.x, down.y), (1.0, 1.0));
+    let z1 = 1.0 - gamma64(7.0);
+    assert!(
+        down.z < z1 && down.z >= z1 - 2.0 * f64::EPSILON,
+        "{}",
+        down.z
+    );
+
+    // A coordinate the offset lands on exactly zero still moves, by the 1e-30 floor.
+    let at_zero = SurfacePoint {
+        p: v(-0.5, 2.0, 3.0),
+        p_err: v(0.5, 0.0, 0.0),
+        ..point(v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(-1.0, 0.0, 0.0), None)
+    };
+    let o = offset_origin(&at_zero, v(1.0, 0.0, 0.0));
+    assert_eq!(o, v(f64::from(1e-30f32), 2.0, 3.0));
+    let o = offset_origin(&at_zero, v(-1.0, 0.0, 0.0));
+    assert_eq!(
+        o.x,
+        -1.0 - f64::EPSILON,
+        "-0.5 - 0.5, then one ulp of 1 away"
+    );
+}
+
+#[test]
+fn epsilon_offset_is_fixed_along_the_geometric_normal() {
+    let sp = point(v(1.0, 2.0, 3.0), v(0.0, 0.0, 1.0), v(0.0, 0.0, -1.0), None);
+    let eps = OFFSET_EPSILON;
+    let up = offset_origin_with(&sp, v(0.0, 0.5, 1.0), OffsetMethod::Epsilon);
+    assert_eq!(up, v(1.0, 2.0, 3.0 + eps));
+    let down = offset_origin_with(&sp, v(0.0, 0.5, -1.0), OffsetMethod::Epsilon);
+    assert_eq!(down, v(1.0, 2.0, 3.0 - eps));
+    // The error-bound method on a point with no error only nudges.
+    let eb = offset_origin_with(&sp, v(0.0, 0.5, 1.0), OffsetMethod::ErrorBound);
+    assert_eq!(eb, v(1.0, 2.0, 3.0));
+}
+
+/// f32 spawn points on random triangles: the offset origin lies strictly on `w`'s side of
+/// the triangle's plane (evaluated in f64 from the same f32 vertices), and a ray from it
+/// along `w` never hits the triangle again, even with no t bound and t_min = 0.
+#[test]
+fn offset_origins_leave_the_surface_in_f32() {
+    let seed = test_seed("offset_origins_leave_the_surface", 0x0FF5_E7);
+    let mut rng = Rng::new(seed);
+    let mut checked = 0;
+    for case in 0..4_000 {
+        let scale = [1e-3, 1.0, 1e3, 1e5][case % 4];
+        let a = rng.dvec3(-1.0, 1.0) * scale;
+        let tri = [
+            a.as_vec3(),
+            (a + rng.dvec3(-1.0, 1.0) * scale).as_vec3(),
+            (a + rng.dvec3(-1.0, 1.0) * scale).as_vec3(),
+        ];
+        let verts = tri.map(V3::<f32>::from_vec3);
+        let vd = tri.map(|p| p.as_dvec3());
+        let n64 = (vd[1] - vd[0]).cross(vd[2] - vd[0]);
+        if n64.length() < 1e-6 * scale * scale {
+            continue;
+        }
+        let (u, w1) = (rng.f64(), rng.f64());
+        let (b1, b2) = if u + w1 > 1.0 {
+            (1.0 - u, 1.0 - w1)
+        } else {
+            (u, w1)
+        };
+        let b = [(1.0 - b1 - b2) as f32, b1 as f32, b2 as f32];
+        let d = V3::<f32>::from_dvec3(rng.dvec3(-1.0, 1.0).normalize());
+        let hit = Hit { t: 1.0, tri: 0, b };
+        let scene = scene_of(&[tri]);
+        let sp = surface(&scene, &verts, &hit, d);
+        for w in [reflect(d, sp.nf), d] {
+            let o = offset_origin(&sp, w);
+            let side = (o.to_dvec3() - vd[0]).dot(n64);
+            let want = w.to_dvec3().dot(n64);
+            if want.abs() < 1e-3 * n64.length() {
+                continue; // w grazes the plane
+            }
+            checked += 1;
+            assert!(
+                side * want > 0.0,
+                "case {case}: origin {o:?} on the wrong side (seed {seed})"
+            );
+            let again =
+                intersect_watertight(o, &RayShear::new(w), &verts, 0.0, f32::MAX, TBound::Off);
+            assert!(
+                again.is_none(),
+                "case {case}: re-hit {again:?} (seed {seed})"
+            );
+        }
+    }
+    println!("{checked} spawned rays checked");
+    assert!(checked > 7_000, "only {checked} spawned rays checked");
+}
+
+fn checker(axes: CheckerAxes, scale: f32, phase: [f32; 2]) -> Material {
+    Material {
+        albedo: Vec3::new(0.5, 0.5, 0.5),
+        checker: Some(Checker {
+            color_a: Vec3::new(1.0, 0.0, 0.0),
+            color_b: Vec3::new(0.0, 0.0, 1.0),
+            scale,
+            axes,
+            phase,
+        }),
+        ..Material::default()
+    }
+}
+
+#[test]
+fn checker_squares_counted_by_hand() {
+    let (a, b) = (v(1.0, 0.0, 0.0), v(0.0, 0.0, 1.0));
+    let plain = Material::default();
+    assert_eq!(albedo(&plain, v(0.3, 0.1, 0.2)), V3::splat(0.8f32 as f64));
+    let m = checker(CheckerAxes::Xz, 1.0, [0.0, 0.0]);
+    // floor(x) + floor(z): 0+0 even, 1+0 odd, -1+0 odd, -1-1 even; y is ignored.
+    assert_eq!(albedo(&m, v(0.5, 9.0, 0.5)), a);
+    assert_eq!(albedo(&m, v(1.5, 9.0, 0.5)), b);
+    assert_eq!(albedo(&m, v(-0.5, 9.0, 0.5)), b);
+    assert_eq!(albedo(&m, v(-0.5, 9.0, -0.5)), a);
+    assert_eq!(albedo(&m, v(2.5, 0.0, 1.5)), b);
+    // Squares of two units: (1.5, 0.5) is in square (0, 0), (2.5, 0.5) in (1, 0).
+    let m = checker(CheckerAxes::Xz, 2.0, [0.0, 0.0]);
+    assert_eq!(albedo(&m, v(1.5, 0.0, 0.5)), a);
+    assert_eq!(albedo(&m, v(2.5, 0.0, 0.5)), b);
+    assert_eq!(albedo(&m, v(2.5, 0.0, 2.5)), a);
+    // The phase shifts the local coordinates: 0.75 + 0.5 crosses into square 1.
+    let m = checker(CheckerAxes::Xz, 1.0, [0.5, 0.0]);
+    assert_eq!(albedo(&m, v(0.75, 0.0, 0.5)), b);
+    assert_eq!(albedo(&m, v(0.25, 0.0, 0.5)), a);
+    let m = checker(CheckerAxes::Xz, 1.0, [0.0, 0.5]);
+    assert_eq!(albedo(&m, v(0.25, 0.0, 0.75)), b);
+    // The other planes read their own axes.
+    let m = checker(CheckerAxes::Yz, 1.0, [0.0, 0.0]);
+    assert_eq!(albedo(&m, v(7.5, 1.5, 0.5)), b);
+    assert_eq!(albedo(&m, v(7.5, 1.5, 1.5)), a);
+    let m = checker(CheckerAxes::Xy, 1.0, [0.0, 0.0]);
+    assert_eq!(albedo(&m, v(0.5, 1.5, 7.5)), b);
+    assert_eq!(albedo(&m, v(1.5, 1.5, 7.5)), a);
+}
+
+#[test]
+fn reflection_closed_forms() {
+    assert_eq!(
+        reflect(v(0.6, -0.8, 0.0), v(0.0, 1.0, 0.0)),
+        v(0.6, 0.8, 0.0)
+    );
+    assert_eq!(
+        reflect(v(1.0, 2.0, -3.0), v(0.0, 0.0, 1.0)),
+        v(1.0, 2.0, 3.0)
+    );
+    let mirror = Material {
+        kr: Vec3::new(0.5, 0.25, 0.125),
+        ..Material::default()
+    };
+    let d = v(0.6, 0.0, -0.8);
+    let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), d, None);
+    let s = secondary(&mirror, &sp, d);
+    assert_eq!(s.reflected, v(0.6, 0.0, 0.8));
+    assert_eq!(s.kr, v(0.5, 0.25, 0.125));
+    assert_eq!(s.kt, V3::splat(0.0));
+    assert_eq!(s.refracted, V3::splat(0.0));
+}
+
+#[test]
+fn mirror_ray_below_the_surface_reflects_about_the_true_normal() {
+    // A shading normal tilted 60° towards the ray: reflecting about it sends the ray into
+    // the surface, so the geometric normal is used.
+    let d = v(0.8, 0.0, -0.6);
+    let ns = v(deg(60.0).sin(), 0.0, deg(60.0).cos());
+    let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), d, Some(ns));
+    assert!(reflect(d, ns).z < 0.0, "the case this test is about");
+    let s = secondary(&Material::default(), &sp, d);
+    assert_eq!(s.reflected, v(0.8, 0.0, 0.6));
+    // A mild tilt keeps the shading normal's mirror direction.
+    let ns = v(deg(10.0).sin(), 0.0, deg(10.0).cos());
+    let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), d, Some(ns));
+    assert_eq!(
+        secondary(&Material::default(), &sp, d).reflected,
+        reflect(d, ns)
+    );
+}
+
+fn glass(fresnel: bool) -> Material {
+    Material {
+        kr: Vec3::splat(0.25),
+        kt: Vec3::splat(0.5),
+        ior: 1.5,
+        fresnel,
+        ..Material::default()
+    }
+}
+
+/// The direction Snell's law gives in the xz plane: angle `theta_t` from the normal
+/// `(0, 0, zsign)` the ray travels along, towards +x.
+fn snell_dir(theta_t: f64, zsign: f64) -> V3<f64> {
+    v(theta_t.sin(), 0.0, zsign * theta_t.cos())
+}
+
+/// Fresnel reflectance of unpolarised light from the two angles (Born & Wolf's form;
+/// undefined at normal incidence, which is checked against ((n1 - n2) / (n1 + n2))^2).
+fn fresnel_angles(ti: f64, tt: f64) -> f64 {
+    let rs = -(ti - tt).sin() / (ti + tt).sin();
+    let rp = (ti - tt).tan() / (ti + tt).tan();
+    (rs * rs + rp * rp) / 2.0
+}
+
+#[test]
+fn refraction_follows_snell_entering_and_leaving() {
+    // Entering glass (n 1 -> 1.5) at 45° from above a +z surface.
+    let ti = deg(45.0);
+    let d = v(ti.sin(), 0.0, -ti.cos());
+    let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), d, None);
+    let s = secondary(&glass(false), &sp, d);
+    let tt = (ti.sin() / 1.5).asin();
+    assert_close(s.refracted, snell_dir(tt, -1.0), 1e-15, "entering");
+    assert_eq!(s.kr, V3::splat(0.25));
+    assert_eq!(s.kt, V3::splat(0.5));
+
+    // Leaving glass (1.5 -> 1) at 30°, from below the +z surface (the ray goes up).
+    let ti = deg(30.0);
+    let d = v(ti.sin(), 0.0, ti.cos());
+    let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), d, None);
+    assert!(!sp.entering);
+    let s = secondary(&glass(false), &sp, d);
+    let tt = (1.5 * ti.sin()).asin();
+    assert_close(s.refracted, snell_dir(tt, 1.0), 1e-15, "leaving");
+    assert_eq!((s.kr, s.kt), (V3::splat(0.25), V3::splat(0.5)));
+
+    // Leaving at 45°: past the critical angle asin(1/1.5) = 41.8°, all is reflected.
+    let ti = deg(45.0);
+    let d = v(ti.sin(), 0.0, ti.cos());
+    let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), d, None);
+    let s = secondary(&glass(false), &sp, d);
+    assert_eq!(s.kr, V3::splat(0.75), "kr + kt");
+    assert_eq!(s.kt, V3::splat(0.0));
+    let s = secondary(&glass(true), &sp, d);
+    assert_eq!(s.kr, V3::splat(1.0));
+    assert_eq!(s.kt, V3::splat(0.0));
+    assert_close(
+        s.reflected,
+        v(ti.sin(), 0.0, -ti.cos()),
+        1e-15,
+        "TIR mirror",
+    );
+}
+
+#[test]
+fn fresnel_matches_the_textbook_equations() {
+    // Normal incidence: ((n1 - n2) / (n1 + n2))^2 = 0.04 for glass, from either side.
+    for (d, what) in [
+        (v(0.0, 0.0, -1.0), "entering"),
+        (v(0.0, 0.0, 1.0), "leaving"),
+    ] {
+        let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), d, None);
+        let s = secondary(&glass(true), &sp, d);
+        assert_close(s.kr, V3::splat(0.04), 1e-15, what);
+        assert_close(s.kt, V3::splat(0.96), 1e-15, what);
+        assert_close(s.refracted, d, 1e-15, what);
+    }
+    for deg_i in [10.0, 30.0, 45.0, 60.0, 80.0, 89.0] {
+        let ti = deg(deg_i);
+        let d = v(ti.sin(), 0.0, -ti.cos());
+        let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), d, None);
+        let s = secondary(&glass(true), &sp, d);
+        let tt = (ti.sin() / 1.5).asin();
+        let f = fresnel_angles(ti, tt);
+        assert!((s.kr.x - f).abs() < 1e-14, "{deg_i}°: {} vs {f}", s.kr.x);
+        assert!((s.kt.x - (1.0 - f)).abs() < 1e-14);
+        // Leaving at the refracted angle, the same path backwards: the same reflectance.
+        let back = v(tt.sin(), 0.0, tt.cos());
+        let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), back, None);
+        let s = secondary(&glass(true), &sp, back);
+        // Measured 6.0e-14 at 89°, where cos θt = sqrt(1 - 2.25 sin² θi) cancels.
+        let e = (s.kr.x - f).abs();
+        assert!(e < 2e-13, "{deg_i}° reversed: {} vs {f} ({e:e})", s.kr.x);
+        assert_close(s.refracted, snell_dir(ti, 1.0), 5e-14, "reversed direction");
+        // 1.2e-14
+    }
+}
+
+#[test]
+fn transmitted_ray_on_the_wrong_side_bends_about_the_true_normal() {
+    // Leaving glass at 60° with a shading normal tilted 20° away: refracting about the
+    // shading normal would send the ray back inside. About the true normal 60° is past the
+    // critical angle, so the clamped bend leaves the ray along the surface, (1, 0, 0).
+    let ti = deg(60.0);
+    let d = v(ti.sin(), 0.0, ti.cos());
+    let a = deg(-20.0);
+    let ns = v(a.sin(), 0.0, -a.cos());
+    let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), d, Some(ns));
+    let s = secondary(&glass(false), &sp, d);
+    assert_close(s.refracted, v(1.0, 0.0, 0.0), 1e-15, "bent about ng");
+    assert_eq!(s.kt, V3::splat(0.5), "transmission is kept");
+}
+
+#[test]
+fn light_term_closed_forms() {
+    let m = Material {
+        kd: 0.5,
+        ks: Vec3::splat(0.25),
+        ns: 10.0,
+        ..Material::default()
+    };
+    let albedo = v(1.0, 0.5, 0.25);
+    let radiance = v(2.0, 4.0, 8.0);
+    let d = v(0.0, 0.0, -1.0);
+    let sp = point(v(0.0, 0.0, 0.0), v(0.0, 0.0, 1.0), d, None);
+    let l = v(0.0, 0.6, 0.8);
+    // Viewer on the mirror direction of the light: r·v = 1.
+    let c = light_term(&m, albedo, &sp, l, v(0.0, -0.6, 0.8), radiance);
+    let want = (albedo * (0.5 * 0.8) + V3::splat(0.25)).mul_elem(radiance);
+    assert_close(c, want, 1e-15, "mirror viewer");
+    // Viewer overhead: r = (0, -.6, .8), r·v = 0.8.
+    let c = light_term(&m, albedo, &sp, l, v(0.0, 0.0, 1.0), radiance);
+    let want = (albedo * 0.4 + V3::splat(0.25 * 0.8f64.powi(10))).mul_elem(radiance);
+    assert_close(c, want, 1e-15, "overhead viewer");
+    // Viewer past the light: r·v = -0.576 + 0.224 < 0 clamps to 0 (the even power would
+    // not).
+    let c = light_term(&m, albedo, &sp, l, v(0.0, 0.96, 0.28), radiance);
+    assert_close(
+        c,
+        (albedo * 0.4).mul_elem(radiance),
+        1e-15,
+        "clamped highlight",
+    );
+    // No specular colour: diffuse only.
+    let matte = Material {
+        ks: Vec3::ZERO,
+        ..m.clone()
+    };
+    let c = light_term(&matte, albedo, &sp, l, v(0.0, -0.6, 0.8), radiance);
+    assert_close(c, (albedo * 0.4).mul_elem(radiance), 1e-15, "matte");
+    // A light at or below the horizon adds nothing, highlight included.
+    for l in [v(0.0, 1.0, 0.0), v(0.0, 0.6, -0.8)] {
+        let c = light_term(&m, albedo, &sp, l, -l, radiance);
+        assert_eq!(c, V3::splat(0.0), "light {l:?}");
+    }
+}
