@@ -260,13 +260,8 @@ pub fn intersect_moller_trumbore<T: Real>(
     if !(t > t_min && t < t_max) {
         return None;
     }
-    if t_bound == TBound::On {
-        let num_err = T::gamma(7) * e2.abs().dot(abs_cross(sv, e1));
-        let det_err = T::gamma(5) * e1.abs().dot(abs_cross(d, e2));
-        let delta_t = (num_err + t.abs() * det_err) / det.abs();
-        if t <= delta_t {
-            return None;
-        }
+    if t_bound == TBound::On && t <= moller_trumbore_t_error(d, e1, e2, sv, t, det) {
+        return None;
     }
     Some(TriHit {
         t,
@@ -274,101 +269,15 @@ pub fn intersect_moller_trumbore<T: Real>(
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn v(x: f64, y: f64, z: f64) -> V3<f64> {
-        V3::new(x, y, z)
-    }
-
-    #[test]
-    fn hits_centre_with_barycentrics() {
-        let tri = [v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(0.0, 1.0, 0.0)];
-        let o = v(0.25, 0.25, 2.0);
-        let d = v(0.0, 0.0, -1.0);
-        let h = intersect(o, &RayShear::new(d), &tri, 0.0, 1e30).expect("hit");
-        assert!((h.t - 2.0).abs() < 1e-15);
-        assert!((h.b[0] - 0.5).abs() < 1e-15 && (h.b[1] - 0.25).abs() < 1e-15);
-        // Reverse winding hits too.
-        let rev = [tri[0], tri[2], tri[1]];
-        assert!(intersect(o, &RayShear::new(d), &rev, 0.0, 1e30).is_some());
-        // Outside and behind miss.
-        assert!(intersect(v(1.0, 1.0, 2.0), &RayShear::new(d), &tri, 0.0, 1e30).is_none());
-        assert!(intersect(o, &RayShear::new(-d), &tri, 0.0, 1e30).is_none());
-        // t range is open.
-        assert!(intersect(o, &RayShear::new(d), &tri, 0.0, 2.0).is_none());
-    }
-
-    #[test]
-    fn shared_edge_seam_is_watertight_in_f32() {
-        // The classic seam case (issue 4, case 1) in f32.
-        let p = |x: f32, y: f32| V3::<f32>::new(x, y, 0.0);
-        let t0 = [p(-5.0, -5.0), p(5.0, -5.0), p(5.0, 5.0)];
-        let t1 = [p(-5.0, -5.0), p(5.0, 5.0), p(-5.0, 5.0)];
-        let o = V3::<f32>::new(0.0, 0.0, 10.0);
-        let d = V3::<f32>::new(0.304_584_47, 0.304_584_47, -0.902_472_5);
-        let s = RayShear::new(d);
-        let h0 = intersect(o, &s, &t0, 0.0, 1e30);
-        let h1 = intersect(o, &s, &t1, 0.0, 1e30);
-        assert!(h0.is_some() || h1.is_some(), "ray leaked through the seam");
-    }
-
-    #[test]
-    fn degenerate_and_parallel_miss_without_nan() {
-        let d = v(0.0, 0.0, -1.0);
-        let o = v(0.0, 0.0, 1.0);
-        let line = [v(-1.0, 0.0, 0.0), v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0)];
-        assert!(intersect(o, &RayShear::new(d), &line, 0.0, 1e30).is_none());
-        let point = [v(0.0, 0.0, 0.0); 3];
-        assert!(intersect(o, &RayShear::new(d), &point, 0.0, 1e30).is_none());
-        // Ray lying in the triangle's plane.
-        let tri = [v(-1.0, -1.0, 0.0), v(1.0, -1.0, 0.0), v(0.0, 1.0, 0.0)];
-        let inplane = intersect(
-            v(-3.0, 0.0, 0.0),
-            &RayShear::new(v(1.0, 0.0, 0.0)),
-            &tri,
-            0.0,
-            1e30,
-        );
-        assert!(inplane.is_none());
-    }
-
-    #[test]
-    fn random_rays_agree_with_plane_solve() {
-        // Seeded: compare the hit point against an independent Moller-Trumbore-free check:
-        // o + t d lies in the plane and inside by barycentrics.
-        let seed = 0x5eed_u64;
-        println!("seed {seed:#x}");
-        let mut s = seed;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
-        let mut hits = 0;
-        for _ in 0..20000 {
-            let tri = [
-                v(rnd(), rnd(), rnd()),
-                v(rnd(), rnd(), rnd()),
-                v(rnd(), rnd(), rnd()),
-            ];
-            let o = v(rnd() * 3.0, rnd() * 3.0, rnd() * 3.0);
-            // Aim near the centroid so roughly half the rays hit.
-            let c = (tri[0] + tri[1] + tri[2]) * (1.0 / 3.0);
-            let d = c + v(rnd(), rnd(), rnd()) * 0.5 - o;
-            if d.length() < 1e-3 {
-                continue;
-            }
-            if let Some(h) = intersect(o, &RayShear::new(d), &tri, 0.0, 1e30) {
-                hits += 1;
-                let p = o + d * h.t;
-                let q = tri[0] * h.b[0] + tri[1] * h.b[1] + tri[2] * h.b[2];
-                assert!((p - q).length() < 1e-9 * (1.0 + h.t), "hit point mismatch");
-                assert!(h.b.iter().all(|&b| b >= -1e-12));
-            }
-        }
-        assert!(hits > 4000, "only {hits} hits");
-    }
+/// First-order forward error bound of Möller–Trumbore's t (γ-bounds of the numerator
+/// e2·(s×e1) and of det = e1·(d×e2), s = o − p0).
+#[inline(always)]
+fn moller_trumbore_t_error<T: Real>(d: V3<T>, e1: V3<T>, e2: V3<T>, sv: V3<T>, t: T, det: T) -> T {
+    let num_err = T::gamma(7) * e2.abs().dot(abs_cross(sv, e1));
+    let det_err = T::gamma(5) * e1.abs().dot(abs_cross(d, e2));
+    (num_err + t.abs() * det_err) / det.abs()
 }
+
+#[cfg(test)]
+#[path = "intersect_tests.rs"]
+mod tests;
