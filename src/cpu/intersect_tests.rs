@@ -281,7 +281,7 @@ fn moller_trumbore_by_hand() {
 /// bound leaves, against how many there are without it.
 #[test]
 fn t_bound_removes_most_self_hits_of_unoffset_spawns() {
-    let seed = test_seed("t_bound_removes_self_hits", 0x7B0_0D);
+    let seed = test_seed("t_bound_removes_self_hits", 0x0007_B00D);
     let mut rng = Rng::new(seed);
     // [method][bound on, bound off]
     let mut hits = [[0usize; 2]; 2];
@@ -339,7 +339,7 @@ fn t_bound_removes_most_self_hits_of_unoffset_spawns() {
 /// there, and the bound stays within a small multiple of the f32 rounding of t.
 #[test]
 fn t_within_its_bound_of_an_f64_plane_solve() {
-    let seed = test_seed("t_within_its_bound", 0xB0_0ED);
+    let seed = test_seed("t_within_its_bound", 0x000B_00ED);
     let mut rng = Rng::new(seed);
     let (mut clear, mut worst_ratio) = (0, [0.0f64; 2]);
     for case in 0..50_000 {

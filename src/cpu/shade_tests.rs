@@ -231,7 +231,7 @@ fn epsilon_offset_is_fixed_along_the_geometric_normal() {
 /// hit at t ~ 1e-10 (seed 1, case 208, without the t bound), which is the t bound's job.
 #[test]
 fn offset_origins_leave_the_surface_in_f32() {
-    let seed = test_seed("offset_origins_leave_the_surface", 0x0FF5_E7);
+    let seed = test_seed("offset_origins_leave_the_surface", 0x000F_F5E7);
     let mut rng = Rng::new(seed);
     let mut checked = 0;
     for case in 0..4_000 {
