@@ -247,6 +247,9 @@ fn auto_resolution_proportional_and_clamped() {
     assert!(cell_count(r) <= MAX_AUTO_CELLS, "{r:?}");
     assert!(cell_count(r) >= MAX_AUTO_CELLS / 2, "{r:?}");
     assert!((r[0] as f64 / r[1] as f64 - 2.0).abs() < 0.05, "{r:?}");
+    // Exactly: the largest grid of these proportions, k = cbrt(2^24 / (2 * 1 * 1)) = 203.19
+    // cells per unit, so 406 x 203 x 203 (16,730,854 cells).
+    assert_eq!(r, [406, 203, 203]);
     let r = Grid::auto_resolution(Vec3::ONE, usize::MAX, f32::MAX);
     assert!(cell_count(r) <= MAX_AUTO_CELLS && r.iter().all(|&v| v <= MAX_AUTO_AXIS));
     // Flat and thin: the thin axes get one cell and do not inflate the others.
@@ -282,6 +285,12 @@ fn clamp_total_trims_to_cap() {
         );
     }
     assert_eq!(clamp_total([4, 4, 4], 64), [4, 4, 4]);
+    // Scaled alike by cbrt(cap / total), rounded down, and trimmed only past the cap:
+    // cbrt(1000 / 10^6) = 0.1 gives exactly the cap, which stays; cbrt(0.1) = 0.464 gives
+    // floor(139.2, 9.28, 2.32), 2,502 cells, where trimming the longest axis alone would
+    // have given 30 x 20 x 5.
+    assert_eq!(clamp_total([100, 100, 100], 1000), [10, 10, 10]);
+    assert_eq!(clamp_total([300, 20, 5], 3000), [139, 9, 2]);
 }
 
 #[test]
