@@ -158,6 +158,26 @@ fn vertices_strictly_inside_bounds() {
     }
 }
 
+#[test]
+fn padding_is_several_f32_ulps_far_from_the_origin() {
+    // A unit triangle a million units out: the relative pad (1e-4 of the extent) is under
+    // one f32 ulp there (0.0625), so only the ulp term keeps the boundary off the vertices
+    // by more than the single ulp of the last-resort step.
+    let o = Vec3::splat(1e6);
+    let s = scene_of(&[[o, o + Vec3::X, o + Vec3::Y + Vec3::Z]]);
+    let g = Grid::build(&s, &GridConfig::default()).unwrap();
+    let (lo, hi) = s.bounds().unwrap();
+    for i in 0..3 {
+        let ulp = (hi[i].next_up() - hi[i]) as f64;
+        let below = (lo[i] - g.min[i]) as f64;
+        let above = (g.max[i] - hi[i]) as f64;
+        assert!(
+            below >= PAD_ULPS * ulp && above >= PAD_ULPS * ulp,
+            "axis {i}: pads {below} and {above}, ulp {ulp}"
+        );
+    }
+}
+
 /// Two tiny triangles pinning the scene bounds to about [0, 4]^3, so triangles added
 /// inside do not move the grid.
 fn framed(extra: &[[Vec3; 3]]) -> Scene {
