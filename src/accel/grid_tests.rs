@@ -373,6 +373,16 @@ fn rejects_bad_input() {
             other => panic!("{bad}: expected a scene error, got {other:?}"),
         }
     }
+    // Finite corners whose difference overflows f32 (the grid's cell size would be inf).
+    let wide = scene_of(&[[
+        Vec3::new(-3e38, 0.0, 0.0),
+        Vec3::new(3e38, 0.0, 0.0),
+        Vec3::Y,
+    ]]);
+    match Grid::build(&wide, &cfg) {
+        Err(Error::Scene { field, .. }) => assert_eq!(field, "positions"),
+        other => panic!("expected a scene error, got {:?}", other.map(|g| g.stats)),
+    }
     let mut s = scene_of(&[t]);
     s.triangles[0].v[2] = 99;
     assert!(matches!(Grid::build(&s, &cfg), Err(Error::Scene { .. })));

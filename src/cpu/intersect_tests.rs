@@ -176,8 +176,12 @@ fn known_answers_for_both_methods() {
         (1.0, 0.0),
         (0.0, 1.0),
     ] {
-        for (m, h) in both(v(x, y, 2.0), d, &tri, 0.0, 1e30).iter().enumerate() {
-            assert!(h.is_some(), "method {m}: ({x}, {y}) on the boundary missed");
+        // Both windings: seen from this side one has positive edge functions, the other
+        // negative ones, and a zero must count as inside next to either sign.
+        for t in [tri, rev] {
+            for (m, h) in both(v(x, y, 2.0), d, &t, 0.0, 1e30).iter().enumerate() {
+                assert!(h.is_some(), "method {m}: ({x}, {y}) on the boundary missed");
+            }
         }
     }
     // ... and a hair outside each edge is outside.
@@ -246,10 +250,20 @@ fn watertight_by_hand() {
     // δz = 4γ3, δx = 7γ5, δy = 5.5γ5, δe = 2(4.5γ2 + 3δy + 1.5δx) = 9γ2 + 54γ5,
     // δt = 3(16γ3 + 4δe + 4δz) / 10 = (96γ3 + 108γ2 + 648γ5) / 10.
     let want = (96.0 * gamma64(3.0) + 108.0 * gamma64(2.0) + 648.0 * gamma64(5.0)) / 10.0;
+    // The bound is symmetric in the vertices, so every rotation of them gives it too;
+    // rotating puts each vertex's sheared x and y (the maxima among them) through each
+    // slot of the computation.
     let s = RayShear::new(d);
-    let [a, b, c] = tri.map(|p| p - o);
-    let got = watertight_t_error(&s, a, b, c, [-3.5, -2.5, -4.0], 10.0);
-    assert!((got - want).abs() <= 1e-12 * want, "{got:e} vs {want:e}");
+    let e = [-3.5, -2.5, -4.0];
+    for r in 0..3 {
+        let [a, b, c] = [0, 1, 2].map(|k| tri[(k + r) % 3] - o);
+        let e = [0, 1, 2].map(|k| e[(k + r) % 3]);
+        let got = watertight_t_error(&s, a, b, c, e, 10.0);
+        assert!(
+            (got - want).abs() <= 1e-12 * want,
+            "rotation {r}: {got:e} vs {want:e}"
+        );
+    }
 }
 
 #[test]
