@@ -195,6 +195,44 @@ fn framed(extra: &[[Vec3; 3]]) -> Scene {
 }
 
 #[test]
+fn cell_pad_is_a_fraction_of_the_cell_size() {
+    // 16^3 cells over [0, 4]^3: cells 0.25 wide, so the binning pad is about
+    // 1e-5 * 0.25 + 4 ulps of 4 = 4.4e-6. A triangle that far above a cell's top face is
+    // still listed in the cell below (f32 traversal may round into it); one 1.5e-5 above
+    // is not.
+    let cfg = fixed([16, 16, 16]);
+    let base = Grid::build(&framed(&[]), &cfg).unwrap();
+    let (lo, hi) = base.cell_bounds(5, 7, 6);
+    let flat_at = |y: f64| {
+        let (x0, x1, z0, z1) = (lo.x + 0.05, hi.x - 0.05, lo.z + 0.05, hi.z - 0.05);
+        [
+            Vec3::new(x0 as f32, y as f32, z0 as f32),
+            Vec3::new(x1 as f32, y as f32, z0 as f32),
+            Vec3::new(x0 as f32, y as f32, z1 as f32),
+        ]
+    };
+    let near = flat_at(hi.y + 2e-6);
+    let far = flat_at(hi.y + 1.5e-5);
+    assert!(near[0].y as f64 > hi.y && far[0].y as f64 > hi.y + 1e-5);
+    let g = Grid::build(&framed(&[near, far]), &cfg).unwrap();
+    assert_eq!((g.min, g.cell_size), (base.min, base.cell_size));
+    assert!(g.cell_triangles(5, 8, 6).contains(&2) && g.cell_triangles(5, 8, 6).contains(&3));
+    assert!(g.cell_triangles(5, 7, 6).contains(&2), "within the pad");
+    assert!(!g.cell_triangles(5, 7, 6).contains(&3), "beyond the pad");
+}
+
+#[test]
+fn more_than_one_chunk_binned_as_the_oracle_says() {
+    // The build bins in chunks of CHUNK triangles; a soup of two chunks and a bit checks
+    // that every chunk's triangles keep their own indices.
+    let seed = test_seed("grid chunks", 0x6E1D_0005);
+    let s = scene_of(&soup(&mut Rng::new(seed), 2 * CHUNK + 5));
+    let g = Grid::build(&s, &fixed([4, 4, 4])).unwrap();
+    check_structure(&g, s.triangles.len());
+    check_complete_and_tight(&g, &s, &format!("seed {seed}"));
+}
+
+#[test]
 fn triangle_in_interior_grid_plane_lands_on_both_sides() {
     let cfg = fixed([4, 4, 4]);
     let base = Grid::build(&framed(&[]), &cfg).unwrap();
@@ -434,6 +472,20 @@ fn reference_limit() {
             Err(Error::Limit(_))
         ));
     }
+    // The running total reaching the limit exactly is not yet over it: with five
+    // triangles of one reference each and a limit of four, the fifth must still be binned
+    // (and fail the build), not skipped.
+    let mid = |x: f32| {
+        let c = Vec3::new(x, 1.5, 1.5);
+        [c, c + Vec3::X * 0.1, c + Vec3::Y * 0.1]
+    };
+    let five = framed(&[mid(0.5), mid(1.5), mid(2.5)]);
+    let g = Grid::build(&five, &fixed([4, 4, 4])).unwrap();
+    assert_eq!(g.tri_indices.len(), 5);
+    assert!(matches!(
+        build_with_limit(&five, &fixed([4, 4, 4]), 4),
+        Err(Error::Limit(_))
+    ));
     // A single triangle filling many cells stops early instead of exhausting memory.
     let big = scene_of(&[[
         Vec3::ZERO,
