@@ -534,8 +534,10 @@ fn build_with_limit(scene: &Scene, cfg: &GridConfig, max_refs: usize) -> Result<
         })
         .collect();
 
+    // Every binned reference was added to `total` too, so this is its final value; a
+    // worker that stopped early did so because it was already over the limit.
     let n_refs: usize = chunks.iter().map(|c| c.cells.len()).sum();
-    if n_refs > max_refs || total.load(Ordering::Relaxed) > max_refs {
+    if n_refs > max_refs {
         return Err(Error::Limit(format!(
             "the grid needs more than {max_refs} triangle references \
              (grid {}x{}x{}, {n_tris} triangles); lower the grid resolution or density",
