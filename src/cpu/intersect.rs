@@ -280,4 +280,4 @@ fn moller_trumbore_t_error<T: Real>(d: V3<T>, e1: V3<T>, e2: V3<T>, sv: V3<T>, t
 
 #[cfg(test)]
 #[path = "intersect_tests.rs"]
-mod tests;
+pub(crate) mod tests;

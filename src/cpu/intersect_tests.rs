@@ -100,7 +100,8 @@ fn random_rays_agree_with_plane_solve() {
     assert!(hits > 4000, "only {hits} hits");
 }
 
-fn gamma64(n: f64) -> f64 {
+/// pbrt's γ(n) = n·u / (1 − n·u) for f64, written out here rather than taken from `Real`.
+pub(crate) fn gamma64(n: f64) -> f64 {
     let u = f64::EPSILON / 2.0;
     n * u / (1.0 - n * u)
 }

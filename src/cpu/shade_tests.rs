@@ -11,6 +11,7 @@ use glam::Vec3;
 use super::*;
 use crate::accel::tribox::tests::{test_seed, Rng};
 use crate::accel::two_level::tests::scene_of;
+use crate::cpu::intersect::tests::gamma64;
 use crate::cpu::intersect::{intersect_watertight, RayShear};
 use crate::scene::{Checker, CheckerAxes, Triangle};
 use crate::technique::TBound;
@@ -25,12 +26,6 @@ fn assert_close(a: V3<f64>, b: V3<f64>, tol: f64, what: &str) {
         e <= tol,
         "{what}: {a:?} vs {b:?} (error {e:e}, bound {tol:e})"
     );
-}
-
-/// pbrt's γ(n) = n·u / (1 − n·u) for f64, written out here rather than taken from `Real`.
-fn gamma64(n: f64) -> f64 {
-    let u = f64::EPSILON / 2.0;
-    n * u / (1.0 - n * u)
 }
 
 /// A flat surface point at `p` with unit geometric normal `ng`, hit from the side `d`
