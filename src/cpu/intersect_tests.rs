@@ -62,30 +62,20 @@ fn degenerate_and_parallel_miss_without_nan() {
     assert!(inplane.is_none());
 }
 
+/// Seeded random rays aimed near the centroids of random triangles (in f64): every reported
+/// hit point o + t d coincides with the point its barycentrics name, and the barycentrics
+/// are not negative. Neither check shares code with the intersection itself.
 #[test]
 fn random_rays_agree_with_plane_solve() {
-    // Seeded: compare the hit point against an independent Moller-Trumbore-free check:
-    // o + t d lies in the plane and inside by barycentrics.
-    let seed = 0x5eed_u64;
-    println!("seed {seed:#x}");
-    let mut s = seed;
-    let mut rnd = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
-    let mut hits = 0;
-    for _ in 0..20000 {
-        let tri = [
-            v(rnd(), rnd(), rnd()),
-            v(rnd(), rnd(), rnd()),
-            v(rnd(), rnd(), rnd()),
-        ];
-        let o = v(rnd() * 3.0, rnd() * 3.0, rnd() * 3.0);
+    let seed = test_seed("random_rays_agree_with_plane_solve", 0x5eed);
+    let mut rng = Rng::new(seed);
+    let (mut hits, mut worst) = (0, 0.0f64);
+    for case in 0..20000 {
+        let tri = [0, 1, 2].map(|_| V3::<f64>::from_dvec3(rng.dvec3(-1.0, 1.0)));
+        let o = V3::<f64>::from_dvec3(rng.dvec3(-3.0, 3.0));
         // Aim near the centroid so roughly half the rays hit.
         let c = (tri[0] + tri[1] + tri[2]) * (1.0 / 3.0);
-        let d = c + v(rnd(), rnd(), rnd()) * 0.5 - o;
+        let d = c + V3::from_dvec3(rng.dvec3(-0.5, 0.5)) - o;
         if d.length() < 1e-3 {
             continue;
         }
@@ -93,11 +83,24 @@ fn random_rays_agree_with_plane_solve() {
             hits += 1;
             let p = o + d * h.t;
             let q = tri[0] * h.b[0] + tri[1] * h.b[1] + tri[2] * h.b[2];
-            assert!((p - q).length() < 1e-9 * (1.0 + h.t), "hit point mismatch");
-            assert!(h.b.iter().all(|&b| b >= -1e-12));
+            let err = (p - q).length() / (1.0 + h.t);
+            worst = worst.max(err);
+            assert!(
+                err < 1e-12,
+                "case {case}: hit point mismatch {err:e} (seed {seed})"
+            );
+            assert!(
+                h.b.iter().all(|&b| b >= 0.0),
+                "case {case}: barycentrics {:?} (seed {seed})",
+                h.b
+            );
         }
     }
-    assert!(hits > 4000, "only {hits} hits");
+    println!("{hits} hits; worst |p - q| / (1 + t) = {worst:e}");
+    // Measured (default seed): 5,529 hits, worst 8.0e-16; seeds 1-4: 5,455-5,662 hits,
+    // worst up to 1.2e-15. The error bound sits 8x above the largest, the count 1.4x below
+    // the smallest.
+    assert!(hits > 4000, "only {hits} hits (seed {seed})");
 }
 
 /// pbrt's γ(n) = n·u / (1 − n·u) for f64, written out here rather than taken from `Real`.
@@ -392,13 +395,16 @@ fn t_within_its_bound_of_an_f64_plane_solve() {
         let (Some(w), Some(m)) = (w, m) else { continue };
         clear += 1;
         let [a, b, c] = tri32.map(|p| p - o32);
-        for (k, (what, got)) in [("watertight", w.t), ("Möller-Trumbore", m.t)]
-            .into_iter()
-            .enumerate()
+        for (k, (method, got)) in [
+            (IntersectMethod::Watertight, w.t),
+            (IntersectMethod::MollerTrumbore, m.t),
+        ]
+        .into_iter()
+        .enumerate()
         {
             let err = (got as f64 - t).abs();
-            let bound = match what {
-                "watertight" => {
+            let bound = match method {
+                IntersectMethod::Watertight => {
                     // The edge functions as the test computes them, for the bound's input.
                     let sh = |p: V3<f32>| (p[s.kx] - s.sx * p[s.kz], p[s.ky] - s.sy * p[s.kz]);
                     let ((axx, ayy), (bxx, byy), (cxx, cyy)) = (sh(a), sh(b), sh(c));
@@ -407,7 +413,7 @@ fn t_within_its_bound_of_an_f64_plane_solve() {
                     let ww = bxx * ayy - byy * axx;
                     watertight_t_error(&s, a, b, c, [u, vv, ww], (u + vv + ww).abs()) as f64
                 }
-                _ => {
+                IntersectMethod::MollerTrumbore => {
                     let (e1, e2) = (tri32[1] - tri32[0], tri32[2] - tri32[0]);
                     let det = e1.dot(d32.cross(e2));
                     moller_trumbore_t_error(d32, e1, e2, o32 - tri32[0], m.t, det) as f64
@@ -415,7 +421,7 @@ fn t_within_its_bound_of_an_f64_plane_solve() {
             };
             assert!(
                 err <= bound,
-                "case {case}: {what} t {got} vs {t}: error {err:e} > bound {bound:e} (seed {seed})"
+                "case {case}: {method:?} t {got} vs {t}: error {err:e} > bound {bound:e} (seed {seed})"
             );
             worst_ratio[k] = worst_ratio[k].max(bound / (t * f32::EPSILON as f64));
         }
