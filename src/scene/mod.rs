@@ -108,6 +108,57 @@ impl Default for Material {
 }
 
 impl Material {
+    /// Why this material breaks an invariant the shading model relies on, if it does:
+    /// finite colours and factors, none negative (a negative `ks` would subtract light, and
+    /// `light_term` skips the highlight when `ks` has no positive component), a Phong
+    /// exponent of at least 1, a positive index of refraction and a positive checker scale.
+    pub fn invalid(&self) -> Option<String> {
+        let colours = [
+            ("albedo", self.albedo),
+            ("ks", self.ks),
+            ("kr", self.kr),
+            ("kt", self.kt),
+        ];
+        let checker = self.checker.iter().flat_map(|c| {
+            [
+                ("checker colour a", c.color_a),
+                ("checker colour b", c.color_b),
+            ]
+        });
+        for (what, c) in colours.into_iter().chain(checker) {
+            if !c.is_finite() || c.min_element() < 0.0 {
+                return Some(format!("{what} {c} must be finite and >= 0"));
+            }
+        }
+        for (what, k) in [("ka", self.ka), ("kd", self.kd)] {
+            if !k.is_finite() || k < 0.0 {
+                return Some(format!("{what} {k} must be finite and >= 0"));
+            }
+        }
+        if !(self.ns >= 1.0 && self.ns.is_finite()) {
+            return Some(format!(
+                "Phong exponent {} must be finite and >= 1",
+                self.ns
+            ));
+        }
+        if !(self.ior > 0.0 && self.ior.is_finite()) {
+            return Some(format!(
+                "index of refraction {} must be finite and > 0",
+                self.ior
+            ));
+        }
+        if let Some(c) = &self.checker {
+            let phase_ok = c.phase.iter().all(|p| p.is_finite());
+            if !(c.scale > 0.0 && c.scale.is_finite() && phase_ok) {
+                return Some(format!(
+                    "checker scale {} and phase {:?} must be finite, the scale > 0",
+                    c.scale, c.phase
+                ));
+            }
+        }
+        None
+    }
+
     /// True when the material spawns reflected rays.
     pub fn reflects(&self) -> bool {
         self.fresnel || self.kr.max_element() > 0.0
@@ -258,7 +309,8 @@ impl Scene {
         self.triangles.iter().any(|t| t.has_normals())
     }
 
-    /// Checks invariants every renderer relies on: indices in range, finite numbers.
+    /// Checks invariants every renderer relies on: indices in range, finite numbers,
+    /// materials as [`Material::invalid`] requires.
     pub fn validate(&self) -> crate::Result<()> {
         let bad =
             |field: String, message: String| Error::scene(self.source.clone(), 0, field, message);
@@ -295,6 +347,11 @@ impl Scene {
                     format!("triangles[{i}]"),
                     format!("material index {} out of range", t.material),
                 ));
+            }
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            if let Some(why) = m.invalid() {
+                return Err(bad(format!("materials[{i}] ({})", m.name), why));
             }
         }
         if !(1..=16).contains(&self.max_depth) && self.max_depth != 0 {
@@ -346,4 +403,133 @@ pub fn read_input_file(path: &std::path::Path, limit: u64, what: &str) -> crate:
         return Err(too_big(bytes.len() as u64));
     }
     Ok(bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each material the shading model cannot take is refused by `validate`, naming the
+    /// material; the default one and a checker with a phase pass.
+    #[test]
+    fn validate_refuses_materials_the_shading_model_cannot_take() {
+        let scene_with = |m: Material| {
+            let mut s = Scene::empty(Camera {
+                eye: Vec3::new(0.0, 0.0, 5.0),
+                look_at: Vec3::ZERO,
+                up: Vec3::Y,
+                vfov_deg: 45.0,
+            });
+            let id = s.add_material(m);
+            s.add_triangle(Vec3::ZERO, Vec3::X, Vec3::Y, id);
+            s
+        };
+        let checker = Checker {
+            color_a: Vec3::ONE,
+            color_b: Vec3::ZERO,
+            scale: 0.5,
+            axes: CheckerAxes::Xz,
+            phase: [0.25, -3.0],
+        };
+        for ok in [
+            Material::default(),
+            Material {
+                checker: Some(checker),
+                ..Material::default()
+            },
+        ] {
+            scene_with(ok).validate().unwrap();
+        }
+        let d = Material::default;
+        let bad = [
+            (
+                Material {
+                    ks: Vec3::new(-0.5, 0.0, 0.0),
+                    ..d()
+                },
+                "ks",
+            ),
+            (
+                Material {
+                    albedo: Vec3::new(0.5, f32::NAN, 0.5),
+                    ..d()
+                },
+                "albedo",
+            ),
+            (
+                Material {
+                    kr: Vec3::splat(f32::INFINITY),
+                    ..d()
+                },
+                "kr",
+            ),
+            (
+                Material {
+                    kt: Vec3::splat(-1e-9),
+                    ..d()
+                },
+                "kt",
+            ),
+            (Material { ka: -1.0, ..d() }, "ka"),
+            (
+                Material {
+                    kd: f32::NAN,
+                    ..d()
+                },
+                "kd",
+            ),
+            (Material { ns: 0.5, ..d() }, "Phong exponent"),
+            (Material { ior: 0.0, ..d() }, "index of refraction"),
+            (
+                Material {
+                    ior: f32::NAN,
+                    ..d()
+                },
+                "index of refraction",
+            ),
+            (
+                Material {
+                    checker: Some(Checker {
+                        color_b: Vec3::splat(-1.0),
+                        ..checker
+                    }),
+                    ..d()
+                },
+                "checker colour b",
+            ),
+            (
+                Material {
+                    checker: Some(Checker {
+                        scale: 0.0,
+                        ..checker
+                    }),
+                    ..d()
+                },
+                "checker scale",
+            ),
+            (
+                Material {
+                    checker: Some(Checker {
+                        phase: [f32::NAN, 0.0],
+                        ..checker
+                    }),
+                    ..d()
+                },
+                "checker scale",
+            ),
+        ];
+        for (m, what) in bad {
+            let e = scene_with(Material {
+                name: "m".into(),
+                ..m
+            })
+            .validate()
+            .unwrap_err()
+            .to_string();
+            assert!(
+                e.contains("materials[0] (m)") && e.contains(what),
+                "{what}: {e}"
+            );
+        }
+    }
 }

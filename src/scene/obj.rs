@@ -496,6 +496,18 @@ fn normalise_mtl(text: &str, file: &str) -> Result<String> {
                     continue;
                 }
                 let v = numeric(&vals)?;
+                // The colours fragtrace reads must not be negative (as in scene files): a
+                // negative Ks would subtract light, and the shaders assume it does not.
+                if matches!(k, "Kd" | "Ks" | "Tf") && v.iter().any(|x| *x < 0.0) {
+                    return Err(Error::Mesh {
+                        file,
+                        message: format!(
+                            "line {}: `{k}` components must be >= 0, got `{}`",
+                            ln + 1,
+                            line.trim()
+                        ),
+                    });
+                }
                 match v[..] {
                     [g] => out.push_str(&format!("{k} {g} {g} {g}\n")),
                     [r, g, b] => out.push_str(&format!("{k} {r} {g} {b}\n")),
@@ -704,6 +716,28 @@ mod tests {
                 "oldtr"
             ]
         );
+    }
+
+    #[test]
+    fn negative_mtl_colours_are_errors_naming_the_line() {
+        let dir = tmpdir("mtlneg");
+        for (i, stmt) in ["Kd -0.5", "Ks 0.2 -0.1 0.2", "Tf 1 1 -1e-9"]
+            .iter()
+            .enumerate()
+        {
+            let name = format!("n{i}.mtl");
+            std::fs::write(dir.join(&name), format!("newmtl a\nillum 4\n{stmt}\n")).unwrap();
+            let obj = format!("mtllib {name}\nv 0 0 0\n");
+            let e = mesh_err(parse_obj(&obj, "n.obj", &dir));
+            assert!(
+                e.contains(&name) && e.contains("line 3") && e.contains(">= 0"),
+                "{e}"
+            );
+        }
+        // Ka and Ke are not read (see material_from_mtl), so they may be anything finite.
+        std::fs::write(dir.join("ok.mtl"), "newmtl a\nKa -1 0 0\nKe -1\n").unwrap();
+        let m = parse_obj("mtllib ok.mtl\nusemtl a\nv 0 0 0\n", "n.obj", &dir).unwrap();
+        assert!(m.warnings.is_empty(), "{:?}", m.warnings);
     }
 
     #[test]
