@@ -498,6 +498,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         no_specialize: false,
         mask: args.mask,
         storage: args.storage,
+        scene_fetch: Default::default(),
         intersect: Default::default(),
         t_bound: Default::default(),
         offset: Default::default(),

@@ -194,6 +194,11 @@ pub struct RenderArgs {
     /// origins and every index stay in 32-bit textures).
     #[arg(long, default_value = "f32")]
     pub storage: crate::gpu::options::Storage,
+    /// GPU, compute kernel: how it reads the scene, through texelFetch or storage buffers;
+    /// auto is the faster where measured (storage buffers on NVIDIA, texelFetch on
+    /// llvmpipe), storage buffers elsewhere. Both render the same image.
+    #[arg(long, value_enum, default_value_t = crate::gpu::options::SceneFetch::Auto)]
+    pub scene_fetch: crate::gpu::options::SceneFetch,
     /// Ray-triangle test: watertight (Woop et al. 2013, the default) or moller-trumbore
     /// (1997; rays can slip through shared edges). For measuring the technique's cost.
     #[arg(long, value_enum, default_value_t = IntersectMethod::Watertight)]
@@ -295,6 +300,7 @@ impl RenderArgs {
         opts.gpu.kernel = args.kernel;
         opts.gpu.mask = args.mask;
         opts.gpu.storage = args.storage;
+        opts.gpu.scene_fetch = args.scene_fetch;
         opts.progress = !args.quiet;
         opts.techniques = Techniques {
             intersect: args.intersect,

@@ -62,6 +62,16 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
         presets: A,
     },
     ConfigRow {
+        name: "gl-compute-texel-fetch",
+        args: "--backend gl --kernel compute --scene-fetch texel-fetch",
+        presets: A,
+    },
+    ConfigRow {
+        name: "gl-compute-storage-buffer",
+        args: "--backend gl --kernel compute --scene-fetch storage-buffer",
+        presets: A,
+    },
+    ConfigRow {
         name: "gl-unrolled:16",
         args: "--backend gl --kernel unrolled:16",
         presets: D,

@@ -31,7 +31,8 @@ use crate::{Error, Result};
 pub const TRI_TEXELS: u32 = 3;
 /// Texels per material; the slots are declared in [`contract::mat`](super::contract::mat).
 pub const MAT_TEXELS: u32 = slot::TEXELS;
-/// Entries per texel of the [`ENTRY_TEXTURES`] (triangle indices in `list`, voxel-map entries).
+/// Entries per texel of an entry texture ([`PackedTexture::pack_entries`]: triangle indices
+/// in `list`, voxel-map entries in `vmap`).
 pub const LIST_PER_TEXEL: u32 = 4;
 /// Largest index stored in a float that is still exact.
 pub const MAX_EXACT_INDEX: u64 = 1 << 24;
@@ -55,10 +56,6 @@ pub enum Fetch {
 /// kernel's camera, light, counter, radiance, AOV and tile buffers take 0..6).
 pub const STORAGE_BINDING_BASE: u32 = 6;
 
-/// The textures that hold four scalar entries per texel (cell lists, the voxel map): they
-/// get `entry_<name>(i)`, and a float view under [`Fetch::Storage`].
-const ENTRY_TEXTURES: [&str; 2] = ["list", "vmap"];
-
 /// One packed RGBA32F texture.
 #[derive(Clone, Debug)]
 pub struct PackedTexture {
@@ -70,6 +67,10 @@ pub struct PackedTexture {
     pub height: u32,
     /// RGBA data, `4 * width * height` floats (padding zero).
     pub data: Vec<f32>,
+    /// True when the texels hold [`LIST_PER_TEXEL`] scalar entries each rather than one
+    /// record (cell lists, the voxel map): the GLSL then also gets `entry_<name>(i)`, and a
+    /// float view under [`Fetch::Storage`].
+    pub entries: bool,
 }
 
 impl PackedTexture {
@@ -99,15 +100,33 @@ impl PackedTexture {
             width,
             height,
             data,
+            entries: false,
+        })
+    }
+
+    /// Packs scalar `entries`, [`LIST_PER_TEXEL`] to a texel in order (the last texel padded
+    /// with zeros), as an entry texture: see [`PackedTexture::entries`].
+    pub fn pack_entries(name: &'static str, entries: &[f32], max_size: u32) -> Result<Self> {
+        let texels = entries
+            .chunks(LIST_PER_TEXEL as usize)
+            .map(|c| {
+                let mut t = [0f32; 4];
+                t[..c.len()].copy_from_slice(c);
+                t
+            })
+            .collect();
+        Ok(PackedTexture {
+            entries: true,
+            ..Self::pack(name, texels, max_size)?
         })
     }
 
     /// GLSL: size constants and an exact fetch by linear index, through `fetch` (`binding`:
-    /// the storage-buffer binding under [`Fetch::Storage`]); for [`ENTRY_TEXTURES`] also
+    /// the storage-buffer binding under [`Fetch::Storage`]); for an entry texture also
     /// `entry_<name>(i)`, the i-th float in texel order.
     pub fn glsl_with(&self, fetch: Fetch, binding: u32) -> String {
         let mut s = self.texel_glsl(fetch, binding);
-        if ENTRY_TEXTURES.contains(&self.name) {
+        if self.entries {
             s += &self.entry_glsl(fetch, binding);
         }
         s
@@ -242,16 +261,8 @@ impl IrregularLayout {
                 }
             })
             .collect();
-        let texels = entries
-            .chunks(LIST_PER_TEXEL as usize)
-            .map(|c| {
-                let mut t = [0f32; 4];
-                t[..c.len()].copy_from_slice(c);
-                t
-            })
-            .collect();
         Ok(IrregularLayout {
-            vmap: PackedTexture::pack("vmap", texels, max_size)?,
+            vmap: PackedTexture::pack_entries("vmap", &entries, max_size)?,
             top_res: g.top_res,
             levels: g.levels.clone(),
             shift: g.shift,
@@ -393,16 +404,7 @@ impl SceneTextures {
                 Some(IrregularLayout::pack(g, max_size)?),
             ),
         };
-        let list = tri_indices
-            .chunks(LIST_PER_TEXEL as usize)
-            .map(|c| {
-                let mut t = [0f32; 4];
-                for (k, &v) in c.iter().enumerate() {
-                    t[k] = v as f32;
-                }
-                t
-            })
-            .collect();
+        let list: Vec<f32> = tri_indices.iter().map(|&i| i as f32).collect();
         if scene.triangles.len() as u64 * 3 >= MAX_EXACT_INDEX {
             return Err(Error::Limit(format!(
                 "{} triangles: the GPU layout keeps indices exact only up to {}",
@@ -419,7 +421,7 @@ impl SceneTextures {
             },
             mat: PackedTexture::pack("mat", mat, max_size)?,
             cell: PackedTexture::pack("cell", cell, max_size)?,
-            list: PackedTexture::pack("list", list, max_size)?,
+            list: PackedTexture::pack_entries("list", &list, max_size)?,
             irregular,
         })
     }
@@ -494,6 +496,48 @@ mod tests {
                 assert_eq!((x as u32, y as u32), (i % w, i / w), "w {w} i {i}");
             }
         }
+    }
+
+    /// Entry textures hold their scalars in order, four to a texel with the last padded, and
+    /// only they get `entry_<name>`: the cell list and the voxel map of a real build, not the
+    /// record textures.
+    #[test]
+    fn entry_textures_pack_in_order_and_only_they_get_entry_functions() {
+        let e: Vec<f32> = (1..=6).map(|i| i as f32).collect();
+        let t = PackedTexture::pack_entries("list", &e, 64).unwrap();
+        assert!(t.entries);
+        assert_eq!((t.width, t.height), (2, 1));
+        assert_eq!(t.data, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 0.0, 0.0]);
+
+        use crate::accel::{IrregularConfig, IrregularGrid};
+        use crate::scene::{Camera, Material};
+        let mut s = Scene::empty(Camera {
+            eye: glam::Vec3::Z,
+            look_at: glam::Vec3::ZERO,
+            up: glam::Vec3::Y,
+            vfov_deg: 45.0,
+        });
+        let m = s.add_material(Material::default());
+        s.add_triangle(glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y, m);
+        s.add_triangle(glam::Vec3::Z, glam::Vec3::X, glam::Vec3::Y, m);
+        let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
+        let l = SceneTextures::pack(&s, &g, 4096).unwrap();
+        let vmap = &l.irregular.as_ref().unwrap().vmap;
+        for fetch in [Fetch::Texture2D, Fetch::TexelFetch, Fetch::Storage] {
+            for t in [&l.list, vmap] {
+                assert!(t.entries, "{}", t.name);
+                let glsl = t.glsl_with(fetch, 9);
+                assert!(glsl.contains(&format!("entry_{}(", t.name)), "{fetch:?}");
+            }
+            for t in [&l.tri, &l.mat, &l.cell] {
+                assert!(!t.entries, "{}", t.name);
+                assert!(!t.glsl_with(fetch, 9).contains("entry_"), "{}", t.name);
+            }
+        }
+        // Every triangle index of the grid's lists, in order.
+        let n = g.tri_indices.len();
+        let listed: Vec<u32> = l.list.data[..n].iter().map(|&x| x as u32).collect();
+        assert_eq!(listed, g.tri_indices);
     }
 
     #[test]

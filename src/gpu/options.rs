@@ -1,7 +1,7 @@
 //! Options of the GPU backend: what a render asks of it ([`GpuOptions`]) and the switches it
-//! is made of ([`Kernel`], [`Mask`], [`Storage`]).
+//! is made of ([`Kernel`], [`Mask`], [`Storage`], [`SceneFetch`]).
 //!
-//! `Mask` and `Storage` are plain word choices and derive `clap::ValueEnum`, which gives the
+//! `Mask`, `Storage` and `SceneFetch` are plain word choices and derive `clap::ValueEnum`, which gives the
 //! CLI their spellings, the error message and the `--help` list in one place. `Kernel` carries
 //! a number (`unrolled:K`), which a value enum cannot express, so it keeps its own `FromStr`
 //! (clap uses it through `value_parser!`) beside a matching `Display`.
@@ -27,6 +27,8 @@ pub struct GpuOptions {
     pub mask: Mask,
     /// Precision of the ray textures.
     pub storage: Storage,
+    /// How the compute kernel reads the scene textures.
+    pub scene_fetch: SceneFetch,
     /// Robustness techniques compiled into the programs. `render_gl` takes them from
     /// [`ImageRequest::techniques`](super::render::ImageRequest::techniques) instead;
     /// `trace_rays` uses these.
@@ -37,10 +39,19 @@ impl GpuOptions {
     /// The kernel these options run in a context described by `info` (see
     /// [`Kernel::resolve`]: an explicit mask or `--storage f16` keeps `auto` on the
     /// fragment kernels, which are the ones that have them).
+    /// An explicit `scene_fetch` is an error with any other kernel than compute, which is
+    /// the only one it changes.
     pub fn resolve_kernel(&self, info: &super::info::GlInfo) -> crate::Result<Kernel> {
         let fragment_only =
             matches!(self.mask, Mask::EarlyZ | Mask::Stencil) || self.storage == Storage::F16;
-        self.kernel.resolve(info, fragment_only)
+        let kernel = self.kernel.resolve(info, fragment_only)?;
+        if self.scene_fetch != SceneFetch::Auto && kernel != Kernel::Compute {
+            return Err(crate::Error::Usage(format!(
+                "--scene-fetch {} applies to the compute kernel; this render runs {kernel}",
+                self.scene_fetch
+            )));
+        }
+        Ok(kernel)
     }
 
     /// The fragment kernel `auto` falls back to when the compute kernel cannot finish a
@@ -59,8 +70,33 @@ impl Default for GpuOptions {
             kernel: Kernel::Auto,
             mask: Mask::Auto,
             storage: Storage::F32,
+            scene_fetch: SceneFetch::Auto,
             techniques: Techniques::default(),
         }
+    }
+}
+
+/// How the compute kernel reads the scene (triangles, materials, grid): the two are
+/// equally exact and render the same bits; which is faster depends on the driver.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneFetch {
+    /// storage buffers, except texelFetch on llvmpipe: the faster of the two where measured
+    /// (docs/performance.md); texelFetch also where the context has too few storage blocks
+    #[default]
+    Auto,
+    /// `texelFetch` from the scene textures
+    TexelFetch,
+    /// shader storage buffers (an error where the context has too few storage blocks)
+    StorageBuffer,
+}
+
+impl std::fmt::Display for SceneFetch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SceneFetch::Auto => "auto",
+            SceneFetch::TexelFetch => "texel-fetch",
+            SceneFetch::StorageBuffer => "storage-buffer",
+        })
     }
 }
 

@@ -40,6 +40,21 @@ const QUAD_VERTICES: [f32; 20] = [
     -1.0, 1.0, -0.5, 0.0, 1.0, //
 ];
 
+/// A uniform's value, by its GLSL type.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Uniform {
+    /// `int`, or a sampler's texture unit.
+    Int(i32),
+    /// `float`.
+    Float(f32),
+    /// `vec2`.
+    Vec2([f32; 2]),
+    /// `vec3`.
+    Vec3([f32; 3]),
+    /// `ivec2`.
+    IVec2([i32; 2]),
+}
+
 /// A linked program; deleted when dropped.
 #[derive(Debug)]
 pub struct Program {
@@ -55,6 +70,28 @@ impl Program {
     /// The raw name, for `glUseProgram` and uniform look-ups.
     pub fn name(&self) -> glow::Program {
         self.obj.name()
+    }
+
+    /// Makes the program current and sets its uniform `name` to `value`. A uniform the
+    /// program lacks is skipped: the GLSL compiler drops those its code never reads, so each
+    /// pass keeps only some of the uniforms a render sets.
+    pub fn set(&self, gl: &glow::Context, name: &str, value: Uniform) {
+        // SAFETY: the context is current (every caller renders on it) and the program is a
+        // linked program of it; a location is used only with the program it came from.
+        unsafe {
+            gl.use_program(Some(self.name()));
+            let Some(loc) = gl.get_uniform_location(self.name(), name) else {
+                return;
+            };
+            let loc = Some(&loc);
+            match value {
+                Uniform::Int(v) => gl.uniform_1_i32(loc, v),
+                Uniform::Float(v) => gl.uniform_1_f32(loc, v),
+                Uniform::Vec2([x, y]) => gl.uniform_2_f32(loc, x, y),
+                Uniform::Vec3([x, y, z]) => gl.uniform_3_f32(loc, x, y, z),
+                Uniform::IVec2([x, y]) => gl.uniform_2_i32(loc, x, y),
+            }
+        }
     }
 }
 

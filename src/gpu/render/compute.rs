@@ -21,10 +21,12 @@ use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::compute::{camera_buffer, Counter, COUNTERS};
 use crate::gpu::contract::Unit;
-use crate::gpu::gl::{bind_image, compile_compute, Program, StorageBuffer, Texture, TimerQuery};
+use crate::gpu::gl::{
+    bind_image, compile_compute, Program, StorageBuffer, Texture, TimerQuery, Uniform,
+};
 use crate::gpu::info::GlInfo;
 use crate::gpu::layout::{SceneTextures, STORAGE_BINDING_BASE};
-use crate::gpu::options::{GpuOptions, Storage};
+use crate::gpu::options::{GpuOptions, SceneFetch, Storage};
 use crate::gpu::shader::{assemble_compute, ComputePass, ComputeSpec, Features, Fetch, LOCAL_SIZE};
 use crate::image_io::Image;
 use crate::output::{Aov, AovPixel, GpuStats, RayCounts};
@@ -77,17 +79,28 @@ impl Setup {
         let t_up = Instant::now();
         let max_size = info.max_texture_size.max(0) as u32;
         let layout = SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?;
-        // Storage buffers where the context has blocks for every scene texture beside the
-        // kernel's own (measured faster on the H200), else texelFetch.
+        // Storage buffers only where the context has blocks for every scene texture beside
+        // the kernel's own: `auto` then falls back to texelFetch, an explicit request fails.
+        let (blocks, needed) = (
+            Limits::query(ctx.gl()).blocks,
+            layout.storage_blocks() + STORAGE_BINDING_BASE,
+        );
         let fetch = match spec.fetch {
-            Fetch::Storage
-                if Limits::query(ctx.gl()).blocks
-                    < layout.storage_blocks() + STORAGE_BINDING_BASE =>
-            {
+            Fetch::Storage if blocks < needed => {
+                if opts.scene_fetch == SceneFetch::StorageBuffer {
+                    return Err(Error::Limit(format!(
+                        "--scene-fetch storage-buffer needs {needed} storage blocks in a                          compute shader; this context has {blocks}"
+                    )));
+                }
                 Fetch::TexelFetch
             }
             f => f,
         };
+        stats.scene_fetch = match fetch {
+            Fetch::Storage => SceneFetch::StorageBuffer,
+            Fetch::TexelFetch | Fetch::Texture2D => SceneFetch::TexelFetch,
+        }
+        .to_string();
         let spec = &ComputeSpec { fetch, ..*spec };
         let (mut scene_tex, mut scene_buf) = (Vec::new(), Vec::new());
         for (k, (unit, t)) in layout.with_units().into_iter().enumerate() {
@@ -122,33 +135,6 @@ impl Setup {
             fetch,
             stats,
         })
-    }
-
-    fn set_ivec2(&self, gl: &glow::Context, name: &str, v: (u32, u32)) {
-        // SAFETY: the context is current; `use_program` makes the location's program current.
-        unsafe {
-            gl.use_program(Some(self.program.name()));
-            let loc = gl.get_uniform_location(self.program.name(), name);
-            gl.uniform_2_i32(loc.as_ref(), v.0 as i32, v.1 as i32);
-        }
-    }
-
-    fn set_vec3(&self, gl: &glow::Context, name: &str, v: [f32; 3]) {
-        // SAFETY: as in `set_ivec2`.
-        unsafe {
-            gl.use_program(Some(self.program.name()));
-            let loc = gl.get_uniform_location(self.program.name(), name);
-            gl.uniform_3_f32(loc.as_ref(), v[0], v[1], v[2]);
-        }
-    }
-
-    fn set_float(&self, gl: &glow::Context, name: &str, v: f32) {
-        // SAFETY: as in `set_ivec2`.
-        unsafe {
-            gl.use_program(Some(self.program.name()));
-            let loc = gl.get_uniform_location(self.program.name(), name);
-            gl.uniform_1_f32(loc.as_ref(), v);
-        }
     }
 
     /// Dispatches the program over a `width` x `height` grid of invocations, timed when
@@ -202,19 +188,18 @@ fn sum_counters(records: &[u32]) -> [u64; COUNTERS] {
     total
 }
 
-/// How the render kernel reads the scene on this driver, the faster of the two measured:
-/// storage buffers on the H200 (bunny.toml 4096x4096: 874 vs 604 M rays/s with texelFetch),
-/// texelFetch on llvmpipe, whose storage loads run lane by lane with a bounds check each
-/// (bunny.toml 160x120: 1.24 G instructions of shader code against 1.47 G, callgrind).
-fn preferred_fetch(info: &GlInfo) -> Fetch {
-    #[cfg(test)]
-    if let Some(fetch) = tests::FETCH.get() {
-        return fetch;
-    }
-    if info.renderer.starts_with("llvmpipe") {
-        Fetch::TexelFetch
-    } else {
-        Fetch::Storage
+/// How the render kernel reads the scene: as asked, or under `auto` the faster of the two
+/// where measured: storage buffers on the H200 (bunny.toml 4096x4096: 874 vs 604 M rays/s
+/// with texelFetch), texelFetch on llvmpipe, whose storage loads run lane by lane with a
+/// bounds check each (bunny.toml 160x120: 1.24 G instructions of shader code against
+/// 1.47 G, callgrind). Other drivers get storage buffers unmeasured; `--scene-fetch` and
+/// `fragtrace bench` are there to measure them.
+fn scene_fetch(choice: SceneFetch, info: &GlInfo) -> Fetch {
+    match choice {
+        SceneFetch::TexelFetch => Fetch::TexelFetch,
+        SceneFetch::StorageBuffer => Fetch::Storage,
+        SceneFetch::Auto if info.renderer.starts_with("llvmpipe") => Fetch::TexelFetch,
+        SceneFetch::Auto => Fetch::Storage,
     }
 }
 
@@ -239,7 +224,7 @@ pub(super) fn render_compute(
         secondary,
         max_iterations: max_iterations(accel).min(i32::MAX as u64) as u32,
         // Setup::new falls back to texelFetch where the context has too few storage blocks.
-        fetch: preferred_fetch(&ctx.info),
+        fetch: scene_fetch(req.gpu.scene_fetch, &ctx.info),
     };
     let opts = GpuOptions {
         techniques: req.techniques,
@@ -251,9 +236,14 @@ pub(super) fn render_compute(
         ..spec
     };
     let t_trace = Instant::now();
-    setup.set_vec3(gl, "u_eye", scene.camera.eye.to_array());
-    setup.set_float(gl, "u_sample_weight", 1.0 / offsets.len() as f32);
-    setup.set_ivec2(gl, "u_size", (width, height));
+    let program = &setup.program;
+    program.set(gl, "u_eye", Uniform::Vec3(scene.camera.eye.to_array()));
+    program.set(
+        gl,
+        "u_sample_weight",
+        Uniform::Float(1.0 / offsets.len() as f32),
+    );
+    program.set(gl, "u_size", Uniform::IVec2([width as i32, height as i32]));
 
     let cam = camera_buffer(&scene.camera.frame(), width, height, &offsets);
     let cam_bytes: Vec<u8> = cam.iter().flat_map(|v| v.to_ne_bytes()).collect();
@@ -294,7 +284,9 @@ pub(super) fn render_compute(
     for top in (0..height).step_by(rows as usize) {
         let n = rows.min(height - top);
         let gl_row0 = height - top - n;
-        setup.set_ivec2(gl, "u_band", (gl_row0, n));
+        setup
+            .program
+            .set(gl, "u_band", Uniform::IVec2([gl_row0 as i32, n as i32]));
         let t = Instant::now();
         setup.dispatch(ctx, width, n, opts.timers)?;
         // Only this band's groups: a shorter last band leaves the records beyond stale.
@@ -470,7 +462,9 @@ pub(super) fn trace_wave(
     };
     let mut setup = Setup::new(ctx, scene, accel, ComputePass::Wave(query), &spec, opts)?;
     let gl = ctx.gl();
-    setup.set_ivec2(gl, "u_size", (w, h));
+    setup
+        .program
+        .set(gl, "u_size", Uniform::IVec2([w as i32, h as i32]));
     for (k, tex) in state.iter().enumerate() {
         bind_image(gl, k as u32, tex);
     }
@@ -489,8 +483,6 @@ mod tests {
         /// Test hook: a storage-block size (and no storage blocks for the scene) in place
         /// of the context's, to force bands and texelFetch.
         pub(super) static BLOCK_BYTES: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
-        /// Test hook: the fetch to ask for in place of the driver's preferred one.
-        pub(super) static FETCH: std::cell::Cell<Option<Fetch>> = const { std::cell::Cell::new(None) };
     }
 
     #[test]
@@ -503,6 +495,29 @@ mod tests {
         // 600 rows of 300 pixels at 16 bytes: 256 rows fit in 1.5 MB, 2 x 256 do not.
         assert_eq!(l(300 * 16 * 300).band_rows(300, 600).unwrap(), 256);
         assert!(l(300 * 16 * 255).band_rows(300, 600).is_err());
+    }
+
+    /// `--scene-fetch` changes only the compute kernel, so asking for it with another kernel
+    /// is a usage error naming both; with auto it is taken where auto runs compute.
+    #[test]
+    fn scene_fetch_needs_the_compute_kernel() {
+        with_test_context(|ctx| {
+            let with = |kernel| GpuOptions {
+                kernel,
+                scene_fetch: SceneFetch::TexelFetch,
+                ..GpuOptions::default()
+            };
+            let e = with(Kernel::Looped).resolve_kernel(&ctx.info).unwrap_err();
+            assert!(matches!(e, Error::Usage(_)), "{e:?}");
+            assert!(
+                e.to_string()
+                    .contains("--scene-fetch texel-fetch applies to the compute kernel; this render runs looped"),
+                "{e}"
+            );
+            // Auto runs compute where the context has it, else a fragment kernel: refused.
+            let auto = with(Kernel::Auto).resolve_kernel(&ctx.info);
+            assert_eq!(auto.ok(), ctx.info.compute.then_some(Kernel::Compute));
+        });
     }
 
     /// Rendering in bands (with texelFetch, as a context with few storage blocks would)
@@ -535,14 +550,40 @@ mod tests {
                 },
             };
             // Storage buffers asked for (llvmpipe's preferred fetch is texelFetch).
-            FETCH.set(Some(Fetch::Storage));
-            let whole = render_compute(ctx, &scene, accel.as_ref(), &req, None);
-            FETCH.set(None);
+            let asked = |scene_fetch| ImageRequest {
+                gpu: GpuOptions {
+                    scene_fetch,
+                    ..req.gpu
+                },
+                ..req
+            };
+            let whole = render_compute(
+                ctx,
+                &scene,
+                accel.as_ref(),
+                &asked(SceneFetch::StorageBuffer),
+                None,
+            );
             let whole = whole.unwrap();
+            assert_eq!(whole.stats.scene_fetch, "storage-buffer");
             BLOCK_BYTES.set(Some(96 * 16 * 256));
             let banded = render_compute(ctx, &scene, accel.as_ref(), &req, None);
+            // Too few storage blocks: auto falls back, an explicit request says why not.
+            let refused = render_compute(
+                ctx,
+                &scene,
+                accel.as_ref(),
+                &asked(SceneFetch::StorageBuffer),
+                None,
+            );
             BLOCK_BYTES.set(None);
             let banded = banded.unwrap();
+            assert_eq!(banded.stats.scene_fetch, "texel-fetch");
+            let e = refused
+                .err()
+                .expect("storage buffers without storage blocks")
+                .to_string();
+            assert!(e.contains("storage blocks"), "{e}");
             assert_eq!(banded.stats.passes_total, 3, "600 rows in bands of 256");
             assert_eq!(whole.stats.passes_total, 1);
             assert_eq!(whole.image.data, banded.image.data);

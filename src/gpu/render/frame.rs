@@ -17,6 +17,7 @@ use crate::gpu::context::GlContext;
 use crate::gpu::contract::{Unit, REQUIRED_TEXTURE_UNITS};
 use crate::gpu::gl::{
     FullscreenQuad, OcclusionQuery, Program, RenderTarget, Renderbuffer, Texture, TimerQuery,
+    Uniform,
 };
 use crate::gpu::layout::SceneTextures;
 use crate::gpu::options::{GpuOptions, Mask, Storage};
@@ -154,6 +155,7 @@ impl<'a> Frame<'a> {
             renderer: info.renderer.clone(),
             gl_version: info.gl_version.clone(),
             query_every: opts.query_every,
+            scene_fetch: "texture2D".into(),
             ..GpuStats::default()
         };
 
@@ -258,28 +260,9 @@ impl<'a> Frame<'a> {
         &self.programs[&pass]
     }
 
-    /// Makes `pass`'s program current and returns the location of its uniform `name`.
-    fn uniform(&self, pass: Pass, name: &str) -> Option<glow::UniformLocation> {
-        let p = self.program(pass).name();
-        // SAFETY: the context is current and `p` is a linked program of it.
-        unsafe {
-            self.gl().use_program(Some(p));
-            self.gl().get_uniform_location(p, name)
-        }
-    }
-
-    /// Sets uniform `name` of `pass`'s program (a no-op where the program lacks it).
-    pub(super) fn set_vec3(&self, pass: Pass, name: &str, v: [f32; 3]) {
-        let loc = self.uniform(pass, name);
-        // SAFETY: the program is current (see `uniform`).
-        unsafe { self.gl().uniform_3_f32(loc.as_ref(), v[0], v[1], v[2]) };
-    }
-
-    /// As [`Frame::set_vec3`], for a `float`.
-    pub(super) fn set_float(&self, pass: Pass, name: &str, v: f32) {
-        let loc = self.uniform(pass, name);
-        // SAFETY: as in `set_vec3`.
-        unsafe { self.gl().uniform_1_f32(loc.as_ref(), v) };
+    /// Sets uniform `name` of `pass`'s program ([`Program::set`]).
+    pub(super) fn set(&self, pass: Pass, name: &str, value: Uniform) {
+        self.program(pass).set(self.gl(), name, value);
     }
 
     /// The render target in `slot`.

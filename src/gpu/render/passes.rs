@@ -4,12 +4,10 @@
 
 use std::collections::HashMap;
 
-use glow::HasContext;
-
 use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::Unit;
-use crate::gpu::gl::{compile_program, Program, QUAD_VERTEX_SHADER};
+use crate::gpu::gl::{compile_program, Program, Uniform, QUAD_VERTEX_SHADER};
 use crate::gpu::layout::SceneTextures;
 use crate::gpu::options::Kernel;
 use crate::gpu::shader::{assemble, Count, Features, Pass, Query};
@@ -76,12 +74,7 @@ pub(super) fn build_programs(
             a.origin(n)
         })?;
         set_scene_uniforms(gl, &program, accel, scene);
-        // SAFETY: the context is current and the program is current (set_scene_uniforms).
-        unsafe {
-            if let Some(loc) = gl.get_uniform_location(program.name(), "u_size") {
-                gl.uniform_2_f32(Some(&loc), width as f32, height as f32);
-            }
-        }
+        program.set(gl, "u_size", Uniform::Vec2([width as f32, height as f32]));
         programs.insert(pass, program);
     }
     Ok(programs)
@@ -96,31 +89,20 @@ pub(super) fn set_scene_uniforms(
     accel: AccelRef<'_>,
     scene: &Scene,
 ) {
-    let p = program.name();
-    // SAFETY: the context is current and `p` is linked.
-    unsafe {
-        gl.use_program(Some(p));
-        for unit in Unit::ALL {
-            for sampler in unit.samplers() {
-                if let Some(loc) = gl.get_uniform_location(p, sampler) {
-                    gl.uniform_1_i32(Some(&loc), unit.index() as i32);
-                }
-            }
+    for unit in Unit::ALL {
+        for sampler in unit.samplers() {
+            program.set(gl, sampler, Uniform::Int(unit.index() as i32));
         }
-        let set3 = |name: &str, v: glam::Vec3| {
-            if let Some(loc) = gl.get_uniform_location(p, name) {
-                gl.uniform_3_f32(Some(&loc), v.x, v.y, v.z);
-            }
-        };
-        let (min, max, cell_size, res) = match accel {
-            AccelRef::Uniform(g) => (g.min, g.max, g.cell_size, g.res),
-            AccelRef::Irregular(g) => (g.min, g.max, g.cell_size, g.res),
-        };
-        set3("u_grid_min", min);
-        set3("u_grid_max", max);
-        set3("u_cell_size", cell_size);
-        set3("u_grid_res", glam::UVec3::from(res).as_vec3());
-        set3("u_ambient", scene.ambient);
-        set3("u_background", scene.background);
     }
+    let set3 = |name: &str, v: glam::Vec3| program.set(gl, name, Uniform::Vec3(v.to_array()));
+    let (min, max, cell_size, res) = match accel {
+        AccelRef::Uniform(g) => (g.min, g.max, g.cell_size, g.res),
+        AccelRef::Irregular(g) => (g.min, g.max, g.cell_size, g.res),
+    };
+    set3("u_grid_min", min);
+    set3("u_grid_max", max);
+    set3("u_cell_size", cell_size);
+    set3("u_grid_res", glam::UVec3::from(res).as_vec3());
+    set3("u_ambient", scene.ambient);
+    set3("u_background", scene.background);
 }

@@ -14,7 +14,7 @@ use super::{Flow, GpuOutput, ImageRequest, Observer, Snapshot};
 use crate::accel::AccelRef;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::Unit;
-use crate::gpu::gl::Texture;
+use crate::gpu::gl::{Texture, Uniform};
 use crate::gpu::options::{GpuOptions, Kernel};
 use crate::gpu::shader::{Count, Pass, Query};
 use crate::image_io::Image;
@@ -160,7 +160,11 @@ pub fn render_gl_observed<'a, 'g>(
     let offsets = camera::sample_offsets(spp);
     let mut rays = RayCounts::default();
     let mut aov = None;
-    f.set_vec3(Pass::RayGen, "u_eye", scene.camera.eye.to_array());
+    f.set(
+        Pass::RayGen,
+        "u_eye",
+        Uniform::Vec3(scene.camera.eye.to_array()),
+    );
     // The primary directions of one sample, re-filled per sample into one texture.
     let dir_tex = Texture::new_f32(f.ctx, width, height, None)?;
     let mut dirs = Vec::with_capacity(width as usize * height as usize * 4);
@@ -265,8 +269,16 @@ fn shade_children(
 ) -> Result<()> {
     for light in &scene.lights {
         f.progress.next_part();
-        f.set_vec3(Pass::ShadowSpawn, "u_light_pos", light.position.to_array());
-        f.set_vec3(Pass::AccumLight, "u_light_rad", light.radiance().to_array());
+        f.set(
+            Pass::ShadowSpawn,
+            "u_light_pos",
+            Uniform::Vec3(light.position.to_array()),
+        );
+        f.set(
+            Pass::AccumLight,
+            "u_light_rad",
+            Uniform::Vec3(light.radiance().to_array()),
+        );
         f.bind_records(level);
         f.progress.stage(format!("depth {level}: shadow rays"));
         f.state_pass(Pass::ShadowSpawn)?;
@@ -283,8 +295,8 @@ fn shade_children(
     for branch in [Branch::Reflect, Branch::Refract] {
         f.progress.next_part();
         let child = level + 1;
-        f.set_float(Pass::Weight, "u_branch", branch.uniform());
-        f.set_float(Pass::Spawn, "u_branch", branch.uniform());
+        f.set(Pass::Weight, "u_branch", Uniform::Float(branch.uniform()));
+        f.set(Pass::Spawn, "u_branch", Uniform::Float(branch.uniform()));
         f.bind_records(level);
         f.draw(Pass::Weight, Slot::Rec2(child))?;
         let n = f.count(Count::Nodes, Some(child))?;
