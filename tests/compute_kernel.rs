@@ -404,3 +404,61 @@ fn gl21_auto_picks_multipass_and_compute_is_refused() {
     assert!(!d.join("render.png").exists(), "an image was written");
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// `--scene-fetch` reaches the compute kernel from the command line: both ways of reading
+/// the scene render the same bits and `--stats` names the one that ran; with a fragment
+/// kernel the flag is refused in one line with the usage exit code 2.
+#[test]
+fn scene_fetch_flag_picks_the_read_path_and_keeps_the_image() {
+    let has_compute = with_test_context(|ctx| {
+        compute_or_acknowledged_skip(ctx, "scene_fetch_flag_picks_the_read_path")
+    });
+    if !has_compute {
+        return;
+    }
+    let d = std::env::temp_dir().join(format!("fragtrace-scene-fetch-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let size = ["--width", "48", "--height", "36"];
+    let mut images = Vec::new();
+    for fetch in ["texel-fetch", "storage-buffer"] {
+        let (out, stats) = (format!("{fetch}.exr"), format!("{fetch}.json"));
+        let o = bin()
+            .current_dir(&d)
+            .args(["render", "--backend", "gl", "--kernel", "compute"])
+            .args(["--scene-fetch", fetch, "--stats", &stats, "-q", "-o", &out])
+            .args(size)
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{fetch}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let s: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(&stats)).unwrap()).unwrap();
+        assert_eq!(s["gpu"]["scene_fetch"], fetch, "{s}");
+        images.push(fragtrace::image_io::read_image(&d.join(&out)).unwrap());
+    }
+    assert!(images[0].all_finite());
+    assert_eq!(
+        images[0].data, images[1].data,
+        "texel-fetch and storage-buffer differ"
+    );
+
+    let o = bin()
+        .current_dir(&d)
+        .args(["render", "--backend", "gl", "--kernel", "looped", "-q"])
+        .args(["--scene-fetch", "texel-fetch"])
+        .args(size)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("applies to the compute kernel; this render runs looped"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
