@@ -557,25 +557,14 @@ mod tests {
                 },
                 ..req
             };
-            let whole = render_compute(
-                ctx,
-                &scene,
-                accel.as_ref(),
-                &asked(SceneFetch::StorageBuffer),
-                None,
-            );
-            let whole = whole.unwrap();
+            let render =
+                |req: &ImageRequest| render_compute(ctx, &scene, accel.as_ref(), req, None);
+            let whole = render(&asked(SceneFetch::StorageBuffer)).unwrap();
             assert_eq!(whole.stats.scene_fetch, "storage-buffer");
             BLOCK_BYTES.set(Some(96 * 16 * 256));
-            let banded = render_compute(ctx, &scene, accel.as_ref(), &req, None);
+            let banded = render(&req);
             // Too few storage blocks: auto falls back, an explicit request says why not.
-            let refused = render_compute(
-                ctx,
-                &scene,
-                accel.as_ref(),
-                &asked(SceneFetch::StorageBuffer),
-                None,
-            );
+            let refused = render(&asked(SceneFetch::StorageBuffer));
             BLOCK_BYTES.set(None);
             let banded = banded.unwrap();
             assert_eq!(banded.stats.scene_fetch, "texel-fetch");
