@@ -39,10 +39,10 @@ const RMSE_VS_LOOPED: f64 = 1.5e-8;
 /// Colour RMSE of GL against the f64 CPU (tests/gpu_backend.rs's `RMSE_GL_VS_F64`, measured
 /// there at most 4.5e-6 for the fragment kernels).
 const RMSE_GL_VS_F64: f64 = 2e-5;
-/// Both f64 bounds on `ground.toml` (tests/gpu_backend.rs's `RMSE_VS_F64_HORIZON`: f32 hit
-/// points 400 m out fall in other checker squares than f64's, 6.68e-3 for every f32
-/// renderer).
-const RMSE_VS_F64_HORIZON: f64 = 1e-2;
+/// Both f64 bounds on `ground.toml` (tests/gpu_backend.rs's `RMSE_VS_F64_HUGE_FLOOR`: the f32
+/// t of its two-triangle 400 m floor is ill-conditioned, so a few f32 hit points fall in
+/// other checker squares than f64's; 6.68e-3 for the CPU and llvmpipe, 7.22e-3 on the H200).
+const RMSE_VS_F64_HUGE_FLOOR: f64 = 1e-2;
 /// Share of pixels whose primary triangle agrees with the f64 CPU's (tests/gpu_backend.rs's
 /// `PRIMID_AGREEMENT`: one pixel of 3,072).
 const PRIMID_AGREEMENT: f64 = 0.9996;
@@ -215,7 +215,7 @@ fn compute_equals_looped_and_cpu_on_every_shipped_scene() {
             )
             );
             let f64_bound = if name == "ground" {
-                RMSE_VS_F64_HORIZON
+                RMSE_VS_F64_HUGE_FLOOR
             } else {
                 RMSE_GL_VS_F64
             };

@@ -8,7 +8,9 @@
 //! independent ground truth: the primary-hit triangle agrees on at least
 //! `PRIMID_AGREEMENT` of pixels and the colour RMSE stays below `RMSE_GL_VS_F64` (GL) and
 //! `RMSE_F32_VS_F64` (CPU f32); GL also against its line-for-line twin, the f32 CPU, below
-//! `RMSE_VS_F32`; no NaN or Inf pixel on any backend.
+//! `RMSE_VS_F32` (leaving out a few pixels on triangles far larger than their distance,
+//! where f32 is ill-conditioned: `ILL_CONDITIONED_DIFFS_MAX`); no NaN or Inf pixel on any
+//! backend.
 
 mod common;
 
@@ -38,14 +40,26 @@ const RMSE_GL_VS_F64: f64 = 2e-5;
 /// A wrong f32 path (a lost t bound, a flipped normal, a missed light) moves RMSE by 1e-2
 /// or more.
 const RMSE_F32_VS_F64: f64 = 2e-5;
-/// Both f64 bounds for `scenes/ground.toml`: a checker floor 400 m wide seen to the horizon,
-/// where f32 hit points (any f32 renderer: the CPU's and the GPU's alike) fall in other
-/// checker squares than f64's. Measured: GL vs f64 and f32 CPU vs f64 both 6.68e-3 on both
-/// structures (llvmpipe); 1.5x. GL stays held to the f32 CPU by `RMSE_VS_F32` there too
-/// (5.5e-8 measured).
-const RMSE_VS_F64_HORIZON: f64 = 1e-2;
-/// The scenes whose f64 bounds are [`RMSE_VS_F64_HORIZON`].
-const HORIZON_SCENES: &[&str] = &["ground"];
+/// Both f64 bounds for `scenes/ground.toml`: the bunny on a floor 400 m wide made of two
+/// triangles, seen from 0.4 m. The f32 t of a triangle a thousand times larger than its
+/// distance loses about ten bits to cancellation in the edge functions (measured on the
+/// floor: GL on the H200 and the f32 CPU differ in t by 5e-5 relative), so a few f32 hit
+/// points fall in other checker squares than f64's, near the eye too (depth 0.32 m).
+/// Measured: GL vs f64 and f32 CPU vs f64 both 6.68e-3 on both structures (llvmpipe); GL vs
+/// f64 7.22e-3 on the H200; 1.4x.
+const RMSE_VS_F64_HUGE_FLOOR: f64 = 1e-2;
+/// The scenes whose f64 bounds are [`RMSE_VS_F64_HUGE_FLOOR`].
+const HUGE_FLOOR_SCENES: &[&str] = &["ground"];
+/// A pixel whose primary-hit triangle's longest edge is more than this many times its depth
+/// is ill-conditioned in f32 (see [`RMSE_VS_F64_HUGE_FLOOR`]): GL's t there depends on how
+/// the driver rounds, and a compiler that fuses multiply-adds (NVIDIA's) rounds the edge
+/// functions otherwise than the CPU and llvmpipe, which match bit for bit.
+const ILL_CONDITIONED: f32 = 100.0;
+/// GL may differ from the f32 CPU (by more than 1e-4 in a channel) on at most this many
+/// ill-conditioned pixels (64x48), which `RMSE_VS_F32` then leaves out. Measured on
+/// ground.toml: none on llvmpipe (RMSE 5.5e-8 over the whole image), 7 on the H200 (4 of
+/// them other checker squares; RMSE 9.8e-3 with them, 1.0e-6 without); about 2x.
+const ILL_CONDITIONED_DIFFS_MAX: usize = 16;
 /// Share of pixels whose primary-hit triangle must agree with the f64 reference (and GL's
 /// with the f32 CPU). Measured: 100% on every shipped scene on llvmpipe and the H200; the
 /// bound allows one pixel of 3,072.
@@ -68,6 +82,56 @@ fn opts(scene: &Scene, precision: Precision, accel: AccelKind) -> RenderOptions 
     // run the same step chunk and are compared against it below.
     o.gpu.kernel = fragtrace::gpu::options::Kernel::Multipass;
     o
+}
+
+/// GL against its twin, the f32 CPU: the colour RMSE (linear values clamped to [0, 1])
+/// over the pixels left after setting aside the ill-conditioned ones ([`ILL_CONDITIONED`],
+/// judged from the f32 CPU's primary hit) where the two differ by more than 1e-4. Fails
+/// when that RMSE exceeds `RMSE_VS_F32` or is NaN, or more than
+/// [`ILL_CONDITIONED_DIFFS_MAX`] pixels are set aside. Returns the RMSE and that count.
+fn twin_check(
+    scene: &Scene,
+    gl: &fragtrace::render::Rendered,
+    c32: &fragtrace::render::Rendered,
+) -> (f64, usize, Result<(), String>) {
+    let ill = |px: &fragtrace::output::AovPixel| {
+        if px.primid < 0.0 {
+            return false;
+        }
+        let tri = &scene.triangles[px.primid as usize];
+        let p = tri.v.map(|v| scene.positions[v as usize]);
+        let longest = [(0, 1), (1, 2), (2, 0)]
+            .map(|(a, b)| p[a].distance(p[b]))
+            .into_iter()
+            .fold(0.0f32, f32::max);
+        longest > ILL_CONDITIONED * px.depth
+    };
+    let (mut sum, mut kept, mut aside) = (0.0f64, 0usize, 0usize);
+    let pixels = gl.image.data.chunks(3).zip(c32.image.data.chunks(3));
+    for ((a, b), px) in pixels.zip(&c32.aov.pixels) {
+        let d: Vec<f64> = (a.iter().zip(b))
+            .map(|(x, y)| (x.clamp(0.0, 1.0) - y.clamp(0.0, 1.0)) as f64)
+            .collect();
+        if d.iter().any(|v| v.abs() > 1e-4) && ill(px) {
+            aside += 1;
+            continue;
+        }
+        sum += d.iter().map(|v| v * v).sum::<f64>();
+        kept += 1;
+    }
+    let rmse = (sum / (3 * kept.max(1)) as f64).sqrt();
+    let verdict = if rmse.is_nan() || rmse > RMSE_VS_F32 {
+        Err(format!(
+            "RMSE vs f32 CPU {rmse:.3e} > {RMSE_VS_F32:e} ({aside} ill-conditioned pixels left out)"
+        ))
+    } else if aside > ILL_CONDITIONED_DIFFS_MAX {
+        Err(format!(
+            "{aside} ill-conditioned pixels differ from the f32 CPU, more than {ILL_CONDITIONED_DIFFS_MAX}"
+        ))
+    } else {
+        Ok(())
+    };
+    (rmse, aside, verdict)
 }
 
 /// Share of pixels whose primary-hit triangle is the same in `a` and `b`.
@@ -131,15 +195,15 @@ fn check_all_scenes(ctx: &GlContext) -> String {
                 ));
             }
         }
-        let horizon = HORIZON_SCENES
+        let huge_floor = HUGE_FLOOR_SCENES
             .iter()
             .any(|h| name.split(' ').next() == Some(*h));
         for (what, value, bound) in [
             (
                 "GL vs f64 CPU",
                 vs64.rmse,
-                if horizon {
-                    RMSE_VS_F64_HORIZON
+                if huge_floor {
+                    RMSE_VS_F64_HUGE_FLOOR
                 } else {
                     RMSE_GL_VS_F64
                 },
@@ -147,8 +211,8 @@ fn check_all_scenes(ctx: &GlContext) -> String {
             (
                 "f32 CPU vs f64 CPU",
                 cpu32_vs64.rmse,
-                if horizon {
-                    RMSE_VS_F64_HORIZON
+                if huge_floor {
+                    RMSE_VS_F64_HUGE_FLOOR
                 } else {
                     RMSE_F32_VS_F64
                 },
@@ -175,11 +239,14 @@ fn check_all_scenes(ctx: &GlContext) -> String {
                 PRIMID_AGREEMENT * 100.0
             ));
         }
-        if vs32.rmse.is_nan() || vs32.rmse > RMSE_VS_F32 {
-            failures.push(format!(
-                "{name}: RMSE vs f32 CPU {:.5} > {RMSE_VS_F32}",
-                vs32.rmse
+        let (twin_rmse, aside, verdict) = twin_check(scene, &gl, &c32);
+        if aside > 0 {
+            report.push_str(&format!(
+                "{name:>18}: {aside} ill-conditioned pixels set aside, RMSE gl-f32 of the rest {twin_rmse:.2e}\n"
             ));
+        }
+        if let Err(e) = verdict {
+            failures.push(format!("{name}: {e}"));
         }
         if failures.iter().any(|f| f.starts_with(name.as_str())) {
             let dir = std::env::temp_dir();
@@ -244,11 +311,15 @@ fn gl_irregular_fast_kernels_equal_cpu_f32_irregular() {
                     c.rmse,
                     gl.stats.gpu.as_ref().map_or(0, |g| g.passes_total),
                 );
-                if agree < PRIMID_AGREEMENT || c.rmse.is_nan() || c.rmse > RMSE_VS_F32 {
+                let (twin_rmse, aside, verdict) = twin_check(scene, &gl, c32);
+                if aside > 0 {
+                    println!("{name:>8} irregular {kernel}: {aside} ill-conditioned pixels set aside, RMSE gl-f32 of the rest {twin_rmse:.2e}");
+                }
+                if agree < PRIMID_AGREEMENT || verdict.is_err() {
                     failures.push(format!(
-                        "{name} irregular {kernel}: primary-hit agreement {:.4}%, RMSE {:.3e}",
+                        "{name} irregular {kernel}: primary-hit agreement {:.4}%, {}",
                         agree * 100.0,
-                        c.rmse
+                        verdict.err().unwrap_or_default()
                     ));
                 }
             }
