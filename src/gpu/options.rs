@@ -1,10 +1,11 @@
 //! Options of the GPU backend: what a render asks of it ([`GpuOptions`]) and the switches it
 //! is made of ([`Kernel`], [`Mask`], [`Storage`], [`SceneFetch`]).
 //!
-//! `Mask`, `Storage` and `SceneFetch` are plain word choices and derive `clap::ValueEnum`, which gives the
-//! CLI their spellings, the error message and the `--help` list in one place. `Kernel` carries
-//! a number (`unrolled:K`), which a value enum cannot express, so it keeps its own `FromStr`
-//! (clap uses it through `value_parser!`) beside a matching `Display`.
+//! `Mask`, `Storage` and `SceneFetch` are plain word choices and derive `clap::ValueEnum`,
+//! which gives the CLI their spellings, the error message and the `--help` list in one
+//! place. `Kernel` carries a number (`unrolled:K`), which a value enum cannot express, so it
+//! keeps its own `FromStr` (clap uses it through `value_parser!`) beside a matching
+//! `Display`.
 
 use super::gl::TexFormat;
 use super::shader::LOOP_MAX;
@@ -39,6 +40,7 @@ impl GpuOptions {
     /// The kernel these options run in a context described by `info` (see
     /// [`Kernel::resolve`]: an explicit mask or `--storage f16` keeps `auto` on the
     /// fragment kernels, which are the ones that have them).
+    ///
     /// An explicit `scene_fetch` is an error with any other kernel than compute, which is
     /// the only one it changes.
     pub fn resolve_kernel(&self, info: &super::info::GlInfo) -> crate::Result<Kernel> {

@@ -89,7 +89,8 @@ impl Setup {
             Fetch::Storage if blocks < needed => {
                 if opts.scene_fetch == SceneFetch::StorageBuffer {
                     return Err(Error::Limit(format!(
-                        "--scene-fetch storage-buffer needs {needed} storage blocks in a                          compute shader; this context has {blocks}"
+                        "--scene-fetch storage-buffer needs {needed} storage blocks in a \
+                         compute shader; this context has {blocks}"
                     )));
                 }
                 Fetch::TexelFetch
