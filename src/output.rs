@@ -116,8 +116,9 @@ pub struct GpuStats {
     /// The kernel that ran (`--kernel auto` resolved): compute, looped, unrolled:K or
     /// multipass.
     pub kernel: String,
-    /// How the kernel read the scene textures: `texel-fetch` or `storage-buffer` (compute,
-    /// `--scene-fetch` resolved), `texture2D` (the fragment kernels).
+    /// How the kernel read the scene textures (named by `gpu::layout::Fetch::name`):
+    /// `texel-fetch` or `storage-buffer` (compute, `--scene-fetch` resolved), `texture2D`
+    /// (the fragment kernels).
     pub scene_fetch: String,
     /// Passes drawn, by kind (the compute kernel: dispatches).
     pub passes: HashMap<String, u64>,

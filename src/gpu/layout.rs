@@ -52,6 +52,18 @@ pub enum Fetch {
     Storage,
 }
 
+impl Fetch {
+    /// The name `--stats` reports as `gpu.scene_fetch`: `texture2D`, or `texel-fetch` and
+    /// `storage-buffer` as `--scene-fetch` spells them.
+    pub fn name(self) -> &'static str {
+        match self {
+            Fetch::Texture2D => "texture2D",
+            Fetch::TexelFetch => "texel-fetch",
+            Fetch::Storage => "storage-buffer",
+        }
+    }
+}
+
 /// Storage-buffer binding of the first scene texture under [`Fetch::Storage`] (the compute
 /// kernel's camera, light, counter, radiance, AOV and tile buffers take 0..6).
 pub const STORAGE_BINDING_BASE: u32 = 6;
@@ -509,17 +521,10 @@ mod tests {
         assert_eq!((t.width, t.height), (2, 1));
         assert_eq!(t.data, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 0.0, 0.0]);
 
+        use crate::accel::two_level::tests::scene_of;
         use crate::accel::{IrregularConfig, IrregularGrid};
-        use crate::scene::{Camera, Material};
-        let mut s = Scene::empty(Camera {
-            eye: glam::Vec3::Z,
-            look_at: glam::Vec3::ZERO,
-            up: glam::Vec3::Y,
-            vfov_deg: 45.0,
-        });
-        let m = s.add_material(Material::default());
-        s.add_triangle(glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y, m);
-        s.add_triangle(glam::Vec3::Z, glam::Vec3::X, glam::Vec3::Y, m);
+        use glam::Vec3;
+        let s = scene_of(&[[Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z, Vec3::X, Vec3::Y]]);
         let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
         let l = SceneTextures::pack(&s, &g, 4096).unwrap();
         let vmap = &l.irregular.as_ref().unwrap().vmap;

@@ -97,11 +97,7 @@ impl Setup {
             }
             f => f,
         };
-        stats.scene_fetch = match fetch {
-            Fetch::Storage => SceneFetch::StorageBuffer,
-            Fetch::TexelFetch | Fetch::Texture2D => SceneFetch::TexelFetch,
-        }
-        .to_string();
+        stats.scene_fetch = fetch.name().into();
         let spec = &ComputeSpec { fetch, ..*spec };
         let (mut scene_tex, mut scene_buf) = (Vec::new(), Vec::new());
         for (k, (unit, t)) in layout.with_units().into_iter().enumerate() {

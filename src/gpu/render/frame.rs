@@ -19,7 +19,7 @@ use crate::gpu::gl::{
     FullscreenQuad, OcclusionQuery, Program, RenderTarget, Renderbuffer, Texture, TimerQuery,
     Uniform,
 };
-use crate::gpu::layout::SceneTextures;
+use crate::gpu::layout::{Fetch, SceneTextures};
 use crate::gpu::options::{GpuOptions, Mask, Storage};
 use crate::gpu::shader::{Count, Features, Pass};
 use crate::output::GpuStats;
@@ -155,7 +155,7 @@ impl<'a> Frame<'a> {
             renderer: info.renderer.clone(),
             gl_version: info.gl_version.clone(),
             query_every: opts.query_every,
-            scene_fetch: "texture2D".into(),
+            scene_fetch: Fetch::Texture2D.name().into(),
             ..GpuStats::default()
         };
 
