@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Renders every shipped scene on every backend and kernel with two fragtrace binaries and
-# compares the images pairwise: the check that a refactor changed no pixel.
+# Renders every shipped scene on every backend, kernel and acceleration structure with two
+# fragtrace binaries and compares the images pairwise: the check that a refactor changed no
+# pixel.
 #
 #   ci/compare-binaries.sh OLD_BINARY NEW_BINARY [SIZE]     (SIZE defaults to 64x48)
 #
@@ -18,13 +19,17 @@ configs=(
     "multipass:--backend gl --kernel multipass"
     "multipass-earlyz:--backend gl --kernel multipass --mask early-z"
     "f16:--backend gl --storage f16"
+    "compute:--backend gl --kernel compute"
 )
+accels=(irregular uniform)
 total=0 same=0
 for scene in builtin scenes/*.toml; do
     name=$(basename "$scene" .toml)
     arg=(); [ "$scene" = builtin ] || arg=("$scene")
+    for accel in "${accels[@]}"; do
     for cfg in "${configs[@]}"; do
-        tag=${cfg%%:*}; read -r -a flags <<< "${cfg#*:}"
+        tag=${cfg%%:*}-$accel; read -r -a flags <<< "${cfg#*:}"
+        flags+=(--accel "$accel")
         total=$((total + 1))
         for which in old new; do
             bin=$old; [ $which = new ] && bin=$new
@@ -33,6 +38,7 @@ for scene in builtin scenes/*.toml; do
         done
         r=$("$new" compare "$out/$name-$tag-old.exr" "$out/$name-$tag-new.exr" 2>&1)
         if [[ $r == *"PSNR identical"* ]]; then same=$((same + 1)); else echo "$name $tag: $r"; fi
+    done
     done
 done
 rm -rf "$out"

@@ -6,12 +6,6 @@
 #include "intersect.glsl"
 #include "shade.glsl"
 
-uniform sampler2D u_r0;
-uniform sampler2D u_r1;
-uniform sampler2D u_r2;
-uniform sampler2D u_acc;
-uniform vec3 u_ambient;
-uniform vec3 u_background;
 
 void main() {
     vec4 acc = texture2D(u_acc, v_uv);

@@ -7,11 +7,6 @@
 #include "intersect.glsl"
 #include "shade.glsl"
 
-uniform sampler2D u_r0;
-uniform sampler2D u_r1;
-uniform sampler2D u_r2;
-uniform sampler2D u_acc;
-uniform vec3 u_light_rad;
 
 void main() {
     vec4 acc = texture2D(u_acc, v_uv);

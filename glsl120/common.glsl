@@ -22,9 +22,5 @@ bool in_state(float s, float code) {
 #ifndef KERNEL_COMPUTE
 // The ray state textures of the current pass's input set, sampled at this fragment (the
 // compute kernel keeps its rays in registers and has neither these nor a varying).
-uniform sampler2D u_s0; // S0_TEXEL(origin, state)
-uniform sampler2D u_s1; // S1_TEXEL(dir, t_max)
-uniform sampler2D u_s2; // S2_TEXEL(cell, cursor): cursor = next index into the triangle list
-uniform sampler2D u_s3; // S3_TEXEL(t_best, tri_best, cursor_end, steps): tri_best TRI_NONE or TRI_NO_RAY
 varying vec2 v_uv;
 #endif

@@ -3,7 +3,6 @@
 // Reads: COUNT_RAYS: s0 (counts rays still INITIAL, TRAVERSING or TESTING);
 //        COUNT_NODES: u_c2 (counts pixels where a ray-tree node exists).
 // Writes: nothing.
-uniform sampler2D u_c2;
 
 void main() {
 #ifdef COUNT_RAYS

@@ -7,13 +7,10 @@
 //         s1 = (direction, BIG), s2 = 0, s3 = (BIG, TRI_NONE, 0, 0).
 #include "traverse.glsl"
 
-uniform sampler2D u_dir;
-uniform vec3 u_eye;
-uniform vec2 u_size;
 
 void main() {
     // gl_FragCoord is the pixel centre, so it samples texel (i, row) exactly.
-    vec3 d = texture2D(u_dir, gl_FragCoord.xy / u_size).xyz;
+    vec3 d = texture2D(u_dir, gl_FragCoord.xy / vec2(u_size)).xyz;
     vec2 span = clip_grid(u_eye, d, 0.0, BIG);
     float state = span.x > span.y ? ST_INVALID : ST_INITIAL;
     gl_FragData[0] = S0_TEXEL(u_eye, state);

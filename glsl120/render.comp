@@ -20,26 +20,14 @@
 #include "shade.glsl"
 #include "compute.glsl"
 
+// Declared by the host from gpu/contract (bindings.rs, compute.rs): the buffers `cam`
+// (CAM_* slots: the camera frame, then (ox, oy) per sample from CAM_OFFSETS on), `lights`
+// (LIGHT_POS(k), LIGHT_RAD(k)), `counters` (COUNTERS slots per work group), and the
+// outputs for the band's rows in image order (rows from the top), so the host reads them
+// straight into its image: `radiance` (RGB per pixel) and `aov_out` (A0_TEXEL per pixel);
+// the uniforms u_eye, u_ambient, u_background, u_sample_weight, u_size and u_band (the band
+// of GL rows this dispatch renders: first row, row count).
 layout(local_size_x = LOCAL_X, local_size_y = LOCAL_Y) in;
-// Both outputs in image order (rows from the top) for the band's rows, so the host reads
-// them straight into its image: RGB per pixel, and (t_best, tri_best or TRI_NONE, steps,
-// state) per pixel.
-layout(std430, binding = 3) writeonly buffer RadianceBuffer { float radiance[]; };
-layout(std430, binding = 4) writeonly buffer AovBuffer { vec4 aov_out[]; };
-// CAM_*: the camera frame (forward, right, up; tan(vfov/2), aspect, width, height), then
-// (ox, oy) per sample from CAM_OFFSETS on.
-layout(std430, binding = 0) readonly buffer CameraBuffer { double cam[]; };
-// Per light: (position, 0), (radiance, 0).
-layout(std430, binding = 1) readonly buffer LightBuffer { vec4 lights[]; };
-layout(std430, binding = 2) writeonly buffer CounterBuffer { uint counters[]; };
-uniform vec3 u_eye;
-uniform vec3 u_ambient;
-uniform vec3 u_background;
-uniform float u_sample_weight;
-uniform ivec2 u_size;
-// The band of GL rows this dispatch renders: first row, row count (bands keep each output
-// buffer under GL_MAX_SHADER_STORAGE_BLOCK_SIZE).
-uniform ivec2 u_band;
 
 shared uint g_count[COUNTERS];
 
@@ -83,7 +71,7 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
         trace(s0, s1, s2, s3, false);
         bool hit = in_state(s0.S0_STATE, ST_SHADING);
         if (first && n.level == 0) {
-            aov = vec4(s3.S3_T_BEST, hit ? s3.S3_TRI_BEST : TRI_NONE, s3.S3_STEPS, s0.S0_STATE);
+            aov = A0_TEXEL(s3.S3_T_BEST, hit ? s3.S3_TRI_BEST : TRI_NONE, s3.S3_STEPS, s0.S0_STATE);
         }
         if (!hit) {
             colour += n.w * u_background;
@@ -95,12 +83,12 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
             vec3 o;
             vec3 l;
             float dist;
-            if (!shadow_ray(s, lights[2 * k].xyz, o, l, dist)) continue;
+            if (!shadow_ray(s, LIGHT_POS(k), o, l, dist)) continue;
             n_count[C_SHADOW] += 1u;
             new_ray(o, l, dist, s0, s1, s2, s3);
             trace(s0, s1, s2, s3, true);
             if (!in_state(s0.S0_STATE, ST_SHADING)) {
-                vec3 c = light_term(s.mat, albedo_at(s.mat, s.p), s, l, -n.d, lights[2 * k + 1].xyz);
+                vec3 c = light_term(s.mat, albedo_at(s.mat, s.p), s, l, -n.d, LIGHT_RAD(k));
                 colour += n.w * c;
             }
         }

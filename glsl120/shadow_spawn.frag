@@ -7,9 +7,6 @@
 #include "intersect.glsl"
 #include "shade.glsl"
 
-uniform sampler2D u_r0;
-uniform sampler2D u_r1;
-uniform vec3 u_light_pos;
 
 void main() {
     vec4 r0 = texture2D(u_r0, v_uv);

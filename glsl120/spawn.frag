@@ -6,10 +6,6 @@
 #include "intersect.glsl"
 #include "shade.glsl"
 
-uniform sampler2D u_p0;
-uniform sampler2D u_p1;
-uniform sampler2D u_c2;
-uniform float u_branch;
 
 void main() {
     vec4 c2 = texture2D(u_c2, v_uv);

@@ -3,11 +3,8 @@
 //
 // The boundary parameter of an axis is recomputed from the cell index rather than
 // accumulated with tDelta, which would drift by an ulp per step (see the CPU twin).
-
-uniform vec3 u_grid_min;
-uniform vec3 u_grid_max;
-uniform vec3 u_cell_size;
-uniform vec3 u_grid_res;
+// Reads the grid uniforms u_grid_min, u_grid_max, u_cell_size, u_grid_res (declared by the
+// host from gpu/contract).
 
 // Slab clip of the ray against the grid box within [t0, t1]: (t_enter, t_exit); a miss
 // when t_enter > t_exit. A +-0 direction component leaves the slab unbounded when the

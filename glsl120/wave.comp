@@ -9,11 +9,6 @@
 #include "compute.glsl"
 
 layout(local_size_x = LOCAL_X, local_size_y = LOCAL_Y) in;
-layout(rgba32f, binding = 0) uniform image2D u_w0;
-layout(rgba32f, binding = 1) uniform image2D u_w1;
-layout(rgba32f, binding = 2) uniform image2D u_w2;
-layout(rgba32f, binding = 3) uniform image2D u_w3;
-uniform ivec2 u_size;
 
 void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);

@@ -5,10 +5,6 @@
 #include "intersect.glsl"
 #include "shade.glsl"
 
-uniform sampler2D u_p0;
-uniform sampler2D u_p1;
-uniform sampler2D u_p2;
-uniform float u_branch;
 
 void main() {
     vec4 p0 = texture2D(u_p0, v_uv);

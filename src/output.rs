@@ -6,6 +6,33 @@ use std::collections::HashMap;
 
 use serde::Serialize;
 
+use crate::image_io::Image;
+
+/// What a backend renders: the same type from the CPU and from either GPU wing.
+pub struct BackendOutput {
+    /// Linear RGB image.
+    pub image: Image,
+    /// Primary-ray AOVs (first sample of each pixel).
+    pub aov: Aov,
+    /// Rays traced by kind.
+    pub rays: RayCounts,
+    /// Traversal work of all rays, where the backend counts it (the CPU and the compute
+    /// kernel; the fragment kernels count cells and tests together per primary ray, in the
+    /// `steps` AOV).
+    pub work: Option<Work>,
+    /// GPU statistics (GPU renders only).
+    pub gpu: Option<GpuStats>,
+}
+
+/// Traversal work of a render's rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Work {
+    /// Grid cells entered (the start cell included).
+    pub cells: u64,
+    /// Ray-triangle tests.
+    pub tests: u64,
+}
+
 /// Rays traced, by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct RayCounts {

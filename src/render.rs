@@ -1,5 +1,7 @@
-//! Backend-independent rendering front door: dispatch to the CPU reference renderer or the
-//! GPU backend, and the statistics of a render. The options live in [`crate::options`]
+//! Backend-independent rendering front door: [`prepare`] (options checked, the structure
+//! they name built; what `render`, `view` and `bench` all call), dispatch to the CPU
+//! reference renderer or the GPU backend, and the statistics of a render, built once for
+//! every backend from the one backend output type. The options live in [`crate::options`]
 //! (one layer down, so the CLI and the bench share them).
 
 use std::time::Instant;
@@ -8,9 +10,10 @@ use serde::Serialize;
 
 use crate::accel::{Accel, AccelSummary};
 use crate::cpu::CpuRenderer;
-use crate::gpu::GlContext;
+use crate::gpu::render::ImageRequest;
+use crate::gpu::{self, GlContext, GpuScene};
 use crate::image_io::Image;
-use crate::output::{Aov, GpuStats, RayCounts};
+use crate::output::{Aov, BackendOutput, GpuStats, RayCounts};
 use crate::scene::Scene;
 use crate::Result;
 
@@ -76,99 +79,134 @@ pub struct Rendered {
     pub stats: RenderStats,
 }
 
-/// Builds the acceleration structure and renders `scene` on the CPU.
-pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+/// A scene made ready to render as the options ask: the options checked and the
+/// acceleration structure `--accel` names built. The one way in for `render`, `view` and
+/// `bench`, so all three render the same structure from the same flags.
+pub struct Prepared<'s> {
+    /// The scene.
+    pub scene: &'s Scene,
+    /// Its acceleration structure.
+    pub accel: Accel,
+    /// What was built (kind, size, build time): what `--stats` and the summary report.
+    pub summary: AccelSummary,
+}
+
+/// Checks `opts` and builds the acceleration structure they name for `scene`.
+pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s>> {
     opts.validate()?;
     let accel = Accel::build(scene, opts.accel, &opts.grid, &opts.irregular)?;
     let summary = accel.as_ref().summary(scene.triangles.len());
-    let progress = crate::progress::Progress::bar(opts.progress, opts.height as u64, "rows");
-    let t0 = Instant::now();
-    let out = match opts.precision {
-        Precision::F64 => CpuRenderer::<f64>::new(scene, &accel, opts.max_depth, opts.techniques)
-            .render_with_progress(opts.width, opts.height, opts.spp, &progress),
-        Precision::F32 => CpuRenderer::<f32>::new(scene, &accel, opts.max_depth, opts.techniques)
-            .render_with_progress(opts.width, opts.height, opts.spp, &progress),
-    };
-    let render_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let precision = match opts.precision {
-        Precision::F32 => "f32",
-        Precision::F64 => "f64",
-    };
-    let stats = RenderStats {
-        backend: "cpu".into(),
-        device: format!("cpu ({} threads)", rayon::current_num_threads()),
-        precision: precision.into(),
-        scene: scene.source.clone(),
-        width: opts.width,
-        height: opts.height,
-        spp: opts.spp,
-        max_depth: opts.max_depth,
-        triangles: scene.triangles.len(),
-        grid: summary.resolution,
-        grid_build_ms: summary.build_ms,
-        accel: summary,
-        techniques: opts.techniques.tag(),
-        render_ms,
-        rays: out.rays,
-        cells_visited: Some(out.cells),
-        triangle_tests: Some(out.tests),
-        primary_steps_per_ray: out.aov.mean_steps(),
-        mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
-        gpu: None,
-    };
-    Ok(Rendered {
-        image: out.image,
-        aov: out.aov,
-        stats,
+    Ok(Prepared {
+        scene,
+        accel,
+        summary,
     })
 }
 
-/// Builds the acceleration structure and renders `scene` with the GLSL 1.20 multi-pass backend in `ctx`.
+impl Prepared<'_> {
+    /// Renders on the CPU.
+    pub fn render_cpu(&self, opts: &RenderOptions) -> Result<Rendered> {
+        let (scene, accel) = (self.scene, &self.accel);
+        let progress = crate::progress::Progress::bar(opts.progress, opts.height as u64, "rows");
+        let t0 = Instant::now();
+        let out = match opts.precision {
+            Precision::F64 => {
+                CpuRenderer::<f64>::new(scene, accel, opts.max_depth, opts.techniques)
+                    .render_with_progress(opts.width, opts.height, opts.spp, &progress)
+            }
+            Precision::F32 => {
+                CpuRenderer::<f32>::new(scene, accel, opts.max_depth, opts.techniques)
+                    .render_with_progress(opts.width, opts.height, opts.spp, &progress)
+            }
+        };
+        let render_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let device = format!("cpu ({} threads)", rayon::current_num_threads());
+        let precision = match opts.precision {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        };
+        Ok(self.rendered(opts, out, "cpu", device, precision, render_ms))
+    }
+
+    /// Renders on the GPU in `ctx`: the scene uploaded, the programs compiled and the image
+    /// rendered (all counted in `render_ms`).
+    pub fn render_gl(&self, ctx: &GlContext, opts: &RenderOptions) -> Result<Rendered> {
+        ctx.info.check_image_size(opts.width, opts.height)?;
+        let t0 = Instant::now();
+        let gs = GpuScene::new(ctx, self.scene, &self.accel, opts.gpu.no_specialize)?;
+        let out = gpu::render::render(&gs, &self.request(opts), None)?;
+        let render_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let device = ctx.info.renderer.clone();
+        Ok(self.rendered(opts, out, "gl", device, "f32", render_ms))
+    }
+
+    /// The GPU request of `opts` from the scene's camera.
+    pub fn request(&self, opts: &RenderOptions) -> ImageRequest {
+        ImageRequest {
+            camera: self.scene.camera,
+            width: opts.width,
+            height: opts.height,
+            spp: opts.spp,
+            max_depth: opts.max_depth,
+            techniques: opts.techniques,
+            progress: opts.progress,
+            gpu: opts.gpu,
+        }
+    }
+
+    /// A backend's output with its statistics: built here once for every backend.
+    fn rendered(
+        &self,
+        opts: &RenderOptions,
+        out: BackendOutput,
+        backend: &str,
+        device: String,
+        precision: &str,
+        render_ms: f64,
+    ) -> Rendered {
+        let summary = self.summary.clone();
+        let stats = RenderStats {
+            backend: backend.into(),
+            device,
+            precision: precision.into(),
+            scene: self.scene.source.clone(),
+            width: opts.width,
+            height: opts.height,
+            spp: opts.spp,
+            max_depth: opts.max_depth,
+            triangles: self.scene.triangles.len(),
+            grid: summary.resolution,
+            grid_build_ms: summary.build_ms,
+            accel: summary,
+            techniques: opts.techniques.tag(),
+            render_ms,
+            rays: out.rays,
+            cells_visited: out.work.map(|w| w.cells),
+            triangle_tests: out.work.map(|w| w.tests),
+            primary_steps_per_ray: out.aov.mean_steps(),
+            mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
+            gpu: out.gpu,
+        };
+        Rendered {
+            image: out.image,
+            aov: out.aov,
+            stats,
+        }
+    }
+}
+
+/// Builds the acceleration structure and renders `scene` on the CPU.
+pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+    prepare(scene, opts)?.render_cpu(opts)
+}
+
+/// Builds the acceleration structure and renders `scene` on the GPU in `ctx` (the kernel
+/// `opts.gpu.kernel` resolves to).
 pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     opts.validate()?;
     // The image must fit the driver's textures and viewport before any work is done.
     ctx.info.check_image_size(opts.width, opts.height)?;
-    let accel = Accel::build(scene, opts.accel, &opts.grid, &opts.irregular)?;
-    let summary = accel.as_ref().summary(scene.triangles.len());
-    let t0 = Instant::now();
-    let req = crate::gpu::render::ImageRequest {
-        width: opts.width,
-        height: opts.height,
-        spp: opts.spp,
-        max_depth: opts.max_depth,
-        techniques: opts.techniques,
-        progress: opts.progress,
-        gpu: opts.gpu,
-    };
-    let out = crate::gpu::render::render_gl(ctx, scene, &accel, &req)?;
-    let render_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let stats = RenderStats {
-        backend: "gl".into(),
-        device: ctx.info.renderer.clone(),
-        precision: "f32".into(),
-        scene: scene.source.clone(),
-        width: opts.width,
-        height: opts.height,
-        spp: opts.spp,
-        max_depth: opts.max_depth,
-        triangles: scene.triangles.len(),
-        grid: summary.resolution,
-        grid_build_ms: summary.build_ms,
-        accel: summary,
-        techniques: opts.techniques.tag(),
-        render_ms,
-        rays: out.rays,
-        cells_visited: out.work.map(|w| w.cells),
-        triangle_tests: out.work.map(|w| w.tests),
-        primary_steps_per_ray: out.aov.mean_steps(),
-        mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
-        gpu: Some(out.stats),
-    };
-    Ok(Rendered {
-        image: out.image,
-        aov: out.aov,
-        stats,
-    })
+    prepare(scene, opts)?.render_gl(ctx, opts)
 }
 
 /// Renders with the backend chosen in `opts`. `Auto` uses the GPU when a suitable context

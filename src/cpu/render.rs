@@ -36,19 +36,8 @@ pub struct CpuRenderer<'a, T> {
     offset: OffsetMethod,
 }
 
-/// Output of a CPU render.
-pub struct CpuOutput {
-    /// Linear RGB image.
-    pub image: Image,
-    /// Primary-ray AOVs (first sample of each pixel).
-    pub aov: Aov,
-    /// Rays traced by kind.
-    pub rays: RayCounts,
-    /// Cells visited and triangle tests, all rays.
-    pub cells: u64,
-    /// Triangle tests, all rays.
-    pub tests: u64,
-}
+/// Output of a CPU render: the one backend output type, with `work` always counted.
+pub type CpuOutput = crate::output::BackendOutput;
 
 impl<'a, T: Real> CpuRenderer<'a, T> {
     /// Prepares `scene` with its acceleration structure (a `&Grid`, `&IrregularGrid` or
@@ -205,8 +194,11 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
                 total.reflected,
                 total.refracted,
             ),
-            cells: total.work.cells,
-            tests: total.work.tests,
+            work: Some(crate::output::Work {
+                cells: total.work.cells,
+                tests: total.work.tests,
+            }),
+            gpu: None,
         }
     }
 

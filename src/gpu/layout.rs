@@ -41,7 +41,7 @@ pub const MAX_EXACT_INDEX: u64 = 1 << 24;
 pub const MAX_ROW: u32 = 4096;
 
 /// How the generated `fetch_<name>(i)` functions read a texel.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Fetch {
     /// `texture2D` at the texel's centre (GLSL 1.20: the fragment kernels).
     Texture2D,
@@ -64,9 +64,7 @@ impl Fetch {
     }
 }
 
-/// Storage-buffer binding of the first scene texture under [`Fetch::Storage`] (the compute
-/// kernel's camera, light, counter, radiance, AOV and tile buffers take 0..6).
-pub const STORAGE_BINDING_BASE: u32 = 6;
+pub use super::contract::STORAGE_BINDING_BASE;
 
 /// One packed RGBA32F texture.
 #[derive(Clone, Debug)]

@@ -1,7 +1,12 @@
 //! The GPU backend: a headless OpenGL context over EGL ([`context`], [`egl`], [`info`]),
 //! owning GL objects ([`gl`]), the Rust/GLSL contract ([`contract`]), the scene's texel
-//! layout ([`layout`]), shader assembly ([`shader`]), options ([`options`]) and the passes
-//! ([`render`]).
+//! layout ([`layout`]), shader assembly ([`shader`]), options ([`options`]), the scene
+//! uploaded once ([`scene`]), what a render is asked and gives back ([`request`], [`wave`]),
+//! the two wings that render (`fragment`: the thesis's passes; `compute`: one dispatch) and
+//! the one entry that picks the wing ([`render`]).
+//!
+//! Imports run one way inside: `context`/`gl`/`contract`/`layout`/`shader`/`options` ->
+//! `scene`, `request`, `wave` -> `fragment` | `compute` (never each other) -> `render`.
 //!
 //! The backend follows the OpenGL 2.1-era stream design: every pass is a GLSL 1.20 fragment
 //! program drawn over a [`gl::FullscreenQuad`] into a [`gl::RenderTarget`] of RGBA32F
@@ -14,15 +19,24 @@
 //! This layer depends on `scene`, `accel` and the shared output types only, never on the
 //! render front door, the CLI or the bench.
 
+mod compute;
 pub mod context;
 pub mod contract;
 pub mod egl;
+mod fragment;
 pub mod gl;
 pub mod info;
 pub mod layout;
 pub mod options;
 pub mod render;
+pub mod request;
+pub mod scene;
 pub mod shader;
+pub mod wave;
+
+#[cfg(test)]
+mod lifetime_tests;
 
 pub use context::GlContext;
 pub use info::GlInfo;
+pub use scene::GpuScene;

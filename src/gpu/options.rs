@@ -8,7 +8,6 @@
 //! `Display`.
 
 use super::gl::TexFormat;
-use super::shader::LOOP_MAX;
 use crate::technique::Techniques;
 
 /// Options of the GPU backend.
@@ -56,10 +55,74 @@ impl GpuOptions {
         Ok(kernel)
     }
 
-    /// The fragment kernel `auto` falls back to when the compute kernel cannot finish a
-    /// render in this context (llvmpipe's loop limit): looped where GL 3 is, else multipass.
-    pub fn fallback_kernel(info: &super::info::GlInfo) -> Kernel {
-        Kernel::fastest_fragment(info)
+    /// The kernel these options run, resolved once into the wing that runs it: a fragment
+    /// kernel, or the compute kernel with the fragment kernel `auto` falls back to where
+    /// the driver cuts the compute kernel's loops short (llvmpipe's loop limit).
+    pub fn choose_kernel(&self, info: &super::info::GlInfo) -> crate::Result<KernelChoice> {
+        Ok(match self.resolve_kernel(info)? {
+            Kernel::Multipass => KernelChoice::Fragment(FragmentKernel::Multipass),
+            Kernel::Unrolled(k) => KernelChoice::Fragment(FragmentKernel::Unrolled(k)),
+            Kernel::Looped => KernelChoice::Fragment(FragmentKernel::Looped),
+            Kernel::Compute => KernelChoice::Compute {
+                fallback: (self.kernel == Kernel::Auto).then(|| Kernel::fastest_fragment(info)),
+            },
+            Kernel::Auto => unreachable!("Kernel::resolve never answers auto"),
+        })
+    }
+}
+
+/// Iterations of one `looped` pass at most (a bounded loop, as Shader Model 3 requires).
+pub const LOOP_MAX: u32 = 1024;
+
+/// A kernel resolved for one context: which wing of the GPU backend runs the render.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KernelChoice {
+    /// Fragment passes over the full-screen quad (`gpu::fragment`).
+    Fragment(FragmentKernel),
+    /// One compute dispatch per band (`gpu::compute`); `fallback` is the fragment kernel
+    /// that finishes the render where the driver cut the compute kernel's loops short
+    /// (only when the user asked for `auto`: an explicit `compute` fails instead).
+    Compute {
+        /// The fragment kernel to fall back to, if any.
+        fallback: Option<FragmentKernel>,
+    },
+}
+
+/// The kernels that draw fragment passes: how traversal iterations map onto passes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FragmentKernel {
+    /// The thesis's design: one step pass and one test pass per iteration.
+    Multipass,
+    /// K iterations per pass as straight-line code (no loops).
+    Unrolled(u32),
+    /// Up to [`LOOP_MAX`] iterations per pass in a bounded loop.
+    Looped,
+}
+
+impl FragmentKernel {
+    /// Traversal iterations one advancing pass performs at most (multipass: one step pass
+    /// plus one test pass count as one).
+    pub fn iterations_per_pass(self) -> u64 {
+        match self {
+            FragmentKernel::Multipass => 1,
+            FragmentKernel::Unrolled(k) => k as u64,
+            FragmentKernel::Looped => LOOP_MAX as u64,
+        }
+    }
+
+    /// The same kernel as `--kernel` names it.
+    pub fn kernel(self) -> Kernel {
+        match self {
+            FragmentKernel::Multipass => Kernel::Multipass,
+            FragmentKernel::Unrolled(k) => Kernel::Unrolled(k),
+            FragmentKernel::Looped => Kernel::Looped,
+        }
+    }
+}
+
+impl std::fmt::Display for FragmentKernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.kernel().fmt(f)
     }
 }
 
@@ -119,17 +182,6 @@ pub enum Kernel {
 }
 
 impl Kernel {
-    /// Traversal iterations one advancing fragment pass performs at most (multipass: one
-    /// step pass plus one test pass count as one). Only fragment kernels draw passes; the
-    /// others answer the looped figure.
-    pub fn iterations_per_pass(self) -> u64 {
-        match self {
-            Kernel::Multipass => 1,
-            Kernel::Unrolled(k) => k as u64,
-            Kernel::Looped | Kernel::Compute | Kernel::Auto => LOOP_MAX as u64,
-        }
-    }
-
     /// The kernel a render in a context described by `info` runs: `Auto` becomes the
     /// fastest one the context supports (compute where GL 4.3 is; a bounded loop on a GL
     /// 3.x driver; the multipass design of the period in a GL 2.x context, whose hardware
@@ -139,7 +191,7 @@ impl Kernel {
     pub fn resolve(self, info: &super::info::GlInfo, fragment_only: bool) -> crate::Result<Kernel> {
         match self {
             Kernel::Auto if info.compute && !fragment_only => Ok(Kernel::Compute),
-            Kernel::Auto => Ok(Kernel::fastest_fragment(info)),
+            Kernel::Auto => Ok(Kernel::fastest_fragment(info).kernel()),
             Kernel::Compute if !info.compute => Err(crate::Error::GlUnavailable(format!(
                 "--kernel compute needs OpenGL 4.3 and GLSL 4.30; {} offers OpenGL {} and GLSL {}",
                 info.renderer, info.gl_version, info.glsl_version
@@ -150,21 +202,12 @@ impl Kernel {
 
     /// The fastest fragment kernel for `info`: looped on GL 3.x and later, the multipass
     /// design of the period on GL 2.x, whose hardware had no dynamic loops to rely on.
-    fn fastest_fragment(info: &super::info::GlInfo) -> Kernel {
+    fn fastest_fragment(info: &super::info::GlInfo) -> FragmentKernel {
         if info.gl_major_minor >= (3, 0) {
-            Kernel::Looped
+            FragmentKernel::Looped
         } else {
-            Kernel::Multipass
+            FragmentKernel::Multipass
         }
-    }
-
-    /// Whether this kernel draws fragment passes (the others dispatch compute programs or
-    /// are not resolved yet).
-    pub fn is_fragment(self) -> bool {
-        matches!(
-            self,
-            Kernel::Multipass | Kernel::Unrolled(_) | Kernel::Looped
-        )
     }
 }
 
@@ -219,9 +262,9 @@ pub enum Mask {
 
 impl Mask {
     /// The mask a render with `kernel` uses: `Auto` resolved, the others as given.
-    pub fn resolve(self, kernel: Kernel) -> Mask {
+    pub fn resolve(self, kernel: FragmentKernel) -> Mask {
         match (self, kernel) {
-            (Mask::Auto, Kernel::Multipass) => Mask::EarlyZ,
+            (Mask::Auto, FragmentKernel::Multipass) => Mask::EarlyZ,
             (Mask::Auto, _) => Mask::None,
             (m, _) => m,
         }

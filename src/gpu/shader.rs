@@ -69,72 +69,8 @@ const INCLUDABLE: &[&str] = &[
     "compute.glsl",
 ];
 
-/// Iterations of one `looped` pass at most (a bounded loop, as Shader Model 3 requires).
-pub const LOOP_MAX: u32 = 1024;
-
-use super::options::Kernel;
-
-/// Ray states, stored in the 4th component of the ray-origin texture (the thesis's
-/// *kezdeti*, *érvénytelen*, *átszelő*, *metszéspont-tesztelő*, *árnyékoló* states, plus
-/// done).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RayState {
-    /// Generated, traversal not set up yet.
-    Initial,
-    /// Misses the grid's bounding box: finished without a hit.
-    Invalid,
-    /// Walking the grid cell by cell.
-    Traversing,
-    /// Testing the triangles of the current cell one per pass.
-    Testing,
-    /// Finished with a hit (for shadow rays: occluded).
-    Shading,
-    /// Finished without a hit, or no ray at all.
-    Done,
-}
-
-impl RayState {
-    /// All states.
-    pub const ALL: [RayState; 6] = [
-        RayState::Initial,
-        RayState::Invalid,
-        RayState::Traversing,
-        RayState::Testing,
-        RayState::Shading,
-        RayState::Done,
-    ];
-
-    /// The float code stored in textures.
-    pub fn code(self) -> f32 {
-        match self {
-            RayState::Initial => 0.0,
-            RayState::Invalid => 1.0,
-            RayState::Traversing => 2.0,
-            RayState::Testing => 3.0,
-            RayState::Shading => 4.0,
-            RayState::Done => 5.0,
-        }
-    }
-
-    /// The GLSL macro name.
-    pub fn macro_name(self) -> &'static str {
-        match self {
-            RayState::Initial => "ST_INITIAL",
-            RayState::Invalid => "ST_INVALID",
-            RayState::Traversing => "ST_TRAVERSING",
-            RayState::Testing => "ST_TESTING",
-            RayState::Shading => "ST_SHADING",
-            RayState::Done => "ST_DONE",
-        }
-    }
-
-    /// Decodes a stored code.
-    pub fn from_code(c: f32) -> Option<RayState> {
-        RayState::ALL
-            .into_iter()
-            .find(|s| (s.code() - c).abs() < 0.25)
-    }
-}
+pub use super::contract::RayState;
+use super::options::{FragmentKernel, LOOP_MAX};
 
 /// What the intersection pass looks for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -282,13 +218,11 @@ impl Pass {
     }
 
     /// The pass that advances rays by traversal iterations under `kernel`.
-    pub fn advance(kernel: Kernel, query: Query) -> Option<Pass> {
+    pub fn advance(kernel: FragmentKernel, query: Query) -> Option<Pass> {
         match kernel {
-            Kernel::Multipass => None,
-            Kernel::Unrolled(k) => Some(Pass::Unrolled(query, k)),
-            Kernel::Looped => Some(Pass::Looped(query)),
-            // Resolved or dispatched before any pass is drawn (Frame::new refuses them).
-            Kernel::Compute | Kernel::Auto => None,
+            FragmentKernel::Multipass => None,
+            FragmentKernel::Unrolled(k) => Some(Pass::Unrolled(query, k)),
+            FragmentKernel::Looped => Some(Pass::Looped(query)),
         }
     }
 }
@@ -342,13 +276,15 @@ impl Features {
     }
 }
 
-/// An assembled fragment program and where each of its lines came from.
+/// An assembled program and where each of its lines came from.
 #[derive(Clone, Debug)]
 pub struct Assembled {
     /// The complete source.
     pub source: String,
     /// (file, 1-based line) of each source line.
     pub lines: Vec<(String, usize)>,
+    /// The contract's names (uniforms, samplers, buffers, images) the source declares.
+    pub declared: Vec<&'static str>,
 }
 
 impl Assembled {
@@ -358,6 +294,13 @@ impl Assembled {
             .get(line.wrapping_sub(1))
             .cloned()
             .unwrap_or_else(|| ("<assembled>".into(), line))
+    }
+
+    /// Appends the contract's declarations that `file` reads, then `text`.
+    fn push_file(&mut self, file: &str, text: &str, compute: bool) {
+        let decls = contract::declarations_for(file, compute, &mut self.declared);
+        self.push_text("<generated declarations>", &decls);
+        self.push_text(file, text);
     }
 
     fn push_text(&mut self, file: &str, text: &str) {
@@ -379,11 +322,7 @@ fn source(name: &str) -> Result<&'static str> {
 
 /// Generated prelude: state codes and constants shared with Rust.
 fn prelude() -> String {
-    let mut s = String::new();
-    for st in RayState::ALL {
-        s.push_str(&format!("#define {} {:.1}\n", st.macro_name(), st.code()));
-    }
-    s.push_str(&contract::glsl_prelude());
+    let mut s = contract::glsl_prelude();
     s.push_str("#define BIG 1.0e30\n");
     s.push_str(&format!(
         "#define TIE_EPS {:?}\n",
@@ -467,7 +406,9 @@ fn assemble_for(
     let mut a = Assembled {
         source: String::new(),
         lines: Vec::new(),
+        declared: Vec::new(),
     };
+    let compute = target.fetch != Fetch::Texture2D;
     a.push_text("<generated>", target.version);
     let mut defs = String::new();
     for d in features
@@ -483,9 +424,20 @@ fn assemble_for(
     if !target.extra.is_empty() {
         a.push_text("<generated compute prelude>", &target.extra);
     }
-    a.push_text("<generated layout>", &layout.glsl_with(target.fetch));
-    a.push_text("common.glsl", source("common.glsl")?);
+    // The layout declares the scene textures' samplers (or buffers) with its fetch
+    // functions, named after the contract's `SAMPLERS` (a test checks every one).
+    a.push_text(contract::LAYOUT, &layout.glsl_with(target.fetch));
+    a.push_file("common.glsl", source("common.glsl")?, compute);
     let mut included = Vec::new();
+    // The file's own declarations go after its includes (which its header comment and
+    // `#include` lines precede): before its first other line that is not a comment.
+    let body_start = text
+        .lines()
+        .position(|l| {
+            let t = l.trim();
+            !(t.is_empty() || t.starts_with("//") || t.starts_with("#include"))
+        })
+        .unwrap_or(0);
     for (k, line) in text.lines().enumerate() {
         let t = line.trim();
         if let Some(rest) = t.strip_prefix("#include") {
@@ -503,9 +455,13 @@ fn assemble_for(
             }
             if !included.contains(&name) {
                 included.push(name);
-                a.push_text(name, source(name)?);
+                a.push_file(name, source(name)?, compute);
             }
         } else {
+            if k == body_start {
+                let decls = contract::declarations_for(file, compute, &mut a.declared);
+                a.push_text("<generated declarations>", &decls);
+            }
             a.source.push_str(line);
             a.source.push('\n');
             a.lines.push((file.to_string(), k + 1));
@@ -530,7 +486,7 @@ pub enum ComputePass {
 pub const LOCAL_SIZE: (u32, u32) = (8, 4);
 
 /// What a compute program is specialised for besides the scene's features.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct ComputeSpec {
     /// Samples per pixel (the loop over them runs in the program).
     pub samples: u32,
@@ -696,11 +652,7 @@ mod tests {
     fn every_sampler_has_a_unit() {
         use crate::gpu::contract::Unit;
         let (_, l) = layout();
-        let known: Vec<&str> = Unit::ALL
-            .iter()
-            .flat_map(|u| u.samplers())
-            .copied()
-            .collect();
+        let known: Vec<&str> = Unit::ALL.iter().flat_map(|u| u.samplers()).collect();
         for pass in all_passes() {
             let a = assemble(pass, Features::all(), Techniques::default(), &l).unwrap();
             for line in a.source.lines() {

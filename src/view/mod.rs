@@ -28,11 +28,11 @@ use winit::keyboard::{Key, NamedKey};
 use winit::platform::pump_events::{EventLoopExtPumpEvents, PumpStatus};
 use winit::window::WindowId;
 
-use crate::accel::Grid;
 use crate::aov::{self, AovKind};
 use crate::gpu::options::{Kernel, Mask};
-use crate::gpu::render::{render_gl_observed, Flow, GpuOutput, ImageRequest, Snapshot};
-use crate::gpu::GlContext;
+use crate::gpu::render::ImageRequest;
+use crate::gpu::render::{render, Flow, GpuOutput, Snapshot};
+use crate::gpu::{GlContext, GpuScene};
 use crate::image_io::{to_srgb8, write_atomic, Image};
 use crate::options::{RenderOptions, MAX_DEPTH};
 use crate::scene::Scene;
@@ -261,16 +261,23 @@ fn screenshot_name() -> PathBuf {
 /// Opens the window and runs the view until it is closed (or, automated, until the frames
 /// are shown and the screenshot written). No display or no adequate GL context is
 /// [`Error::GlUnavailable`].
-pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
+pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
     let ro = &opts.render;
-    ro.validate()?;
-    let grid = Grid::build(&scene, &ro.grid)?;
+    // The same front door as `render`: the structure `--accel` names, built once.
+    let prepared = crate::render::prepare(&scene, ro)?;
     let mut event_loop: EventLoop<()> = window::event_loop()?;
     let (win, ctx) = window::open(&event_loop, ro.width, ro.height, "fragtrace view")?;
     eprintln!(
         "fragtrace view: {}: OpenGL {} ({})",
         ctx.info.egl_platform, ctx.info.gl_version, ctx.info.renderer
     );
+    eprintln!(
+        "fragtrace view: {} ({:.1} ms)",
+        prepared.summary.detail, prepared.summary.build_ms
+    );
+    // Uploaded once: every render of the view (each camera move, each key) reuses the
+    // scene's textures and programs.
+    let gs = GpuScene::new(&ctx, &scene, &prepared.accel, ro.gpu.no_specialize)?;
     let mut presenter = Presenter::new(&ctx)?;
     let inner = win.window.inner_size();
     let mut size = (inner.width, inner.height);
@@ -328,7 +335,7 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
                 win.window.set_title(&title(&h.settings, ro.spp, &stats));
             }
             if presenter.has_picture() {
-                presenter.draw_picture(&ctx, size.0, size.1);
+                presenter.draw_picture(&ctx, size.0, size.1)?;
                 win.swap()?;
             }
         }
@@ -338,7 +345,7 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
                 eprintln!("fragtrace: no finished frame to save yet");
                 continue;
             }
-            presenter.draw_picture(&ctx, size.0, size.1);
+            presenter.draw_picture(&ctx, size.0, size.1)?;
             let path = screenshot_name();
             screenshot(&ctx, size, &path)?;
             win.swap()?;
@@ -350,8 +357,8 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
         h.restart = false;
 
         // One render of the whole image at the current camera and settings.
-        scene.camera = h.controller.camera;
         let req = ImageRequest {
+            camera: h.controller.camera,
             width: size.0,
             height: size.1,
             spp: ro.spp,
@@ -423,7 +430,7 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
                     Flow::Continue
                 }
             };
-            render_gl_observed(&ctx, &scene, &grid, &req, Some(&mut observer))
+            render(&gs, &req, Some(&mut observer))
         };
         if let Some(e) = failure {
             return Err(e);
@@ -432,14 +439,14 @@ pub fn run(mut scene: Scene, opts: &ViewOptions) -> Result<()> {
             Ok(out) => {
                 let ms = t0.elapsed().as_secs_f64() * 1e3;
                 stats.ms_per_frame = ms;
-                stats.passes = out.stats.passes_total;
+                let gpu = out.gpu.as_ref().expect("a GPU render has GPU statistics");
+                stats.passes = gpu.passes_total;
                 stats.samples_done = ro.spp;
-                stats.mrays_per_s =
-                    Some(out.rays.total as f64 / (out.stats.trace_ms.max(1e-6) * 1e3));
+                stats.mrays_per_s = Some(out.rays.total as f64 / (gpu.trace_ms.max(1e-6) * 1e3));
                 let (rgb, note) = picture(&out, h.settings.display);
                 stats.note = note;
                 presenter.set_picture(&ctx, size.0, size.1, &rgb)?;
-                presenter.draw_picture(&ctx, size.0, size.1);
+                presenter.draw_picture(&ctx, size.0, size.1)?;
                 frames += 1;
                 last = Some(out);
                 win.window.set_title(&title(&h.settings, ro.spp, &stats));

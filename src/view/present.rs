@@ -10,7 +10,7 @@
 
 use glow::HasContext;
 
-use crate::gpu::contract::ray;
+use crate::gpu::contract::{self, ray, view, Unit};
 use crate::gpu::gl::{
     compile_program, single_file_line_map, FullscreenQuad, Program, RenderTarget, Texture,
 };
@@ -19,29 +19,28 @@ use crate::gpu::shader::RayState;
 use crate::gpu::GlContext;
 use crate::{Error, Result};
 
-/// The presenter's fragment program (GLSL 1.20). `u_mode`: 0 shows `u_img` as it is (display
-/// values already encoded), 1 scales linear radiance by `u_scale` and encodes it as sRGB,
-/// 2 writes the scaled linear radiance unencoded (to keep the average of finished samples).
-/// With `u_wave` on, rays of `u_state` that are still traversing or testing are tinted.
-fn fragment_source() -> String {
-    format!(
+/// The presenter's fragment program (GLSL 1.20) and the contract's names it declares
+/// (`gpu::contract::view`, generated). `u_view_mode`: 0 shows `u_view_img` as it is (display
+/// values already encoded), 1 scales linear radiance by `u_view_scale` and encodes it as
+/// sRGB, 2 writes the scaled linear radiance unencoded (to keep the average of finished
+/// samples). With `u_view_wave` on, rays of `u_view_state` that are still traversing or
+/// testing are tinted.
+fn fragment_source() -> (String, Vec<&'static str>) {
+    let mut declared = Vec::new();
+    let decls = contract::declarations_for(contract::VIEW, false, &mut declared);
+    let src = format!(
         "#version 120
-uniform sampler2D u_img;
-uniform sampler2D u_state;
-uniform float u_mode;
-uniform float u_scale;
-uniform float u_wave;
-varying vec2 v_uv;
+{decls}varying vec2 v_uv;
 float srgb(float v) {{
     v = clamp(v, 0.0, 1.0);
     return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
 }}
 void main() {{
-    vec3 c = texture2D(u_img, v_uv).rgb;
-    if (u_mode > 0.5) c *= u_scale;
-    if (u_mode > 0.5 && u_mode < 1.5) c = vec3(srgb(c.r), srgb(c.g), srgb(c.b));
-    if (u_wave > 0.5) {{
-        float s = texture2D(u_state, v_uv).{state};
+    vec3 c = texture2D(u_view_img, v_uv).rgb;
+    if (u_view_mode > 0.5) c *= u_view_scale;
+    if (u_view_mode > 0.5 && u_view_mode < 1.5) c = vec3(srgb(c.r), srgb(c.g), srgb(c.b));
+    if (u_view_wave > 0.5) {{
+        float s = texture2D(u_view_state, v_uv).{state};
         if (abs(s - {traversing:.1}) < 0.25 || abs(s - {testing:.1}) < 0.25)
             c = mix(c, vec3(1.0, 0.55, 0.1), 0.65);
     }}
@@ -51,8 +50,14 @@ void main() {{
         state = ray::STATE.swizzle(),
         traversing = RayState::Traversing.code(),
         testing = RayState::Testing.code(),
-    )
+    );
+    (src, declared)
 }
+
+/// The units the presenter's two textures are bound to (the contract's `u_view_img` and
+/// `u_view_state`).
+const VIEW_IMG: Unit = Unit::Tri;
+const VIEW_STATE: Unit = Unit::Mat;
 
 /// The presenter's GL objects.
 pub(super) struct Presenter {
@@ -137,14 +142,16 @@ struct DrawCall<'t> {
 impl Presenter {
     /// Compiles the program and makes the quad.
     pub(super) fn new(ctx: &GlContext) -> Result<Presenter> {
-        let src = fragment_source();
+        let (src, declared) = fragment_source();
         let program = compile_program(
             ctx,
             "present",
             crate::gpu::gl::QUAD_VERTEX_SHADER,
             &src,
             &single_file_line_map("<present>"),
-        )?;
+        )?
+        .declaring(declared);
+        program.bind_samplers(ctx.gl());
         Ok(Presenter {
             program,
             quad: FullscreenQuad::new(ctx)?,
@@ -181,7 +188,7 @@ impl Presenter {
     }
 
     /// Draws the finished picture into the window's back buffer (`w` x `h`).
-    pub(super) fn draw_picture(&self, ctx: &GlContext, w: u32, h: u32) {
+    pub(super) fn draw_picture(&self, ctx: &GlContext, w: u32, h: u32) -> Result<()> {
         if let Some(img) = &self.picture {
             self.draw_into(
                 ctx,
@@ -193,8 +200,9 @@ impl Presenter {
                     mode: 0.0,
                     scale: 1.0,
                 },
-            );
+            )?;
         }
+        Ok(())
     }
 
     /// Forgets the average of finished samples (a new render starts).
@@ -232,7 +240,7 @@ impl Presenter {
                 mode: 2.0,
                 scale: snap.samples as f32 / snap.samples_done as f32,
             };
-            self.draw_into(ctx, Some(target), (rw, rh), &call);
+            self.draw_into(ctx, Some(target), (rw, rh), &call)?;
             self.still_samples = snap.samples_done;
         }
         let state = snap.state.first();
@@ -250,8 +258,7 @@ impl Presenter {
                 scale: snap.samples as f32,
             },
         };
-        self.draw_into(ctx, None, (w, h), &call);
-        Ok(())
+        self.draw_into(ctx, None, (w, h), &call)
     }
 
     /// Draws the quad into `target` (the window when `None`), state saved by the caller
@@ -262,9 +269,8 @@ impl Presenter {
         target: Option<&RenderTarget>,
         size: (u32, u32),
         call: &DrawCall,
-    ) {
+    ) -> Result<()> {
         let gl = ctx.gl();
-        let p = self.program.name();
         // SAFETY: the context is current; every name is a live object of it.
         unsafe {
             match target {
@@ -276,24 +282,17 @@ impl Presenter {
             }
             gl.disable(glow::DEPTH_TEST);
             gl.disable(glow::STENCIL_TEST);
-            gl.active_texture(glow::TEXTURE0);
+            gl.active_texture(glow::TEXTURE0 + VIEW_IMG.index());
             gl.bind_texture(glow::TEXTURE_2D, Some(call.img.name()));
-            gl.active_texture(glow::TEXTURE1);
+            gl.active_texture(glow::TEXTURE0 + VIEW_STATE.index());
             gl.bind_texture(glow::TEXTURE_2D, call.state.map(|t| t.name()));
-            gl.use_program(Some(p));
-            let set = |name: &str, v: f32| {
-                let loc = gl.get_uniform_location(p, name);
-                gl.uniform_1_f32(loc.as_ref(), v);
-            };
-            let loc = gl.get_uniform_location(p, "u_img");
-            gl.uniform_1_i32(loc.as_ref(), 0);
-            let loc = gl.get_uniform_location(p, "u_state");
-            gl.uniform_1_i32(loc.as_ref(), 1);
-            set("u_mode", call.mode);
-            set("u_scale", call.scale);
-            set("u_wave", if call.state.is_some() { 1.0 } else { 0.0 });
         }
+        let wave = if call.state.is_some() { 1.0 } else { 0.0 };
+        self.program.set(gl, view::MODE, call.mode)?;
+        self.program.set(gl, view::SCALE, call.scale)?;
+        self.program.set(gl, view::WAVE, wave)?;
         self.quad.draw(gl, &self.program);
+        Ok(())
     }
 }
 

@@ -41,11 +41,14 @@ pub fn compile_compute(
             };
             return Err(shader_error(at, log));
         }
-        let program = Program::from_owned(Owned::new(
-            ctx,
-            gl.create_program()
-                .map_err(|e| Error::Internal(format!("glCreateProgram: {e}")))?,
-        ));
+        let program = Program::from_owned(
+            Owned::new(
+                ctx,
+                gl.create_program()
+                    .map_err(|e| Error::Internal(format!("glCreateProgram: {e}")))?,
+            ),
+            pass,
+        );
         let p = program.name();
         gl.attach_shader(p, cs.name());
         gl.link_program(p);

@@ -33,7 +33,7 @@ pub mod texture;
 
 pub use compute::{bind_image, compile_compute, StorageBuffer};
 pub use program::{
-    compile_program, single_file_line_map, FullscreenQuad, Program, Uniform, ATTRIB_POS, ATTRIB_UV,
+    compile_program, single_file_line_map, FullscreenQuad, Program, ATTRIB_POS, ATTRIB_UV,
     QUAD_VERTEX_SHADER,
 };
 pub use query::{OcclusionQuery, TimerQuery};

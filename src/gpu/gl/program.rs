@@ -8,6 +8,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::gpu::context::GlContext;
+use crate::gpu::contract::{GlslType, Uniform, SAMPLERS};
 
 /// Generic attribute index of the quad's position (`a_pos`). Index 0 on purpose: in a
 /// compatibility profile attribute 0 aliases `gl_Vertex`, and some drivers (NVIDIA) draw
@@ -40,31 +41,31 @@ const QUAD_VERTICES: [f32; 20] = [
     -1.0, 1.0, -0.5, 0.0, 1.0, //
 ];
 
-/// A uniform's value, by its GLSL type.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Uniform {
-    /// `int`, or a sampler's texture unit.
-    Int(i32),
-    /// `float`.
-    Float(f32),
-    /// `vec2`.
-    Vec2([f32; 2]),
-    /// `vec3`.
-    Vec3([f32; 3]),
-    /// `ivec2`.
-    IVec2([i32; 2]),
-}
-
 /// A linked program; deleted when dropped.
 #[derive(Debug)]
 pub struct Program {
     obj: Owned<ProgramKind>,
+    /// The pass it was built for, for messages.
+    pass: String,
+    /// The contract's names its source declares ([`Program::declaring`]).
+    declared: Vec<&'static str>,
 }
 
 impl Program {
     /// Wraps a program name created elsewhere in this module's crate (compute programs).
-    pub(super) fn from_owned(obj: Owned<ProgramKind>) -> Self {
-        Program { obj }
+    pub(super) fn from_owned(obj: Owned<ProgramKind>, pass: &str) -> Self {
+        Program {
+            obj,
+            pass: pass.to_string(),
+            declared: Vec::new(),
+        }
+    }
+
+    /// Records the contract's names the program's source declares (shader assembly's
+    /// `Assembled::declared`): [`Program::set`] accepts only those.
+    pub fn declaring(mut self, declared: Vec<&'static str>) -> Self {
+        self.declared = declared;
+        self
     }
 
     /// The raw name, for `glUseProgram` and uniform look-ups.
@@ -72,24 +73,46 @@ impl Program {
         self.obj.name()
     }
 
-    /// Makes the program current and sets its uniform `name` to `value`. A uniform the
-    /// program lacks is skipped: the GLSL compiler drops those its code never reads, so each
-    /// pass keeps only some of the uniforms a render sets.
-    pub fn set(&self, gl: &glow::Context, name: &str, value: Uniform) {
+    /// Makes the program current and sets uniform `u` to `value`.
+    ///
+    /// A uniform the program's source does not declare is an error: the host meant another
+    /// program, and a silent skip would render a wrong image. A declared uniform that the
+    /// compiler dropped (this specialisation never reads it) is skipped.
+    pub fn set<T: GlslType>(&self, gl: &glow::Context, u: Uniform<T>, value: T) -> Result<()> {
+        if !self.declared.contains(&u.name) {
+            return Err(Error::Internal(format!(
+                "the `{}` program does not declare uniform {} (its readers: {})",
+                self.pass,
+                u.name,
+                u.readers.join(", ")
+            )));
+        }
         // SAFETY: the context is current (every caller renders on it) and the program is a
         // linked program of it; a location is used only with the program it came from.
         unsafe {
             gl.use_program(Some(self.name()));
-            let Some(loc) = gl.get_uniform_location(self.name(), name) else {
-                return;
-            };
-            let loc = Some(&loc);
-            match value {
-                Uniform::Int(v) => gl.uniform_1_i32(loc, v),
-                Uniform::Float(v) => gl.uniform_1_f32(loc, v),
-                Uniform::Vec2([x, y]) => gl.uniform_2_f32(loc, x, y),
-                Uniform::Vec3([x, y, z]) => gl.uniform_3_f32(loc, x, y, z),
-                Uniform::IVec2([x, y]) => gl.uniform_2_i32(loc, x, y),
+            if let Some(loc) = gl.get_uniform_location(self.name(), u.name) {
+                value.set(gl, &loc);
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether the program's source declares uniform `u`.
+    pub fn declares<T>(&self, u: Uniform<T>) -> bool {
+        self.declared.contains(&u.name)
+    }
+
+    /// Makes the program current and binds each of its samplers to its unit (the
+    /// contract's [`SAMPLERS`]; those the program lacks are skipped).
+    pub fn bind_samplers(&self, gl: &glow::Context) {
+        // SAFETY: as in `set`.
+        unsafe {
+            gl.use_program(Some(self.name()));
+            for s in &SAMPLERS {
+                if let Some(loc) = gl.get_uniform_location(self.name(), s.name) {
+                    gl.uniform_1_i32(Some(&loc), s.unit.index() as i32);
+                }
             }
         }
     }
@@ -208,13 +231,14 @@ pub fn compile_program(
             };
             shader_error(file, line, log)
         })?;
-        let program = Program {
-            obj: Owned::new(
+        let program = Program::from_owned(
+            Owned::new(
                 ctx,
                 gl.create_program()
                     .map_err(|e| Error::Internal(format!("glCreateProgram: {e}")))?,
             ),
-        };
+            pass,
+        );
         let p = program.name();
         gl.attach_shader(p, vs.name());
         gl.attach_shader(p, fs.name());

@@ -150,7 +150,7 @@ pub fn dump_shaders<'a>(
     let accel = accel.into();
     // Variants with smooth normals on fetch from the normal texture, so it is declared.
     let layout = SceneTextures::pack_with(scene, accel, layout::MAX_ROW, all_variants)?;
-    let max_iterations = crate::gpu::render::max_iterations(accel).min(i32::MAX as u64) as u32;
+    let max_iterations = crate::gpu::scene::max_iterations(accel).min(i32::MAX as u64) as u32;
     let compute = compute_programs(scene, max_iterations, all_variants);
     let d = Techniques::default();
     let sets: Vec<(Features, Techniques, Option<String>)> = if all_variants {

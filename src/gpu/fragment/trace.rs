@@ -27,7 +27,7 @@ impl Frame<'_> {
 
     fn trace_inner(&mut self, query: Query) -> Result<()> {
         self.state_pass(Pass::TraverseInit)?;
-        let kernel = self.opts.kernel;
+        let kernel = self.kernel;
         let advance = Pass::advance(kernel, query);
         // Several iterations per pass: query every `query_every` iterations' worth.
         let per_pass = kernel.iterations_per_pass();

@@ -11,8 +11,10 @@ use std::path::{Path, PathBuf};
 
 use glow::HasContext;
 
-use super::passes::BREAK_PASS;
-use super::*;
+use super::options::GpuOptions;
+use super::render::{render, render_gl, trace_rays, Flow, ImageRequest, Snapshot};
+use super::scene::GpuScene;
+use super::scene::BREAK_PASS;
 use crate::accel::{Grid, GridConfig};
 use crate::gpu::context::{with_test_context, GlContext};
 use crate::gpu::gl::texture::TEST_MAX_TEXTURE_SIZE;
@@ -100,8 +102,9 @@ fn scene(name: &str) -> Scene {
     load_scene_with_search_path(&path, &models).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
-fn request(w: u32, h: u32, gpu: GpuOptions) -> ImageRequest {
+fn request(scene: &Scene, w: u32, h: u32, gpu: GpuOptions) -> ImageRequest {
     ImageRequest {
+        camera: scene.camera,
         width: w,
         height: h,
         spp: 1,
@@ -227,11 +230,11 @@ fn renders_in_one_context_free_every_gl_object() {
                 };
                 TEST_MAX_TEXTURE_SIZE.set((ends == Ends::LimitHalfWay).then_some(128));
                 BREAK_PASS.set((ends == Ends::ShaderHalfWay).then_some(Pass::Record));
-                let r = render_gl(ctx, scene, &grid, &request(w, h, gpu));
+                let r = render_gl(ctx, scene, &grid, &request(scene, w, h, gpu));
                 TEST_MAX_TEXTURE_SIZE.set(None);
                 BREAK_PASS.set(None);
                 match (ends, &r) {
-                    (Ends::Ok, Ok(out)) => assert!(out.stats.passes_total > 0),
+                    (Ends::Ok, Ok(out)) => assert!(out.gpu.as_ref().unwrap().passes_total > 0),
                     (Ends::LimitHalfWay, Err(Error::Limit(_)))
                     | (Ends::ShaderHalfWay, Err(Error::Shader { .. })) => {}
                     (_, Err(e)) => panic!("{name} {gpu:?}: {e}"),
@@ -295,7 +298,7 @@ fn an_observer_watches_without_changing_and_cancels_at_once() {
         };
         let req = ImageRequest {
             spp: 2,
-            ..request(24, 16, gpu)
+            ..request(&scene, 24, 16, gpu)
         };
         let plain = render_gl(ctx, &scene, &grid, &req).unwrap();
 
@@ -311,13 +314,18 @@ fn an_observer_watches_without_changing_and_cancels_at_once() {
             }
             Flow::Continue
         };
-        let watched = render_gl_observed(ctx, &scene, &grid, &req, Some(&mut watch)).unwrap();
+        let gs = GpuScene::new(ctx, &scene, &grid, false).unwrap();
+        let watched = render(&gs, &req, Some(&mut watch)).unwrap();
+        drop(gs);
         assert_eq!(watched.image.data, plain.image.data);
-        assert_eq!(watched.stats.passes_total, plain.stats.passes_total);
+        assert_eq!(
+            watched.gpu.as_ref().unwrap().passes_total,
+            plain.gpu.as_ref().unwrap().passes_total
+        );
         assert_eq!(done, vec![0, 1, 2]);
         // Called between passes: at least once per traversal iteration of the primary wave.
         assert!(
-            calls > 100 && calls <= plain.stats.passes_total + 2,
+            calls > 100 && calls <= plain.gpu.as_ref().unwrap().passes_total + 2,
             "{calls}"
         );
 
@@ -332,7 +340,9 @@ fn an_observer_watches_without_changing_and_cancels_at_once() {
                 Flow::Continue
             }
         };
-        let r = render_gl_observed(ctx, &scene, &grid, &req, Some(&mut cancel));
+        let gs = GpuScene::new(ctx, &scene, &grid, false).unwrap();
+        let r = render(&gs, &req, Some(&mut cancel));
+        drop(gs);
         assert!(matches!(r, Err(Error::Cancelled)), "{:?}", r.err());
         assert_eq!(calls, 50, "the render went on after the cancel");
         let upto = before_upto.max(probe_names(ctx) + 4096);

@@ -1,13 +1,89 @@
-//! The contract between the Rust host and the GLSL passes, declared once: the texture units
-//! every sampler is bound to ([`Unit`]), the fields of the ray-state texels s0..s3
-//! ([`ray`]), of the per-level hit records r0..r2 ([`rec`]) and of the material slots
-//! ([`mat`]), and the sentinel values stored in them.
+//! The contract between the Rust host and the GLSL passes, declared once: the ray-state
+//! codes ([`RayState`]), the texture units every sampler is bound to ([`Unit`],
+//! [`SAMPLERS`]), every uniform with its GLSL type ([`uniform`]), the compute kernel's
+//! storage buffers and images ([`Buffer`], [`Image`]) and its counter, camera, light and
+//! AOV layouts ([`compute`]), the fields of the ray-state texels s0..s3 ([`ray`]), of the
+//! per-level hit records r0..r2 ([`rec`]) and of the material slots ([`mat`]), and the
+//! sentinel values stored in them.
+//!
+//! No GLSL file declares a uniform, sampler, buffer or image: shader assembly emits each
+//! declaration before the first file that reads it ([`declarations_for`]).
 //!
 //! The GLSL side is generated from these declarations ([`glsl_prelude`]): one `#define` per
 //! field naming its swizzle (`s3.S3_T_BEST`), one constructor per texel listing its fields
 //! in order (`S3_TEXEL(t_best, tri_best, cursor_end, steps)`), and the sentinels. The Rust
 //! readers ([`StateTexels`]) and the material packing ([`super::layout`]) index by the same
 //! [`Field`]s, so neither side spells a component index by hand.
+
+mod bindings;
+pub mod compute;
+
+pub use bindings::{
+    declarations_for, uniform, view, Buffer, Decl, GlslType, Image, Sampler, Stage, Uniform,
+    LAYOUT, SAMPLERS, STORAGE_BINDING_BASE, VIEW,
+};
+
+/// Ray states, stored in the 4th component of the ray-origin texture (the thesis's
+/// *kezdeti*, *érvénytelen*, *átszelő*, *metszéspont-tesztelő*, *árnyékoló* states, plus
+/// done).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayState {
+    /// Generated, traversal not set up yet.
+    Initial,
+    /// Misses the grid's bounding box: finished without a hit.
+    Invalid,
+    /// Walking the grid cell by cell.
+    Traversing,
+    /// Testing the triangles of the current cell one per pass.
+    Testing,
+    /// Finished with a hit (for shadow rays: occluded).
+    Shading,
+    /// Finished without a hit, or no ray at all.
+    Done,
+}
+
+impl RayState {
+    /// All states.
+    pub const ALL: [RayState; 6] = [
+        RayState::Initial,
+        RayState::Invalid,
+        RayState::Traversing,
+        RayState::Testing,
+        RayState::Shading,
+        RayState::Done,
+    ];
+
+    /// The float code stored in textures.
+    pub fn code(self) -> f32 {
+        match self {
+            RayState::Initial => 0.0,
+            RayState::Invalid => 1.0,
+            RayState::Traversing => 2.0,
+            RayState::Testing => 3.0,
+            RayState::Shading => 4.0,
+            RayState::Done => 5.0,
+        }
+    }
+
+    /// The GLSL macro name.
+    pub fn macro_name(self) -> &'static str {
+        match self {
+            RayState::Initial => "ST_INITIAL",
+            RayState::Invalid => "ST_INVALID",
+            RayState::Traversing => "ST_TRAVERSING",
+            RayState::Testing => "ST_TESTING",
+            RayState::Shading => "ST_SHADING",
+            RayState::Done => "ST_DONE",
+        }
+    }
+
+    /// Decodes a stored code.
+    pub fn from_code(c: f32) -> Option<RayState> {
+        RayState::ALL
+            .into_iter()
+            .find(|s| (s.code() - c).abs() < 0.25)
+    }
+}
 
 /// Texture units, fixed per sampler so bindings are set once per program. Samplers that
 /// never meet in one program share a unit (a level's records are read as `u_r*` by the
@@ -94,27 +170,6 @@ impl Unit {
             Unit::Vmap => 14,
         }
     }
-
-    /// The GLSL sampler uniforms bound to this unit.
-    pub fn samplers(self) -> &'static [&'static str] {
-        match self {
-            Unit::Tri => &["u_tri"],
-            Unit::Mat => &["u_mat"],
-            Unit::Cell => &["u_cell"],
-            Unit::List => &["u_list"],
-            Unit::Nrm => &["u_nrm"],
-            Unit::S0 => &["u_s0"],
-            Unit::S1 => &["u_s1"],
-            Unit::S2 => &["u_s2"],
-            Unit::S3 => &["u_s3"],
-            Unit::Rec0 => &["u_r0", "u_p0"],
-            Unit::Rec1 => &["u_r1", "u_p1"],
-            Unit::Rec2 => &["u_r2", "u_p2"],
-            Unit::Node => &["u_c2", "u_dir"],
-            Unit::Acc => &["u_acc"],
-            Unit::Vmap => &["u_vmap"],
-        }
-    }
 }
 
 /// Texture units a render needs.
@@ -137,7 +192,7 @@ pub struct Field {
 }
 
 impl Field {
-    const fn new(texel: usize, first: usize, len: usize, name: &'static str) -> Field {
+    pub(crate) const fn new(texel: usize, first: usize, len: usize, name: &'static str) -> Field {
         Field {
             texel,
             first,
@@ -283,7 +338,7 @@ pub const TRI_NO_RAY: f32 = -2.0;
 
 /// GLSL for one texel group: a swizzle `#define` per field (`<PREFIX><k>_<NAME>`) and a
 /// constructor per texel (`<PREFIX><k>_TEXEL(fields...)`).
-fn group_glsl(prefix: &str, fields: &[Field], slots: bool) -> String {
+pub(crate) fn group_glsl(prefix: &str, fields: &[Field], slots: bool) -> String {
     let mut s = String::new();
     let texels = fields.iter().map(|f| f.texel).max().map_or(0, |m| m + 1);
     for k in 0..texels {
@@ -321,7 +376,11 @@ fn group_glsl(prefix: &str, fields: &[Field], slots: bool) -> String {
 /// sentinels). Sampler uniforms stay declared in the files that read them, whose header
 /// comments list them; [`Unit::samplers`] names every one.
 pub fn glsl_prelude() -> String {
-    let mut s = group_glsl("s", &ray::ALL, false);
+    let mut s = String::new();
+    for st in RayState::ALL {
+        s.push_str(&format!("#define {} {:.1}\n", st.macro_name(), st.code()));
+    }
+    s.push_str(&group_glsl("s", &ray::ALL, false));
     s.push_str(&format!("#define S3_HIT {}\n", ray::HIT.swizzle()));
     s.push_str(&group_glsl("r", &rec::ALL, false));
     s.push_str(&group_glsl("m", &mat::ALL, true));
@@ -377,125 +436,5 @@ mod tests {
             mat::ALL.iter().map(|f| f.texel).max(),
             Some(mat::TEXELS as usize - 1)
         );
-    }
-}
-
-/// The compute kernel's buffers (`glsl120/render.comp`): the slots of the per-work-group
-/// counter records and of the camera buffer, declared once here and generated as the
-/// GLSL's `C_*` and `CAM_*` constants ([`compute_glsl`]).
-pub mod compute {
-    /// One count a compute invocation keeps (a slot of its work group's counter record).
-    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-    pub enum Counter {
-        /// Primary rays traced.
-        Primary,
-        /// Shadow rays traced.
-        Shadow,
-        /// Reflected rays traced.
-        Reflected,
-        /// Refracted rays traced.
-        Refracted,
-        /// Grid cells entered (the start cell included), as the CPU's `Work::cells`.
-        Cells,
-        /// Ray-triangle tests, as the CPU's `Work::tests`.
-        Tests,
-        /// Rays cut off by the iteration bound (a traversal bug if ever non-zero).
-        Unfinished,
-    }
-
-    impl Counter {
-        /// Every counter, in slot order.
-        pub const ALL: [Counter; 7] = [
-            Counter::Primary,
-            Counter::Shadow,
-            Counter::Reflected,
-            Counter::Refracted,
-            Counter::Cells,
-            Counter::Tests,
-            Counter::Unfinished,
-        ];
-
-        /// Its slot in a record.
-        pub fn slot(self) -> usize {
-            self as usize
-        }
-
-        /// The GLSL constant naming the slot.
-        pub fn macro_name(self) -> &'static str {
-            match self {
-                Counter::Primary => "C_PRIMARY",
-                Counter::Shadow => "C_SHADOW",
-                Counter::Reflected => "C_REFLECTED",
-                Counter::Refracted => "C_REFRACTED",
-                Counter::Cells => "C_CELLS",
-                Counter::Tests => "C_TESTS",
-                Counter::Unfinished => "C_UNFINISHED",
-            }
-        }
-    }
-
-    /// `u32`s per work-group record.
-    pub const COUNTERS: usize = Counter::ALL.len();
-
-    /// Camera buffer (f64): forward, right, up (3 each), tan(vfov/2), aspect, width, height,
-    /// then (ox, oy) per sample.
-    pub const CAM_F: usize = 0;
-    /// Right vector.
-    pub const CAM_R: usize = 3;
-    /// Up vector.
-    pub const CAM_U: usize = 6;
-    /// tan(vfov / 2).
-    pub const CAM_S: usize = 9;
-    /// Width / height.
-    pub const CAM_ASPECT: usize = 10;
-    /// Image width.
-    pub const CAM_W: usize = 11;
-    /// Image height.
-    pub const CAM_H: usize = 12;
-    /// First sample offset.
-    pub const CAM_OFFSETS: usize = 13;
-
-    /// The camera buffer of a `w` x `h` image with sample `offsets` (what `render.comp`
-    /// reads to compute `Camera::direction_at` itself).
-    pub fn camera_buffer(
-        frame: &crate::scene::camera::Frame,
-        w: u32,
-        h: u32,
-        offsets: &[(f64, f64)],
-    ) -> Vec<f64> {
-        let mut v = vec![0f64; CAM_OFFSETS];
-        v[CAM_F..CAM_F + 3].copy_from_slice(&frame.f.to_array());
-        v[CAM_R..CAM_R + 3].copy_from_slice(&frame.r.to_array());
-        v[CAM_U..CAM_U + 3].copy_from_slice(&frame.u.to_array());
-        v[CAM_S] = frame.s;
-        v[CAM_ASPECT] = w as f64 / h as f64;
-        v[CAM_W] = w as f64;
-        v[CAM_H] = h as f64;
-        for &(ox, oy) in offsets {
-            v.push(ox);
-            v.push(oy);
-        }
-        v
-    }
-
-    /// The generated GLSL constants.
-    pub fn compute_glsl() -> String {
-        let mut s = format!("#define COUNTERS {COUNTERS}\n");
-        for c in Counter::ALL {
-            s.push_str(&format!("#define {} {}\n", c.macro_name(), c.slot()));
-        }
-        for (name, v) in [
-            ("CAM_F", CAM_F),
-            ("CAM_R", CAM_R),
-            ("CAM_U", CAM_U),
-            ("CAM_S", CAM_S),
-            ("CAM_ASPECT", CAM_ASPECT),
-            ("CAM_W", CAM_W),
-            ("CAM_H", CAM_H),
-            ("CAM_OFFSETS", CAM_OFFSETS),
-        ] {
-            s.push_str(&format!("#define {name} {v}\n"));
-        }
-        s
     }
 }

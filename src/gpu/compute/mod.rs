@@ -1,60 +1,57 @@
 //! `--kernel compute`: the host side of `glsl120/render.comp` (the whole ray tree of every
 //! pixel and sample in one dispatch) and `glsl120/wave.comp` (a wave of given rays, for
-//! [`trace_rays`](super::trace_rays)).
+//! `trace_rays`).
 //!
 //! No ray state crosses the host: the program computes the primary directions itself (the
 //! camera's f64 formula, from a buffer of the frame and sample offsets), walks the tree
 //! with a per-invocation stack and writes the summed radiance and the first sample's
-//! primary-ray AOV texel to two images. Counts come back as one record per work group
-//! (rays by kind, cells entered, triangle tests, rays cut off), summed here in u64.
+//! primary-ray AOV texel to two buffers. Counts come back as one record per work group
+//! (rays by kind, cells entered, triangle tests, rays cut off), summed here in u64. Every
+//! buffer, image and uniform is the contract's (`gpu::contract`).
+//!
+//! This wing stands on the GPU scene (`gpu::scene`) alone; it never imports the fragment
+//! wing.
 
+use std::rc::Rc;
 use std::time::Instant;
 
 use glow::HasContext;
 use rayon::prelude::*;
 
-use super::frame::{bind_texture, max_iterations};
-use super::passes::set_scene_uniforms;
-use super::readback::aov_pixel;
-use super::{Flow, GpuOutput, ImageRequest, Observer, Snapshot, Work};
-use crate::accel::AccelRef;
-use crate::gpu::context::GlContext;
-use crate::gpu::contract::compute::{camera_buffer, Counter, COUNTERS};
-use crate::gpu::contract::Unit;
-use crate::gpu::gl::{
-    bind_image, compile_compute, Program, StorageBuffer, Texture, TimerQuery, Uniform,
-};
-use crate::gpu::info::GlInfo;
-use crate::gpu::layout::{SceneTextures, STORAGE_BINDING_BASE};
-use crate::gpu::options::{GpuOptions, SceneFetch, Storage};
-use crate::gpu::shader::{assemble_compute, ComputePass, ComputeSpec, Features, Fetch, LOCAL_SIZE};
-use crate::image_io::Image;
+use super::contract::compute::{aov, camera_buffer, light_buffer, Counter, COUNTERS};
+use super::contract::{uniform, Buffer, Image, StateTexels, STORAGE_BINDING_BASE};
+use super::gl::{bind_image, Program, StorageBuffer, Texture, TimerQuery};
+use super::info::GlInfo;
+use super::options::{GpuOptions, SceneFetch, Storage};
+use super::request::{aov_pixel, Flow, GpuOutput, ImageRequest, Observer, Snapshot};
+use super::scene::{ms_since, GpuScene};
+use super::shader::{ComputePass, ComputeSpec, Fetch, Query, LOCAL_SIZE};
+use super::wave::{check_finished, initial_state, traces_from, GpuRay, GpuTrace};
+use crate::image_io::Image as RgbImage;
+use crate::output::Work;
 use crate::output::{Aov, AovPixel, GpuStats, RayCounts};
-use crate::scene::{camera, Scene};
+use crate::scene::camera;
+use crate::technique::Techniques;
 use crate::{Error, Result};
 
-/// The scene uploaded and one compute program built for it.
-struct Setup {
-    program: Program,
-    /// Scene textures, bound to their units for the dispatch (texelFetch).
-    scene_tex: Vec<(Unit, Texture)>,
-    /// The same texels as storage buffers, at their bindings (`Fetch::Storage`).
-    scene_buf: Vec<(u32, StorageBuffer)>,
+/// One compute program of the scene, with the scene's copy it reads bound for dispatch.
+struct Setup<'g> {
+    gs: &'g GpuScene<'g>,
+    program: Rc<Program>,
     /// How the program reads the scene.
     fetch: Fetch,
-
     stats: GpuStats,
 }
 
-impl Setup {
+impl<'g> Setup<'g> {
     fn new(
-        ctx: &GlContext,
-        scene: &Scene,
-        accel: AccelRef<'_>,
+        gs: &'g GpuScene<'g>,
         pass: ComputePass,
         spec: &ComputeSpec,
         opts: &GpuOptions,
+        techniques: Techniques,
     ) -> Result<Self> {
+        let ctx = gs.ctx();
         let info = &ctx.info;
         if opts.storage != Storage::F32 {
             return Err(Error::Limit(format!(
@@ -63,27 +60,19 @@ impl Setup {
                 opts.storage
             )));
         }
-        let features = if opts.no_specialize {
-            Features::all()
-        } else {
-            Features::of(scene)
-        };
         let mut stats = GpuStats {
             renderer: info.renderer.clone(),
             gl_version: info.gl_version.clone(),
             query_every: opts.query_every,
-            features,
+            features: gs.features(),
             kernel: "compute".into(),
             ..GpuStats::default()
         };
-        let t_up = Instant::now();
-        let max_size = info.max_texture_size.max(0) as u32;
-        let layout = SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?;
         // Storage buffers only where the context has blocks for every scene texture beside
         // the kernel's own: `auto` then falls back to texelFetch, an explicit request fails.
         let (blocks, needed) = (
             Limits::query(ctx.gl()).blocks,
-            layout.storage_blocks() + STORAGE_BINDING_BASE,
+            gs.layout().storage_blocks() + STORAGE_BINDING_BASE,
         );
         let fetch = match spec.fetch {
             Fetch::Storage if blocks < needed => {
@@ -98,37 +87,18 @@ impl Setup {
             f => f,
         };
         stats.scene_fetch = fetch.name().into();
-        let spec = &ComputeSpec { fetch, ..*spec };
-        let (mut scene_tex, mut scene_buf) = (Vec::new(), Vec::new());
-        for (k, (unit, t)) in layout.with_units().into_iter().enumerate() {
-            match spec.fetch {
-                Fetch::Storage => {
-                    let bytes: Vec<u8> = t.data.iter().flat_map(|v| v.to_ne_bytes()).collect();
-                    scene_buf.push((
-                        STORAGE_BINDING_BASE + k as u32,
-                        StorageBuffer::new(ctx, &bytes)?,
-                    ));
-                }
-                Fetch::TexelFetch | Fetch::Texture2D => scene_tex.push((
-                    unit,
-                    Texture::new_f32(ctx, t.width, t.height, Some(&t.data))?,
-                )),
-            }
+        match fetch {
+            Fetch::Storage => drop(gs.buffers()?),
+            Fetch::TexelFetch | Fetch::Texture2D => drop(gs.textures()?),
         }
-        // SAFETY: the context is current.
-        unsafe { ctx.gl().finish() };
-        stats.upload_ms = t_up.elapsed().as_secs_f64() * 1e3;
-        stats.upload_bytes = layout.bytes();
-
-        let t_c = Instant::now();
-        let a = assemble_compute(pass, spec, features, opts.techniques, &layout)?;
-        let program = compile_compute(ctx, pass.name(), &a.source, &|n| a.origin(n))?;
-        set_scene_uniforms(ctx.gl(), &program, accel, scene);
-        stats.compile_ms = t_c.elapsed().as_secs_f64() * 1e3;
+        let program = gs.compute_program(pass, &ComputeSpec { fetch, ..*spec }, techniques)?;
+        let costs = gs.take_costs();
+        stats.upload_ms = costs.upload_ms;
+        stats.upload_bytes = costs.upload_bytes;
+        stats.compile_ms = costs.compile_ms;
         Ok(Setup {
+            gs,
             program,
-            scene_tex,
-            scene_buf,
             fetch,
             stats,
         })
@@ -136,13 +106,12 @@ impl Setup {
 
     /// Dispatches the program over a `width` x `height` grid of invocations, timed when
     /// timers are on, and waits for its writes.
-    fn dispatch(&mut self, ctx: &GlContext, width: u32, height: u32, timers: bool) -> Result<()> {
+    fn dispatch(&mut self, width: u32, height: u32, timers: bool) -> Result<()> {
+        let ctx = self.gs.ctx();
         let gl = ctx.gl();
-        for (unit, tex) in &self.scene_tex {
-            bind_texture(gl, *unit, tex);
-        }
-        for (binding, buf) in &self.scene_buf {
-            buf.bind(gl, *binding);
+        match self.fetch {
+            Fetch::Storage => self.gs.bind_buffers()?,
+            Fetch::TexelFetch | Fetch::Texture2D => self.gs.bind_textures()?,
         }
         let timer = (timers && ctx.info.timer_query)
             .then(|| TimerQuery::new(ctx))
@@ -164,10 +133,10 @@ impl Setup {
         if let Some(t) = timer {
             t.end(ctx);
             let ms = t.result_ns(ctx)? as f64 * 1e-6;
-            self.stats.gpu_ms.insert("compute".into(), ms);
-            self.stats.gpu_ms_total = ms;
+            *self.stats.gpu_ms.entry("compute".into()).or_default() += ms;
+            self.stats.gpu_ms_total += ms;
         }
-        crate::gpu::gl::check_gl_error(gl, "dispatching the compute kernel")?;
+        super::gl::check_gl_error(gl, "dispatching the compute kernel")?;
         *self.stats.passes.entry("compute".into()).or_default() += 1;
         self.stats.passes_total += 1;
         Ok(())
@@ -186,11 +155,10 @@ fn sum_counters(records: &[u32]) -> [u64; COUNTERS] {
 }
 
 /// How the render kernel reads the scene: as asked, or under `auto` the faster of the two
-/// where measured: storage buffers on the H200 (bunny.toml 4096x4096: 874 vs 604 M rays/s
-/// with texelFetch), texelFetch on llvmpipe, whose storage loads run lane by lane with a
-/// bounds check each (bunny.toml 160x120: 1.24 G instructions of shader code against
-/// 1.47 G, callgrind). Other drivers get storage buffers unmeasured; `--scene-fetch` and
-/// `fragtrace bench` are there to measure them.
+/// where measured: storage buffers on the H200, texelFetch on llvmpipe, whose storage loads
+/// run lane by lane with a bounds check each (docs/performance.md, "Scene fetch"). Other
+/// drivers get storage buffers unmeasured; `--scene-fetch` and `fragtrace bench` are there
+/// to measure them.
 fn scene_fetch(choice: SceneFetch, info: &GlInfo) -> Fetch {
     match choice {
         SceneFetch::TexelFetch => Fetch::TexelFetch,
@@ -200,75 +168,61 @@ fn scene_fetch(choice: SceneFetch, info: &GlInfo) -> Fetch {
     }
 }
 
-/// Renders `scene` with the compute kernel (see the module documentation).
-pub(super) fn render_compute(
-    ctx: &GlContext,
-    scene: &Scene,
-    accel: AccelRef<'_>,
+/// Renders with the compute kernel (see the module documentation).
+pub(crate) fn render(
+    gs: &GpuScene,
     req: &ImageRequest,
     observer: Option<&mut Observer<'_>>,
 ) -> Result<GpuOutput> {
     let (width, height) = (req.width, req.height);
+    let ctx = gs.ctx();
+    let scene = gs.scene();
     ctx.info.check_image_size(width, height)?;
     let gl = ctx.gl();
     let limits = Limits::query(gl);
     let offsets = camera::sample_offsets(req.spp);
-    let secondary = scene.materials.iter().any(|m| m.reflects() || m.refracts());
     let spec = ComputeSpec {
         samples: offsets.len() as u32,
         lights: scene.lights.len() as u32,
         max_depth: req.max_depth,
-        secondary,
-        max_iterations: max_iterations(accel).min(i32::MAX as u64) as u32,
+        secondary: gs.has_secondary(),
+        max_iterations: gs.max_iterations().min(i32::MAX as u64) as u32,
         // Setup::new falls back to texelFetch where the context has too few storage blocks.
         fetch: scene_fetch(req.gpu.scene_fetch, &ctx.info),
     };
-    let opts = GpuOptions {
-        techniques: req.techniques,
-        ..req.gpu
-    };
-    let mut setup = Setup::new(ctx, scene, accel, ComputePass::Render, &spec, &opts)?;
-    let spec = ComputeSpec {
-        fetch: setup.fetch,
-        ..spec
-    };
+    let mut setup = Setup::new(gs, ComputePass::Render, &spec, &req.gpu, req.techniques)?;
     let t_trace = Instant::now();
     let program = &setup.program;
-    program.set(gl, "u_eye", Uniform::Vec3(scene.camera.eye.to_array()));
+    program.set(gl, uniform::EYE, req.camera.eye)?;
+    program.set(gl, uniform::SAMPLE_WEIGHT, 1.0 / offsets.len() as f32)?;
     program.set(
         gl,
-        "u_sample_weight",
-        Uniform::Float(1.0 / offsets.len() as f32),
-    );
-    program.set(gl, "u_size", Uniform::IVec2([width as i32, height as i32]));
+        uniform::SIZE,
+        glam::IVec2::new(width as i32, height as i32),
+    )?;
 
-    let cam = camera_buffer(&scene.camera.frame(), width, height, &offsets);
+    let cam = camera_buffer(&req.camera.frame(), width, height, &offsets);
     let cam_bytes: Vec<u8> = cam.iter().flat_map(|v| v.to_ne_bytes()).collect();
-    let lights: Vec<u8> = scene
-        .lights
-        .iter()
-        .flat_map(|l| {
-            let (p, r) = (l.position, l.radiance());
-            [p.x, p.y, p.z, 0.0, r.x, r.y, r.z, 0.0]
-        })
+    let lights: Vec<u8> = light_buffer(&scene.lights)
+        .into_iter()
         .flat_map(f32::to_ne_bytes)
         .collect();
     let cam_buf = StorageBuffer::new(ctx, &cam_bytes)?;
     let light_buf = StorageBuffer::new(ctx, &lights)?;
-    cam_buf.bind(gl, 0);
-    light_buf.bind(gl, 1);
+    cam_buf.bind(gl, Buffer::Camera.binding());
+    light_buf.bind(gl, Buffer::Lights.binding());
 
     // Bands of rows whose outputs fit one storage block (the AOV's 16 bytes per pixel are
     // the larger), aligned so every band starts a whole number of rows in.
     let rows = limits.band_rows(width, height)?;
     let band_groups = width.div_ceil(LOCAL_SIZE.0) as usize * rows.div_ceil(LOCAL_SIZE.1) as usize;
     let counter_buf = StorageBuffer::zeroed_u32(ctx, band_groups * COUNTERS)?;
-    counter_buf.bind(gl, 2);
+    counter_buf.bind(gl, Buffer::Counters.binding());
     let band_px = width as usize * rows as usize;
     let radiance_buf = StorageBuffer::uninit(ctx, band_px * 3 * 4)?;
     let aov_buf = StorageBuffer::uninit(ctx, band_px * 4 * 4)?;
-    radiance_buf.bind(gl, 3);
-    aov_buf.bind(gl, 4);
+    radiance_buf.bind(gl, Buffer::Radiance.binding());
+    aov_buf.bind(gl, Buffer::Aov.binding());
     let pixels = width as usize * height as usize;
     let mut rgb = vec![0f32; pixels * 3];
     let mut aov_data = vec![0f32; pixels * 4];
@@ -281,11 +235,13 @@ pub(super) fn render_compute(
     for top in (0..height).step_by(rows as usize) {
         let n = rows.min(height - top);
         let gl_row0 = height - top - n;
-        setup
-            .program
-            .set(gl, "u_band", Uniform::IVec2([gl_row0 as i32, n as i32]));
+        setup.program.set(
+            gl,
+            uniform::BAND,
+            glam::IVec2::new(gl_row0 as i32, n as i32),
+        )?;
         let t = Instant::now();
-        setup.dispatch(ctx, width, n, opts.timers)?;
+        setup.dispatch(width, n, req.gpu.timers)?;
         // Only this band's groups: a shorter last band leaves the records beyond stale.
         let groups = width.div_ceil(LOCAL_SIZE.0) as usize * n.div_ceil(LOCAL_SIZE.1) as usize;
         let records = counter_buf.read_u32(gl)?;
@@ -322,7 +278,7 @@ pub(super) fn render_compute(
         )));
     }
     let t = Instant::now();
-    let image = Image::from_rgb(width, height, rgb);
+    let image = RgbImage::from_rgb(width, height, rgb);
     let aov = aov_from_texels(scene, &aov_data, width, height);
     setup.stats.phases_ms.insert("aov".into(), ms_since(t));
     if let Some(observer) = observer {
@@ -347,7 +303,7 @@ pub(super) fn render_compute(
             return Err(Error::Cancelled);
         }
     }
-    setup.stats.trace_ms = t_trace.elapsed().as_secs_f64() * 1e3;
+    setup.stats.trace_ms = ms_since(t_trace);
     let n = |c: Counter| total[c.slot()];
     Ok(GpuOutput {
         image,
@@ -362,7 +318,7 @@ pub(super) fn render_compute(
             cells: n(Counter::Cells),
             tests: n(Counter::Tests),
         }),
-        stats: setup.stats,
+        gpu: Some(setup.stats),
     })
 }
 
@@ -418,54 +374,67 @@ impl Limits {
     }
 }
 
-/// The primary-ray AOVs from `render.comp`'s AOV buffer: per pixel (t_best, tri_best or
-/// TRI_NONE, steps, state), in image order.
-fn aov_from_texels(scene: &Scene, data: &[f32], w: u32, h: u32) -> Aov {
+/// The primary-ray AOVs from `render.comp`'s AOV buffer: one `A0_TEXEL` per pixel, in
+/// image order.
+fn aov_from_texels(scene: &crate::scene::Scene, data: &[f32], w: u32, h: u32) -> Aov {
     // Collected in parallel: at 4096x4096 a serial fill of the 400 MB of pixels alone took
     // longer than the dispatch.
     let pixels: Vec<AovPixel> = data
         .par_chunks_exact(4)
         .map(|t| {
-            let hit = t[1] >= 0.0;
-            aov_pixel(scene, hit.then_some((t[0], t[1])), t[2])
+            let tri = t[aov::TRI.first];
+            let hit = tri >= 0.0;
+            aov_pixel(
+                scene,
+                hit.then_some((t[aov::T_BEST.first], tri)),
+                t[aov::STEPS.first],
+            )
         })
         .collect();
     Aov::from_vec(w, h, pixels)
 }
 
-fn ms_since(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
-
-/// Traces a wave of rays held in the four state textures `state` (s0..s3, `w` x `h`, every
-/// ray in state INITIAL or finished) to their end with `wave.comp`; the textures then hold
-/// the final states, as after the fragment kernels' termination loop.
-pub(super) fn trace_wave(
-    ctx: &GlContext,
-    scene: &Scene,
-    accel: AccelRef<'_>,
-    state: &[Texture],
+/// Traces the wave of `rays` with `wave.comp` (the compute side of `trace_rays`): the wave's
+/// ray state in four images, every ray in state INITIAL (or a finished non-ray), traced to
+/// its end in one dispatch, as after the fragment kernels' termination loop.
+pub(crate) fn trace_wave(
+    gs: &GpuScene,
+    rays: &[GpuRay],
+    query: Query,
     (w, h): (u32, u32),
-    query: crate::gpu::shader::Query,
     opts: &GpuOptions,
-) -> Result<()> {
+) -> Result<Vec<GpuTrace>> {
+    let ctx = gs.ctx();
+    let s = initial_state(rays, (w * h) as usize);
+    let textures = s
+        .texels
+        .iter()
+        .map(|data| Texture::new_f32(ctx, w, h, Some(data)))
+        .collect::<Result<Vec<_>>>()?;
     let spec = ComputeSpec {
         samples: 1,
         lights: 0,
         max_depth: 0,
         secondary: false,
-        max_iterations: max_iterations(accel).min(i32::MAX as u64) as u32,
+        max_iterations: gs.max_iterations().min(i32::MAX as u64) as u32,
         fetch: Fetch::TexelFetch,
     };
-    let mut setup = Setup::new(ctx, scene, accel, ComputePass::Wave(query), &spec, opts)?;
+    let mut setup = Setup::new(gs, ComputePass::Wave(query), &spec, opts, opts.techniques)?;
     let gl = ctx.gl();
     setup
         .program
-        .set(gl, "u_size", Uniform::IVec2([w as i32, h as i32]));
-    for (k, tex) in state.iter().enumerate() {
-        bind_image(gl, k as u32, tex);
+        .set(gl, uniform::SIZE, glam::IVec2::new(w as i32, h as i32))?;
+    for (img, tex) in Image::ALL.into_iter().zip(&textures) {
+        bind_image(gl, img.binding(), tex);
     }
-    setup.dispatch(ctx, w, h, false)
+    setup.dispatch(w, h, false)?;
+    let read = |k: usize| textures[k].read(gl);
+    let s = StateTexels {
+        texels: [read(0)?, Vec::new(), Vec::new(), read(3)?],
+    };
+    let out = traces_from(&s, rays.len());
+    check_finished(&out)?;
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -535,6 +504,7 @@ mod tests {
             )
             .unwrap();
             let req = ImageRequest {
+                camera: scene.camera,
                 width: 96,
                 height: 600,
                 spp: 1,
@@ -554,24 +524,28 @@ mod tests {
                 },
                 ..req
             };
-            let render =
-                |req: &ImageRequest| render_compute(ctx, &scene, accel.as_ref(), req, None);
+            let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
+            let render = |req: &ImageRequest| render(&gs, req, None);
             let whole = render(&asked(SceneFetch::StorageBuffer)).unwrap();
-            assert_eq!(whole.stats.scene_fetch, "storage-buffer");
+            assert_eq!(whole.gpu.as_ref().unwrap().scene_fetch, "storage-buffer");
             BLOCK_BYTES.set(Some(96 * 16 * 256));
             let banded = render(&req);
             // Too few storage blocks: auto falls back, an explicit request says why not.
             let refused = render(&asked(SceneFetch::StorageBuffer));
             BLOCK_BYTES.set(None);
             let banded = banded.unwrap();
-            assert_eq!(banded.stats.scene_fetch, "texel-fetch");
+            assert_eq!(banded.gpu.as_ref().unwrap().scene_fetch, "texel-fetch");
             let e = refused
                 .err()
                 .expect("storage buffers without storage blocks")
                 .to_string();
             assert!(e.contains("storage blocks"), "{e}");
-            assert_eq!(banded.stats.passes_total, 3, "600 rows in bands of 256");
-            assert_eq!(whole.stats.passes_total, 1);
+            assert_eq!(
+                banded.gpu.as_ref().unwrap().passes_total,
+                3,
+                "600 rows in bands of 256"
+            );
+            assert_eq!(whole.gpu.as_ref().unwrap().passes_total, 1);
             assert_eq!(whole.image.data, banded.image.data);
             assert_eq!(whole.rays.total, banded.rays.total);
             assert_eq!(whole.work, banded.work);

@@ -8,20 +8,19 @@ use std::time::Instant;
 use glow::HasContext;
 use rayon::prelude::*;
 
-use super::frame::{bind_texture, Frame, Slot};
+use super::frame::{Frame, Slot, Watch};
 use super::readback::{flip_rgba_to_rgb, read_aov};
-use super::{Flow, GpuOutput, ImageRequest, Observer, Snapshot};
-use crate::accel::AccelRef;
-use crate::gpu::context::GlContext;
-use crate::gpu::contract::Unit;
-use crate::gpu::gl::{Texture, Uniform};
-use crate::gpu::options::{GpuOptions, Kernel};
+use crate::gpu::contract::{uniform, Unit};
+use crate::gpu::gl::Texture;
+use crate::gpu::options::FragmentKernel;
+use crate::gpu::request::{GpuOutput, ImageRequest, Observer};
+use crate::gpu::scene::{bind_texture, GpuScene};
 use crate::gpu::shader::{Count, Pass, Query};
 use crate::image_io::Image;
 use crate::output::RayCounts;
 use crate::progress::Progress;
 use crate::scene::{camera, Scene};
-use crate::{Error, Result};
+use crate::Result;
 
 /// A child of a ray-tree node.
 #[derive(Clone, Copy, Debug)]
@@ -56,91 +55,27 @@ impl Branch {
     }
 }
 
-/// Renders `scene` over its acceleration structure (a `&Grid`, `&IrregularGrid` or
-/// `&Accel`) on the GPU.
-pub fn render_gl<'a>(
-    ctx: &GlContext,
-    scene: &Scene,
-    accel: impl Into<AccelRef<'a>>,
+/// Renders `req` with the fragment kernel `kernel`, calling `observer` (if any) between
+/// passes; it may cancel the render.
+pub(crate) fn render<'a>(
+    gs: &'a GpuScene<'a>,
     req: &ImageRequest,
-) -> Result<GpuOutput> {
-    render_gl_observed(ctx, scene, accel, req, None)
-}
-
-/// A render's observer and what it is told besides the frame (see [`Frame::observe`]).
-pub(super) struct Watch<'a> {
-    observer: &'a mut Observer<'a>,
-    samples_done: u32,
-    samples: u32,
-}
-
-impl Frame<'_> {
-    /// The one hook of an observed render, called after every ray-state and accumulation
-    /// pass and after each finished sample: shows the observer a [`Snapshot`] and turns
-    /// its [`Flow::Cancel`] into [`Error::Cancelled`], which unwinds the walk (every GL
-    /// object of the frame frees itself).
-    pub(super) fn observe(&mut self) -> Result<()> {
-        let Some(w) = self.watch.as_mut() else {
-            return Ok(());
-        };
-        let snap = Snapshot {
-            radiance: self.acc[self.acc_cur].texture(0),
-            state: self.state[self.cur].textures(),
-            samples_done: w.samples_done,
-            samples: w.samples,
-            passes: self.stats.passes_total,
-        };
-        match (w.observer)(&snap) {
-            Flow::Continue => Ok(()),
-            Flow::Cancel => Err(Error::Cancelled),
-        }
-    }
-}
-
-/// [`render_gl`] with an observer called between passes, which may cancel the render
-/// (`fragtrace view` draws the render as it happens from it). Without one it is
-/// `render_gl`.
-pub fn render_gl_observed<'a, 'g>(
-    ctx: &'a GlContext,
-    scene: &Scene,
-    accel: impl Into<AccelRef<'g>>,
-    req: &ImageRequest,
+    kernel: FragmentKernel,
     observer: Option<&'a mut Observer<'a>>,
 ) -> Result<GpuOutput> {
     let (width, height, spp, max_depth) = (req.width, req.height, req.spp, req.max_depth);
     let levels = max_depth as usize + 1;
-    let accel = accel.into();
-    let mut kernel = req.gpu.resolve_kernel(&ctx.info)?;
-    let mut observer = observer;
-    if kernel == Kernel::Compute {
-        let creq = ImageRequest {
-            gpu: GpuOptions {
-                techniques: req.techniques,
-                kernel,
-                ..req.gpu
-            },
-            ..*req
-        };
-        match super::compute::render_compute(ctx, scene, accel, &creq, observer.as_deref_mut()) {
-            // `auto` chose compute; where the driver cut its loops short, the fragment
-            // kernels split the same work into passes and finish it.
-            Err(Error::Unfinished(why)) if req.gpu.kernel == Kernel::Auto => {
-                kernel = GpuOptions::fallback_kernel(&ctx.info);
-                eprintln!(
-                    "fragtrace: notice: the compute kernel did not finish ({why}); \
-                     rendering with the {kernel} kernel"
-                );
-            }
-            r => return r,
-        }
-    }
-    let gpu = GpuOptions {
-        techniques: req.techniques,
+    let scene = gs.scene();
+    let mut f = Frame::new(
+        gs,
+        width,
+        height,
+        levels,
+        true,
         kernel,
-        ..req.gpu
-    };
-    let mut f = Frame::new(ctx, scene, accel, width, height, levels, true, gpu)?;
-    f.stats.kernel = kernel.to_string();
+        &req.gpu,
+        req.techniques,
+    )?;
     f.progress = Progress::tree_bar(req.progress);
     let samples = camera::sample_offsets(spp).len() as u32;
     f.watch = observer.map(|observer| Watch {
@@ -148,7 +83,7 @@ pub fn render_gl_observed<'a, 'g>(
         samples_done: 0,
         samples,
     });
-    let secondary = max_depth > 0 && scene.materials.iter().any(|m| m.reflects() || m.refracts());
+    let secondary = max_depth > 0 && gs.has_secondary();
     let t_trace = Instant::now();
     // Clear the colour accumulator.
     f.acc[0].bind(f.gl());
@@ -160,11 +95,7 @@ pub fn render_gl_observed<'a, 'g>(
     let offsets = camera::sample_offsets(spp);
     let mut rays = RayCounts::default();
     let mut aov = None;
-    f.set(
-        Pass::RayGen,
-        "u_eye",
-        Uniform::Vec3(scene.camera.eye.to_array()),
-    );
+    f.set(Pass::RayGen, uniform::EYE, req.camera.eye)?;
     // The primary directions of one sample, re-filled per sample into one texture.
     let dir_tex = Texture::new_f32(f.ctx, width, height, None)?;
     let mut dirs = Vec::with_capacity(width as usize * height as usize * 4);
@@ -189,7 +120,7 @@ pub fn render_gl_observed<'a, 'g>(
             .for_each(|(row, out)| {
                 let j = height - 1 - row as u32; // GL rows run from the bottom
                 for (i, px) in out.chunks_mut(4).enumerate() {
-                    let d = scene
+                    let d = req
                         .camera
                         .direction_at(width, height, i as f64 + ox, j as f64 + oy)
                         .as_vec3();
@@ -225,7 +156,7 @@ pub fn render_gl_observed<'a, 'g>(
         aov: aov.expect("at least one sample"),
         rays: RayCounts::new(rays.primary, rays.shadow, rays.reflected, rays.refracted),
         work: None,
-        stats: std::mem::take(&mut f.stats),
+        gpu: Some(std::mem::take(&mut f.stats)),
     })
 }
 
@@ -269,16 +200,8 @@ fn shade_children(
 ) -> Result<()> {
     for light in &scene.lights {
         f.progress.next_part();
-        f.set(
-            Pass::ShadowSpawn,
-            "u_light_pos",
-            Uniform::Vec3(light.position.to_array()),
-        );
-        f.set(
-            Pass::AccumLight,
-            "u_light_rad",
-            Uniform::Vec3(light.radiance().to_array()),
-        );
+        f.set(Pass::ShadowSpawn, uniform::LIGHT_POS, light.position)?;
+        f.set(Pass::AccumLight, uniform::LIGHT_RAD, light.radiance())?;
         f.bind_records(level);
         f.progress.stage(format!("depth {level}: shadow rays"));
         f.state_pass(Pass::ShadowSpawn)?;
@@ -295,8 +218,8 @@ fn shade_children(
     for branch in [Branch::Reflect, Branch::Refract] {
         f.progress.next_part();
         let child = level + 1;
-        f.set(Pass::Weight, "u_branch", Uniform::Float(branch.uniform()));
-        f.set(Pass::Spawn, "u_branch", Uniform::Float(branch.uniform()));
+        f.set(Pass::Weight, uniform::BRANCH, branch.uniform())?;
+        f.set(Pass::Spawn, uniform::BRANCH, branch.uniform())?;
         f.bind_records(level);
         f.draw(Pass::Weight, Slot::Rec2(child))?;
         let n = f.count(Count::Nodes, Some(child))?;

@@ -7,33 +7,33 @@
 //! or rendering with it fails half-way (see [`crate::gpu::context`]).
 
 use std::collections::HashMap;
-use std::time::Instant;
+use std::rc::Rc;
 
 use glow::HasContext;
 
-use super::passes::{build_programs, passes_for};
-use crate::accel::AccelRef;
+use super::passes::passes_for;
 use crate::gpu::context::GlContext;
-use crate::gpu::contract::{Unit, REQUIRED_TEXTURE_UNITS};
+use crate::gpu::contract::{uniform, GlslType, Uniform, Unit, REQUIRED_TEXTURE_UNITS};
 use crate::gpu::gl::{
     FullscreenQuad, OcclusionQuery, Program, RenderTarget, Renderbuffer, Texture, TimerQuery,
-    Uniform,
 };
-use crate::gpu::layout::{Fetch, SceneTextures};
-use crate::gpu::options::{GpuOptions, Mask, Storage};
-use crate::gpu::shader::{Count, Features, Pass};
+use crate::gpu::layout::Fetch;
+use crate::gpu::options::{FragmentKernel, GpuOptions, Mask, Storage};
+use crate::gpu::request::{Flow, Observer, Snapshot};
+use crate::gpu::scene::{bind_texture, GpuScene};
+use crate::gpu::shader::{Count, Pass};
 use crate::output::GpuStats;
 use crate::progress::Progress;
-use crate::scene::Scene;
+use crate::technique::Techniques;
 use crate::{Error, Result};
 
 /// A render in progress: programs, textures and targets.
 pub(super) struct Frame<'a> {
+    /// The scene on the GPU (textures, programs).
+    pub(super) gs: &'a GpuScene<'a>,
     pub(super) ctx: &'a GlContext,
     quad: FullscreenQuad,
-    programs: HashMap<Pass, Program>,
-    /// Scene textures and their units.
-    scene_tex: Vec<(Unit, Texture)>,
+    programs: HashMap<Pass, Rc<Program>>,
     /// Ray state, two sets of four attachments (s0..s3).
     pub(super) state: [RenderTarget; 2],
     /// The set holding the current state.
@@ -53,10 +53,12 @@ pub(super) struct Frame<'a> {
     pub(super) progress: Progress,
     pub(super) stats: GpuStats,
     pub(super) opts: GpuOptions,
+    /// The kernel the frame draws.
+    pub(super) kernel: FragmentKernel,
     /// Traversal iterations after which a wave that has not finished is a bug.
     pub(super) max_iterations: u64,
-    /// The render's observer, if any (the hook of `tree::render_gl_observed`).
-    pub(super) watch: Option<super::tree::Watch<'a>>,
+    /// The render's observer, if any (the hook of an observed render).
+    pub(super) watch: Option<Watch<'a>>,
 }
 
 /// Timer queries in flight, resolved in batches so the pipeline is not stalled per pass.
@@ -90,52 +92,28 @@ pub(super) enum Slot {
     Acc(usize),
 }
 
-/// Traversal iterations after which a ray that has not finished is a bug: a DDA visits at
-/// most rx+ry+rz cells (an irregular walk at most as many as its virtual grid's) and each
-/// test is one iteration; generously.
-pub(crate) fn max_iterations(accel: AccelRef<'_>) -> u64 {
-    let (res, refs) = match accel {
-        AccelRef::Uniform(g) => (g.res, g.tri_indices.len()),
-        AccelRef::Irregular(g) => (g.res, g.tri_indices.len()),
-    };
-    16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs as u64 + 16)
-}
-
-/// Binds `tex` to `unit`.
-pub(super) fn bind_texture(gl: &glow::Context, unit: Unit, tex: &Texture) {
-    // SAFETY: the context is current; `tex` is a live texture of this context.
-    unsafe {
-        gl.active_texture(glow::TEXTURE0 + unit.index());
-        gl.bind_texture(glow::TEXTURE_2D, Some(tex.name()));
-    }
-}
-
 impl<'a> Frame<'a> {
-    /// Uploads the scene, compiles the programs `scene` needs (all shading passes when
-    /// `shading`), and allocates `width` x `height` targets for `levels` tree levels.
+    /// Takes the programs `gs` has for the passes a render with `kernel` draws (all
+    /// shading passes when `shading`), compiled on first use, and allocates `width` x
+    /// `height` targets for `levels` tree levels.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn new(
-        ctx: &'a GlContext,
-        scene: &Scene,
-        accel: AccelRef<'_>,
+        gs: &'a GpuScene<'a>,
         width: u32,
         height: u32,
         levels: usize,
         shading: bool,
-        opts: GpuOptions,
+        kernel: FragmentKernel,
+        opts: &GpuOptions,
+        techniques: Techniques,
     ) -> Result<Self> {
-        if !opts.kernel.is_fragment() {
-            return Err(Error::Internal(format!(
-                "the fragment-pass frame was asked to run kernel `{}`",
-                opts.kernel
-            )));
-        }
+        let ctx = gs.ctx();
         let opts = GpuOptions {
-            mask: opts.mask.resolve(opts.kernel),
-            ..opts
+            mask: opts.mask.resolve(kernel),
+            techniques,
+            ..*opts
         };
         let info = &ctx.info;
-        let max_size = info.max_texture_size.max(0) as u32;
         info.check_image_size(width, height)?;
         if info.max_texture_units < REQUIRED_TEXTURE_UNITS {
             return Err(Error::GlUnavailable(format!(
@@ -151,51 +129,30 @@ impl<'a> Frame<'a> {
                 bytes as f64 / (1u64 << 30) as f64
             )));
         }
-        let mut stats = GpuStats {
+        // The scene's textures, then the programs: only the passes this scene and depth use.
+        gs.textures()?;
+        let size = glam::IVec2::new(width as i32, height as i32);
+        let mut programs = HashMap::new();
+        for pass in passes_for(gs.scene(), levels, shading, kernel) {
+            let program = gs.fragment_program(pass, techniques)?;
+            if pass == Pass::RayGen {
+                program.set(ctx.gl(), uniform::SIZE, size)?;
+            }
+            programs.insert(pass, program);
+        }
+        let costs = gs.take_costs();
+        let stats = GpuStats {
             renderer: info.renderer.clone(),
             gl_version: info.gl_version.clone(),
             query_every: opts.query_every,
             scene_fetch: Fetch::Texture2D.name().into(),
+            features: gs.features(),
+            kernel: kernel.to_string(),
+            upload_ms: costs.upload_ms,
+            upload_bytes: costs.upload_bytes,
+            compile_ms: costs.compile_ms,
             ..GpuStats::default()
         };
-
-        let features = if opts.no_specialize {
-            Features::all()
-        } else {
-            Features::of(scene)
-        };
-        let t_up = Instant::now();
-        let layout = SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?;
-        let scene_tex = layout
-            .with_units()
-            .into_iter()
-            .map(|(unit, t)| {
-                Ok((
-                    unit,
-                    Texture::new_f32(ctx, t.width, t.height, Some(&t.data))?,
-                ))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        // SAFETY: the context is current.
-        unsafe { ctx.gl().finish() };
-        stats.upload_ms = t_up.elapsed().as_secs_f64() * 1e3;
-        stats.upload_bytes = layout.bytes();
-
-        // Programs: only the passes this scene and depth use.
-        stats.features = features;
-        let t_c = Instant::now();
-        let passes = passes_for(scene, levels, shading, opts.kernel);
-        let programs = build_programs(
-            ctx,
-            &passes,
-            features,
-            opts.techniques,
-            &layout,
-            accel,
-            scene,
-            (width, height),
-        )?;
-        stats.compile_ms = t_c.elapsed().as_secs_f64() * 1e3;
 
         let targets = |n: usize| RenderTarget::new(ctx, width, height, n);
         let state_formats = opts.storage.state_formats();
@@ -223,10 +180,10 @@ impl<'a> Frame<'a> {
             }
         };
         Ok(Frame {
+            gs,
             ctx,
             quad: FullscreenQuad::new(ctx)?,
             programs,
-            scene_tex,
             state,
             cur: 0,
             rec01: (0..levels).map(|_| targets(2)).collect::<Result<_>>()?,
@@ -246,7 +203,8 @@ impl<'a> Frame<'a> {
             }),
             stats,
             opts,
-            max_iterations: max_iterations(accel),
+            kernel,
+            max_iterations: gs.max_iterations(),
             watch: None,
         })
     }
@@ -260,9 +218,9 @@ impl<'a> Frame<'a> {
         &self.programs[&pass]
     }
 
-    /// Sets uniform `name` of `pass`'s program ([`Program::set`]).
-    pub(super) fn set(&self, pass: Pass, name: &str, value: Uniform) {
-        self.program(pass).set(self.gl(), name, value);
+    /// Sets uniform `u` of `pass`'s program ([`Program::set`]).
+    pub(super) fn set<T: GlslType>(&self, pass: Pass, u: Uniform<T>, value: T) -> Result<()> {
+        self.program(pass).set(self.gl(), u, value)
     }
 
     /// The render target in `slot`.
@@ -299,9 +257,7 @@ impl<'a> Frame<'a> {
     pub(super) fn draw(&mut self, pass: Pass, slot: Slot) -> Result<()> {
         // Re-bound every pass: creating or reading textures elsewhere changes the binding
         // of whatever unit is active, and five binds cost nothing next to a pass.
-        for (unit, tex) in &self.scene_tex {
-            bind_texture(self.gl(), *unit, tex);
-        }
+        self.gs.bind_textures()?;
         self.target(slot).bind(self.gl());
         let timer = match &mut self.timers {
             Some(pool) => Some(match pool.free.pop() {
@@ -403,5 +359,35 @@ impl<'a> Frame<'a> {
             self.stats.gpu_ms_total = pool.ms.values().sum();
         }
         Ok(())
+    }
+}
+
+/// A render's observer and what it is told besides the frame (see [`Frame::observe`]).
+pub(super) struct Watch<'a> {
+    pub(super) observer: &'a mut Observer<'a>,
+    pub(super) samples_done: u32,
+    pub(super) samples: u32,
+}
+
+impl Frame<'_> {
+    /// The one hook of an observed render, called after every ray-state and accumulation
+    /// pass and after each finished sample: shows the observer a [`Snapshot`] and turns
+    /// its [`Flow::Cancel`] into [`Error::Cancelled`], which unwinds the walk (every GL
+    /// object of the frame frees itself).
+    pub(super) fn observe(&mut self) -> Result<()> {
+        let Some(w) = self.watch.as_mut() else {
+            return Ok(());
+        };
+        let snap = Snapshot {
+            radiance: self.acc[self.acc_cur].texture(0),
+            state: self.state[self.cur].textures(),
+            samples_done: w.samples_done,
+            samples: w.samples,
+            passes: self.stats.passes_total,
+        };
+        match (w.observer)(&snap) {
+            Flow::Continue => Ok(()),
+            Flow::Cancel => Err(Error::Cancelled),
+        }
     }
 }

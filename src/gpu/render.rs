@@ -1,0 +1,100 @@
+//! The GPU backend's one entry: a render or a wave of rays goes to the wing its resolved
+//! kernel names ([`KernelChoice`]), in one place, with the one fallback there is (`auto`
+//! chose compute and the driver cut its loops short: the fragment kernels finish the work).
+//!
+//! [`render`] and [`trace_rays_on`] take a [`GpuScene`], uploaded once and rendered from as
+//! often as asked; [`render_gl`] and [`trace_rays`] build one for a single call.
+
+use super::compute;
+use super::context::GlContext;
+use super::fragment;
+use super::options::{GpuOptions, KernelChoice};
+use super::scene::GpuScene;
+use super::shader::Query;
+use super::wave::wave_size;
+use crate::accel::AccelRef;
+use crate::scene::Scene;
+use crate::{Error, Result};
+
+pub use super::request::{Flow, GpuOutput, ImageRequest, Observer, Snapshot, Work};
+pub use super::wave::{GpuRay, GpuTrace};
+
+/// Renders `req` from the scene on the GPU; `observer`, if any, is called between passes
+/// and may cancel the render ([`Error::Cancelled`]).
+pub fn render<'a>(
+    gs: &'a GpuScene<'a>,
+    req: &ImageRequest,
+    observer: Option<&'a mut Observer<'a>>,
+) -> Result<GpuOutput> {
+    let mut observer = observer;
+    let kernel = match req.gpu.choose_kernel(&gs.ctx().info)? {
+        KernelChoice::Fragment(k) => k,
+        KernelChoice::Compute { fallback } => {
+            match compute::render(gs, req, observer.as_deref_mut()) {
+                Err(Error::Unfinished(why)) if fallback.is_some() => {
+                    let k = fallback.expect("checked");
+                    eprintln!(
+                        "fragtrace: notice: the compute kernel did not finish ({why}); \
+                         rendering with the {k} kernel"
+                    );
+                    k
+                }
+                r => return r,
+            }
+        }
+    };
+    fragment::render(gs, req, kernel, observer)
+}
+
+/// Renders `scene` over `accel` on the GPU in `ctx`: [`render`] of a scene uploaded for
+/// this one call.
+pub fn render_gl<'a>(
+    ctx: &GlContext,
+    scene: &Scene,
+    accel: impl Into<AccelRef<'a>>,
+    req: &ImageRequest,
+) -> Result<GpuOutput> {
+    let accel: AccelRef<'a> = accel.into();
+    let gs = GpuScene::new(ctx, scene, accel, req.gpu.no_specialize)?;
+    render(&gs, req, None)
+}
+
+/// Traces arbitrary rays through the same traversal and intersection code a render uses:
+/// how tests put single hand-made rays through the GPU kernels.
+pub fn trace_rays_on(
+    gs: &GpuScene,
+    rays: &[GpuRay],
+    query: Query,
+    opts: GpuOptions,
+) -> Result<Vec<GpuTrace>> {
+    if rays.is_empty() {
+        return Ok(Vec::new());
+    }
+    let kernel = match opts.choose_kernel(&gs.ctx().info)? {
+        KernelChoice::Fragment(k) => k,
+        KernelChoice::Compute { fallback } => {
+            let size = wave_size(rays.len() as u32);
+            match compute::trace_wave(gs, rays, query, size, &opts) {
+                // As in `render`: `auto` falls back to a fragment kernel where the driver
+                // cut the compute kernel's loops short.
+                Err(Error::Unfinished(_)) if fallback.is_some() => fallback.expect("checked"),
+                r => return r,
+            }
+        }
+    };
+    fragment::trace_wave(gs, rays, query, kernel, &opts)
+}
+
+/// [`trace_rays_on`] a scene uploaded for this one call.
+pub fn trace_rays<'a>(
+    ctx: &GlContext,
+    scene: &Scene,
+    accel: impl Into<AccelRef<'a>>,
+    rays: &[GpuRay],
+    query: Query,
+    opts: GpuOptions,
+) -> Result<Vec<GpuTrace>> {
+    let accel: AccelRef<'a> = accel.into();
+    let gs = GpuScene::new(ctx, scene, accel, opts.no_specialize)?;
+    trace_rays_on(&gs, rays, query, opts)
+}

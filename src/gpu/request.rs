@@ -1,0 +1,88 @@
+//! What a GPU render is asked ([`ImageRequest`]) and gives back ([`GpuOutput`], [`Work`]),
+//! and how a render is watched while it runs: an [`Observer`] is called after every
+//! ray-state and accumulation pass with a [`Snapshot`] of the colour so far and the ray
+//! state, and may cancel the render. This is how `fragtrace view` shows the wave of rays
+//! advancing; the headless path passes no observer. Both wings of the backend
+//! (`gpu::fragment`, `gpu::compute`) speak these types.
+
+use crate::gpu::gl::Texture;
+use crate::gpu::options::GpuOptions;
+use crate::output::AovPixel;
+use crate::scene::{Camera, Scene};
+
+/// What a render draws: the camera, the image's size, samples and depth, and how.
+#[derive(Clone, Copy, Debug)]
+pub struct ImageRequest {
+    /// The camera (the scene's own, or the view's as the user moves it).
+    pub camera: Camera,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum reflection/refraction depth.
+    pub max_depth: u32,
+    /// Robustness techniques compiled into the programs (override `gpu.techniques`).
+    pub techniques: crate::technique::Techniques,
+    /// Show a progress display on stderr (drawn only when stderr is a terminal).
+    pub progress: bool,
+    /// Backend options.
+    pub gpu: GpuOptions,
+}
+
+/// Output of a GPU render: the one backend output type (`gpu` is always set).
+pub type GpuOutput = crate::output::BackendOutput;
+
+pub use crate::output::Work;
+
+/// What an [`Observer`] sees between two passes of a render in progress.
+///
+/// The textures belong to the render and are only valid during the call; the observer may
+/// draw with them in the same context (it must leave the GL state as it found it: see
+/// `view::present` for one that does).
+pub struct Snapshot<'f> {
+    /// The colour accumulated so far (RGBA, linear RGB in `.rgb`): the finished samples
+    /// and the finished parts of the one in flight, each sample weighted 1/`samples`.
+    pub radiance: &'f Texture,
+    /// The current ray-state textures s0..s3 (see `gpu::contract::ray`): the wave in
+    /// flight, or the last one traced.
+    pub state: &'f [Texture],
+    /// Samples per pixel finished so far.
+    pub samples_done: u32,
+    /// Samples per pixel of the whole render.
+    pub samples: u32,
+    /// Passes drawn so far in this render.
+    pub passes: u64,
+}
+
+/// An observer's answer: go on, or stop the render (which then returns
+/// [`crate::Error::Cancelled`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    /// Draw the next pass.
+    Continue,
+    /// Abandon the render now.
+    Cancel,
+}
+
+/// The hook an observed render calls after every ray-state and accumulation pass (and
+/// after each finished sample), with this render's context current.
+pub type Observer<'o> = dyn FnMut(&Snapshot<'_>) -> Flow + 'o;
+
+/// One primary ray's AOV pixel: its hit (t, triangle) if any and its traversal steps.
+pub(crate) fn aov_pixel(scene: &Scene, hit: Option<(f32, f32)>, steps: f32) -> AovPixel {
+    match hit {
+        Some((t, tri)) => {
+            let v = scene.triangle_vertices(tri as usize);
+            let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+            AovPixel {
+                depth: t,
+                primid: tri,
+                normal: n.to_array(),
+                steps,
+            }
+        }
+        None => AovPixel::miss(steps),
+    }
+}

@@ -1,0 +1,328 @@
+//! The scene on the GPU: packed, uploaded and compiled for once, then rendered from as
+//! often as asked (every frame of `fragtrace view`, every render of the front door).
+//!
+//! A [`GpuScene`] is the leaf both wings of the backend stand on: the fragment kernels
+//! (`gpu::fragment`) read the scene as textures, the compute kernel (`gpu::compute`) as
+//! textures or storage buffers. Each copy is uploaded on first use and kept; each program is
+//! compiled on first use (keyed by pass, techniques and, for compute, its specialisation)
+//! and kept, with the uniforms that are the same for every render of the scene (samplers'
+//! units, the grid's box, ambient, background) set once when it is built.
+//!
+//! What a render spends here (packing, uploads, compiles) is charged to the render that
+//! caused it ([`GpuScene::take_costs`]), so `--stats` shows it once and a second frame
+//! shows none.
+
+use std::cell::{Cell, OnceCell, RefCell};
+use std::collections::HashMap;
+use std::rc::Rc;
+use std::time::Instant;
+
+use glow::HasContext;
+
+use super::context::GlContext;
+use super::contract::STORAGE_BINDING_BASE;
+use super::contract::{uniform, Unit};
+use super::gl::{
+    compile_compute, compile_program, Program, StorageBuffer, Texture, QUAD_VERTEX_SHADER,
+};
+use super::layout::SceneTextures;
+use super::shader::{assemble, assemble_compute, ComputePass, ComputeSpec, Features, Pass};
+use crate::accel::AccelRef;
+use crate::scene::Scene;
+use crate::technique::Techniques;
+use crate::Result;
+
+#[cfg(test)]
+thread_local! {
+    /// Test hook: the pass whose source gets a line that does not compile, to exercise a
+    /// render failing half-way through building its programs.
+    pub(crate) static BREAK_PASS: std::cell::Cell<Option<Pass>> = const { std::cell::Cell::new(None) };
+}
+
+/// What a render spent on the scene's GPU copy before tracing: reported in its stats.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Costs {
+    /// Packing and uploading textures or buffers (ms).
+    pub upload_ms: f64,
+    /// Bytes uploaded.
+    pub upload_bytes: usize,
+    /// Compiling and linking programs (ms).
+    pub compile_ms: f64,
+}
+
+/// A program of the scene's cache.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum ProgramKey {
+    Fragment(Pass, Techniques),
+    Compute(ComputePass, ComputeSpec, Techniques),
+}
+
+/// The scene, its acceleration structure and their GPU copies (see the module docs).
+pub struct GpuScene<'s> {
+    ctx: &'s GlContext,
+    scene: &'s Scene,
+    accel: AccelRef<'s>,
+    features: Features,
+    layout: SceneTextures,
+    textures: OnceCell<Vec<(Unit, Texture)>>,
+    buffers: OnceCell<Vec<(u32, StorageBuffer)>>,
+    programs: RefCell<HashMap<ProgramKey, Rc<Program>>>,
+    costs: Cell<Costs>,
+}
+
+impl<'s> GpuScene<'s> {
+    /// Packs `scene` and `accel` for `ctx` (uploads follow on first use). With
+    /// `no_specialize` every shading feature is compiled in, whatever the scene needs.
+    pub fn new(
+        ctx: &'s GlContext,
+        scene: &'s Scene,
+        accel: impl Into<AccelRef<'s>>,
+        no_specialize: bool,
+    ) -> Result<Self> {
+        let accel = accel.into();
+        let t = Instant::now();
+        let features = if no_specialize {
+            Features::all()
+        } else {
+            Features::of(scene)
+        };
+        let max_size = ctx.info.max_texture_size.max(0) as u32;
+        let layout = SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?;
+        let costs = Costs {
+            upload_ms: ms_since(t),
+            ..Costs::default()
+        };
+        Ok(GpuScene {
+            ctx,
+            scene,
+            accel,
+            features,
+            layout,
+            textures: OnceCell::new(),
+            buffers: OnceCell::new(),
+            programs: RefCell::new(HashMap::new()),
+            costs: Cell::new(costs),
+        })
+    }
+
+    /// The context the scene lives in.
+    pub fn ctx(&self) -> &'s GlContext {
+        self.ctx
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &'s Scene {
+        self.scene
+    }
+
+    /// Its acceleration structure.
+    pub fn accel(&self) -> AccelRef<'s> {
+        self.accel
+    }
+
+    /// The shading features the programs are compiled with.
+    pub fn features(&self) -> Features {
+        self.features
+    }
+
+    /// The packed layout (texture sizes, storage blocks).
+    pub fn layout(&self) -> &SceneTextures {
+        &self.layout
+    }
+
+    /// Whether any material reflects or refracts (else no ray has children).
+    pub fn has_secondary(&self) -> bool {
+        self.scene
+            .materials
+            .iter()
+            .any(|m| m.reflects() || m.refracts())
+    }
+
+    /// Traversal iterations after which a ray that has not finished is a bug: a DDA visits
+    /// at most rx+ry+rz cells (an irregular walk at most as many as its virtual grid's) and
+    /// each test is one iteration; generously.
+    pub fn max_iterations(&self) -> u64 {
+        max_iterations(self.accel)
+    }
+
+    /// What was spent since the last call (the first render also pays for the packing).
+    pub fn take_costs(&self) -> Costs {
+        self.costs.take()
+    }
+
+    fn charge(&self, f: impl FnOnce(&mut Costs)) {
+        let mut c = self.costs.get();
+        f(&mut c);
+        self.costs.set(c);
+    }
+
+    /// The scene textures with their units, uploaded on first use.
+    pub fn textures(&self) -> Result<&[(Unit, Texture)]> {
+        if let Some(t) = self.textures.get() {
+            return Ok(t);
+        }
+        let t0 = Instant::now();
+        let textures = self
+            .layout
+            .with_units()
+            .into_iter()
+            .map(|(unit, t)| {
+                Ok((
+                    unit,
+                    Texture::new_f32(self.ctx, t.width, t.height, Some(&t.data))?,
+                ))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        // SAFETY: the context is current. Waiting here charges the upload to set-up
+        // instead of to the first pass that reads it.
+        unsafe { self.ctx.gl().finish() };
+        self.charge(|c| {
+            c.upload_ms += ms_since(t0);
+            c.upload_bytes += self.layout.bytes();
+        });
+        Ok(self.textures.get_or_init(|| textures))
+    }
+
+    /// The same texels as storage buffers at their bindings (the compute kernel's
+    /// `Fetch::Storage`), uploaded on first use.
+    pub fn buffers(&self) -> Result<&[(u32, StorageBuffer)]> {
+        if let Some(b) = self.buffers.get() {
+            return Ok(b);
+        }
+        let t0 = Instant::now();
+        let buffers = self
+            .layout
+            .with_units()
+            .into_iter()
+            .enumerate()
+            .map(|(k, (_, t))| {
+                let bytes: Vec<u8> = t.data.iter().flat_map(|v| v.to_ne_bytes()).collect();
+                Ok((
+                    STORAGE_BINDING_BASE + k as u32,
+                    StorageBuffer::new(self.ctx, &bytes)?,
+                ))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        // SAFETY: the context is current.
+        unsafe { self.ctx.gl().finish() };
+        self.charge(|c| {
+            c.upload_ms += ms_since(t0);
+            c.upload_bytes += self.layout.bytes();
+        });
+        Ok(self.buffers.get_or_init(|| buffers))
+    }
+
+    /// Binds the scene textures to their units (uploading them first if needed).
+    pub fn bind_textures(&self) -> Result<()> {
+        for (unit, tex) in self.textures()? {
+            bind_texture(self.ctx.gl(), *unit, tex);
+        }
+        Ok(())
+    }
+
+    /// Binds the scene's storage buffers to their bindings (uploading them first if needed).
+    pub fn bind_buffers(&self) -> Result<()> {
+        for (binding, buf) in self.buffers()? {
+            buf.bind(self.ctx.gl(), *binding);
+        }
+        Ok(())
+    }
+
+    /// The fragment program of `pass`, compiled on first use.
+    pub fn fragment_program(&self, pass: Pass, techniques: Techniques) -> Result<Rc<Program>> {
+        self.program(ProgramKey::Fragment(pass, techniques), || {
+            #[allow(unused_mut)]
+            let mut a = assemble(pass, self.features, techniques, &self.layout)?;
+            #[cfg(test)]
+            if BREAK_PASS.get() == Some(pass) {
+                a.source.push_str("this line does not compile\n");
+                a.lines.push(("<test hook>".into(), 1));
+            }
+            let program =
+                compile_program(self.ctx, pass.name(), QUAD_VERTEX_SHADER, &a.source, &|n| {
+                    a.origin(n)
+                })?;
+            Ok(program.declaring(a.declared))
+        })
+    }
+
+    /// The compute program of `pass` specialised for `spec`, compiled on first use.
+    pub fn compute_program(
+        &self,
+        pass: ComputePass,
+        spec: &ComputeSpec,
+        techniques: Techniques,
+    ) -> Result<Rc<Program>> {
+        self.program(ProgramKey::Compute(pass, *spec, techniques), || {
+            let a = assemble_compute(pass, spec, self.features, techniques, &self.layout)?;
+            let program = compile_compute(self.ctx, pass.name(), &a.source, &|n| a.origin(n))?;
+            Ok(program.declaring(a.declared))
+        })
+    }
+
+    fn program(
+        &self,
+        key: ProgramKey,
+        build: impl FnOnce() -> Result<Program>,
+    ) -> Result<Rc<Program>> {
+        if let Some(p) = self.programs.borrow().get(&key) {
+            return Ok(Rc::clone(p));
+        }
+        let t0 = Instant::now();
+        let program = build()?;
+        self.set_scene_uniforms(&program)?;
+        self.charge(|c| c.compile_ms += ms_since(t0));
+        let program = Rc::new(program);
+        self.programs.borrow_mut().insert(key, Rc::clone(&program));
+        Ok(program)
+    }
+
+    /// Sets what the programs of the scene share, in each program that declares it: each
+    /// sampler's texture unit, the grid's box and resolution, ambient and background.
+    fn set_scene_uniforms(&self, program: &Program) -> Result<()> {
+        let gl = self.ctx.gl();
+        program.bind_samplers(gl);
+        let (min, max, cell_size, res) = match self.accel {
+            AccelRef::Uniform(g) => (g.min, g.max, g.cell_size, g.res),
+            AccelRef::Irregular(g) => (g.min, g.max, g.cell_size, g.res),
+        };
+        let res = glam::UVec3::from(res).as_vec3();
+        for (u, v) in [
+            (uniform::GRID_MIN, min),
+            (uniform::GRID_MAX, max),
+            (uniform::CELL_SIZE, cell_size),
+            (uniform::GRID_RES, res),
+            (uniform::AMBIENT, self.scene.ambient),
+            (uniform::BACKGROUND, self.scene.background),
+        ] {
+            if program.declares(u) {
+                program.set(gl, u, v)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Traversal iterations after which a ray on `accel` that has not finished is a bug (see
+/// [`GpuScene::max_iterations`]).
+pub fn max_iterations(accel: AccelRef<'_>) -> u64 {
+    let (res, refs) = match accel {
+        AccelRef::Uniform(g) => (g.res, g.tri_indices.len()),
+        AccelRef::Irregular(g) => (g.res, g.tri_indices.len()),
+    };
+    16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs as u64 + 16)
+}
+
+/// Binds `tex` to `unit`.
+pub fn bind_texture(gl: &glow::Context, unit: Unit, tex: &Texture) {
+    // SAFETY: the context is current; `tex` is a live texture of this context.
+    unsafe {
+        gl.active_texture(glow::TEXTURE0 + unit.index());
+        gl.bind_texture(glow::TEXTURE_2D, Some(tex.name()));
+    }
+}
+
+/// Milliseconds since `t`.
+pub(crate) fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
