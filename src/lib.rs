@@ -1,10 +1,13 @@
-//! fragtrace: a Whitted-style ray tracer over a uniform grid whose hot path runs as GLSL 1.20
-//! fragment programs (the multi-pass stream design of Purcell et al. 2002), with an f64 CPU
-//! reference renderer as ground truth.
+//! fragtrace: a Whitted-style ray tracer over grids built on the CPU (the thesis's uniform
+//! grid and an irregular grid) whose faithful hot path runs as GLSL 1.20 fragment programs
+//! (the multi-pass stream design of Purcell et al. 2002), with a GLSL 4.30 compute kernel
+//! from the same GLSL where the context has it, and an f64 CPU reference renderer as ground
+//! truth.
 //!
 //! Modules, bottom to top (docs/architecture.md): [`scene`] (model, loaders, camera),
 //! [`accel`] (grid build), [`cpu`] (reference renderer), [`gpu`] (headless GL context,
-//! owning GL objects, the Rust/GLSL contract, texel layout, shaders, passes), [`output`] and [`image_io`] (what a render produces), [`options`]
+//! owning GL objects, the Rust/GLSL contract, texel layout, shaders, the scene uploaded once,
+//! the fragment and compute wings), [`output`] and [`image_io`] (what a render produces), [`options`]
 //! (render flags and options), [`render`] (backend-independent front door), [`bench`](mod@bench)
 //! (speed against error) and [`cli`]; beside them [`technique`] (switches for the
 //! robustness techniques), [`aov`] (AOV files) and [`compare`] (error figures).

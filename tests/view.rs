@@ -165,6 +165,57 @@ fn screenshot_equals_headless_render_default_scene() {
     }
 }
 
+/// `view` goes through the same front door as `render`: it builds the structure `--accel`
+/// names (the irregular grid by default), reports it, and shows the render's image. Before,
+/// the view built its own uniform grid whatever the flags said (ground.toml: a bunny in a
+/// few cells of a 400 m floor's grid, about 96x the headless render's time).
+#[test]
+fn view_builds_the_structure_render_builds() {
+    if !display_or_acknowledged_skip("view_builds_the_structure_render_builds") {
+        return;
+    }
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/ground.toml");
+    let scene = path.to_str().unwrap();
+    for accel in [None, Some("uniform")] {
+        let tag = format!("ground-{}", accel.unwrap_or("default"));
+        let stats = scratch(&format!("{tag}.json"));
+        let mut flags = vec!["--width", "64", "--height", "48", "--kernel", "looped"];
+        if let Some(a) = accel {
+            flags.extend(["--accel", a]);
+        }
+        let reference = scratch(&format!("{tag}-render.png"));
+        let mut render_args = vec!["render", scene, "--backend", "gl", "-q", "--stats"];
+        render_args.extend([stats.to_str().unwrap(), "-o", reference.to_str().unwrap()]);
+        render_args.extend(&flags);
+        ok(&run(&render_args, &[]), "render");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+        let a = &json["accel"];
+        let expected = format!(
+            "fragtrace view: {} grid, {} cells, {} references",
+            a["kind"].as_str().unwrap(),
+            a["cells"],
+            a["references"]
+        );
+        assert_eq!(
+            a["kind"].as_str().unwrap(),
+            accel.unwrap_or("irregular"),
+            "render built the wrong structure"
+        );
+        let shot = scratch(&format!("{tag}-view.png"));
+        let mut view_args = vec!["view", scene];
+        view_args.extend(&flags);
+        view_args.extend(["--screenshot", shot.to_str().unwrap()]);
+        let log = ok(&run(&view_args, &[]), "view");
+        assert!(
+            log.lines().any(|l| l.starts_with(&expected)),
+            "the view reports another structure than the render's `{expected}`:\n{log}"
+        );
+        let rmse = rmse8(&shot, &reference);
+        assert!(rmse <= MAX_RMSE, "{tag}: RMSE {rmse}");
+    }
+}
+
 #[test]
 fn screenshot_equals_headless_render_mesh_scene() {
     if !display_or_acknowledged_skip("screenshot_equals_headless_render_mesh_scene") {

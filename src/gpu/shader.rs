@@ -312,6 +312,11 @@ impl Assembled {
     }
 }
 
+/// Every embedded GLSL file, as (name, text).
+pub fn sources() -> &'static [(&'static str, &'static str)] {
+    SOURCES
+}
+
 fn source(name: &str) -> Result<&'static str> {
     SOURCES
         .iter()

@@ -271,9 +271,13 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
         "fragtrace view: {}: OpenGL {} ({})",
         ctx.info.egl_platform, ctx.info.gl_version, ctx.info.renderer
     );
+    let built = &prepared.summary;
     eprintln!(
-        "fragtrace view: {} ({:.1} ms)",
-        prepared.summary.detail, prepared.summary.build_ms
+        "fragtrace view: {} grid, {} cells, {} references, built in {:.1} ms",
+        built.kind.name(),
+        built.cells,
+        built.references,
+        built.build_ms
     );
     // Uploaded once: every render of the view (each camera move, each key) reuses the
     // scene's textures and programs.

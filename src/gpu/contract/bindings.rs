@@ -541,3 +541,228 @@ pub fn declarations_for(file: &str, compute: bool, declared: &mut Vec<&'static s
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    //! The contract against the GLSL and the driver: no file declares by hand, every
+    //! declaration is read by some program with the declared type, and a program refuses a
+    //! uniform it does not declare.
+
+    use std::collections::HashMap;
+
+    use glow::HasContext;
+
+    use super::*;
+    use crate::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
+    use crate::gpu::context::with_test_context;
+    use crate::gpu::gl::{compile_compute, compile_program, Program, QUAD_VERTEX_SHADER};
+    use crate::gpu::layout::SceneTextures;
+    use crate::gpu::shader::{
+        all_passes, assemble, assemble_compute, sources, ComputePass, ComputeSpec, Features, Fetch,
+        Pass, Query,
+    };
+    use crate::scene::builtin_scene;
+    use crate::technique::Techniques;
+
+    /// No GLSL file spells a declaration the contract generates.
+    #[test]
+    fn no_glsl_file_declares_by_hand() {
+        for (file, text) in sources() {
+            for (k, line) in text.lines().enumerate() {
+                let t = line.trim_start();
+                let by_hand = (t.starts_with("uniform ") && t.contains(" u_"))
+                    || (t.starts_with("layout(")
+                        && (t.contains("buffer") || t.contains("image2D")));
+                assert!(!by_hand, "{file}:{}: declared by hand: {t}", k + 1);
+            }
+        }
+    }
+
+    /// Compiles every program (fragment passes for both structures with every feature on,
+    /// the compute programs with both fetch paths) and returns, per GLSL name, the types
+    /// the driver reports for it where it is active, and the programs built.
+    fn active_everywhere(ctx: &crate::gpu::GlContext) -> (HashMap<String, Vec<u32>>, Vec<Program>) {
+        let scene = builtin_scene();
+        let mut active: HashMap<String, Vec<u32>> = HashMap::new();
+        let mut programs = Vec::new();
+        for kind in [AccelKind::Uniform, AccelKind::Irregular] {
+            let accel = Accel::build(
+                &scene,
+                kind,
+                &GridConfig::default(),
+                &IrregularConfig::default(),
+            )
+            .unwrap();
+            let layout = SceneTextures::pack_with(&scene, accel.as_ref(), 4096, true).unwrap();
+            let mut add = |p: Program| {
+                let gl = ctx.gl();
+                // SAFETY: the context is current; plain program queries.
+                unsafe {
+                    for i in 0..gl.get_active_uniforms(p.name()) {
+                        if let Some(u) = gl.get_active_uniform(p.name(), i) {
+                            active.entry(u.name).or_default().push(u.utype);
+                        }
+                    }
+                }
+                programs.push(p);
+            };
+            for pass in all_passes() {
+                let a = assemble(pass, Features::all(), Techniques::default(), &layout).unwrap();
+                let p = compile_program(ctx, pass.name(), QUAD_VERTEX_SHADER, &a.source, &|n| {
+                    a.origin(n)
+                })
+                .unwrap();
+                add(p.declaring(a.declared));
+            }
+            if !ctx.info.compute {
+                continue;
+            }
+            for fetch in [Fetch::TexelFetch, Fetch::Storage] {
+                let spec = ComputeSpec {
+                    samples: 2,
+                    lights: 2,
+                    max_depth: 3,
+                    secondary: true,
+                    max_iterations: 1000,
+                    fetch,
+                };
+                for pass in [
+                    ComputePass::Render,
+                    ComputePass::Wave(Query::Closest),
+                    ComputePass::Wave(Query::Any),
+                ] {
+                    let a = assemble_compute(
+                        pass,
+                        &spec,
+                        Features::all(),
+                        Techniques::default(),
+                        &layout,
+                    )
+                    .unwrap();
+                    let p = compile_compute(ctx, pass.name(), &a.source, &|n| a.origin(n)).unwrap();
+                    add(p.declaring(a.declared));
+                }
+            }
+        }
+        (active, programs)
+    }
+
+    /// The GL type enum of a GLSL type name.
+    fn gl_type(glsl: &str) -> u32 {
+        match glsl {
+            "float" => glow::FLOAT,
+            "vec3" => glow::FLOAT_VEC3,
+            "ivec2" => glow::INT_VEC2,
+            "sampler2D" => glow::SAMPLER_2D,
+            other => panic!("no GL type for {other}"),
+        }
+    }
+
+    /// Every uniform and sampler of the renderer's contract is active in at least one
+    /// program, with the declared type: a declaration no program reads fails here.
+    #[test]
+    fn every_declaration_is_read_with_its_type() {
+        with_test_context(|ctx| {
+            let (active, _) = active_everywhere(ctx);
+            let mut checked = 0;
+            for d in uniform::ALL {
+                if !ctx.info.compute && d.readers.iter().all(|r| r.ends_with(".comp")) {
+                    continue;
+                }
+                let types = active.get(d.name).unwrap_or_else(|| {
+                    panic!("uniform {} is declared but no program reads it", d.name)
+                });
+                assert!(
+                    types.iter().all(|&t| t == gl_type(d.glsl)),
+                    "{}: declared {}, the driver reports {types:?}",
+                    d.name,
+                    d.glsl
+                );
+                checked += 1;
+            }
+            for s in SAMPLERS.iter().filter(|s| !s.readers.contains(&VIEW)) {
+                let types = active.get(s.name).unwrap_or_else(|| {
+                    panic!("sampler {} is declared but no program reads it", s.name)
+                });
+                assert!(types.iter().all(|&t| t == glow::SAMPLER_2D), "{}", s.name);
+                checked += 1;
+            }
+            // And nothing is active that the contract does not declare.
+            let known: Vec<&str> = uniform::ALL
+                .iter()
+                .map(|d| d.name)
+                .chain(SAMPLERS.iter().map(|s| s.name))
+                .chain(Image::ALL.iter().map(|i| i.name()))
+                .collect();
+            for name in active.keys() {
+                assert!(
+                    known.contains(&name.as_str()),
+                    "{name} is active but not in the contract"
+                );
+            }
+            eprintln!("{checked} declarations read with their declared types");
+        });
+    }
+
+    /// Setting a uniform a program does not declare is an error naming both; one it
+    /// declares is set (and reads back).
+    #[test]
+    fn setting_an_undeclared_uniform_is_an_error() {
+        with_test_context(|ctx| {
+            let (_, programs) = active_everywhere(ctx);
+            let gl = ctx.gl();
+            let ambient = &programs[Pass::ALL
+                .iter()
+                .position(|p| *p == Pass::AccumAmbient)
+                .unwrap()];
+            let e = ambient
+                .set(gl, uniform::LIGHT_POS, glam::Vec3::ONE)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("accum_ambient") && e.contains("u_light_pos"),
+                "{e}"
+            );
+            let v = glam::Vec3::new(0.25, 0.5, 0.75);
+            ambient.set(gl, uniform::AMBIENT, v).unwrap();
+            let mut back = [0f32; 3];
+            // SAFETY: the context is current; the location is the program's own.
+            unsafe {
+                let loc = gl
+                    .get_uniform_location(ambient.name(), uniform::AMBIENT.name)
+                    .unwrap();
+                gl.get_uniform_f32(ambient.name(), &loc, &mut back);
+            }
+            assert_eq!(back, v.to_array());
+        });
+    }
+
+    /// Each declaration lands once, before the first file that reads it, and only in the
+    /// programs of its stage.
+    #[test]
+    fn declarations_go_where_their_readers_are() {
+        let mut declared = Vec::new();
+        let a = declarations_for("accum_light.frag", false, &mut declared);
+        assert!(a.contains("uniform vec3 u_light_rad;"), "{a}");
+        assert!(a.contains("uniform sampler2D u_acc;"), "{a}");
+        assert!(!a.contains("u_light_pos"), "{a}");
+        assert!(declarations_for("accum_light.frag", false, &mut declared).is_empty());
+        let mut declared = Vec::new();
+        let c = declarations_for("common.glsl", true, &mut declared);
+        assert!(
+            c.is_empty(),
+            "compute programs read no ray-state sampler: {c}"
+        );
+        let r = declarations_for("render.comp", true, &mut declared);
+        for b in Buffer::ALL {
+            assert!(r.contains(&format!("binding = {}", b.binding())), "{r}");
+        }
+        assert!(r.contains("uniform ivec2 u_size;"), "{r}");
+        let w = declarations_for("wave.comp", true, &mut Vec::new());
+        assert!(
+            w.contains("layout(rgba32f, binding = 3) uniform image2D u_w3;"),
+            "{w}"
+        );
+        assert_eq!(STORAGE_BINDING_BASE, Buffer::ALL.len() as u32);
+    }
+}
