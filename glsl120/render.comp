@@ -10,10 +10,10 @@
 //        f64 frame and sample offsets: primary directions by the camera's formula in f64,
 //        rounded to f32, as the host computes them for the fragment kernels) and the lights
 //        buffer (position, radiance).
-// Writes: radiance (linear RGB summed over samples) and aov_out (first sample's primary
-//         ray: t_best, tri_best or TRI_NONE, steps, state), both in image order; one
-//         COUNTERS-slot record per work group (rays by kind, cells entered, triangle tests,
-//         rays cut off by MAX_ITERATIONS).
+// Writes: radiance (linear RGB summed over samples) and, with WRITE_AOV, aov_out (first
+//         sample's primary ray: t_best, tri_best or TRI_NONE, steps, state), both in image
+//         order; the render's 64-bit counter sums (rays by kind, cells entered, triangle
+//         tests, rays cut off by MAX_ITERATIONS, primary-ray steps, non-finite pixels).
 #include "intersect.glsl"
 #include "traverse.glsl"
 #include "step.glsl"
@@ -72,6 +72,7 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
         bool hit = in_state(s0.S0_STATE, ST_SHADING);
         if (first && n.level == 0) {
             aov = A0_TEXEL(s3.S3_T_BEST, hit ? s3.S3_TRI_BEST : TRI_NONE, s3.S3_STEPS, s0.S0_STATE);
+            n_count[C_PRIMARY_STEPS] += uint(s3.S3_STEPS);
         }
         if (!hit) {
             colour += n.w * u_background;
@@ -134,7 +135,10 @@ void render_pixel(ivec2 px) {
     radiance[3u * k] = colour.r;
     radiance[3u * k + 1u] = colour.g;
     radiance[3u * k + 2u] = colour.b;
+    if (any(isnan(colour)) || any(isinf(colour))) n_count[C_NONFINITE] += 1u;
+#ifdef WRITE_AOV
     aov_out[k] = aov;
+#endif
 }
 
 void main() {
@@ -149,8 +153,14 @@ void main() {
         if (n_count[k] != 0u) atomicAdd(g_count[k], n_count[k]);
     }
     barrier();
+    // The group's totals into the render's 64-bit sums (low word, high word per counter):
+    // a carry out of the low word is exactly an addition that wrapped.
     if (gl_LocalInvocationIndex == 0u) {
-        uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-        for (int k = 0; k < COUNTERS; k++) counters[group * uint(COUNTERS) + uint(k)] = g_count[k];
+        for (int k = 0; k < COUNTERS; k++) {
+            uint v = g_count[k];
+            if (v == 0u) continue;
+            uint old = atomicAdd(counters[2 * k], v);
+            if (old + v < old) atomicAdd(counters[2 * k + 1], 1u);
+        }
     }
 }

@@ -288,14 +288,29 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
         .map(crate::aov::AovKind::parse_list)
         .transpose()?;
     let scene = load(args.scene.as_deref())?;
-    let opts = args.to_options(&scene)?;
+    let mut opts = args.to_options(&scene)?;
+    // Read back only what the output needs: a PNG as 8-bit sRGB (converted on the GPU
+    // where it can), the AOVs only with --aov.
+    opts.readback = crate::output::Readback {
+        aov: aovs.is_some(),
+        srgb8: image_io::Format::from_path(&args.output)? == image_io::Format::Png,
+    };
     let out = render::render(&scene, &opts)?;
-    if !out.image.all_finite() {
+    let finite = match out.nonfinite {
+        Some(n) => n == 0,
+        None => out.image.all_finite(),
+    };
+    if !finite {
         return Err(Error::Internal(
             "the render produced a NaN or Inf pixel".into(),
         ));
     }
-    image_io::write_image(&args.output, &out.image)?;
+    match &out.srgb8 {
+        Some(rgb) => {
+            image_io::write_png_srgb8(&args.output, out.image.width, out.image.height, rgb)?
+        }
+        None => image_io::write_image(&args.output, &out.image)?,
+    }
     if let Some(kinds) = &aovs {
         crate::aov::write_aovs(&args.output, &out.aov, kinds)?;
     }
@@ -349,10 +364,13 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
 /// counts it (CPU, compute kernel), the traversal work of all rays. One line per entry, most expensive first.
 pub fn verbose_report(s: &render::RenderStats) -> String {
     let mut out = format!(
-        "{}: {}\nprimary rays: {:.1} steps (cells + triangle tests) per ray\n",
+        "{}: {}\nprimary rays: {} steps (cells + triangle tests) per ray\n",
         s.accel.kind.name(),
         s.accel.detail,
-        s.primary_steps_per_ray
+        s.primary_steps_per_ray.map_or(
+            "n/a (--aov reads them with this kernel)".into(),
+            |v| format!("{v:.1}")
+        )
     );
     if let (Some(c), Some(t)) = (s.cells_visited, s.triangle_tests) {
         out += &format!(

@@ -14,11 +14,21 @@ pub struct Image {
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    /// RGB triples, `3 * width * height` values.
+    /// RGB triples, `3 * width * height` values (none in a render that returned the
+    /// image as 8-bit sRGB only: [`Image::size_only`]).
     pub data: Vec<f32>,
 }
 
 impl Image {
+    /// The size of an image whose linear data was not read back.
+    pub fn size_only(width: u32, height: u32) -> Self {
+        Image {
+            width,
+            height,
+            data: Vec::new(),
+        }
+    }
+
     /// Wraps RGB data (panics on a size mismatch: a programming error).
     pub fn from_rgb(width: u32, height: u32, data: Vec<f32>) -> Self {
         assert_eq!(data.len(), (width * height * 3) as usize, "image data size");
@@ -92,10 +102,39 @@ pub fn srgb_to_linear(v: f32) -> f32 {
 
 /// 8-bit sRGB bytes of an image.
 pub fn to_srgb8(img: &Image) -> Vec<u8> {
-    img.data
-        .iter()
-        .map(|&v| (linear_to_srgb(v) * 255.0 + 0.5).floor() as u8)
-        .collect()
+    img.data.iter().map(|&v| srgb8(v)).collect()
+}
+
+/// The 8-bit sRGB code of one linear value (clamped to [0, 1]; NaN gives 0).
+pub fn srgb8(v: f32) -> u8 {
+    (linear_to_srgb(v) * 255.0 + 0.5).floor() as u8
+}
+
+/// The 255 linear values at which [`srgb8`] steps up: entry `c - 1` is the smallest f32
+/// whose code is at least `c`. Since the code never decreases as the value grows (checked
+/// for every f32 in [0, 1] by a test), the code of `v` is the number of entries `<= v`:
+/// how the GPU converts to 8-bit sRGB with exactly this function's rounding, comparisons
+/// only, so a PNG is the same bytes whichever side converted it.
+pub fn srgb8_thresholds() -> &'static [f32; 255] {
+    static T: std::sync::OnceLock<[f32; 255]> = std::sync::OnceLock::new();
+    T.get_or_init(|| {
+        let mut t = [0f32; 255];
+        for (k, slot) in t.iter_mut().enumerate() {
+            let code = k as u8 + 1;
+            // Binary search over the bit patterns of [0, 1], which order like the values.
+            let (mut lo, mut hi) = (0u32, 1f32.to_bits());
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if srgb8(f32::from_bits(mid)) >= code {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            *slot = f32::from_bits(lo);
+        }
+        t
+    })
 }
 
 fn temp_path(path: &Path) -> PathBuf {
@@ -135,12 +174,7 @@ pub fn write_image(path: &Path, img: &Image) -> Result<()> {
         message: e.to_string(),
     };
     write_atomic(path, |tmp| match format {
-        Format::Png => {
-            let buf = image::RgbImage::from_raw(img.width, img.height, to_srgb8(img))
-                .ok_or_else(|| Error::Internal("png buffer size".into()))?;
-            buf.save_with_format(tmp, image::ImageFormat::Png)
-                .map_err(img_err)
-        }
+        Format::Png => encode_png(tmp, path, img.width, img.height, &to_srgb8(img)),
         Format::Exr => {
             let buf = image::Rgb32FImage::from_raw(img.width, img.height, img.data.clone())
                 .ok_or_else(|| Error::Internal("exr buffer size".into()))?;
@@ -148,6 +182,34 @@ pub fn write_image(path: &Path, img: &Image) -> Result<()> {
                 .map_err(img_err)
         }
     })
+}
+
+/// Writes 8-bit sRGB RGB bytes (top row first) as a PNG, atomically: what a render that
+/// converted on the GPU hands over.
+pub fn write_png_srgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    if rgb.len() != width as usize * height as usize * 3 {
+        return Err(Error::Internal("png buffer size".into()));
+    }
+    write_atomic(path, |tmp| encode_png(tmp, path, width, height, rgb))
+}
+
+/// Encodes RGB8 as a PNG at `tmp` with the fast deflate setting (`fdeflate`, through the
+/// `png` crate's `Compression::Fast`): at 4096x4096 the default setting took longer than
+/// the render itself (docs/performance.md). Files are a little larger; pixels are the same.
+fn encode_png(tmp: &Path, path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    use image::ImageEncoder;
+    let file = std::fs::File::create(tmp).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let w = std::io::BufWriter::with_capacity(1 << 20, file);
+    PngEncoder::new_with_quality(w, CompressionType::Fast, FilterType::Adaptive)
+        .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| Error::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
 }
 
 /// Reads a PNG (decoded to linear) or EXR image.
@@ -251,6 +313,38 @@ pub fn write_exr_channels(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn srgb8_thresholds_reproduce_the_host_rounding_for_every_f32() {
+        use rayon::prelude::*;
+        let t = srgb8_thresholds();
+        let by_count = |v: f32| t.iter().filter(|&&x| x <= v).count() as u8;
+        // Every f32 in [0, 1] (1,065,353,217 values): monotone, and the count agrees.
+        let one = 1f32.to_bits();
+        let bad: usize = (0..=one >> 16)
+            .into_par_iter()
+            .map(|block| {
+                let first = block << 16;
+                (first..=(first | 0xffff).min(one))
+                    .filter(|&b| {
+                        let v = f32::from_bits(b);
+                        let code = srgb8(v);
+                        let prev = if b == 0 {
+                            0
+                        } else {
+                            srgb8(f32::from_bits(b - 1))
+                        };
+                        code < prev || t.partition_point(|&x| x <= v) as u8 != code
+                    })
+                    .count()
+            })
+            .sum();
+        assert_eq!(bad, 0, "f32 values in [0, 1] where the thresholds disagree");
+        for v in [-1.0, -0.0, f32::NEG_INFINITY, 1.5, f32::INFINITY, f32::NAN] {
+            assert_eq!(by_count(v), srgb8(v), "{v}");
+        }
+        assert_eq!((srgb8(t[0]), srgb8(t[254])), (1, 255));
+    }
 
     #[test]
     fn srgb_round_trip() {

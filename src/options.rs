@@ -78,6 +78,8 @@ pub struct RenderOptions {
     /// Robustness techniques, on every backend (the GL render uses these, not
     /// `gpu.techniques`).
     pub techniques: crate::technique::Techniques,
+    /// What to read back (default: everything; the CLI asks for less).
+    pub readback: crate::output::Readback,
 }
 
 impl RenderOptions {
@@ -96,6 +98,7 @@ impl RenderOptions {
             gpu: crate::gpu::options::GpuOptions::default(),
             progress: false,
             techniques: crate::technique::Techniques::default(),
+            readback: crate::output::Readback::default(),
         }
     }
 

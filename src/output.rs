@@ -22,6 +22,56 @@ pub struct BackendOutput {
     pub work: Option<Work>,
     /// GPU statistics (GPU renders only).
     pub gpu: Option<GpuStats>,
+    /// The image as 8-bit sRGB RGB, top row first, where the backend converted it (asked
+    /// for by [`Readback::srgb8`]); `image` then holds no data.
+    pub srgb8: Option<Vec<u8>>,
+    /// Cells visited plus triangle tests of the first sample's primary rays, summed, where
+    /// the backend counted them apart from the AOV.
+    pub primary_steps: Option<u64>,
+    /// Pixels whose radiance is NaN or infinite, where the backend counted them (it did
+    /// when it converted to 8-bit and the linear image was not read back).
+    pub nonfinite: Option<u64>,
+}
+
+impl BackendOutput {
+    /// Mean cells plus tests per primary ray (first sample): from the AOV, or from the
+    /// backend's own sum where the AOV was not read back.
+    pub fn mean_primary_steps(&self) -> Option<f64> {
+        if !self.aov.pixels.is_empty() {
+            return Some(self.aov.mean_steps());
+        }
+        let pixels = self.image.width as f64 * self.image.height as f64;
+        self.primary_steps.map(|s| s as f64 / pixels.max(1.0))
+    }
+
+    /// Whether every pixel is finite (from the image, or the backend's count).
+    pub fn all_finite(&self) -> bool {
+        match self.nonfinite {
+            Some(n) => n == 0,
+            None => self.image.all_finite(),
+        }
+    }
+}
+
+/// What a render reads back to the host besides what the backend must.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Readback {
+    /// The primary-ray AOVs (`--aov`, and the tests); without them `--stats` still gets
+    /// the mean steps per primary ray where the backend counts them.
+    pub aov: bool,
+    /// The image as 8-bit sRGB only (a PNG): a GPU that can converts it and reads back a
+    /// quarter of the bytes, the linear image is not read.
+    pub srgb8: bool,
+}
+
+impl Default for Readback {
+    /// Everything: the linear image and the AOVs (what library callers and tests get).
+    fn default() -> Self {
+        Readback {
+            aov: true,
+            srgb8: false,
+        }
+    }
 }
 
 /// Traversal work of a render's rays.

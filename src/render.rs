@@ -60,8 +60,11 @@ pub struct RenderStats {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub triangle_tests: Option<u64>,
     /// Cells visited plus triangle tests per primary ray (first sample), from the `steps`
-    /// AOV: what the GPU reports of its traversal work, and the CPU alike for comparison.
-    pub primary_steps_per_ray: f64,
+    /// AOV or the backend's own sum: what the GPU reports of its traversal work, and the
+    /// CPU alike for comparison (absent where neither was read back: a fragment kernel
+    /// without `--aov`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub primary_steps_per_ray: Option<f64>,
     /// Million rays per second over `render_ms`.
     pub mrays_per_s: f64,
     /// Backend-specific extras (GPU pass counts and timings).
@@ -71,8 +74,12 @@ pub struct RenderStats {
 
 /// A finished render.
 pub struct Rendered {
-    /// Linear RGB image.
+    /// Linear RGB image (no data where `srgb8` holds the image instead).
     pub image: Image,
+    /// The image as 8-bit sRGB, where the backend converted it (`Readback::srgb8`).
+    pub srgb8: Option<Vec<u8>>,
+    /// Non-finite pixels, where the backend counted them instead of returning the image.
+    pub nonfinite: Option<u64>,
     /// Primary-ray AOVs.
     pub aov: Aov,
     /// Statistics.
@@ -151,6 +158,7 @@ impl Prepared<'_> {
             techniques: opts.techniques,
             progress: opts.progress,
             gpu: opts.gpu,
+            readback: opts.readback,
         }
     }
 
@@ -183,12 +191,14 @@ impl Prepared<'_> {
             rays: out.rays,
             cells_visited: out.work.map(|w| w.cells),
             triangle_tests: out.work.map(|w| w.tests),
-            primary_steps_per_ray: out.aov.mean_steps(),
+            primary_steps_per_ray: out.mean_primary_steps(),
             mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
             gpu: out.gpu,
         };
         Rendered {
             image: out.image,
+            srgb8: out.srgb8,
+            nonfinite: out.nonfinite,
             aov: out.aov,
             stats,
         }

@@ -199,6 +199,9 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
                 tests: total.work.tests,
             }),
             gpu: None,
+            srgb8: None,
+            primary_steps: None,
+            nonfinite: None,
         }
     }
 

@@ -29,6 +29,8 @@ pub struct ImageRequest {
     pub progress: bool,
     /// Backend options.
     pub gpu: GpuOptions,
+    /// What to read back (the AOVs; the image as 8-bit sRGB only).
+    pub readback: crate::output::Readback,
 }
 
 /// Output of a GPU render: the one backend output type (`gpu` is always set).

@@ -58,6 +58,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("compute.glsl", include_str!("../../glsl120/compute.glsl")),
     ("render.comp", include_str!("../../glsl120/render.comp")),
     ("wave.comp", include_str!("../../glsl120/wave.comp")),
+    ("srgb8.comp", include_str!("../../glsl120/srgb8.comp")),
 ];
 
 /// Files a pass may `#include`.
@@ -482,6 +483,8 @@ pub enum ComputePass {
     Render,
     /// A wave of given rays traced to their end (`wave.comp`, for `trace_rays`).
     Wave(Query),
+    /// A band's radiance converted to 8-bit sRGB (`srgb8.comp`).
+    Srgb8,
 }
 
 /// Work-group size of the compute programs: 8 x 4 invocations, one NVIDIA warp over a
@@ -505,6 +508,21 @@ pub struct ComputeSpec {
     pub max_iterations: u32,
     /// How the scene is read: texelFetch or storage buffers.
     pub fetch: Fetch,
+    /// Whether the render writes the primary rays' AOV texels.
+    pub aov: bool,
+}
+
+impl ComputeSpec {
+    /// The one specialisation of the programs that trace nothing (`srgb8.comp`).
+    pub const CONVERT: ComputeSpec = ComputeSpec {
+        samples: 1,
+        lights: 0,
+        max_depth: 0,
+        secondary: false,
+        max_iterations: 0,
+        fetch: Fetch::TexelFetch,
+        aov: false,
+    };
 }
 
 impl ComputePass {
@@ -513,6 +531,7 @@ impl ComputePass {
         match self {
             ComputePass::Render => "render.comp",
             ComputePass::Wave(_) => "wave.comp",
+            ComputePass::Srgb8 => "srgb8.comp",
         }
     }
 
@@ -522,6 +541,7 @@ impl ComputePass {
             ComputePass::Render => "compute",
             ComputePass::Wave(Query::Closest) => "compute_wave",
             ComputePass::Wave(Query::Any) => "compute_wave_any",
+            ComputePass::Srgb8 => "compute_srgb8",
         }
     }
 
@@ -541,9 +561,12 @@ impl ComputePass {
                 if spec.secondary && spec.max_depth > 0 {
                     d.push("HAS_SECONDARY".into());
                 }
+                if spec.aov {
+                    d.push("WRITE_AOV".into());
+                }
             }
             ComputePass::Wave(Query::Any) => d.push("ANY_HIT".into()),
-            ComputePass::Wave(Query::Closest) => {}
+            ComputePass::Wave(Query::Closest) | ComputePass::Srgb8 => {}
         }
         d
     }

@@ -18,9 +18,10 @@ use std::time::Instant;
 use glow::HasContext;
 use rayon::prelude::*;
 
-use super::contract::compute::{aov, camera_buffer, light_buffer, Counter, COUNTERS};
+use super::context::GlContext;
+use super::contract::compute::{aov, camera_buffer, light_buffer, sum_words, Counter, COUNTERS};
 use super::contract::{uniform, Buffer, Image, StateTexels, STORAGE_BINDING_BASE};
-use super::gl::{bind_image, Program, StorageBuffer, Texture, TimerQuery};
+use super::gl::{bind_image, Program, ReadbackRing, StorageBuffer, Texture, TimerQuery};
 use super::info::GlInfo;
 use super::options::{GpuOptions, SceneFetch, Storage};
 use super::request::{aov_pixel, Flow, GpuOutput, ImageRequest, Observer, Snapshot};
@@ -143,17 +144,6 @@ impl<'g> Setup<'g> {
     }
 }
 
-/// Sums the per-work-group counter records.
-fn sum_counters(records: &[u32]) -> [u64; COUNTERS] {
-    let mut total = [0u64; COUNTERS];
-    for rec in records.chunks_exact(COUNTERS) {
-        for (t, &v) in total.iter_mut().zip(rec) {
-            *t += v as u64;
-        }
-    }
-    total
-}
-
 /// How the render kernel reads the scene: as asked, or under `auto` the faster of the two
 /// where measured: storage buffers on the H200, texelFetch on llvmpipe, whose storage loads
 /// run lane by lane with a bounds check each (docs/performance.md, "Scene fetch"). Other
@@ -169,6 +159,12 @@ fn scene_fetch(choice: SceneFetch, info: &GlInfo) -> Fetch {
 }
 
 /// Renders with the compute kernel (see the module documentation).
+///
+/// Per band of rows: the render dispatch, with `readback.srgb8` the conversion to 8-bit
+/// sRGB on the GPU, then a GPU copy of the band's output into a persistently mapped
+/// staging slot, fenced; the host takes a band's bytes while the next band is traced.
+/// Counters are summed on the GPU and read once. AOV texels are written and read only
+/// with `readback.aov`.
 pub(crate) fn render(
     gs: &GpuScene,
     req: &ImageRequest,
@@ -181,6 +177,7 @@ pub(crate) fn render(
     let gl = ctx.gl();
     let limits = Limits::query(gl);
     let offsets = camera::sample_offsets(req.spp);
+    let readback = req.readback;
     let spec = ComputeSpec {
         samples: offsets.len() as u32,
         lights: scene.lights.len() as u32,
@@ -189,8 +186,21 @@ pub(crate) fn render(
         max_iterations: gs.max_iterations().min(i32::MAX as u64) as u32,
         // Setup::new falls back to texelFetch where the context has too few storage blocks.
         fetch: scene_fetch(req.gpu.scene_fetch, &ctx.info),
+        aov: readback.aov,
     };
     let mut setup = Setup::new(gs, ComputePass::Render, &spec, &req.gpu, req.techniques)?;
+    // The 8-bit conversion: its program (compiled once per scene) and the thresholds.
+    let convert = if readback.srgb8 {
+        let p = gs.compute_program(ComputePass::Srgb8, &ComputeSpec::CONVERT, req.techniques)?;
+        let c = gs.take_costs();
+        setup.stats.compile_ms += c.compile_ms;
+        let mut t = crate::image_io::srgb8_thresholds().to_vec();
+        t.push(f32::INFINITY);
+        let bytes: Vec<u8> = t.iter().flat_map(|v| v.to_ne_bytes()).collect();
+        Some((p, StorageBuffer::new(ctx, &bytes)?))
+    } else {
+        None
+    };
     let t_trace = Instant::now();
     let program = &setup.program;
     program.set(gl, uniform::EYE, req.camera.eye)?;
@@ -211,55 +221,106 @@ pub(crate) fn render(
     let light_buf = StorageBuffer::new(ctx, &lights)?;
     cam_buf.bind(gl, Buffer::Camera.binding());
     light_buf.bind(gl, Buffer::Lights.binding());
+    let counter_buf = StorageBuffer::zeroed_u32(ctx, 2 * COUNTERS)?;
+    counter_buf.bind(gl, Buffer::Counters.binding());
 
     // Bands of rows whose outputs fit one storage block (the AOV's 16 bytes per pixel are
     // the larger), aligned so every band starts a whole number of rows in.
     let rows = limits.band_rows(width, height)?;
-    let band_groups = width.div_ceil(LOCAL_SIZE.0) as usize * rows.div_ceil(LOCAL_SIZE.1) as usize;
-    let counter_buf = StorageBuffer::zeroed_u32(ctx, band_groups * COUNTERS)?;
-    counter_buf.bind(gl, Buffer::Counters.binding());
     let band_px = width as usize * rows as usize;
     let radiance_buf = StorageBuffer::uninit(ctx, band_px * 3 * 4)?;
-    let aov_buf = StorageBuffer::uninit(ctx, band_px * 4 * 4)?;
     radiance_buf.bind(gl, Buffer::Radiance.binding());
-    aov_buf.bind(gl, Buffer::Aov.binding());
+    let aov_buf = readback
+        .aov
+        .then(|| StorageBuffer::uninit(ctx, band_px * 4 * 4))
+        .transpose()?;
+    if let Some(b) = &aov_buf {
+        b.bind(gl, Buffer::Aov.binding());
+    }
+    let srgb8_buf = convert
+        .as_ref()
+        .map(|_| StorageBuffer::uninit(ctx, (band_px * 3).div_ceil(4) * 4))
+        .transpose()?;
+    // What each band hands back: 8-bit RGB, or linear RGB floats.
+    let out_bytes = |px: usize| if readback.srgb8 { px * 3 } else { px * 12 };
+    let mut ring = ReadbackRing::new(ctx, out_bytes(band_px)).ok();
     let pixels = width as usize * height as usize;
-    let mut rgb = vec![0f32; pixels * 3];
-    let mut aov_data = vec![0f32; pixels * 4];
+    let mut out = vec![0u8; out_bytes(pixels)];
+    let mut aov_data = if readback.aov {
+        vec![0f32; pixels * 4]
+    } else {
+        Vec::new()
+    };
     setup
         .stats
         .phases_ms
         .insert("setup".into(), ms_since(t_trace));
-    let mut total = [0u64; COUNTERS];
+    // The band whose copy is in flight: (staging slot, first byte in `out`, length).
+    let mut in_flight: Option<(usize, usize, usize)> = None;
+    let take = |ring: &mut ReadbackRing, (slot, at, len): (usize, usize, usize), out: &mut [u8]| {
+        ring.take(ctx, slot, |bytes| {
+            use rayon::prelude::*;
+            out[at..at + len]
+                .par_chunks_mut(1 << 18)
+                .zip(bytes.par_chunks(1 << 18))
+                .for_each(|(d, s)| d.copy_from_slice(s));
+        })
+    };
     // Bands from the top of the image, so each band's rows follow the last in the outputs.
     for top in (0..height).step_by(rows as usize) {
         let n = rows.min(height - top);
         let gl_row0 = height - top - n;
+        let band = n as usize * width as usize;
+        let t = Instant::now();
         setup.program.set(
             gl,
             uniform::BAND,
             glam::IVec2::new(gl_row0 as i32, n as i32),
         )?;
-        let t = Instant::now();
         setup.dispatch(width, n, req.gpu.timers)?;
-        // Only this band's groups: a shorter last band leaves the records beyond stale.
-        let groups = width.div_ceil(LOCAL_SIZE.0) as usize * n.div_ceil(LOCAL_SIZE.1) as usize;
-        let records = counter_buf.read_u32(gl)?;
-        for (t, c) in total
-            .iter_mut()
-            .zip(sum_counters(&records[..groups * COUNTERS]))
-        {
-            *t += c;
-        }
+        let src = match (&convert, &srgb8_buf) {
+            (Some((p, thresholds)), Some(dst)) => {
+                thresholds.bind(gl, Buffer::SrgbThresholds.binding());
+                dst.bind(gl, Buffer::Srgb8.binding());
+                p.set(gl, uniform::PIXELS, band as i32)?;
+                // SAFETY: the context is current; the program's buffers are bound.
+                unsafe {
+                    gl.use_program(Some(p.name()));
+                    gl.dispatch_compute(((band * 3).div_ceil(4)).div_ceil(64) as u32, 1, 1);
+                    gl.memory_barrier(glow::ALL_BARRIER_BITS);
+                }
+                *setup.stats.passes.entry("srgb8".into()).or_default() += 1;
+                setup.stats.passes_total += 1;
+                dst
+            }
+            _ => &radiance_buf,
+        };
         *setup.stats.phases_ms.entry("dispatch".into()).or_default() += ms_since(t);
         let t = Instant::now();
-        let (at, len) = (top as usize * width as usize, n as usize * width as usize);
-        let rgb_band = &mut rgb[at * 3..(at + len) * 3];
-        let aov_band = &mut aov_data[at * 4..(at + len) * 4];
-        radiance_buf.read_f32_staged(ctx, rgb_band)?;
-        aov_buf.read_f32_staged(ctx, aov_band)?;
+        let at = out_bytes(top as usize * width as usize);
+        let len = out_bytes(band);
+        match ring.as_mut() {
+            Some(r) => {
+                let slot = r.copy(ctx, src, len)?;
+                if let Some(prev) = in_flight.replace((slot, at, len)) {
+                    take(r, prev, &mut out)?;
+                }
+            }
+            None => read_bytes_staged(ctx, src, &mut out[at..at + len])?,
+        }
+        if let Some(b) = &aov_buf {
+            let at = top as usize * width as usize * 4;
+            b.read_f32_staged(ctx, &mut aov_data[at..at + band * 4])?;
+        }
         *setup.stats.phases_ms.entry("read_back".into()).or_default() += ms_since(t);
     }
+    let t = Instant::now();
+    if let (Some(r), Some(last)) = (ring.as_mut(), in_flight) {
+        take(r, last, &mut out)?;
+    }
+    let words = counter_buf.read_u32(gl)?;
+    let total = sum_words(&words);
+    *setup.stats.phases_ms.entry("read_back".into()).or_default() += ms_since(t);
     // Rays cut off, ray trees left incomplete, or samples never started: the program's
     // loops did not run to their end. Besides a traversal bug, a driver can cause it:
     // llvmpipe ends every loop of a shader invocation once 65535 iterations of them all have
@@ -278,17 +339,36 @@ pub(crate) fn render(
         )));
     }
     let t = Instant::now();
-    let image = RgbImage::from_rgb(width, height, rgb);
-    let aov = aov_from_texels(scene, &aov_data, width, height);
+    let (image, srgb8) = if readback.srgb8 {
+        (RgbImage::size_only(width, height), Some(out))
+    } else {
+        let rgb: Vec<f32> = out
+            .chunks_exact(4)
+            .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        (RgbImage::from_rgb(width, height, rgb), None)
+    };
+    let aov = if readback.aov {
+        aov_from_texels(scene, &aov_data, width, height)
+    } else {
+        Aov::from_vec(0, 0, Vec::new())
+    };
     setup.stats.phases_ms.insert("aov".into(), ms_since(t));
     if let Some(observer) = observer {
-        // The observer draws from a texture (GL rows from the bottom, RGBA).
+        // The observer draws from a texture (GL rows from the bottom, RGBA, linear).
         let mut rgba = vec![0f32; pixels * 4];
-        for (j, row) in image.data.chunks(width as usize * 3).enumerate() {
+        for j in 0..height as usize {
             let gl_row = height as usize - 1 - j;
-            for (i, px) in row.chunks(3).enumerate() {
+            for i in 0..width as usize {
+                let k = j * width as usize + i;
+                let px: [f32; 3] = match &srgb8 {
+                    Some(b) => std::array::from_fn(|c| {
+                        crate::image_io::srgb_to_linear(b[3 * k + c] as f32 / 255.0)
+                    }),
+                    None => std::array::from_fn(|c| image.data[3 * k + c]),
+                };
                 let at = (gl_row * width as usize + i) * 4;
-                rgba[at..at + 3].copy_from_slice(px);
+                rgba[at..at + 3].copy_from_slice(&px);
             }
         }
         let radiance = Texture::new_f32(ctx, width, height, Some(&rgba))?;
@@ -319,7 +399,21 @@ pub(crate) fn render(
             tests: n(Counter::Tests),
         }),
         gpu: Some(setup.stats),
+        srgb8,
+        primary_steps: Some(n(Counter::PrimarySteps)),
+        nonfinite: Some(n(Counter::NonFinite)),
     })
+}
+
+/// Reads `out.len()` bytes of `src` through a staging copy (contexts without persistent
+/// mapping).
+fn read_bytes_staged(ctx: &GlContext, src: &StorageBuffer, out: &mut [u8]) -> Result<()> {
+    let mut words = vec![0f32; out.len().div_ceil(4)];
+    src.read_f32_staged(ctx, &mut words)?;
+    for (d, w) in out.chunks_mut(4).zip(&words) {
+        d.copy_from_slice(&w.to_ne_bytes()[..d.len()]);
+    }
+    Ok(())
 }
 
 /// The context's storage-buffer limits that shape a compute render.
@@ -418,6 +512,7 @@ pub(crate) fn trace_wave(
         secondary: false,
         max_iterations: gs.max_iterations().min(i32::MAX as u64) as u32,
         fetch: Fetch::TexelFetch,
+        aov: false,
     };
     let mut setup = Setup::new(gs, ComputePass::Wave(query), &spec, opts, opts.techniques)?;
     let gl = ctx.gl();
@@ -515,6 +610,7 @@ mod tests {
                     kernel: Kernel::Compute,
                     ..GpuOptions::default()
                 },
+                readback: crate::output::Readback::default(),
             };
             // Storage buffers asked for (llvmpipe's preferred fetch is texelFetch).
             let asked = |scene_fetch| ImageRequest {
@@ -551,6 +647,76 @@ mod tests {
             assert_eq!(whole.work, banded.work);
             let ids = |o: &GpuOutput| o.aov.pixels.iter().map(|p| p.primid).collect::<Vec<_>>();
             assert_eq!(ids(&whole), ids(&banded));
+        });
+    }
+
+    /// Reading back less gives the same answers: the image converted to 8-bit sRGB on the
+    /// GPU is byte for byte the host's conversion of the linear image (`to_srgb8`), over
+    /// bands and with the staging ring; without the AOVs the primary rays' steps still come
+    /// back (summed on the GPU) and equal the AOV's sum; the counters equal the per-pixel
+    /// read.
+    #[test]
+    fn srgb8_on_the_gpu_is_the_host_conversion_and_counters_match_the_aov() {
+        with_test_context(|ctx| {
+            if !ctx.info.compute {
+                eprintln!("SKIPPED: no GL 4.3 compute in this context");
+                return;
+            }
+            let scene = builtin_scene();
+            let accel = Accel::build(
+                &scene,
+                AccelKind::Irregular,
+                &GridConfig::default(),
+                &IrregularConfig::default(),
+            )
+            .unwrap();
+            let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
+            let full = ImageRequest {
+                camera: scene.camera,
+                width: 96,
+                height: 600,
+                spp: 2,
+                max_depth: scene.max_depth,
+                techniques: Default::default(),
+                progress: false,
+                gpu: GpuOptions {
+                    kernel: Kernel::Compute,
+                    scene_fetch: SceneFetch::TexelFetch,
+                    ..GpuOptions::default()
+                },
+                readback: crate::output::Readback::default(),
+            };
+            let lean = ImageRequest {
+                readback: crate::output::Readback {
+                    aov: false,
+                    srgb8: true,
+                },
+                ..full
+            };
+            let a = render(&gs, &full, None).unwrap();
+            // Three bands: the ring's two slots are each reused.
+            BLOCK_BYTES.set(Some(96 * 16 * 256));
+            let b = render(&gs, &lean, None);
+            BLOCK_BYTES.set(None);
+            let b = b.unwrap();
+            assert_eq!(
+                b.gpu.as_ref().unwrap().passes_total,
+                6,
+                "3 bands, 2 dispatches each"
+            );
+            let host = crate::image_io::to_srgb8(&a.image);
+            let gpu = b.srgb8.as_ref().expect("8-bit image");
+            assert!(b.image.data.is_empty() && b.aov.pixels.is_empty());
+            let diff = host.iter().zip(gpu).filter(|(x, y)| x != y).count();
+            assert_eq!(diff, 0, "bytes differ from the host conversion");
+            assert_eq!(gpu.len(), host.len());
+            let steps: f64 = a.aov.pixels.iter().map(|p| p.steps as f64).sum();
+            assert_eq!(b.primary_steps, Some(steps as u64));
+            assert_eq!(a.primary_steps, b.primary_steps);
+            assert_eq!((a.nonfinite, b.nonfinite), (Some(0), Some(0)));
+            assert_eq!(a.rays, b.rays);
+            assert_eq!(a.work, b.work);
+            assert!(steps > 0.0);
         });
     }
 }

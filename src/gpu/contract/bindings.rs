@@ -58,6 +58,13 @@ impl GlslType for f32 {
     }
 }
 
+impl GlslType for i32 {
+    const GLSL: &'static str = "int";
+    unsafe fn set(self, gl: &glow::Context, loc: &glow::UniformLocation) {
+        gl.uniform_1_i32(Some(loc), self)
+    }
+}
+
 impl GlslType for glam::Vec3 {
     const GLSL: &'static str = "vec3";
     unsafe fn set(self, gl: &glow::Context, loc: &glow::UniformLocation) {
@@ -179,6 +186,8 @@ pub mod uniform {
     /// The radiance of the light being accumulated.
     pub const LIGHT_RAD: Uniform<Vec3> =
         Uniform::new("u_light_rad", &["accum_light.frag"], "light radiance");
+    /// Pixels in the band `srgb8.comp` converts.
+    pub const PIXELS: Uniform<i32> = Uniform::new("u_pixels", &["srgb8.comp"], "pixels to convert");
     /// Which child a weight or spawn pass makes: 0 reflected, 1 refracted.
     pub const BRANCH: Uniform<f32> = Uniform::new(
         "u_branch",
@@ -187,7 +196,7 @@ pub mod uniform {
     );
 
     /// Every uniform.
-    pub const ALL: [Decl; 13] = [
+    pub const ALL: [Decl; 14] = [
         GRID_MIN.decl(),
         GRID_MAX.decl(),
         CELL_SIZE.decl(),
@@ -201,6 +210,7 @@ pub mod uniform {
         LIGHT_POS.decl(),
         LIGHT_RAD.decl(),
         BRANCH.decl(),
+        PIXELS.decl(),
     ];
 }
 
@@ -412,16 +422,23 @@ pub enum Buffer {
     Radiance,
     /// One `A0_TEXEL` per pixel of the band, in image order.
     Aov,
+    /// 8-bit sRGB RGB of the band's pixels, four bytes to a word, in image order.
+    Srgb8,
+    /// The 256 linear values at which the 8-bit sRGB code steps up (the host's
+    /// `image_io::srgb8_thresholds`, padded with +inf).
+    SrgbThresholds,
 }
 
 impl Buffer {
     /// Every buffer, in binding order.
-    pub const ALL: [Buffer; 5] = [
+    pub const ALL: [Buffer; 7] = [
         Buffer::Camera,
         Buffer::Lights,
         Buffer::Counters,
         Buffer::Radiance,
         Buffer::Aov,
+        Buffer::Srgb8,
+        Buffer::SrgbThresholds,
     ];
 
     /// Its binding point.
@@ -437,6 +454,8 @@ impl Buffer {
             Buffer::Counters => "counters",
             Buffer::Radiance => "radiance",
             Buffer::Aov => "aov_out",
+            Buffer::Srgb8 => "srgb8_out",
+            Buffer::SrgbThresholds => "srgb_thresholds",
         }
     }
 
@@ -445,19 +464,35 @@ impl Buffer {
         let (access, block, member) = match self {
             Buffer::Camera => ("readonly", "CameraBuffer", "double cam[]"),
             Buffer::Lights => ("readonly", "LightBuffer", "vec4 lights[]"),
-            Buffer::Counters => ("writeonly", "CounterBuffer", "uint counters[]"),
-            Buffer::Radiance => ("writeonly", "RadianceBuffer", "float radiance[]"),
+            Buffer::Counters => ("", "CounterBuffer", "uint counters[]"),
+            // Written by render.comp, read by srgb8.comp.
+            Buffer::Radiance => ("", "RadianceBuffer", "float radiance[]"),
             Buffer::Aov => ("writeonly", "AovBuffer", "vec4 aov_out[]"),
+            Buffer::Srgb8 => ("writeonly", "Srgb8Buffer", "uint srgb8_out[]"),
+            Buffer::SrgbThresholds => (
+                "readonly",
+                "SrgbThresholdBuffer",
+                "float srgb_thresholds[256]",
+            ),
+        };
+        let access = if access.is_empty() {
+            String::new()
+        } else {
+            format!("{access} ")
         };
         format!(
-            "layout(std430, binding = {}) {access} buffer {block} {{ {member}; }};\n",
+            "layout(std430, binding = {}) {access}buffer {block} {{ {member}; }};\n",
             self.binding()
         )
     }
 
     /// Source files that read or write it.
     fn readers(self) -> &'static [&'static str] {
-        &["render.comp"]
+        match self {
+            Buffer::Radiance => &["render.comp", "srgb8.comp"],
+            Buffer::Srgb8 | Buffer::SrgbThresholds => &["srgb8.comp"],
+            Buffer::Camera | Buffer::Lights | Buffer::Counters | Buffer::Aov => &["render.comp"],
+        }
     }
 }
 
@@ -625,11 +660,13 @@ mod tests {
                     secondary: true,
                     max_iterations: 1000,
                     fetch,
+                    aov: true,
                 };
                 for pass in [
                     ComputePass::Render,
                     ComputePass::Wave(Query::Closest),
                     ComputePass::Wave(Query::Any),
+                    ComputePass::Srgb8,
                 ] {
                     let a = assemble_compute(
                         pass,

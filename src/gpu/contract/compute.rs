@@ -20,11 +20,17 @@ pub enum Counter {
     Tests,
     /// Rays cut off by the iteration bound (a traversal bug if ever non-zero).
     Unfinished,
+    /// Cells visited plus triangle tests of the first sample's primary rays (the sum of
+    /// the `steps` AOV, for `--stats` without reading the AOV back).
+    PrimarySteps,
+    /// Pixels whose radiance is NaN or infinite (a bug if ever non-zero; counted so the
+    /// host need not read linear radiance back to check).
+    NonFinite,
 }
 
 impl Counter {
     /// Every counter, in slot order.
-    pub const ALL: [Counter; 7] = [
+    pub const ALL: [Counter; 9] = [
         Counter::Primary,
         Counter::Shadow,
         Counter::Reflected,
@@ -32,6 +38,8 @@ impl Counter {
         Counter::Cells,
         Counter::Tests,
         Counter::Unfinished,
+        Counter::PrimarySteps,
+        Counter::NonFinite,
     ];
 
     /// Its slot in a record.
@@ -49,12 +57,25 @@ impl Counter {
             Counter::Cells => "C_CELLS",
             Counter::Tests => "C_TESTS",
             Counter::Unfinished => "C_UNFINISHED",
+            Counter::PrimarySteps => "C_PRIMARY_STEPS",
+            Counter::NonFinite => "C_NONFINITE",
         }
     }
 }
 
-/// `u32`s per work-group record.
+/// Counters kept. The counter buffer holds each as a 64-bit sum, two `u32`s (low word,
+/// high word) per counter: work groups add their totals with `atomicAdd` on the low word
+/// and carry into the high word ([`sum_words`]), so one render reads back 16 words.
 pub const COUNTERS: usize = Counter::ALL.len();
+
+/// The 64-bit sums of a counter buffer read back as `u32` words (low, high per counter).
+pub fn sum_words(words: &[u32]) -> [u64; COUNTERS] {
+    let mut total = [0u64; COUNTERS];
+    for (t, w) in total.iter_mut().zip(words.chunks_exact(2)) {
+        *t = u64::from(w[0]) | u64::from(w[1]) << 32;
+    }
+    total
+}
 
 /// Camera buffer (f64): forward, right, up (3 each), tan(vfov/2), aspect, width, height,
 /// then (ox, oy) per sample.

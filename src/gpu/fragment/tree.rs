@@ -17,7 +17,7 @@ use crate::gpu::request::{GpuOutput, ImageRequest, Observer};
 use crate::gpu::scene::{bind_texture, GpuScene};
 use crate::gpu::shader::{Count, Pass, Query};
 use crate::image_io::Image;
-use crate::output::RayCounts;
+use crate::output::{Aov, RayCounts};
 use crate::progress::Progress;
 use crate::scene::{camera, Scene};
 use crate::Result;
@@ -136,7 +136,7 @@ pub(crate) fn render<'a>(
         f.progress
             .begin_node(node_traces(scene, 0, max_depth, secondary));
         f.trace(Query::Closest)?;
-        if k == 0 {
+        if k == 0 && req.readback.aov {
             aov = Some(read_aov(&f, scene, width, height)?);
         }
         f.record(0)?;
@@ -153,10 +153,13 @@ pub(crate) fn render<'a>(
     let image = Image::from_rgb(width, height, flip_rgba_to_rgb(&data, width, height));
     Ok(GpuOutput {
         image,
-        aov: aov.expect("at least one sample"),
+        aov: aov.unwrap_or_else(|| Aov::from_vec(0, 0, Vec::new())),
         rays: RayCounts::new(rays.primary, rays.shadow, rays.reflected, rays.refracted),
         work: None,
         gpu: Some(std::mem::take(&mut f.stats)),
+        srgb8: None,
+        primary_steps: None,
+        nonfinite: None,
     })
 }
 

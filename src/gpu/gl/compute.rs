@@ -172,6 +172,11 @@ impl StorageBuffer {
         check_gl_error(gl, "reading a storage buffer")
     }
 
+    /// The raw name.
+    pub fn name(&self) -> glow::Buffer {
+        self.obj.name()
+    }
+
     /// Binds the buffer to storage-block binding `index`.
     pub fn bind(&self, gl: &glow::Context, index: u32) {
         // SAFETY: the context is current and the buffer is alive.

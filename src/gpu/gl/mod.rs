@@ -28,6 +28,7 @@ use crate::error::{Error, Result};
 pub mod compute;
 pub mod program;
 pub mod query;
+pub mod readback;
 pub mod target;
 pub mod texture;
 
@@ -37,6 +38,7 @@ pub use program::{
     QUAD_VERTEX_SHADER,
 };
 pub use query::{OcclusionQuery, TimerQuery};
+pub use readback::{has_buffer_storage, ReadbackRing};
 pub use target::RenderTarget;
 pub use texture::{Renderbuffer, TexFormat, Texture};
 

@@ -73,6 +73,7 @@ fn compute_programs(
         secondary: false,
         max_iterations,
         fetch: Fetch::Storage,
+        aov: false,
     };
     let mut v = if all_variants {
         vec![
@@ -86,6 +87,7 @@ fn compute_programs(
                     secondary: true,
                     max_iterations,
                     fetch: Fetch::Storage,
+                    aov: true,
                 },
             ),
             (
@@ -98,6 +100,7 @@ fn compute_programs(
                     secondary: false,
                     max_iterations,
                     fetch: Fetch::Storage,
+                    aov: true,
                 },
             ),
         ]
@@ -112,6 +115,7 @@ fn compute_programs(
                 secondary: scene.materials.iter().any(|m| m.reflects() || m.refracts()),
                 max_iterations,
                 fetch: Fetch::Storage,
+                aov: true,
             },
         )]
     };
@@ -128,6 +132,11 @@ fn compute_programs(
             },
         ));
     }
+    v.push((
+        ComputePass::Srgb8.name(),
+        ComputePass::Srgb8,
+        ComputeSpec::CONVERT,
+    ));
     for q in [Query::Closest, Query::Any] {
         let pass = ComputePass::Wave(q);
         v.push((pass.name(), pass, waves));

@@ -1,0 +1,153 @@
+//! Reading GPU buffers back while the GPU works on: a ring of two persistently mapped
+//! staging buffers (`GL_ARB_buffer_storage`, GL 4.4). Each band's output is copied into a
+//! slot on the GPU and fenced; the host takes the slot's bytes once its fence has passed,
+//! while the next band is already being traced. Nothing is mapped or unmapped per band and
+//! no call waits for more than the copy it needs.
+
+use glow::HasContext;
+
+use super::{check_gl_error, BufferKind, GlKind, Owned, StorageBuffer};
+use crate::error::{Error, Result};
+use crate::gpu::context::GlContext;
+
+/// Fence sync objects.
+#[derive(Debug)]
+pub enum SyncKind {}
+impl GlKind for SyncKind {
+    type Name = glow::Fence;
+    unsafe fn delete(gl: &glow::Context, name: glow::Fence) {
+        gl.delete_sync(name);
+    }
+}
+
+/// One staging buffer, mapped for reading for its whole life.
+struct Slot {
+    buf: Owned<BufferKind>,
+    ptr: *const u8,
+    /// The copy in flight into it, and its length.
+    pending: Option<(Owned<SyncKind>, usize)>,
+}
+
+/// Two persistently mapped staging buffers of `bytes` bytes each.
+pub struct ReadbackRing {
+    slots: [Slot; 2],
+    bytes: usize,
+    next: usize,
+}
+
+/// Whether the context can map buffers persistently (GL 4.4 or `GL_ARB_buffer_storage`).
+pub fn has_buffer_storage(gl: &glow::Context) -> bool {
+    let v = gl.version();
+    (v.major, v.minor) >= (4, 4) || gl.supported_extensions().contains("GL_ARB_buffer_storage")
+}
+
+impl ReadbackRing {
+    /// Two slots of `bytes` bytes; `Err` where the context lacks persistent mapping.
+    pub fn new(ctx: &GlContext, bytes: usize) -> Result<Self> {
+        let gl = ctx.gl();
+        if !has_buffer_storage(gl) {
+            return Err(Error::GlUnavailable(
+                "persistently mapped buffers need GL 4.4 or GL_ARB_buffer_storage".into(),
+            ));
+        }
+        let bytes = bytes.max(16);
+        let size = i32::try_from(bytes).map_err(|_| {
+            Error::Limit(format!("a staging buffer of {bytes} bytes exceeds 2 GiB"))
+        })?;
+        let flags = glow::MAP_READ_BIT | glow::MAP_PERSISTENT_BIT | glow::MAP_COHERENT_BIT;
+        let slot = || -> Result<Slot> {
+            // SAFETY: the context is current; the buffer is created, given immutable storage
+            // and mapped here, and stays mapped until it is deleted.
+            unsafe {
+                let buf = Owned::<BufferKind>::new(
+                    ctx,
+                    gl.create_buffer()
+                        .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
+                );
+                gl.bind_buffer(glow::COPY_WRITE_BUFFER, Some(buf.name()));
+                gl.buffer_storage(glow::COPY_WRITE_BUFFER, size, None, flags);
+                let ptr = gl.map_buffer_range(glow::COPY_WRITE_BUFFER, 0, size, flags);
+                gl.bind_buffer(glow::COPY_WRITE_BUFFER, None);
+                check_gl_error(gl, "mapping a staging buffer")?;
+                if ptr.is_null() {
+                    return Err(Error::Internal("glMapBufferRange returned null".into()));
+                }
+                Ok(Slot {
+                    buf,
+                    ptr: ptr.cast_const(),
+                    pending: None,
+                })
+            }
+        };
+        Ok(ReadbackRing {
+            slots: [slot()?, slot()?],
+            bytes,
+            next: 0,
+        })
+    }
+
+    /// Queues a GPU copy of the first `len` bytes of `src` into the next slot (which must
+    /// have been taken) and returns the slot. Shader writes to `src` before this call are
+    /// made visible to the copy.
+    pub fn copy(&mut self, ctx: &GlContext, src: &StorageBuffer, len: usize) -> Result<usize> {
+        let gl = ctx.gl();
+        let k = self.next;
+        assert!(len <= self.bytes, "copy past the staging buffer");
+        assert!(self.slots[k].pending.is_none(), "slot {k} not taken yet");
+        // SAFETY: the context is current; both buffers are alive and `len` fits both.
+        let fence = unsafe {
+            gl.memory_barrier(glow::BUFFER_UPDATE_BARRIER_BIT);
+            gl.bind_buffer(glow::COPY_READ_BUFFER, Some(src.name()));
+            gl.bind_buffer(glow::COPY_WRITE_BUFFER, Some(self.slots[k].buf.name()));
+            gl.copy_buffer_sub_data(
+                glow::COPY_READ_BUFFER,
+                glow::COPY_WRITE_BUFFER,
+                0,
+                0,
+                len as i32,
+            );
+            gl.bind_buffer(glow::COPY_READ_BUFFER, None);
+            gl.bind_buffer(glow::COPY_WRITE_BUFFER, None);
+            let f = gl
+                .fence_sync(glow::SYNC_GPU_COMMANDS_COMPLETE, 0)
+                .map_err(|e| Error::Internal(format!("glFenceSync: {e}")))?;
+            // Submit now, so the wait below cannot wait on commands never sent.
+            gl.flush();
+            Owned::<SyncKind>::new(ctx, f)
+        };
+        check_gl_error(gl, "copying to a staging buffer")?;
+        self.slots[k].pending = Some((fence, len));
+        self.next = 1 - k;
+        Ok(k)
+    }
+
+    /// Waits for slot `k`'s copy and passes its bytes to `take`.
+    pub fn take<R>(
+        &mut self,
+        ctx: &GlContext,
+        k: usize,
+        take: impl FnOnce(&[u8]) -> R,
+    ) -> Result<R> {
+        let gl = ctx.gl();
+        let (fence, len) = self.slots[k]
+            .pending
+            .take()
+            .ok_or_else(|| Error::Internal(format!("staging slot {k} has no copy")))?;
+        // SAFETY: the context is current; the fence is alive.
+        let status = unsafe {
+            let mut s = gl.client_wait_sync(fence.name(), glow::SYNC_FLUSH_COMMANDS_BIT, 0);
+            while s == glow::TIMEOUT_EXPIRED {
+                s = gl.client_wait_sync(fence.name(), 0, 1_000_000_000);
+            }
+            s
+        };
+        if status == glow::WAIT_FAILED {
+            check_gl_error(gl, "waiting for a staging copy")?;
+            return Err(Error::Internal("glClientWaitSync failed".into()));
+        }
+        // SAFETY: the mapping is coherent and the copy into it has completed (its fence
+        // passed); it stays mapped while the ring lives and holds `len <= bytes` bytes.
+        let bytes = unsafe { std::slice::from_raw_parts(self.slots[k].ptr, len) };
+        Ok(take(bytes))
+    }
+}
