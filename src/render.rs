@@ -14,7 +14,7 @@ use crate::gpu::render::ImageRequest;
 use crate::gpu::{self, GlContext, GpuScene};
 use crate::image_io::Image;
 use crate::output::{Aov, BackendOutput, GpuStats, RayCounts};
-use crate::scene::Scene;
+use crate::scene::{Camera, Scene};
 use crate::Result;
 
 use crate::options::{Backend, Precision, RenderOptions};
@@ -110,47 +110,66 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
     })
 }
 
-impl Prepared<'_> {
-    /// Renders on the CPU.
-    pub fn render_cpu(&self, opts: &RenderOptions) -> Result<Rendered> {
-        let (scene, accel) = (self.scene, &self.accel);
-        let progress = crate::progress::Progress::bar(opts.progress, opts.height as u64, "rows");
-        let t0 = Instant::now();
-        let out = match opts.precision {
-            Precision::F64 => {
-                CpuRenderer::<f64>::new(scene, accel, opts.max_depth, opts.techniques)
-                    .render_with_progress(opts.width, opts.height, opts.spp, &progress)
-            }
-            Precision::F32 => {
-                CpuRenderer::<f32>::new(scene, accel, opts.max_depth, opts.techniques)
-                    .render_with_progress(opts.width, opts.height, opts.spp, &progress)
-            }
+impl<'s> Prepared<'s> {
+    /// A renderer of this scene on the CPU.
+    pub fn cpu_renderer(&self, opts: &RenderOptions) -> Renderer<'_> {
+        let engine = match opts.precision {
+            Precision::F64 => Engine::Cpu64(CpuRenderer::new(
+                self.scene,
+                &self.accel,
+                opts.max_depth,
+                opts.techniques,
+            )),
+            Precision::F32 => Engine::Cpu32(CpuRenderer::new(
+                self.scene,
+                &self.accel,
+                opts.max_depth,
+                opts.techniques,
+            )),
         };
-        let render_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let device = format!("cpu ({} threads)", rayon::current_num_threads());
-        let precision = match opts.precision {
-            Precision::F32 => "f32",
-            Precision::F64 => "f64",
-        };
-        Ok(self.rendered(opts, out, "cpu", device, precision, render_ms))
+        Renderer {
+            prepared: self,
+            opts: opts.clone(),
+            engine,
+            device: format!("cpu ({} threads)", rayon::current_num_threads()),
+            pending_ms: 0.0,
+        }
     }
 
-    /// Renders on the GPU in `ctx`: the scene uploaded, the programs compiled and the image
-    /// rendered (all counted in `render_ms`).
-    pub fn render_gl(&self, ctx: &GlContext, opts: &RenderOptions) -> Result<Rendered> {
+    /// A renderer of this scene on the GPU in `ctx`: the scene packed now, uploaded and its
+    /// programs compiled by the first frame (and charged to it), kept for every frame.
+    pub fn gl_renderer<'r>(
+        &'r self,
+        ctx: &'r GlContext,
+        opts: &RenderOptions,
+    ) -> Result<Renderer<'r>> {
         ctx.info.check_image_size(opts.width, opts.height)?;
         let t0 = Instant::now();
         let gs = GpuScene::new(ctx, self.scene, &self.accel, opts.gpu.no_specialize)?;
-        let out = gpu::render::render(&gs, &self.request(opts), None)?;
-        let render_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let device = ctx.info.renderer.clone();
-        Ok(self.rendered(opts, out, "gl", device, "f32", render_ms))
+        Ok(Renderer {
+            prepared: self,
+            opts: opts.clone(),
+            engine: Engine::Gl(Box::new(gs)),
+            device: ctx.info.renderer.clone(),
+            pending_ms: t0.elapsed().as_secs_f64() * 1e3,
+        })
     }
 
-    /// The GPU request of `opts` from the scene's camera.
-    pub fn request(&self, opts: &RenderOptions) -> ImageRequest {
+    /// Renders once on the CPU.
+    pub fn render_cpu(&self, opts: &RenderOptions) -> Result<Rendered> {
+        self.cpu_renderer(opts).render(&self.scene.camera)
+    }
+
+    /// Renders once on the GPU in `ctx`: the scene uploaded, the programs compiled and the
+    /// image rendered (all counted in `render_ms`).
+    pub fn render_gl(&self, ctx: &GlContext, opts: &RenderOptions) -> Result<Rendered> {
+        self.gl_renderer(ctx, opts)?.render(&self.scene.camera)
+    }
+
+    /// The GPU request of `opts` from `camera`.
+    pub fn request(&self, opts: &RenderOptions, camera: &Camera) -> ImageRequest {
         ImageRequest {
-            camera: self.scene.camera,
+            camera: *camera,
             width: opts.width,
             height: opts.height,
             spp: opts.spp,
@@ -203,6 +222,74 @@ impl Prepared<'_> {
             stats,
         }
     }
+}
+
+/// The backend a [`Renderer`] keeps between frames.
+enum Engine<'p> {
+    Cpu64(CpuRenderer<'p, f64>),
+    Cpu32(CpuRenderer<'p, f32>),
+    Gl(Box<GpuScene<'p>>),
+}
+
+/// A scene prepared once and rendered frame after frame from any camera: on the CPU its
+/// geometry converted once, on the GPU uploaded and compiled once ([`GpuScene`]). What
+/// `render`, `view`, `bench` and animations render through.
+pub struct Renderer<'p> {
+    prepared: &'p Prepared<'p>,
+    opts: RenderOptions,
+    engine: Engine<'p>,
+    device: String,
+    /// Set-up time not yet charged to a frame (the GPU scene's packing).
+    pending_ms: f64,
+}
+
+impl Renderer<'_> {
+    /// Renders one frame from `camera`; `render_ms` counts what this frame spent,
+    /// including set-up the first frame paid for.
+    pub fn render(&mut self, camera: &Camera) -> Result<Rendered> {
+        let opts = &self.opts;
+        let t0 = Instant::now();
+        let (out, backend, precision) = match &mut self.engine {
+            Engine::Cpu64(r) => {
+                r.set_camera(*camera);
+                (cpu_frame(r, opts), "cpu", "f64")
+            }
+            Engine::Cpu32(r) => {
+                r.set_camera(*camera);
+                (cpu_frame(r, opts), "cpu", "f32")
+            }
+            Engine::Gl(gs) => {
+                let req = self.prepared.request(opts, camera);
+                (gpu::render::render(gs, &req, None)?, "gl", "f32")
+            }
+        };
+        let render_ms = t0.elapsed().as_secs_f64() * 1e3 + std::mem::take(&mut self.pending_ms);
+        Ok(self.prepared.rendered(
+            opts,
+            out,
+            backend,
+            self.device.clone(),
+            precision,
+            render_ms,
+        ))
+    }
+
+    /// The GPU scene, for a GPU renderer.
+    pub fn gpu_scene(&self) -> Option<&GpuScene<'_>> {
+        match &self.engine {
+            Engine::Gl(gs) => Some(gs),
+            Engine::Cpu64(_) | Engine::Cpu32(_) => None,
+        }
+    }
+}
+
+/// One CPU frame with a progress bar over its rows.
+fn cpu_frame<T: crate::cpu::real::Real>(
+    r: &CpuRenderer<'_, T>,
+    opts: &RenderOptions,
+) -> BackendOutput {
+    let progress = crate::progress::Progress::bar(opts.progress, opts.height as u64, "rows");
+    r.render_with_progress(opts.width, opts.height, opts.spp, &progress)
 }
 
 /// Builds the acceleration structure and renders `scene` on the CPU.

@@ -29,6 +29,8 @@ struct Tally {
 /// A scene prepared for CPU rendering in precision `T`.
 pub struct CpuRenderer<'a, T> {
     scene: &'a Scene,
+    /// The camera primary rays start from (the scene's, or a frame's of an animation).
+    camera: crate::scene::Camera,
     walker: Walker<'a, T>,
     max_depth: u32,
     background: V3<T>,
@@ -51,12 +53,19 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
     ) -> Self {
         CpuRenderer {
             scene,
+            camera: scene.camera,
             walker: Walker::new(scene, accel.into(), techniques),
             offset: techniques.offset,
             max_depth,
             background: V3::from_vec3(scene.background),
             ambient: V3::from_vec3(scene.ambient),
         }
+    }
+
+    /// Renders from `camera` from now on (a frame of an animation): nothing else changes,
+    /// so the scene's converted geometry is kept.
+    pub fn set_camera(&mut self, camera: crate::scene::Camera) {
+        self.camera = camera;
     }
 
     /// Radiance along a unit-direction ray at recursion depth `depth` (primary = 0).
@@ -122,7 +131,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
 
     /// Primary ray for sample position (px, py) in pixel units.
     pub fn primary_ray(&self, w: u32, h: u32, px: f64, py: f64) -> Ray<T> {
-        let cam = &self.scene.camera;
+        let cam = &self.camera;
         Ray {
             o: V3::from_vec3(cam.eye),
             d: V3::from_dvec3(cam.direction_at(w, h, px, py)),

@@ -7,7 +7,7 @@ use fragtrace::gpu::gl::{
     compile_program, FullscreenQuad, RenderTarget, Texture, QUAD_VERTEX_SHADER,
 };
 use fragtrace::gpu::layout::SceneTextures;
-use fragtrace::gpu::shader::{assemble_text, Features};
+use fragtrace::gpu::shader::{assemble_text, sources, Features};
 use fragtrace::gpu::GlContext;
 use fragtrace::scene::{Camera, Material, Scene};
 use fragtrace::technique::Techniques;
@@ -64,8 +64,9 @@ pub(crate) fn run_cases_grid(
         &dummy_layout(),
     )
     .unwrap();
-    let prog =
-        compile_program(ctx, "test", QUAD_VERTEX_SHADER, &a.source, &|l| a.origin(l)).unwrap();
+    let prog = compile_program(ctx, "test", QUAD_VERTEX_SHADER, &a.source, &|l| a.origin(l))
+        .unwrap()
+        .declaring(a.declared.clone());
     let tex = Texture::new_f32(ctx, n, k, Some(&data)).unwrap();
     let target = RenderTarget::new(ctx, n, 1, 1).unwrap();
     let quad = FullscreenQuad::new(ctx).unwrap();
@@ -77,19 +78,15 @@ pub(crate) fn run_cases_grid(
         gl.bind_texture(glow::TEXTURE_2D, Some(tex.name()));
         gl.uniform_1_i32(gl.get_uniform_location(prog.name(), "u_in").as_ref(), 0);
         if let Some(g) = grid {
+            use fragtrace::gpu::contract::uniform;
             let res = glam::UVec3::from(g.res).as_vec3();
-            for (name, v) in [
-                ("u_grid_min", g.min),
-                ("u_grid_max", g.max),
-                ("u_cell_size", g.cell_size),
-                ("u_grid_res", res),
+            for (u, v) in [
+                (uniform::GRID_MIN, g.min),
+                (uniform::GRID_MAX, g.max),
+                (uniform::CELL_SIZE, g.cell_size),
+                (uniform::GRID_RES, res),
             ] {
-                gl.uniform_3_f32(
-                    gl.get_uniform_location(prog.name(), name).as_ref(),
-                    v.x,
-                    v.y,
-                    v.z,
-                );
+                prog.set(gl, u, v).unwrap();
             }
         }
     }
@@ -153,9 +150,15 @@ pub(crate) fn run_program(
     use fragtrace::gpu::contract::Unit;
     let gl = ctx.gl();
     let n = inputs[0].1.len() as u32;
+    // A shipped pass under its own name, so assembly declares what the contract says it
+    // reads; a test's own text under `test.frag`, declaring its inputs itself.
+    let file = sources()
+        .iter()
+        .find(|(_, t)| *t == text)
+        .map_or("test.frag", |(name, _)| *name);
     let a = assemble_text(
         "test",
-        "test.frag",
+        file,
         text,
         defines,
         Features::all(),

@@ -1,0 +1,72 @@
+"""Mitsuba 3 on the equal-work view of ci/peers/equal-work.toml: the Stanford bunny on a 4x4
+diffuse floor at y = 0.0335, one point light, primary rays plus one shadow ray per hit
+(`direct`, emitter_samples = 1, bsdf_samples = 0), 1 sample per pixel.
+
+    python3 mitsuba_equal_work.py BUNNY.obj VARIANT SIZE[,SIZE...] [RUNS]
+
+Prints one line per size: load/build seconds, then each timed render from `mi.render` to
+the image in host memory (a NumPy array), after one warm-up render."""
+import sys
+import time
+
+import mitsuba as mi
+
+obj, variant, sizes = sys.argv[1], sys.argv[2], [int(s) for s in sys.argv[3].split(",")]
+runs = int(sys.argv[4]) if len(sys.argv) > 4 else 5
+mi.set_variant(variant)
+import numpy as np  # noqa: E402  (after the variant, as Mitsuba's examples do)
+
+T = mi.ScalarTransform4f
+
+
+def scene(size):
+    return {
+        "type": "scene",
+        "integrator": {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0},
+        "sensor": {
+            "type": "perspective",
+            "fov": 32.0,
+            "fov_axis": "y",
+            "to_world": T().look_at(
+                origin=[-0.2, 0.17, 0.36], target=[-0.015, 0.1, 0.0], up=[0, 1, 0]
+            ),
+            "sampler": {"type": "independent", "sample_count": 1},
+            "film": {
+                "type": "hdrfilm",
+                "width": size,
+                "height": size,
+                "rfilter": {"type": "box"},
+                "pixel_format": "rgb",
+            },
+        },
+        "bunny": {
+            "type": "obj",
+            "filename": obj,
+            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.77, 0.74, 0.68]}},
+        },
+        "floor": {
+            "type": "rectangle",
+            "to_world": T().translate([0, 0.0335, 0]).rotate([1, 0, 0], -90).scale(2.0),
+            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.4, 0.4, 0.4]}},
+        },
+        "light": {"type": "point", "position": [-0.6, 1.2, 0.9], "intensity": {"type": "rgb", "value": 0.85}},
+    }
+
+
+for size in sizes:
+    t0 = time.perf_counter()
+    s = mi.load_dict(scene(size))
+    load = time.perf_counter() - t0
+    np.asarray(mi.render(s, spp=1))  # warm-up: kernel compilation, caches
+    times = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        img = np.asarray(mi.render(s, spp=1))
+        times.append((time.perf_counter() - t) * 1e3)
+    times.sort()
+    print(
+        f"mitsuba {variant} {size}x{size}: load+build {load:.3f} s, render ms "
+        f"{' '.join(f'{x:.1f}' for x in times)} (median {times[len(times) // 2]:.1f}), "
+        f"mean {float(img.mean()):.4f}",
+        flush=True,
+    )
