@@ -28,6 +28,8 @@ pub mod progress;
 pub mod render;
 pub mod scene;
 pub mod technique;
+#[cfg(test)]
+pub(crate) mod testing;
 pub mod view;
 
 pub use error::{Error, Result};

@@ -6,7 +6,7 @@ use common::Rng;
 use fragtrace::accel::{Grid, GridConfig, GridRes};
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin, secondary, surface};
-use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
+use fragtrace::cpu::traverse::{CellWalk, GridWalker, Ray, Work};
 use fragtrace::options::{Precision, RenderOptions};
 use fragtrace::render::render_cpu;
 use fragtrace::scene::{Camera, Light, Material, Scene};

@@ -504,7 +504,7 @@ fn check_traced(
     any: &[fragtrace::gpu::render::GpuTrace],
 ) {
     use fragtrace::cpu::real::V3;
-    use fragtrace::cpu::traverse::{Ray, Work};
+    use fragtrace::cpu::traverse::{CellWalk, Ray, Work};
     let (mut same, mut hits, mut any_same) = (0, 0, 0);
     for (k, ray) in rays.iter().enumerate() {
         let cr = Ray {

@@ -14,7 +14,7 @@ use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, RngSee
 
 use fragtrace::accel::{AccelRef, Grid, GridConfig, GridRes, IrregularConfig, IrregularGrid};
 use fragtrace::cpu::real::{Real, V3};
-use fragtrace::cpu::traverse::{Hit, Ray, Work};
+use fragtrace::cpu::traverse::{CellWalk, Hit, Ray, Work};
 use fragtrace::cpu::walker::Walker;
 use fragtrace::options::{Backend, Precision, RenderOptions};
 use fragtrace::scene::{
@@ -431,10 +431,7 @@ fn agree<T: Real>(
 ) -> Result<(), TestCaseError> {
     let accel = Walker::<T>::new(s, grid, Default::default());
     // Brute force over every triangle, whichever walker holds them (the same function).
-    let brute = |ray: &Ray<T>| match &accel {
-        Walker::Uniform(w) => w.brute_force(ray),
-        Walker::Irregular(w) => w.brute_force(ray),
-    };
+    let brute = |ray: &Ray<T>| accel.brute_force(ray);
     for (o, d) in rays {
         let v = |a: &[f64; 3]| V3::new(T::from_f64(a[0]), T::from_f64(a[1]), T::from_f64(a[2]));
         let ray = Ray {

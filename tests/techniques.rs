@@ -19,7 +19,7 @@ use common::Rng;
 use fragtrace::accel::{Grid, GridConfig};
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin_with, reflect, surface};
-use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
+use fragtrace::cpu::traverse::{CellWalk, GridWalker, Ray, Work};
 use fragtrace::gpu::options::GpuOptions;
 use fragtrace::gpu::options::Kernel;
 use fragtrace::gpu::render::{trace_rays, GpuRay};

@@ -3,8 +3,8 @@
 //! and padding worked out by hand, resolution choice, limits and statistics.
 
 use super::*;
-use crate::accel::tribox::tests::{clip_overlap, test_seed, Rng};
-use crate::accel::two_level::tests::{empty_scene, scene_of, soup, with_threads};
+use crate::accel::tribox::tests::clip_overlap;
+use crate::testing::{empty_scene, scene_of, soup, test_seed, with_threads, Rng};
 
 fn fixed(res: [u32; 3]) -> GridConfig {
     GridConfig {

@@ -1,6 +1,7 @@
 //! The irregular grid's exit boxes (see [`super::irregular`]): the emptiness query over
 //! the voxel map, the summed-volume table that answers it for whole top cells, and the
-//! growth of an empty cell's box face by face. Split from the build by job.
+//! growth of an empty cell's box face by face. Split from the build by job; imports the
+//! structure, never the build (`irregular_build.rs` imports this).
 
 use super::irregular::{IrrCell, IrregularGrid, NODE};
 
@@ -8,6 +9,11 @@ use super::irregular::{IrrCell, IrregularGrid, NODE};
 const GROW_ROUNDS: usize = 4;
 
 impl IrregularGrid {
+    /// True when no cell with triangles overlaps the virtual box `lo .. hi`.
+    pub fn box_is_empty(&self, lo: [u32; 3], hi: [u32; 3]) -> bool {
+        self.box_is_empty_with(&Occupancy::new(self), lo, hi)
+    }
+
     /// [`IrregularGrid::box_is_empty`] with the top cells the box covers whole counted in
     /// `occ` at once; only the top cells it cuts are descended.
     pub(super) fn box_is_empty_with(&self, occ: &Occupancy, lo: [u32; 3], hi: [u32; 3]) -> bool {

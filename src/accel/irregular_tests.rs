@@ -3,9 +3,8 @@
 //! thread counts, limits. Traversal tests are in `cpu/traverse_irregular_tests.rs`.
 
 use super::*;
-use crate::accel::tribox::tests::{test_seed, Rng};
 use crate::accel::tribox::tri_box_overlap;
-use crate::accel::two_level::tests::{empty_scene, scene_of, soup, with_threads};
+use crate::testing::{empty_scene, scene_of, soup, test_seed, with_threads, Rng};
 
 /// Structural invariants and completeness, checked by brute force:
 /// - the cells' own boxes tile the virtual grid, and `lookup` of every virtual cell of a

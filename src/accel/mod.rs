@@ -1,7 +1,8 @@
 //! Acceleration structures over the scene's triangles, built on the CPU and walked one
 //! step at a time by every backend: the thesis's uniform grid ([`grid`], a 3D-DDA) and the
 //! irregular grid ([`irregular`], adaptive cells with exit boxes), chosen with `--accel`
-//! ([`AccelKind`]); [`two_level`] is the two-level grid they were measured against.
+//! ([`AccelKind`]). (The two-level grid they were measured against was removed; see
+//! docs/architecture.md.)
 //!
 //! [`binning`] bins triangles into a level's cells conservatively; [`tribox`] holds the
 //! exact triangle/box overlap test the binning relies on.
@@ -9,9 +10,9 @@
 pub mod binning;
 pub mod grid;
 pub mod irregular;
+mod irregular_build;
 mod irregular_grow;
 pub mod tribox;
-pub mod two_level;
 
 pub use grid::{CellRange, Grid, GridConfig, GridRes, GridStats};
 

@@ -63,43 +63,7 @@ fn separates(axis: DVec3, half: DVec3, v: &[DVec3; 3]) -> bool {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-
-    /// SplitMix64: a tiny deterministic generator so tests need no extra crate.
-    pub(crate) struct Rng(u64);
-
-    impl Rng {
-        pub(crate) fn new(seed: u64) -> Self {
-            Rng(seed)
-        }
-        pub(crate) fn next_u64(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        }
-        /// Uniform in [0, 1).
-        pub(crate) fn f64(&mut self) -> f64 {
-            (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-        }
-        pub(crate) fn range(&mut self, lo: f64, hi: f64) -> f64 {
-            lo + (hi - lo) * self.f64()
-        }
-        pub(crate) fn dvec3(&mut self, lo: f64, hi: f64) -> DVec3 {
-            DVec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
-        }
-    }
-
-    /// Seed for randomized tests: `FRAGTRACE_TEST_SEED` when set, else `default`. Always
-    /// printed so a failure can be replayed.
-    pub(crate) fn test_seed(name: &str, default: u64) -> u64 {
-        let seed = std::env::var("FRAGTRACE_TEST_SEED")
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(default);
-        println!("{name}: seed {seed} (override with FRAGTRACE_TEST_SEED)");
-        seed
-    }
+    use crate::testing::{test_seed, Rng};
 
     /// Independent reference: clip the triangle against the six slabs of `center ± half`
     /// (Sutherland-Hodgman) and report whether anything is left. Exact up to f64 rounding,

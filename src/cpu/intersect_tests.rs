@@ -4,7 +4,7 @@
 //! random rays against an f64 plane solve, which shares no code with either method.
 
 use super::*;
-use crate::accel::tribox::tests::{test_seed, Rng};
+use crate::testing::{gamma64, test_seed, Rng};
 
 fn v(x: f64, y: f64, z: f64) -> V3<f64> {
     V3::new(x, y, z)
@@ -101,12 +101,6 @@ fn random_rays_agree_with_plane_solve() {
     // worst up to 1.2e-15. The error bound sits 8x above the largest, the count 1.4x below
     // the smallest.
     assert!(hits > 4000, "only {hits} hits (seed {seed})");
-}
-
-/// pbrt's γ(n) = n·u / (1 − n·u) for f64, written out here rather than taken from `Real`.
-pub(crate) fn gamma64(n: f64) -> f64 {
-    let u = f64::EPSILON / 2.0;
-    n * u / (1.0 - n * u)
 }
 
 #[test]

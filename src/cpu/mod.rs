@@ -8,7 +8,6 @@ pub mod render;
 pub mod shade;
 pub mod traverse;
 pub mod traverse_irregular;
-pub mod traverse_two_level;
 pub mod walker;
 
 pub use render::{CpuOutput, CpuRenderer};

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::real::{Real, V3};
 use super::shade::{albedo, light_term, offset_origin_with, secondary, surface};
-use super::traverse::{Hit, Ray, Work};
+use super::traverse::{CellWalk, Hit, Ray, Work};
 use super::walker::Walker;
 use crate::accel::AccelRef;
 use crate::image_io::Image;

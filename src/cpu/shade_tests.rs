@@ -9,12 +9,10 @@
 use glam::Vec3;
 
 use super::*;
-use crate::accel::tribox::tests::{test_seed, Rng};
-use crate::accel::two_level::tests::scene_of;
-use crate::cpu::intersect::tests::gamma64;
 use crate::cpu::intersect::{intersect_watertight, RayShear};
 use crate::scene::{Checker, CheckerAxes, Triangle};
 use crate::technique::TBound;
+use crate::testing::{gamma64, scene_of, test_seed, Rng};
 
 fn v(x: f64, y: f64, z: f64) -> V3<f64> {
     V3::new(x, y, z)

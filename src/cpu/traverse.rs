@@ -162,6 +162,93 @@ impl<'a, T: Real> GridWalker<'a, T> {
         }
         c
     }
+}
+
+/// A cell-by-cell walk of an acceleration structure: everything a structure's walker
+/// supplies ([`CellWalk::walk`] and its triangles, lists and techniques), from which the
+/// queries every backend needs follow once, with one per-cell rule for all structures:
+/// [`CellWalk::closest_hit`], [`CellWalk::any_hit`] and the brute-force oracle
+/// [`CellWalk::brute_force`]. Implemented by [`GridWalker`], the irregular grid's
+/// [`IrregularWalker`](super::traverse_irregular::IrregularWalker) and the renderer's
+/// [`Walker`](super::walker::Walker), which dispatches to either.
+pub trait CellWalk<T: Real> {
+    /// Vertices of every triangle, in load order, in precision `T`.
+    fn tris(&self) -> &[[V3<T>; 3]];
+
+    /// The flat triangle-index list the cells' ranges point into.
+    fn list(&self) -> &[u32];
+
+    /// Intersection test and t bound used by every query.
+    fn techniques(&self) -> &Techniques;
+
+    /// Runs the walk, calling `visit(cell_range, t_exit)` for each cell in order until it
+    /// returns true (stop) or the ray leaves the structure or its interval. Adds the cells
+    /// visited to `work`.
+    fn walk(&self, ray: &Ray<T>, work: &mut Work, visit: impl FnMut(CellRange, T) -> bool);
+
+    /// Closest hit in (t_min, t_max). Per cell, the closest hit among the cell's triangles
+    /// is found first (ties within [`TIE_EPS`] go to the lower index), then accepted only if
+    /// it is not beyond the cell's exit (plus `gamma(8)` relative slack, which conservative
+    /// binning covers); otherwise it is forgotten and the walk goes on, since a closer hit
+    /// may lie in the next cell. Deciding on the cell's closest hit, not hit by hit, keeps
+    /// coplanar duplicates from straddling the exit test differently on different backends.
+    #[inline]
+    fn closest_hit(&self, ray: &Ray<T>, work: &mut Work) -> Option<Hit<T>> {
+        let shear = RayShear::new(ray.d);
+        let (tris, list, techniques) = (self.tris(), self.list(), self.techniques());
+        let mut found: Option<Hit<T>> = None;
+        let slack = T::gamma(8);
+        let mut tests = 0u64;
+        self.walk(ray, work, |range, t_exit| {
+            let limit = t_exit + t_exit.abs() * slack;
+            let cell = cell_list(list, range).iter().copied();
+            match closest_of(ray, &shear, tris, cell, techniques, &mut tests) {
+                Some(h) if h.t <= limit => {
+                    found = Some(h);
+                    true
+                }
+                _ => false,
+            }
+        });
+        work.tests += tests;
+        found
+    }
+
+    /// True when anything is hit in (t_min, t_max): the shadow-ray query.
+    #[inline]
+    fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool {
+        let shear = RayShear::new(ray.d);
+        let (tris, list, techniques) = (self.tris(), self.list(), self.techniques());
+        let mut tests = 0u64;
+        let mut found = false;
+        self.walk(ray, work, |range, _| {
+            let cell = cell_list(list, range).iter().copied();
+            found = any_of(ray, &shear, tris, cell, techniques, &mut tests);
+            found
+        });
+        work.tests += tests;
+        found
+    }
+
+    /// Brute-force closest hit over all triangles with the same tie rule: the oracle for
+    /// tests.
+    fn brute_force(&self, ray: &Ray<T>) -> Option<Hit<T>> {
+        brute_force(ray, self.tris(), self.techniques())
+    }
+}
+
+impl<T: Real> CellWalk<T> for GridWalker<'_, T> {
+    fn tris(&self) -> &[[V3<T>; 3]] {
+        &self.tris
+    }
+
+    fn list(&self) -> &[u32] {
+        self.list
+    }
+
+    fn techniques(&self) -> &Techniques {
+        &self.techniques
+    }
 
     /// Runs the DDA, calling `visit(cell_range, t_exit)` for each cell in order until it
     /// returns true (stop) or the ray leaves the grid or its interval.
@@ -196,52 +283,6 @@ impl<'a, T: Real> GridWalker<'a, T> {
             }
             tn[axis] = self.boundary(ray, axis, c[axis]);
         }
-    }
-
-    /// Closest hit in (t_min, t_max). Per cell, the closest hit among the cell's triangles
-    /// is found first (ties within [`TIE_EPS`] go to the lower index), then accepted only if
-    /// it is not beyond the cell's exit (plus a few ulps, which conservative binning
-    /// covers); otherwise it is forgotten and the walk goes on, since a closer hit may lie in
-    /// the next cell. Deciding on the cell's closest hit, not hit by hit, keeps coplanar
-    /// duplicates from straddling the exit test differently on different backends.
-    pub fn closest_hit(&self, ray: &Ray<T>, work: &mut Work) -> Option<Hit<T>> {
-        let shear = RayShear::new(ray.d);
-        let mut found: Option<Hit<T>> = None;
-        let slack = T::gamma(8);
-        let mut tests = 0u64;
-        self.walk(ray, work, |range, t_exit| {
-            let limit = t_exit + t_exit.abs() * slack;
-            let cell = cell_list(self.list, range).iter().copied();
-            match closest_of(ray, &shear, &self.tris, cell, &self.techniques, &mut tests) {
-                Some(h) if h.t <= limit => {
-                    found = Some(h);
-                    true
-                }
-                _ => false,
-            }
-        });
-        work.tests += tests;
-        found
-    }
-
-    /// True when anything is hit in (t_min, t_max): the shadow-ray query.
-    pub fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool {
-        let shear = RayShear::new(ray.d);
-        let mut tests = 0u64;
-        let mut found = false;
-        self.walk(ray, work, |range, _| {
-            let cell = cell_list(self.list, range).iter().copied();
-            found = any_of(ray, &shear, &self.tris, cell, &self.techniques, &mut tests);
-            found
-        });
-        work.tests += tests;
-        found
-    }
-
-    /// Brute-force closest hit over all triangles, with the same tie rule: the oracle for
-    /// tests.
-    pub fn brute_force(&self, ray: &Ray<T>) -> Option<Hit<T>> {
-        brute_force(ray, &self.tris, &self.techniques)
     }
 }
 

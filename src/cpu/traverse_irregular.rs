@@ -11,13 +11,12 @@
 //! other axes the one holding `o + d * t_exit`, clamped into the exit box's range (the exit
 //! point lies on that face, so the clamp only absorbs rounding and guarantees progress).
 //! The voxel map gives the cell holding it. A cell's closest hit is accepted when it is
-//! within `t_exit` plus `gamma(8)` relative slack, as `closest_hit` in `cpu/traverse.rs`
+//! within `t_exit` plus `gamma(8)` relative slack, as [`CellWalk::closest_hit`]
 //! accepts a cell's; the exit box holds no other triangle, so nothing closer can follow.
 //! `Work::cells` counts steps.
 
-use super::intersect::RayShear;
 use super::real::{Real, V3};
-use super::traverse::{any_of, brute_force, cell_list, clip_box, closest_of, Hit, Ray, Work};
+use super::traverse::{clip_box, CellWalk, Ray, Work};
 use crate::accel::irregular::{IrrCell, IrregularGrid};
 use crate::accel::CellRange;
 use crate::scene::Scene;
@@ -144,6 +143,20 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
             (tn[2], 2)
         }
     }
+}
+
+impl<T: Real> CellWalk<T> for IrregularWalker<'_, T> {
+    fn tris(&self) -> &[[V3<T>; 3]] {
+        &self.tris
+    }
+
+    fn list(&self) -> &[u32] {
+        &self.grid.tri_indices
+    }
+
+    fn techniques(&self) -> &Techniques {
+        &self.techniques
+    }
 
     /// Runs the walk, calling `visit(cell_range, t_exit)` for each cell in order until it
     /// returns true (stop) or the ray leaves the grid or its interval.
@@ -182,49 +195,6 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
             id = g.lookup(k);
             t_prev = t_exit;
         }
-    }
-
-    /// Closest hit in (t_min, t_max), with the per-cell rule of
-    /// [`GridWalker::closest_hit`](super::traverse::GridWalker::closest_hit).
-    pub fn closest_hit(&self, ray: &Ray<T>, work: &mut Work) -> Option<Hit<T>> {
-        let shear = RayShear::new(ray.d);
-        let mut found: Option<Hit<T>> = None;
-        let slack = T::gamma(8);
-        let mut tests = 0u64;
-        let list = &self.grid.tri_indices;
-        self.walk(ray, work, |range, t_exit| {
-            let limit = t_exit + t_exit.abs() * slack;
-            let cell = cell_list(list, range).iter().copied();
-            match closest_of(ray, &shear, &self.tris, cell, &self.techniques, &mut tests) {
-                Some(h) if h.t <= limit => {
-                    found = Some(h);
-                    true
-                }
-                _ => false,
-            }
-        });
-        work.tests += tests;
-        found
-    }
-
-    /// True when anything is hit in (t_min, t_max): the shadow-ray query.
-    pub fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool {
-        let shear = RayShear::new(ray.d);
-        let mut tests = 0u64;
-        let mut found = false;
-        let list = &self.grid.tri_indices;
-        self.walk(ray, work, |range, _| {
-            let cell = cell_list(list, range).iter().copied();
-            found = any_of(ray, &shear, &self.tris, cell, &self.techniques, &mut tests);
-            found
-        });
-        work.tests += tests;
-        found
-    }
-
-    /// Brute-force closest hit over all triangles with the same tie rule: the oracle.
-    pub fn brute_force(&self, ray: &Ray<T>) -> Option<Hit<T>> {
-        brute_force(ray, &self.tris, &self.techniques)
     }
 }
 

@@ -7,11 +7,10 @@ use glam::{DVec3, Vec3};
 
 use super::*;
 use crate::accel::irregular::IrregularConfig;
-use crate::accel::tribox::tests::{test_seed, Rng};
-use crate::accel::two_level::tests::{scene_of, soup};
 use crate::cpu::real::Real;
-use crate::cpu::traverse_two_level::tests::{
-    primary_rays, random_rays, ray_of, rays_through, sphere,
+use crate::cpu::traverse::Hit;
+use crate::testing::{
+    primary_rays, random_rays, ray_of, rays_through, scene_of, soup, sphere, test_seed, Rng,
 };
 
 /// Checks closest_hit and any_hit against brute force for every ray, in precision `T`.

@@ -8,10 +8,8 @@
 use glam::DVec3;
 
 use super::*;
-use crate::accel::tribox::tests::{test_seed, Rng};
-use crate::accel::two_level::tests::{scene_of, soup};
 use crate::accel::GridConfig;
-use crate::cpu::traverse_two_level::tests::{random_rays, ray_of};
+use crate::testing::{random_rays, ray_of, scene_of, soup, test_seed, Rng};
 
 fn ray<T: Real>(o: [f64; 3], d: [f64; 3], t_min: f64, t_max: f64) -> Ray<T> {
     Ray {

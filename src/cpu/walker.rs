@@ -1,11 +1,12 @@
 //! The CPU renderer's traversal over whichever structure was built: a closed enum over the
 //! uniform-grid and irregular-grid walkers, so the renderer's inner loop dispatches with
-//! one predictable branch instead of a virtual call.
+//! one predictable branch instead of a virtual call. Its queries (`closest_hit`, `any_hit`,
+//! `brute_force`) come from [`CellWalk`], like every walker's.
 
 use super::real::{Real, V3};
-use super::traverse::{GridWalker, Hit, Ray, Work};
+use super::traverse::{CellWalk, GridWalker, Ray, Work};
 use super::traverse_irregular::IrregularWalker;
-use crate::accel::AccelRef;
+use crate::accel::{AccelRef, CellRange};
 use crate::scene::Scene;
 use crate::technique::Techniques;
 
@@ -27,30 +28,35 @@ impl<'a, T: Real> Walker<'a, T> {
             AccelRef::Irregular(g) => Walker::Irregular(IrregularWalker::new(scene, g, techniques)),
         }
     }
+}
 
-    /// Vertices of every triangle, in load order, in precision `T`.
-    pub fn tris(&self) -> &[[V3<T>; 3]] {
+impl<T: Real> CellWalk<T> for Walker<'_, T> {
+    fn tris(&self) -> &[[V3<T>; 3]] {
         match self {
-            Walker::Uniform(w) => &w.tris,
-            Walker::Irregular(w) => &w.tris,
+            Walker::Uniform(w) => w.tris(),
+            Walker::Irregular(w) => w.tris(),
         }
     }
 
-    /// Closest hit in (t_min, t_max).
-    #[inline]
-    pub fn closest_hit(&self, ray: &Ray<T>, work: &mut Work) -> Option<Hit<T>> {
+    fn list(&self) -> &[u32] {
         match self {
-            Walker::Uniform(w) => w.closest_hit(ray, work),
-            Walker::Irregular(w) => w.closest_hit(ray, work),
+            Walker::Uniform(w) => w.list(),
+            Walker::Irregular(w) => w.list(),
         }
     }
 
-    /// True when anything is hit in (t_min, t_max).
-    #[inline]
-    pub fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool {
+    fn techniques(&self) -> &Techniques {
         match self {
-            Walker::Uniform(w) => w.any_hit(ray, work),
-            Walker::Irregular(w) => w.any_hit(ray, work),
+            Walker::Uniform(w) => w.techniques(),
+            Walker::Irregular(w) => w.techniques(),
+        }
+    }
+
+    #[inline(always)]
+    fn walk(&self, ray: &Ray<T>, work: &mut Work, visit: impl FnMut(CellRange, T) -> bool) {
+        match self {
+            Walker::Uniform(w) => w.walk(ray, work, visit),
+            Walker::Irregular(w) => w.walk(ray, work, visit),
         }
     }
 }

@@ -519,8 +519,8 @@ mod tests {
         assert_eq!((t.width, t.height), (2, 1));
         assert_eq!(t.data, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 0.0, 0.0]);
 
-        use crate::accel::two_level::tests::scene_of;
         use crate::accel::{IrregularConfig, IrregularGrid};
+        use crate::testing::scene_of;
         use glam::Vec3;
         let s = scene_of(&[[Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z, Vec3::X, Vec3::Y]]);
         let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();

@@ -7,7 +7,7 @@ use crate::common::with_test_context;
 use crate::common::Rng;
 use crate::support::*;
 use fragtrace::cpu::real::{Real, V3};
-use fragtrace::cpu::traverse::{GridWalker, Ray};
+use fragtrace::cpu::traverse::{CellWalk, GridWalker, Ray};
 use fragtrace::render::Rendered;
 use fragtrace::scene::{Material, Scene};
 use glam::{DVec3, Vec3};

@@ -11,7 +11,7 @@ use fragtrace::accel::AccelKind;
 use fragtrace::accel::AccelRef;
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin, secondary, surface, Secondary, SurfacePoint};
-use fragtrace::cpu::traverse::{Ray, Work};
+use fragtrace::cpu::traverse::{CellWalk, Ray, Work};
 use fragtrace::cpu::walker::Walker;
 use fragtrace::gpu::shader::Query;
 use fragtrace::options::Precision;

@@ -18,7 +18,7 @@ use fragtrace::accel::{
 };
 use fragtrace::compare::compare;
 use fragtrace::cpu::real::{Real, V3};
-use fragtrace::cpu::traverse::{GridWalker, Ray, Work};
+use fragtrace::cpu::traverse::{CellWalk, GridWalker, Ray, Work};
 use fragtrace::cpu::walker::Walker;
 use fragtrace::gpu::options::GpuOptions;
 use fragtrace::gpu::options::Kernel;
