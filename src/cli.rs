@@ -41,8 +41,9 @@ pub enum Command {
     /// image: they must come from one scene and one set of options and cover every pixel
     /// exactly once, or nothing is written.
     Merge(MergeArgs),
-    /// Print the EGL/GL context: versions, limits, required features, verdict.
-    Info,
+    /// Print the EGL/GL context: versions, limits, required features, verdict; and the
+    /// EGL devices `--gpu N` chooses from.
+    Info(InfoArgs),
     /// Write the final GLSL source of every pass for a scene (`builtin` for the built-in).
     DumpShaders(DumpArgs),
     /// Render in a window (X11), showing the render as it happens: the same GPU renderer,
@@ -104,6 +105,14 @@ pub struct ViewArgs {
     /// stop when the render is complete.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+}
+
+/// Arguments of `info`.
+#[derive(Args, Debug, Clone)]
+pub struct InfoArgs {
+    /// Report on EGL device N (as `render --gpu N` would use it) instead of the default.
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole_number)]
+    pub gpu: Option<u32>,
 }
 
 /// Arguments of `merge`.
@@ -584,9 +593,34 @@ pub fn run_merge(args: &MergeArgs) -> Result<crate::dist::merge::Merged> {
 }
 
 /// The `info` command: what the GL driver offers and whether fragtrace can run on it.
-pub fn run_info() -> Result<bool> {
-    let ctx = crate::gpu::GlContext::new_unchecked()?;
+pub fn run_info(args: &InfoArgs) -> Result<bool> {
+    let ctx = crate::gpu::GlContext::new_unchecked_on(args.gpu)?;
     println!("{}", ctx.info);
+    // The devices `--gpu N` picks from, and how they meet CUDA's numbering (Slurm's GPU
+    // binding sets CUDA_VISIBLE_DEVICES).
+    match crate::gpu::egl::list_devices() {
+        Ok(devices) => {
+            println!("EGL devices ({}; render --gpu N):", devices.len());
+            for d in &devices {
+                println!(
+                    "  --gpu {}: {}{}{}",
+                    d.index,
+                    d.name,
+                    d.cuda
+                        .map_or(String::new(), |c| format!(", CUDA device {c}")),
+                    if args.gpu == Some(d.index) {
+                        " (this report)"
+                    } else {
+                        ""
+                    }
+                );
+            }
+        }
+        Err(e) => println!("EGL devices: none listed ({e})"),
+    }
+    if let Ok(v) = std::env::var("CUDA_VISIBLE_DEVICES") {
+        println!("CUDA_VISIBLE_DEVICES={v}");
+    }
     Ok(ctx.info.verdict().is_ok())
 }
 
@@ -636,6 +670,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         region: None,
         task_index: None,
         tiles: None,
+        gpu: None,
         quiet: true,
         verbose: false,
     };
@@ -684,7 +719,7 @@ pub fn run(cli: Cli) -> Result<bool> {
         Some(Command::Compare(args)) => run_compare(&args),
         Some(Command::Bench(args)) => run_bench(&args).map(|_| true),
         Some(Command::Merge(args)) => run_merge(&args).map(|_| true),
-        Some(Command::Info) => run_info(),
+        Some(Command::Info(args)) => run_info(&args),
         Some(Command::View(args)) => run_view(&args).map(|()| true),
         Some(Command::DumpShaders(args)) => {
             let scene = if args.scene.as_os_str() == "builtin" {

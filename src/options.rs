@@ -82,6 +82,8 @@ pub struct RenderOptions {
     /// Render only these pixels of the `width` x `height` image (`--tile`, `--region`);
     /// each is bit-identical to the same pixel of the whole render. None: the whole image.
     pub region: Option<Region>,
+    /// The EGL device the GL backend opens (`--gpu N`); None: the first display that works.
+    pub device: Option<u32>,
 }
 
 impl RenderOptions {
@@ -101,6 +103,7 @@ impl RenderOptions {
             progress: false,
             techniques: crate::technique::Techniques::default(),
             region: None,
+            device: None,
         }
     }
 
@@ -267,6 +270,11 @@ pub struct RenderArgs {
     /// there are tasks).
     #[arg(long, value_name = "N|CxR", requires = "task_index")]
     pub tiles: Option<Tiling>,
+    /// GPU: render on EGL device N (`fragtrace info` lists them; on a Slurm GPU node, the
+    /// one the task was given: docs/distributed.md); default: the first display that
+    /// works.
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole_number)]
+    pub gpu: Option<u32>,
     /// Print nothing but errors (no progress display, no summary).
     #[arg(short, long)]
     pub quiet: bool,
@@ -349,6 +357,7 @@ impl RenderArgs {
         opts.gpu.mask = args.mask;
         opts.gpu.storage = args.storage;
         opts.gpu.scene_fetch = args.scene_fetch;
+        opts.device = args.gpu;
         opts.progress = !args.quiet;
         opts.techniques = Techniques {
             intersect: args.intersect,

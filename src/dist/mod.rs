@@ -56,15 +56,21 @@ pub fn options_line(opts: &RenderOptions, stats: &RenderStats) -> String {
     }
     s += &format!(" --techniques {}", opts.techniques.tag());
     if let Some(g) = &stats.gpu {
-        let kernel: crate::gpu::options::Kernel = g
-            .kernel
-            .parse()
-            .unwrap_or(crate::gpu::options::Kernel::Auto);
+        use crate::gpu::options::{FragmentKernel, Kernel};
+        // The mask a fragment kernel ran with (`auto` resolved as Mask::resolve does);
+        // the compute kernel has none.
+        let fragment = match g.kernel.parse::<Kernel>() {
+            Ok(Kernel::Multipass) => Some(FragmentKernel::Multipass),
+            Ok(Kernel::Looped) => Some(FragmentKernel::Looped),
+            Ok(Kernel::Unrolled(k)) => Some(FragmentKernel::Unrolled(k)),
+            _ => None,
+        };
+        s += &format!(" --kernel {} --scene-fetch {}", g.kernel, g.scene_fetch);
+        if let Some(k) = fragment {
+            s += &format!(" --mask {}", opts.gpu.mask.resolve(k));
+        }
         s += &format!(
-            " --kernel {} --scene-fetch {} --mask {} --storage {} --specialize {}",
-            g.kernel,
-            g.scene_fetch,
-            opts.gpu.mask.resolve(kernel),
+            " --storage {} --specialize {}",
             opts.gpu.storage,
             if opts.gpu.no_specialize { "no" } else { "yes" }
         );
