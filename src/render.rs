@@ -107,16 +107,18 @@ impl Prepared<'_> {
     /// Renders on the CPU.
     pub fn render_cpu(&self, opts: &RenderOptions) -> Result<Rendered> {
         let (scene, accel) = (self.scene, &self.accel);
-        let progress = crate::progress::Progress::bar(opts.progress, opts.height as u64, "rows");
+        // The pixels rendered: a region (`--tile`, `--region`) or the whole image.
+        let px = opts.pixels();
+        let progress = crate::progress::Progress::bar(opts.progress, px.height() as u64, "rows");
         let t0 = Instant::now();
         let out = match opts.precision {
             Precision::F64 => {
                 CpuRenderer::<f64>::new(scene, accel, opts.max_depth, opts.techniques)
-                    .render_with_progress(opts.width, opts.height, opts.spp, &progress)
+                    .render_region(opts.width, opts.height, px, opts.spp, &progress)
             }
             Precision::F32 => {
                 CpuRenderer::<f32>::new(scene, accel, opts.max_depth, opts.techniques)
-                    .render_with_progress(opts.width, opts.height, opts.spp, &progress)
+                    .render_region(opts.width, opts.height, px, opts.spp, &progress)
             }
         };
         let render_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -131,7 +133,8 @@ impl Prepared<'_> {
     /// Renders on the GPU in `ctx`: the scene uploaded, the programs compiled and the image
     /// rendered (all counted in `render_ms`).
     pub fn render_gl(&self, ctx: &GlContext, opts: &RenderOptions) -> Result<Rendered> {
-        ctx.info.check_image_size(opts.width, opts.height)?;
+        let px = opts.pixels();
+        ctx.info.check_image_size(px.width(), px.height())?;
         let t0 = Instant::now();
         let gs = GpuScene::new(ctx, self.scene, &self.accel, opts.gpu.no_specialize)?;
         let out = gpu::render::render(&gs, &self.request(opts), None)?;
@@ -151,6 +154,7 @@ impl Prepared<'_> {
             techniques: opts.techniques,
             progress: opts.progress,
             gpu: opts.gpu,
+            region: opts.region,
         }
     }
 
@@ -204,8 +208,10 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
 /// `opts.gpu.kernel` resolves to).
 pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     opts.validate()?;
-    // The image must fit the driver's textures and viewport before any work is done.
-    ctx.info.check_image_size(opts.width, opts.height)?;
+    // The pixels rendered must fit the driver's textures and viewport before any work is
+    // done (a tile of a poster larger than the limit does).
+    let px = opts.pixels();
+    ctx.info.check_image_size(px.width(), px.height())?;
     prepare(scene, opts)?.render_gl(ctx, opts)
 }
 
@@ -215,11 +221,13 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     match opts.backend {
         Backend::Cpu => render_cpu(scene, opts),
         Backend::Gl => {
-            let ctx = GlContext::new()?;
+            let ctx = GlContext::on_device(opts.device)?;
             render_gl_with(&ctx, scene, opts)
         }
-        Backend::Auto => match GlContext::new() {
+        Backend::Auto => match GlContext::on_device(opts.device) {
             Ok(ctx) => render_gl_with(&ctx, scene, opts),
+            // A bad `--gpu N` is the user's to fix, not a reason to fall back.
+            Err(e @ crate::Error::Usage(_)) => Err(e),
             Err(e) => {
                 eprintln!("fragtrace: notice: using the CPU backend: {e}");
                 render_cpu(scene, opts)

@@ -53,7 +53,7 @@ same() {
 t0=$(date +%s)
 # 1. One image, 4 tasks, one tile each; the default backend (the GPU where EGL has one,
 #    llvmpipe here), to PNG.
-flags=(--width 320 --height 240 --spp 2 --backend cpu)
+flags=(--width 320 --height 240 --spp 2)
 "$bin" render "$repo/scenes/whitted.toml" "${flags[@]}" -q -o "$work/whitted-single.png" ||
     fail "the single-process render of whitted.toml failed"
 "$repo/ci/slurm/submit-tiles.sh" --wait 4 "$repo/scenes/whitted.toml" \

@@ -112,6 +112,7 @@ fn request(scene: &Scene, w: u32, h: u32, gpu: GpuOptions) -> ImageRequest {
         techniques: gpu.techniques,
         progress: false,
         gpu,
+        region: None,
     }
 }
 

@@ -374,6 +374,7 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                 mask: h.settings.mask,
                 ..ro.gpu
             },
+            region: None,
         };
         presenter.start_render();
         let t0 = Instant::now();
