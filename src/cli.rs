@@ -374,6 +374,9 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan) -> Result<render::Rendered> {
     }
     let scene = load(args.scene.as_deref())?;
     let base = args.to_options(&scene)?;
+    // Once per process, whatever the number of parts: the structure and the context.
+    let prepared = render::prepare(&scene, &base)?;
+    let ctx = render::context_for(&base)?;
     if let (Some(task), false) = (&plan.task, args.quiet) {
         eprintln!(
             "fragtrace: {task}: {} part(s) of {} tiles",
@@ -391,7 +394,11 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan) -> Result<render::Rendered> {
             region: Some(region),
             ..base.clone()
         };
-        let out = render::render(&scene, &opts)?;
+        opts.validate()?;
+        let out = match &ctx {
+            Some(ctx) => prepared.render_gl(ctx, &opts)?,
+            None => prepared.render_cpu(&opts)?,
+        };
         if !out.image.all_finite() {
             return Err(Error::Internal(
                 "the render produced a NaN or Inf pixel".into(),

@@ -215,23 +215,29 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
     prepare(scene, opts)?.render_gl(ctx, opts)
 }
 
-/// Renders with the backend chosen in `opts`. `Auto` uses the GPU when a suitable context
-/// can be made and otherwise the CPU, saying why on stderr; `Gl` never falls back.
-pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+/// The GL context the backend choice of `opts` renders in: None for the CPU. `Auto` uses
+/// the GPU when a suitable context can be made (on `--gpu N`'s device) and otherwise the
+/// CPU, saying why on stderr; `Gl` never falls back, and neither does a bad `--gpu N`.
+pub fn context_for(opts: &RenderOptions) -> Result<Option<GlContext>> {
     match opts.backend {
-        Backend::Cpu => render_cpu(scene, opts),
-        Backend::Gl => {
-            let ctx = GlContext::on_device(opts.device)?;
-            render_gl_with(&ctx, scene, opts)
-        }
+        Backend::Cpu => Ok(None),
+        Backend::Gl => GlContext::on_device(opts.device).map(Some),
         Backend::Auto => match GlContext::on_device(opts.device) {
-            Ok(ctx) => render_gl_with(&ctx, scene, opts),
+            Ok(ctx) => Ok(Some(ctx)),
             // A bad `--gpu N` is the user's to fix, not a reason to fall back.
             Err(e @ crate::Error::Usage(_)) => Err(e),
             Err(e) => {
                 eprintln!("fragtrace: notice: using the CPU backend: {e}");
-                render_cpu(scene, opts)
+                Ok(None)
             }
         },
+    }
+}
+
+/// Renders with the backend chosen in `opts` (see [`context_for`]).
+pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+    match context_for(opts)? {
+        Some(ctx) => render_gl_with(&ctx, scene, opts),
+        None => render_cpu(scene, opts),
     }
 }
