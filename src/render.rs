@@ -34,6 +34,10 @@ pub struct RenderStats {
     pub width: u32,
     /// Image height.
     pub height: u32,
+    /// The pixels rendered, `[x0, y0, x1, y1]` (x1, y1 exclusive), when only a region of
+    /// the image was (`--tile`, `--region`, `--task-index`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub region: Option<[u32; 4]>,
     /// Samples per pixel.
     pub spp: u32,
     /// Maximum depth used.
@@ -176,6 +180,7 @@ impl Prepared<'_> {
             scene: self.scene.source.clone(),
             width: opts.width,
             height: opts.height,
+            region: opts.region.map(|r| [r.x0, r.y0, r.x1, r.y1]),
             spp: opts.spp,
             max_depth: opts.max_depth,
             triangles: self.scene.triangles.len(),

@@ -81,6 +81,12 @@ fn assemble(parts: &[(&Path, &Part)]) -> Result<Image> {
     let mut data = vec![0f32; w as usize * ht as usize * 3];
     let mut covered = vec![false; w as usize * ht as usize];
     for (k, (path, part)) in parts.iter().enumerate() {
+        if let Some((earlier, _)) = parts[..k].iter().find(|(p, _)| p == path) {
+            return Err(Error::Usage(format!(
+                "merge: {} is given twice (each part once)",
+                earlier.display()
+            )));
+        }
         let r = part.header.region;
         for y in r.y0..r.y1 {
             let row = (y as usize) * w as usize;
