@@ -2,13 +2,16 @@
 # CI entry point: installs what a clean Debian machine lacks for headless EGL on Mesa
 # (llvmpipe), for validating the shaders as GLSL 1.20 (glslang-tools), for building the
 # FLIP library's C++ (g++, for the nv-flip crate) and for an X server to open windows in
-# (xvfb, with xauth for xvfb-run), then runs the README's test command plus
-# the format and lint gates.
+# (xvfb, with xauth for xvfb-run) and for a single-node Slurm cluster that tests/slurm.rs
+# starts itself (slurmd, slurmctld, slurm-client, munge: installed only, no service is
+# configured or enabled), then runs the README's test command plus the format and lint
+# gates.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need=()
-for pkg in libegl1 libegl-mesa0 libgl1-mesa-dri glslang-tools g++ xvfb xauth; do
+for pkg in libegl1 libegl-mesa0 libgl1-mesa-dri glslang-tools g++ xvfb xauth \
+    slurmd slurmctld slurm-client munge; do
     dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then

@@ -117,17 +117,20 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
     if (top > 0) n_count[C_UNFINISHED] += 1u;
 }
 
-// Radiance and AOV of pixel px (GL rows from the bottom) into the output buffers, which
-// hold this band's rows in image order.
+// Radiance and AOV of pixel px (GL rows from the bottom of the pixels rendered, u_size)
+// into the output buffers, which hold this band's rows in image order. The pixels rendered
+// may be a region of the image (from column CAM_X0, row CAM_Y0): the primary ray is the
+// whole image's, its position an exact f64 integer plus the sample offset as on the host.
 void render_pixel(ivec2 px) {
     vec3 colour = vec3(0.0);
     vec4 aov = vec4(0.0);
     // GL rows run from the bottom, camera rows from the top.
-    double row = double(u_size.y - 1 - px.y);
+    double column = double(px.x) + cam[CAM_X0];
+    double row = double(u_size.y - 1 - px.y) + cam[CAM_Y0];
     for (int k = 0; k < SAMPLES; k++) {
         double ox = cam[CAM_OFFSETS + 2 * k];
         double oy = cam[CAM_OFFSETS + 2 * k + 1];
-        vec3 d = primary_dir(double(px.x) + ox, row + oy);
+        vec3 d = primary_dir(column + ox, row + oy);
         n_count[C_PRIMARY] += 1u;
         shade_tree(d, u_sample_weight, k == 0, colour, aov);
     }

@@ -6,8 +6,10 @@ use std::path::{Path, PathBuf};
 use clap::{Args, Parser, Subcommand};
 
 use crate::accel::GridConfig;
+use crate::dist::plan::Plan;
 use crate::image_io;
 use crate::options::{clap_error_line, whole_number, RenderArgs};
+use crate::region::Region;
 use crate::render;
 use crate::scene::{self, Scene};
 use crate::{Error, Result};
@@ -35,8 +37,13 @@ pub enum Command {
     /// Time every configuration on every scene and measure its error against the CPU f64
     /// reference: results.csv, report.md and speed_vs_error.png in --out.
     Bench(BenchArgs),
-    /// Print the EGL/GL context: versions, limits, required features, verdict.
-    Info,
+    /// Assemble parts (`render --tile/--region/--task-index` OpenEXR files) into the whole
+    /// image: they must come from one scene and one set of options and cover every pixel
+    /// exactly once, or nothing is written.
+    Merge(MergeArgs),
+    /// Print the EGL/GL context: versions, limits, required features, verdict; and the
+    /// EGL devices `--gpu N` chooses from.
+    Info(InfoArgs),
     /// Write the final GLSL source of every pass for a scene (`builtin` for the built-in).
     DumpShaders(DumpArgs),
     /// Render in a window (X11), showing the render as it happens: the same GPU renderer,
@@ -98,6 +105,30 @@ pub struct ViewArgs {
     /// stop when the render is complete.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
+}
+
+/// Arguments of `info`.
+#[derive(Args, Debug, Clone)]
+pub struct InfoArgs {
+    /// Report on EGL device N (as `render --gpu N` would use it) instead of the default.
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole_number)]
+    pub gpu: Option<u32>,
+}
+
+/// Arguments of `merge`.
+#[derive(Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// The part files (OpenEXR, from `render --tile`, `--region` or `--task-index`).
+    #[arg(required = true)]
+    pub parts: Vec<PathBuf>,
+    /// The merged image: .png (sRGB 8-bit, the same bits as a single-process render) or
+    /// .exr (linear float, itself a part covering the whole image); `{frame}` in the name
+    /// writes one image per frame of an animation's parts.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    pub quiet: bool,
 }
 
 /// Arguments of `dump-shaders`.
@@ -273,8 +304,12 @@ pub fn load(scene_path: Option<&Path>) -> Result<Scene> {
     }
 }
 
-/// The `render` command: load, render, write the image (and stats).
+/// The `render` command: load, render, write the image (and stats). With `--tile`,
+/// `--region` or `--task-index`, the parts this process owns ([`run_parts`]).
 pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
+    if let Some(plan) = Plan::new(args, |k| std::env::var(k).ok())? {
+        return run_parts(args, &plan);
+    }
     // Fail on an unusable output path or AOV list before loading or rendering anything;
     // a folder is reported as one, not as a file with an unknown extension.
     check_writable(&args.output, "image")?;
@@ -315,22 +350,108 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
         crate::aov::write_aovs(&args.output, &out.aov, kinds)?;
     }
     if let Some(path) = &args.stats {
-        let json =
-            serde_json::to_string_pretty(&out.stats).map_err(|e| Error::Internal(e.to_string()))?;
-        image_io::write_atomic(path, |tmp| {
-            std::fs::write(tmp, json.as_bytes()).map_err(|source| Error::Io {
-                path: path.clone(),
-                source,
-            })
-        })?;
+        write_stats(path, &out.stats)?;
     }
     if !args.quiet {
-        let s = &out.stats;
+        eprintln!("{}", summary_line(&args.output, &out.stats, None));
+    }
+    if args.verbose {
+        eprint!("{}", verbose_report(&out.stats));
+    }
+    Ok(out)
+}
+
+/// Writes render statistics as JSON (atomically).
+fn write_stats(path: &Path, stats: &render::RenderStats) -> Result<()> {
+    let json = serde_json::to_string_pretty(stats).map_err(|e| Error::Internal(e.to_string()))?;
+    image_io::write_atomic(path, |tmp| {
+        std::fs::write(tmp, json.as_bytes()).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    })
+}
+
+/// `render` of parts: the units of work of `plan` ([`crate::dist`]), each rendered with
+/// its region and written as a part (or a crop).
+pub fn run_parts(args: &RenderArgs, plan: &Plan) -> Result<render::Rendered> {
+    for p in &plan.outputs {
+        check_writable(p, "image")?;
+    }
+    for p in &plan.stats {
+        check_writable(p, "statistics")?;
+    }
+    if args.aov.is_some() {
+        return Err(Error::Usage(
+            "--aov writes whole-image files; it cannot be combined with --tile, --region or --task-index"
+                .into(),
+        ));
+    }
+    let scene = load(args.scene.as_deref())?;
+    let base = args.to_options(&scene)?;
+    // Once per process, whatever the number of parts: the structure and the context.
+    let prepared = render::prepare(&scene, &base)?;
+    let ctx = render::context_for(&base)?;
+    if let (Some(task), false) = (&plan.task, args.quiet) {
         eprintln!(
-            "{}: {}x{} spp {} on {} [{}{}{}], {} triangles, {} grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
-            args.output.display(),
+            "fragtrace: {task}: {} part(s) of {} tiles",
+            plan.units.len(),
+            match plan.cut {
+                crate::dist::plan::Cut::Tiles(t) => t.count(),
+                crate::dist::plan::Cut::Region(_) => 1,
+            }
+        );
+    }
+    let mut last = None;
+    for (k, unit) in plan.units.iter().enumerate() {
+        let region = plan.region(k, base.width, base.height)?;
+        let opts = crate::options::RenderOptions {
+            region: Some(region),
+            ..base.clone()
+        };
+        opts.validate()?;
+        let out = match &ctx {
+            Some(ctx) => prepared.render_gl(ctx, &opts)?,
+            None => prepared.render_cpu(&opts)?,
+        };
+        if !out.image.all_finite() {
+            return Err(Error::Internal(
+                "the render produced a NaN or Inf pixel".into(),
+            ));
+        }
+        crate::dist::write_unit(
+            &plan.outputs[k],
+            &scene,
+            &opts,
+            &out,
+            unit.frame,
+            plan.tile_label(k),
+        )?;
+        if let Some(path) = plan.stats.get(k) {
+            write_stats(path, &out.stats)?;
+        }
+        if !args.quiet {
+            eprintln!(
+                "{}",
+                summary_line(&plan.outputs[k], &out.stats, Some(region))
+            );
+        }
+        if args.verbose {
+            eprint!("{}", verbose_report(&out.stats));
+        }
+        last = Some(out);
+    }
+    last.ok_or_else(|| Error::Internal("a plan without units".into()))
+}
+
+/// The one-line summary of a render on stderr (`-q` turns it off).
+fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) -> String {
+    format!(
+            "{}: {}x{}{} spp {} on {} [{}{}{}], {} triangles, {} grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
+            output.display(),
             s.width,
             s.height,
+            region.map_or(String::new(), |r| format!(" pixels {r}")),
             s.spp,
             s.backend,
             s.precision,
@@ -352,12 +473,7 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
             s.render_ms,
             s.rays.total,
             s.mrays_per_s
-        );
-    }
-    if args.verbose {
-        eprint!("{}", verbose_report(&out.stats));
-    }
-    Ok(out)
+        )
 }
 
 /// The `-v` log: per pass kind, how many passes and how much GPU time; where the backend
@@ -473,10 +589,63 @@ pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
     crate::bench::run_bench(&opts)
 }
 
+/// The `merge` command: checks the output path, then [`crate::dist::merge::merge`].
+pub fn run_merge(args: &MergeArgs) -> Result<crate::dist::merge::Merged> {
+    // A probe next to where frame 0 would go: the folder must exist and be writable.
+    let probe = crate::dist::template::OutputTemplate::new(&args.output).path(Some(0), None);
+    check_writable(&probe, "image")?;
+    image_io::Format::from_path(&args.output)?;
+    let merged = crate::dist::merge::merge(&args.parts, &args.output)?;
+    if !args.quiet {
+        if !merged.devices.is_empty() {
+            eprintln!(
+                "fragtrace: notice: the parts were rendered on {} devices: {}",
+                merged.devices.len(),
+                merged.devices.join("; ")
+            );
+        }
+        for out in &merged.outputs {
+            eprintln!(
+                "{}: {}x{} merged from {} parts",
+                out.display(),
+                merged.width,
+                merged.height,
+                merged.parts
+            );
+        }
+    }
+    Ok(merged)
+}
+
 /// The `info` command: what the GL driver offers and whether fragtrace can run on it.
-pub fn run_info() -> Result<bool> {
-    let ctx = crate::gpu::GlContext::new_unchecked()?;
+pub fn run_info(args: &InfoArgs) -> Result<bool> {
+    let ctx = crate::gpu::GlContext::new_unchecked_on(args.gpu)?;
     println!("{}", ctx.info);
+    // The devices `--gpu N` picks from, and how they meet CUDA's numbering (Slurm's GPU
+    // binding sets CUDA_VISIBLE_DEVICES).
+    match crate::gpu::egl::list_devices() {
+        Ok(devices) => {
+            println!("EGL devices ({}; render --gpu N):", devices.len());
+            for d in &devices {
+                println!(
+                    "  --gpu {}: {}{}{}",
+                    d.index,
+                    d.name,
+                    d.cuda
+                        .map_or(String::new(), |c| format!(", CUDA device {c}")),
+                    if args.gpu == Some(d.index) {
+                        " (this report)"
+                    } else {
+                        ""
+                    }
+                );
+            }
+        }
+        Err(e) => println!("EGL devices: none listed ({e})"),
+    }
+    if let Ok(v) = std::env::var("CUDA_VISIBLE_DEVICES") {
+        println!("CUDA_VISIBLE_DEVICES={v}");
+    }
     Ok(ctx.info.verdict().is_ok())
 }
 
@@ -522,6 +691,11 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         offset: Default::default(),
         aov: None,
         stats: None,
+        tile: None,
+        region: None,
+        task_index: None,
+        tiles: None,
+        gpu: None,
         quiet: true,
         verbose: false,
     };
@@ -569,7 +743,8 @@ pub fn run(cli: Cli) -> Result<bool> {
         Some(Command::Render(args)) => run_render(&args).map(|_| true),
         Some(Command::Compare(args)) => run_compare(&args),
         Some(Command::Bench(args)) => run_bench(&args).map(|_| true),
-        Some(Command::Info) => run_info(),
+        Some(Command::Merge(args)) => run_merge(&args).map(|_| true),
+        Some(Command::Info(args)) => run_info(&args),
         Some(Command::View(args)) => run_view(&args).map(|()| true),
         Some(Command::DumpShaders(args)) => {
             let scene = if args.scene.as_os_str() == "builtin" {

@@ -12,6 +12,7 @@ use clap::{Args, Parser, ValueEnum};
 use serde::Serialize;
 
 use crate::accel::{AccelKind, GridConfig, GridRes, IrregularConfig};
+use crate::region::{Region, TileSpec, Tiling};
 use crate::scene::Scene;
 use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques};
 use crate::{Error, Result};
@@ -80,6 +81,11 @@ pub struct RenderOptions {
     pub techniques: crate::technique::Techniques,
     /// What to read back (default: everything; the CLI asks for less).
     pub readback: crate::output::Readback,
+    /// Render only these pixels of the `width` x `height` image (`--tile`, `--region`);
+    /// each is bit-identical to the same pixel of the whole render. None: the whole image.
+    pub region: Option<Region>,
+    /// The EGL device the GL backend opens (`--gpu N`); None: the first display that works.
+    pub device: Option<u32>,
 }
 
 impl RenderOptions {
@@ -99,7 +105,15 @@ impl RenderOptions {
             progress: false,
             techniques: crate::technique::Techniques::default(),
             readback: crate::output::Readback::default(),
+            region: None,
+            device: None,
         }
+    }
+
+    /// The pixels rendered: the region, or the whole image.
+    pub fn pixels(&self) -> Region {
+        self.region
+            .unwrap_or_else(|| Region::full(self.width, self.height))
     }
 
     /// Rejects sizes and counts out of range before any allocation.
@@ -111,14 +125,32 @@ impl RenderOptions {
                 )));
             }
         }
-        let bytes = self.width as u64 * self.height as u64 * HOST_BYTES_PER_PIXEL;
+        if let Some(r) = &self.region {
+            r.check_inside(self.width, self.height, "the region")?;
+        }
+        // Memory goes with the pixels rendered: a poster too large for one process
+        // renders as tiles that each fit.
+        let px = self.pixels();
+        let bytes = px.area() * HOST_BYTES_PER_PIXEL;
         if bytes > MAX_HOST_BYTES {
+            let part = if self.region.is_some() {
+                format!(
+                    " (a {}x{} part of {}x{})",
+                    px.width(),
+                    px.height(),
+                    self.width,
+                    self.height
+                )
+            } else {
+                String::new()
+            };
             return Err(Error::Limit(format!(
-                "a {}x{} image needs about {:.1} GiB of host memory, more than the {} GiB limit",
-                self.width,
-                self.height,
+                "a {}x{} image{part} needs about {:.1} GiB of host memory, more than the {} GiB limit{}",
+                px.width(),
+                px.height(),
                 bytes as f64 / (1u64 << 30) as f64,
-                MAX_HOST_BYTES >> 30
+                MAX_HOST_BYTES >> 30,
+                if self.region.is_some() { "; cut it into more tiles" } else { "; render it in tiles (--tile I/N, docs/distributed.md)" }
             )));
         }
         if self.spp == 0 || self.spp > MAX_SPP {
@@ -222,6 +254,30 @@ pub struct RenderArgs {
     /// Write render statistics as JSON to this file.
     #[arg(long)]
     pub stats: Option<PathBuf>,
+    /// Render part I of the image cut into N parts (a grid chosen for the image; I/CxR
+    /// for C columns by R rows), 0-based from the top left, as an OpenEXR part for
+    /// `fragtrace merge` (-o PART.exr). Each pixel is bit-identical to the whole render's.
+    #[arg(long, conflicts_with_all = ["region", "task_index"])]
+    pub tile: Option<TileSpec>,
+    /// Render only the pixels x0..x1, y0..y1 (x1, y1 exclusive; origin top left) of the
+    /// image: a part for `fragtrace merge` as .exr, a crop as .png.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "task_index")]
+    pub region: Option<Region>,
+    /// Take this task's share of the work from the scheduler: env (a Slurm job array,
+    /// SLURM_ARRAY_TASK_ID), env:N (a Kubernetes Indexed Job of N completions,
+    /// JOB_COMPLETION_INDEX) or I/N. The image is cut into --tiles parts (default: one per
+    /// task); -o names each part with {tile} (docs/distributed.md).
+    #[arg(long, value_name = "env|env:N|I/N")]
+    pub task_index: Option<crate::dist::task::TaskSource>,
+    /// With --task-index: the parts the image is cut into, N or CxR (default: as many as
+    /// there are tasks).
+    #[arg(long, value_name = "N|CxR", requires = "task_index")]
+    pub tiles: Option<Tiling>,
+    /// GPU: render on EGL device N (`fragtrace info` lists them; on a Slurm GPU node, the
+    /// one the task was given: docs/distributed.md); default: the first display that
+    /// works.
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole_number)]
+    pub gpu: Option<u32>,
     /// Print nothing but errors (no progress display, no summary).
     #[arg(short, long)]
     pub quiet: bool,
@@ -304,6 +360,7 @@ impl RenderArgs {
         opts.gpu.mask = args.mask;
         opts.gpu.storage = args.storage;
         opts.gpu.scene_fetch = args.scene_fetch;
+        opts.device = args.gpu;
         opts.progress = !args.quiet;
         opts.techniques = Techniques {
             intersect: args.intersect,

@@ -34,6 +34,10 @@ pub struct RenderStats {
     pub width: u32,
     /// Image height.
     pub height: u32,
+    /// The pixels rendered, `[x0, y0, x1, y1]` (x1, y1 exclusive), when only a region of
+    /// the image was (`--tile`, `--region`, `--task-index`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub region: Option<[u32; 4]>,
     /// Samples per pixel.
     pub spp: u32,
     /// Maximum depth used.
@@ -178,6 +182,7 @@ impl<'s> Prepared<'s> {
             progress: opts.progress,
             gpu: opts.gpu,
             readback: opts.readback,
+            region: opts.region,
         }
     }
 
@@ -199,6 +204,7 @@ impl<'s> Prepared<'s> {
             scene: self.scene.source.clone(),
             width: opts.width,
             height: opts.height,
+            region: opts.region.map(|r| [r.x0, r.y0, r.x1, r.y1]),
             spp: opts.spp,
             max_depth: opts.max_depth,
             triangles: self.scene.triangles.len(),
@@ -301,26 +307,36 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
 /// `opts.gpu.kernel` resolves to).
 pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     opts.validate()?;
-    // The image must fit the driver's textures and viewport before any work is done.
-    ctx.info.check_image_size(opts.width, opts.height)?;
+    // The pixels rendered must fit the driver's textures and viewport before any work is
+    // done (a tile of a poster larger than the limit does).
+    let px = opts.pixels();
+    ctx.info.check_image_size(px.width(), px.height())?;
     prepare(scene, opts)?.render_gl(ctx, opts)
 }
 
-/// Renders with the backend chosen in `opts`. `Auto` uses the GPU when a suitable context
-/// can be made and otherwise the CPU, saying why on stderr; `Gl` never falls back.
-pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+/// The GL context the backend choice of `opts` renders in: None for the CPU. `Auto` uses
+/// the GPU when a suitable context can be made (on `--gpu N`'s device) and otherwise the
+/// CPU, saying why on stderr; `Gl` never falls back, and neither does a bad `--gpu N`.
+pub fn context_for(opts: &RenderOptions) -> Result<Option<GlContext>> {
     match opts.backend {
-        Backend::Cpu => render_cpu(scene, opts),
-        Backend::Gl => {
-            let ctx = GlContext::new()?;
-            render_gl_with(&ctx, scene, opts)
-        }
-        Backend::Auto => match GlContext::new() {
-            Ok(ctx) => render_gl_with(&ctx, scene, opts),
+        Backend::Cpu => Ok(None),
+        Backend::Gl => GlContext::on_device(opts.device).map(Some),
+        Backend::Auto => match GlContext::on_device(opts.device) {
+            Ok(ctx) => Ok(Some(ctx)),
+            // A bad `--gpu N` is the user's to fix, not a reason to fall back.
+            Err(e @ crate::Error::Usage(_)) => Err(e),
             Err(e) => {
                 eprintln!("fragtrace: notice: using the CPU backend: {e}");
-                render_cpu(scene, opts)
+                Ok(None)
             }
         },
+    }
+}
+
+/// Renders with the backend chosen in `opts` (see [`context_for`]).
+pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+    match context_for(opts)? {
+        Some(ctx) => render_gl_with(&ctx, scene, opts),
+        None => render_cpu(scene, opts),
     }
 }

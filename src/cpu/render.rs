@@ -1,7 +1,8 @@
 //! The CPU reference renderer: recursive Whitted ray tracing over the uniform or irregular grid,
 //! generic over precision (f64 is the ground truth, f32 mirrors the GPU). Rows are rendered
 //! in parallel with rayon; every pixel is computed independently, so the image does not
-//! depend on the thread count.
+//! depend on the thread count, and a region of the image (`--tile`, `--region`) has the
+//! same bits as the same pixels of the whole.
 
 use rayon::prelude::*;
 
@@ -13,6 +14,7 @@ use crate::accel::AccelRef;
 use crate::image_io::Image;
 use crate::output::{Aov, AovPixel, RayCounts};
 use crate::progress::Progress;
+use crate::region::Region;
 use crate::scene::{camera, Scene};
 use crate::technique::{OffsetMethod, Techniques};
 
@@ -147,15 +149,32 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
 
     /// [`CpuRenderer::render`], advancing `progress` by one per finished row.
     pub fn render_with_progress(&self, w: u32, h: u32, spp: u32, progress: &Progress) -> CpuOutput {
+        self.render_region(w, h, Region::full(w, h), spp, progress)
+    }
+
+    /// The pixels of `region` of a W x H image, as an image (and AOVs) of the region's
+    /// size. Each pixel's rays are those of the full image (the camera maps pixel (i, j)
+    /// of W x H), so every pixel is bit-identical to the same pixel of a full render.
+    /// `progress` advances by one per finished row of the region.
+    pub fn render_region(
+        &self,
+        w: u32,
+        h: u32,
+        region: Region,
+        spp: u32,
+        progress: &Progress,
+    ) -> CpuOutput {
+        debug_assert!(region.x1 <= w && region.y1 <= h, "region inside the image");
         let offsets = camera::sample_offsets(spp);
         let inv = T::ONE / T::from_f32(offsets.len() as f32);
-        let rows: Vec<(Vec<f32>, Vec<AovPixel>, Tally)> = (0..h)
+        let rw = region.width();
+        let rows: Vec<(Vec<f32>, Vec<AovPixel>, Tally)> = (region.y0..region.y1)
             .into_par_iter()
             .map(|j| {
                 let mut tally = Tally::default();
-                let mut rgb = Vec::with_capacity(w as usize * 3);
-                let mut aov = Vec::with_capacity(w as usize);
-                for i in 0..w {
+                let mut rgb = Vec::with_capacity(rw as usize * 3);
+                let mut aov = Vec::with_capacity(rw as usize);
+                for i in region.x0..region.x1 {
                     let mut sum = V3::splat(T::ZERO);
                     for (k, &(ox, oy)) in offsets.iter().enumerate() {
                         let ray = self.primary_ray(w, h, i as f64 + ox, j as f64 + oy);
@@ -181,6 +200,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
             })
             .collect();
         progress.finish();
+        let (w, h) = (rw, region.height());
         let mut data = Vec::with_capacity((w * h * 3) as usize);
         let mut pixels = Vec::with_capacity((w * h) as usize);
         let mut total = Tally::default();

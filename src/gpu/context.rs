@@ -29,7 +29,7 @@ use std::ffi::c_void;
 use std::fmt;
 use std::rc::Rc;
 
-use super::egl::{egl_instance, open_session, EglSession};
+use super::egl::{egl_instance, open_session_on, EglSession};
 use super::info::{gather_info, limit_profile, load_raw_gl, parse_major_minor, GlInfo, RawGl};
 use crate::error::{Error, Result};
 
@@ -114,7 +114,14 @@ impl GlContext {
     /// Creates a headless context and fails with [`Error::GlUnavailable`] (naming every missing
     /// feature) unless it satisfies all of fragtrace's requirements.
     pub fn new() -> Result<GlContext> {
-        let ctx = Self::new_unchecked()?;
+        Self::on_device(None)
+    }
+
+    /// [`GlContext::new`] on EGL device `device` of [`super::egl::list_devices`] (`--gpu
+    /// N`), or on the first display that works when None. A device number beyond the list
+    /// is [`Error::Usage`] naming how many there are.
+    pub fn on_device(device: Option<u32>) -> Result<GlContext> {
+        let ctx = Self::new_unchecked_on(device)?;
         ctx.info.verdict().map_err(Error::GlUnavailable)?;
         Ok(ctx)
     }
@@ -123,9 +130,14 @@ impl GlContext {
     /// context is an error. Meant for `fragtrace info`, which prints [`GlContext::info`]
     /// (including the verdict line) even when the driver is inadequate.
     pub fn new_unchecked() -> Result<GlContext> {
+        Self::new_unchecked_on(None)
+    }
+
+    /// [`GlContext::new_unchecked`] on a chosen EGL device (see [`GlContext::on_device`]).
+    pub fn new_unchecked_on(device: Option<u32>) -> Result<GlContext> {
         limit_profile().map_err(Error::Usage)?;
         let egl = egl_instance()?;
-        let session = open_session(egl)?;
+        let session = open_session_on(egl, device)?;
         let fallback = session.fallback_lib.as_ref();
         let loader = |name: &str| -> *const c_void {
             if let Some(f) = egl.get_proc_address(name) {

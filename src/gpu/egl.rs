@@ -16,7 +16,9 @@
 //!    desktop this is usually X11/Wayland.
 //!
 //! The first candidate that yields a current desktop-GL context wins; [`PLATFORM_ENV`] can
-//! restrict the search to one of them.
+//! restrict the search to one of them. `--gpu N` ([`open_session_on`]) skips the search
+//! and opens device N of `EGL_EXT_device_enumeration`'s list ([`list_devices`]): one GPU
+//! per task on a multi-GPU node.
 
 use std::collections::HashMap;
 use std::ffi::{c_char, c_void, CStr};
@@ -164,6 +166,118 @@ impl Drop for EglSession {
             let _ = egl.release_thread();
         }
     }
+}
+
+/// One EGL device (EGL_EXT_device_enumeration), as `fragtrace info` lists it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct EglDevice {
+    /// Its position in eglQueryDevicesEXT's list: what `--gpu N` takes.
+    pub index: u32,
+    /// Its DRM node (`/dev/dri/renderD128`, `/dev/dri/card1`), `software`, or `unnamed`.
+    pub name: String,
+    /// The CUDA device ordinal NVIDIA's driver reports for it (EGL_NV_device_cuda), the
+    /// number CUDA_VISIBLE_DEVICES and Slurm's GPU binding speak.
+    pub cuda: Option<i64>,
+    /// The device's EGL extensions.
+    pub extensions: String,
+}
+
+/// `EGL_CUDA_DEVICE_NV` (EGL_NV_device_cuda).
+const CUDA_DEVICE_NV: egl::Int = 0x323A;
+
+type PfnQueryDeviceAttribExt =
+    unsafe extern "system" fn(*mut c_void, egl::Int, *mut egl::Attrib) -> egl::Boolean;
+
+/// The EGL devices of this machine, in the order `--gpu N` numbers them. An EGL without
+/// device enumeration is an error saying so.
+pub fn list_devices() -> Result<Vec<EglDevice>> {
+    let egl = egl_instance()?;
+    let client_exts = egl
+        .query_string(None, egl::EXTENSIONS)
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let has_client = |name: &str| client_exts.split_ascii_whitespace().any(|e| e == name);
+    if !(has_client("EGL_EXT_device_enumeration") || has_client("EGL_EXT_device_base")) {
+        return Err(Error::GlUnavailable(
+            "this EGL cannot list devices (no EGL_EXT_device_enumeration)".into(),
+        ));
+    }
+    let devices = enumerate_devices(egl).map_err(Error::GlUnavailable)?;
+    Ok(devices
+        .into_iter()
+        .enumerate()
+        .map(|(i, d)| {
+            let extensions = device_string(egl, d, egl::EXTENSIONS).unwrap_or_default();
+            let cuda = extensions
+                .split_ascii_whitespace()
+                .any(|e| e == "EGL_NV_device_cuda")
+                .then(|| device_attrib(egl, d, CUDA_DEVICE_NV))
+                .flatten();
+            EglDevice {
+                index: i as u32,
+                name: device_name(egl, d),
+                cuda,
+                extensions,
+            }
+        })
+        .collect())
+}
+
+/// `eglQueryDeviceAttribEXT`, None when it fails or is missing.
+fn device_attrib(egl: &EglInstance, device: *mut c_void, name: egl::Int) -> Option<i64> {
+    let f = egl.get_proc_address("eglQueryDeviceAttribEXT")?;
+    // SAFETY: signature from EGL_EXT_device_query.
+    let f: PfnQueryDeviceAttribExt =
+        unsafe { std::mem::transmute::<extern "system" fn(), PfnQueryDeviceAttribExt>(f) };
+    let mut value: egl::Attrib = 0;
+    // SAFETY: a valid device and a pointer to one EGLAttrib.
+    (unsafe { f(device, name, &mut value) } == egl::TRUE).then_some(value as i64)
+}
+
+/// Opens the EGL session on device `device` of [`list_devices`] only (`--gpu N`), or
+/// on the first display that works ([`open_session`]) when None. A device number beyond
+/// the list is a usage error naming how many there are.
+pub(super) fn open_session_on(
+    egl: &'static EglInstance,
+    device: Option<u32>,
+) -> Result<EglSession> {
+    let Some(n) = device else {
+        return open_session(egl);
+    };
+    let client_exts = egl
+        .query_string(None, egl::EXTENSIONS)
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let has_client = |name: &str| client_exts.split_ascii_whitespace().any(|e| e == name);
+    if !has_client("EGL_EXT_platform_device")
+        || !(has_client("EGL_EXT_device_enumeration") || has_client("EGL_EXT_device_base"))
+    {
+        return Err(Error::GlUnavailable(format!(
+            "--gpu {n}: this EGL cannot open a chosen device (it lacks EGL_EXT_device_enumeration or EGL_EXT_platform_device)"
+        )));
+    }
+    let devices = enumerate_devices(egl).map_err(Error::GlUnavailable)?;
+    let Some(&dev) = devices.get(n as usize) else {
+        return Err(Error::Usage(match devices.len() {
+            0 => format!("--gpu {n}: this machine has no EGL device"),
+            1 => format!("--gpu {n}: this machine has 1 EGL device, --gpu 0 (`fragtrace info` lists it)"),
+            k => format!(
+                "--gpu {n}: this machine has {k} EGL devices, --gpu 0 to --gpu {} (`fragtrace info` lists them)",
+                k - 1
+            ),
+        }));
+    };
+    let label = format!("EGL_EXT_platform_device #{n} ({})", device_name(egl, dev));
+    // SAFETY: `dev` is an EGLDeviceEXT just returned by eglQueryDevicesEXT.
+    let (display, via) = unsafe { platform_display(egl, &client_exts, PLATFORM_DEVICE_EXT, dev) }
+        .map_err(|e| Error::GlUnavailable(format!("{label}: {e}")))?;
+    try_display(
+        egl,
+        display,
+        format!("{label} ({via}), chosen by --gpu"),
+        &client_exts,
+    )
+    .map_err(|e| Error::GlUnavailable(format!("{label}: {e}")))
 }
 
 /// Tries each display candidate in turn; the error lists why each one failed.
@@ -329,19 +443,20 @@ fn enumerate_devices(egl: &EglInstance) -> std::result::Result<Vec<*mut c_void>,
     Ok(devices)
 }
 
-/// A short description of an EGL device for reports: its DRM node, or "software".
-fn device_name(egl: &EglInstance, device: *mut c_void) -> String {
-    let Some(f) = egl.get_proc_address("eglQueryDeviceStringEXT") else {
-        return "unnamed".into();
-    };
+/// `eglQueryDeviceStringEXT`, None when it fails or is missing.
+fn device_string(egl: &EglInstance, device: *mut c_void, name: egl::Int) -> Option<String> {
+    let f = egl.get_proc_address("eglQueryDeviceStringEXT")?;
     // SAFETY: signature from EGL_EXT_device_query.
     let f: PfnQueryDeviceStringExt =
         unsafe { std::mem::transmute::<extern "system" fn(), PfnQueryDeviceStringExt>(f) };
-    let query = |name| {
-        // SAFETY: valid device; EGL returns NULL or a static NUL-terminated string.
-        let p = unsafe { f(device, name) };
-        (!p.is_null()).then(|| unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned())
-    };
+    // SAFETY: valid device; EGL returns NULL or a static NUL-terminated string.
+    let p = unsafe { f(device, name) };
+    (!p.is_null()).then(|| unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned())
+}
+
+/// A short description of an EGL device for reports: its DRM node, or "software".
+fn device_name(egl: &EglInstance, device: *mut c_void) -> String {
+    let query = |name| device_string(egl, device, name);
     let exts = query(egl::EXTENSIONS).unwrap_or_default();
     let has = |n: &str| exts.split_ascii_whitespace().any(|e| e == n);
     if has("EGL_EXT_device_drm") {

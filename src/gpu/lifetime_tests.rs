@@ -113,6 +113,7 @@ fn request(scene: &Scene, w: u32, h: u32, gpu: GpuOptions) -> ImageRequest {
         progress: false,
         gpu,
         readback: crate::output::Readback::default(),
+        region: None,
     }
 }
 

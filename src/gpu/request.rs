@@ -8,6 +8,7 @@
 use crate::gpu::gl::Texture;
 use crate::gpu::options::GpuOptions;
 use crate::output::AovPixel;
+use crate::region::Region;
 use crate::scene::{Camera, Scene};
 
 /// What a render draws: the camera, the image's size, samples and depth, and how.
@@ -15,9 +16,9 @@ use crate::scene::{Camera, Scene};
 pub struct ImageRequest {
     /// The camera (the scene's own, or the view's as the user moves it).
     pub camera: Camera,
-    /// Width in pixels.
+    /// Width in pixels of the whole image.
     pub width: u32,
-    /// Height in pixels.
+    /// Height in pixels of the whole image.
     pub height: u32,
     /// Samples per pixel.
     pub spp: u32,
@@ -31,6 +32,17 @@ pub struct ImageRequest {
     pub gpu: GpuOptions,
     /// What to read back (the AOVs; the image as 8-bit sRGB only).
     pub readback: crate::output::Readback,
+    /// Render only these pixels of the `width` x `height` image (each the whole render's
+    /// pixel, bit for bit); None: all of them.
+    pub region: Option<Region>,
+}
+
+impl ImageRequest {
+    /// The pixels rendered: the region, or the whole image.
+    pub fn pixels(&self) -> Region {
+        self.region
+            .unwrap_or_else(|| Region::full(self.width, self.height))
+    }
 }
 
 /// Output of a GPU render: the one backend output type (`gpu` is always set).

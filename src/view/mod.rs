@@ -375,6 +375,7 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                 ..ro.gpu
             },
             readback: crate::output::Readback::default(),
+            region: None,
         };
         presenter.start_render();
         let t0 = Instant::now();

@@ -170,7 +170,10 @@ pub(crate) fn render(
     req: &ImageRequest,
     observer: Option<&mut Observer<'_>>,
 ) -> Result<GpuOutput> {
-    let (width, height) = (req.width, req.height);
+    // The pixels rendered (a region of the image, or all of it); the primary rays are
+    // the whole image's (the camera buffer carries its size and the region's corner).
+    let px = req.pixels();
+    let (width, height) = (px.width(), px.height());
     let ctx = gs.ctx();
     let scene = gs.scene();
     ctx.info.check_image_size(width, height)?;
@@ -211,7 +214,12 @@ pub(crate) fn render(
         glam::IVec2::new(width as i32, height as i32),
     )?;
 
-    let cam = camera_buffer(&req.camera.frame(), width, height, &offsets);
+    let cam = camera_buffer(
+        &req.camera.frame(),
+        (req.width, req.height),
+        (px.x0, px.y0),
+        &offsets,
+    );
     let cam_bytes: Vec<u8> = cam.iter().flat_map(|v| v.to_ne_bytes()).collect();
     let lights: Vec<u8> = light_buffer(&scene.lights)
         .into_iter()
@@ -611,6 +619,7 @@ mod tests {
                     ..GpuOptions::default()
                 },
                 readback: crate::output::Readback::default(),
+                region: None,
             };
             // Storage buffers asked for (llvmpipe's preferred fetch is texelFetch).
             let asked = |scene_fetch| ImageRequest {
@@ -685,6 +694,7 @@ mod tests {
                     ..GpuOptions::default()
                 },
                 readback: crate::output::Readback::default(),
+                region: None,
             };
             let lean = ImageRequest {
                 readback: crate::output::Readback {

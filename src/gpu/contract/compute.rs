@@ -77,8 +77,9 @@ pub fn sum_words(words: &[u32]) -> [u64; COUNTERS] {
     total
 }
 
-/// Camera buffer (f64): forward, right, up (3 each), tan(vfov/2), aspect, width, height,
-/// then (ox, oy) per sample.
+/// Camera buffer (f64): forward, right, up (3 each), tan(vfov/2), aspect, width, height
+/// (of the whole image), the first column and row of the pixels rendered (a region's
+/// corner: `--tile`, `--region`), then (ox, oy) per sample.
 pub const CAM_F: usize = 0;
 /// Right vector.
 pub const CAM_R: usize = 3;
@@ -92,15 +93,20 @@ pub const CAM_ASPECT: usize = 10;
 pub const CAM_W: usize = 11;
 /// Image height.
 pub const CAM_H: usize = 12;
+/// First column rendered (0 for the whole image).
+pub const CAM_X0: usize = 13;
+/// First row rendered, from the top (0 for the whole image).
+pub const CAM_Y0: usize = 14;
 /// First sample offset.
-pub const CAM_OFFSETS: usize = 13;
+pub const CAM_OFFSETS: usize = 15;
 
-/// The camera buffer of a `w` x `h` image with sample `offsets` (what `render.comp`
-/// reads to compute `Camera::direction_at` itself).
+/// The camera buffer of a `w` x `h` image of which the pixels from column `x0`, row
+/// `y0` on are rendered, with sample `offsets` (what `render.comp` reads to compute
+/// `Camera::direction_at` of the whole image itself).
 pub fn camera_buffer(
     frame: &crate::scene::camera::Frame,
-    w: u32,
-    h: u32,
+    (w, h): (u32, u32),
+    (x0, y0): (u32, u32),
     offsets: &[(f64, f64)],
 ) -> Vec<f64> {
     let mut v = vec![0f64; CAM_OFFSETS];
@@ -111,6 +117,8 @@ pub fn camera_buffer(
     v[CAM_ASPECT] = w as f64 / h as f64;
     v[CAM_W] = w as f64;
     v[CAM_H] = h as f64;
+    v[CAM_X0] = x0 as f64;
+    v[CAM_Y0] = y0 as f64;
     for &(ox, oy) in offsets {
         v.push(ox);
         v.push(oy);
@@ -164,6 +172,8 @@ pub fn compute_glsl() -> String {
         ("CAM_ASPECT", CAM_ASPECT),
         ("CAM_W", CAM_W),
         ("CAM_H", CAM_H),
+        ("CAM_X0", CAM_X0),
+        ("CAM_Y0", CAM_Y0),
         ("CAM_OFFSETS", CAM_OFFSETS),
     ] {
         s.push_str(&format!("#define {name} {v}\n"));

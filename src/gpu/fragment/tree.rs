@@ -63,7 +63,9 @@ pub(crate) fn render<'a>(
     kernel: FragmentKernel,
     observer: Option<&'a mut Observer<'a>>,
 ) -> Result<GpuOutput> {
-    let (width, height, spp, max_depth) = (req.width, req.height, req.spp, req.max_depth);
+    // The pixels rendered: a region of the image (`--tile`, `--region`) or all of it.
+    let px = req.pixels();
+    let (width, height, spp, max_depth) = (px.width(), px.height(), req.spp, req.max_depth);
     let levels = max_depth as usize + 1;
     let scene = gs.scene();
     let mut f = Frame::new(
@@ -118,13 +120,16 @@ pub(crate) fn render<'a>(
         dirs.par_chunks_mut(width as usize * 4)
             .enumerate()
             .for_each(|(row, out)| {
-                let j = height - 1 - row as u32; // GL rows run from the bottom
-                for (i, px) in out.chunks_mut(4).enumerate() {
+                // GL rows run from the bottom; the ray is the whole image's through
+                // pixel (x0 + i, y0 + j), as on the CPU.
+                let j = px.y0 + height - 1 - row as u32;
+                for (i, texel) in out.chunks_mut(4).enumerate() {
+                    let i = px.x0 + i as u32;
                     let d = req
                         .camera
-                        .direction_at(width, height, i as f64 + ox, j as f64 + oy)
+                        .direction_at(req.width, req.height, i as f64 + ox, j as f64 + oy)
                         .as_vec3();
-                    px.copy_from_slice(&[d.x, d.y, d.z, 0.0]);
+                    texel.copy_from_slice(&[d.x, d.y, d.z, 0.0]);
                 }
             });
         dir_tex.upload(f.gl(), &dirs)?;

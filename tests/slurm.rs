@@ -1,0 +1,66 @@
+//! The distributed render against a real Slurm (issue 28): `ci/slurm/test.sh` starts a
+//! single-node cluster from Debian's packages on this host, submits the job arrays of
+//! `ci/slurm/` with `sbatch --wait`, merges, and compares the merged images with the
+//! single-process renders bit for bit; this test runs it with the binary under test.
+//!
+//! It needs root and the packages `slurmd slurmctld slurm-client munge` (`ci/test.sh`
+//! installs them). Without them it fails, saying so, unless `FRAGTRACE_ALLOW_SKIP=1`
+//! acknowledges the skip: in CI it runs, and a cluster that does not start fails it.
+
+use std::path::Path;
+use std::process::Command;
+
+#[test]
+fn tiles_on_a_real_slurm_cluster_merge_to_the_single_process_bits() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let missing: Vec<&str> = ["munged", "slurmctld", "slurmd", "sbatch"]
+        .into_iter()
+        .filter(|tool| {
+            !Command::new("sh")
+                .args(["-c", &format!("command -v {tool}")])
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+        .collect();
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+    let why = match (missing.is_empty(), root) {
+        (true, true) => None,
+        (false, _) => Some(format!(
+            "{} not installed (apt-get install -y slurmd slurmctld slurm-client munge; ci/test.sh does)",
+            missing.join(", ")
+        )),
+        (true, false) => Some("not root (the test starts munged, slurmctld and slurmd)".into()),
+    };
+    if let Some(why) = why {
+        if std::env::var("FRAGTRACE_ALLOW_SKIP").as_deref() == Ok("1") {
+            eprintln!("SKIPPED (FRAGTRACE_ALLOW_SKIP=1): the Slurm test cannot run: {why}");
+            return;
+        }
+        panic!(
+            "the Slurm test cannot run: {why}; set FRAGTRACE_ALLOW_SKIP=1 to acknowledge the skip"
+        );
+    }
+    let out = Command::new("bash")
+        .arg(repo.join("ci/slurm/test.sh"))
+        .arg(env!("CARGO_BIN_EXE_fragtrace"))
+        .output()
+        .expect("run ci/slurm/test.sh");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{text}");
+    assert!(out.status.success(), "ci/slurm/test.sh failed:\n{text}");
+    // The script's own checks printed these; a script that skipped them would not.
+    for line in [
+        "whitted.png is bit-identical",
+        "bunny.exr (8 tiles on 4 tasks) has the single-process render's floats",
+        "slurm test: passed",
+    ] {
+        assert!(text.contains(line), "missing `{line}` in:\n{text}");
+    }
+}
