@@ -95,6 +95,10 @@ pub struct ViewArgs {
     /// Present the render in progress at most every this many milliseconds.
     #[arg(long, default_value_t = 50.0)]
     pub frame_ms: f64,
+    /// Play the scene's camera path ([animation] in the scene file) from its first frame,
+    /// one whole render per frame, in a loop (`p` pauses); with --frames N, stop after N.
+    #[arg(long)]
+    pub play: bool,
     /// Present every P passes instead of by time (reproducible frames for --screenshot).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub passes_per_frame: Option<u64>,
@@ -306,9 +310,13 @@ pub fn load(scene_path: Option<&Path>) -> Result<Scene> {
 
 /// The `render` command: load, render, write the image (and stats). With `--tile`,
 /// `--region` or `--task-index`, the parts this process owns ([`run_parts`]).
-pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
+pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
+    if let Some(frames) = &args.frames {
+        run_frames(args, frames)?;
+        return Ok(None);
+    }
     if let Some(plan) = Plan::new(args, |k| std::env::var(k).ok())? {
-        return run_parts(args, &plan);
+        return run_parts(args, &plan).map(Some);
     }
     // Fail on an unusable output path or AOV list before loading or rendering anything;
     // a folder is reported as one, not as a file with an unknown extension.
@@ -358,7 +366,51 @@ pub fn run_render(args: &RenderArgs) -> Result<render::Rendered> {
     if args.verbose {
         eprint!("{}", verbose_report(&out.stats));
     }
-    Ok(out)
+    Ok(Some(out))
+}
+
+/// `render --frames`: the animation of the scene's camera path ([`crate::animate`]).
+fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<()> {
+    if args.aov.is_some() || args.tile.is_some() || args.region.is_some() {
+        return Err(Error::Usage(
+            "--frames renders whole images; --aov, --tile and --region are for single renders"
+                .into(),
+        ));
+    }
+    if let Some(stats) = &args.stats {
+        check_writable(stats, "statistics")?;
+    }
+    let scene = load(args.scene.as_deref())?;
+    let opts = args.to_options(&scene)?;
+    let stats = crate::animate::render_frames(&scene, &opts, frames, &args.output, !args.quiet)?;
+    if let Some(path) = &args.stats {
+        let json =
+            serde_json::to_string_pretty(&stats).map_err(|e| Error::Internal(e.to_string()))?;
+        image_io::write_atomic(path, |tmp| {
+            std::fs::write(tmp, json.as_bytes()).map_err(|source| Error::Io {
+                path: path.clone(),
+                source,
+            })
+        })?;
+    }
+    if !args.quiet {
+        let first = stats.per_frame.first();
+        eprintln!(
+            "{}: {} frames of {}x{} on {}{}, set-up {:.0} ms, frames {:.0} ms ({:.1} frames/s after the first)",
+            args.output.display(),
+            stats.frames,
+            opts.width,
+            opts.height,
+            first.map_or("-".into(), |f| f.render.backend.clone()),
+            first
+                .and_then(|f| f.render.gpu.as_ref())
+                .map_or(String::new(), |g| format!(", {} kernel", g.kernel)),
+            stats.setup_ms,
+            stats.frames_ms,
+            stats.steady_fps
+        );
+    }
+    Ok(())
 }
 
 /// Writes render statistics as JSON (atomically).
@@ -696,6 +748,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         task_index: None,
         tiles: None,
         gpu: None,
+        frames: None,
         quiet: true,
         verbose: false,
     };
@@ -705,6 +758,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         screenshot: args.screenshot.clone(),
         passes_per_frame: args.passes_per_frame,
         frame_ms: args.frame_ms,
+        play: args.play,
     };
     crate::view::run(scene, &opts)
 }

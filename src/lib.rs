@@ -13,6 +13,7 @@
 //! robustness techniques), [`aov`] (AOV files) and [`compare`] (error figures).
 
 pub mod accel;
+pub mod animate;
 pub mod aov;
 pub mod bench;
 pub mod cli;

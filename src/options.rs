@@ -278,12 +278,63 @@ pub struct RenderArgs {
     /// works.
     #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole_number)]
     pub gpu: Option<u32>,
+    /// Render the frames A..B (both included), or all, of the scene's camera path
+    /// ([animation] in the scene file), uploading the scene once; -o names each frame with
+    /// a run of # (out/frame_####.png) or {frame}.
+    #[arg(long, value_name = "A..B|all")]
+    pub frames: Option<FrameRange>,
     /// Print nothing but errors (no progress display, no summary).
     #[arg(short, long)]
     pub quiet: bool,
     /// After the render, log each pass kind's count and GPU time (or the CPU's work).
     #[arg(short, long)]
     pub verbose: bool,
+}
+
+/// A frame range of `--frames`: `A..B` (both included), `A` alone, or `all` (the path's).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum FrameRange {
+    /// Every frame of the scene's path.
+    All,
+    /// Frames `A..=B`.
+    Range(u32, u32),
+}
+
+impl std::str::FromStr for FrameRange {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let bad = || format!("`{s}` is not a frame range (expected A..B, A or all)");
+        if s == "all" {
+            return Ok(FrameRange::All);
+        }
+        let (a, b) = match s.split_once("..") {
+            Some((a, b)) => (a, b.strip_prefix('=').unwrap_or(b)),
+            None => (s, s),
+        };
+        let (a, b): (u32, u32) = (a.parse().map_err(|_| bad())?, b.parse().map_err(|_| bad())?);
+        if a > b {
+            return Err(format!("frame range {s} runs backwards"));
+        }
+        Ok(FrameRange::Range(a, b))
+    }
+}
+
+impl FrameRange {
+    /// The frames this range takes of `path`'s frames, checked against them.
+    pub fn frames(
+        &self,
+        path: &std::ops::RangeInclusive<u32>,
+    ) -> Result<std::ops::RangeInclusive<u32>> {
+        match *self {
+            FrameRange::All => Ok(path.clone()),
+            FrameRange::Range(a, b) if path.contains(&a) && path.contains(&b) => Ok(a..=b),
+            FrameRange::Range(a, b) => Err(Error::Usage(format!(
+                "--frames {a}..{b} is outside the scene's camera path, frames {}..{}",
+                path.start(),
+                path.end()
+            ))),
+        }
+    }
 }
 
 /// `render`'s arguments as a command of their own, for parsing lists of them.

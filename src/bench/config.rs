@@ -57,6 +57,11 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
         presets: D,
     },
     ConfigRow {
+        name: "gl-compute-steady",
+        args: "--backend gl --kernel compute --steady",
+        presets: D,
+    },
+    ConfigRow {
         name: "gl-compute-uniform",
         args: "--backend gl --kernel compute --accel uniform",
         presets: A,
@@ -205,6 +210,9 @@ pub struct BenchConfig {
     pub args: String,
     /// The parsed arguments (scene, size, output and quiet are set by the bench).
     pub render: RenderArgs,
+    /// `--steady`: time frames 2..N of one renderer (scene uploaded, programs compiled
+    /// once) instead of whole renders; the warm-up is the first frame.
+    pub steady: bool,
 }
 
 impl BenchConfig {
@@ -217,7 +225,10 @@ impl BenchConfig {
                 "a configuration name must be non-empty and hold no comma".into(),
             ));
         }
-        let words: Vec<&str> = args.split_whitespace().collect();
+        // `--steady` is the bench's own: the configuration's renders are frames 2..N of one
+        // renderer (the scene uploaded and the programs compiled once), not fresh renders.
+        let steady = args.split_whitespace().any(|w| w == "--steady");
+        let words: Vec<&str> = args.split_whitespace().filter(|w| *w != "--steady").collect();
         for w in &words {
             let flag = w.split('=').next().unwrap_or(w);
             if ["-o", "--output", "--width", "--height", "--stats", "--aov"].contains(&flag)
@@ -239,10 +250,15 @@ impl BenchConfig {
         render
             .to_options(&scene::builtin_scene())
             .map_err(|e| bad(e.to_string()))?;
+        let mut args = words.join(" ");
+        if steady {
+            args.push_str(" --steady");
+        }
         Ok(BenchConfig {
             name: name.trim().to_string(),
-            args: words.join(" "),
+            args,
             render,
+            steady,
         })
     }
 }

@@ -54,18 +54,18 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 }
 
 /// A GL context made on first use and shared by every GL render of the bench.
-struct GlCache(Option<std::result::Result<GlContext, String>>);
+struct GlCache(std::cell::OnceCell<std::result::Result<GlContext, String>>);
 
 impl GlCache {
-    fn get(&mut self) -> std::result::Result<&GlContext, String> {
+    fn get(&self) -> std::result::Result<&GlContext, String> {
         self.0
-            .get_or_insert_with(|| GlContext::new().map_err(|e| e.to_string()))
+            .get_or_init(|| GlContext::new().map_err(|e| e.to_string()))
             .as_ref()
             .map_err(Clone::clone)
     }
 }
 
-fn render_with(gl: &mut GlCache, scene: &Scene, opts: &RenderOptions) -> Result<render::Rendered> {
+fn render_with(gl: &GlCache, scene: &Scene, opts: &RenderOptions) -> Result<render::Rendered> {
     match opts.backend {
         Backend::Cpu => render::render_cpu(scene, opts),
         Backend::Gl => {
@@ -151,7 +151,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
             progress.println(line);
         }
     };
-    let mut gl = GlCache(None);
+    let gl = GlCache(std::cell::OnceCell::new());
     let mut rows = Vec::new();
     let mut triangles = BTreeMap::new();
     let refs_dir = opts.out.join("references");
@@ -170,7 +170,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
             let row = match args.to_options(scene) {
                 Err(e) => BenchRow::failed(&spec.name, cfg, opts.size, e.to_string()),
                 Ok(ropts) => bench_one(
-                    &mut gl, spec, scene, cfg, &ropts, opts, &reference, &progress,
+                    &gl, spec, scene, cfg, &ropts, opts, &reference, &progress,
                 ),
             };
             match &row.error {
@@ -193,7 +193,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
     }
     progress.finish();
 
-    let gl_device = match &gl.0 {
+    let gl_device = match gl.0.get() {
         Some(Ok(ctx)) => Some(ctx.info.renderer.clone()),
         _ => None,
     };
@@ -220,7 +220,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
 
 #[allow(clippy::too_many_arguments)]
 fn bench_one(
-    gl: &mut GlCache,
+    gl: &GlCache,
     spec: &SceneSpec,
     scene: &Scene,
     cfg: &BenchConfig,
@@ -230,9 +230,32 @@ fn bench_one(
     progress: &Progress,
 ) -> BenchRow {
     let stage = |what: String| progress.message(format!("{} / {}: {what}", spec.name, cfg.name));
-    let timed = |gl: &mut GlCache| -> Result<(f64, render::Rendered)> {
+    // `--steady`: one renderer for the warm-up (its first frame) and every run.
+    let prepared = match cfg.steady.then(|| render::prepare(scene, ropts)).transpose() {
+        Ok(p) => p,
+        Err(e) => return BenchRow::failed(&spec.name, cfg, opts.size, e.to_string()),
+    };
+    let ctx = match (&prepared, ropts.backend) {
+        (Some(_), Backend::Gl | Backend::Auto) => gl.get().ok(),
+        _ => None,
+    };
+    let mut renderer = match (&prepared, ctx) {
+        (Some(p), Some(ctx)) => match p.gl_renderer(ctx, ropts) {
+            Ok(r) => Some(r),
+            Err(e) => return BenchRow::failed(&spec.name, cfg, opts.size, e.to_string()),
+        },
+        (Some(_), None) if ropts.backend == Backend::Gl => {
+            return BenchRow::failed(&spec.name, cfg, opts.size, "no GL context".into())
+        }
+        (Some(p), None) => Some(p.cpu_renderer(ropts)),
+        (None, _) => None,
+    };
+    let mut timed = |gl: &GlCache| -> Result<(f64, render::Rendered)> {
         let t0 = Instant::now();
-        let out = render_with(gl, scene, ropts)?;
+        let out = match renderer.as_mut() {
+            Some(r) => r.render(&scene.camera)?,
+            None => render_with(gl, scene, ropts)?,
+        };
         let t = t0.elapsed().as_secs_f64();
         if !out.image.all_finite() {
             return Err(Error::Internal(

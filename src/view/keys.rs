@@ -16,6 +16,7 @@ Keys:
   z                  early-z mask on / off
   s                  save a screenshot (fragtrace-view-N.png in the current folder)
   r                  reset the camera
+  p                  play / pause the scene's camera path ([animation]), frame after frame
   ?                  print this list
   q / Esc            quit
 The title shows the kernel, passes, rays/s, ms per frame and samples done. When the camera
@@ -38,6 +39,8 @@ pub enum Action {
     Screenshot,
     /// Camera back to the scene's.
     ResetCamera,
+    /// Play or pause the scene's camera path.
+    Play,
     /// Print [`KEYS_HELP`].
     Help,
     /// Close the window.
@@ -54,6 +57,7 @@ pub fn action_for(key: &str) -> Option<Action> {
         "z" | "Z" => Action::ToggleMask,
         "s" | "S" => Action::Screenshot,
         "r" | "R" => Action::ResetCamera,
+        "p" | "P" => Action::Play,
         "?" | "h" | "H" => Action::Help,
         "q" | "Q" | "Escape" => Action::Quit,
         _ => return None,

@@ -61,6 +61,8 @@ pub struct ViewOptions {
     pub passes_per_frame: Option<u64>,
     /// Present at most this often while rendering (milliseconds).
     pub frame_ms: f64,
+    /// Start playing the scene's camera path (`--play`; `p` toggles it).
+    pub play: bool,
 }
 
 impl ViewOptions {
@@ -93,6 +95,8 @@ struct Handler {
     resized: Option<winit::dpi::PhysicalSize<u32>>,
     /// The window's context has compute shaders (`k` offers the compute kernel).
     compute: bool,
+    /// `p`: play the scene's camera path (the frame shown next), or paused.
+    playing: bool,
 }
 
 impl Handler {
@@ -119,6 +123,11 @@ impl Handler {
             }
             Action::ResetCamera => {
                 self.restart |= self.controller.reset();
+                return;
+            }
+            Action::Play => {
+                self.playing = !self.playing;
+                self.restart |= self.playing;
                 return;
             }
             Action::Help => {
@@ -299,7 +308,15 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
         quit: false,
         resized: None,
         compute: ctx.info.compute,
+        playing: opts.play,
     };
+    // The camera path `p` plays: its frames in a loop, each the camera of a whole render.
+    let path = scene.animation.clone();
+    let mut frame = path.as_ref().map_or(0, |p| *p.frames().start());
+    if h.playing && path.is_none() {
+        eprintln!("fragtrace view: the scene has no [animation] to play");
+        h.playing = false;
+    }
     let mut last: Option<GpuOutput> = None;
     let mut stats = TitleStats::default();
     let mut frames = 0u64;
@@ -360,7 +377,16 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
         }
         h.restart = false;
 
-        // One render of the whole image at the current camera and settings.
+        // One render of the whole image at the current camera and settings; playing, the
+        // camera of the path's next frame.
+        if let (true, Some(p)) = (h.playing, &path) {
+            h.controller.camera = p.camera_at(frame);
+            frame = if frame >= *p.frames().end() {
+                *p.frames().start()
+            } else {
+                frame + 1
+            };
+        }
         let req = ImageRequest {
             camera: h.controller.camera,
             width: size.0,
@@ -456,7 +482,7 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                 frames += 1;
                 last = Some(out);
                 win.window.set_title(&title(&h.settings, ro.spp, &stats));
-                if automated {
+                if automated && !(h.playing && opts.frames.is_some_and(|n| frames < n)) {
                     if let Some(path) = &opts.screenshot {
                         screenshot(&ctx, size, path)?;
                     }
@@ -464,6 +490,8 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                     return Ok(());
                 }
                 win.swap()?;
+                // Playing: the next frame of the path starts at once.
+                h.restart |= h.playing;
             }
             Err(Error::Cancelled) if done => return Ok(()),
             // Input arrived: start over once it is handled (a resize to the same size, say,

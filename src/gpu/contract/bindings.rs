@@ -688,6 +688,7 @@ mod tests {
     fn gl_type(glsl: &str) -> u32 {
         match glsl {
             "float" => glow::FLOAT,
+            "int" => glow::INT,
             "vec3" => glow::FLOAT_VEC3,
             "ivec2" => glow::INT_VEC2,
             "sampler2D" => glow::SAMPLER_2D,
@@ -792,8 +793,11 @@ mod tests {
         );
         let r = declarations_for("render.comp", true, &mut declared);
         for b in Buffer::ALL {
-            assert!(r.contains(&format!("binding = {}", b.binding())), "{r}");
+            let declared = r.contains(&format!("binding = {}", b.binding()));
+            assert_eq!(declared, b.readers().contains(&"render.comp"), "{b:?}: {r}");
         }
+        let c = declarations_for("srgb8.comp", true, &mut Vec::new());
+        assert!(c.contains("float srgb_thresholds[256]") && c.contains("u_pixels"), "{c}");
         assert!(r.contains("uniform ivec2 u_size;"), "{r}");
         let w = declarations_for("wave.comp", true, &mut Vec::new());
         assert!(

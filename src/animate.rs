@@ -1,0 +1,215 @@
+//! `fragtrace render SCENE --frames A..B -o out/frame_####.png`: an animation in one
+//! process. The structure is built and the scene uploaded once ([`Renderer`]); every frame
+//! is rendered from its camera on the scene's path and handed to encoder threads, which
+//! write it (atomically) while the next frame renders. Progress is shown over frames with
+//! an ETA, and `--stats` writes per-frame phases.
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::dist::template::OutputTemplate;
+use crate::image_io::{self, Format, Image};
+use crate::options::{FrameRange, RenderOptions};
+use crate::output::Readback;
+use crate::progress::Progress;
+use crate::render::{self, RenderStats, Renderer};
+use crate::scene::Scene;
+use crate::{Error, Result};
+
+/// What `--stats` writes for an animation: the set-up, then every frame's phases.
+#[derive(Serialize)]
+pub struct AnimationStats {
+    /// Frames rendered.
+    pub frames: u32,
+    /// Loading, structure build and renderer set-up before the first frame (ms).
+    pub setup_ms: f64,
+    /// From the first frame's start to the last file written (ms).
+    pub frames_ms: f64,
+    /// The frames after the first (its uploads and compiles) per second.
+    pub steady_fps: f64,
+    /// Per frame: its number, file, render statistics and encode-and-write time.
+    pub per_frame: Vec<FrameStats>,
+}
+
+/// One frame of [`AnimationStats`].
+#[derive(Serialize)]
+pub struct FrameStats {
+    /// Frame number.
+    pub frame: u32,
+    /// The file written.
+    pub file: PathBuf,
+    /// The render (phases under `gpu.phases_ms`).
+    pub render: RenderStats,
+    /// Encoding and writing the file, on an encoder thread (ms).
+    pub write_ms: f64,
+}
+
+/// One finished frame on its way to an encoder thread.
+struct Job {
+    index: usize,
+    path: PathBuf,
+    image: Image,
+    srgb8: Option<Vec<u8>>,
+}
+
+/// Renders `frames` of `scene`'s camera path with `opts` into files named by `output`
+/// (a run of `#` or `{frame}` becomes the frame number), returning the statistics.
+pub fn render_frames(
+    scene: &Scene,
+    opts: &RenderOptions,
+    frames: &FrameRange,
+    output: &Path,
+    progress: bool,
+) -> Result<AnimationStats> {
+    let t_setup = Instant::now();
+    let path = scene.animation.as_ref().ok_or_else(|| {
+        Error::Usage(format!(
+            "--frames needs a camera path: {} has no [animation] table (docs/scene-format.md)",
+            scene.source
+        ))
+    })?;
+    let frames = frames.frames(&path.frames())?;
+    let template = OutputTemplate::new(output);
+    if !template.has_frame() && frames.start() != frames.end() {
+        return Err(Error::Usage(format!(
+            "-o {} has no frame number in it: name frames with a run of # (frame_####.png) or {{frame}}",
+            output.display()
+        )));
+    }
+    let first_file = template.path(Some(*frames.start()), None);
+    let format = Format::from_path(&first_file)?;
+    if let Some(dir) = first_file.parent() {
+        if !dir.as_os_str().is_empty() && !dir.is_dir() {
+            return Err(Error::Usage(format!(
+                "{}: the folder does not exist",
+                dir.display()
+            )));
+        }
+    }
+    let mut opts = opts.clone();
+    opts.readback = Readback {
+        aov: false,
+        srgb8: format == Format::Png,
+    };
+    opts.progress = false;
+    let prepared = render::prepare(scene, &opts)?;
+    let ctx = render::context_for(&opts)?;
+    let mut renderer: Renderer<'_> = match &ctx {
+        Some(ctx) => prepared.gl_renderer(ctx, &opts)?,
+        None => prepared.cpu_renderer(&opts),
+    };
+    let setup_ms = t_setup.elapsed().as_secs_f64() * 1e3;
+    let count = frames.end() - frames.start() + 1;
+    let bar = Progress::bar(progress, count as u64, "frames");
+    let t_frames = Instant::now();
+    let mut per_frame: Vec<Option<FrameStats>> = (0..count).map(|_| None).collect();
+    let mut first_done: Option<Instant> = None;
+    // Encoders: several frames can be encoding while the GPU renders the next; at most
+    // two frames wait in the queue, so memory stays bounded.
+    let workers = std::thread::available_parallelism()
+        .map_or(2, |n| n.get())
+        .clamp(1, 4);
+    let (tx, rx) = mpsc::sync_channel::<Job>(2);
+    let rx = Arc::new(Mutex::new(rx));
+    let (done_tx, done_rx) = mpsc::channel::<(usize, Result<f64>)>();
+    let result = std::thread::scope(|s| -> Result<()> {
+        for _ in 0..workers {
+            let rx = Arc::clone(&rx);
+            let done = done_tx.clone();
+            s.spawn(move || loop {
+                let job = match rx.lock().expect("queue").recv() {
+                    Ok(j) => j,
+                    Err(_) => return,
+                };
+                let t = Instant::now();
+                let r = match &job.srgb8 {
+                    Some(rgb) => image_io::write_png_srgb8(
+                        &job.path,
+                        job.image.width,
+                        job.image.height,
+                        rgb,
+                    ),
+                    None => image_io::write_image(&job.path, &job.image),
+                };
+                let _ = done.send((job.index, r.map(|()| t.elapsed().as_secs_f64() * 1e3)));
+            });
+        }
+        drop(done_tx);
+        let mut render_err = None;
+        for (index, frame) in frames.clone().enumerate() {
+            let camera = path.camera_at(frame);
+            let out = match renderer.render(&camera) {
+                Ok(o) => o,
+                Err(e) => {
+                    render_err = Some(e);
+                    break;
+                }
+            };
+            let finite = match out.nonfinite {
+                Some(n) => n == 0,
+                None => out.image.all_finite(),
+            };
+            if !finite {
+                render_err = Some(Error::Internal(format!(
+                    "frame {frame}: the render produced a NaN or Inf pixel"
+                )));
+                break;
+            }
+            let file = template.path(Some(frame), None);
+            per_frame[index] = Some(FrameStats {
+                frame,
+                file: file.clone(),
+                render: out.stats,
+                write_ms: 0.0,
+            });
+            let job = Job {
+                index,
+                path: file,
+                image: out.image,
+                srgb8: out.srgb8,
+            };
+            if tx.send(job).is_err() {
+                break;
+            }
+            first_done.get_or_insert_with(Instant::now);
+            bar.inc(1);
+        }
+        drop(tx);
+        // Every encoder's answer (they finish the queue, then the channel closes).
+        let mut write_err = None;
+        for (index, r) in done_rx {
+            match r {
+                Ok(ms) => {
+                    if let Some(f) = per_frame[index].as_mut() {
+                        f.write_ms = ms;
+                    }
+                }
+                Err(e) => {
+                    write_err.get_or_insert(e);
+                }
+            }
+        }
+        match (render_err, write_err) {
+            (Some(e), _) | (None, Some(e)) => Err(e),
+            (None, None) => Ok(()),
+        }
+    });
+    bar.finish();
+    result?;
+    let frames_ms = t_frames.elapsed().as_secs_f64() * 1e3;
+    let steady_fps = match first_done {
+        Some(t) if count > 1 => (count - 1) as f64 / t.elapsed().as_secs_f64().max(1e-9),
+        _ => 0.0,
+    };
+    Ok(AnimationStats {
+        frames: count,
+        setup_ms,
+        frames_ms,
+        steady_fps,
+        per_frame: per_frame.into_iter().flatten().collect(),
+    })
+}
