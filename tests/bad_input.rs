@@ -363,6 +363,76 @@ fn non_finite_toml_numbers_name_the_field() {
     }
 }
 
+/// `[animation]` errors through the binary: exit 2, one line with file, line and field.
+#[test]
+fn bad_camera_paths_name_file_line_and_field() {
+    let d = tmpdir("anim");
+    let orbit = "[animation.orbit]\ncentre = [0, 1, 0]\nradius = 2\nframes = 24\nfov = 40\n";
+    let key = |f: u32, eye: &str| {
+        format!(
+            "[[animation.keyframes]]\nframe = {f}\neye = {eye}\nlook_at = [0, 0, 0]\nfov = 40\n"
+        )
+    };
+    for (body, needles) in [
+        (
+            orbit.replace("radius = 2", "radius = 0"),
+            vec!["a.toml:3:", "animation.orbit.radius", "must be > 0, got 0"],
+        ),
+        (
+            orbit.replace("frames = 24", "frames = 0"),
+            vec!["a.toml:4:", "animation.orbit.frames", "at least 1 frame"],
+        ),
+        (
+            orbit.replace("centre", "center"),
+            vec![
+                "a.toml:2:",
+                "animation.orbit.center",
+                "did you mean `centre`?",
+            ],
+        ),
+        (
+            format!("{CAM}{orbit}"),
+            vec!["a.toml:5:", "animation", "not both"],
+        ),
+        (
+            key(0, "[0, 0, 5]"),
+            vec![
+                "a.toml:1:",
+                "animation.keyframes",
+                "at least 2 keyframes, got 1",
+            ],
+        ),
+        (
+            format!("{}{}", key(10, "[0, 0, 5]"), key(10, "[1, 0, 5]")),
+            vec![
+                "a.toml:7:",
+                "animation.keyframes[1].frame",
+                "strictly increasing",
+            ],
+        ),
+        (
+            format!("{}{}", key(0, "[0, 0, 5]"), key(10, "[0, nan, 5]")),
+            vec!["a.toml:8:", "animation.keyframes[1].eye", "finite"],
+        ),
+        (
+            format!("{}{}", key(0, "[0, 0, 5]"), key(10, "[0, 0, -5]")),
+            vec![
+                "a.toml:6:",
+                "animation.keyframes[1]",
+                "frame 5, between",
+                "eye and look_at coincide",
+            ],
+        ),
+    ] {
+        write(
+            &d,
+            "a.toml",
+            &format!("{body}[[objects]]\nshape = \"box\"\n"),
+        );
+        scene_fails(&d, "a.toml", &needles);
+    }
+}
+
 #[test]
 fn undefined_material_suggests_the_defined_one() {
     let d = tmpdir("mat");

@@ -40,6 +40,10 @@ pub struct Frame {
 impl Camera {
     /// Checks that the camera defines a frame (distinct eye and target, up not parallel).
     pub fn check(&self) -> Result<(), String> {
+        // A NaN up would pass the tests below (NaN compares false), so refuse it first.
+        if !(self.eye.is_finite() && self.look_at.is_finite() && self.up.is_finite()) {
+            return Err("a camera position or direction is not finite".into());
+        }
         let f = (self.look_at - self.eye).as_dvec3();
         if f.length() == 0.0 || !f.is_finite() {
             return Err("eye and look_at coincide".into());

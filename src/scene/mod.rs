@@ -5,6 +5,7 @@
 //! files, transforms or analytic shapes.
 
 pub mod camera;
+pub mod camera_path;
 pub mod obj;
 pub mod shapes;
 pub mod toml_scene;
@@ -12,6 +13,7 @@ pub mod toml_scene;
 use glam::{DVec3, Vec3};
 
 pub use camera::Camera;
+pub use camera_path::{CameraPath, Interpolation, Keyframe, Orbit, PathError, PathPlace, Pose};
 pub use obj::{load_obj, parse_obj_with_mtl, ObjMesh};
 pub use toml_scene::{
     builtin_scene, load_scene, load_scene_str, load_scene_str_with_search_path,
@@ -211,8 +213,12 @@ impl Triangle {
 pub struct Scene {
     /// Where the scene came from (file path or `<builtin>`), for messages and stats.
     pub source: String,
-    /// The pinhole camera.
+    /// The pinhole camera. For an animated scene, the camera of the path's first frame,
+    /// so that a single render of the scene shows that frame.
     pub camera: Camera,
+    /// The camera path of an animated scene (`[animation]` in a scene file), relative to
+    /// [`Scene::origin`] like the camera; `None` for a still scene.
+    pub animation: Option<CameraPath>,
     /// Default image width.
     pub width: u32,
     /// Default image height.
@@ -247,6 +253,7 @@ impl Scene {
         Scene {
             source: "<memory>".into(),
             camera,
+            animation: None,
             width: 640,
             height: 480,
             background: Vec3::new(0.1, 0.3, 0.8),

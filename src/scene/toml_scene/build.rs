@@ -13,6 +13,7 @@ use std::rc::Rc;
 
 use glam::{DMat3, DVec3, Vec2, Vec3};
 
+use super::animation;
 use super::diagnostics::{closest, Ctx};
 use super::schema::{
     CameraDef, MaterialDef, MaterialRef, Numbers, ObjectDef, SceneDef, ShapeKind, S,
@@ -203,7 +204,38 @@ struct Builder<'a> {
 impl Builder<'_> {
     fn build(&mut self, def: SceneDef) -> Result<()> {
         let ctx = self.ctx;
-        self.camera(&def.camera)?;
+        let path = match (&def.camera, &def.animation) {
+            (Some(c), None) => {
+                self.camera(c)?;
+                None
+            }
+            (None, Some(a)) => {
+                let path = animation::camera_path(ctx, a)?;
+                // The still camera is the first frame's, in world space until localise.
+                let first = path.pose_at(*path.frames().start() as f64);
+                self.scene.camera = first.camera(DVec3::ZERO);
+                self.world.eye = first.eye;
+                self.world.look_at = first.look_at;
+                Some((path, a))
+            }
+            (Some(_), Some(a)) => {
+                return Err(ctx.err(
+                    animation::animation_span(ctx, a),
+                    "animation",
+                    "a scene has either `[camera]` or `[animation]`, not both: an animated \
+                     scene's camera (for a single render too) is its path's first frame",
+                ));
+            }
+            (None, None) => {
+                return Err(Error::scene(
+                    ctx.name,
+                    1,
+                    "camera",
+                    "the scene has no `[camera]` table, which is required (e.g. `[camera]` \
+                     with `eye`, `look_at` and `fov`, or an `[animation]` camera path)",
+                ));
+            }
+        };
         if let Some(img) = &def.image {
             let why = format!(" (image sizes are 1..={MAX_IMAGE_SIZE} pixels)");
             let max = MAX_IMAGE_SIZE as i64;
@@ -251,6 +283,14 @@ impl Builder<'_> {
             self.object(i, o)?;
         }
         self.localise();
+        if let Some((path, a)) = path {
+            // Relative to the local origin, which is the first frame's eye.
+            let path = path
+                .with_origin(self.scene.origin)
+                .map_err(|e| animation::path_error(ctx, a, &e))?;
+            self.scene.camera = path.camera_at(*path.frames().start());
+            self.scene.animation = Some(path);
+        }
         Ok(())
     }
 

@@ -11,9 +11,12 @@
 
 //!
 //! The loader is split by job: `schema` is the file format as serde sees it, `build` turns
-//! it into a [`Scene`] (transforms, materials, shapes, meshes), and `diagnostics` words the
-//! errors (file, line, dotted field, "did you mean"). This module holds the entry points.
+//! it into a [`Scene`] (transforms, materials, shapes, meshes), `animation` turns an
+//! `[animation]` table into the scene's [`CameraPath`](crate::scene::CameraPath), and
+//! `diagnostics` words the errors (file, line, dotted field, "did you mean"). This module
+//! holds the entry points.
 
+mod animation;
 mod build;
 mod diagnostics;
 mod schema;
@@ -124,5 +127,7 @@ pub fn model_search_path() -> Vec<PathBuf> {
         .unwrap_or_default()
 }
 
+#[cfg(test)]
+mod animation_tests;
 #[cfg(test)]
 mod tests;

@@ -9,17 +9,22 @@ use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::scene::CheckerAxes;
+use crate::scene::{CheckerAxes, Interpolation};
 
 /// A value with the byte span it was read from.
 pub(super) type S<T> = Spanned<T>;
 
-/// The whole file: top-level keys and the `[camera]`, `[image]`, `[[lights]]`,
-/// `[materials.NAME]` and `[[objects]]` tables.
+/// The whole file: top-level keys and the `[camera]`, `[animation]`, `[image]`,
+/// `[[lights]]`, `[materials.NAME]` and `[[objects]]` tables. Exactly one of `camera` and
+/// `animation` is required; the builder says so, naming the table.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct SceneDef {
-    pub(super) camera: S<CameraDef>,
+    pub(super) camera: Option<S<CameraDef>>,
+    // Not spanned: toml cannot give the span of a table that has no header of its own
+    // (a file with only `[animation.orbit]`): "expected a borrowed string". The builder
+    // finds its line instead.
+    pub(super) animation: Option<AnimationDef>,
     pub(super) image: Option<ImageDef>,
     pub(super) background: Option<S<Triple>>,
     pub(super) ambient: Option<S<Triple>>,
@@ -38,6 +43,42 @@ pub(super) struct SceneDef {
 pub(super) struct CameraDef {
     pub(super) eye: S<Triple>,
     pub(super) look_at: S<Triple>,
+    pub(super) up: Option<S<Triple>>,
+    pub(super) fov: S<f64>,
+}
+
+/// `[animation]`: a camera path, either `[[animation.keyframes]]` or `[animation.orbit]`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct AnimationDef {
+    pub(super) interpolation: Option<S<Interpolation>>,
+    pub(super) keyframes: Option<Vec<S<KeyframeDef>>>,
+    // Not spanned, as `SceneDef::animation`: the builder takes the line of its first key.
+    pub(super) orbit: Option<OrbitDef>,
+}
+
+/// One `[[animation.keyframes]]` entry: the camera at a frame.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct KeyframeDef {
+    pub(super) frame: S<i64>,
+    pub(super) eye: S<Triple>,
+    pub(super) look_at: S<Triple>,
+    pub(super) up: Option<S<Triple>>,
+    pub(super) fov: S<f64>,
+}
+
+/// `[animation.orbit]`: the camera circling a point.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct OrbitDef {
+    pub(super) centre: S<Triple>,
+    pub(super) radius: S<f64>,
+    pub(super) height: Option<S<f64>>,
+    pub(super) turns: Option<S<f64>>,
+    pub(super) frames: S<i64>,
+    pub(super) first_frame: Option<S<i64>>,
+    pub(super) start_angle: Option<S<f64>>,
     pub(super) up: Option<S<Triple>>,
     pub(super) fov: S<f64>,
 }

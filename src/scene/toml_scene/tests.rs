@@ -122,7 +122,16 @@ fn every_shipped_scene_loads() {
     }
     names.sort();
     for want in [
-        "bunny", "cornell", "dragon", "glass", "lights", "sponza", "stadium", "teapot", "whitted",
+        "bunny",
+        "cornell",
+        "dragon",
+        "glass",
+        "lights",
+        "sponza",
+        "stadium",
+        "teapot",
+        "turntable",
+        "whitted",
     ] {
         assert!(
             names.iter().any(|n| n == want),
