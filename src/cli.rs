@@ -126,7 +126,7 @@ pub struct MergeArgs {
     #[arg(required = true)]
     pub parts: Vec<PathBuf>,
     /// The merged image: .png (sRGB 8-bit, the same bits as a single-process render) or
-    /// .exr (linear float, itself a part covering the whole image); `{frame}` in the name
+    /// .exr (linear float, itself a part covering the whole image); a run of `#` in the file name
     /// writes one image per frame of an animation's parts.
     #[arg(short, long)]
     pub output: PathBuf,

@@ -8,9 +8,11 @@
 //! [`accel`] (grid build), [`cpu`] (reference renderer), [`gpu`] (headless GL context,
 //! owning GL objects, the Rust/GLSL contract, texel layout, shaders, the scene uploaded once,
 //! the fragment and compute wings), [`output`] and [`image_io`] (what a render produces), [`options`]
-//! (render flags and options), [`render`] (backend-independent front door), [`bench`](mod@bench)
-//! (speed against error) and [`cli`]; beside them [`technique`] (switches for the
-//! robustness techniques), [`aov`] (AOV files) and [`compare`] (error figures).
+//! (render flags and options), [`render`] (backend-independent front door), [`dist`] (parts
+//! of images as tasks of a batch scheduler, and merging them), [`bench`](mod@bench)
+//! (speed against error) and [`cli`]; beside them [`region`] (the pixels a render
+//! computes), [`technique`] (switches for the robustness techniques), [`aov`] (AOV files)
+//! and [`compare`] (error figures).
 
 pub mod accel;
 pub mod animate;

@@ -289,13 +289,15 @@ impl Renderer<'_> {
     }
 }
 
-/// One CPU frame with a progress bar over its rows.
+/// One CPU frame (of the region's pixels, or the whole image's) with a progress bar over
+/// its rows.
 fn cpu_frame<T: crate::cpu::real::Real>(
     r: &CpuRenderer<'_, T>,
     opts: &RenderOptions,
 ) -> BackendOutput {
-    let progress = crate::progress::Progress::bar(opts.progress, opts.height as u64, "rows");
-    r.render_with_progress(opts.width, opts.height, opts.spp, &progress)
+    let px = opts.pixels();
+    let progress = crate::progress::Progress::bar(opts.progress, px.height() as u64, "rows");
+    r.render_region(opts.width, opts.height, px, opts.spp, &progress)
 }
 
 /// Builds the acceleration structure and renders `scene` on the CPU.

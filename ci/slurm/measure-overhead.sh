@@ -78,7 +78,7 @@ for backend in cpu gl; do
         export STAMPS=$work/stamps-tiles-$r
         : >"$STAMPS"
         rm -rf parts && mkdir parts
-        array=$(sbatch --parsable -Q -o /dev/null --array=0-3 --cpus-per-task=1 \
+        array=$(sbatch --parsable -o /dev/null --array=0-3 --cpus-per-task=1 \
             --wrap "LP_NUM_THREADS=1 RAYON_NUM_THREADS=1 $work/stamp.sh $bin render $scene --backend $backend ${common[*]} --task-index env -o $work/parts/part-{tile}.exr")
         sbatch --wait -Q -o /dev/null --dependency="afterok:${array%%;*}" \
             --wrap "$work/stamp.sh $bin merge $work/parts/part-0.exr $work/parts/part-1.exr $work/parts/part-2.exr $work/parts/part-3.exr -q -o $work/m.png"

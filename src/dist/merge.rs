@@ -3,8 +3,9 @@
 //! image exactly once — and each failure is one line naming the files and pixels
 //! involved.
 //!
-//! Parts of several frames of an animation merge in one call when the output name has
-//! `{frame}` in it; each frame's parts must then cover that frame exactly once.
+//! Parts of several frames of an animation merge in one call when the output's file name
+//! has a run of `#` for the frame number (`frame_####.png`, as `render --frames` names
+//! files); each frame's parts must then cover that frame exactly once.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -129,7 +130,7 @@ fn frame_note(h: &PartHeader) -> String {
 }
 
 /// Reads `inputs`, checks them and writes the merged image(s) to `output` (`.png` or
-/// `.exr`; `{frame}` in the name for parts of several frames). Nothing is written unless
+/// `.exr`; a run of `#` in the file name for parts of several frames). Nothing is written unless
 /// every check passes for every frame.
 pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
     if inputs.is_empty() {
@@ -161,7 +162,7 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
             .map(|f| f.map_or("still".into(), |f| f.to_string()))
             .collect();
         return Err(Error::Usage(format!(
-            "merge: the parts are of {} frames ({}); put {{frame}} in the output name to write one image each, or merge each frame's parts on their own",
+            "merge: the parts are of {} frames ({}); put a run of # in the output's file name for the frame number (frame_####.png) to write one image each, or merge each frame's parts on their own",
             frames.len(),
             list.join(", ")
         )));

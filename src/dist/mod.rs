@@ -9,7 +9,7 @@
 //!   header naming scene, options and their hash); [`hash`] is that hash.
 //! - [`merge`]: parts back into whole images, refusing gaps, overlaps and mismatches.
 //! - [`plan`]: what one process renders (its units and their files), from the flags.
-//! - [`template`]: `{tile}` and `{frame}` in output names.
+//! - [`template`]: `{tile}` and the frame's run of `#` in output names.
 //!
 //! Regions themselves ([`crate::region`]) sit at the bottom of the layers, for the
 //! renderers; this module sits above [`crate::render`] and below the CLI.

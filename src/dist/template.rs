@@ -1,14 +1,12 @@
-//! Output names for work split over tasks: `{tile}` and `{frame}` in a `-o` path are
-//! replaced by the part's tile index and frame number, so that every task of a job array
-//! writes its own files from one command line (`-o parts/part-{tile}.exr`).
+//! Output names for work split over tasks: `{tile}` in a `-o` path is replaced by the
+//! part's tile index, and a run of `#` by its frame number padded to the run's length (the
+//! convention of `render --frames`: `frame_####.png`), so that every task of a job array
+//! writes its own files from one command line (`-o parts/f####-{tile}.exr`).
 
 use std::path::{Path, PathBuf};
 
-/// Digits a frame number is padded to (`{frame}` of frame 7 is `0007`), so that files
-/// sort in frame order for the tools that read image sequences.
-pub const FRAME_DIGITS: usize = 4;
-
-/// An output path with optional `{tile}` and `{frame}` placeholders.
+/// An output path with an optional `{tile}` placeholder and an optional run of `#` for the
+/// frame number (only in the file name, the last run there).
 #[derive(Clone, Debug)]
 pub struct OutputTemplate {
     raw: String,
@@ -27,18 +25,28 @@ impl OutputTemplate {
         self.raw.contains("{tile}")
     }
 
-    /// True when the name has `{frame}`.
-    pub fn has_frame(&self) -> bool {
-        self.raw.contains("{frame}")
+    /// Where the frame's run of `#` is: the last run in the file name.
+    fn frame_run(&self) -> Option<(usize, usize)> {
+        let name_start = self.raw.rfind('/').map_or(0, |i| i + 1);
+        let end = self.raw[name_start..].rfind('#')? + name_start + 1;
+        let start = self.raw[..end].trim_end_matches('#').len();
+        Some((start, end))
     }
 
-    /// The path for `frame` and tile `(index, count)`: `{frame}` padded to
-    /// [`FRAME_DIGITS`], `{tile}` to the digits of `count - 1`. A placeholder without a
-    /// value is left as it is.
+    /// True when the file name has a run of `#` for the frame number.
+    pub fn has_frame(&self) -> bool {
+        self.frame_run().is_some()
+    }
+
+    /// The path for `frame` and tile `(index, count)`: the run of `#` replaced by the
+    /// frame number padded to its length (longer numbers are written whole), `{tile}` by
+    /// the index padded to the digits of `count - 1`. A placeholder without a value is
+    /// left as it is.
     pub fn path(&self, frame: Option<u32>, tile: Option<(u32, u32)>) -> PathBuf {
         let mut s = self.raw.clone();
-        if let Some(f) = frame {
-            s = s.replace("{frame}", &format!("{f:0FRAME_DIGITS$}"));
+        if let (Some(f), Some((a, b))) = (frame, self.frame_run()) {
+            let digits = b - a;
+            s.replace_range(a..b, &format!("{f:0digits$}"));
         }
         if let Some((i, n)) = tile {
             let digits = (n.max(2) - 1).to_string().len();
@@ -54,20 +62,23 @@ mod tests {
 
     #[test]
     fn placeholders() {
-        let t = OutputTemplate::new(Path::new("out/f{frame}-t{tile}.exr"));
+        let t = OutputTemplate::new(Path::new("o#t/f####-t{tile}.exr"));
         assert!(t.has_tile() && t.has_frame());
         assert_eq!(
             t.path(Some(7), Some((3, 16))),
-            PathBuf::from("out/f0007-t03.exr")
+            PathBuf::from("o#t/f0007-t03.exr")
         );
         assert_eq!(
             t.path(Some(12345), Some((0, 1))),
-            PathBuf::from("out/f12345-t0.exr")
+            PathBuf::from("o#t/f12345-t0.exr")
         );
         assert_eq!(
             t.path(None, Some((9, 10))),
-            PathBuf::from("out/f{frame}-t9.exr")
+            PathBuf::from("o#t/f####-t9.exr")
         );
+        let two = OutputTemplate::new(Path::new("a##b#.png"));
+        assert_eq!(two.path(Some(42), None), PathBuf::from("a##b42.png"));
+        assert!(!OutputTemplate::new(Path::new("dir#/x.png")).has_frame());
         let plain = OutputTemplate::new(Path::new("a.png"));
         assert!(!plain.has_tile() && !plain.has_frame());
         assert_eq!(plain.path(Some(1), Some((1, 2))), PathBuf::from("a.png"));
