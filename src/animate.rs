@@ -127,12 +127,9 @@ pub fn render_frames(
                 };
                 let t = Instant::now();
                 let r = match &job.srgb8 {
-                    Some(rgb) => image_io::write_png_srgb8(
-                        &job.path,
-                        job.image.width,
-                        job.image.height,
-                        rgb,
-                    ),
+                    Some(rgb) => {
+                        image_io::write_png_srgb8(&job.path, job.image.width, job.image.height, rgb)
+                    }
                     None => image_io::write_image(&job.path, &job.image),
                 };
                 let _ = done.send((job.index, r.map(|()| t.elapsed().as_secs_f64() * 1e3)));

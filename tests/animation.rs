@@ -22,7 +22,9 @@ fn fragtrace(args: &[&str]) -> Output {
 }
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("animation").join(name);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("animation")
+        .join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -46,7 +48,10 @@ fn png_bytes(path: &Path) -> Vec<u8> {
 #[test]
 fn frames_equal_single_renders_from_their_cameras() {
     let (path, scene) = turntable();
-    let anim = scene.animation.as_ref().expect("turntable.toml has a camera path");
+    let anim = scene
+        .animation
+        .as_ref()
+        .expect("turntable.toml has a camera path");
     let first = *anim.frames().start();
     let frames = [first, first + 1, first + 37];
     let (w, h) = (40u32, 30u32);
@@ -144,7 +149,10 @@ fn a_range_writes_every_frame_and_its_stats() {
     assert!(out.status.success(), "{err}");
     assert!(err.contains("4 frames of 24x16"), "{err}");
     for k in first..=first + 3 {
-        assert!(dir.join(format!("f_{k:02}.png")).is_file(), "frame {k} missing");
+        assert!(
+            dir.join(format!("f_{k:02}.png")).is_file(),
+            "frame {k} missing"
+        );
     }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
@@ -202,5 +210,9 @@ fn animation_errors_are_one_line_and_exit_2() {
         assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
         assert!(err.contains(expect), "{args:?}: {err}");
     }
-    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "an error wrote a file");
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        0,
+        "an error wrote a file"
+    );
 }

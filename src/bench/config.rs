@@ -228,7 +228,10 @@ impl BenchConfig {
         // `--steady` is the bench's own: the configuration's renders are frames 2..N of one
         // renderer (the scene uploaded and the programs compiled once), not fresh renders.
         let steady = args.split_whitespace().any(|w| w == "--steady");
-        let words: Vec<&str> = args.split_whitespace().filter(|w| *w != "--steady").collect();
+        let words: Vec<&str> = args
+            .split_whitespace()
+            .filter(|w| *w != "--steady")
+            .collect();
         for w in &words {
             let flag = w.split('=').next().unwrap_or(w);
             if ["-o", "--output", "--width", "--height", "--stats", "--aov"].contains(&flag)

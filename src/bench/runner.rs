@@ -169,9 +169,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
             args.verbose = false;
             let row = match args.to_options(scene) {
                 Err(e) => BenchRow::failed(&spec.name, cfg, opts.size, e.to_string()),
-                Ok(ropts) => bench_one(
-                    &gl, spec, scene, cfg, &ropts, opts, &reference, &progress,
-                ),
+                Ok(ropts) => bench_one(&gl, spec, scene, cfg, &ropts, opts, &reference, &progress),
             };
             match &row.error {
                 None => say(format!(
@@ -231,7 +229,11 @@ fn bench_one(
 ) -> BenchRow {
     let stage = |what: String| progress.message(format!("{} / {}: {what}", spec.name, cfg.name));
     // `--steady`: one renderer for the warm-up (its first frame) and every run.
-    let prepared = match cfg.steady.then(|| render::prepare(scene, ropts)).transpose() {
+    let prepared = match cfg
+        .steady
+        .then(|| render::prepare(scene, ropts))
+        .transpose()
+    {
         Ok(p) => p,
         Err(e) => return BenchRow::failed(&spec.name, cfg, opts.size, e.to_string()),
     };

@@ -797,7 +797,10 @@ mod tests {
             assert_eq!(declared, b.readers().contains(&"render.comp"), "{b:?}: {r}");
         }
         let c = declarations_for("srgb8.comp", true, &mut Vec::new());
-        assert!(c.contains("float srgb_thresholds[256]") && c.contains("u_pixels"), "{c}");
+        assert!(
+            c.contains("float srgb_thresholds[256]") && c.contains("u_pixels"),
+            "{c}"
+        );
         assert!(r.contains("uniform ivec2 u_size;"), "{r}");
         let w = declarations_for("wave.comp", true, &mut Vec::new());
         assert!(
