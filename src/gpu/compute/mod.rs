@@ -234,7 +234,7 @@ pub(crate) fn render(
 
     // Bands of rows whose outputs fit one storage block (the AOV's 16 bytes per pixel are
     // the larger), aligned so every band starts a whole number of rows in.
-    let rows = overlap_rows(limits.band_rows(width, height)?, height);
+    let rows = limits.band_rows(width, height)?;
     let band_px = width as usize * rows as usize;
     let radiance_buf = StorageBuffer::uninit(ctx, band_px * 3 * 4)?;
     radiance_buf.bind(gl, Buffer::Radiance.binding());
@@ -413,17 +413,6 @@ pub(crate) fn render(
     })
 }
 
-/// Rows per band for a render whose whole image fits one band (`fit` rows): at most four
-/// bands of a multiple of 256 rows, so that copying a band out of the staging ring overlaps
-/// tracing the next (on the H200 at 4096x4096, one band's copy-out took 6.6 ms after a
-/// 19 ms dispatch). Images of at most 512 rows stay one band.
-fn overlap_rows(fit: u32, height: u32) -> u32 {
-    if height <= 512 {
-        return fit;
-    }
-    fit.min(height.div_ceil(4).next_multiple_of(256))
-}
-
 /// Reads `out.len()` bytes of `src` through a staging copy (contexts without persistent
 /// mapping).
 fn read_bytes_staged(ctx: &GlContext, src: &StorageBuffer, out: &mut [u8]) -> Result<()> {
@@ -575,16 +564,6 @@ mod tests {
         // 600 rows of 300 pixels at 16 bytes: 256 rows fit in 1.5 MB, 2 x 256 do not.
         assert_eq!(l(300 * 16 * 300).band_rows(300, 600).unwrap(), 256);
         assert!(l(300 * 16 * 255).band_rows(300, 600).is_err());
-        // Where everything fits, up to four bands of whole 256-row steps for overlap.
-        assert_eq!(overlap_rows(4096, 4096), 1024);
-        assert_eq!(overlap_rows(1024, 1024), 256);
-        assert_eq!(overlap_rows(600, 600), 256);
-        assert_eq!(overlap_rows(512, 512), 512);
-        assert_eq!(
-            overlap_rows(256, 4096),
-            256,
-            "the block's limit stays the limit"
-        );
     }
 
     /// `--scene-fetch` changes only the compute kernel, so asking for it with another kernel
@@ -671,8 +650,7 @@ mod tests {
                 3,
                 "600 rows in bands of 256"
             );
-            // 600 rows are cut for overlap too: three bands either way.
-            assert_eq!(whole.gpu.as_ref().unwrap().passes_total, 3);
+            assert_eq!(whole.gpu.as_ref().unwrap().passes_total, 1);
             assert_eq!(whole.image.data, banded.image.data);
             assert_eq!(whole.rays.total, banded.rays.total);
             assert_eq!(whole.work, banded.work);
