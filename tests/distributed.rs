@@ -259,7 +259,11 @@ fn tiles_merge_to_the_single_process_png_and_merge_refuses_bad_sets() {
         "t1.exr is given twice",
     );
     // Half of the image (a tile of 2) with two thirds of it (tiles of 3): a real overlap.
-    ok(run(&d, &render_args(&["--tile", "0/2", "-o", "half.exr"]), &[]));
+    ok(run(
+        &d,
+        &render_args(&["--tile", "0/2", "-o", "half.exr"]),
+        &[],
+    ));
     refused(
         &merge(&d, &["half.exr", "t1.exr", "t2.exr"], "bad.png"),
         "t1.exr (pixels 16,0,32,36) overlaps half.exr in pixels 16,0,24,36",

@@ -73,9 +73,18 @@ mod tests {
     fn placeholders() {
         let t = OutputTemplate::new(Path::new("o#t/f####-t{tile}.exr"));
         assert!(t.has_tile() && t.has_frame());
-        assert_eq!(t.path(Some(7), Some((3, 16))), PathBuf::from("o#t/f0007-t03.exr"));
-        assert_eq!(t.path(Some(12345), Some((0, 1))), PathBuf::from("o#t/f12345-t0.exr"));
-        assert_eq!(t.path(None, Some((9, 10))), PathBuf::from("o#t/f####-t9.exr"));
+        assert_eq!(
+            t.path(Some(7), Some((3, 16))),
+            PathBuf::from("o#t/f0007-t03.exr")
+        );
+        assert_eq!(
+            t.path(Some(12345), Some((0, 1))),
+            PathBuf::from("o#t/f12345-t0.exr")
+        );
+        assert_eq!(
+            t.path(None, Some((9, 10))),
+            PathBuf::from("o#t/f####-t9.exr")
+        );
         let two = OutputTemplate::new(Path::new("a##b#.png"));
         assert_eq!(two.path(Some(42), None), PathBuf::from("a##b42.png"));
         assert!(!OutputTemplate::new(Path::new("dir#/x.png")).has_frame());
