@@ -311,12 +311,27 @@ pub fn load(scene_path: Option<&Path>) -> Result<Scene> {
 /// The `render` command: load, render, write the image (and stats). With `--tile`,
 /// `--region` or `--task-index`, the parts this process owns ([`run_parts`]).
 pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
+    let env = |k: &str| std::env::var(k).ok();
     if let Some(frames) = &args.frames {
-        run_frames(args, frames)?;
-        return Ok(None);
+        if !Plan::wanted(args) {
+            run_frames(args, frames)?;
+            return Ok(None);
+        }
+        // A share of an animation (frames x tiles): the frames come from the scene's path.
+        let scene = load(args.scene.as_deref())?;
+        let path = scene.animation.as_ref().ok_or_else(|| {
+            Error::Usage(format!(
+                "--frames needs a camera path: {} has no [animation] table (docs/scene-format.md)",
+                scene.source
+            ))
+        })?;
+        let frames: Vec<u32> = frames.frames(&path.frames())?.collect();
+        let plan = Plan::new(args, Some(&frames), env)?.expect("parts wanted");
+        return run_parts(args, &plan, scene).map(Some);
     }
-    if let Some(plan) = Plan::new(args, |k| std::env::var(k).ok())? {
-        return run_parts(args, &plan).map(Some);
+    if let Some(plan) = Plan::new(args, None, env)? {
+        let scene = load(args.scene.as_deref())?;
+        return run_parts(args, &plan, scene).map(Some);
     }
     // Fail on an unusable output path or AOV list before loading or rendering anything;
     // a folder is reported as one, not as a file with an unknown extension.
@@ -371,10 +386,9 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
 
 /// `render --frames`: the animation of the scene's camera path ([`crate::animate`]).
 fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<()> {
-    if args.aov.is_some() || args.tile.is_some() || args.region.is_some() {
+    if args.aov.is_some() {
         return Err(Error::Usage(
-            "--frames renders whole images; --aov, --tile and --region are for single renders"
-                .into(),
+            "--frames renders whole images; --aov is for single renders".into(),
         ));
     }
     if let Some(stats) = &args.stats {
@@ -426,7 +440,7 @@ fn write_stats(path: &Path, stats: &render::RenderStats) -> Result<()> {
 
 /// `render` of parts: the units of work of `plan` ([`crate::dist`]), each rendered with
 /// its region and written as a part (or a crop).
-pub fn run_parts(args: &RenderArgs, plan: &Plan) -> Result<render::Rendered> {
+pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render::Rendered> {
     for p in &plan.outputs {
         check_writable(p, "image")?;
     }
@@ -439,11 +453,20 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan) -> Result<render::Rendered> {
                 .into(),
         ));
     }
-    let scene = load(args.scene.as_deref())?;
-    let base = args.to_options(&scene)?;
-    // Once per process, whatever the number of parts: the structure and the context.
+    let mut base = args.to_options(&scene)?;
+    // Parts carry linear floats (merged, or encoded on the host like any PNG); no AOVs.
+    base.readback = crate::output::Readback {
+        aov: false,
+        srgb8: false,
+    };
+    // Once per process, whatever the number of parts: the structure, the context and the
+    // renderer (the GPU scene uploaded once); each part sets its region and camera.
     let prepared = render::prepare(&scene, &base)?;
     let ctx = render::context_for(&base)?;
+    let mut renderer = match &ctx {
+        Some(ctx) => prepared.gl_renderer(ctx, &base)?,
+        None => prepared.cpu_renderer(&base),
+    };
     if let (Some(task), false) = (&plan.task, args.quiet) {
         eprintln!(
             "fragtrace: {task}: {} part(s) of {} tiles",
@@ -461,11 +484,12 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan) -> Result<render::Rendered> {
             region: Some(region),
             ..base.clone()
         };
-        opts.validate()?;
-        let out = match &ctx {
-            Some(ctx) => prepared.render_gl(ctx, &opts)?,
-            None => prepared.render_cpu(&opts)?,
+        renderer.set_region(Some(region))?;
+        let camera = match (unit.frame, &scene.animation) {
+            (Some(f), Some(path)) => path.camera_at(f),
+            _ => scene.camera,
         };
+        let out = renderer.render(&camera)?;
         if !out.image.all_finite() {
             return Err(Error::Internal(
                 "the render produced a NaN or Inf pixel".into(),

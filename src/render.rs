@@ -147,7 +147,8 @@ impl<'s> Prepared<'s> {
         ctx: &'r GlContext,
         opts: &RenderOptions,
     ) -> Result<Renderer<'r>> {
-        ctx.info.check_image_size(opts.width, opts.height)?;
+        let px = opts.pixels();
+        ctx.info.check_image_size(px.width(), px.height())?;
         let t0 = Instant::now();
         let gs = GpuScene::new(ctx, self.scene, &self.accel, opts.gpu.no_specialize)?;
         Ok(Renderer {
@@ -250,6 +251,22 @@ pub struct Renderer<'p> {
 }
 
 impl Renderer<'_> {
+    /// Renders only `region` of the image from the next frame on (None: all of it), as
+    /// `RenderOptions::region` does: a process that renders several parts builds once.
+    pub fn set_region(&mut self, region: Option<crate::region::Region>) -> Result<()> {
+        let opts = RenderOptions {
+            region,
+            ..self.opts.clone()
+        };
+        opts.validate()?;
+        if let Engine::Gl(gs) = &self.engine {
+            let px = opts.pixels();
+            gs.ctx().info.check_image_size(px.width(), px.height())?;
+        }
+        self.opts = opts;
+        Ok(())
+    }
+
     /// Renders one frame from `camera`; `render_ms` counts what this frame spent,
     /// including set-up the first frame paid for.
     pub fn render(&mut self, camera: &Camera) -> Result<Rendered> {

@@ -180,6 +180,10 @@ fn render_args(extra: &[&str]) -> Vec<String> {
 fn run(dir: &Path, args: &[String], env: &[(&str, &str)]) -> Output {
     let mut c = bin();
     c.current_dir(dir).args(args);
+    c.env(
+        "FRAGTRACE_MODEL_PATH",
+        std::env::join_paths(common::model_path()).unwrap(),
+    );
     for var in [
         "SLURM_ARRAY_TASK_ID",
         "SLURM_ARRAY_TASK_MIN",
@@ -474,4 +478,104 @@ fn a_gpu_beyond_the_devices_is_refused_naming_how_many() {
     .map(|s| s.to_string())
     .collect();
     ok(run(&d, &a, &[]));
+}
+
+/// An animation shared out: `--frames` with `--task-index` over a Slurm array writes whole
+/// frames byte-identical to `render --frames` in one process; frames cut into tiles merge
+/// frame by frame to the same bytes; parts of two frames refuse a merge into one file, and
+/// a range without a frame number in the name is refused.
+#[test]
+fn frames_shared_over_tasks_equal_the_one_process_animation() {
+    let d = tmpdir("frames");
+    std::fs::create_dir_all(d.join("one")).unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/turntable.toml");
+    let anim = |extra: &[&str]| -> Vec<String> {
+        let mut v: Vec<String> = [
+            "render",
+            scene,
+            "--backend",
+            "cpu",
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "-q",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        v.extend(extra.iter().map(|s| s.to_string()));
+        v
+    };
+    ok(run(
+        &d,
+        &anim(&["--frames", "5..9", "-o", "one/f_##.png"]),
+        &[],
+    ));
+    // 5 frames over a Slurm array of 3 (2 + 1 + 2 frames: consecutive runs).
+    for id in ["0", "1", "2"] {
+        ok(run(
+            &d,
+            &anim(&["--frames", "5..9", "--task-index", "env", "-o", "f_##.png"]),
+            &[
+                ("SLURM_ARRAY_TASK_ID", id),
+                ("SLURM_ARRAY_TASK_MIN", "0"),
+                ("SLURM_ARRAY_TASK_MAX", "2"),
+                ("SLURM_ARRAY_TASK_COUNT", "3"),
+            ],
+        ));
+    }
+    let frame =
+        |dir: &str, f: u32| std::fs::read(d.join(dir).join(format!("f_{f:02}.png"))).unwrap();
+    for f in 5..=9 {
+        assert_eq!(frame(".", f), frame("one", f), "frame {f}");
+    }
+    // Frames 6..7 x 3 tiles over 2 Kubernetes completions, merged per frame.
+    for i in ["0", "1"] {
+        ok(run(
+            &d,
+            &anim(&[
+                "--frames",
+                "6..7",
+                "--tiles",
+                "3",
+                "--task-index",
+                "env:2",
+                "-o",
+                "p{frame}-{tile}.exr",
+            ]),
+            &[("JOB_COMPLETION_INDEX", i)],
+        ));
+    }
+    let parts: Vec<String> = [6, 7]
+        .iter()
+        .flat_map(|f| (0..3).map(move |t| format!("p{f:04}-{t}.exr")))
+        .collect();
+    let parts: Vec<&str> = parts.iter().map(String::as_str).collect();
+    std::fs::create_dir_all(d.join("merged")).unwrap();
+    ok(merge(&d, &parts, "merged/f_##.png"));
+    for f in 6..=7 {
+        assert_eq!(frame("merged", f), frame("one", f), "merged frame {f}");
+    }
+    refused(
+        &merge(&d, &parts, "both.png"),
+        "the parts are of 2 frames (6, 7)",
+    );
+    refused(&merge(&d, &parts[..5], "merged/g_##.png"), "gap: 420 of the 40x30 pixels are in no part, the first at row 0, columns 26..40 (2 parts given for frame 7)");
+    refused(
+        &run(
+            &d,
+            &anim(&["--frames", "5..6", "--task-index", "0/1", "-o", "nonum.png"]),
+            &[],
+        ),
+        "run of # for the frame number",
+    );
+    refused(
+        &run(
+            &d,
+            &anim(&["--frames", "5..9", "--task-index", "0/6", "-o", "f_##.png"]),
+            &[],
+        ),
+        "6 tasks for 5 units of work (5 frames x 1 tiles)",
+    );
 }

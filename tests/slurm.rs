@@ -1,7 +1,8 @@
 //! The distributed render against a real Slurm (issue 28): `ci/slurm/test.sh` starts a
 //! single-node cluster from Debian's packages on this host, submits the job arrays of
-//! `ci/slurm/` with `sbatch --wait`, merges, and compares the merged images with the
-//! single-process renders bit for bit; this test runs it with the binary under test.
+//! `ci/slurm/` with `sbatch --wait` (tiles of a still, frames of an animation, frames cut
+//! into tiles), merges, and compares the results with the single-process renders bit for
+//! bit; this test runs it with the binary under test.
 //!
 //! It needs root and the packages `slurmd slurmctld slurm-client munge` (`ci/test.sh`
 //! installs them). Without them it fails, saying so, unless `FRAGTRACE_ALLOW_SKIP=1`
@@ -11,7 +12,7 @@ use std::path::Path;
 use std::process::Command;
 
 #[test]
-fn tiles_on_a_real_slurm_cluster_merge_to_the_single_process_bits() {
+fn tiles_and_frames_on_a_real_slurm_cluster_equal_the_single_process_bits() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
     let missing: Vec<&str> = ["munged", "slurmctld", "slurmd", "sbatch"]
         .into_iter()
@@ -59,6 +60,8 @@ fn tiles_on_a_real_slurm_cluster_merge_to_the_single_process_bits() {
     for line in [
         "whitted.png is bit-identical",
         "bunny.exr (8 tiles on 4 tasks) has the single-process render's floats",
+        "frame_0007.png is bit-identical",
+        "frame_0004.png is bit-identical",
         "slurm test: passed",
     ] {
         assert!(text.contains(line), "missing `{line}` in:\n{text}");

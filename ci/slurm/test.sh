@@ -2,7 +2,9 @@
 # The distributed render against a real Slurm: starts a single-node cluster on this host
 # (ci/slurm/cluster.sh: munged, slurmctld, slurmd from Debian's packages, no systemd),
 # submits the job scripts of ci/slurm/ as a user would, waits for them (sbatch --wait),
-# and checks that every merged image has exactly the bits of the single-process render.
+# and checks that every merged image and every frame has exactly the bits of the
+# single-process render: tiles of a still (GL and CPU), whole frames of an animation, and
+# frames cut into tiles.
 # Stops the daemons it started, by pid, whatever happens. Exit 0 only when all of it
 # worked; any failure — Slurm not installed or not starting, a task failing, a merge
 # refusing, one differing byte — exits 1 saying what.
@@ -73,5 +75,28 @@ flags=(--width 192 --height 160 --backend cpu --precision f32)
 "$bin" compare "$work/bunny.exr" "$work/bunny-single.exr" --max-rmse 0 >/dev/null ||
     fail "the merged bunny.exr differs from the single-process render: $("$bin" compare "$work/bunny.exr" "$work/bunny-single.exr" 2>&1 | head -n 3 | tr '\n' ' ')"
 echo "slurm test: bunny.exr (8 tiles on 4 tasks) has the single-process render's floats"
+
+# 3. An animation: 8 frames of turntable.toml's camera path shared by a 4-task array, whole
+#    frames straight to PNG; each equals the single-process animation's frame byte for byte.
+flags=(--width 96 --height 72)
+mkdir -p "$work/single"
+"$bin" render "$repo/scenes/turntable.toml" "${flags[@]}" --frames 0..7 -q \
+    -o "$work/single/frame_####.png" ||
+    fail "the single-process render of turntable.toml's frames 0..7 failed"
+"$repo/ci/slurm/submit-frames.sh" --wait 4 "$repo/scenes/turntable.toml" 0..7 \
+    "$work/frames/frame_####.png" "${flags[@]}" || fail "the turntable.toml job (8 frames on 4 tasks) failed"
+for f in 0 1 2 3 4 5 6 7; do
+    same "$work/frames/frame_000$f.png" "$work/single/frame_000$f.png"
+done
+
+# 4. Frames times tiles: frames 3..4 cut into 2 tiles each, 4 tasks, then the merge job
+#    writes each frame; equal to the single-process frames.
+"$repo/ci/slurm/submit-frames.sh" --wait 4 "$repo/scenes/turntable.toml" 3..4 \
+    "$work/tiled/frame_####.png" "${flags[@]}" --tiles 2 ||
+    fail "the turntable.toml job (2 frames x 2 tiles on 4 tasks) failed"
+[ "$(ls "$work"/tiled/parts-frame_/*.exr | wc -l)" -eq 4 ] || fail "expected 4 parts of frames 3..4"
+for f in 3 4; do
+    same "$work/tiled/frame_000$f.png" "$work/single/frame_000$f.png"
+done
 
 echo "slurm test: passed in $(($(date +%s) - t0)) s of jobs"

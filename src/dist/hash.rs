@@ -42,8 +42,8 @@ impl Default for Fnv64 {
     }
 }
 
-/// A hash of what a scene renders: camera, lights, materials, background, ambient, depth,
-/// local origin, and every vertex, normal and triangle, bit for bit. Not its source path
+/// A hash of what a scene renders: camera and camera path, lights, materials, background,
+/// ambient, depth, local origin, and every vertex, normal and triangle, bit for bit. Not its source path
 /// (nodes of a cluster may mount the scene at different places) nor its default size (the
 /// options carry the size rendered).
 pub fn scene_hash(scene: &Scene) -> u64 {
@@ -51,8 +51,9 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     // Debug of floats prints the shortest string that reads back to the same bits, so it
     // is an exact, stable encoding of these small structures.
     h.write_str(&format!(
-        "{:?}|{:?}|{:?}|{:?}|{:?}|{}|{:?}",
+        "{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{}|{:?}",
         scene.camera,
+        scene.animation,
         scene.lights,
         scene.materials,
         scene.background,

@@ -36,31 +36,45 @@ pub struct Plan {
 }
 
 impl Plan {
+    /// True when `args` ask for parts (or a share of an animation's frames) rather than
+    /// whole images in one process.
+    pub fn wanted(args: &RenderArgs) -> bool {
+        args.tile.is_some() || args.region.is_some() || args.task_index.is_some()
+    }
+
     /// The plan for `args`, or None when they ask for the whole image in one process.
-    /// `var` reads the environment (for `--task-index env`).
-    pub fn new(args: &RenderArgs, var: impl Fn(&str) -> Option<String>) -> Result<Option<Plan>> {
+    /// `frames` are the animation's frames (`--frames`, resolved against the scene's
+    /// camera path), None for a still; `var` reads the environment (`--task-index env`).
+    pub fn new(
+        args: &RenderArgs,
+        frames: Option<&[u32]>,
+        var: impl Fn(&str) -> Option<String>,
+    ) -> Result<Option<Plan>> {
+        // Every frame of the range, for the one part --tile or --region names.
+        let each_frame = |tile: u32| -> Vec<Unit> {
+            match frames {
+                None => vec![Unit { frame: None, tile }],
+                Some(f) => f
+                    .iter()
+                    .map(|&f| Unit {
+                        frame: Some(f),
+                        tile,
+                    })
+                    .collect(),
+            }
+        };
         let (cut, task, units) = match (&args.tile, &args.region, &args.task_index) {
             (None, None, None) => return Ok(None),
-            (Some(t), _, _) => (
-                Cut::Tiles(t.tiling),
-                None,
-                vec![Unit {
-                    frame: None,
-                    tile: t.index,
-                }],
-            ),
-            (None, Some(r), _) => (
-                Cut::Region(*r),
-                None,
-                vec![Unit {
-                    frame: None,
-                    tile: 0,
-                }],
-            ),
+            (Some(t), _, _) => (Cut::Tiles(t.tiling), None, each_frame(t.index)),
+            (None, Some(r), _) => (Cut::Region(*r), None, each_frame(0)),
             (None, None, Some(src)) => {
                 let task = resolve(*src, var)?;
-                let tiling = args.tiles.unwrap_or(Tiling::Count(task.count));
-                let units = units_of(&task, None, tiling.count())?;
+                // A still: one tile per task; an animation: whole frames, unless --tiles.
+                let tiling = args.tiles.unwrap_or(match frames {
+                    None => Tiling::Count(task.count),
+                    Some(_) => Tiling::Count(1),
+                });
+                let units = units_of(&task, frames, tiling.count())?;
                 (Cut::Tiles(tiling), Some(task), units)
             }
         };
@@ -75,7 +89,9 @@ impl Plan {
             (_, Some(_)) => "--region",
             _ => "--task-index",
         };
-        if format != Format::Exr && matches!(cut, Cut::Tiles(_)) {
+        // Parts are OpenEXR; whole frames (one tile of a task's share) are finished images
+        // in either format, and a --region may be a PNG crop.
+        if format != Format::Exr && (tiles > 1 || args.tile.is_some()) {
             return Err(Error::Usage(format!(
                 "{}: {flag} writes parts for `fragtrace merge`, which are OpenEXR: name the output .exr (e.g. parts/part-{{tile}}.exr)",
                 args.output.display()
@@ -84,6 +100,12 @@ impl Plan {
         if tiles > 1 && args.tile.is_none() && !template.has_tile() {
             return Err(Error::Usage(format!(
                 "{}: the image is cut into {tiles} parts, so each needs its own file: put {{tile}} in the output name (e.g. parts/part-{{tile}}.exr)",
+                args.output.display()
+            )));
+        }
+        if frames.is_some_and(|f| f.len() > 1) && !template.has_frame() {
+            return Err(Error::Usage(format!(
+                "{}: the frames need a file each: put a run of # for the frame number in the output's file name (e.g. frames/frame_####.png, parts/f####-{{tile}}.exr)",
                 args.output.display()
             )));
         }
@@ -99,14 +121,19 @@ impl Plan {
             None => Vec::new(),
             Some(p) => {
                 let t = OutputTemplate::new(p);
-                if units.len() > 1 && !t.has_tile() {
+                let paths: Vec<PathBuf> =
+                    units.iter().map(|u| t.path(u.frame, tile_of(u))).collect();
+                let mut sorted = paths.clone();
+                sorted.sort();
+                sorted.dedup();
+                if sorted.len() < paths.len() {
                     return Err(Error::Usage(format!(
-                        "{}: this task renders {} parts; put {{tile}} in the --stats name too",
+                        "{}: this task renders {} parts; name their statistics like the images ({{tile}}, a run of # for the frame)",
                         p.display(),
                         units.len()
                     )));
                 }
-                units.iter().map(|u| t.path(u.frame, tile_of(u))).collect()
+                paths
             }
         };
         Ok(Some(Plan {

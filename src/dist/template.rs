@@ -1,12 +1,17 @@
-//! Output names for work split over tasks: `{tile}` in a `-o` path is replaced by the
-//! part's tile index, and a run of `#` by its frame number padded to the run's length (the
-//! convention of `render --frames`: `frame_####.png`), so that every task of a job array
-//! writes its own files from one command line (`-o parts/f####-{tile}.exr`).
+//! Output names for work split over tasks and frames: `{tile}` in a `-o` path is replaced
+//! by the part's tile index, and the frame number goes where the file name has a run of `#`
+//! (padded to the run's length: `frame_####.png`) or `{frame}` (padded to
+//! [`FRAME_DIGITS`]), so that every task of a job array writes its own files from one
+//! command line (`-o parts/f####-{tile}.exr`).
 
 use std::path::{Path, PathBuf};
 
-/// An output path with an optional `{tile}` placeholder and an optional run of `#` for the
-/// frame number (only in the file name, the last run there).
+/// Digits `{frame}` pads a frame number to (frame 7 is `0007`), so that files sort in
+/// frame order for the tools that read image sequences.
+pub const FRAME_DIGITS: usize = 4;
+
+/// An output path with an optional `{tile}` placeholder and an optional frame number
+/// placeholder: `{frame}`, or the last run of `#` in the file name.
 #[derive(Clone, Debug)]
 pub struct OutputTemplate {
     raw: String,
@@ -33,20 +38,24 @@ impl OutputTemplate {
         Some((start, end))
     }
 
-    /// True when the file name has a run of `#` for the frame number.
+    /// True when the name has a place for the frame number (`{frame}` or a run of `#`).
     pub fn has_frame(&self) -> bool {
-        self.frame_run().is_some()
+        self.raw.contains("{frame}") || self.frame_run().is_some()
     }
 
-    /// The path for `frame` and tile `(index, count)`: the run of `#` replaced by the
-    /// frame number padded to its length (longer numbers are written whole), `{tile}` by
-    /// the index padded to the digits of `count - 1`. A placeholder without a value is
-    /// left as it is.
+    /// The path for `frame` and tile `(index, count)`: `{frame}` replaced by the frame
+    /// number padded to [`FRAME_DIGITS`], else the run of `#` by it padded to the run's
+    /// length (longer numbers are written whole); `{tile}` by the index padded to the
+    /// digits of `count - 1`. A placeholder without a value is left as it is.
     pub fn path(&self, frame: Option<u32>, tile: Option<(u32, u32)>) -> PathBuf {
         let mut s = self.raw.clone();
-        if let (Some(f), Some((a, b))) = (frame, self.frame_run()) {
-            let digits = b - a;
-            s.replace_range(a..b, &format!("{f:0digits$}"));
+        if let Some(f) = frame {
+            if s.contains("{frame}") {
+                s = s.replace("{frame}", &format!("{f:0FRAME_DIGITS$}"));
+            } else if let Some((a, b)) = self.frame_run() {
+                let digits = b - a;
+                s.replace_range(a..b, &format!("{f:0digits$}"));
+            }
         }
         if let Some((i, n)) = tile {
             let digits = (n.max(2) - 1).to_string().len();
@@ -79,6 +88,12 @@ mod tests {
         let two = OutputTemplate::new(Path::new("a##b#.png"));
         assert_eq!(two.path(Some(42), None), PathBuf::from("a##b42.png"));
         assert!(!OutputTemplate::new(Path::new("dir#/x.png")).has_frame());
+        let braces = OutputTemplate::new(Path::new("f{frame}-{tile}.exr"));
+        assert!(braces.has_frame());
+        assert_eq!(
+            braces.path(Some(3), Some((1, 4))),
+            PathBuf::from("f0003-1.exr")
+        );
         let plain = OutputTemplate::new(Path::new("a.png"));
         assert!(!plain.has_tile() && !plain.has_frame());
         assert_eq!(plain.path(Some(1), Some((1, 2))), PathBuf::from("a.png"));
