@@ -33,8 +33,13 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
     },
     ConfigRow {
         name: "cpu-f32",
-        args: "--backend cpu --precision f32",
+        args: "--backend cpu --precision f32 --cpu-path simd",
         presets: DQ,
+    },
+    ConfigRow {
+        name: "cpu-f32-scalar",
+        args: "--backend cpu --precision f32 --cpu-path scalar",
+        presets: D,
     },
     ConfigRow {
         name: "cpu-f32-uniform",
