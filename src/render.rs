@@ -119,7 +119,8 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
 impl<'s> Prepared<'s> {
     /// A renderer of this scene on the CPU.
     pub fn cpu_renderer(&self, opts: &RenderOptions) -> Renderer<'_> {
-        let (scene, accel, depth, tech) = (self.scene, &self.accel, opts.max_depth, opts.techniques);
+        let (scene, accel, depth, tech) =
+            (self.scene, &self.accel, opts.max_depth, opts.techniques);
         let (engine, kernel) = match (opts.precision, opts.cpu_path) {
             (Precision::F64, _) => (
                 Engine::Cpu64(CpuRenderer::new(scene, accel, depth, tech)),

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Issue 27: fragtrace's CPU backend against Mitsuba 3 `scalar_rgb` (Embree's BVH) on the
-# equal-work view (ci/mitsuba/equal-work.toml / equal-work.py: the bunny on a 4x4 diffuse
+# equal-work view (ci/peers/equal-work.toml, and ci/mitsuba/equal-work.py for Mitsuba: the bunny on a 4x4 diffuse
 # floor, one point light, primary + one shadow ray per hit, 1 spp).
 #
 # Usage: compare.sh [SIZE]             (default 1024: SIZE x SIZE pixels)
@@ -28,7 +28,7 @@ echo "   fragtrace $FT (repo HEAD $(git -C "$HERE" rev-parse --short HEAD 2>/dev
 echo "   host: $(nproc) cores, load average $(cut -d' ' -f1-3 /proc/loadavg), $(date -u +%FT%TZ)"
 
 ft() { # path label
-    /usr/bin/time -f '%e' -o "$WORK/t" env RAYON_NUM_THREADS="$THREADS" "$FT" render "$HERE/equal-work.toml" \
+    /usr/bin/time -f '%e' -o "$WORK/t" env RAYON_NUM_THREADS="$THREADS" "$FT" render "$HERE/../peers/equal-work.toml" \
         --backend cpu --precision f32 --cpu-path "$1" --width "$SIZE" --height "$SIZE" -q \
         -o "$WORK/ft-$1.png" --stats "$WORK/s.json"
     python3 - "$WORK/s.json" "$(cat "$WORK/t")" >>"$WORK/ft-$1" <<'PY'

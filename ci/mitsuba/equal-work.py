@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
-"""Issue 27's equal-work render in Mitsuba 3 (`scalar_rgb`: Embree's BVH on the CPU).
+"""Issue 27's equal-work render in Mitsuba 3 (`scalar_rgb`: Embree's BVH on the CPU), one
+timed frame per process so that the whole process can be timed too (ci/peers/
+mitsuba_equal_work.py times several frames of one process, for the GPU variants).
 
-The scene of ci/mitsuba/equal-work.toml: the Stanford bunny on a 4x4 diffuse floor at
+The scene of ci/peers/equal-work.toml: the Stanford bunny on a 4x4 diffuse floor at
 y = 0.0335, one point light at (-0.6, 1.2, 0.9), camera eye (-0.2, 0.17, 0.36) looking at
 (-0.015, 0.1, 0), vertical fov 32, 1 sample per pixel; the `direct` integrator with
 `emitter_samples = 1`, `bsdf_samples = 0`: a primary ray and one shadow ray per hit, the
@@ -46,18 +48,18 @@ scene_dict = {
             "rfilter": {"type": "box"},
         },
     },
-    "light": {"type": "point", "position": [-0.6, 1.2, 0.9], "intensity": {"type": "rgb", "value": 1.0}},
+    "light": {"type": "point", "position": [-0.6, 1.2, 0.9], "intensity": {"type": "rgb", "value": 0.85}},
     "bunny": {
         "type": "obj",
         "filename": os.path.join(args.models, "bunny/stanford-bunny.obj"),
         "face_normals": True,
-        "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.85, 0.82, 0.76]}},
+        "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.77, 0.74, 0.68]}},
     },
     "floor": {
         "type": "rectangle",
         # Mitsuba's rectangle is [-1, 1]^2 in z = 0: scaled by 2 and turned into y = 0.0335.
         "to_world": T().translate([0.0, 0.0335, 0.0]) @ T().rotate([1, 0, 0], -90) @ T().scale(2.0),
-        "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.5}},
+        "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.4, 0.4, 0.4]}},
     },
 }
 

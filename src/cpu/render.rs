@@ -76,7 +76,12 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
 impl<'a, T: Real, W: CellWalk<T> + Sync> CpuRenderer<'a, T, W> {
     /// Prepares `scene` with `walker` over its structure (built with the same
     /// `techniques`).
-    pub fn with_walker(scene: &'a Scene, walker: W, max_depth: u32, techniques: Techniques) -> Self {
+    pub fn with_walker(
+        scene: &'a Scene,
+        walker: W,
+        max_depth: u32,
+        techniques: Techniques,
+    ) -> Self {
         CpuRenderer {
             scene,
             camera: scene.camera,
