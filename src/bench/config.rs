@@ -517,7 +517,7 @@ mod tests {
             .into_iter()
             .map(|c| c.name)
             .collect();
-        assert_eq!(default.len(), 14);
+        assert_eq!(default.len(), 15);
         assert!(default.iter().any(|c| c == "gl-compute"), "{default:?}");
         assert_eq!(default[0], "cpu-f64");
         let quick = resolve_configs("quick").unwrap();
