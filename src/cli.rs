@@ -751,6 +751,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         height: args.height,
         backend: crate::options::Backend::Gl,
         precision: crate::options::Precision::F32,
+        cpu_path: crate::options::CpuPath::default(),
         max_depth: args.max_depth,
         spp: args.spp,
         accel: args.accel,

@@ -38,6 +38,28 @@ pub enum Precision {
     F64,
 }
 
+/// How the f32 CPU renderer tests triangles (`--cpu-path`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum CpuPath {
+    /// Vectorised: each cell's triangles 8 (AVX2) or 4 (SSE2) at a time, chosen at run
+    /// time; the same hits, images and counters as scalar.
+    #[default]
+    Simd,
+    /// One triangle at a time: the twin of the GLSL code.
+    Scalar,
+}
+
+impl CpuPath {
+    /// The name `--cpu-path` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            CpuPath::Simd => "simd",
+            CpuPath::Scalar => "scalar",
+        }
+    }
+}
+
 /// Largest image side accepted (checked before allocating anything).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// Host memory one render may need at most; checked before allocating anything.
@@ -64,6 +86,8 @@ pub struct RenderOptions {
     pub max_depth: u32,
     /// CPU arithmetic precision.
     pub precision: Precision,
+    /// Vectorised or scalar triangle tests on the CPU in f32 (f64 is always scalar).
+    pub cpu_path: CpuPath,
     /// Which acceleration structure is built.
     pub accel: AccelKind,
     /// Uniform grid resolution and density.
@@ -97,6 +121,7 @@ impl RenderOptions {
             spp: 1,
             max_depth: scene.max_depth,
             precision: Precision::F64,
+            cpu_path: CpuPath::default(),
             accel: AccelKind::default(),
             grid: GridConfig::default(),
             irregular: IrregularConfig::default(),
@@ -189,6 +214,11 @@ pub struct RenderArgs {
     /// CPU arithmetic: f64 (ground truth) or f32 (mirrors the GPU).
     #[arg(long, value_enum, default_value_t = Precision::F64)]
     pub precision: Precision,
+    /// CPU triangle tests with --precision f32: simd (8 or 4 at a time, AVX2 or SSE2 as the
+    /// CPU has; same hits and images as scalar) or scalar (the GLSL's twin). f64 is always
+    /// scalar.
+    #[arg(long, value_enum, default_value_t = CpuPath::default())]
+    pub cpu_path: CpuPath,
     /// Maximum reflection/refraction depth (default: the scene's, else 5).
     #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
     pub max_depth: Option<u32>,
@@ -375,6 +405,7 @@ impl RenderArgs {
         opts.spp = args.spp;
         opts.max_depth = args.max_depth.unwrap_or(scene.max_depth);
         opts.precision = args.precision;
+        opts.cpu_path = args.cpu_path;
         opts.backend = args.backend;
         opts.accel = args.accel;
         let mut grid = GridConfig {

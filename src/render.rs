@@ -9,6 +9,8 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::accel::{Accel, AccelSummary};
+use crate::cpu::simd_walk::SimdWalker;
+use crate::cpu::traverse::CellWalk;
 use crate::cpu::CpuRenderer;
 use crate::gpu::render::ImageRequest;
 use crate::gpu::{self, GlContext, GpuScene};
@@ -17,7 +19,7 @@ use crate::output::{Aov, BackendOutput, GpuStats, RayCounts};
 use crate::scene::{Camera, Scene};
 use crate::Result;
 
-use crate::options::{Backend, Precision, RenderOptions};
+use crate::options::{Backend, CpuPath, Precision, RenderOptions};
 
 /// Statistics of one render (written by `--stats FILE.json`).
 #[derive(Clone, Debug, Serialize)]
@@ -117,25 +119,32 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
 impl<'s> Prepared<'s> {
     /// A renderer of this scene on the CPU.
     pub fn cpu_renderer(&self, opts: &RenderOptions) -> Renderer<'_> {
-        let engine = match opts.precision {
-            Precision::F64 => Engine::Cpu64(CpuRenderer::new(
-                self.scene,
-                &self.accel,
-                opts.max_depth,
-                opts.techniques,
-            )),
-            Precision::F32 => Engine::Cpu32(CpuRenderer::new(
-                self.scene,
-                &self.accel,
-                opts.max_depth,
-                opts.techniques,
-            )),
+        let (scene, accel, depth, tech) =
+            (self.scene, &self.accel, opts.max_depth, opts.techniques);
+        let (engine, kernel) = match (opts.precision, opts.cpu_path) {
+            (Precision::F64, _) => (
+                Engine::Cpu64(CpuRenderer::new(scene, accel, depth, tech)),
+                "scalar",
+            ),
+            (Precision::F32, CpuPath::Scalar) => (
+                Engine::Cpu32(CpuRenderer::new(scene, accel, depth, tech)),
+                "scalar",
+            ),
+            (Precision::F32, CpuPath::Simd) => {
+                let walker = SimdWalker::new(scene, accel.as_ref(), tech);
+                let kernel = walker.isa().name();
+                let r = CpuRenderer::with_walker(scene, walker, depth, tech);
+                (Engine::Cpu32Simd(r), kernel)
+            }
         };
         Renderer {
             prepared: self,
             opts: opts.clone(),
             engine,
-            device: format!("cpu ({} threads)", rayon::current_num_threads()),
+            device: format!(
+                "cpu ({} threads, {kernel} triangle tests)",
+                rayon::current_num_threads()
+            ),
             pending_ms: 0.0,
         }
     }
@@ -235,6 +244,8 @@ impl<'s> Prepared<'s> {
 enum Engine<'p> {
     Cpu64(CpuRenderer<'p, f64>),
     Cpu32(CpuRenderer<'p, f32>),
+    /// The vectorised f32 path (`--cpu-path simd`).
+    Cpu32Simd(CpuRenderer<'p, f32, SimdWalker<'p>>),
     Gl(Box<GpuScene<'p>>),
 }
 
@@ -281,6 +292,10 @@ impl Renderer<'_> {
                 r.set_camera(*camera);
                 (cpu_frame(r, opts), "cpu", "f32")
             }
+            Engine::Cpu32Simd(r) => {
+                r.set_camera(*camera);
+                (cpu_frame(r, opts), "cpu", "f32")
+            }
             Engine::Gl(gs) => {
                 let req = self.prepared.request(opts, camera);
                 (gpu::render::render(gs, &req, None)?, "gl", "f32")
@@ -301,15 +316,15 @@ impl Renderer<'_> {
     pub fn gpu_scene(&self) -> Option<&GpuScene<'_>> {
         match &self.engine {
             Engine::Gl(gs) => Some(gs),
-            Engine::Cpu64(_) | Engine::Cpu32(_) => None,
+            Engine::Cpu64(_) | Engine::Cpu32(_) | Engine::Cpu32Simd(_) => None,
         }
     }
 }
 
 /// One CPU frame (of the region's pixels, or the whole image's) with a progress bar over
 /// its rows.
-fn cpu_frame<T: crate::cpu::real::Real>(
-    r: &CpuRenderer<'_, T>,
+fn cpu_frame<T: crate::cpu::real::Real, W: CellWalk<T> + Sync>(
+    r: &CpuRenderer<'_, T, W>,
     opts: &RenderOptions,
 ) -> BackendOutput {
     let px = opts.pixels();

@@ -78,7 +78,8 @@ enum Node {
 
 /// What every node build needs.
 struct Ctx<'a> {
-    scene: &'a Scene,
+    /// Every triangle's vertices in f64, converted once for all levels.
+    tris: &'a [[DVec3; 3]],
     levels: &'a [[bool; 3]],
     min: DVec3,
     cs: DVec3,
@@ -86,10 +87,9 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
+    #[inline]
     fn tri(&self, t: u32) -> [DVec3; 3] {
-        self.scene
-            .triangle_vertices(t as usize)
-            .map(|v| v.as_dvec3())
+        self.tris[t as usize]
     }
 
     /// Builds the node at `level` covering `1 << rem[a]` virtual cells from `lo`.
@@ -242,7 +242,12 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
 
     // Top level: which top cells each triangle touches, chunk by chunk in triangle order.
     let top_frame = Frame::new(min64, top_cs, top_res, min64, max.as_dvec3());
-    let tri64 = |t: usize| scene.triangle_vertices(t).map(|v| v.as_dvec3());
+    // Converted once: the top level and every voxel-map level bin the same triangles.
+    let tris: Vec<[DVec3; 3]> = (0..n_tris)
+        .into_par_iter()
+        .map(|t| scene.triangle_vertices(t).map(|v| v.as_dvec3()))
+        .collect();
+    let tri64 = |t: usize| tris[t];
     let chunks: Vec<Vec<(u32, u32)>> = (0..n_tris)
         .collect::<Vec<_>>()
         .par_chunks(CHUNK)
@@ -262,7 +267,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
 
     // Voxel map below every top cell, in parallel; then flattened in top-cell order.
     let ctx = Ctx {
-        scene,
+        tris: &tris,
         levels: &levels,
         min: min64,
         cs: cs64,

@@ -33,8 +33,13 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
     },
     ConfigRow {
         name: "cpu-f32",
-        args: "--backend cpu --precision f32",
+        args: "--backend cpu --precision f32 --cpu-path simd",
         presets: DQ,
+    },
+    ConfigRow {
+        name: "cpu-f32-scalar",
+        args: "--backend cpu --precision f32 --cpu-path scalar",
+        presets: D,
     },
     ConfigRow {
         name: "cpu-f32-uniform",
@@ -512,7 +517,7 @@ mod tests {
             .into_iter()
             .map(|c| c.name)
             .collect();
-        assert_eq!(default.len(), 13);
+        assert_eq!(default.len(), 15);
         assert!(default.iter().any(|c| c == "gl-compute"), "{default:?}");
         assert_eq!(default[0], "cpu-f64");
         let quick = resolve_configs("quick").unwrap();

@@ -1,11 +1,16 @@
-//! CPU reference renderer: the same algorithm the GPU runs (3D-DDA over the uniform grid,
-//! watertight triangle tests, Whitted shading), in f64 for ground truth or f32 to mirror
-//! the GPU's arithmetic.
+//! CPU reference renderer: the same algorithm the GPU runs (the uniform grid's 3D-DDA or
+//! the irregular grid's cell walk, watertight triangle tests, Whitted shading), in f64 for
+//! ground truth or f32 to mirror the GPU's arithmetic; in f32 either the scalar walk (the
+//! GLSL's twin) or the vectorised one (`simd_walk.rs`, the same decisions, faster).
 
 pub mod intersect;
 pub mod real;
 pub mod render;
 pub mod shade;
+pub mod simd;
+pub mod simd_step;
+pub mod simd_walk;
+pub mod soa;
 pub mod traverse;
 pub mod traverse_irregular;
 pub mod walker;

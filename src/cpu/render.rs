@@ -7,7 +7,7 @@
 use rayon::prelude::*;
 
 use super::real::{Real, V3};
-use super::shade::{albedo, light_term, offset_origin_with, secondary, surface};
+use super::shade::{albedo, light_term, offset_origin_with, secondary, surface, SurfacePoint};
 use super::traverse::{CellWalk, Hit, Ray, Work};
 use super::walker::Walker;
 use crate::accel::AccelRef;
@@ -15,8 +15,21 @@ use crate::image_io::Image;
 use crate::output::{Aov, AovPixel, RayCounts};
 use crate::progress::Progress;
 use crate::region::Region;
-use crate::scene::{camera, Scene};
+use crate::scene::{camera, Light, Material, Scene};
 use crate::technique::{OffsetMethod, Techniques};
+
+/// Most primary rays traced as one batch (whole pixels: all samples of a pixel are in one).
+const BATCH_RAYS: usize = 256;
+
+/// A hit being shaded: its surface, material and albedo, the view direction and the
+/// colour summed so far.
+struct Shading<'s, T> {
+    sp: SurfacePoint<T>,
+    m: &'s Material,
+    alb: V3<T>,
+    v: V3<T>,
+    color: V3<T>,
+}
 
 /// Per-row tallies, summed after the parallel loop so counting stays off shared state.
 #[derive(Default, Clone, Copy)]
@@ -28,12 +41,14 @@ struct Tally {
     work: Work,
 }
 
-/// A scene prepared for CPU rendering in precision `T`.
-pub struct CpuRenderer<'a, T> {
+/// A scene prepared for CPU rendering in precision `T`, its structure walked by `W` (the
+/// scalar [`Walker`] by default; the vectorised f32 walk is
+/// [`SimdWalker`](super::simd_walk::SimdWalker)).
+pub struct CpuRenderer<'a, T, W = Walker<'a, T>> {
     scene: &'a Scene,
     /// The camera primary rays start from (the scene's, or a frame's of an animation).
     camera: crate::scene::Camera,
-    walker: Walker<'a, T>,
+    walker: W,
     max_depth: u32,
     background: V3<T>,
     ambient: V3<T>,
@@ -53,10 +68,24 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
         max_depth: u32,
         techniques: Techniques,
     ) -> Self {
+        let walker = Walker::new(scene, accel.into(), techniques);
+        Self::with_walker(scene, walker, max_depth, techniques)
+    }
+}
+
+impl<'a, T: Real, W: CellWalk<T> + Sync> CpuRenderer<'a, T, W> {
+    /// Prepares `scene` with `walker` over its structure (built with the same
+    /// `techniques`).
+    pub fn with_walker(
+        scene: &'a Scene,
+        walker: W,
+        max_depth: u32,
+        techniques: Techniques,
+    ) -> Self {
         CpuRenderer {
             scene,
             camera: scene.camera,
-            walker: Walker::new(scene, accel.into(), techniques),
+            walker,
             offset: techniques.offset,
             max_depth,
             background: V3::from_vec3(scene.background),
@@ -80,36 +109,116 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
 
     /// Whitted shading of a hit (see `cpu::shade` for the conventions).
     fn shade(&self, ray: &Ray<T>, hit: &Hit<T>, depth: u32, tally: &mut Tally) -> V3<T> {
+        let mut s = self.begin(ray, hit);
+        for light in &self.scene.lights {
+            if let Some((shadow, l)) = self.shadow_ray(&s, light) {
+                tally.shadow += 1;
+                if !self.walker.any_hit(&shadow, &mut tally.work) {
+                    s.color = s.color + self.light(&s, light, l);
+                }
+            }
+        }
+        self.finish(&s, ray, depth, tally)
+    }
+
+    /// [`CpuRenderer::shade`] of a batch of primary hits (`None` for a miss, which gets the
+    /// background) into `out`: the same terms added in the same order for each ray, with
+    /// the shadow rays to each light traced as one batch ([`CellWalk::any_hits`]).
+    fn shade_batch(
+        &self,
+        rays: &[Ray<T>],
+        hits: &[Option<Hit<T>>],
+        tally: &mut Tally,
+        out: &mut Vec<V3<T>>,
+    ) {
+        let mut shading: Vec<Option<Shading<'_, T>>> = rays
+            .iter()
+            .zip(hits)
+            .map(|(ray, hit)| hit.as_ref().map(|h| self.begin(ray, h)))
+            .collect();
+        let mut shadows = Vec::with_capacity(rays.len());
+        let mut lit = Vec::with_capacity(rays.len());
+        let mut occluded = Vec::new();
+        for light in &self.scene.lights {
+            shadows.clear();
+            lit.clear();
+            for (i, s) in shading.iter().enumerate() {
+                if let Some((shadow, l)) = s.as_ref().and_then(|s| self.shadow_ray(s, light)) {
+                    shadows.push(shadow);
+                    lit.push((i, l));
+                }
+            }
+            tally.shadow += shadows.len() as u64;
+            occluded.resize(shadows.len(), false);
+            self.walker
+                .any_hits(&shadows, &mut occluded, &mut tally.work);
+            for (&(i, l), &blocked) in lit.iter().zip(&occluded) {
+                if !blocked {
+                    let s = shading[i].as_mut().expect("a shadow ray comes from a hit");
+                    s.color = s.color + self.light(s, light, l);
+                }
+            }
+        }
+        out.clear();
+        for (ray, s) in rays.iter().zip(&shading) {
+            out.push(match s {
+                None => self.background,
+                Some(s) => self.finish(s, ray, 0, tally),
+            });
+        }
+    }
+
+    /// The surface, material and albedo of a hit, and its ambient term.
+    #[inline]
+    fn begin(&self, ray: &Ray<T>, hit: &Hit<T>) -> Shading<'a, T> {
         let verts = &self.walker.tris()[hit.tri as usize];
         let sp = surface(self.scene, verts, hit, ray.d);
         let m = &self.scene.materials[sp.material as usize];
         let alb = albedo(m, sp.p);
-        let v = -ray.d;
-        let mut color = alb.mul_elem(self.ambient) * T::from_f32(m.ka);
-        for light in &self.scene.lights {
-            let lp = V3::<T>::from_vec3(light.position);
-            let to_l = lp - sp.p;
-            if to_l.dot(sp.nf) <= T::ZERO || sp.ns.dot(to_l) <= T::ZERO {
-                continue; // below the geometric or shading horizon
-            }
-            let o = offset_origin_with(&sp, to_l, self.offset);
-            let dl = lp - o;
-            let dist = dl.length();
-            let l = dl * (T::ONE / dist);
-            tally.shadow += 1;
-            let shadow = Ray {
-                o,
-                d: l,
-                t_min: T::ZERO,
-                t_max: dist,
-            };
-            if self.walker.any_hit(&shadow, &mut tally.work) {
-                continue;
-            }
-            color = color + light_term(m, alb, &sp, l, v, V3::from_vec3(light.radiance()));
+        let color = alb.mul_elem(self.ambient) * T::from_f32(m.ka);
+        Shading {
+            sp,
+            m,
+            alb,
+            v: -ray.d,
+            color,
         }
+    }
+
+    /// The shadow ray from the hit towards `light` and the unit direction to it, or `None`
+    /// when the light is below the geometric or shading horizon.
+    #[inline]
+    fn shadow_ray(&self, s: &Shading<'_, T>, light: &Light) -> Option<(Ray<T>, V3<T>)> {
+        let lp = V3::<T>::from_vec3(light.position);
+        let to_l = lp - s.sp.p;
+        if to_l.dot(s.sp.nf) <= T::ZERO || s.sp.ns.dot(to_l) <= T::ZERO {
+            return None; // below the geometric or shading horizon
+        }
+        let o = offset_origin_with(&s.sp, to_l, self.offset);
+        let dl = lp - o;
+        let dist = dl.length();
+        let l = dl * (T::ONE / dist);
+        let shadow = Ray {
+            o,
+            d: l,
+            t_min: T::ZERO,
+            t_max: dist,
+        };
+        Some((shadow, l))
+    }
+
+    /// The term of an unoccluded `light` in direction `l`.
+    #[inline]
+    fn light(&self, s: &Shading<'_, T>, light: &Light, l: V3<T>) -> V3<T> {
+        light_term(s.m, s.alb, &s.sp, l, s.v, V3::from_vec3(light.radiance()))
+    }
+
+    /// The shaded colour: the terms so far plus the reflected and refracted children.
+    fn finish(&self, s: &Shading<'_, T>, ray: &Ray<T>, depth: u32, tally: &mut Tally) -> V3<T> {
+        let (m, sp) = (s.m, &s.sp);
+        let mut color = s.color;
         if depth < self.max_depth && (m.reflects() || m.refracts()) {
-            let s = secondary(m, &sp, ray.d);
+            let s = secondary(m, sp, ray.d);
             // Reflected child first, then refracted: the order the GPU walks the tree in.
             for (k, dir, refracted) in [(s.kr, s.reflected, false), (s.kt, s.refracted, true)] {
                 if k.max_elem() > T::ZERO {
@@ -119,7 +228,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
                         tally.reflected += 1;
                     }
                     let r = Ray {
-                        o: offset_origin_with(&sp, dir, self.offset),
+                        o: offset_origin_with(sp, dir, self.offset),
                         d: dir,
                         t_min: T::ZERO,
                         t_max: T::BIG,
@@ -168,32 +277,48 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
         let offsets = camera::sample_offsets(spp);
         let inv = T::ONE / T::from_f32(offsets.len() as f32);
         let rw = region.width();
+        let n_off = offsets.len();
+        // Pixels per batch: their primary rays are traced, and their shadow rays to each
+        // light, as one batch each.
+        let batch = (BATCH_RAYS / n_off).max(1) as u32;
         let rows: Vec<(Vec<f32>, Vec<AovPixel>, Tally)> = (region.y0..region.y1)
             .into_par_iter()
             .map(|j| {
                 let mut tally = Tally::default();
                 let mut rgb = Vec::with_capacity(rw as usize * 3);
                 let mut aov = Vec::with_capacity(rw as usize);
-                for i in region.x0..region.x1 {
-                    let mut sum = V3::splat(T::ZERO);
-                    for (k, &(ox, oy)) in offsets.iter().enumerate() {
-                        let ray = self.primary_ray(w, h, i as f64 + ox, j as f64 + oy);
-                        tally.primary += 1;
-                        let before = tally.work;
-                        let hit = self.walker.closest_hit(&ray, &mut tally.work);
-                        if k == 0 {
-                            let steps = (tally.work.cells - before.cells)
-                                + (tally.work.tests - before.tests);
-                            aov.push(self.aov_of(&ray, hit.as_ref(), steps));
+                let (mut rays, mut hits, mut work, mut colors) =
+                    (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                for i0 in (region.x0..region.x1).step_by(batch as usize) {
+                    let i1 = (i0 + batch).min(region.x1);
+                    rays.clear();
+                    for i in i0..i1 {
+                        for &(ox, oy) in &offsets {
+                            rays.push(self.primary_ray(w, h, i as f64 + ox, j as f64 + oy));
                         }
-                        let c = match hit {
-                            None => self.background,
-                            Some(h) => self.shade(&ray, &h, 0, &mut tally),
-                        };
-                        sum = sum + c;
                     }
-                    let c = sum * inv;
-                    rgb.extend([c.x, c.y, c.z].map(|v| v.to_f64() as f32));
+                    tally.primary += rays.len() as u64;
+                    hits.clear();
+                    hits.resize(rays.len(), None);
+                    work.clear();
+                    work.resize(rays.len(), Work::default());
+                    self.walker.closest_hits(&rays, &mut hits, &mut work);
+                    for wk in &work {
+                        tally.work.cells += wk.cells;
+                        tally.work.tests += wk.tests;
+                    }
+                    self.shade_batch(&rays, &hits, &mut tally, &mut colors);
+                    for p in 0..(i1 - i0) as usize {
+                        let first = p * n_off;
+                        let steps = work[first].cells + work[first].tests;
+                        aov.push(self.aov_of(&rays[first], hits[first].as_ref(), steps));
+                        let mut sum = V3::splat(T::ZERO);
+                        for c in &colors[first..first + n_off] {
+                            sum = sum + *c;
+                        }
+                        let c = sum * inv;
+                        rgb.extend([c.x, c.y, c.z].map(|v| v.to_f64() as f32));
+                    }
                 }
                 progress.inc(1);
                 (rgb, aov, tally)

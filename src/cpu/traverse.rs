@@ -194,40 +194,31 @@ pub trait CellWalk<T: Real> {
     /// coplanar duplicates from straddling the exit test differently on different backends.
     #[inline]
     fn closest_hit(&self, ray: &Ray<T>, work: &mut Work) -> Option<Hit<T>> {
-        let shear = RayShear::new(ray.d);
-        let (tris, list, techniques) = (self.tris(), self.list(), self.techniques());
-        let mut found: Option<Hit<T>> = None;
-        let slack = T::gamma(8);
-        let mut tests = 0u64;
-        self.walk(ray, work, |range, t_exit| {
-            let limit = t_exit + t_exit.abs() * slack;
-            let cell = cell_list(list, range).iter().copied();
-            match closest_of(ray, &shear, tris, cell, techniques, &mut tests) {
-                Some(h) if h.t <= limit => {
-                    found = Some(h);
-                    true
-                }
-                _ => false,
-            }
-        });
-        work.tests += tests;
-        found
+        scalar_closest_hit(self, ray, work)
     }
 
     /// True when anything is hit in (t_min, t_max): the shadow-ray query.
     #[inline]
     fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool {
-        let shear = RayShear::new(ray.d);
-        let (tris, list, techniques) = (self.tris(), self.list(), self.techniques());
-        let mut tests = 0u64;
-        let mut found = false;
-        self.walk(ray, work, |range, _| {
-            let cell = cell_list(list, range).iter().copied();
-            found = any_of(ray, &shear, tris, cell, techniques, &mut tests);
-            found
-        });
-        work.tests += tests;
-        found
+        scalar_any_hit(self, ray, work)
+    }
+
+    /// The closest hit of each of `rays` into `hits`, each ray's work added to `work` (all
+    /// three the same length): [`CellWalk::closest_hit`] ray after ray. A walker may step
+    /// the rays as a stream instead, with the same results.
+    fn closest_hits(&self, rays: &[Ray<T>], hits: &mut [Option<Hit<T>>], work: &mut [Work]) {
+        for ((ray, hit), w) in rays.iter().zip(hits.iter_mut()).zip(work.iter_mut()) {
+            *hit = self.closest_hit(ray, w);
+        }
+    }
+
+    /// Whether each of `rays` hits anything, into `hit` (the same length), the work of all
+    /// added to `work`: [`CellWalk::any_hit`] ray after ray, or a stream with the same
+    /// results.
+    fn any_hits(&self, rays: &[Ray<T>], hit: &mut [bool], work: &mut Work) {
+        for (ray, h) in rays.iter().zip(hit.iter_mut()) {
+            *h = self.any_hit(ray, work);
+        }
     }
 
     /// Brute-force closest hit over all triangles with the same tie rule: the oracle for
@@ -235,6 +226,54 @@ pub trait CellWalk<T: Real> {
     fn brute_force(&self, ray: &Ray<T>) -> Option<Hit<T>> {
         brute_force(ray, self.tris(), self.techniques())
     }
+}
+
+/// [`CellWalk::closest_hit`] with the scalar per-cell step ([`closest_of`]): the default,
+/// and what a walker overriding it (the vectorised one) falls back to.
+#[inline(always)]
+pub fn scalar_closest_hit<T: Real, W: CellWalk<T> + ?Sized>(
+    w: &W,
+    ray: &Ray<T>,
+    work: &mut Work,
+) -> Option<Hit<T>> {
+    let shear = RayShear::new(ray.d);
+    let (tris, list, techniques) = (w.tris(), w.list(), w.techniques());
+    let mut found: Option<Hit<T>> = None;
+    let slack = T::gamma(8);
+    let mut tests = 0u64;
+    w.walk(ray, work, |range, t_exit| {
+        let limit = t_exit + t_exit.abs() * slack;
+        let cell = cell_list(list, range).iter().copied();
+        match closest_of(ray, &shear, tris, cell, techniques, &mut tests) {
+            Some(h) if h.t <= limit => {
+                found = Some(h);
+                true
+            }
+            _ => false,
+        }
+    });
+    work.tests += tests;
+    found
+}
+
+/// [`CellWalk::any_hit`] with the scalar per-cell step ([`any_of`]).
+#[inline(always)]
+pub fn scalar_any_hit<T: Real, W: CellWalk<T> + ?Sized>(
+    w: &W,
+    ray: &Ray<T>,
+    work: &mut Work,
+) -> bool {
+    let shear = RayShear::new(ray.d);
+    let (tris, list, techniques) = (w.tris(), w.list(), w.techniques());
+    let mut tests = 0u64;
+    let mut found = false;
+    w.walk(ray, work, |range, _| {
+        let cell = cell_list(list, range).iter().copied();
+        found = any_of(ray, &shear, tris, cell, techniques, &mut tests);
+        found
+    });
+    work.tests += tests;
+    found
 }
 
 impl<T: Real> CellWalk<T> for GridWalker<'_, T> {

@@ -85,7 +85,7 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
     /// exits are computed from. The point alone can be a cell off where rounding of
     /// `o + d * t` meets a boundary, and then two cells can hand the ray back and forth.
     #[inline(always)]
-    fn lateral(&self, ray: &Ray<T>, t: T, axis: usize, lo: u32, hi: u32) -> u32 {
+    pub(crate) fn lateral(&self, ray: &Ray<T>, t: T, axis: usize, lo: u32, hi: u32) -> u32 {
         let mut k = self.virtual_at(ray, t, axis, lo, hi);
         let d = ray.d[axis];
         if d == T::ZERO {
@@ -162,39 +162,110 @@ impl<T: Real> CellWalk<T> for IrregularWalker<'_, T> {
     /// returns true (stop) or the ray leaves the grid or its interval.
     #[inline(always)]
     fn walk(&self, ray: &Ray<T>, work: &mut Work, mut visit: impl FnMut(CellRange, T) -> bool) {
-        let Some((t_enter, t_leave)) = self.clip(ray) else {
+        let Some(mut st) = self.start(ray) else {
             return;
         };
-        let g = self.grid;
-        let k = [0, 1, 2].map(|a| self.virtual_at(ray, t_enter, a, 0, g.res[a] - 1));
-        let mut id = g.lookup(k);
-        let mut t_prev = t_enter;
-        for _ in 0..MAX_STEPS {
+        loop {
             work.cells += 1;
-            let cell = &g.cells[id as usize];
-            let (t_exit, axis) = self.exit(ray, cell, t_prev);
-            if visit(cell.range, t_exit) || t_exit >= t_leave {
+            let cell = &self.grid.cells[st.id as usize];
+            let (t_exit, axis) = self.exit(ray, cell, st.t_prev);
+            if visit(cell.range, t_exit) || !self.advance(ray, &mut st, cell, t_exit, axis) {
                 return;
             }
-            let mut k = [0u32; 3];
-            for (a, ka) in k.iter_mut().enumerate() {
-                *ka = if a != axis {
-                    self.lateral(ray, t_exit, a, cell.exit_lo[a], cell.exit_hi[a] - 1)
-                } else if ray.d[a] > T::ZERO {
-                    if cell.exit_hi[a] >= g.res[a] {
-                        return;
-                    }
-                    cell.exit_hi[a]
-                } else {
-                    if cell.exit_lo[a] == 0 {
-                        return;
-                    }
-                    cell.exit_lo[a] - 1
-                };
-            }
-            id = g.lookup(k);
-            t_prev = t_exit;
         }
+    }
+}
+
+/// Where one walk of the irregular grid stands: the cell it is in and what the next step
+/// needs. The walk as resumable steps ([`IrregularWalker::start`],
+/// [`IrregularWalker::advance`]), so that a stream of rays can be stepped in turn
+/// (`cpu/simd_walk.rs`) by the same code as one ray's walk.
+#[derive(Clone, Copy, Debug)]
+pub struct WalkState<T> {
+    /// The current cell.
+    pub id: u32,
+    /// The previous cell's exit parameter (the entry parameter at the start).
+    pub t_prev: T,
+    /// Where the ray leaves the grid box or its interval.
+    pub t_leave: T,
+    /// Steps taken.
+    pub steps: u64,
+}
+
+impl<T: Real> IrregularWalker<'_, T> {
+    /// The walk's first cell, or `None` when the ray misses the grid box.
+    #[inline(always)]
+    pub fn start(&self, ray: &Ray<T>) -> Option<WalkState<T>> {
+        let (t_enter, t_leave) = self.clip(ray)?;
+        let g = self.grid;
+        let k = [0, 1, 2].map(|a| self.virtual_at(ray, t_enter, a, 0, g.res[a] - 1));
+        Some(WalkState {
+            id: g.lookup(k),
+            t_prev: t_enter,
+            t_leave,
+            steps: 0,
+        })
+    }
+
+    /// Steps from `cell` (the state's current cell), left at `t_exit` through `axis`
+    /// ([`IrregularWalker::exit`]), to the next one; false when the walk ends there: the
+    /// ray leaves its interval or the grid, or [`MAX_STEPS`] are taken.
+    #[inline(always)]
+    pub fn advance(
+        &self,
+        ray: &Ray<T>,
+        st: &mut WalkState<T>,
+        cell: &IrrCell,
+        t_exit: T,
+        axis: usize,
+    ) -> bool {
+        if t_exit >= st.t_leave {
+            return false;
+        }
+        match self.next_cell(ray, cell, t_exit, axis) {
+            Some(k) => self.enter(st, k, t_exit),
+            None => false,
+        }
+    }
+
+    /// The virtual cell the ray enters after leaving `cell` at `t_exit` through `axis`, or
+    /// `None` when it leaves the grid there.
+    #[inline(always)]
+    pub fn next_cell(
+        &self,
+        ray: &Ray<T>,
+        cell: &IrrCell,
+        t_exit: T,
+        axis: usize,
+    ) -> Option<[u32; 3]> {
+        let g = self.grid;
+        let mut k = [0u32; 3];
+        for (a, ka) in k.iter_mut().enumerate() {
+            *ka = if a != axis {
+                self.lateral(ray, t_exit, a, cell.exit_lo[a], cell.exit_hi[a] - 1)
+            } else if ray.d[a] > T::ZERO {
+                if cell.exit_hi[a] >= g.res[a] {
+                    return None;
+                }
+                cell.exit_hi[a]
+            } else {
+                if cell.exit_lo[a] == 0 {
+                    return None;
+                }
+                cell.exit_lo[a] - 1
+            };
+        }
+        Some(k)
+    }
+
+    /// Moves the walk into the cell holding virtual cell `k`, entered at `t_exit`; false
+    /// once [`MAX_STEPS`] are taken.
+    #[inline(always)]
+    pub fn enter(&self, st: &mut WalkState<T>, k: [u32; 3], t_exit: T) -> bool {
+        st.id = self.grid.lookup(k);
+        st.t_prev = t_exit;
+        st.steps += 1;
+        st.steps < MAX_STEPS
     }
 }
 

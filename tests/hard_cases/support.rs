@@ -26,7 +26,7 @@ use fragtrace::gpu::render::{trace_rays, GpuRay};
 use fragtrace::gpu::shader::{Query, RayState};
 use fragtrace::gpu::GlContext;
 use fragtrace::image_io::Image;
-use fragtrace::options::{Backend, Precision, RenderOptions};
+use fragtrace::options::{Backend, CpuPath, Precision, RenderOptions};
 use fragtrace::render::{render_cpu, render_gl_with, Rendered};
 use fragtrace::scene::{shapes, Camera, Light, Material, Scene, Triangle, NO_NORMAL};
 use fragtrace::technique::Techniques;
@@ -596,7 +596,14 @@ pub fn render_all_with(ctx: &GlContext, scene: &Scene, techniques: Techniques) -
             ..opts_on(scene, precision_of(bi), accel_of(bi))
         };
         if !is_gl(bi) {
-            return render_cpu(scene, &o).unwrap();
+            let r = render_cpu(scene, &o).unwrap();
+            if o.precision == Precision::F32 {
+                // The vectorised path (the default) must take the scalar twin's decisions.
+                o.cpu_path = CpuPath::Scalar;
+                let s = render_cpu(scene, &o).unwrap();
+                assert_same_cpu_paths(&r, &s, BACKENDS[bi]);
+            }
+            return r;
         }
         o.gpu.kernel = kernel_of(bi);
         let t0 = Instant::now();
@@ -631,4 +638,37 @@ pub fn dump(name: &str, img: &Image) {
     if fragtrace::image_io::write_image(&p, img).is_ok() {
         println!("    wrote {}", p.display());
     }
+}
+
+/// The f32 CPU's vectorised and scalar paths rendered the same image, AOVs and work, bit
+/// for bit (`--cpu-path`, src/cpu/simd_walk.rs).
+pub fn assert_same_cpu_paths(simd: &Rendered, scalar: &Rendered, who: &str) {
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert!(
+        bits(&simd.image.data) == bits(&scalar.image.data),
+        "{who}: --cpu-path simd and scalar images differ"
+    );
+    let px = |r: &Rendered| {
+        r.aov
+            .pixels
+            .iter()
+            .map(|p| {
+                (
+                    p.depth.to_bits(),
+                    p.primid.to_bits(),
+                    p.normal.map(f32::to_bits),
+                    p.steps.to_bits(),
+                )
+            })
+            .collect::<Vec<_>>()
+    };
+    assert!(
+        px(simd) == px(scalar),
+        "{who}: --cpu-path simd and scalar AOVs differ"
+    );
+    assert_eq!(
+        (simd.stats.cells_visited, simd.stats.triangle_tests),
+        (scalar.stats.cells_visited, scalar.stats.triangle_tests),
+        "{who}: --cpu-path simd and scalar work differs"
+    );
 }

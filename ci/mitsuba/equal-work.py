@@ -1,0 +1,76 @@
+#!/usr/bin/env python3
+"""Issue 27's equal-work render in Mitsuba 3 (`scalar_rgb`: Embree's BVH on the CPU), one
+timed frame per process so that the whole process can be timed too (ci/peers/
+mitsuba_equal_work.py times several frames of one process, for the GPU variants).
+
+The scene of ci/peers/equal-work.toml: the Stanford bunny on a 4x4 diffuse floor at
+y = 0.0335, one point light at (-0.6, 1.2, 0.9), camera eye (-0.2, 0.17, 0.36) looking at
+(-0.015, 0.1, 0), vertical fov 32, 1 sample per pixel; the `direct` integrator with
+`emitter_samples = 1`, `bsdf_samples = 0`: a primary ray and one shadow ray per hit, the
+work of fragtrace's `max_depth = 0`.
+
+Prints one line: load_build_s (mi.load_dict: OBJ load and Embree build), render_s (mi.render
+of the frame, after a warm-up render that pays the one-time costs), rays.
+
+Usage: equal-work.py [--size N] [--threads T] [--models DIR] [--out FILE.exr]
+"""
+import argparse
+import os
+import time
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--size", type=int, default=1024)
+ap.add_argument("--threads", type=int, default=2)
+ap.add_argument("--models", default=os.environ.get("FRAGTRACE_MODEL_PATH", "../shared/models"))
+ap.add_argument("--out", default="")
+args = ap.parse_args()
+
+import drjit as dr  # noqa: E402
+import mitsuba as mi  # noqa: E402
+
+mi.set_variant("scalar_rgb")
+dr.set_thread_count(args.threads)
+T = mi.ScalarTransform4f
+
+scene_dict = {
+    "type": "scene",
+    "integrator": {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0},
+    "sensor": {
+        "type": "perspective",
+        "fov": 32,
+        "fov_axis": "y",
+        "to_world": T().look_at(origin=[-0.2, 0.17, 0.36], target=[-0.015, 0.1, 0.0], up=[0, 1, 0]),
+        "sampler": {"type": "independent", "sample_count": 1},
+        "film": {
+            "type": "hdrfilm",
+            "width": args.size,
+            "height": args.size,
+            "rfilter": {"type": "box"},
+        },
+    },
+    "light": {"type": "point", "position": [-0.6, 1.2, 0.9], "intensity": {"type": "rgb", "value": 0.85}},
+    "bunny": {
+        "type": "obj",
+        "filename": os.path.join(args.models, "bunny/stanford-bunny.obj"),
+        "face_normals": True,
+        "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.77, 0.74, 0.68]}},
+    },
+    "floor": {
+        "type": "rectangle",
+        # Mitsuba's rectangle is [-1, 1]^2 in z = 0: scaled by 2 and turned into y = 0.0335.
+        "to_world": T().translate([0.0, 0.0335, 0.0]) @ T().rotate([1, 0, 0], -90) @ T().scale(2.0),
+        "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.4, 0.4, 0.4]}},
+    },
+}
+
+t0 = time.perf_counter()
+scene = mi.load_dict(scene_dict)
+t1 = time.perf_counter()
+mi.render(scene, spp=1)  # warm-up: the first render pays one-time set-up
+t2 = time.perf_counter()
+img = mi.render(scene, spp=1)
+t3 = time.perf_counter()
+if args.out:
+    mi.Bitmap(img).write(args.out)
+print(f"load_build_s {t1 - t0:.4f} render_s {t3 - t2:.4f} warmup_s {t2 - t1:.4f} "
+      f"size {args.size} threads {args.threads}")
