@@ -741,6 +741,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         intersect: Default::default(),
         t_bound: Default::default(),
         offset: Default::default(),
+        terminator: Default::default(),
         aov: None,
         stats: None,
         tile: None,

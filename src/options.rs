@@ -14,7 +14,7 @@ use serde::Serialize;
 use crate::accel::{AccelKind, GridConfig, GridRes, IrregularConfig};
 use crate::region::{Region, TileSpec, Tiling};
 use crate::scene::Scene;
-use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques};
+use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques, Terminator};
 use crate::{Error, Result};
 
 /// Which renderer runs.
@@ -246,6 +246,11 @@ pub struct RenderArgs {
     /// epsilon (a fixed 1e-4 along the normal). For measuring the technique's cost.
     #[arg(long, value_enum, default_value_t = OffsetMethod::ErrorBound)]
     pub offset: OffsetMethod,
+    /// Shadow rays of smooth-shaded meshes: smooth (start on the surface the vertex normals
+    /// describe, Hanika 2021; the default: no dark speckles near the terminator) or exact
+    /// (start on the triangle). For measuring the technique's cost and value.
+    #[arg(long, value_enum, default_value_t = Terminator::Smooth)]
+    pub terminator: Terminator,
     /// Write primary-ray AOVs next to the image: any of depth,normal,primid,steps
     /// (`<stem>.aov.exr`, and a PNG preview of each, `<stem>.<aov>.png`: depth as grey,
     /// normals as colour, primid in false colour, steps as a heat map).
@@ -417,6 +422,7 @@ impl RenderArgs {
             intersect: args.intersect,
             t_bound: args.t_bound,
             offset: args.offset,
+            terminator: args.terminator,
         };
         opts.validate()?;
         Ok(opts)

@@ -7,7 +7,7 @@
 use rayon::prelude::*;
 
 use super::real::{Real, V3};
-use super::shade::{albedo, light_term, offset_origin_with, secondary, surface};
+use super::shade::{albedo, light_term, offset_origin_with, secondary, shadow_origin, surface};
 use super::traverse::{CellWalk, Hit, Ray, Work};
 use super::walker::Walker;
 use crate::accel::AccelRef;
@@ -16,7 +16,7 @@ use crate::output::{Aov, AovPixel, RayCounts};
 use crate::progress::Progress;
 use crate::region::Region;
 use crate::scene::{camera, Scene};
-use crate::technique::{OffsetMethod, Techniques};
+use crate::technique::Techniques;
 
 /// Per-row tallies, summed after the parallel loop so counting stays off shared state.
 #[derive(Default, Clone, Copy)]
@@ -37,7 +37,7 @@ pub struct CpuRenderer<'a, T> {
     max_depth: u32,
     background: V3<T>,
     ambient: V3<T>,
-    offset: OffsetMethod,
+    techniques: Techniques,
 }
 
 /// Output of a CPU render: the one backend output type, with `work` always counted.
@@ -57,7 +57,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
             scene,
             camera: scene.camera,
             walker: Walker::new(scene, accel.into(), techniques),
-            offset: techniques.offset,
+            techniques,
             max_depth,
             background: V3::from_vec3(scene.background),
             ambient: V3::from_vec3(scene.ambient),
@@ -92,7 +92,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
             if to_l.dot(sp.nf) <= T::ZERO || sp.ns.dot(to_l) <= T::ZERO {
                 continue; // below the geometric or shading horizon
             }
-            let o = offset_origin_with(&sp, to_l, self.offset);
+            let o = shadow_origin(&sp, to_l, self.techniques);
             let dl = lp - o;
             let dist = dl.length();
             let l = dl * (T::ONE / dist);
@@ -119,7 +119,7 @@ impl<'a, T: Real> CpuRenderer<'a, T> {
                         tally.reflected += 1;
                     }
                     let r = Ray {
-                        o: offset_origin_with(&sp, dir, self.offset),
+                        o: offset_origin_with(&sp, dir, self.techniques.offset),
                         d: dir,
                         t_min: T::ZERO,
                         t_max: T::BIG,
