@@ -517,10 +517,7 @@ fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) 
                 format!(", {}", s.techniques)
             },
             s.triangles,
-            s.accel.kind.name(),
-            s.grid[0],
-            s.grid[1],
-            s.grid[2],
+            s.accel.brief(),
             s.grid_build_ms,
             s.render_ms,
             s.rays.total,

@@ -592,6 +592,50 @@ fn accel_flag_selects_the_structure_and_stats_report_it() {
     );
 }
 
+/// The summary line names the structure by what it is: the uniform grid's cells per axis,
+/// and for the irregular grid its top grid and number of cells, as `--stats` reports them
+/// (not its virtual resolution, e.g. 1998848x65536x1998848 on ground.toml, which read as
+/// a cell count).
+#[test]
+fn summary_line_gives_the_irregular_grid_top_grid_and_cell_count() {
+    let d = tmpdir("summary-accel");
+    for accel in ["irregular", "uniform"] {
+        let out = bin()
+            .current_dir(&d)
+            .args(["--backend", "cpu", "--width", "40", "--height", "30"])
+            .args(["--accel", accel, "--stats", "s.json", "-o", "s.png"])
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        let s: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+        let a = &s["accel"];
+        let axes = |v: &serde_json::Value| {
+            let r: Vec<String> = v
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.to_string())
+                .collect();
+            r.join("x")
+        };
+        let want = if accel == "irregular" {
+            format!(
+                "irregular grid (top {}, {} cells) (",
+                axes(&a["top_resolution"]),
+                a["cells"]
+            )
+        } else {
+            format!("uniform grid {} (", axes(&a["resolution"]))
+        };
+        assert!(err.contains(&want), "{accel}: want `{want}` in\n{err}");
+        if accel == "irregular" {
+            assert!(!err.contains(&axes(&a["resolution"])), "{err}");
+        }
+    }
+}
+
 /// `--grid-density` sets the uniform grid's cells per triangle with `--accel uniform` and
 /// the irregular grid's top cells per triangle with `--accel irregular` (the default):
 /// 8x the density gives 8x the cells up to rounding of each axis (bounds 4x..16x; the
