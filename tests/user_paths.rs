@@ -373,3 +373,63 @@ fn readme_model_path_recipe_loads_every_shipped_scene() {
     }
     assert!(n >= 9, "{n} scenes");
 }
+
+/// A scene with nothing to hit still renders (exit 0, the background), but says so in one
+/// warning line naming the file that has no triangles: an empty OBJ, an OBJ with vertices
+/// but no faces (both named, not the scene), and a scene without objects.
+#[test]
+fn nothing_to_render_warns_once_naming_the_file() {
+    let d = tmpdir("no-triangles");
+    let camera = "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n";
+    write(&d, "empty.obj", "# nothing\n");
+    write(&d, "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    write(&d, "none.toml", camera);
+    for (obj, why) in [("empty.obj", "no faces"), ("points.obj", "no faces")] {
+        let scene = format!("{obj}.toml");
+        write(
+            &d,
+            &scene,
+            format!(
+                "{camera}\n[[objects]]\nmesh = \"{}\"\n",
+                d.join(obj).display()
+            ),
+        );
+        check_one_warning(&d, &scene, &[obj, "no triangles", why]);
+    }
+    check_one_warning(
+        &d,
+        "none.toml",
+        &["none.toml", "no objects", "no triangles"],
+    );
+}
+
+fn check_one_warning(d: &Path, scene: &str, needles: &[&str]) {
+    let out = run_in(
+        d,
+        &[
+            "render",
+            scene,
+            "--backend",
+            "cpu",
+            "--width",
+            "8",
+            "--height",
+            "6",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(0), "{scene}: {err}");
+    let warnings: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("fragtrace: warning:"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{scene}: {err}");
+    for n in needles {
+        assert!(
+            warnings[0].contains(n),
+            "{scene}: `{}` lacks `{n}`",
+            warnings[0]
+        );
+    }
+    assert!(d.join("render.png").exists());
+}
