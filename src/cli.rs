@@ -8,7 +8,9 @@ use clap::{Args, Parser, Subcommand};
 use crate::accel::GridConfig;
 use crate::dist::plan::Plan;
 use crate::image_io;
-use crate::options::{clap_error_line, whole_number, RenderArgs};
+use crate::options::{
+    clap_error_line, count_in, RenderArgs, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_QUERY_EVERY, MAX_SPP,
+};
 use crate::region::Region;
 use crate::render;
 use crate::scene::{self, Scene};
@@ -58,20 +60,20 @@ pub struct ViewArgs {
     /// Scene file (TOML); the built-in default scene when omitted.
     pub scene: Option<PathBuf>,
     /// Initial window width (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
     pub width: Option<u32>,
     /// Initial window height (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
     pub height: Option<u32>,
     /// Traversal kernel: looped, multipass or unrolled:K (key `k` switches).
     #[arg(long, default_value = "looped")]
     pub kernel: crate::gpu::options::Kernel,
     /// Maximum reflection/refraction depth (default: the scene's, else 5; keys `+`/`-`).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(0, MAX_DEPTH))]
     pub max_depth: Option<u32>,
     /// Samples per pixel accumulated while the camera stands still (stratified, the
     /// pattern of `render --spp`); the picture is refined after each.
-    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = count_in(1, MAX_SPP))]
     pub spp: u32,
     /// Acceleration structure: irregular (the default) or uniform (the thesis's grid).
     #[arg(long, value_enum, default_value_t = crate::accel::AccelKind::default())]
@@ -84,7 +86,7 @@ pub struct ViewArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub grid_density: Option<f32>,
     /// Traversal iterations between termination queries (K).
-    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = count_in(1, MAX_QUERY_EVERY))]
     pub query_every: u32,
     /// Keep finished rays out of traversal passes: none, early-z or stencil (key `z`).
     #[arg(long, default_value = "none")]
@@ -115,7 +117,7 @@ pub struct ViewArgs {
 #[derive(Args, Debug, Clone)]
 pub struct InfoArgs {
     /// Report on EGL device N (as `render --gpu N` would use it) instead of the default.
-    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count_in(0, u32::MAX))]
     pub gpu: Option<u32>,
 }
 

@@ -50,6 +50,8 @@ pub const HOST_BYTES_PER_PIXEL: u64 = 128;
 pub const MAX_SPP: u32 = 1024;
 /// Largest recursion depth.
 pub const MAX_DEPTH: u32 = 16;
+/// Largest `--query-every`: traversal iterations between termination queries.
+pub const MAX_QUERY_EVERY: u32 = 4096;
 
 /// Everything that controls one render.
 #[derive(Clone, Debug)]
@@ -178,10 +180,10 @@ pub struct RenderArgs {
     #[arg(short, long, default_value = "render.png")]
     pub output: PathBuf,
     /// Image width (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
     pub width: Option<u32>,
     /// Image height (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
     pub height: Option<u32>,
     /// Renderer: auto, cpu or gl.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
@@ -190,10 +192,10 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = Precision::F64)]
     pub precision: Precision,
     /// Maximum reflection/refraction depth (default: the scene's, else 5).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(0, MAX_DEPTH))]
     pub max_depth: Option<u32>,
     /// Samples per pixel (stratified, fixed seed).
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = count_in(1, MAX_SPP))]
     pub spp: u32,
     /// Acceleration structure: irregular (adaptive cells with exit boxes grown over empty
     /// space, after Perard-Gayot et al. 2017; the default) or uniform (the thesis's grid
@@ -208,7 +210,7 @@ pub struct RenderArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub grid_density: Option<f32>,
     /// GPU: traversal iterations between termination queries (K).
-    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = count_in(1, MAX_QUERY_EVERY))]
     pub query_every: u32,
     /// GPU: kernel: auto (the fastest the context runs: compute on GL 4.3, looped on GL 3.x,
     /// multipass on GL 2.x), compute (GLSL 4.30: the whole ray tree per pixel in one
@@ -281,7 +283,7 @@ pub struct RenderArgs {
     /// GPU: render on EGL device N (`fragtrace info` lists them; on a Slurm GPU node, the
     /// one the task was given: docs/distributed.md); default: the first display that
     /// works.
-    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count_in(0, u32::MAX))]
     pub gpu: Option<u32>,
     /// Render the frames A..B (both included), or all, of the scene's camera path
     /// ([animation] in the scene file), uploading the scene once; -o names each frame with
@@ -404,9 +406,9 @@ impl RenderArgs {
             )));
         }
         opts.grid = grid;
-        if args.query_every == 0 || args.query_every > 4096 {
+        if args.query_every == 0 || args.query_every > MAX_QUERY_EVERY {
             return Err(Error::Usage(format!(
-                "--query-every {} is outside 1..=4096",
+                "--query-every {} is outside 1..={MAX_QUERY_EVERY}",
                 args.query_every
             )));
         }
@@ -429,15 +431,25 @@ impl RenderArgs {
     }
 }
 
-/// Parses a count flag (`--width`, `--spp`, ...). Negative numbers reach this parser (the
-/// flags allow them) so that `--width -5` says what is wrong with -5 instead of clap's
-/// "unexpected argument" and its tip to write `-- -5`.
-pub fn whole_number(s: &str) -> std::result::Result<u32, String> {
-    s.parse::<u32>()
-        .map_err(|_| match s.trim().parse::<i128>() {
-            Ok(v) if v < 0 => format!("{v} is negative; a whole number >= 0 is expected"),
-            _ => format!("`{s}` is not a whole number in 0..={}", u32::MAX),
-        })
+/// The parser of a count flag whose valid values are `lo..=hi`. Negative numbers reach it
+/// (the flags allow them) so that `--width -5` says what is wrong with -5 instead of clap's
+/// "unexpected argument" and its tip to write `-- -5`. It refuses negative numbers
+/// and non-numbers, naming that range (so `--width -5` does not suggest that 0 would do);
+/// the range itself is checked with the other options ([`RenderOptions::validate`]), whose
+/// message names the flag and the same range.
+pub fn count_in(
+    lo: u32,
+    hi: u32,
+) -> impl Fn(&str) -> std::result::Result<u32, String> + Clone + Send + Sync + 'static {
+    move |s: &str| {
+        s.parse::<u32>()
+            .map_err(|_| match s.trim().parse::<i128>() {
+                Ok(v) if v < 0 => {
+                    format!("{v} is negative; a whole number in {lo}..={hi} is expected")
+                }
+                _ => format!("`{s}` is not a whole number in {lo}..={hi}"),
+            })
+    }
 }
 
 /// A clap error as one line: clap's own first line without its `error:` prefix and any

@@ -155,6 +155,16 @@ fn command_line_slips_get_a_useful_message() {
     }
     let line = fails(&d, &["--height", "-3"], &["--height", "negative"]);
     assert!(!line.contains("tip"), "{line}");
+    // The expected range is the flag's own: 0 is no width, and no depth is negative.
+    for (flag, range) in [
+        ("--width", "1..=16384"),
+        ("--spp", "1..=1024"),
+        ("--query-every", "1..=4096"),
+        ("--max-depth", "0..=16"),
+    ] {
+        let line = fails(&d, &["render", flag, "-5", "-o", "x.png"], &[flag, range]);
+        assert!(!line.contains(">= 0"), "{line}");
+    }
     // A mistyped subcommand is not a scene file.
     for (typo, meant) in [
         ("rendr", "render"),
