@@ -188,9 +188,11 @@ pub struct BenchArgs {
     pub scenes: Option<String>,
     /// Configurations: a preset (default, quick, all), comma-separated names from the
     /// table (docs/performance.md), or a TOML file with `[configs]` lines
-    /// `name = "render arguments"`.
-    #[arg(long, default_value = "default")]
-    pub configs: String,
+    /// `name = "render arguments"`. Default: the default preset, without its multipass and
+    /// unrolled GL configurations on a software GL (llvmpipe), where they take tens of
+    /// minutes (`--configs default` runs them).
+    #[arg(long)]
+    pub configs: Option<String>,
     /// Timed runs per scene and configuration, after one warm-up (the median is reported).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub runs: u32,
@@ -501,7 +503,7 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan) -> Result<render::Rendered> {
 /// The one-line summary of a render on stderr (`-q` turns it off).
 fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) -> String {
     format!(
-            "{}: {}x{}{} spp {} on {} [{}{}{}], {} triangles, {} grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
+            "{}: {}x{}{} spp {} on {} [{}{}{}], {} triangles, {} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
             output.display(),
             s.width,
             s.height,
@@ -630,12 +632,13 @@ pub fn run_compare(args: &CompareArgs) -> Result<bool> {
 pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
     let opts = crate::bench::BenchOptions {
         scenes: crate::bench::resolve_scenes(args.scenes.as_deref())?,
-        configs: crate::bench::resolve_configs(&args.configs)?,
+        configs: crate::bench::resolve_configs(args.configs.as_deref().unwrap_or("default"))?,
         runs: args.runs,
         size: args.size,
         max_seconds: args.max_seconds,
         out: args.out.clone(),
         quiet: args.quiet,
+        fit_to_machine: args.configs.is_none(),
     };
     crate::bench::run_bench(&opts)
 }
