@@ -33,7 +33,7 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene (the built-in Whitted homage when no file is given).
     Render(RenderArgs),
-    /// Compare two images (PNG or EXR): RMSE, PSNR, mean FLIP, max error, share above a
+    /// Compare two images (PNG, EXR, HDR, TIFF or PPM): RMSE, PSNR, mean FLIP, max error, share above a
     /// threshold.
     Compare(CompareArgs),
     /// Time every configuration on every scene and measure its error against the CPU f64

@@ -176,7 +176,8 @@ impl RenderOptions {
 pub struct RenderArgs {
     /// Scene file (TOML); the built-in default scene when omitted.
     pub scene: Option<PathBuf>,
-    /// Output image; .png (sRGB 8-bit) or .exr (linear float).
+    /// Output image, by extension: .png or .ppm (sRGB 8-bit), .exr or .tif/.tiff (linear
+    /// 32-bit float), .hdr (Radiance RGBE, linear).
     #[arg(short, long, default_value = "render.png")]
     pub output: PathBuf,
     /// Image width (default: the scene's).
