@@ -65,7 +65,9 @@ pub struct ViewArgs {
     /// Initial window height (default: the scene's).
     #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
     pub height: Option<u32>,
-    /// Traversal kernel: looped, multipass or unrolled:K (key `k` switches).
+    /// Traversal kernel: auto (the fastest the context runs), compute (GL 4.3: the whole
+    /// ray tree per pixel in one dispatch), looped, multipass or unrolled:K (key `k`
+    /// switches).
     #[arg(long, default_value = "looped")]
     pub kernel: crate::gpu::options::Kernel,
     /// Maximum reflection/refraction depth (default: the scene's, else 5; keys `+`/`-`).
@@ -88,7 +90,8 @@ pub struct ViewArgs {
     /// Traversal iterations between termination queries (K).
     #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = count_in(1, MAX_QUERY_EVERY))]
     pub query_every: u32,
-    /// Keep finished rays out of traversal passes: none, early-z or stencil (key `z`).
+    /// Keep finished rays out of traversal passes: auto (early-z for multipass, none for
+    /// the others), none, early-z or stencil (key `z`).
     #[arg(long, default_value = "none")]
     pub mask: crate::gpu::options::Mask,
     /// Ray textures in 32- or 16-bit floats.

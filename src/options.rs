@@ -24,7 +24,8 @@ pub enum Backend {
     Auto,
     /// The CPU reference renderer.
     Cpu,
-    /// The GLSL 1.20 multi-pass renderer; fails rather than falling back.
+    /// The GPU renderer over EGL, with the kernel of --kernel (auto: compute on GL 4.3,
+    /// looped on GL 3.x, the GLSL 1.20 multipass on GL 2.1); fails rather than falling back.
     Gl,
 }
 
