@@ -35,12 +35,16 @@ declare -A why=(
     [glslang-tools]="glslangValidator: the tests validate every generated shader with it"
     [xvfb]="a virtual X server for the window tests (tests/view.rs)"
     [xauth]="needed by xvfb-run"
+    [libxcursor1]="X11 client library fragtrace view loads at run time (winit's Xcursor)"
+    [libxi6]="X11 client library fragtrace view loads at run time (winit's XInput2)"
+    [libxkbcommon-x11-0]="keyboard library fragtrace view loads at run time (winit's xkbcommon)"
     [slurmd]="a single-node Slurm cluster that tests/slurm.rs starts itself (installed only: no service is configured or enabled)"
     [slurmctld]="the Slurm controller of that cluster"
     [slurm-client]="sbatch and squeue, which the distributed tests call"
     [munge]="Slurm's authentication daemon"
 )
 order=(gcc g++ libegl1 libegl-mesa0 libgl1-mesa-dri glslang-tools xvfb xauth
+    libxcursor1 libxi6 libxkbcommon-x11-0
     slurmd slurmctld slurm-client munge)
 if command -v dpkg-query >/dev/null 2>&1; then
     need=()
