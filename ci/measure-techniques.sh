@@ -20,13 +20,14 @@ runs=${RUNS:-3}
 mkdir -p "$out"
 size=(--width 512 --height 512)
 
-settings=("default" "intersect-moller-trumbore" "t-bound-off" "offset-epsilon")
+settings=("default" "intersect-moller-trumbore" "t-bound-off" "offset-epsilon" "terminator-exact")
 flags_of() {
   case "$1" in
     default) echo "" ;;
     intersect-moller-trumbore) echo "--intersect moller-trumbore" ;;
     t-bound-off) echo "--t-bound off" ;;
     offset-epsilon) echo "--offset epsilon" ;;
+    terminator-exact) echo "--terminator exact" ;;
   esac
 }
 backends=("cpu-f64" "cpu-f32" "gl")

@@ -10,7 +10,18 @@ struct Surface {
     vec3 ns;     // shading normal facing the incoming ray
     bool entering;
     float mat;   // material index
+    vec3 p_sh;   // where shadow rays start: p, lifted onto the smooth surface with
+    vec3 p_sh_err; // TERMINATOR_SMOOTH (cpu/shade.rs: p_shadow, p_shadow_err)
 };
+
+#ifdef TERMINATOR_SMOOTH
+// Vertex v's share of the shadow-terminator lift of p (Hanika 2021; CPU twin
+// terminator_lift): b times the way up to v's tangent plane where p lies below it.
+vec3 terminator_lift(vec3 p, vec3 v, vec3 n, float b) {
+    float h = dot(p - v, n);
+    return h < 0.0 ? n * (b * -h) : vec3(0.0);
+}
+#endif
 
 Surface surface(vec3 o, vec3 d, float tri) {
     Surface s;
@@ -26,6 +37,8 @@ Surface surface(vec3 o, vec3 d, float tri) {
     s.entering = dot(d, s.ng) < 0.0;
     s.nf = s.entering ? s.ng : -s.ng;
     s.ns = s.nf;
+    s.p_sh = s.p;
+    s.p_sh_err = s.p_err;
 #ifdef HAS_SMOOTH_NORMALS
     if (t1.w > 0.5) {
         vec3 n0 = fetch_nrm(tri * TRI_TEXELS).xyz;
@@ -35,7 +48,26 @@ Surface surface(vec3 o, vec3 d, float tri) {
         float l = length(sn);
         if (l > 0.0) {
             sn = sn * (1.0 / l);
-            s.ns = dot(sn, s.nf) < 0.0 ? -sn : sn;
+            bool flip = dot(sn, s.nf) < 0.0;
+            s.ns = flip ? -sn : sn;
+#ifdef TERMINATOR_SMOOTH
+            // Vertex normals on the side ns faces (CPU twin: surface's p_shadow).
+            if (flip) {
+                n0 = -n0;
+                n1 = -n1;
+                n2 = -n2;
+            }
+            vec3 lift = terminator_lift(s.p, t0.xyz, n0, b.x)
+                + terminator_lift(s.p, t1.xyz, n1, b.y)
+                + terminator_lift(s.p, t2.xyz, n2, b.z);
+            // Only its component along nf: never sideways, never below the plane.
+            float up = dot(lift, s.nf);
+            if (up > 0.0) {
+                lift = s.nf * up;
+                s.p_sh = s.p + lift;
+                s.p_sh_err = s.p_err + (abs(s.p_sh) + abs(lift)) * gamma_n(4.0);
+            }
+#endif
         }
     }
 #endif
@@ -43,19 +75,25 @@ Surface surface(vec3 o, vec3 d, float tri) {
     return s;
 }
 
-// Origin of a ray leaving s in direction w (pbrt's offset, then one rounding step more);
-// with OFFSET_EPSILON_FIXED, the fixed OFFSET_EPSILON along the normal instead.
-vec3 offset_origin(Surface s, vec3 w) {
+// Origin of a ray leaving point p (error bound p_err) of a surface with geometric normal
+// ng in direction w (pbrt's offset, then one rounding step more); with
+// OFFSET_EPSILON_FIXED, the fixed OFFSET_EPSILON along the normal instead.
+vec3 offset_point(vec3 p, vec3 p_err, vec3 ng, vec3 w) {
 #ifdef OFFSET_EPSILON_FIXED
-    return s.p + s.ng * (dot(w, s.ng) < 0.0 ? -OFFSET_EPSILON : OFFSET_EPSILON);
+    return p + ng * (dot(w, ng) < 0.0 ? -OFFSET_EPSILON : OFFSET_EPSILON);
 #else
-    float dist = dot(abs(s.ng), s.p_err);
-    vec3 off = s.ng * dist;
-    if (dot(w, s.ng) < 0.0) off = -off;
-    vec3 po = s.p + off;
+    float dist = dot(abs(ng), p_err);
+    vec3 off = ng * dist;
+    if (dot(w, ng) < 0.0) off = -off;
+    vec3 po = p + off;
     vec3 step = abs(po) * (2.0 * UNIT_ROUNDOFF) + vec3(1.0e-30);
     return po + sign(off) * step;
 #endif
+}
+
+// Origin of a reflected or refracted ray leaving s in direction w.
+vec3 offset_origin(Surface s, vec3 w) {
+    return offset_point(s.p, s.p_err, s.ng, w);
 }
 
 vec4 mat_texel(float mat, float k) {
@@ -154,15 +192,16 @@ vec3 ambient_term(Surface s, vec3 ambient) {
 }
 
 // The shadow ray from s towards a point light at light_pos: false where the light is below
-// the geometric or shading horizon (it then contributes nothing), else the ray's origin,
-// unit direction l and length dist (shadow_spawn.frag; the compute kernel).
+// the geometric or shading horizon (it then contributes nothing), else the ray's origin
+// (offset from p_sh: the CPU's shadow_origin), unit direction l and length dist
+// (shadow_spawn.frag; the compute kernel).
 bool shadow_ray(Surface s, vec3 light_pos, out vec3 o, out vec3 l, out float dist) {
     o = vec3(0.0);
     l = vec3(0.0, 0.0, 1.0);
     dist = 0.0;
     vec3 to_l = light_pos - s.p;
     if (!(dot(to_l, s.nf) > 0.0 && dot(s.ns, to_l) > 0.0)) return false;
-    o = offset_origin(s, to_l);
+    o = offset_point(s.p_sh, s.p_sh_err, s.ng, to_l);
     vec3 dl = light_pos - o;
     dist = length(dl);
     l = dl * (1.0 / dist);

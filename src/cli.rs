@@ -8,7 +8,9 @@ use clap::{Args, Parser, Subcommand};
 use crate::accel::GridConfig;
 use crate::dist::plan::Plan;
 use crate::image_io;
-use crate::options::{clap_error_line, whole_number, RenderArgs};
+use crate::options::{
+    clap_error_line, count_in, RenderArgs, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_QUERY_EVERY, MAX_SPP,
+};
 use crate::region::Region;
 use crate::render;
 use crate::scene::{self, Scene};
@@ -31,7 +33,7 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene (the built-in Whitted homage when no file is given).
     Render(RenderArgs),
-    /// Compare two images (PNG or EXR): RMSE, PSNR, mean FLIP, max error, share above a
+    /// Compare two images (PNG, EXR, HDR, TIFF or PPM): RMSE, PSNR, mean FLIP, max error, share above a
     /// threshold.
     Compare(CompareArgs),
     /// Time every configuration on every scene and measure its error against the CPU f64
@@ -58,20 +60,22 @@ pub struct ViewArgs {
     /// Scene file (TOML); the built-in default scene when omitted.
     pub scene: Option<PathBuf>,
     /// Initial window width (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
     pub width: Option<u32>,
     /// Initial window height (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
     pub height: Option<u32>,
-    /// Traversal kernel: looped, multipass or unrolled:K (key `k` switches).
+    /// Traversal kernel: auto (the fastest the context runs), compute (GL 4.3: the whole
+    /// ray tree per pixel in one dispatch), looped, multipass or unrolled:K (key `k`
+    /// switches).
     #[arg(long, default_value = "looped")]
     pub kernel: crate::gpu::options::Kernel,
     /// Maximum reflection/refraction depth (default: the scene's, else 5; keys `+`/`-`).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(0, MAX_DEPTH))]
     pub max_depth: Option<u32>,
     /// Samples per pixel accumulated while the camera stands still (stratified, the
     /// pattern of `render --spp`); the picture is refined after each.
-    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = count_in(1, MAX_SPP))]
     pub spp: u32,
     /// Acceleration structure: irregular (the default) or uniform (the thesis's grid).
     #[arg(long, value_enum, default_value_t = crate::accel::AccelKind::default())]
@@ -84,9 +88,10 @@ pub struct ViewArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub grid_density: Option<f32>,
     /// Traversal iterations between termination queries (K).
-    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = count_in(1, MAX_QUERY_EVERY))]
     pub query_every: u32,
-    /// Keep finished rays out of traversal passes: none, early-z or stencil (key `z`).
+    /// Keep finished rays out of traversal passes: auto (early-z for multipass, none for
+    /// the others), none, early-z or stencil (key `z`).
     #[arg(long, default_value = "none")]
     pub mask: crate::gpu::options::Mask,
     /// Ray textures in 32- or 16-bit floats.
@@ -115,7 +120,7 @@ pub struct ViewArgs {
 #[derive(Args, Debug, Clone)]
 pub struct InfoArgs {
     /// Report on EGL device N (as `render --gpu N` would use it) instead of the default.
-    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count_in(0, u32::MAX))]
     pub gpu: Option<u32>,
 }
 
@@ -186,9 +191,11 @@ pub struct BenchArgs {
     pub scenes: Option<String>,
     /// Configurations: a preset (default, quick, all), comma-separated names from the
     /// table (docs/performance.md), or a TOML file with `[configs]` lines
-    /// `name = "render arguments"`.
-    #[arg(long, default_value = "default")]
-    pub configs: String,
+    /// `name = "render arguments"`. Default: the default preset, without its multipass and
+    /// unrolled GL configurations on a software GL (llvmpipe), where they take tens of
+    /// minutes (`--configs default` runs them).
+    #[arg(long)]
+    pub configs: Option<String>,
     /// Timed runs per scene and configuration, after one warm-up (the median is reported).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub runs: u32,
@@ -523,7 +530,7 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render:
 /// The one-line summary of a render on stderr (`-q` turns it off).
 fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) -> String {
     format!(
-            "{}: {}x{}{} spp {} on {} [{}{}{}], {} triangles, {} grid {}x{}x{} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
+            "{}: {}x{}{} spp {} on {} [{}{}{}], {} triangles, {} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
             output.display(),
             s.width,
             s.height,
@@ -541,10 +548,7 @@ fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) 
                 format!(", {}", s.techniques)
             },
             s.triangles,
-            s.accel.kind.name(),
-            s.grid[0],
-            s.grid[1],
-            s.grid[2],
+            s.accel.brief(),
             s.grid_build_ms,
             s.render_ms,
             s.rays.total,
@@ -655,12 +659,13 @@ pub fn run_compare(args: &CompareArgs) -> Result<bool> {
 pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
     let opts = crate::bench::BenchOptions {
         scenes: crate::bench::resolve_scenes(args.scenes.as_deref())?,
-        configs: crate::bench::resolve_configs(&args.configs)?,
+        configs: crate::bench::resolve_configs(args.configs.as_deref().unwrap_or("default"))?,
         runs: args.runs,
         size: args.size,
         max_seconds: args.max_seconds,
         out: args.out.clone(),
         quiet: args.quiet,
+        fit_to_machine: args.configs.is_none(),
     };
     crate::bench::run_bench(&opts)
 }
@@ -766,6 +771,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         intersect: Default::default(),
         t_bound: Default::default(),
         offset: Default::default(),
+        terminator: Default::default(),
         aov: None,
         stats: None,
         tile: None,

@@ -158,7 +158,7 @@ pub fn compare_files(
         None => (
             read_image(a)?,
             read_image(b)?,
-            Format::from_path(a)? == Format::Png || Format::from_path(b)? == Format::Png,
+            Format::from_path(a)?.is_srgb8() || Format::from_path(b)?.is_srgb8(),
         ),
     };
     Ok(FileComparison {

@@ -54,11 +54,21 @@ impl Image {
 /// Output format, from the file extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
-    /// 8-bit sRGB PNG.
+    /// 8-bit sRGB PNG (`.png`).
     Png,
-    /// 32-bit float linear OpenEXR.
+    /// 32-bit float linear OpenEXR (`.exr`).
     Exr,
+    /// Radiance RGBE (`.hdr`): linear, a shared 8-bit exponent per pixel (about 1% relative
+    /// precision, no negative values).
+    Hdr,
+    /// 32-bit float linear TIFF (`.tif`, `.tiff`).
+    Tiff,
+    /// 8-bit sRGB binary PPM (`.ppm`, netpbm P6).
+    Ppm,
 }
+
+/// The extensions [`Format::from_path`] knows, as the error message lists them.
+pub const EXTENSIONS: &str = ".png, .exr, .hdr, .tif/.tiff or .ppm";
 
 impl Format {
     /// Format from a path's extension (case-insensitive).
@@ -71,11 +81,19 @@ impl Format {
         {
             Some("png") => Ok(Format::Png),
             Some("exr") => Ok(Format::Exr),
+            Some("hdr") => Ok(Format::Hdr),
+            Some("tif" | "tiff") => Ok(Format::Tiff),
+            Some("ppm") => Ok(Format::Ppm),
             _ => Err(Error::Usage(format!(
-                "{}: unknown image extension (use .png or .exr)",
+                "{}: unknown image extension (use {EXTENSIONS})",
                 path.display()
             ))),
         }
+    }
+
+    /// True for the 8-bit sRGB formats, whose values are quantised and clamped to 0..=1.
+    pub fn is_srgb8(self) -> bool {
+        matches!(self, Format::Png | Format::Ppm)
     }
 }
 
@@ -166,21 +184,40 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
     res
 }
 
-/// Writes an image as PNG or EXR according to the extension of `path`.
+/// Writes an image in the format of `path`'s extension ([`Format`]): 8-bit sRGB for PNG and
+/// PPM, linear float for EXR, TIFF and Radiance HDR.
 pub fn write_image(path: &Path, img: &Image) -> Result<()> {
     let format = Format::from_path(path)?;
     let img_err = |e: image::ImageError| Error::Image {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
-    write_atomic(path, |tmp| match format {
-        Format::Png => encode_png(tmp, path, img.width, img.height, &to_srgb8(img)),
-        Format::Exr => {
-            let buf = image::Rgb32FImage::from_raw(img.width, img.height, img.data.clone())
-                .ok_or_else(|| Error::Internal("exr buffer size".into()))?;
-            buf.save_with_format(tmp, image::ImageFormat::OpenExr)
-                .map_err(img_err)
+    let size_err = || Error::Internal(format!("{format:?} buffer size"));
+    write_atomic(path, |tmp| {
+        if format.is_srgb8() {
+            if format == Format::Png {
+                return encode_png(tmp, path, img.width, img.height, &to_srgb8(img));
+            }
+            let buf = image::RgbImage::from_raw(img.width, img.height, to_srgb8(img))
+                .ok_or_else(size_err)?;
+            // The image crate's PNM default is PAM (P7); PPM readers want P6.
+            use image::codecs::pnm::{PnmEncoder, PnmSubtype, SampleEncoding};
+            let file = std::fs::File::create(tmp).map_err(|source| Error::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
+            let enc = PnmEncoder::new(std::io::BufWriter::new(file))
+                .with_subtype(PnmSubtype::Pixmap(SampleEncoding::Binary));
+            return buf.write_with_encoder(enc).map_err(img_err);
         }
+        let buf = image::Rgb32FImage::from_raw(img.width, img.height, img.data.clone())
+            .ok_or_else(size_err)?;
+        let f = match format {
+            Format::Hdr => image::ImageFormat::Hdr,
+            Format::Tiff => image::ImageFormat::Tiff,
+            _ => image::ImageFormat::OpenExr,
+        };
+        buf.save_with_format(tmp, f).map_err(img_err)
     })
 }
 
@@ -212,7 +249,8 @@ fn encode_png(tmp: &Path, path: &Path, width: u32, height: u32, rgb: &[u8]) -> R
         })
 }
 
-/// Reads a PNG (decoded to linear) or EXR image.
+/// Reads an image written by [`write_image`] (any [`Format`]; the 8-bit sRGB ones decoded
+/// to linear).
 pub fn read_image(path: &Path) -> Result<Image> {
     let format = Format::from_path(path)?;
     let dynimg = image::open(path).map_err(|e| Error::Image {
@@ -220,14 +258,15 @@ pub fn read_image(path: &Path) -> Result<Image> {
         message: e.to_string(),
     })?;
     let (w, h) = (dynimg.width(), dynimg.height());
-    let data = match format {
-        Format::Png => dynimg
+    let data = if format.is_srgb8() {
+        dynimg
             .to_rgb8()
             .into_raw()
             .into_iter()
             .map(|b| srgb_to_linear(b as f32 / 255.0))
-            .collect(),
-        Format::Exr => dynimg.to_rgb32f().into_raw(),
+            .collect()
+    } else {
+        dynimg.to_rgb32f().into_raw()
     };
     Ok(Image::from_rgb(w, h, data))
 }

@@ -14,7 +14,7 @@ use serde::Serialize;
 use crate::accel::{AccelKind, GridConfig, GridRes, IrregularConfig};
 use crate::region::{Region, TileSpec, Tiling};
 use crate::scene::Scene;
-use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques};
+use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques, Terminator};
 use crate::{Error, Result};
 
 /// Which renderer runs.
@@ -24,7 +24,8 @@ pub enum Backend {
     Auto,
     /// The CPU reference renderer.
     Cpu,
-    /// The GLSL 1.20 multi-pass renderer; fails rather than falling back.
+    /// The GPU renderer over EGL, with the kernel of --kernel (auto: compute on GL 4.3,
+    /// looped on GL 3.x, the GLSL 1.20 multipass on GL 2.1); fails rather than falling back.
     Gl,
 }
 
@@ -72,6 +73,8 @@ pub const HOST_BYTES_PER_PIXEL: u64 = 128;
 pub const MAX_SPP: u32 = 1024;
 /// Largest recursion depth.
 pub const MAX_DEPTH: u32 = 16;
+/// Largest `--query-every`: traversal iterations between termination queries.
+pub const MAX_QUERY_EVERY: u32 = 4096;
 
 /// Everything that controls one render.
 #[derive(Clone, Debug)]
@@ -199,14 +202,15 @@ impl RenderOptions {
 pub struct RenderArgs {
     /// Scene file (TOML); the built-in default scene when omitted.
     pub scene: Option<PathBuf>,
-    /// Output image; .png (sRGB 8-bit) or .exr (linear float).
+    /// Output image, by extension: .png or .ppm (sRGB 8-bit), .exr or .tif/.tiff (linear
+    /// 32-bit float), .hdr (Radiance RGBE, linear).
     #[arg(short, long, default_value = "render.png")]
     pub output: PathBuf,
     /// Image width (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
     pub width: Option<u32>,
     /// Image height (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
     pub height: Option<u32>,
     /// Renderer: auto, cpu or gl.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
@@ -220,10 +224,10 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value_t = CpuPath::default())]
     pub cpu_path: CpuPath,
     /// Maximum reflection/refraction depth (default: the scene's, else 5).
-    #[arg(long, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(0, MAX_DEPTH))]
     pub max_depth: Option<u32>,
     /// Samples per pixel (stratified, fixed seed).
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true, value_parser = count_in(1, MAX_SPP))]
     pub spp: u32,
     /// Acceleration structure: irregular (adaptive cells with exit boxes grown over empty
     /// space, after Perard-Gayot et al. 2017; the default) or uniform (the thesis's grid
@@ -238,7 +242,7 @@ pub struct RenderArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub grid_density: Option<f32>,
     /// GPU: traversal iterations between termination queries (K).
-    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = count_in(1, MAX_QUERY_EVERY))]
     pub query_every: u32,
     /// GPU: kernel: auto (the fastest the context runs: compute on GL 4.3, looped on GL 3.x,
     /// multipass on GL 2.x), compute (GLSL 4.30: the whole ray tree per pixel in one
@@ -276,6 +280,11 @@ pub struct RenderArgs {
     /// epsilon (a fixed 1e-4 along the normal). For measuring the technique's cost.
     #[arg(long, value_enum, default_value_t = OffsetMethod::ErrorBound)]
     pub offset: OffsetMethod,
+    /// Shadow rays of smooth-shaded meshes: smooth (start on the surface the vertex normals
+    /// describe, Hanika 2021; the default: no dark speckles near the terminator) or exact
+    /// (start on the triangle). For measuring the technique's cost and value.
+    #[arg(long, value_enum, default_value_t = Terminator::Smooth)]
+    pub terminator: Terminator,
     /// Write primary-ray AOVs next to the image: any of depth,normal,primid,steps
     /// (`<stem>.aov.exr`, and a PNG preview of each, `<stem>.<aov>.png`: depth as grey,
     /// normals as colour, primid in false colour, steps as a heat map).
@@ -306,7 +315,7 @@ pub struct RenderArgs {
     /// GPU: render on EGL device N (`fragtrace info` lists them; on a Slurm GPU node, the
     /// one the task was given: docs/distributed.md); default: the first display that
     /// works.
-    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = whole_number)]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count_in(0, u32::MAX))]
     pub gpu: Option<u32>,
     /// Render the frames A..B (both included), or all, of the scene's camera path
     /// ([animation] in the scene file), uploading the scene once; -o names each frame with
@@ -430,9 +439,9 @@ impl RenderArgs {
             )));
         }
         opts.grid = grid;
-        if args.query_every == 0 || args.query_every > 4096 {
+        if args.query_every == 0 || args.query_every > MAX_QUERY_EVERY {
             return Err(Error::Usage(format!(
-                "--query-every {} is outside 1..=4096",
+                "--query-every {} is outside 1..={MAX_QUERY_EVERY}",
                 args.query_every
             )));
         }
@@ -448,21 +457,32 @@ impl RenderArgs {
             intersect: args.intersect,
             t_bound: args.t_bound,
             offset: args.offset,
+            terminator: args.terminator,
         };
         opts.validate()?;
         Ok(opts)
     }
 }
 
-/// Parses a count flag (`--width`, `--spp`, ...). Negative numbers reach this parser (the
-/// flags allow them) so that `--width -5` says what is wrong with -5 instead of clap's
-/// "unexpected argument" and its tip to write `-- -5`.
-pub fn whole_number(s: &str) -> std::result::Result<u32, String> {
-    s.parse::<u32>()
-        .map_err(|_| match s.trim().parse::<i128>() {
-            Ok(v) if v < 0 => format!("{v} is negative; a whole number >= 0 is expected"),
-            _ => format!("`{s}` is not a whole number in 0..={}", u32::MAX),
-        })
+/// The parser of a count flag whose valid values are `lo..=hi`. Negative numbers reach it
+/// (the flags allow them) so that `--width -5` says what is wrong with -5 instead of clap's
+/// "unexpected argument" and its tip to write `-- -5`. It refuses negative numbers
+/// and non-numbers, naming that range (so `--width -5` does not suggest that 0 would do);
+/// the range itself is checked with the other options ([`RenderOptions::validate`]), whose
+/// message names the flag and the same range.
+pub fn count_in(
+    lo: u32,
+    hi: u32,
+) -> impl Fn(&str) -> std::result::Result<u32, String> + Clone + Send + Sync + 'static {
+    move |s: &str| {
+        s.parse::<u32>()
+            .map_err(|_| match s.trim().parse::<i128>() {
+                Ok(v) if v < 0 => {
+                    format!("{v} is negative; a whole number in {lo}..={hi} is expected")
+                }
+                _ => format!("`{s}` is not a whole number in {lo}..={hi}"),
+            })
+    }
 }
 
 /// A clap error as one line: clap's own first line without its `error:` prefix and any

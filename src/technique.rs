@@ -46,6 +46,23 @@ pub enum OffsetMethod {
     Epsilon,
 }
 
+/// Where the shadow rays of smooth-shaded triangles (those with vertex normals) start: the
+/// shadow terminator problem. A coarse mesh lies under the smooth surface its normals
+/// describe, so near the terminator, and wherever a neighbouring triangle folds above the
+/// tangent plane, the triangles shadow points that the smooth shading lights.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, ValueEnum)]
+pub enum Terminator {
+    /// Hanika, "Hacking the Shadow Terminator" (Ray Tracing Gems II, 2021): the shadow
+    /// ray's origin is the barycentric mix of the hit point's projections onto the three
+    /// vertices' tangent planes (only outwards), a point of the smooth surface; then the
+    /// usual offset. Only shadow rays, only triangles with vertex normals.
+    #[default]
+    Smooth,
+    /// Shadow rays start on the triangle itself: exact for the triangles, dark speckles
+    /// and blotches near the terminator of a smooth-shaded coarse mesh.
+    Exact,
+}
+
 /// The robustness techniques a render uses; `Default` is fragtrace's normal behaviour.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Techniques {
@@ -55,6 +72,8 @@ pub struct Techniques {
     pub t_bound: TBound,
     /// Origin offset of spawned rays.
     pub offset: OffsetMethod,
+    /// Shadow-ray origin on smooth-shaded triangles.
+    pub terminator: Terminator,
 }
 
 impl Techniques {
@@ -73,15 +92,24 @@ impl Techniques {
         Techniques { offset, ..self }
     }
 
+    /// These techniques with the shadow terminator handling replaced.
+    pub fn with_terminator(self, terminator: Terminator) -> Self {
+        Techniques { terminator, ..self }
+    }
+
     /// The settings that differ from the default in exactly one technique, in the order
-    /// intersect, t bound, offset (what `dump-shaders --all-variants` and the measurements
-    /// cover).
-    pub fn one_off() -> [Techniques; 3] {
+    /// intersect, t bound, offset, terminator (what `dump-shaders --all-variants` and the
+    /// measurements cover).
+    pub fn one_off() -> [Techniques; 4] {
         let d = Techniques::default();
         [
             d.with_intersect(IntersectMethod::MollerTrumbore),
             d.with_t_bound(TBound::Off),
             d.with_offset(OffsetMethod::Epsilon),
+            d.with_terminator(match d.terminator {
+                Terminator::Smooth => Terminator::Exact,
+                Terminator::Exact => Terminator::Smooth,
+            }),
         ]
     }
 
@@ -92,6 +120,7 @@ impl Techniques {
             intersect,
             t_bound,
             offset,
+            terminator,
         } = self;
         vec![
             match intersect {
@@ -105,6 +134,10 @@ impl Techniques {
             match offset {
                 OffsetMethod::ErrorBound => "OFFSET_ERROR_BOUND",
                 OffsetMethod::Epsilon => "OFFSET_EPSILON_FIXED",
+            },
+            match terminator {
+                Terminator::Smooth => "TERMINATOR_SMOOTH",
+                Terminator::Exact => "TERMINATOR_EXACT",
             },
         ]
     }
@@ -121,6 +154,9 @@ impl Techniques {
         }
         if self.offset != OffsetMethod::default() {
             parts.push(format!("offset-{}", name(self.offset)));
+        }
+        if self.terminator != Terminator::default() {
+            parts.push(format!("terminator-{}", name(self.terminator)));
         }
         if parts.is_empty() {
             "default".into()
@@ -147,12 +183,22 @@ mod tests {
         assert_eq!(d.tag(), "default");
         assert_eq!(
             d.defines(),
-            ["INTERSECT_WATERTIGHT", "T_BOUND_ON", "OFFSET_ERROR_BOUND"]
+            [
+                "INTERSECT_WATERTIGHT",
+                "T_BOUND_ON",
+                "OFFSET_ERROR_BOUND",
+                "TERMINATOR_SMOOTH"
+            ]
         );
         let tags: Vec<String> = Techniques::one_off().iter().map(|t| t.tag()).collect();
         assert_eq!(
             tags,
-            ["intersect-moller-trumbore", "t-bound-off", "offset-epsilon"]
+            [
+                "intersect-moller-trumbore",
+                "t-bound-off",
+                "offset-epsilon",
+                "terminator-exact"
+            ]
         );
     }
 }

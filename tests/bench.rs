@@ -454,3 +454,69 @@ fn a_failing_configuration_is_recorded_not_fatal() {
         "{md}"
     );
 }
+
+/// A bare `fragtrace bench` on a software GL (llvmpipe here) leaves out the default
+/// preset's multipass and unrolled GL configurations (tens of minutes of passes on a CPU)
+/// and says so on stderr and in report.md; `--configs default` keeps them. Run from a
+/// folder whose `scenes/` holds no scene file, the bench takes the shipped scenes instead
+/// of refusing with "--scenes names no scene" (`--scenes` was not given).
+#[test]
+fn bare_bench_fits_a_software_gl_and_takes_the_shipped_scenes() {
+    let d = tmpdir("fit");
+    std::fs::create_dir_all(d.join("scenes")).unwrap();
+    std::fs::write(d.join("scenes").join("notes.txt"), "no scenes here").unwrap();
+    let out = bin()
+        .current_dir(&d)
+        .args([
+            "bench", "--scenes", "whitted", "--runs", "1", "--size", "16x12",
+        ])
+        .args(["--out", "fit"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let rows = read_csv(&d.join("fit").join("results.csv"));
+    let names: Vec<&str> = rows.iter().map(|r| r["config"].as_str()).collect();
+    let software = err.contains("renders GL on the CPU");
+    let slow = |n: &&str| n.starts_with("gl-multipass") || n.starts_with("gl-unrolled");
+    let md = std::fs::read_to_string(d.join("fit").join("report.md")).unwrap();
+    if software {
+        assert!(!names.iter().any(slow), "{names:?}");
+        let notice = err
+            .lines()
+            .find(|l| l.starts_with("fragtrace: notice: bench:"))
+            .unwrap();
+        for left in ["gl-multipass", "gl-multipass-early-z", "gl-unrolled:16"] {
+            assert!(notice.contains(left), "{notice}");
+            assert!(md.contains(left), "{md}");
+        }
+        assert!(md.contains("- Left out: "), "{md}");
+        assert!(
+            names.contains(&"gl-looped") && names.contains(&"cpu-f64"),
+            "{names:?}"
+        );
+    } else {
+        // A hardware GL keeps the whole preset.
+        assert!(names.iter().any(slow), "{names:?}");
+        assert!(!md.contains("Left out"), "{md}");
+    }
+    // The shipped scenes, although ./scenes exists (the first of them, to keep it short).
+    let out = bin()
+        .current_dir(&d)
+        .args([
+            "bench",
+            "--configs",
+            "cpu-f32",
+            "--runs",
+            "1",
+            "--size",
+            "8x6",
+        ])
+        .args(["--out", "shipped", "-q"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let rows = read_csv(&d.join("shipped").join("results.csv"));
+    assert!(rows.len() >= 10, "{} rows: {err}", rows.len());
+}

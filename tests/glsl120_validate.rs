@@ -11,6 +11,7 @@ use std::process::Command;
 use fragtrace::accel::{Grid, GridConfig};
 use fragtrace::gpu::shader::dump_shaders;
 use fragtrace::scene::builtin_scene;
+use fragtrace::technique::Techniques;
 
 fn validate(path: &Path) -> (bool, String) {
     let out = Command::new("glslangValidator")
@@ -45,6 +46,7 @@ fn every_generated_shader_is_valid_glsl_120() {
         ),
         ("t-bound-off", "#define T_BOUND_OFF"),
         ("offset-epsilon", "#define OFFSET_EPSILON_FIXED"),
+        ("terminator-exact", "#define TERMINATOR_EXACT"),
     ] {
         let sub = dir.join(format!("techniques-{tag}"));
         let in_sub: Vec<_> = files.iter().filter(|f| f.starts_with(&sub)).collect();
@@ -60,12 +62,17 @@ fn every_generated_shader_is_valid_glsl_120() {
         }
     }
     // Per feature set and technique folder: the full ray-tree program (storage-buffer and
-    // texelFetch scene reads), the primary-only one and both wave programs.
+    // texelFetch scene reads), the primary-only one, the sRGB8 conversion and both wave
+    // programs.
     let compute = files
         .iter()
         .filter(|f| f.extension().is_some_and(|e| e == "comp"))
         .count();
-    assert_eq!(compute, 5 * (32 + 3), "compute programs written");
+    assert_eq!(
+        compute,
+        6 * (32 + Techniques::one_off().len()),
+        "compute programs written"
+    );
     let mut bad = Vec::new();
     for f in &files {
         let (ok, log) = validate(f);

@@ -155,6 +155,16 @@ fn command_line_slips_get_a_useful_message() {
     }
     let line = fails(&d, &["--height", "-3"], &["--height", "negative"]);
     assert!(!line.contains("tip"), "{line}");
+    // The expected range is the flag's own: 0 is no width, and no depth is negative.
+    for (flag, range) in [
+        ("--width", "1..=16384"),
+        ("--spp", "1..=1024"),
+        ("--query-every", "1..=4096"),
+        ("--max-depth", "0..=16"),
+    ] {
+        let line = fails(&d, &["render", flag, "-5", "-o", "x.png"], &[flag, range]);
+        assert!(!line.contains(">= 0"), "{line}");
+    }
     // A mistyped subcommand is not a scene file.
     for (typo, meant) in [
         ("rendr", "render"),
@@ -372,4 +382,64 @@ fn readme_model_path_recipe_loads_every_shipped_scene() {
         }
     }
     assert!(n >= 9, "{n} scenes");
+}
+
+/// A scene with nothing to hit still renders (exit 0, the background), but says so in one
+/// warning line naming the file that has no triangles: an empty OBJ, an OBJ with vertices
+/// but no faces (both named, not the scene), and a scene without objects.
+#[test]
+fn nothing_to_render_warns_once_naming_the_file() {
+    let d = tmpdir("no-triangles");
+    let camera = "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n";
+    write(&d, "empty.obj", "# nothing\n");
+    write(&d, "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    write(&d, "none.toml", camera);
+    for (obj, why) in [("empty.obj", "no faces"), ("points.obj", "no faces")] {
+        let scene = format!("{obj}.toml");
+        write(
+            &d,
+            &scene,
+            format!(
+                "{camera}\n[[objects]]\nmesh = \"{}\"\n",
+                d.join(obj).display()
+            ),
+        );
+        check_one_warning(&d, &scene, &[obj, "no triangles", why]);
+    }
+    check_one_warning(
+        &d,
+        "none.toml",
+        &["none.toml", "no objects", "no triangles"],
+    );
+}
+
+fn check_one_warning(d: &Path, scene: &str, needles: &[&str]) {
+    let out = run_in(
+        d,
+        &[
+            "render",
+            scene,
+            "--backend",
+            "cpu",
+            "--width",
+            "8",
+            "--height",
+            "6",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(0), "{scene}: {err}");
+    let warnings: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("fragtrace: warning:"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{scene}: {err}");
+    for n in needles {
+        assert!(
+            warnings[0].contains(n),
+            "{scene}: `{}` lacks `{n}`",
+            warnings[0]
+        );
+    }
+    assert!(d.join("render.png").exists());
 }

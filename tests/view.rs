@@ -336,7 +336,11 @@ fn no_display_is_one_line_and_exit_2() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.starts_with("fragtrace: error: "), "{err}");
-    assert!(err.contains("display"), "{err}");
+    // X11 only: Wayland through XWayland, never WAYLAND_DISPLAY as if it could do.
+    for needle in ["DISPLAY is not set", "XWayland", "xvfb-run"] {
+        assert!(err.contains(needle), "{needle}: {err}");
+    }
+    assert!(!err.contains("WAYLAND_DISPLAY"), "{err}");
 }
 
 /// A context too old for the kernels (Mesa forced to GL 2.0) is refused the same way.

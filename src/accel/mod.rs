@@ -138,6 +138,22 @@ impl Accel {
     }
 }
 
+impl AccelSummary {
+    /// The structure in a few words for the summary line: the uniform grid's cells per
+    /// axis; the irregular grid's top grid and its number of cells (its virtual resolution,
+    /// the finest level's cells per axis, is no cell count: a million cells per axis may
+    /// hold a few hundred thousand cells).
+    pub fn brief(&self) -> String {
+        let [x, y, z] = self.resolution;
+        match (self.kind, self.top_resolution) {
+            (AccelKind::Irregular, Some([tx, ty, tz])) => {
+                format!("irregular grid (top {tx}x{ty}x{tz}, {} cells)", self.cells)
+            }
+            _ => format!("{} grid {x}x{y}x{z}", self.kind.name()),
+        }
+    }
+}
+
 impl AccelRef<'_> {
     /// Which structure this is.
     pub fn kind(&self) -> AccelKind {

@@ -406,15 +406,30 @@ impl std::fmt::Display for Size {
     }
 }
 
-/// The folder of the shipped scenes: `scenes/` in the working directory, else the one in
-/// the source tree fragtrace was built from.
+/// The folder of the shipped scenes: `scenes/` in the working directory when it holds a
+/// scene file, else the one in the source tree fragtrace was built from.
 pub fn shipped_scenes_dir() -> PathBuf {
     let local = PathBuf::from("scenes");
-    if local.is_dir() {
+    if !scene_files(&local).is_empty() {
         local
     } else {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
     }
+}
+
+/// The stems of the `.toml` files in `dir`, sorted (none when it cannot be read).
+fn scene_files(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = match std::fs::read_dir(dir) {
+        Ok(rd) => rd
+            .filter_map(|e| e.ok())
+            .map(|e| e.path())
+            .filter(|p| p.is_file() && p.extension().is_some_and(|e| e == "toml"))
+            .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+            .collect(),
+        Err(_) => Vec::new(),
+    };
+    v.sort();
+    v
 }
 
 /// A scene to bench: its name and where it comes from (`None`: the built-in).
@@ -438,17 +453,15 @@ pub fn resolve_scenes(spec: Option<&str>) -> Result<Vec<SceneSpec>> {
             .map(String::from)
             .collect(),
         None => {
-            let mut v: Vec<String> = std::fs::read_dir(&dir)
-                .map_err(|source| Error::Io {
-                    path: dir.clone(),
-                    source,
-                })?
-                .filter_map(|e| e.ok())
-                .map(|e| e.path())
-                .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-                .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
-                .collect();
-            v.sort();
+            let v = scene_files(&dir);
+            if v.is_empty() {
+                return Err(Error::Usage(format!(
+                    "no scene to bench: neither ./scenes nor {} holds a .toml file; name \
+                     scenes with --scenes (whitted is the built-in scene, or paths to scene \
+                     files)",
+                    dir.display()
+                )));
+            }
             v
         }
     };

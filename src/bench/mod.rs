@@ -59,6 +59,10 @@ pub struct BenchOptions {
     pub out: PathBuf,
     /// No progress display and no summary lines.
     pub quiet: bool,
+    /// `configs` is the default preset, not asked for by name: on a software GL
+    /// (llvmpipe, softpipe, swrast) the bench leaves out its multipass and unrolled GL
+    /// configurations, which take tens of minutes there, and says so.
+    pub fit_to_machine: bool,
 }
 
 /// The measurements of one scene and configuration.
@@ -117,4 +121,9 @@ pub struct BenchReport {
     pub gl_device: Option<String>,
     /// The files written: results.csv, report.md, speed_vs_error.png.
     pub files: Vec<PathBuf>,
+    /// Configurations left out to fit the machine ([`BenchOptions::fit_to_machine`]), and
+    /// why; empty when none was.
+    pub left_out: Vec<String>,
+    /// Why they were left out (one sentence), when any was.
+    pub left_out_why: Option<String>,
 }

@@ -197,6 +197,9 @@ pub fn report_markdown(report: &BenchReport, opts: &BenchOptions) -> String {
         report.gl_device.as_deref().unwrap_or("none used"),
         rayon::current_num_threads()
     );
+    if let Some(why) = &report.left_out_why {
+        let _ = writeln!(s, "- Left out: {} ({why}).", report.left_out.join(", "));
+    }
     let _ = writeln!(
         s,
         "- Error against a CPU f64 render of the same scene and size: RMSE over linear RGB; \

@@ -79,6 +79,54 @@ fn render_with(gl: &GlCache, scene: &Scene, opts: &RenderOptions) -> Result<rend
     }
 }
 
+/// True for Mesa's software rasterizers, where GL runs on the CPU.
+fn software_gl(renderer: &str) -> bool {
+    let r = renderer.to_ascii_lowercase();
+    ["llvmpipe", "softpipe", "swrast"]
+        .iter()
+        .any(|s| r.contains(s))
+}
+
+/// The configurations to run: all of `opts.configs`, except with
+/// [`BenchOptions::fit_to_machine`] on a software GL, where the multipass and unrolled GL
+/// kernels (hundreds to thousands of passes per frame, each a full-screen draw on the
+/// CPU) would take tens of minutes; returns them, the names left out and why.
+fn fit_to_machine<'a>(
+    opts: &'a BenchOptions,
+    gl: &GlCache,
+) -> (Vec<&'a BenchConfig>, Vec<String>, Option<String>) {
+    let all: Vec<&BenchConfig> = opts.configs.iter().collect();
+    let uses_gl = |c: &BenchConfig| c.render.backend != Backend::Cpu;
+    if !opts.fit_to_machine || !all.iter().any(|c| uses_gl(c)) {
+        return (all, Vec::new(), None);
+    }
+    let renderer = match gl.get() {
+        Ok(ctx) if software_gl(&ctx.info.renderer) => ctx.info.renderer.clone(),
+        _ => return (all, Vec::new(), None),
+    };
+    let slow = |c: &BenchConfig| {
+        uses_gl(c)
+            && matches!(
+                c.render.kernel,
+                crate::gpu::options::Kernel::Multipass | crate::gpu::options::Kernel::Unrolled(_)
+            )
+    };
+    let (left, kept): (Vec<&BenchConfig>, Vec<&BenchConfig>) =
+        all.into_iter().partition(|c| slow(c));
+    if left.is_empty() {
+        return (kept, Vec::new(), None);
+    }
+    let why = format!(
+        "{renderer} renders GL on the CPU, where the multipass and unrolled kernels of the \
+         default preset take tens of minutes; `--configs default` runs them too"
+    );
+    (
+        kept,
+        left.iter().map(|c| c.name.clone()).collect(),
+        Some(why),
+    )
+}
+
 /// The CPU f64 reference of `spec` at `size`: read from the cache in `dir` when there,
 /// else rendered and cached (keyed by scene name, size and a hash of the scene text).
 fn reference(spec: &SceneSpec, scene: &Scene, size: Size, dir: &Path) -> Result<Image> {
@@ -143,15 +191,24 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
         source,
     })?;
 
+    let gl = GlCache(std::cell::OnceCell::new());
+    let (configs, left_out, left_out_why) = fit_to_machine(opts, &gl);
+    if let Some(why) = &left_out_why {
+        if !opts.quiet {
+            eprintln!(
+                "fragtrace: notice: bench: {why}; left out: {}",
+                left_out.join(", ")
+            );
+        }
+    }
     let per_config = opts.runs as u64 + 1;
-    let total = scenes.len() as u64 * opts.configs.len() as u64 * per_config;
+    let total = scenes.len() as u64 * configs.len() as u64 * per_config;
     let progress = Progress::bar_with_message(!opts.quiet, total, "renders");
     let say = |line: String| {
         if !opts.quiet {
             progress.println(line);
         }
     };
-    let gl = GlCache(std::cell::OnceCell::new());
     let mut rows = Vec::new();
     let mut triangles = BTreeMap::new();
     let refs_dir = opts.out.join("references");
@@ -161,7 +218,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
         progress.message(format!("{}: CPU f64 reference", spec.name));
         let reference = reference(spec, scene, opts.size, &refs_dir)?;
         let first_row = rows.len();
-        for cfg in &opts.configs {
+        for cfg in configs.iter().copied() {
             let mut args = cfg.render.clone();
             args.width = Some(opts.size.width);
             args.height = Some(opts.size.height);
@@ -200,6 +257,8 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
         triangles,
         gl_device,
         files: vec![],
+        left_out,
+        left_out_why,
     };
     let csv = opts.out.join("results.csv");
     write_text(&csv, &results_csv(&report.rows))?;

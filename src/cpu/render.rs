@@ -7,7 +7,9 @@
 use rayon::prelude::*;
 
 use super::real::{Real, V3};
-use super::shade::{albedo, light_term, offset_origin_with, secondary, surface, SurfacePoint};
+use super::shade::{
+    albedo, light_term, offset_origin_with, secondary, shadow_origin, surface, SurfacePoint,
+};
 use super::traverse::{CellWalk, Hit, Ray, Work};
 use super::walker::Walker;
 use crate::accel::AccelRef;
@@ -16,7 +18,7 @@ use crate::output::{Aov, AovPixel, RayCounts};
 use crate::progress::Progress;
 use crate::region::Region;
 use crate::scene::{camera, Light, Material, Scene};
-use crate::technique::{OffsetMethod, Techniques};
+use crate::technique::Techniques;
 
 /// Most primary rays traced as one batch (whole pixels: all samples of a pixel are in one).
 const BATCH_RAYS: usize = 256;
@@ -52,7 +54,7 @@ pub struct CpuRenderer<'a, T, W = Walker<'a, T>> {
     max_depth: u32,
     background: V3<T>,
     ambient: V3<T>,
-    offset: OffsetMethod,
+    techniques: Techniques,
 }
 
 /// Output of a CPU render: the one backend output type, with `work` always counted.
@@ -86,7 +88,7 @@ impl<'a, T: Real, W: CellWalk<T> + Sync> CpuRenderer<'a, T, W> {
             scene,
             camera: scene.camera,
             walker,
-            offset: techniques.offset,
+            techniques,
             max_depth,
             background: V3::from_vec3(scene.background),
             ambient: V3::from_vec3(scene.ambient),
@@ -194,7 +196,7 @@ impl<'a, T: Real, W: CellWalk<T> + Sync> CpuRenderer<'a, T, W> {
         if to_l.dot(s.sp.nf) <= T::ZERO || s.sp.ns.dot(to_l) <= T::ZERO {
             return None; // below the geometric or shading horizon
         }
-        let o = offset_origin_with(&s.sp, to_l, self.offset);
+        let o = shadow_origin(&s.sp, to_l, self.techniques);
         let dl = lp - o;
         let dist = dl.length();
         let l = dl * (T::ONE / dist);
@@ -228,7 +230,7 @@ impl<'a, T: Real, W: CellWalk<T> + Sync> CpuRenderer<'a, T, W> {
                         tally.reflected += 1;
                     }
                     let r = Ray {
-                        o: offset_origin_with(sp, dir, self.offset),
+                        o: offset_origin_with(sp, dir, self.techniques.offset),
                         d: dir,
                         t_min: T::ZERO,
                         t_max: T::BIG,

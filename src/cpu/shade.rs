@@ -15,11 +15,16 @@
 //! - Spawned rays start at the hit point offset along ±ng by pbrt's error bound of the
 //!   barycentric hit point, then nudged one more rounding step away from the surface:
 //!   the offset scales with the coordinates, never with a fixed epsilon.
+//! - Shadow rays of triangles with vertex normals start from the smooth surface the normals
+//!   describe (`Terminator::Smooth`, Hanika 2021): `p_shadow` = p + Σ b_k·max(0, -h_k)·n_k,
+//!   where h_k = (p - v_k)·n_k is the height of p above vertex k's tangent plane and n_k
+//!   faces the side the ray came from; kept only when it leaves p towards that side. The
+//!   usual offset then applies from there. Reflected and refracted rays start at `p`.
 
 use super::real::{Real, V3};
 use super::traverse::Hit;
 use crate::scene::{Material, Scene};
-use crate::technique::{OffsetMethod, OFFSET_EPSILON};
+use crate::technique::{OffsetMethod, Techniques, Terminator, OFFSET_EPSILON};
 
 /// Everything the shading model needs about a hit.
 #[derive(Clone, Copy, Debug)]
@@ -38,6 +43,13 @@ pub struct SurfacePoint<T> {
     pub entering: bool,
     /// Material index.
     pub material: u32,
+    /// Where shadow rays start with [`Terminator::Smooth`]: `p` lifted onto the smooth
+    /// surface of the vertex normals (equal to `p` without vertex normals, or where the
+    /// lift would not leave the triangle towards the incoming ray's side).
+    pub p_shadow: V3<T>,
+    /// Absolute error bound of `p_shadow` per component, as a position on the side of the
+    /// triangle it was lifted to (`p_err` plus the lift's own rounding).
+    pub p_shadow_err: V3<T>,
 }
 
 /// Builds the surface point of a hit of ray direction `d`.
@@ -64,13 +76,32 @@ pub fn surface<T: Real>(
     let nf = if entering { ng } else { -ng };
     let tri = &scene.triangles[hit.tri as usize];
     let mut ns = nf;
+    let (mut p_shadow, mut p_shadow_err) = (p, p_err);
     if tri.has_normals() {
         let n = |k: usize| V3::<T>::from_vec3(scene.normals[tri.n[k] as usize]);
         let s = n(0) * b0 + n(1) * b1 + n(2) * b2;
         let l = s.length();
         if l > T::ZERO && l.is_finite() {
             let s = s * (T::ONE / l);
-            ns = if s.dot(nf) < T::ZERO { -s } else { s };
+            let flip = s.dot(nf) < T::ZERO;
+            ns = if flip { -s } else { s };
+            // The vertex normals on the side the shading normal faces, as ns is.
+            let nk = |k: usize| if flip { -n(k) } else { n(k) };
+            let lift = terminator_lift(p, verts[0], nk(0), b0)
+                + terminator_lift(p, verts[1], nk(1), b1)
+                + terminator_lift(p, verts[2], nk(2), b2);
+            // Only the lift's component along the facing normal: off the triangle towards
+            // the viewer's side, never sideways (a vertex normal far from the face, as at
+            // Sponza's sharp edges, would move the origin along the surface into a
+            // neighbouring wall), and never below the plane (the shadow ray would cross
+            // its own triangle).
+            let up = lift.dot(nf);
+            if up > T::ZERO {
+                let lift = nf * up;
+                p_shadow = p + lift;
+                // The sum's rounding, and the rounding of the side test above.
+                p_shadow_err = p_err + (p_shadow.abs() + lift.abs()) * T::gamma(4);
+            }
         }
     }
     SurfacePoint {
@@ -81,6 +112,23 @@ pub fn surface<T: Real>(
         ns,
         entering,
         material: tri.material,
+        p_shadow,
+        p_shadow_err,
+    }
+}
+
+/// Vertex `v`'s share of the shadow-terminator lift of hit point `p` with barycentric
+/// weight `b`: the way up to the tangent plane of unit normal `n` at `v`, weighted by `b`,
+/// where `p` lies below that plane; nothing where it lies above (Hanika 2021, which
+/// projects p onto the three tangent planes and mixes the projections; the same point,
+/// without the rounding of Σ b_k·(p - v_k) = 0).
+#[inline(always)]
+fn terminator_lift<T: Real>(p: V3<T>, v: V3<T>, n: V3<T>, b: T) -> V3<T> {
+    let h = (p - v).dot(n);
+    if h < T::ZERO {
+        n * (b * -h)
+    } else {
+        V3::splat(T::ZERO)
     }
 }
 
@@ -115,6 +163,23 @@ pub fn offset_origin_with<T: Real>(sp: &SurfacePoint<T>, w: V3<T>, method: Offse
         }
     };
     V3::new(nudge(po.x, off.x), nudge(po.y, off.y), nudge(po.z, off.z))
+}
+
+/// Origin of the shadow ray from `sp` towards a light in direction `to_l` (light position
+/// minus `sp.p`): offset by `tech.offset` from `sp.p_shadow` with [`Terminator::Smooth`],
+/// from `sp.p` with [`Terminator::Exact`].
+pub fn shadow_origin<T: Real>(sp: &SurfacePoint<T>, to_l: V3<T>, tech: Techniques) -> V3<T> {
+    match tech.terminator {
+        Terminator::Exact => offset_origin_with(sp, to_l, tech.offset),
+        Terminator::Smooth => {
+            let lifted = SurfacePoint {
+                p: sp.p_shadow,
+                p_err: sp.p_shadow_err,
+                ..*sp
+            };
+            offset_origin_with(&lifted, to_l, tech.offset)
+        }
+    }
 }
 
 /// Albedo at point `p` (the checker replaces the flat colour when present).

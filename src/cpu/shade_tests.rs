@@ -11,7 +11,7 @@ use glam::Vec3;
 use super::*;
 use crate::cpu::intersect::{intersect_watertight, RayShear};
 use crate::scene::{Checker, CheckerAxes, Triangle};
-use crate::technique::TBound;
+use crate::technique::{TBound, Techniques, Terminator};
 use crate::testing::{gamma64, scene_of, test_seed, Rng};
 
 fn v(x: f64, y: f64, z: f64) -> V3<f64> {
@@ -39,6 +39,8 @@ fn point(p: V3<f64>, ng: V3<f64>, d: V3<f64>, ns: Option<V3<f64>>) -> SurfacePoi
         ns: ns.unwrap_or(nf),
         entering,
         material: 0,
+        p_shadow: p,
+        p_shadow_err: V3::splat(0.0),
     }
 }
 
@@ -681,4 +683,99 @@ fn light_term_closed_forms() {
         let c = light_term(&m, albedo, &sp, l, -l, radiance);
         assert_eq!(c, V3::splat(0.0), "light {l:?}");
     }
+}
+
+/// The octant triangle of the unit sphere with the sphere's normals at its vertices.
+fn octant() -> (Scene, [V3<f64>; 3]) {
+    let tri = [Vec3::X, Vec3::Y, Vec3::Z];
+    let mut scene = scene_of(&[tri]);
+    scene.normals = tri.to_vec();
+    scene.triangles[0] = Triangle {
+        n: [0, 1, 2],
+        ..scene.triangles[0]
+    };
+    (scene, tri.map(V3::from_vec3))
+}
+
+/// Hanika's lift, by hand: at the centroid of the octant triangle, p·v_k = 1/3, so p lies
+/// 2/3 below each vertex's tangent plane; the mix Σ (1/3)(2/3)·v_k = (2/9)(1,1,1) lies
+/// along the face normal, so p_shadow = (1/3 + 2/9)(1,1,1) = (5/9)(1,1,1): between the
+/// flat face (|p| = 0.577) and the sphere (1). Seen from inside (the flipped side) p lies
+/// above the flipped planes: no lift. The shadow origin is offset from p_shadow with the
+/// smooth terminator, from p with the exact one.
+#[test]
+fn terminator_lift_of_the_sphere_octant() {
+    let (scene, verts) = octant();
+    let third = 1.0 / 3.0;
+    let hit = Hit {
+        t: 1.0,
+        tri: 0,
+        b: [third; 3],
+    };
+    let outside = surface(&scene, &verts, &hit, v(-1.0, -1.0, -1.0).normalize());
+    assert_close(outside.p, v(third, third, third), 1e-15, "centroid");
+    assert_close(
+        outside.p_shadow,
+        v(5.0 / 9.0, 5.0 / 9.0, 5.0 / 9.0),
+        1e-15,
+        "lifted",
+    );
+    // The error bound grows by the lift's rounding only.
+    let e = outside.p_shadow_err - outside.p_err;
+    assert!(
+        e.x > 0.0 && e.y > 0.0 && e.z > 0.0 && e.max_elem() < 1e-14,
+        "{e:?}"
+    );
+    let inside = surface(&scene, &verts, &hit, v(1.0, 1.0, 1.0).normalize());
+    assert_eq!(inside.p_shadow, inside.p, "no lift on the concave side");
+    assert_eq!(inside.p_shadow_err, inside.p_err);
+
+    let to_l = v(3.0, 3.0, 3.0) - outside.p;
+    let smooth = shadow_origin(&outside, to_l, Techniques::default());
+    let exact = shadow_origin(
+        &outside,
+        to_l,
+        Techniques::default().with_terminator(Terminator::Exact),
+    );
+    assert_eq!(exact, offset_origin(&outside, to_l));
+    let d = smooth - v(5.0 / 9.0, 5.0 / 9.0, 5.0 / 9.0);
+    assert!(
+        d.dot(outside.nf) > 0.0 && d.length() < 1e-14,
+        "offset from the lifted point: {d:?}"
+    );
+}
+
+/// A vertex normal perpendicular to the face (as at Sponza's sharp edges) lifts nothing
+/// sideways: only the lift's component along the facing normal is taken, and a point above
+/// the three tangent planes (a concave fold, as at dragon.toml's pixel (292, 206)) stays.
+#[test]
+fn terminator_lift_is_along_the_face_normal_and_only_upwards() {
+    let (scene, verts) = smooth_scene([Vec3::Z, Vec3::Z, Vec3::new(-1.0, 0.0, 0.0)]);
+    let hit = Hit {
+        t: 1.0,
+        tri: 0,
+        b: [0.25, 0.25, 0.5],
+    };
+    let sp = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
+    // h_2 = (p - (0,1,0))·(-1,0,0) = -0.25: Hanika's point moves 0.5·0.25 along -x; the
+    // other two planes contain p. Nothing of it is along +z.
+    assert_eq!(sp.p_shadow, sp.p);
+    // Concave: normals tilted towards the centre, so p lies above each tangent plane.
+    let s = 0.6f32;
+    let (scene, verts) = smooth_scene([
+        Vec3::new(s, s, 1.0).normalize(),
+        Vec3::new(-s, s, 1.0).normalize(),
+        Vec3::new(s, -s, 1.0).normalize(),
+    ]);
+    let sp = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
+    assert_eq!(sp.p_shadow, sp.p, "concave: no lift");
+    // Tilted away from the centre (convex): lifted straight up.
+    let (scene, verts) = smooth_scene([
+        Vec3::new(-s, -s, 1.0).normalize(),
+        Vec3::new(s, -s, 1.0).normalize(),
+        Vec3::new(-s, s, 1.0).normalize(),
+    ]);
+    let sp = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
+    let d = sp.p_shadow - sp.p;
+    assert!(d.x == 0.0 && d.y == 0.0 && d.z > 0.05, "{d:?}");
 }

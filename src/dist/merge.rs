@@ -194,7 +194,6 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
     for (frame, image, header) in images {
         let path = template.path(frame, None);
         match format {
-            Format::Png => write_image(&path, &image)?,
             Format::Exr => {
                 // A merged EXR is a part that covers its whole image: readable by any EXR
                 // tool, and by `merge` again.
@@ -210,6 +209,8 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
                 };
                 write_part(&path, &Part { header, image })?
             }
+            // PNG, and the other formats the output's extension can name.
+            _ => write_image(&path, &image)?,
         }
         outputs.push(path);
     }

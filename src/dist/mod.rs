@@ -90,7 +90,6 @@ pub fn write_unit(
 ) -> crate::Result<()> {
     use crate::image_io::{write_image, Format};
     match Format::from_path(path)? {
-        Format::Png => write_image(path, &out.image),
         Format::Exr => {
             let header = part::PartHeader {
                 scene: scene.source.clone(),
@@ -111,5 +110,7 @@ pub fn write_unit(
                 },
             )
         }
+        // PNG, and the other formats the output's extension can name.
+        _ => write_image(path, &out.image),
     }
 }

@@ -232,6 +232,13 @@ fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Result<ObjMesh
             ),
         });
     }
+    if mesh.triangles.is_empty() {
+        // Not an error (an empty placeholder renders as nothing), but never silent.
+        // (tobj keeps no vertices without faces, so the two cases read the same here.)
+        warnings.push(format!(
+            "{name}: no faces, so no triangles; the object adds nothing to the scene"
+        ));
+    }
     mesh.warnings = warnings;
     mesh.missing_mtl = missing.into_inner();
     Ok(mesh)

@@ -92,8 +92,26 @@ pub(super) fn event_loop() -> Result<EventLoop<()>> {
             Some(k) => &msg[k..],
             None => &msg,
         };
-        Error::GlUnavailable(format!("cannot open a window (no X11 display?): {why}"))
+        Error::GlUnavailable(no_window_message(
+            why,
+            std::env::var_os("DISPLAY").is_some_and(|d| !d.is_empty()),
+        ))
     })
+}
+
+/// Why no window could be opened, for a user: the view speaks X11 only (winit is built
+/// without Wayland), so winit's "neither WAYLAND_DISPLAY nor ... DISPLAY is set" would
+/// suggest that a Wayland session could do; there it runs through XWayland, which sets
+/// DISPLAY.
+fn no_window_message(why: &str, display_set: bool) -> String {
+    if display_set {
+        format!("cannot open a window on the X11 display: {why}")
+    } else {
+        "cannot open a window: DISPLAY is not set (the view speaks X11 only: on a Wayland \
+         desktop it runs through XWayland, which sets DISPLAY; without a desktop, run it \
+         under xvfb-run -a)"
+            .into()
+    }
 }
 
 /// Picks an 8-bit RGB, single-sampled config, so that the window holds exactly the bytes

@@ -282,6 +282,13 @@ impl Builder<'_> {
         for (i, o) in def.objects.iter().enumerate() {
             self.object(i, o)?;
         }
+        if def.objects.is_empty() {
+            // (An object whose mesh is empty has its own warning, naming the OBJ.)
+            self.warnings.push(format!(
+                "{}: no objects, so no triangles; the render shows only the background",
+                ctx.name
+            ));
+        }
         self.localise();
         if let Some((path, a)) = path {
             // Relative to the local origin, which is the first frame's eye.
