@@ -68,7 +68,7 @@ pub struct ViewArgs {
     /// Traversal kernel: auto (the fastest the context runs), compute (GL 4.3: the whole
     /// ray tree per pixel in one dispatch), looped, multipass or unrolled:K (key `k`
     /// switches).
-    #[arg(long, default_value = "looped")]
+    #[arg(long, default_value = "auto")]
     pub kernel: crate::gpu::options::Kernel,
     /// Maximum reflection/refraction depth (default: the scene's, else 5; keys `+`/`-`).
     #[arg(long, allow_negative_numbers = true, value_parser = count_in(0, MAX_DEPTH))]
@@ -92,7 +92,7 @@ pub struct ViewArgs {
     pub query_every: u32,
     /// Keep finished rays out of traversal passes: auto (early-z for multipass, none for
     /// the others), none, early-z or stencil (key `z`).
-    #[arg(long, default_value = "none")]
+    #[arg(long, default_value = "auto")]
     pub mask: crate::gpu::options::Mask,
     /// Ray textures in 32- or 16-bit floats.
     #[arg(long, default_value = "f32")]

@@ -179,7 +179,9 @@ fn view_builds_the_structure_render_builds() {
     for accel in [None, Some("uniform")] {
         let tag = format!("ground-{}", accel.unwrap_or("default"));
         let stats = scratch(&format!("{tag}.json"));
-        let mut flags = vec!["--width", "64", "--height", "48", "--kernel", "looped"];
+        let mut flags = vec![
+            "--width", "64", "--height", "48", "--spp", "1", "--kernel", "looped",
+        ];
         if let Some(a) = accel {
             flags.extend(["--accel", a]);
         }
@@ -290,6 +292,13 @@ fn frames_of_a_render_in_progress_show_the_wave() {
         "1",
         "--kernel",
         "multipass",
+        "--mask",
+        "none",
+        // The uniform grid: its walk takes enough passes that a frame after 100 of them
+        // still shows most of the wave (the irregular grid, the default since the view
+        // builds what --accel names, finishes most rays sooner).
+        "--accel",
+        "uniform",
     ];
     let mut args = vec!["view"];
     args.extend(size);
