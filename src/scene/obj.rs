@@ -743,7 +743,8 @@ mod tests {
         }
         // Ka and Ke are not read (see material_from_mtl), so they may be anything finite.
         std::fs::write(dir.join("ok.mtl"), "newmtl a\nKa -1 0 0\nKe -1\n").unwrap();
-        let m = parse_obj("mtllib ok.mtl\nusemtl a\nv 0 0 0\n", "n.obj", &dir).unwrap();
+        let obj = "mtllib ok.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        let m = parse_obj(obj, "n.obj", &dir).unwrap();
         assert!(m.warnings.is_empty(), "{:?}", m.warnings);
     }
 
