@@ -157,11 +157,14 @@ void main() {
     }
     barrier();
     // The group's totals into the render's 64-bit sums (low word, high word per counter):
-    // a carry out of the low word is exactly an addition that wrapped.
+    // a carry out of the low word is exactly an addition that wrapped. No `continue` for
+    // zero totals: with one, llvmpipe kept this a real loop, its loop limit (65535
+    // iterations an invocation) ended it early in groups that hit the limit, and the
+    // C_UNFINISHED total that reports exactly that was lost (tests/compute_kernel.rs caught
+    // it on ground.toml with the uniform grid).
     if (gl_LocalInvocationIndex == 0u) {
         for (int k = 0; k < COUNTERS; k++) {
             uint v = g_count[k];
-            if (v == 0u) continue;
             uint old = atomicAdd(counters[2 * k], v);
             if (old + v < old) atomicAdd(counters[2 * k + 1], 1u);
         }
