@@ -16,6 +16,7 @@ Usage: equal-work.py [--size N] [--threads T] [--models DIR] [--out FILE.exr]
 """
 import argparse
 import os
+import sys
 import time
 
 ap = argparse.ArgumentParser()
@@ -30,38 +31,10 @@ import mitsuba as mi  # noqa: E402
 
 mi.set_variant("scalar_rgb")
 dr.set_thread_count(args.threads)
-T = mi.ScalarTransform4f
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "peers"))
+from equal_work_scene import scene  # noqa: E402
 
-scene_dict = {
-    "type": "scene",
-    "integrator": {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0},
-    "sensor": {
-        "type": "perspective",
-        "fov": 32,
-        "fov_axis": "y",
-        "to_world": T().look_at(origin=[-0.2, 0.17, 0.36], target=[-0.015, 0.1, 0.0], up=[0, 1, 0]),
-        "sampler": {"type": "independent", "sample_count": 1},
-        "film": {
-            "type": "hdrfilm",
-            "width": args.size,
-            "height": args.size,
-            "rfilter": {"type": "box"},
-        },
-    },
-    "light": {"type": "point", "position": [-0.6, 1.2, 0.9], "intensity": {"type": "rgb", "value": 0.85}},
-    "bunny": {
-        "type": "obj",
-        "filename": os.path.join(args.models, "bunny/stanford-bunny.obj"),
-        "face_normals": True,
-        "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.77, 0.74, 0.68]}},
-    },
-    "floor": {
-        "type": "rectangle",
-        # Mitsuba's rectangle is [-1, 1]^2 in z = 0: scaled by 2 and turned into y = 0.0335.
-        "to_world": T().translate([0.0, 0.0335, 0.0]) @ T().rotate([1, 0, 0], -90) @ T().scale(2.0),
-        "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.4, 0.4, 0.4]}},
-    },
-}
+scene_dict = scene(mi, args.size, os.path.join(args.models, "bunny/stanford-bunny.obj"))
 
 t0 = time.perf_counter()
 scene = mi.load_dict(scene_dict)

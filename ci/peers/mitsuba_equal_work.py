@@ -6,6 +6,7 @@ diffuse floor at y = 0.0335, one point light, primary rays plus one shadow ray p
 
 Prints one line per size: load/build seconds, then each timed render from `mi.render` to
 the image in host memory (a NumPy array), after one warm-up render."""
+import os
 import sys
 import time
 
@@ -16,41 +17,12 @@ runs = int(sys.argv[4]) if len(sys.argv) > 4 else 5
 mi.set_variant(variant)
 import numpy as np  # noqa: E402  (after the variant, as Mitsuba's examples do)
 
-T = mi.ScalarTransform4f
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from equal_work_scene import scene as equal_work  # noqa: E402
 
 
 def scene(size):
-    return {
-        "type": "scene",
-        "integrator": {"type": "direct", "emitter_samples": 1, "bsdf_samples": 0},
-        "sensor": {
-            "type": "perspective",
-            "fov": 32.0,
-            "fov_axis": "y",
-            "to_world": T().look_at(
-                origin=[-0.2, 0.17, 0.36], target=[-0.015, 0.1, 0.0], up=[0, 1, 0]
-            ),
-            "sampler": {"type": "independent", "sample_count": 1},
-            "film": {
-                "type": "hdrfilm",
-                "width": size,
-                "height": size,
-                "rfilter": {"type": "box"},
-                "pixel_format": "rgb",
-            },
-        },
-        "bunny": {
-            "type": "obj",
-            "filename": obj,
-            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.77, 0.74, 0.68]}},
-        },
-        "floor": {
-            "type": "rectangle",
-            "to_world": T().translate([0, 0.0335, 0]).rotate([1, 0, 0], -90).scale(2.0),
-            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.4, 0.4, 0.4]}},
-        },
-        "light": {"type": "point", "position": [-0.6, 1.2, 0.9], "intensity": {"type": "rgb", "value": 0.85}},
-    }
+    return equal_work(mi, size, obj)
 
 
 for size in sizes:
