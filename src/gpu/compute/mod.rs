@@ -589,6 +589,44 @@ mod tests {
         });
     }
 
+    /// The built-in scene and its irregular grid.
+    fn builtin_irregular() -> (crate::scene::Scene, Accel) {
+        let scene = builtin_scene();
+        let accel = Accel::build(
+            &scene,
+            AccelKind::Irregular,
+            &GridConfig::default(),
+            &IrregularConfig::default(),
+        )
+        .unwrap();
+        (scene, accel)
+    }
+
+    /// A compute render of `scene` 96 pixels wide and 600 high (three bands when a test
+    /// narrows the storage blocks to 256 rows), everything read back.
+    fn tall_request(
+        scene: &crate::scene::Scene,
+        spp: u32,
+        scene_fetch: SceneFetch,
+    ) -> ImageRequest {
+        ImageRequest {
+            camera: scene.camera,
+            width: 96,
+            height: 600,
+            spp,
+            max_depth: scene.max_depth,
+            techniques: Default::default(),
+            progress: false,
+            gpu: GpuOptions {
+                kernel: Kernel::Compute,
+                scene_fetch,
+                ..GpuOptions::default()
+            },
+            readback: crate::output::Readback::default(),
+            region: None,
+        }
+    }
+
     /// Rendering in bands (with texelFetch, as a context with few storage blocks would)
     /// gives the same bits as one dispatch with storage buffers.
     #[test]
@@ -598,29 +636,8 @@ mod tests {
                 eprintln!("SKIPPED: no GL 4.3 compute in this context");
                 return;
             }
-            let scene = builtin_scene();
-            let accel = Accel::build(
-                &scene,
-                AccelKind::Irregular,
-                &GridConfig::default(),
-                &IrregularConfig::default(),
-            )
-            .unwrap();
-            let req = ImageRequest {
-                camera: scene.camera,
-                width: 96,
-                height: 600,
-                spp: 1,
-                max_depth: scene.max_depth,
-                techniques: Default::default(),
-                progress: false,
-                gpu: GpuOptions {
-                    kernel: Kernel::Compute,
-                    ..GpuOptions::default()
-                },
-                readback: crate::output::Readback::default(),
-                region: None,
-            };
+            let (scene, accel) = builtin_irregular();
+            let req = tall_request(&scene, 1, SceneFetch::Auto);
             // Storage buffers asked for (llvmpipe's preferred fetch is texelFetch).
             let asked = |scene_fetch| ImageRequest {
                 gpu: GpuOptions {
@@ -671,31 +688,9 @@ mod tests {
                 eprintln!("SKIPPED: no GL 4.3 compute in this context");
                 return;
             }
-            let scene = builtin_scene();
-            let accel = Accel::build(
-                &scene,
-                AccelKind::Irregular,
-                &GridConfig::default(),
-                &IrregularConfig::default(),
-            )
-            .unwrap();
+            let (scene, accel) = builtin_irregular();
             let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
-            let full = ImageRequest {
-                camera: scene.camera,
-                width: 96,
-                height: 600,
-                spp: 2,
-                max_depth: scene.max_depth,
-                techniques: Default::default(),
-                progress: false,
-                gpu: GpuOptions {
-                    kernel: Kernel::Compute,
-                    scene_fetch: SceneFetch::TexelFetch,
-                    ..GpuOptions::default()
-                },
-                readback: crate::output::Readback::default(),
-                region: None,
-            };
+            let full = tall_request(&scene, 2, SceneFetch::TexelFetch);
             let lean = ImageRequest {
                 readback: crate::output::Readback {
                     aov: false,
