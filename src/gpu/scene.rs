@@ -67,6 +67,9 @@ pub struct GpuScene<'s> {
     textures: OnceCell<Vec<(Unit, Texture)>>,
     buffers: OnceCell<Vec<(u32, StorageBuffer)>>,
     programs: RefCell<HashMap<ProgramKey, Rc<Program>>>,
+    /// The compute kernel's light buffer and 8-bit sRGB thresholds, made on first use.
+    lights: OnceCell<StorageBuffer>,
+    srgb_thresholds: OnceCell<StorageBuffer>,
     costs: Cell<Costs>,
 }
 
@@ -101,6 +104,8 @@ impl<'s> GpuScene<'s> {
             textures: OnceCell::new(),
             buffers: OnceCell::new(),
             programs: RefCell::new(HashMap::new()),
+            lights: OnceCell::new(),
+            srgb_thresholds: OnceCell::new(),
             costs: Cell::new(costs),
         })
     }
@@ -210,6 +215,33 @@ impl<'s> GpuScene<'s> {
             c.upload_bytes += self.layout.bytes();
         });
         Ok(self.buffers.get_or_init(|| buffers))
+    }
+
+    /// The lights as the compute kernel's light buffer (`contract::compute::light_buffer`),
+    /// uploaded on first use.
+    pub fn light_buffer(&self) -> Result<&StorageBuffer> {
+        if let Some(b) = self.lights.get() {
+            return Ok(b);
+        }
+        let bytes: Vec<u8> = super::contract::compute::light_buffer(&self.scene.lights)
+            .into_iter()
+            .flat_map(f32::to_ne_bytes)
+            .collect();
+        let b = StorageBuffer::new(self.ctx, &bytes)?;
+        Ok(self.lights.get_or_init(|| b))
+    }
+
+    /// The 256 linear values at which the 8-bit sRGB code steps up (the host's
+    /// `image_io::srgb8_thresholds`, padded with +inf), for `srgb8.comp`; uploaded once.
+    pub fn srgb_thresholds(&self) -> Result<&StorageBuffer> {
+        if let Some(b) = self.srgb_thresholds.get() {
+            return Ok(b);
+        }
+        let mut t = crate::image_io::srgb8_thresholds().to_vec();
+        t.push(f32::INFINITY);
+        let bytes: Vec<u8> = t.iter().flat_map(|v| v.to_ne_bytes()).collect();
+        let b = StorageBuffer::new(self.ctx, &bytes)?;
+        Ok(self.srgb_thresholds.get_or_init(|| b))
     }
 
     /// Binds the scene textures to their units (uploading them first if needed).

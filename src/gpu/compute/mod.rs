@@ -19,7 +19,7 @@ use glow::HasContext;
 use rayon::prelude::*;
 
 use super::context::GlContext;
-use super::contract::compute::{aov, camera_buffer, light_buffer, sum_words, Counter, COUNTERS};
+use super::contract::compute::{aov, camera_buffer, sum_words, Counter, COUNTERS};
 use super::contract::{uniform, Buffer, Image, StateTexels, STORAGE_BINDING_BASE};
 use super::gl::{bind_image, Program, ReadbackRing, StorageBuffer, Texture, TimerQuery};
 use super::info::GlInfo;
@@ -197,10 +197,7 @@ pub(crate) fn render(
         let p = gs.compute_program(ComputePass::Srgb8, &ComputeSpec::CONVERT, req.techniques)?;
         let c = gs.take_costs();
         setup.stats.compile_ms += c.compile_ms;
-        let mut t = crate::image_io::srgb8_thresholds().to_vec();
-        t.push(f32::INFINITY);
-        let bytes: Vec<u8> = t.iter().flat_map(|v| v.to_ne_bytes()).collect();
-        Some((p, StorageBuffer::new(ctx, &bytes)?))
+        Some((p, gs.srgb_thresholds()?))
     } else {
         None
     };
@@ -221,14 +218,9 @@ pub(crate) fn render(
         &offsets,
     );
     let cam_bytes: Vec<u8> = cam.iter().flat_map(|v| v.to_ne_bytes()).collect();
-    let lights: Vec<u8> = light_buffer(&scene.lights)
-        .into_iter()
-        .flat_map(f32::to_ne_bytes)
-        .collect();
     let cam_buf = StorageBuffer::new(ctx, &cam_bytes)?;
-    let light_buf = StorageBuffer::new(ctx, &lights)?;
     cam_buf.bind(gl, Buffer::Camera.binding());
-    light_buf.bind(gl, Buffer::Lights.binding());
+    gs.light_buffer()?.bind(gl, Buffer::Lights.binding());
     let counter_buf = StorageBuffer::zeroed_u32(ctx, 2 * COUNTERS)?;
     counter_buf.bind(gl, Buffer::Counters.binding());
 
