@@ -24,9 +24,7 @@ use super::Unit;
 pub enum Stage {
     /// GLSL 1.20 fragment programs.
     Fragment,
-    /// GLSL 4.30 compute programs.
-    Compute,
-    /// Both.
+    /// Fragment and compute programs alike.
     Any,
 }
 
@@ -34,7 +32,6 @@ impl Stage {
     fn admits(self, compute: bool) -> bool {
         match self {
             Stage::Fragment => !compute,
-            Stage::Compute => compute,
             Stage::Any => true,
         }
     }
