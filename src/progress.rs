@@ -213,9 +213,9 @@ impl Progress {
         ))
     }
 
-    /// Whether anything is drawn (the unit tests check the off cases).
-    #[cfg(test)]
-    fn is_shown(&self) -> bool {
+    /// Whether anything is drawn (renderers that can split their work finer for a visible
+    /// bar ask; the unit tests check the off cases).
+    pub fn is_shown(&self) -> bool {
         self.bar.is_some()
     }
 

@@ -12,7 +12,8 @@
 //! caused it ([`GpuScene::take_costs`]), so `--stats` shows it once and a second frame
 //! shows none.
 
-use std::cell::{Cell, OnceCell, RefCell};
+use std::any::{Any, TypeId};
+use std::cell::{Cell, OnceCell, RefCell, RefMut};
 use std::collections::HashMap;
 use std::rc::Rc;
 use std::time::Instant;
@@ -70,6 +71,11 @@ pub struct GpuScene<'s> {
     /// The compute kernel's light buffer and 8-bit sRGB thresholds, made on first use.
     lights: OnceCell<StorageBuffer>,
     srgb_thresholds: OnceCell<StorageBuffer>,
+    /// The same thresholds as a 256 x 1 texture (in .r), for `srgb8.frag`.
+    srgb_texture: OnceCell<Texture>,
+    /// What a wing keeps between renders of this scene, one value per type (see
+    /// [`GpuScene::kept`]).
+    kept: RefCell<HashMap<TypeId, Box<dyn Any>>>,
     costs: Cell<Costs>,
 }
 
@@ -106,6 +112,8 @@ impl<'s> GpuScene<'s> {
             programs: RefCell::new(HashMap::new()),
             lights: OnceCell::new(),
             srgb_thresholds: OnceCell::new(),
+            srgb_texture: OnceCell::new(),
+            kept: RefCell::new(HashMap::new()),
             costs: Cell::new(costs),
         })
     }
@@ -242,6 +250,36 @@ impl<'s> GpuScene<'s> {
         let bytes: Vec<u8> = t.iter().flat_map(|v| v.to_ne_bytes()).collect();
         let b = StorageBuffer::new(self.ctx, &bytes)?;
         Ok(self.srgb_thresholds.get_or_init(|| b))
+    }
+
+    /// The 8-bit sRGB thresholds of [`GpuScene::srgb_thresholds`] as a 256 x 1 RGBA32F
+    /// texture (value in .r) for the fragment kernels' `srgb8.frag`; uploaded once.
+    pub fn srgb_texture(&self) -> Result<&Texture> {
+        if let Some(t) = self.srgb_texture.get() {
+            return Ok(t);
+        }
+        let mut texels = vec![0f32; 256 * 4];
+        for (k, v) in crate::image_io::srgb8_thresholds().iter().enumerate() {
+            texels[4 * k] = *v;
+        }
+        texels[4 * 255] = f32::INFINITY;
+        let t = Texture::new_f32(self.ctx, 256, 1, Some(&texels))?;
+        Ok(self.srgb_texture.get_or_init(|| t))
+    }
+
+    /// The value of type `T` a wing keeps between renders of this scene (None until it
+    /// stores one): the compute kernel's output buffers for one image shape, which cost
+    /// 50-350 MB of storage and mapped staging memory at 4096x4096 and so are made once per
+    /// shape, not per frame. The type is the wing's own, so this leaf names no wing; the
+    /// value lives (and its GL objects are freed) with the scene. Borrowed for one render:
+    /// a second borrow while the first is held panics.
+    pub(crate) fn kept<T: 'static>(&self) -> RefMut<'_, Option<T>> {
+        RefMut::map(self.kept.borrow_mut(), |m| {
+            m.entry(TypeId::of::<T>())
+                .or_insert_with(|| Box::new(None::<T>))
+                .downcast_mut::<Option<T>>()
+                .expect("kept values are stored under their own type")
+        })
     }
 
     /// Binds the scene textures to their units (uploading them first if needed).

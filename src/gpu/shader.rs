@@ -26,6 +26,7 @@ const SOURCES: &[(&str, &str)] = &[
     ("shade.glsl", include_str!("../../glsl120/shade.glsl")),
     ("step.glsl", include_str!("../../glsl120/step.glsl")),
     ("unrolled.frag", include_str!("../../glsl120/unrolled.frag")),
+    ("srgb8.frag", include_str!("../../glsl120/srgb8.frag")),
     ("raygen.frag", include_str!("../../glsl120/raygen.frag")),
     (
         "traverse_init.frag",
@@ -120,11 +121,13 @@ pub enum Pass {
     Unrolled(Query, u32),
     /// Up to [`LOOP_MAX`] traversal iterations in one pass (`--kernel looped`).
     Looped(Query),
+    /// The finished image as 8-bit sRGB (read back for a PNG).
+    Srgb8,
 }
 
 impl Pass {
     /// Every program a render may use.
-    pub const ALL: [Pass; 13] = [
+    pub const ALL: [Pass; 14] = [
         Pass::RayGen,
         Pass::TraverseInit,
         Pass::TraverseStep,
@@ -138,6 +141,7 @@ impl Pass {
         Pass::AccumAmbient,
         Pass::Count(Count::Rays),
         Pass::Count(Count::Nodes),
+        Pass::Srgb8,
     ];
 
     /// Its source file.
@@ -155,6 +159,7 @@ impl Pass {
             Pass::AccumAmbient => "accum_ambient.frag",
             Pass::Count(_) => "count.frag",
             Pass::Unrolled(..) | Pass::Looped(_) => "unrolled.frag",
+            Pass::Srgb8 => "srgb8.frag",
         }
     }
 
@@ -178,6 +183,7 @@ impl Pass {
             Pass::Unrolled(Query::Any, _) => "unrolled_any",
             Pass::Looped(Query::Closest) => "looped",
             Pass::Looped(Query::Any) => "looped_any",
+            Pass::Srgb8 => "srgb8",
         }
     }
 
@@ -214,7 +220,8 @@ impl Pass {
             | Pass::Spawn
             | Pass::ShadowSpawn
             | Pass::AccumLight
-            | Pass::AccumAmbient => vec![],
+            | Pass::AccumAmbient
+            | Pass::Srgb8 => vec![],
         }
     }
 

@@ -12,14 +12,17 @@
 //! This wing stands on the GPU scene (`gpu::scene`) alone; it never imports the fragment
 //! wing.
 
+mod bands;
+
 use std::rc::Rc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use glow::HasContext;
 use rayon::prelude::*;
 
+use self::bands::{BandPlan, Limits, Outputs, Shape, BAND_TIME};
 use super::context::GlContext;
-use super::contract::compute::{aov, camera_buffer, sum_words, Counter, COUNTERS};
+use super::contract::compute::{aov, camera_buffer, sum_words, Counter};
 use super::contract::{uniform, Buffer, Image, StateTexels, STORAGE_BINDING_BASE};
 use super::gl::{bind_image, Program, ReadbackRing, StorageBuffer, Texture, TimerQuery};
 use super::info::GlInfo;
@@ -31,6 +34,7 @@ use super::wave::{check_finished, initial_state, traces_from, GpuRay, GpuTrace};
 use crate::image_io::Image as RgbImage;
 use crate::output::Work;
 use crate::output::{Aov, AovPixel, GpuStats, RayCounts};
+use crate::progress::Progress;
 use crate::scene::camera;
 use crate::technique::Techniques;
 use crate::{Error, Result};
@@ -158,6 +162,16 @@ fn scene_fetch(choice: SceneFetch, info: &GlInfo) -> Fetch {
     }
 }
 
+/// How long each band should take: [`BAND_TIME`] when `progress` is drawn (a test may ask
+/// for timed bands without a terminal), else None (the largest bands).
+fn band_time(progress: &Progress) -> Option<Duration> {
+    #[cfg(test)]
+    if let Some(t) = tests::BAND_TIME_HOOK.get() {
+        return Some(t);
+    }
+    progress.is_shown().then_some(BAND_TIME)
+}
+
 /// Renders with the compute kernel (see the module documentation).
 ///
 /// Per band of rows: the render dispatch, with `readback.srgb8` the conversion to 8-bit
@@ -221,31 +235,32 @@ pub(crate) fn render(
     let cam_buf = StorageBuffer::new(ctx, &cam_bytes)?;
     cam_buf.bind(gl, Buffer::Camera.binding());
     gs.light_buffer()?.bind(gl, Buffer::Lights.binding());
-    let counter_buf = StorageBuffer::zeroed_u32(ctx, 2 * COUNTERS)?;
-    counter_buf.bind(gl, Buffer::Counters.binding());
 
     // Bands of rows whose outputs fit one storage block (the AOV's 16 bytes per pixel are
-    // the larger), aligned so every band starts a whole number of rows in.
-    let rows = limits.band_rows(width, height)?;
-    let band_px = width as usize * rows as usize;
-    let radiance_buf = StorageBuffer::uninit(ctx, band_px * 3 * 4)?;
-    radiance_buf.bind(gl, Buffer::Radiance.binding());
-    let aov_buf = readback
-        .aov
-        .then(|| StorageBuffer::uninit(ctx, band_px * 4 * 4))
-        .transpose()?;
-    if let Some(b) = &aov_buf {
+    // the larger); with a progress bar drawn, bands sized to take about BAND_TIME each.
+    let max_rows = limits.band_rows(width, height)?;
+    let progress = Progress::bar(req.progress, u64::from(height), "rows");
+    let plan = BandPlan::new(height, max_rows, band_time(&progress));
+    let shape = Shape {
+        band_px: width as usize * max_rows as usize,
+        aov: readback.aov,
+        srgb8: readback.srgb8,
+    };
+    let mut kept = gs.kept::<Outputs>();
+    if kept.as_ref().is_none_or(|o| o.shape != shape) {
+        // Free the old shape's buffers before allocating the new ones.
+        *kept = None;
+        *kept = Some(Outputs::new(ctx, shape)?);
+    }
+    let bufs = kept.as_mut().expect("made above");
+    bufs.reset_counters(gl)?;
+    bufs.counters.bind(gl, Buffer::Counters.binding());
+    bufs.radiance.bind(gl, Buffer::Radiance.binding());
+    if let Some(b) = &bufs.aov {
         b.bind(gl, Buffer::Aov.binding());
     }
-    let srgb8_buf = convert
-        .as_ref()
-        .map(|_| StorageBuffer::uninit(ctx, (band_px * 3).div_ceil(4) * 4))
-        .transpose()?;
-    // What each band hands back: 8-bit RGB, or linear RGB floats.
-    let out_bytes = |px: usize| if readback.srgb8 { px * 3 } else { px * 12 };
-    let mut ring = ReadbackRing::new(ctx, out_bytes(band_px)).ok();
     let pixels = width as usize * height as usize;
-    let mut out = vec![0u8; out_bytes(pixels)];
+    let mut out = vec![0u8; shape.out_bytes(pixels)];
     let mut aov_data = if readback.aov {
         vec![0f32; pixels * 4]
     } else {
@@ -255,20 +270,26 @@ pub(crate) fn render(
         .stats
         .phases_ms
         .insert("setup".into(), ms_since(t_trace));
-    // The band whose copy is in flight: (staging slot, first byte in `out`, length).
-    let mut in_flight: Option<(usize, usize, usize)> = None;
-    let take = |ring: &mut ReadbackRing, (slot, at, len): (usize, usize, usize), out: &mut [u8]| {
+    // The band whose copy is in flight: (staging slot, first byte in `out`, length, rows).
+    let mut in_flight: Option<(usize, usize, usize, u32)> = None;
+    let take = |ring: &mut ReadbackRing,
+                (slot, at, len, rows): (usize, usize, usize, u32),
+                out: &mut [u8]| {
         ring.take(ctx, slot, |bytes| {
-            use rayon::prelude::*;
             out[at..at + len]
                 .par_chunks_mut(1 << 18)
                 .zip(bytes.par_chunks(1 << 18))
                 .for_each(|(d, s)| d.copy_from_slice(s));
-        })
+        })?;
+        progress.inc(u64::from(rows));
+        Ok::<_, Error>(())
     };
     // Bands from the top of the image, so each band's rows follow the last in the outputs.
-    for top in (0..height).step_by(rows as usize) {
-        let n = rows.min(height - top);
+    let t_bands = Instant::now();
+    let (mut top, mut last) = (0, 0);
+    while top < height {
+        let n = plan.next(top, last, t_bands.elapsed());
+        last = n;
         let gl_row0 = height - top - n;
         let band = n as usize * width as usize;
         let t = Instant::now();
@@ -278,7 +299,7 @@ pub(crate) fn render(
             glam::IVec2::new(gl_row0 as i32, n as i32),
         )?;
         setup.dispatch(width, n, req.gpu.timers)?;
-        let src = match (&convert, &srgb8_buf) {
+        let src = match (&convert, &bufs.srgb8) {
             (Some((p, thresholds)), Some(dst)) => {
                 thresholds.bind(gl, Buffer::SrgbThresholds.binding());
                 dst.bind(gl, Buffer::Srgb8.binding());
@@ -293,32 +314,42 @@ pub(crate) fn render(
                 setup.stats.passes_total += 1;
                 dst
             }
-            _ => &radiance_buf,
+            _ => &bufs.radiance,
         };
         *setup.stats.phases_ms.entry("dispatch".into()).or_default() += ms_since(t);
         let t = Instant::now();
-        let at = out_bytes(top as usize * width as usize);
-        let len = out_bytes(band);
-        match ring.as_mut() {
+        let at = shape.out_bytes(top as usize * width as usize);
+        let len = shape.out_bytes(band);
+        match bufs.ring.as_mut() {
             Some(r) => {
                 let slot = r.copy(ctx, src, len)?;
-                if let Some(prev) = in_flight.replace((slot, at, len)) {
+                if let Some(prev) = in_flight.replace((slot, at, len, n)) {
                     take(r, prev, &mut out)?;
                 }
+                // A band sized by time is measured to its end before the next is sized.
+                if plan.timed() {
+                    take(r, in_flight.take().expect("just queued"), &mut out)?;
+                }
             }
-            None => read_bytes_staged(ctx, src, &mut out[at..at + len])?,
+            None => {
+                read_bytes_staged(ctx, src, &mut out[at..at + len])?;
+                progress.inc(u64::from(n));
+            }
         }
-        if let Some(b) = &aov_buf {
+        if let Some(b) = &bufs.aov {
             let at = top as usize * width as usize * 4;
             b.read_f32_staged(ctx, &mut aov_data[at..at + band * 4])?;
         }
         *setup.stats.phases_ms.entry("read_back".into()).or_default() += ms_since(t);
+        top += n;
     }
     let t = Instant::now();
-    if let (Some(r), Some(last)) = (ring.as_mut(), in_flight) {
+    if let (Some(r), Some(last)) = (bufs.ring.as_mut(), in_flight) {
         take(r, last, &mut out)?;
     }
-    let words = counter_buf.read_u32(gl)?;
+    progress.finish();
+    let words = bufs.counters.read_u32(gl)?;
+    drop(kept);
     let total = sum_words(&words);
     *setup.stats.phases_ms.entry("read_back".into()).or_default() += ms_since(t);
     // Rays cut off, ray trees left incomplete, or samples never started: the program's
@@ -416,58 +447,6 @@ fn read_bytes_staged(ctx: &GlContext, src: &StorageBuffer, out: &mut [u8]) -> Re
     Ok(())
 }
 
-/// The context's storage-buffer limits that shape a compute render.
-struct Limits {
-    /// GL_MAX_COMPUTE_SHADER_STORAGE_BLOCKS.
-    blocks: u32,
-    /// GL_MAX_SHADER_STORAGE_BLOCK_SIZE (capped at what GL's 32-bit sizes express).
-    block_bytes: u64,
-}
-
-impl Limits {
-    fn query(gl: &glow::Context) -> Self {
-        #[cfg(test)]
-        if let Some(block_bytes) = tests::BLOCK_BYTES.get() {
-            return Limits {
-                blocks: 0,
-                block_bytes,
-            };
-        }
-        // SAFETY: the context is current; plain state queries.
-        unsafe {
-            Limits {
-                blocks: gl
-                    .get_parameter_i32(glow::MAX_COMPUTE_SHADER_STORAGE_BLOCKS)
-                    .max(0) as u32,
-                block_bytes: (gl
-                    .get_parameter_i64(glow::MAX_SHADER_STORAGE_BLOCK_SIZE)
-                    .max(0) as u64)
-                    .min(i32::MAX as u64),
-            }
-        }
-    }
-
-    /// Rows per band: as many as keep the AOV output (16 bytes per pixel) within one
-    /// storage block, a multiple of 256 rows (so every band's byte offsets keep any
-    /// alignment GL asks of a range) unless the whole image fits.
-    fn band_rows(&self, width: u32, height: u32) -> Result<u32> {
-        let per_row = width as u64 * 16;
-        let fit = self.block_bytes / per_row;
-        if fit >= height as u64 {
-            return Ok(height);
-        }
-        let rows = fit / 256 * 256;
-        if rows == 0 {
-            return Err(Error::Limit(format!(
-                "a {width}-pixel row needs 256 x {per_row} bytes of output per band; \
-                 GL_MAX_SHADER_STORAGE_BLOCK_SIZE is {}",
-                self.block_bytes
-            )));
-        }
-        Ok(rows as u32)
-    }
-}
-
 /// The primary-ray AOVs from `render.comp`'s AOV buffer: one `A0_TEXEL` per pixel, in
 /// image order.
 fn aov_from_texels(scene: &crate::scene::Scene, data: &[f32], w: u32, h: u32) -> Aov {
@@ -544,18 +523,8 @@ mod tests {
         /// Test hook: a storage-block size (and no storage blocks for the scene) in place
         /// of the context's, to force bands and texelFetch.
         pub(super) static BLOCK_BYTES: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
-    }
-
-    #[test]
-    fn band_rows_fit_the_block_and_keep_alignment() {
-        let l = |block_bytes| Limits {
-            blocks: 16,
-            block_bytes,
-        };
-        assert_eq!(l(1 << 30).band_rows(640, 480).unwrap(), 480);
-        // 600 rows of 300 pixels at 16 bytes: 256 rows fit in 1.5 MB, 2 x 256 do not.
-        assert_eq!(l(300 * 16 * 300).band_rows(300, 600).unwrap(), 256);
-        assert!(l(300 * 16 * 255).band_rows(300, 600).is_err());
+        /// Test hook: bands sized to take this long, as when a progress bar is drawn.
+        pub(super) static BAND_TIME_HOOK: std::cell::Cell<Option<Duration>> = const { std::cell::Cell::new(None) };
     }
 
     /// `--scene-fetch` changes only the compute kernel, so asking for it with another kernel
@@ -665,6 +634,50 @@ mod tests {
             assert_eq!(whole.work, banded.work);
             let ids = |o: &GpuOutput| o.aov.pixels.iter().map(|p| p.primid).collect::<Vec<_>>();
             assert_eq!(ids(&whole), ids(&banded));
+        });
+    }
+
+    /// Bands sized by time (as with a progress bar drawn: here every band after the
+    /// first is one row) give the headless render's bytes and counts; the kept output
+    /// buffers serve the next render of the same shape with their counters zeroed, and are
+    /// remade for another shape.
+    #[test]
+    fn timed_bands_and_kept_buffers_keep_the_bits() {
+        with_test_context(|ctx| {
+            if !ctx.info.compute {
+                eprintln!("SKIPPED: no GL 4.3 compute in this context");
+                return;
+            }
+            let (scene, accel) = builtin_irregular();
+            let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
+            let full = tall_request(&scene, 1, SceneFetch::TexelFetch);
+            let lean = ImageRequest {
+                readback: crate::output::Readback {
+                    aov: false,
+                    srgb8: true,
+                },
+                ..full
+            };
+            let first = render(&gs, &lean, None).unwrap();
+            BAND_TIME_HOOK.set(Some(Duration::ZERO));
+            let timed = render(&gs, &lean, None);
+            BAND_TIME_HOOK.set(None);
+            let timed = timed.unwrap();
+            let passes = |o: &GpuOutput| o.gpu.as_ref().unwrap().passes_total;
+            assert_eq!(passes(&first), 2, "one band, render and convert");
+            // 600 rows: 10 (1/64), then 590 bands of one row; two dispatches each.
+            assert_eq!(passes(&timed), 2 * 591);
+            let with_aov = render(&gs, &full, None).unwrap();
+            let again = render(&gs, &lean, None).unwrap();
+            for o in [&timed, &again] {
+                assert_eq!(o.srgb8, first.srgb8);
+                assert_eq!(o.rays, first.rays, "counters zeroed for each render");
+                assert_eq!(o.work, first.work);
+                assert_eq!(o.primary_steps, first.primary_steps);
+            }
+            assert_eq!(with_aov.rays, first.rays);
+            assert_eq!(with_aov.aov.pixels.len(), 96 * 600);
+            assert!(first.rays.total > 0);
         });
     }
 

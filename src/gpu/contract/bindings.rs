@@ -251,8 +251,9 @@ const CHILD: &[&str] = &["weight.frag", "spawn.frag"];
 
 /// Every sampler. Samplers that never meet in one program share a unit (a level's records
 /// are read as `u_r*` by the shading passes and as the parent's `u_p*` by the child
-/// passes; the node weight `u_c2` and the primary directions `u_dir` likewise).
-pub const SAMPLERS: [Sampler; 21] = [
+/// passes; the node weight `u_c2`, the primary directions `u_dir` and the 8-bit sRGB
+/// thresholds `u_srgb` likewise).
+pub const SAMPLERS: [Sampler; 22] = [
     sampler("u_tri", Unit::Tri, &[LAYOUT], Stage::Any, "triangles"),
     sampler("u_mat", Unit::Mat, &[LAYOUT], Stage::Any, "materials"),
     sampler("u_cell", Unit::Cell, &[LAYOUT], Stage::Any, "cell table"),
@@ -352,9 +353,16 @@ pub const SAMPLERS: [Sampler; 21] = [
         "unit primary directions of this sample",
     ),
     sampler(
+        "u_srgb",
+        Unit::Node,
+        &["srgb8.frag"],
+        Stage::Fragment,
+        "the 8-bit sRGB thresholds (256 x 1, in .r; the last +inf)",
+    ),
+    sampler(
         "u_acc",
         Unit::Acc,
-        ACCUM,
+        &["accum_ambient.frag", "accum_light.frag", "srgb8.frag"],
         Stage::Fragment,
         "colour accumulated so far",
     ),

@@ -255,10 +255,27 @@ impl<'a> Frame<'a> {
 
     /// Draws `pass` into the target in `slot`, timing it when timers are on.
     pub(super) fn draw(&mut self, pass: Pass, slot: Slot) -> Result<()> {
+        self.target(slot).bind(self.gl());
+        self.draw_bound(pass)
+    }
+
+    /// Draws `pass` into `target`, a target of no slot (the 8-bit image read back),
+    /// compiling the pass's program first if the frame has not got it.
+    pub(super) fn draw_into(&mut self, pass: Pass, target: &RenderTarget) -> Result<()> {
+        if !self.programs.contains_key(&pass) {
+            let program = self.gs.fragment_program(pass, self.opts.techniques)?;
+            self.stats.compile_ms += self.gs.take_costs().compile_ms;
+            self.programs.insert(pass, program);
+        }
+        target.bind(self.gl());
+        self.draw_bound(pass)
+    }
+
+    /// Draws `pass` into the bound target, timing it when timers are on.
+    fn draw_bound(&mut self, pass: Pass) -> Result<()> {
         // Re-bound every pass: creating or reading textures elsewhere changes the binding
         // of whatever unit is active, and five binds cost nothing next to a pass.
         self.gs.bind_textures()?;
-        self.target(slot).bind(self.gl());
         let timer = match &mut self.timers {
             Some(pool) => Some(match pool.free.pop() {
                 Some(q) => q,

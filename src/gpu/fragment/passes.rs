@@ -31,6 +31,8 @@ pub(super) fn passes_for(
             }
             // Not in Pass::ALL: the chosen kernel's pass is added below.
             Pass::Unrolled(..) | Pass::Looped(_) => false,
+            // Compiled when an image is read back as 8-bit sRGB (`readback`).
+            Pass::Srgb8 => false,
         })
         .chain(
             [Query::Closest, Query::Any]

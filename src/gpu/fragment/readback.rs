@@ -2,14 +2,17 @@
 //! states of a traced wave, all through the field declarations of
 //! [`contract`](crate::gpu::contract).
 
+use glow::HasContext;
 use rayon::prelude::*;
 
 use super::frame::Frame;
-use crate::gpu::contract::{ray, RayState, StateTexels};
+use crate::gpu::contract::{ray, RayState, StateTexels, Unit};
+use crate::gpu::gl::{check_gl_error, RenderTarget, TexFormat};
 use crate::gpu::options::{FragmentKernel, GpuOptions};
 use crate::gpu::request::aov_pixel;
+use crate::gpu::scene::bind_texture;
 use crate::gpu::scene::GpuScene;
-use crate::gpu::shader::Query;
+use crate::gpu::shader::{Pass, Query};
 use crate::gpu::wave::{initial_state, traces_from, wave_size, GpuRay, GpuTrace};
 use crate::output::{Aov, AovPixel};
 use crate::scene::Scene;
@@ -28,6 +31,50 @@ pub(super) fn flip_rgba_to_rgb(data: &[f32], w: u32, h: u32) -> Vec<f32> {
             }
         });
     out
+}
+
+/// The finished image as 8-bit sRGB, rows from the top (`srgb8.frag`, the host's rounding),
+/// and its number of non-finite pixels: 4 bytes a pixel read back where the linear image
+/// costs 16.
+pub(super) fn read_srgb8(f: &mut Frame, w: u32, h: u32) -> Result<(Vec<u8>, u64)> {
+    // Made before binding: creating a texture unbinds the active unit's.
+    let target = RenderTarget::with_formats(f.ctx, w, h, &[TexFormat::Rgba8])?;
+    let thresholds = f.gs.srgb_texture()?;
+    bind_texture(f.gl(), Unit::Acc, f.acc[f.acc_cur].texture(0));
+    bind_texture(f.gl(), Unit::Node, thresholds);
+    f.draw_into(Pass::Srgb8, &target)?;
+    let mut rgba = vec![0u8; w as usize * h as usize * 4];
+    let gl = f.gl();
+    // SAFETY: the context is current, the target bound; `rgba` holds exactly w x h RGBA
+    // bytes (rows of 4-byte pixels meet any pack alignment).
+    unsafe {
+        gl.read_buffer(glow::COLOR_ATTACHMENT0);
+        gl.read_pixels(
+            0,
+            0,
+            w as i32,
+            h as i32,
+            glow::RGBA,
+            glow::UNSIGNED_BYTE,
+            glow::PixelPackData::Slice(Some(&mut rgba)),
+        );
+    }
+    check_gl_error(gl, "reading the 8-bit image")?;
+    // Alpha marks the finite pixels; RGB is the image.
+    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    let nonfinite = rgb
+        .par_chunks_mut(3 << 12)
+        .zip(rgba.par_chunks(4 << 12))
+        .map(|(dst, src)| {
+            let mut bad = 0u64;
+            for (d, s) in dst.chunks_exact_mut(3).zip(src.chunks_exact(4)) {
+                d.copy_from_slice(&s[..3]);
+                bad += u64::from(s[3] == 0);
+            }
+            bad
+        })
+        .sum();
+    Ok((rgb, nonfinite))
 }
 
 /// Reads the current ray-state set's textures s0 and s3 (the others stay empty).
@@ -75,4 +122,72 @@ pub(crate) fn trace_wave(
     }
     f.trace(query)?;
     Ok(traces_from(&read_state(&f)?, rays.len()))
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
+    use crate::gpu::context::with_test_context;
+    use crate::gpu::options::{FragmentKernel, GpuOptions, Kernel};
+    use crate::gpu::request::ImageRequest;
+    use crate::gpu::scene::GpuScene;
+    use crate::output::Readback;
+    use crate::scene::builtin_scene;
+
+    /// The 8-bit image converted on the GPU (`srgb8.frag`) is byte for byte the host's
+    /// conversion of the linear image read back, on the thesis's kernel and the looped
+    /// one, and counts no non-finite pixel in a finite image.
+    #[test]
+    fn srgb8_pass_is_the_host_conversion() {
+        with_test_context(|ctx| {
+            let scene = builtin_scene();
+            let accel = Accel::build(
+                &scene,
+                AccelKind::Irregular,
+                &GridConfig::default(),
+                &IrregularConfig::default(),
+            )
+            .unwrap();
+            let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
+            for (kernel, fk) in [
+                (Kernel::Multipass, FragmentKernel::Multipass),
+                (Kernel::Looped, FragmentKernel::Looped),
+            ] {
+                let linear = ImageRequest {
+                    camera: scene.camera,
+                    width: 67,
+                    height: 45,
+                    spp: 2,
+                    max_depth: scene.max_depth,
+                    techniques: Default::default(),
+                    progress: false,
+                    gpu: GpuOptions {
+                        kernel,
+                        ..GpuOptions::default()
+                    },
+                    readback: Readback::default(),
+                    region: None,
+                };
+                let bytes = ImageRequest {
+                    readback: Readback {
+                        aov: false,
+                        srgb8: true,
+                    },
+                    ..linear
+                };
+                let a = super::super::render(&gs, &linear, fk, None).unwrap();
+                let b = super::super::render(&gs, &bytes, fk, None).unwrap();
+                let host = crate::image_io::to_srgb8(&a.image);
+                let gpu = b.srgb8.as_ref().expect("8-bit image");
+                assert_eq!(gpu.len(), host.len(), "{kernel:?}");
+                let diff = host.iter().zip(gpu).filter(|(x, y)| x != y).count();
+                assert_eq!(diff, 0, "{kernel:?}: bytes differ from the host conversion");
+                assert!(b.image.data.is_empty());
+                assert_eq!(b.nonfinite, Some(0));
+                assert_eq!(b.gpu.as_ref().unwrap().passes.get("srgb8"), Some(&1));
+                // Not a blank image: the conversion has something to get wrong.
+                assert!(host.iter().any(|&v| v > 200) && host.iter().any(|&v| v < 50));
+            }
+        });
+    }
 }

@@ -9,7 +9,7 @@ use glow::HasContext;
 use rayon::prelude::*;
 
 use super::frame::{Frame, Slot, Watch};
-use super::readback::{flip_rgba_to_rgb, read_aov};
+use super::readback::{flip_rgba_to_rgb, read_aov, read_srgb8};
 use crate::gpu::contract::{uniform, Unit};
 use crate::gpu::gl::Texture;
 use crate::gpu::options::FragmentKernel;
@@ -151,20 +151,34 @@ pub(crate) fn render<'a>(
         }
         f.observe()?;
     }
-    let data = f.acc[f.acc_cur].read_attachment(f.gl(), 0)?;
+    let t = std::time::Instant::now();
+    let (image, srgb8, nonfinite) = if req.readback.srgb8 {
+        let (bytes, nonfinite) = read_srgb8(&mut f, width, height)?;
+        (
+            Image::size_only(width, height),
+            Some(bytes),
+            Some(nonfinite),
+        )
+    } else {
+        let data = f.acc[f.acc_cur].read_attachment(f.gl(), 0)?;
+        let rgb = flip_rgba_to_rgb(&data, width, height);
+        (Image::from_rgb(width, height, rgb), None, None)
+    };
+    f.stats
+        .phases_ms
+        .insert("read_back".into(), t.elapsed().as_secs_f64() * 1e3);
     f.progress.finish();
     f.finish_timers()?;
     f.stats.trace_ms = t_trace.elapsed().as_secs_f64() * 1e3;
-    let image = Image::from_rgb(width, height, flip_rgba_to_rgb(&data, width, height));
     Ok(GpuOutput {
         image,
         aov: aov.unwrap_or_else(|| Aov::from_vec(0, 0, Vec::new())),
         rays: RayCounts::new(rays.primary, rays.shadow, rays.reflected, rays.refracted),
         work: None,
         gpu: Some(std::mem::take(&mut f.stats)),
-        srgb8: None,
+        srgb8,
         primary_steps: None,
-        nonfinite: None,
+        nonfinite,
     })
 }
 

@@ -177,6 +177,18 @@ impl StorageBuffer {
         self.obj.name()
     }
 
+    /// Overwrites the buffer's first bytes with `data` (which must fit).
+    pub fn write(&self, gl: &glow::Context, data: &[u8]) -> Result<()> {
+        assert!(data.len() <= self.bytes, "write past the storage buffer");
+        // SAFETY: the context is current; `data` fits the buffer.
+        unsafe {
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, Some(self.obj.name()));
+            gl.buffer_sub_data_u8_slice(glow::SHADER_STORAGE_BUFFER, 0, data);
+            gl.bind_buffer(glow::SHADER_STORAGE_BUFFER, None);
+        }
+        check_gl_error(gl, "writing a storage buffer")
+    }
+
     /// Binds the buffer to storage-block binding `index`.
     pub fn bind(&self, gl: &glow::Context, index: u32) {
         // SAFETY: the context is current and the buffer is alive.

@@ -18,6 +18,8 @@ pub enum TexFormat {
     /// 16-bit floats (ARB_texture_float's RGBA16F, as on GeForce 6/7-class cards): half the
     /// memory traffic, 11 significant bits, integers exact only to 2048.
     Rgba16F,
+    /// 8-bit unsigned normalised: the 8-bit sRGB image read back for a PNG.
+    Rgba8,
 }
 
 impl TexFormat {
@@ -25,6 +27,7 @@ impl TexFormat {
         match self {
             TexFormat::Rgba32F => glow::RGBA32F,
             TexFormat::Rgba16F => glow::RGBA16F,
+            TexFormat::Rgba8 => glow::RGBA8,
         }
     }
 
@@ -33,6 +36,7 @@ impl TexFormat {
         match self {
             TexFormat::Rgba32F => 16,
             TexFormat::Rgba16F => 8,
+            TexFormat::Rgba8 => 4,
         }
     }
 }
