@@ -5,8 +5,10 @@
 #
 #   ci/compare-binaries.sh OLD_BINARY NEW_BINARY [SIZE]     (SIZE defaults to 64x48)
 #
-# Meshes come from FRAGTRACE_MODEL_PATH (default ../shared/models). Prints one line per
-# image that differs and a total; exits 1 when any image differs or fails to render.
+# Meshes come from FRAGTRACE_MODEL_PATH (default ../shared/models). NEW_ARGS adds flags to
+# the new binary's renders only (e.g. NEW_ARGS="--terminator exact" against a binary from
+# before that option's default). Prints one line per image that differs and a total; exits
+# 1 when any image differs or fails to render.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 old=$1 new=$2 size=${3:-64x48}
@@ -22,6 +24,7 @@ configs=(
     "compute:--backend gl --kernel compute"
 )
 accels=(irregular uniform)
+read -r -a new_extra <<< "${NEW_ARGS:-}"
 total=0 same=0 refused=0
 for scene in builtin scenes/*.toml; do
     name=$(basename "$scene" .toml)
@@ -32,8 +35,8 @@ for scene in builtin scenes/*.toml; do
         flags+=(--accel "$accel")
         total=$((total + 1))
         for which in old new; do
-            bin=$old; [ $which = new ] && bin=$new
-            "$bin" render "${arg[@]}" "${flags[@]}" --width "$w" --height "$h" -q \
+            bin=$old extra=(); [ $which = new ] && bin=$new extra=("${new_extra[@]}")
+            "$bin" render "${arg[@]}" "${flags[@]}" "${extra[@]}" --width "$w" --height "$h" -q \
                 -o "$out/$name-$tag-$which.exr" 2> "$out/$which.err" || echo failed >> "$out/$which.err"
         done
         if grep -q failed "$out/old.err" || grep -q failed "$out/new.err"; then
