@@ -286,10 +286,10 @@ pub(crate) fn render(
     };
     // Bands from the top of the image, so each band's rows follow the last in the outputs.
     let t_bands = Instant::now();
-    let (mut top, mut last) = (0, 0);
+    let (mut top, mut last) = (0, (0, Duration::ZERO));
     while top < height {
+        let t_band = Instant::now();
         let n = plan.next(top, last, t_bands.elapsed());
-        last = n;
         let gl_row0 = height - top - n;
         let band = n as usize * width as usize;
         let t = Instant::now();
@@ -342,6 +342,7 @@ pub(crate) fn render(
         }
         *setup.stats.phases_ms.entry("read_back".into()).or_default() += ms_since(t);
         top += n;
+        last = (n, t_band.elapsed());
     }
     let t = Instant::now();
     if let (Some(r), Some(last)) = (bufs.ring.as_mut(), in_flight) {
