@@ -469,7 +469,7 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render:
     // Once per process, whatever the number of parts: the structure, the context and the
     // renderer (the GPU scene uploaded once); each part sets its region and camera.
     let prepared = render::prepare(&scene, &base)?;
-    let ctx = render::context_for(&base)?;
+    let ctx = render::context_for(&base, !args.quiet)?;
     let mut renderer = match &ctx {
         Some(ctx) => prepared.gl_renderer(ctx, &base)?,
         None => prepared.cpu_renderer(&base),
@@ -702,6 +702,10 @@ pub fn run_merge(args: &MergeArgs) -> Result<crate::dist::merge::Merged> {
 pub fn run_info(args: &InfoArgs) -> Result<bool> {
     let ctx = crate::gpu::GlContext::new_unchecked_on(args.gpu)?;
     println!("{}", ctx.info);
+    match render::auto_declines(&ctx.info) {
+        None => println!("--backend auto:   gl (this GL)"),
+        Some(why) => println!("--backend auto:   cpu ({why})"),
+    }
     // The devices `--gpu N` picks from, and how they meet CUDA's numbering (Slurm's GPU
     // binding sets CUDA_VISIBLE_DEVICES).
     match crate::gpu::egl::list_devices() {
