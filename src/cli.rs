@@ -579,7 +579,13 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
         let mut rows: Vec<(String, u64, Option<f64>)> = g
             .passes
             .iter()
-            .map(|(k, &n)| (k.clone(), n, g.gpu_ms.get(k).copied()))
+            .map(|(k, &n)| {
+                (
+                    k.clone(),
+                    n,
+                    g.gpu_ms.as_ref().and_then(|m| m.get(k).copied()),
+                )
+            })
             .collect();
         rows.sort_by(|a, b| {
             b.2.unwrap_or(0.0)
@@ -593,15 +599,17 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
         for (name, n, t) in rows {
             let (t, per) = match t {
                 Some(t) => (format!("{t:.2}"), format!("{:.4}", t / n.max(1) as f64)),
-                None => ("-".into(), "-".into()),
+                // No timer queries, or they measured nothing (GpuStats::add_gpu_time).
+                None => ("n/a".into(), "n/a".into()),
             };
             out += &format!("{name:<24} {n:>10} {t:>12} {per:>12}\n");
         }
         out += &format!(
-            "total: {} passes, {} termination queries, gpu {:.2} ms, compile {:.1} ms, upload {:.1} ms\n",
+            "total: {} passes, {} termination queries, gpu {}, compile {:.1} ms, upload {:.1} ms\n",
             g.passes_total,
             g.termination_queries,
-            g.gpu_ms_total,
+            g.gpu_ms_total
+                .map_or("n/a".into(), |t| format!("{t:.2} ms")),
             g.compile_ms,
             g.upload_ms,
         );

@@ -376,10 +376,7 @@ fn bench_one(
     let render_ms: Vec<f64> = runs.iter().map(|r| r.1.stats.render_ms).collect();
     let gpu_ms: Vec<f64> = runs
         .iter()
-        .filter_map(|r| {
-            let g = r.1.stats.gpu.as_ref()?;
-            (!g.gpu_ms.is_empty()).then_some(g.gpu_ms_total)
-        })
+        .filter_map(|r| r.1.stats.gpu.as_ref()?.gpu_ms_total)
         .collect();
     let first = &runs[0].1.stats;
     let time_s = median(&times);
