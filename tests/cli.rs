@@ -525,7 +525,7 @@ fn gl_stats_report_features_as_named_booleans() {
     assert!(f.values().all(|v| v.is_boolean()), "{f:?}");
 }
 
-/// The GL render's progress on a terminal: a percentage of the ray tree walked with an ETA,
+/// The GL render's progress on a terminal: a percentage of the ray traces run with an ETA,
 /// never moving back; nothing in a pipe. The fragment kernels report it between passes
 /// (the compute kernel's one dispatch has no in-between).
 #[test]
