@@ -57,7 +57,8 @@ struct Job {
 }
 
 /// Renders `frames` of `scene`'s camera path with `opts` into files named by `output`
-/// (a run of `#` or `{frame}` becomes the frame number), returning the statistics.
+/// (a run of `#` or `{frame}` becomes the frame number), returning the statistics;
+/// `progress` shows the frames bar and the backend notice (off with `-q`).
 pub fn render_frames(
     scene: &Scene,
     opts: &RenderOptions,
@@ -97,7 +98,7 @@ pub fn render_frames(
     };
     opts.progress = false;
     let prepared = render::prepare(scene, &opts)?;
-    let ctx = render::context_for(&opts)?;
+    let ctx = render::context_for(&opts, progress)?;
     let mut renderer: Renderer<'_> = match &ctx {
         Some(ctx) => prepared.gl_renderer(ctx, &opts)?,
         None => prepared.cpu_renderer(&opts),

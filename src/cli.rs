@@ -469,7 +469,7 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render:
     // Once per process, whatever the number of parts: the structure, the context and the
     // renderer (the GPU scene uploaded once); each part sets its region and camera.
     let prepared = render::prepare(&scene, &base)?;
-    let ctx = render::context_for(&base)?;
+    let ctx = render::context_for(&base, !args.quiet)?;
     let mut renderer = match &ctx {
         Some(ctx) => prepared.gl_renderer(ctx, &base)?,
         None => prepared.cpu_renderer(&base),
@@ -579,7 +579,13 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
         let mut rows: Vec<(String, u64, Option<f64>)> = g
             .passes
             .iter()
-            .map(|(k, &n)| (k.clone(), n, g.gpu_ms.get(k).copied()))
+            .map(|(k, &n)| {
+                (
+                    k.clone(),
+                    n,
+                    g.gpu_ms.as_ref().and_then(|m| m.get(k).copied()),
+                )
+            })
             .collect();
         rows.sort_by(|a, b| {
             b.2.unwrap_or(0.0)
@@ -593,15 +599,17 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
         for (name, n, t) in rows {
             let (t, per) = match t {
                 Some(t) => (format!("{t:.2}"), format!("{:.4}", t / n.max(1) as f64)),
-                None => ("-".into(), "-".into()),
+                // No timer queries, or they measured nothing (GpuStats::add_gpu_time).
+                None => ("n/a".into(), "n/a".into()),
             };
             out += &format!("{name:<24} {n:>10} {t:>12} {per:>12}\n");
         }
         out += &format!(
-            "total: {} passes, {} termination queries, gpu {:.2} ms, compile {:.1} ms, upload {:.1} ms\n",
+            "total: {} passes, {} termination queries, gpu {}, compile {:.1} ms, upload {:.1} ms\n",
             g.passes_total,
             g.termination_queries,
-            g.gpu_ms_total,
+            g.gpu_ms_total
+                .map_or("n/a".into(), |t| format!("{t:.2} ms")),
             g.compile_ms,
             g.upload_ms,
         );
@@ -702,6 +710,10 @@ pub fn run_merge(args: &MergeArgs) -> Result<crate::dist::merge::Merged> {
 pub fn run_info(args: &InfoArgs) -> Result<bool> {
     let ctx = crate::gpu::GlContext::new_unchecked_on(args.gpu)?;
     println!("{}", ctx.info);
+    match render::auto_declines(&ctx.info) {
+        None => println!("--backend auto:   gl (this GL)"),
+        Some(why) => println!("--backend auto:   cpu ({why})"),
+    }
     // The devices `--gpu N` picks from, and how they meet CUDA's numbering (Slurm's GPU
     // binding sets CUDA_VISIBLE_DEVICES).
     match crate::gpu::egl::list_devices() {

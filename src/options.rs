@@ -20,7 +20,9 @@ use crate::{Error, Result};
 /// Which renderer runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Backend {
-    /// The GPU when a suitable GL context can be made, else the CPU with a notice.
+    /// The GPU when a suitable GL context can be made on a GPU, else the CPU with a notice
+    /// saying why (a software rasterizer such as llvmpipe runs GL on the CPU, slower than
+    /// the CPU backend; `--backend gl` uses it anyway); `fragtrace info` says which.
     Auto,
     /// The CPU reference renderer.
     Cpu,

@@ -201,10 +201,14 @@ pub struct GpuStats {
     pub passes: HashMap<String, u64>,
     /// Total passes drawn.
     pub passes_total: u64,
-    /// GPU time per pass kind from timer queries (empty where unavailable).
-    pub gpu_ms: HashMap<String, f64>,
-    /// Sum of `gpu_ms`.
-    pub gpu_ms_total: f64,
+    /// GPU time per pass kind from timer queries; None (`null`) where the GL has no timer
+    /// queries or one of them measured nothing ([`GpuStats::add_gpu_time`]).
+    pub gpu_ms: Option<HashMap<String, f64>>,
+    /// Sum of `gpu_ms` (None with it).
+    pub gpu_ms_total: Option<f64>,
+    /// A timer query of this render measured nothing: its GPU time stays unknown.
+    #[serde(skip)]
+    pub(crate) timers_void: bool,
     /// Wall time of the compute kernel's phases (setup, dispatch, read_back, aov); empty
     /// for the fragment kernels, whose time is per pass in `gpu_ms`.
     pub phases_ms: HashMap<String, f64>,
@@ -224,6 +228,32 @@ pub struct GpuStats {
     pub features: Features,
 }
 
+impl GpuStats {
+    /// Adds the `ns` a timer query measured for one pass or dispatch of `kind`. A result of
+    /// 0 or 1 ns measured nothing, and makes the whole render's GPU time unknown rather
+    /// than a figure that reads as real: llvmpipe's `GL_TIME_ELAPSED` is stamped by its
+    /// rasterizer threads as they run the draws' bins, and a compute dispatch runs outside
+    /// the rasterizer, so the query of a 3-second dispatch returns the unsigned difference
+    /// of no stamps, 0 - (2^64 - 1) = 1 ns. A GPU pass, however small, takes microseconds.
+    pub fn add_gpu_time(&mut self, kind: &str, ns: u64) {
+        if ns <= 1 {
+            self.timers_void = true;
+        }
+        if self.timers_void {
+            self.gpu_ms = None;
+            self.gpu_ms_total = None;
+            return;
+        }
+        let ms = ns as f64 * 1e-6;
+        *self
+            .gpu_ms
+            .get_or_insert_with(HashMap::new)
+            .entry(kind.to_owned())
+            .or_default() += ms;
+        *self.gpu_ms_total.get_or_insert(0.0) += ms;
+    }
+}
+
 /// Scene features that decide which shading code the GL backend compiles in (decided in
 /// `gpu::shader`, which re-exports it; here so that [`GpuStats`] reports it typed).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
@@ -238,4 +268,35 @@ pub struct Features {
     pub refraction: bool,
     /// Some material uses Fresnel weights.
     pub fresnel: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Timer results add up per kind and in the total; one result that measured nothing
+    /// (llvmpipe's 1 ns for a compute dispatch) makes the render's GPU time unknown, `null`
+    /// in `--stats`, for the rest of the render too; without any timer it is unknown as well.
+    #[test]
+    fn gpu_time_adds_up_and_is_unknown_after_a_timer_that_measured_nothing() {
+        let mut s = GpuStats::default();
+        let json = |s: &GpuStats| serde_json::to_value(s).unwrap();
+        assert!(json(&s)["gpu_ms"].is_null() && json(&s)["gpu_ms_total"].is_null());
+        s.add_gpu_time("step", 2_000_000);
+        s.add_gpu_time("step", 500_000);
+        s.add_gpu_time("count", 2);
+        let ms = s.gpu_ms.clone().unwrap();
+        assert!((ms["step"] - 2.5).abs() < 1e-12, "{ms:?}");
+        assert!((ms["count"] - 2e-6).abs() < 1e-18, "{ms:?}");
+        assert!((s.gpu_ms_total.unwrap() - 2.500002).abs() < 1e-12);
+        assert_eq!(json(&s)["gpu_ms"]["step"], ms["step"]);
+        for ns in [1, 0] {
+            let mut v = s.clone();
+            v.add_gpu_time("compute", ns);
+            assert_eq!((v.gpu_ms.clone(), v.gpu_ms_total), (None, None), "{ns} ns");
+            v.add_gpu_time("step", 1_000_000);
+            assert_eq!((v.gpu_ms.clone(), v.gpu_ms_total), (None, None), "{ns} ns");
+            assert!(json(&v)["gpu_ms"].is_null() && json(&v)["gpu_ms_total"].is_null());
+        }
+    }
 }

@@ -13,7 +13,7 @@ use crate::cpu::simd_walk::SimdWalker;
 use crate::cpu::traverse::CellWalk;
 use crate::cpu::CpuRenderer;
 use crate::gpu::render::ImageRequest;
-use crate::gpu::{self, GlContext, GpuScene};
+use crate::gpu::{self, GlContext, GlInfo, GpuScene};
 use crate::image_io::Image;
 use crate::output::{Aov, BackendOutput, GpuStats, RayCounts};
 use crate::scene::{Camera, Scene};
@@ -348,28 +348,55 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
     prepare(scene, opts)?.render_gl(ctx, opts)
 }
 
+/// Why `--backend auto` takes the CPU backend rather than the GL that `info` describes,
+/// or None where it takes GL: a GL that fails the checks cannot render, and a software
+/// rasterizer (llvmpipe, softpipe, swrast) runs the GL kernels on the CPU, where the CPU
+/// backend is faster (1.5-2.5x on the shipped scenes, docs/performance.md). The one place
+/// the choice is made: `render` (whole, parts, `--frames`), `bench` and `info` ask it.
+pub fn auto_declines(info: &GlInfo) -> Option<String> {
+    if let Err(why) = info.verdict() {
+        return Some(why);
+    }
+    info.is_software().then(|| {
+        format!(
+            "{} is a software rasterizer (GL run on the CPU, slower than the CPU backend); \
+             --backend gl renders with it anyway",
+            info.renderer
+        )
+    })
+}
+
 /// The GL context the backend choice of `opts` renders in: None for the CPU. `Auto` uses
-/// the GPU when a suitable context can be made (on `--gpu N`'s device) and otherwise the
-/// CPU, saying why on stderr; `Gl` never falls back, and neither does a bad `--gpu N`.
-pub fn context_for(opts: &RenderOptions) -> Result<Option<GlContext>> {
+/// the GPU when a suitable context can be made (on `--gpu N`'s device) and is not a
+/// software rasterizer ([`auto_declines`]), and otherwise the CPU, saying why in one line
+/// on stderr when `notices` (off with `-q`); `Gl` never falls back, and neither does a
+/// bad `--gpu N`.
+pub fn context_for(opts: &RenderOptions, notices: bool) -> Result<Option<GlContext>> {
     match opts.backend {
         Backend::Cpu => Ok(None),
         Backend::Gl => GlContext::on_device(opts.device).map(Some),
-        Backend::Auto => match GlContext::on_device(opts.device) {
-            Ok(ctx) => Ok(Some(ctx)),
-            // A bad `--gpu N` is the user's to fix, not a reason to fall back.
-            Err(e @ crate::Error::Usage(_)) => Err(e),
-            Err(e) => {
-                eprintln!("fragtrace: notice: using the CPU backend: {e}");
-                Ok(None)
+        Backend::Auto => {
+            let why = match GlContext::on_device(opts.device) {
+                Ok(ctx) => match auto_declines(&ctx.info) {
+                    None => return Ok(Some(ctx)),
+                    Some(why) => why,
+                },
+                // A bad `--gpu N` is the user's to fix, not a reason to fall back.
+                Err(e @ crate::Error::Usage(_)) => return Err(e),
+                Err(e) => e.to_string(),
+            };
+            if notices {
+                eprintln!("fragtrace: notice: using the CPU backend: {why}");
             }
-        },
+            Ok(None)
+        }
     }
 }
 
-/// Renders with the backend chosen in `opts` (see [`context_for`]).
+/// Renders with the backend chosen in `opts` (see [`context_for`]; its notice is shown
+/// with `opts.progress`, which `-q` turns off with the progress display).
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
-    match context_for(opts)? {
+    match context_for(opts, opts.progress)? {
         Some(ctx) => render_gl_with(&ctx, scene, opts),
         None => render_cpu(scene, opts),
     }

@@ -311,6 +311,58 @@ fn verbose_logs_pass_kinds_and_cpu_work() {
         compute.contains("cells visited") && compute.contains("triangle tests"),
         "{compute}"
     );
+    // GPU time: where timers measured something a figure, else "n/a" (and `--stats` null).
+    // On llvmpipe the fragment passes' timers measure the rasterizer's work (measured: the
+    // looped kernel's passes sum to 29.9 s of a 29.7 s trace on the default scene), while
+    // a compute dispatch, which runs outside the rasterizer, times at 1 ns.
+    let gpu_total = |log: &str| -> String {
+        let total = log.lines().find(|l| l.starts_with("total: ")).unwrap();
+        total
+            .split(", gpu ")
+            .nth(1)
+            .unwrap()
+            .split(',')
+            .next()
+            .unwrap()
+            .to_owned()
+    };
+    let looped = gpu_total(&gl);
+    assert!(looped.ends_with(" ms"), "{gl}");
+    assert!(
+        looped.trim_end_matches(" ms").parse::<f64>().unwrap() > 0.0,
+        "{gl}"
+    );
+    let software = fragtrace::gpu::GlContext::new().unwrap().info.is_software();
+    if software {
+        assert_eq!(gpu_total(&compute), "n/a", "{compute}");
+        assert!(
+            compute
+                .lines()
+                .any(|l| l.starts_with("compute ") && l.ends_with("n/a")),
+            "{compute}"
+        );
+        let s = stats_of(
+            &d,
+            &[
+                "--backend",
+                "gl",
+                "--kernel",
+                "compute",
+                "--width",
+                "24",
+                "--height",
+                "18",
+                "-o",
+                "c.png",
+            ],
+            "c.json",
+        );
+        assert!(
+            s["gpu"]["gpu_ms"].is_null() && s["gpu"]["gpu_ms_total"].is_null(),
+            "{}",
+            s["gpu"]
+        );
+    }
 }
 
 /// On a terminal the render shows a progress display; off a terminal (this test's pipes)
@@ -473,7 +525,7 @@ fn gl_stats_report_features_as_named_booleans() {
     assert!(f.values().all(|v| v.is_boolean()), "{f:?}");
 }
 
-/// The GL render's progress on a terminal: a percentage of the ray tree walked with an ETA,
+/// The GL render's progress on a terminal: a percentage of the ray traces run with an ETA,
 /// never moving back; nothing in a pipe. The fragment kernels report it between passes
 /// (the compute kernel's one dispatch has no in-between).
 #[test]
@@ -794,5 +846,107 @@ fn gl21_irregular_multipass_equals_cpu_f32() {
         );
         assert!(images[0].all_finite());
         assert!(c.rmse <= 2e-5, "{scene:?}: {c}");
+    }
+}
+
+/// `--backend auto` on a software rasterizer (llvmpipe here and in CI) takes the CPU and
+/// says why in one line naming the driver and `--backend gl` (nothing with `-q`), rendering
+/// the image `--backend cpu` renders (every PNG byte equal); `--backend gl` still renders on
+/// that GL, and `info` says which backend `auto` takes. Whole renders, parts (`--tile`)
+/// and animations (`--frames`) resolve it the same way. On a hardware GL `auto` takes GL
+/// without a word.
+#[test]
+fn auto_backend_takes_the_cpu_over_a_software_gl_and_says_so() {
+    let d = tmpdir("auto");
+    let renderer = match fragtrace::gpu::GlContext::new() {
+        Ok(ctx) => ctx.info.renderer.clone(),
+        Err(e) => {
+            println!("no usable GL ({e}): auto falls back to the CPU for that reason instead");
+            return;
+        }
+    };
+    let software = fragtrace::gpu::info::software_renderer(&renderer);
+    let want = if software { "cpu" } else { "gl" };
+    let run = |args: &[&str]| {
+        let o = bin().current_dir(&d).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{args:?}: {err}");
+        err
+    };
+    let size = ["--width", "24", "--height", "18"];
+    let render = |extra: &[&str], out: &str| -> (String, String) {
+        let mut a = vec!["render", "-o", out, "--stats", "s.json"];
+        a.extend(size);
+        a.extend(extra);
+        let err = run(&a);
+        let s: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+        (s["backend"].as_str().unwrap().to_owned(), err)
+    };
+    let notices = |err: &str| -> Vec<String> {
+        err.lines()
+            .filter(|l| l.contains("notice"))
+            .map(str::to_owned)
+            .collect()
+    };
+    let (backend, err) = render(&[], "auto.png");
+    assert_eq!(backend, want, "{renderer}: {err}");
+    let seen = notices(&err);
+    if software {
+        assert_eq!(seen.len(), 1, "{err}");
+        let n = &seen[0];
+        for part in [
+            "fragtrace: notice: using the CPU backend: ",
+            renderer.as_str(),
+            "software rasterizer",
+            "--backend gl",
+        ] {
+            assert!(n.contains(part), "`{part}` missing in: {n}");
+        }
+        render(&["--backend", "cpu"], "cpu.png");
+        assert!(
+            std::fs::read(d.join("auto.png")).unwrap() == std::fs::read(d.join("cpu.png")).unwrap(),
+            "auto and --backend cpu rendered different images"
+        );
+    } else {
+        assert!(seen.is_empty(), "{err}");
+    }
+    let mut quiet = vec!["render", "-q", "-o", "q.png"];
+    quiet.extend(size);
+    assert_eq!(run(&quiet), "", "-q printed something");
+    assert_eq!(render(&["--backend", "gl"], "gl.png").0, "gl");
+    // Parts: the summary line of each names the backend.
+    let mut tile = vec!["render", "--tile", "0/2", "-o", "t.exr"];
+    tile.extend(size);
+    let err = run(&tile);
+    assert!(err.contains(&format!(" on {want} [")), "{err}");
+    assert_eq!(notices(&err).len(), usize::from(software), "{err}");
+    // An animation: one camera path over a sphere, two frames.
+    std::fs::write(
+        d.join("anim.toml"),
+        "[animation.orbit]\ncentre = [0, 0, 0]\nradius = 4\nheight = 1\nframes = 8\nfov = 40\n\
+         [[lights]]\nposition = [2, 4, 3]\n[[objects]]\nshape = \"sphere\"\n",
+    )
+    .unwrap();
+    let mut frames = vec!["render", "anim.toml", "--frames", "0..1", "-o", "f_#.png"];
+    frames.extend(size);
+    let err = run(&frames);
+    assert!(
+        err.contains(&format!("2 frames of 24x18 on {want}")),
+        "{err}"
+    );
+    assert_eq!(notices(&err).len(), usize::from(software), "{err}");
+    let o = bin().arg("info").output().unwrap();
+    let info = String::from_utf8_lossy(&o.stdout);
+    let line = info
+        .lines()
+        .find(|l| l.starts_with("--backend auto:"))
+        .unwrap_or_else(|| panic!("no `--backend auto:` line in:\n{info}"));
+    assert!(
+        line.split_whitespace().nth(2) == Some(want),
+        "{renderer}: {line}"
+    );
+    if software {
+        assert!(line.contains("software rasterizer"), "{line}");
     }
 }

@@ -249,3 +249,7 @@ impl IrregularGrid {
         (min + v(lo) * cs, min + v(hi) * cs)
     }
 }
+
+#[cfg(test)]
+#[path = "irregular_grid_tests.rs"]
+mod tests;

@@ -73,18 +73,12 @@ fn render_with(gl: &GlCache, scene: &Scene, opts: &RenderOptions) -> Result<rend
             render::render_gl_with(ctx, scene, opts)
         }
         Backend::Auto => match gl.get() {
-            Ok(ctx) => render::render_gl_with(ctx, scene, opts),
-            Err(_) => render::render_cpu(scene, opts),
+            Ok(ctx) if render::auto_declines(&ctx.info).is_none() => {
+                render::render_gl_with(ctx, scene, opts)
+            }
+            _ => render::render_cpu(scene, opts),
         },
     }
-}
-
-/// True for Mesa's software rasterizers, where GL runs on the CPU.
-fn software_gl(renderer: &str) -> bool {
-    let r = renderer.to_ascii_lowercase();
-    ["llvmpipe", "softpipe", "swrast"]
-        .iter()
-        .any(|s| r.contains(s))
 }
 
 /// The configurations to run: all of `opts.configs`, except with
@@ -101,7 +95,7 @@ fn fit_to_machine<'a>(
         return (all, Vec::new(), None);
     }
     let renderer = match gl.get() {
-        Ok(ctx) if software_gl(&ctx.info.renderer) => ctx.info.renderer.clone(),
+        Ok(ctx) if ctx.info.is_software() => ctx.info.renderer.clone(),
         _ => return (all, Vec::new(), None),
     };
     let slow = |c: &BenchConfig| {
@@ -297,7 +291,11 @@ fn bench_one(
         Err(e) => return BenchRow::failed(&spec.name, cfg, opts.size, e.to_string()),
     };
     let ctx = match (&prepared, ropts.backend) {
-        (Some(_), Backend::Gl | Backend::Auto) => gl.get().ok(),
+        (Some(_), Backend::Gl) => gl.get().ok(),
+        (Some(_), Backend::Auto) => gl
+            .get()
+            .ok()
+            .filter(|ctx| render::auto_declines(&ctx.info).is_none()),
         _ => None,
     };
     let mut renderer = match (&prepared, ctx) {
@@ -378,10 +376,7 @@ fn bench_one(
     let render_ms: Vec<f64> = runs.iter().map(|r| r.1.stats.render_ms).collect();
     let gpu_ms: Vec<f64> = runs
         .iter()
-        .filter_map(|r| {
-            let g = r.1.stats.gpu.as_ref()?;
-            (!g.gpu_ms.is_empty()).then_some(g.gpu_ms_total)
-        })
+        .filter_map(|r| r.1.stats.gpu.as_ref()?.gpu_ms_total)
         .collect();
     let first = &runs[0].1.stats;
     let time_s = median(&times);

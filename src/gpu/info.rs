@@ -223,10 +223,24 @@ pub struct GlInfo {
     pub optional: Vec<Check>,
 }
 
+/// Whether `renderer` (a `GL_RENDERER` string) names one of Mesa's software rasterizers
+/// (llvmpipe, softpipe, swrast): GL run on the CPU, not on a GPU.
+pub fn software_renderer(renderer: &str) -> bool {
+    let r = renderer.to_ascii_lowercase();
+    ["llvmpipe", "softpipe", "swrast"]
+        .iter()
+        .any(|s| r.contains(s))
+}
+
 impl GlInfo {
     /// Whether the context advertises the extension `name` (e.g. `GL_ARB_texture_float`).
     pub fn has_extension(&self, name: &str) -> bool {
         self.extensions.iter().any(|e| e == name)
+    }
+
+    /// Whether this GL is a software rasterizer ([`software_renderer`] of its renderer).
+    pub fn is_software(&self) -> bool {
+        software_renderer(&self.renderer)
     }
 
     /// `Ok` when a `width` x `height` image fits the stream textures
@@ -577,6 +591,22 @@ mod tests {
         };
         info.compute_features(true);
         info
+    }
+
+    #[test]
+    fn software_renderers_are_recognised_by_name() {
+        for r in [
+            "llvmpipe (LLVM 15.0.7, 256 bits)",
+            "softpipe",
+            "Mesa X11 swrast",
+            "LLVMPIPE",
+        ] {
+            assert!(software_renderer(r), "{r}");
+        }
+        for r in ["NVIDIA H200/PCIe/SSE2", "AMD Radeon RX 7900", "TestGPU", ""] {
+            assert!(!software_renderer(r), "{r}");
+        }
+        assert!(!sample_info().is_software());
     }
 
     #[test]

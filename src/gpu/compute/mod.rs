@@ -137,9 +137,8 @@ impl<'g> Setup<'g> {
         }
         if let Some(t) = timer {
             t.end(ctx);
-            let ms = t.result_ns(ctx)? as f64 * 1e-6;
-            *self.stats.gpu_ms.entry("compute".into()).or_default() += ms;
-            self.stats.gpu_ms_total += ms;
+            let ns = t.result_ns(ctx)?;
+            self.stats.add_gpu_time("compute", ns);
         }
         super::gl::check_gl_error(gl, "dispatching the compute kernel")?;
         *self.stats.passes.entry("compute".into()).or_default() += 1;

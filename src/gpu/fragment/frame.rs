@@ -65,14 +65,13 @@ pub(super) struct Frame<'a> {
 struct TimerPool {
     free: Vec<TimerQuery>,
     pending: Vec<(&'static str, TimerQuery)>,
-    ms: HashMap<String, f64>,
 }
 
 impl TimerPool {
-    fn resolve(&mut self, ctx: &GlContext) -> Result<()> {
+    /// Adds the pending queries' times to `stats`.
+    fn resolve(&mut self, ctx: &GlContext, stats: &mut GpuStats) -> Result<()> {
         for (name, q) in self.pending.drain(..) {
-            let ns = q.result_ns(ctx)?;
-            *self.ms.entry(name.to_string()).or_default() += ns as f64 * 1e-6;
+            stats.add_gpu_time(name, q.result_ns(ctx)?);
             self.free.push(q);
         }
         Ok(())
@@ -199,7 +198,6 @@ impl<'a> Frame<'a> {
             timers: (opts.timers && info.timer_query).then(|| TimerPool {
                 free: Vec::new(),
                 pending: Vec::new(),
-                ms: HashMap::new(),
             }),
             stats,
             opts,
@@ -292,7 +290,7 @@ impl<'a> Frame<'a> {
             let pool = self.timers.as_mut().expect("timer pool");
             pool.pending.push((pass.name(), t));
             if pool.pending.len() >= 256 {
-                pool.resolve(self.ctx)?;
+                pool.resolve(self.ctx, &mut self.stats)?;
             }
         }
         *self
@@ -371,9 +369,7 @@ impl<'a> Frame<'a> {
     /// Resolves pending timers into the statistics.
     pub(super) fn finish_timers(&mut self) -> Result<()> {
         if let Some(pool) = &mut self.timers {
-            pool.resolve(self.ctx)?;
-            self.stats.gpu_ms = pool.ms.clone();
-            self.stats.gpu_ms_total = pool.ms.values().sum();
+            pool.resolve(self.ctx, &mut self.stats)?;
         }
         Ok(())
     }

@@ -20,8 +20,10 @@ impl Frame<'_> {
     /// runs unmasked: its write-through copies every finished ray into the other target, and
     /// from then on both hold the same state for every ray outside the mask.
     pub(super) fn trace(&mut self, query: Query) -> Result<()> {
+        self.progress.begin_trace();
         let r = self.trace_inner(query);
         self.set_mask_test(false);
+        self.progress.end_trace();
         r
     }
 

@@ -79,13 +79,15 @@ pub(crate) fn render<'a>(
         req.techniques,
     )?;
     f.progress = Progress::tree_bar(req.progress);
-    let samples = camera::sample_offsets(spp).len() as u32;
+    let secondary = max_depth > 0 && gs.has_secondary();
+    let samples = camera::sample_offsets(spp).len();
+    f.progress
+        .begin_tree(samples as f64 * subtree_traces(scene, 0, max_depth, secondary));
     f.watch = observer.map(|observer| Watch {
         observer,
         samples_done: 0,
-        samples,
+        samples: samples as u32,
     });
-    let secondary = max_depth > 0 && gs.has_secondary();
     let t_trace = Instant::now();
     // Clear the colour accumulator.
     f.acc[0].bind(f.gl());
@@ -102,7 +104,6 @@ pub(crate) fn render<'a>(
     let dir_tex = Texture::new_f32(f.ctx, width, height, None)?;
     let mut dirs = Vec::with_capacity(width as usize * height as usize * 4);
     for (k, &(ox, oy)) in offsets.iter().enumerate() {
-        f.progress.begin_sample(k, offsets.len());
         // Level-0 weight: 1/spp everywhere, and every pixel has a primary ray.
         let w = 1.0 / offsets.len() as f32;
         f.target(Slot::Rec2(0)).bind(f.gl());
@@ -138,8 +139,6 @@ pub(crate) fn render<'a>(
             .stage(format!("sample {}/{}: primary rays", k + 1, offsets.len()));
         f.state_pass(Pass::RayGen)?;
         rays.primary += width as u64 * height as u64;
-        f.progress
-            .begin_node(node_traces(scene, 0, max_depth, secondary));
         f.trace(Query::Closest)?;
         if k == 0 && req.readback.aov {
             aov = Some(read_aov(&f, scene, width, height)?);
@@ -193,22 +192,19 @@ fn shade_node(
     rays: &mut RayCounts,
 ) -> Result<()> {
     f.accumulate(Pass::AccumAmbient, level)?;
-    let r = shade_children(f, scene, level, max_depth, secondary, rays);
-    // The node's share of the progress bar is done (or abandoned on an error).
-    f.progress.end_node();
-    r
+    shade_children(f, scene, level, max_depth, secondary, rays)
 }
 
-/// How many equal parts a node's share of the progress bar is split into: its own rays,
-/// one shadow trace per light, and a reflected and a refracted subtree where the node may
-/// have children (the order `shade_node` runs them in).
-fn node_traces(scene: &Scene, level: usize, max_depth: u32, secondary: bool) -> u32 {
-    let children = if secondary && (level as u32) < max_depth {
-        2
+/// The most traces a node at `level` and its subtree can run, what the progress bar counts
+/// against (crate::progress): its own rays, one shadow trace per light, and below the
+/// depth limit a reflected and a refracted subtree, each the full tree below.
+fn subtree_traces(scene: &Scene, level: usize, max_depth: u32, secondary: bool) -> f64 {
+    let own = 1.0 + scene.lights.len() as f64;
+    if secondary && (level as u32) < max_depth {
+        own + 2.0 * subtree_traces(scene, level + 1, max_depth, secondary)
     } else {
-        0
-    };
-    1 + scene.lights.len() as u32 + children
+        own
+    }
 }
 
 /// The body of [`shade_node`]: the lights, then the children.
@@ -221,7 +217,6 @@ fn shade_children(
     rays: &mut RayCounts,
 ) -> Result<()> {
     for light in &scene.lights {
-        f.progress.next_part();
         f.set(Pass::ShadowSpawn, uniform::LIGHT_POS, light.position)?;
         f.set(Pass::AccumLight, uniform::LIGHT_RAD, light.radiance())?;
         f.bind_records(level);
@@ -231,6 +226,8 @@ fn shade_children(
         rays.shadow += n;
         if n > 0 {
             f.trace(Query::Any)?;
+        } else {
+            f.progress.skip(1.0);
         }
         f.accumulate(Pass::AccumLight, level)?;
     }
@@ -238,7 +235,6 @@ fn shade_children(
         return Ok(());
     }
     for branch in [Branch::Reflect, Branch::Refract] {
-        f.progress.next_part();
         let child = level + 1;
         f.set(Pass::Weight, uniform::BRANCH, branch.uniform())?;
         f.set(Pass::Spawn, uniform::BRANCH, branch.uniform())?;
@@ -246,7 +242,10 @@ fn shade_children(
         f.draw(Pass::Weight, Slot::Rec2(child))?;
         let n = f.count(Count::Nodes, Some(child))?;
         if n == 0 {
-            continue; // no pixel has this node: skip its whole subtree
+            // No pixel has this node: skip its whole subtree.
+            f.progress
+                .skip(subtree_traces(scene, child, max_depth, secondary));
+            continue;
         }
         branch.tally(rays, n);
         f.progress
@@ -254,8 +253,6 @@ fn shade_children(
         f.bind_records(level);
         f.bind_node(child);
         f.state_pass(Pass::Spawn)?;
-        f.progress
-            .begin_node(node_traces(scene, child, max_depth, secondary));
         f.trace(Query::Closest)?;
         f.record(child)?;
         shade_node(f, scene, child, max_depth, secondary, rays)?;
