@@ -1,7 +1,6 @@
 //! The irregular grid's build on every shipped scene: the structure it makes is pinned bit
 //! for bit (a fingerprint of the voxel map, the cells with their exit boxes and the
-//! references, taken from the serial-growth build of commit e763231 before the build was
-//! sped up), and one thread builds what two and four build. A change to the build that
+//! references, taken from the build of commit e763231, before the build was sped up), and one thread builds what two and four build. A change to the build that
 //! changes any cell, exit box or list fails here; a deliberate change of the structure
 //! updates the table and says why in its commit.
 
@@ -41,8 +40,8 @@ fn fingerprint(g: &IrregularGrid) -> u64 {
     h
 }
 
-/// Fingerprints of the default-configuration build, measured at e763231 (serial exit-box
-/// growth from the root of the voxel map, every triangle tested against every child box).
+/// Fingerprints of the default-configuration build, measured at e763231 (every exit-box
+/// query descending from the top grid, every triangle tested in full against every child box).
 const PINNED: &[(&str, u64)] = &[
     ("builtin", 0x654d87e2976e9bd7),   // 22255 cells
     ("bunny", 0xdfd5ad4b31c77cad),     // 138937 cells
