@@ -1,8 +1,9 @@
 //! The irregular grid's build on every shipped scene: the structure it makes is pinned bit
 //! for bit (a fingerprint of the voxel map, the cells with their exit boxes and the
-//! references, taken from the build of commit e763231, before the build was sped up), and one thread builds what two and four build. A change to the build that
-//! changes any cell, exit box or list fails here; a deliberate change of the structure
-//! updates the table and says why in its commit.
+//! references, taken from the build of commit e763231, before the build was sped up), and
+//! one thread builds what two and four build. A change to the build that changes any cell,
+//! exit box or list fails here; a deliberate change of the structure updates the table and
+//! says why in its commit.
 
 mod common;
 use common::shipped_scenes;
