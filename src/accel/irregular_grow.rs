@@ -3,7 +3,7 @@
 //! growth of an empty cell's box face by face. Split from the build by job; imports the
 //! structure, never the build (`irregular_build.rs` imports this).
 
-use super::irregular::{IrrCell, IrregularGrid, NODE};
+use super::irregular::{IrrCell, IrregularGrid, MAX_LEVELS, NODE};
 
 /// Rounds of exit-box growth (each round tries all six faces once).
 const GROW_ROUNDS: usize = 4;
@@ -26,7 +26,18 @@ impl IrregularGrid {
         if whole && occ.count(flo, fhi) > 0 {
             return false;
         }
+        // A box of whole top cells only (what the growth of a top cell asks, slab after
+        // slab): every one of them is an empty cell, so the loop below would visit none.
+        if whole && (0..3).all(|a| flo[a] == tlo[a] && fhi[a] == thi[a] + 1) {
+            return true;
+        }
         let inside = |v: u32, a: usize| whole && flo[a] <= v && v < fhi[a];
+        let q = Query {
+            g: self,
+            occ,
+            lo,
+            hi,
+        };
         for z in tlo[2]..=thi[2] {
             for y in tlo[1]..=thi[1] {
                 let yz_inside = inside(y, 1) && inside(z, 2);
@@ -37,9 +48,20 @@ impl IrregularGrid {
                         x = fhi[0];
                         continue;
                     }
-                    let e = self.vmap[self.top_index([x, y, z])];
+                    let idx = self.top_index([x, y, z]);
+                    let e = self.vmap[idx];
+                    if e & NODE != 0 {
+                        match occ.tight_relation(idx, lo, hi) {
+                            Tight::Apart => {
+                                x += 1;
+                                continue;
+                            }
+                            Tight::Inside => return false,
+                            Tight::Cut => {}
+                        }
+                    }
                     let node_lo = [x << self.shift[0], y << self.shift[1], z << self.shift[2]];
-                    if !self.node_is_empty(e, node_lo, self.shift, 0, lo, hi) {
+                    if !q.node_is_empty(e, node_lo, self.shift, 0) {
                         return false;
                     }
                     x += 1;
@@ -48,20 +70,23 @@ impl IrregularGrid {
         }
         true
     }
+}
 
-    /// [`IrregularGrid::box_is_empty`] within one node at `level` covering `1 << rem[a]`
-    /// virtual cells from `node_lo`.
-    pub(super) fn node_is_empty(
-        &self,
-        e: u32,
-        node_lo: [u32; 3],
-        rem: [u32; 3],
-        level: usize,
-        lo: [u32; 3],
-        hi: [u32; 3],
-    ) -> bool {
+/// One emptiness query: the box `lo .. hi` (virtual coordinates) over `g`'s voxel map.
+struct Query<'a> {
+    g: &'a IrregularGrid,
+    occ: &'a Occupancy,
+    lo: [u32; 3],
+    hi: [u32; 3],
+}
+
+impl Query<'_> {
+    /// Whether the box holds nothing within voxel-map entry `e`, a node at `level`
+    /// covering `1 << rem[a]` virtual cells from `node_lo` (or a cell).
+    fn node_is_empty(&self, e: u32, node_lo: [u32; 3], rem: [u32; 3], level: usize) -> bool {
+        let (g, occ, lo, hi) = (self.g, self.occ, self.lo, self.hi);
         if e & NODE == 0 {
-            return self.cells[e as usize].range.count == 0;
+            return g.cells[e as usize].range.count == 0;
         }
         // A node was split for its triangles, so one the box covers whole is not empty
         // (conservatively: its triangles may only touch its padding; the box then just
@@ -69,22 +94,51 @@ impl IrregularGrid {
         if (0..3).all(|a| lo[a] <= node_lo[a] && node_lo[a] + (1 << rem[a]) <= hi[a]) {
             return false;
         }
-        let mask = self.levels[level];
+        let mask = g.levels[level];
         let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
-        let n = mask.map(|m| if m { 2u32 } else { 1 });
-        for bz in 0..n[2] {
-            for by in 0..n[1] {
-                for bx in 0..n[0] {
-                    let b = [bx, by, bz];
-                    let clo = [0, 1, 2].map(|a| node_lo[a] + (b[a] << crem[a]));
-                    let overlaps =
-                        (0..3).all(|a| clo[a] < hi[a] && lo[a] < clo[a] + (1 << crem[a]));
-                    if !overlaps {
+        // The children the box overlaps, per axis `b0[a] .. b1[a]`: on a split axis the
+        // low one when the box starts below the middle, the high one when it ends above
+        // it (the box overlaps this node, so at least one of them); one child on an
+        // unsplit axis. Child `b` sits at `base + b . stride`.
+        let mut b0 = [0u32; 3];
+        let mut b1 = [1u32; 3];
+        let mut stride = [0u32; 3];
+        let mut next = 1;
+        for a in 0..3 {
+            if mask[a] {
+                let mid = node_lo[a] + (1 << crem[a]);
+                b0[a] = (lo[a] >= mid) as u32;
+                b1[a] = 1 + (hi[a] > mid) as u32;
+                stride[a] = next;
+                next *= 2;
+            }
+        }
+        let base = e & !NODE;
+        for bz in b0[2]..b1[2] {
+            for by in b0[1]..b1[1] {
+                for bx in b0[0]..b1[0] {
+                    let idx = (base + bx * stride[0] + by * stride[1] + bz * stride[2]) as usize;
+                    // Empty cells are skipped and cells with triangles answer without
+                    // reading the cell table; a node is skipped when the box misses its
+                    // tight box, answers when the box holds it, and only else descended.
+                    if !occ.full[idx] {
                         continue;
                     }
-                    let idx = (e & !NODE) + bx + n[0] * (by + n[1] * bz);
-                    let child = self.vmap[idx as usize];
-                    if !self.node_is_empty(child, clo, crem, level + 1, lo, hi) {
+                    let child = g.vmap[idx];
+                    if child & NODE == 0 {
+                        return false;
+                    }
+                    match occ.tight_relation(idx, lo, hi) {
+                        Tight::Apart => continue,
+                        Tight::Inside => return false,
+                        Tight::Cut => {}
+                    }
+                    let clo = [
+                        node_lo[0] + (bx << crem[0]),
+                        node_lo[1] + (by << crem[1]),
+                        node_lo[2] + (bz << crem[2]),
+                    ];
+                    if !self.node_is_empty(child, clo, crem, level + 1) {
                         return false;
                     }
                 }
@@ -94,6 +148,17 @@ impl IrregularGrid {
     }
 }
 
+/// How a query box meets a node's [`Occupancy::tight`] box.
+enum Tight {
+    /// They share no cell: the node holds nothing in the box.
+    Apart,
+    /// The query box holds it whole: a cell with triangles (or, in a node holding none,
+    /// the node) lies in the box, which is therefore not empty.
+    Inside,
+    /// Neither: descend.
+    Cut,
+}
+
 /// Summed-volume table of the top cells that are not empty (a node, or a cell with
 /// triangles): how many lie in a block of top cells, in constant time.
 pub(super) struct Occupancy {
@@ -101,6 +166,16 @@ pub(super) struct Occupancy {
     sum: Vec<u32>,
     /// Top resolution plus one.
     dim: [usize; 3],
+    /// Per voxel-map entry: a node or a cell with triangles (what an emptiness query
+    /// cannot skip).
+    full: Vec<bool>,
+    /// Per voxel-map entry that is a node: the box around the part of it an emptiness
+    /// query can find non-empty, its cells with triangles (and, should a node hold none,
+    /// that node whole). A box missing it is empty there: no cell with triangles overlaps
+    /// it, and it covers no node below whole (a node with a cell with triangles below
+    /// contains that cell, which the box would then overlap). So the query skips the
+    /// nodes it only cuts on their empty side, with the same answer.
+    tight: Vec<([u32; 3], [u32; 3])>,
 }
 
 impl Occupancy {
@@ -122,7 +197,43 @@ impl Occupancy {
                 }
             }
         }
-        Occupancy { sum, dim }
+        let full = g
+            .vmap
+            .iter()
+            .map(|&e| e & NODE != 0 || g.cells[e as usize].range.count > 0)
+            .collect();
+        let mut tight = vec![([0; 3], [0; 3]); g.vmap.len()];
+        for z in 0..g.top_res[2] {
+            for y in 0..g.top_res[1] {
+                for x in 0..g.top_res[0] {
+                    let idx = g.top_index([x, y, z]);
+                    let e = g.vmap[idx];
+                    if e & NODE != 0 {
+                        let lo = [x << g.shift[0], y << g.shift[1], z << g.shift[2]];
+                        tight[idx] = tight_box(g, e, lo, g.shift, 0, &mut tight);
+                    }
+                }
+            }
+        }
+        Occupancy {
+            sum,
+            dim,
+            full,
+            tight,
+        }
+    }
+
+    /// How `lo .. hi` meets [`Occupancy::tight`] of node entry `idx`.
+    #[inline]
+    fn tight_relation(&self, idx: usize, lo: [u32; 3], hi: [u32; 3]) -> Tight {
+        let (tlo, thi) = self.tight[idx];
+        if (0..3).any(|a| thi[a] <= lo[a] || hi[a] <= tlo[a]) {
+            Tight::Apart
+        } else if (0..3).all(|a| lo[a] <= tlo[a] && thi[a] <= hi[a]) {
+            Tight::Inside
+        } else {
+            Tight::Cut
+        }
     }
 
     /// Non-empty top cells in `lo .. hi` (top coordinates, upper bound exclusive).
@@ -140,10 +251,57 @@ impl Occupancy {
     }
 }
 
+/// [`Occupancy::tight`] of node `e` at `level` covering `1 << rem[a]` virtual cells from
+/// `node_lo`, writing that of every node below into `tight`.
+fn tight_box(
+    g: &IrregularGrid,
+    e: u32,
+    node_lo: [u32; 3],
+    rem: [u32; 3],
+    level: usize,
+    tight: &mut [([u32; 3], [u32; 3])],
+) -> ([u32; 3], [u32; 3]) {
+    let mask = g.levels[level];
+    let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
+    let n = mask.map(|m| if m { 2u32 } else { 1 });
+    let (mut lo, mut hi) = ([u32::MAX; 3], [0u32; 3]);
+    for bz in 0..n[2] {
+        for by in 0..n[1] {
+            for bx in 0..n[0] {
+                let idx = ((e & !NODE) + bx + n[0] * (by + n[1] * bz)) as usize;
+                let child = g.vmap[idx];
+                let clo = [
+                    node_lo[0] + (bx << crem[0]),
+                    node_lo[1] + (by << crem[1]),
+                    node_lo[2] + (bz << crem[2]),
+                ];
+                let b = if child & NODE != 0 {
+                    tight[idx] = tight_box(g, child, clo, crem, level + 1, tight);
+                    tight[idx]
+                } else if g.cells[child as usize].range.count > 0 {
+                    (clo, [0, 1, 2].map(|a| clo[a] + (1 << crem[a])))
+                } else {
+                    continue;
+                };
+                for a in 0..3 {
+                    lo[a] = lo[a].min(b.0[a]);
+                    hi[a] = hi[a].max(b.1[a]);
+                }
+            }
+        }
+    }
+    if lo[0] == u32::MAX {
+        // No cell with triangles below: the node itself blocks a box covering it whole.
+        return (node_lo, [0, 1, 2].map(|a| node_lo[a] + (1 << rem[a])));
+    }
+    (lo, hi)
+}
+
 /// Grows the exit box of cell `c` over empty neighbours: each face in turn moves out by a
 /// step (the cell's own size at first, doubled after each success and halved after each
 /// failure down to that size) while the slab it sweeps holds no triangle.
 pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3], [u32; 3]) {
+    let path = Ancestors::of(g, c);
     let (mut lo, mut hi) = (c.lo, c.hi);
     let own = [0, 1, 2].map(|a| c.hi[a] - c.lo[a]);
     // Per face (axis, upward): current step, or 0 once the face is done.
@@ -169,7 +327,7 @@ pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3]
                 blo[a] = slo;
                 bhi[a] = shi;
                 any = true;
-                if g.box_is_empty_with(occ, blo, bhi) {
+                if path.box_is_empty(g, occ, blo, bhi) {
                     if up {
                         hi[a] = shi;
                     } else {
@@ -188,4 +346,62 @@ pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3]
         }
     }
     (lo, hi)
+}
+
+/// The voxel-map nodes holding one cell, top cell first: an emptiness query about a box
+/// near the cell starts at the deepest of them that holds the whole box instead of at the
+/// top grid. The answer is the same (a node holding the box is the only child the query
+/// from the top would descend into at every level above it, and it is covered whole only
+/// when it equals the box, which both ask first); most slabs a cell's growth sweeps lie in
+/// a node a few levels up, so the query skips the ten or more levels above it.
+struct Ancestors {
+    /// `(vmap entry, node_lo, rem, level)`, top cell first, the cell's own entry at `len - 1`.
+    nodes: [(u32, [u32; 3], [u32; 3], usize); MAX_LEVELS + 1],
+    len: usize,
+}
+
+impl Ancestors {
+    fn of(g: &IrregularGrid, c: &IrrCell) -> Ancestors {
+        let t = [0, 1, 2].map(|a| c.lo[a] >> g.shift[a]);
+        let mut e = g.vmap[g.top_index(t)];
+        let mut node_lo = [0, 1, 2].map(|a| t[a] << g.shift[a]);
+        let mut rem = g.shift;
+        let mut nodes = [(e, node_lo, rem, 0); MAX_LEVELS + 1];
+        let mut level = 0;
+        while e & NODE != 0 {
+            let mask = g.levels[level];
+            let mut idx = e & !NODE;
+            let mut stride = 1;
+            for a in 0..3 {
+                if mask[a] {
+                    rem[a] -= 1;
+                    let bit = (c.lo[a] >> rem[a]) & 1;
+                    node_lo[a] += bit << rem[a];
+                    idx += bit * stride;
+                    stride *= 2;
+                }
+            }
+            e = g.vmap[idx as usize];
+            level += 1;
+            nodes[level] = (e, node_lo, rem, level);
+        }
+        Ancestors {
+            nodes,
+            len: level + 1,
+        }
+    }
+
+    /// [`IrregularGrid::box_is_empty_with`], starting at the deepest ancestor holding
+    /// `lo .. hi`.
+    fn box_is_empty(&self, g: &IrregularGrid, occ: &Occupancy, lo: [u32; 3], hi: [u32; 3]) -> bool {
+        let holds = |n: &(u32, [u32; 3], [u32; 3], usize)| {
+            (0..3).all(|a| n.1[a] <= lo[a] && hi[a] <= n.1[a] + (1 << n.2[a]))
+        };
+        match self.nodes[..self.len].iter().rev().find(|n| holds(n)) {
+            Some(&(e, node_lo, rem, level)) => {
+                Query { g, occ, lo, hi }.node_is_empty(e, node_lo, rem, level)
+            }
+            None => g.box_is_empty_with(occ, lo, hi),
+        }
+    }
 }
