@@ -199,7 +199,8 @@ fn open_page(dir: &Path, query: &str, timeout: Duration) -> Posted {
     let sink = log.clone();
     std::thread::spawn(move || {
         for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            if line.contains("CONSOLE") || line.contains("ERROR") {
+            // The page's console (its errors and panics); not Chromium's own noise (D-Bus).
+            if line.contains("CONSOLE") {
                 sink.lock().unwrap().push_str(&line);
                 sink.lock().unwrap().push('\n');
             }
