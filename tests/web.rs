@@ -275,16 +275,21 @@ fn page_renders_whitted_like_the_f32_cpu() {
 }
 
 /// The figures of docs/web.md: passes and time of the default scene and bunny.toml at
-/// 512x512 in one band (the whole image per pass, as natively), and the limits the page
+/// 512x512 (or `FRAGTRACE_WEB_FIGURE_SIZE`) in one band (the whole image per pass, as natively), and the limits the page
 /// met. Needs `FRAGTRACE_MODEL_PATH` for the bunny (served as `models/`). Run with
 /// `cargo test --release --test web -- --ignored --nocapture`.
 #[test]
 #[ignore = "minutes of software rendering; run by hand for docs/web.md"]
 fn web_figures_512() {
     let dir = build_page();
-    for scene in ["whitted", "bunny"] {
+    // FRAGTRACE_WEB_FIGURE_SIZE=WxH renders smaller (512x512 took 17 minutes here).
+    let size = std::env::var("FRAGTRACE_WEB_FIGURE_SIZE").unwrap_or_else(|_| "512x512".into());
+    // FRAGTRACE_WEB_FIGURE_SCENES=a,b picks the scenes.
+    let scenes =
+        std::env::var("FRAGTRACE_WEB_FIGURE_SCENES").unwrap_or_else(|_| "whitted,bunny".into());
+    for scene in scenes.split(',') {
         let t = std::time::Instant::now();
-        let query = format!("scene={scene}&size=512x512&band=full");
+        let query = format!("scene={scene}&size={size}&band=full");
         match open_page(&dir, &query, Duration::from_secs(1800)) {
             Posted::Report { json, .. } => {
                 println!(
