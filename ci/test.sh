@@ -5,7 +5,8 @@
 # 1. System packages: says which are missing and why, then installs them with apt-get (as
 #    root, or through sudo). Without root or sudo it stops with one line naming them.
 # 2. The rustfmt and clippy components, through rustup when the toolchain lacks them.
-# 3. The format and lint gates, a compile check of the fuzz targets, and the whole test
+# 3. The format and lint gates, a compile check of the fuzz targets, the web page's build
+#    (ci/web-build.sh: the wasm32 target and the wasm-bindgen CLI when missing), and the whole test
 #    suite under `xvfb-run -a` (the window tests of tests/view.rs need an X display; every
 #    other test ignores it). On a machine that already has the packages, the suite alone
 #    is `xvfb-run -a cargo test --release`.
@@ -42,10 +43,11 @@ declare -A why=(
     [slurmctld]="the Slurm controller of that cluster"
     [slurm-client]="sbatch and squeue, which the distributed tests call"
     [munge]="Slurm's authentication daemon"
+    [chromium]="the headless browser that tests/web.rs opens the web page in (WebGL 1 on SwiftShader)"
 )
 order=(gcc g++ libegl1 libegl-mesa0 libgl1-mesa-dri glslang-tools xvfb xauth
     libxcursor1 libxi6 libxkbcommon-x11-0
-    slurmd slurmctld slurm-client munge)
+    slurmd slurmctld slurm-client munge chromium)
 if command -v dpkg-query >/dev/null 2>&1; then
     need=()
     for pkg in "${order[@]}"; do
@@ -104,5 +106,9 @@ step "cargo clippy" cargo clippy --release --all-targets -- -D warnings
 # and nightly; docs/fuzzing.md).
 step "cargo check (fuzz targets)" \
     cargo check --manifest-path fuzz/Cargo.toml --bins --target-dir target/fuzz-check
+# The web page (docs/web.md): adds the wasm32 target and the pinned wasm-bindgen CLI when
+# missing, and builds the page tests/web.rs opens in Chromium (timed apart from the suite).
+step "web page (ci/web-build.sh)" ci/web-build.sh target/web-test
+step "cargo fmt --check (web/)" cargo fmt --manifest-path web/Cargo.toml -- --check
 step "xvfb-run -a cargo test --release" xvfb-run -a cargo test --release
 say "all passed in $((SECONDS - t0)) s"

@@ -14,27 +14,43 @@
 //! computes), [`technique`] (switches for the robustness techniques), [`aov`] (AOV files)
 //! and [`compare`] (error figures).
 
+// The wasm32 build (the web page, docs/web.md) leaves out the native-only modules, so
+// helpers only they use (and the x86 SIMD kernels) are unused there.
+#![cfg_attr(
+    target_arch = "wasm32",
+    allow(dead_code, unused_imports, unused_macros)
+)]
+
 pub mod accel;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod animate;
 pub mod aov;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod bench;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod cli;
+pub mod clock;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod compare;
 pub mod cpu;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod dist;
 pub mod error;
 pub mod gpu;
 pub mod image_io;
 pub mod numeric;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod options;
 pub mod output;
 pub mod progress;
 pub mod region;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod render;
 pub mod scene;
 pub mod technique;
 #[cfg(test)]
 pub(crate) mod testing;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod view;
 
 pub use error::{Error, Result};

@@ -17,12 +17,12 @@
 use std::fmt;
 use std::str::FromStr;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Instant;
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::tribox::tri_box_overlap;
+use crate::clock::Instant;
 use crate::scene::Scene;
 use crate::{Error, Result};
 

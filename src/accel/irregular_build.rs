@@ -3,8 +3,6 @@
 //! parallel, its flattening, and the exit-box growth of `irregular_grow.rs`. Split from the
 //! structure by job, so the structure and its queries import nothing of the build.
 
-use std::time::Instant;
-
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -15,6 +13,7 @@ use super::irregular::{
     MAX_VIRTUAL_AXIS, NODE,
 };
 use super::irregular_grow::{grow, Occupancy};
+use crate::clock::Instant;
 use crate::scene::Scene;
 use crate::{Error, Result};
 

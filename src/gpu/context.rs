@@ -29,8 +29,11 @@ use std::ffi::c_void;
 use std::fmt;
 use std::rc::Rc;
 
+#[cfg(not(target_arch = "wasm32"))]
 use super::egl::{egl_instance, open_session_on, EglSession};
-use super::info::{gather_info, limit_profile, load_raw_gl, parse_major_minor, GlInfo, RawGl};
+use super::info::GlInfo;
+#[cfg(not(target_arch = "wasm32"))]
+use super::info::{gather_info, limit_profile, load_raw_gl, parse_major_minor, RawGl};
 use crate::error::{Error, Result};
 
 /// A GL context created and owned outside fragtrace (a window's), for
@@ -54,9 +57,13 @@ pub trait ExternalContext {
 /// owned elsewhere. Only `with_current` and `make_current` differ.
 enum Session {
     /// A headless context fragtrace created ([`super::egl`]).
+    #[cfg(not(target_arch = "wasm32"))]
     Egl(EglSession),
     /// A context created by someone else (see [`ExternalContext`]).
     External(Box<dyn ExternalContext>),
+    /// A browser's WebGL context ([`super::web`]): one per canvas, always current.
+    #[cfg(target_arch = "wasm32")]
+    Web,
 }
 
 /// What a context's GL objects share with it: the function tables and the session.
@@ -66,6 +73,7 @@ pub(crate) struct GlShared {
     /// The glow function table.
     pub(crate) gl: glow::Context,
     /// The directly loaded entry points.
+    #[cfg(not(target_arch = "wasm32"))]
     pub(crate) raw: RawGl,
     session: Session,
 }
@@ -79,12 +87,15 @@ impl GlShared {
     /// per thread (the window's), so there is no previous one to restore.
     pub(crate) fn with_current(&self, f: impl FnOnce(&glow::Context)) {
         match &self.session {
+            #[cfg(not(target_arch = "wasm32"))]
             Session::Egl(s) => s.with_current(|| f(&self.gl)),
             Session::External(e) => {
                 if e.make_current() {
                     f(&self.gl)
                 }
             }
+            #[cfg(target_arch = "wasm32")]
+            Session::Web => f(&self.gl),
         }
     }
 }
@@ -111,12 +122,14 @@ impl fmt::Debug for GlContext {
 }
 
 impl GlContext {
+    #[cfg(not(target_arch = "wasm32"))]
     /// Creates a headless context and fails with [`Error::GlUnavailable`] (naming every missing
     /// feature) unless it satisfies all of fragtrace's requirements.
     pub fn new() -> Result<GlContext> {
         Self::on_device(None)
     }
 
+    #[cfg(not(target_arch = "wasm32"))]
     /// [`GlContext::new`] on EGL device `device` of [`super::egl::list_devices`] (`--gpu
     /// N`), or on the first display that works when None. A device number beyond the list
     /// is [`Error::Usage`] naming how many there are.
@@ -126,6 +139,7 @@ impl GlContext {
         Ok(ctx)
     }
 
+    #[cfg(not(target_arch = "wasm32"))]
     /// Creates a headless context without judging it: only a failure to get *any* desktop-GL
     /// context is an error. Meant for `fragtrace info`, which prints [`GlContext::info`]
     /// (including the verdict line) even when the driver is inadequate.
@@ -133,6 +147,7 @@ impl GlContext {
         Self::new_unchecked_on(None)
     }
 
+    #[cfg(not(target_arch = "wasm32"))]
     /// [`GlContext::new_unchecked`] on a chosen EGL device (see [`GlContext::on_device`]).
     pub fn new_unchecked_on(device: Option<u32>) -> Result<GlContext> {
         limit_profile().map_err(Error::Usage)?;
@@ -172,6 +187,7 @@ impl GlContext {
         })
     }
 
+    #[cfg(not(target_arch = "wasm32"))]
     /// Runs fragtrace in a context created elsewhere, current on this thread (a window's:
     /// see [`ExternalContext`]), and fails with [`Error::GlUnavailable`] unless it
     /// satisfies all of fragtrace's requirements, as [`GlContext::new`] does.
@@ -202,12 +218,15 @@ impl GlContext {
     /// several contexts; creation already makes it current).
     pub fn make_current(&self) -> Result<()> {
         match &self.shared.session {
+            #[cfg(not(target_arch = "wasm32"))]
             Session::Egl(s) => s
                 .make_current()
                 .map_err(|e| Error::Internal(format!("eglMakeCurrent failed: {e}"))),
             Session::External(e) => e.make_current().then_some(()).ok_or_else(|| {
                 Error::Internal(format!("cannot make the {} context current", e.platform()))
             }),
+            #[cfg(target_arch = "wasm32")]
+            Session::Web => Ok(()),
         }
     }
 
@@ -217,6 +236,7 @@ impl GlContext {
     }
 
     /// The directly loaded entry points (see [`RawGl`]).
+    #[cfg(not(target_arch = "wasm32"))]
     pub(crate) fn raw(&self) -> &RawGl {
         &self.shared.raw
     }
@@ -227,9 +247,22 @@ impl GlContext {
     }
 }
 
+/// A context around a browser's WebGL context (`gpu::web`), with its report.
+#[cfg(target_arch = "wasm32")]
+pub(crate) fn web_context(gl: glow::Context, info: GlInfo) -> GlContext {
+    GlContext {
+        shared: Rc::new(GlShared {
+            gl,
+            session: Session::Web,
+        }),
+        info,
+    }
+}
+
 /// Loads the function tables of the current context through `loader`, vets its
 /// GL_VERSION and gathers the report; `names` are the display API's platform, vendor and
 /// version, as reported.
+#[cfg(not(target_arch = "wasm32"))]
 fn load(
     loader: &dyn Fn(&str) -> *const c_void,
     names: &[String; 3],

@@ -3,6 +3,7 @@
 //! a modern driver's limits to period hardware's, and the few GL entry points loaded
 //! directly (`RawGl`) because glow's wrappers break on real GL 2.1 drivers.
 
+#[cfg(not(target_arch = "wasm32"))]
 use std::ffi::{c_void, CStr};
 use std::fmt;
 use std::sync::OnceLock;
@@ -10,6 +11,7 @@ use std::sync::OnceLock;
 use glow::HasContext;
 
 use super::contract::REQUIRED_TEXTURE_UNITS;
+use super::dialect::Dialect;
 use crate::error::{Error, Result};
 
 /// The lowest GL version whose API (GLSL 1.20, MRT, VBOs, occlusion queries) the backend uses.
@@ -32,7 +34,7 @@ pub struct Check {
 }
 
 impl Check {
-    fn new(name: impl Into<String>, value: impl fmt::Display, ok: bool) -> Self {
+    pub(crate) fn new(name: impl Into<String>, value: impl fmt::Display, ok: bool) -> Self {
         Check {
             name: name.into(),
             value: value.to_string(),
@@ -40,16 +42,20 @@ impl Check {
         }
     }
 
-    fn flag(name: impl Into<String>, ok: bool) -> Self {
+    pub(crate) fn flag(name: impl Into<String>, ok: bool) -> Self {
         Check::new(name, if ok { "yes" } else { "no" }, ok)
     }
 }
 
+#[cfg(not(target_arch = "wasm32"))]
 type PfnGetString = unsafe extern "system" fn(u32) -> *const u8;
+#[cfg(not(target_arch = "wasm32"))]
 type PfnGetQueryObjectuiv = unsafe extern "system" fn(u32, u32, *mut u32);
+#[cfg(not(target_arch = "wasm32"))]
 type PfnGetQueryObjectui64v = unsafe extern "system" fn(u32, u32, *mut u64);
+#[cfg(not(target_arch = "wasm32"))]
 type PfnGetQueryiv = unsafe extern "system" fn(u32, u32, *mut i32);
-#[cfg(test)]
+#[cfg(all(test, not(target_arch = "wasm32")))]
 type PfnIsName = unsafe extern "system" fn(u32) -> u8;
 
 /// GL entry points called directly instead of through glow.
@@ -58,6 +64,7 @@ type PfnIsName = unsafe extern "system" fn(u32) -> u8;
 /// and its `get_query_parameter_u32` only calls `glGetQueryObjectuiv` when the GL 4.5
 /// `glGetQueryBufferObjectiv` is present, otherwise the GLES-only `...EXT` name, which a real
 /// GL 2.1 driver does not export. Loading these few ourselves keeps 2.1 drivers working.
+#[cfg(not(target_arch = "wasm32"))]
 pub(crate) struct RawGl {
     get_string: PfnGetString,
     get_query_objectuiv: PfnGetQueryObjectuiv,
@@ -73,6 +80,7 @@ pub(crate) struct RawGl {
     is_vertex_array: Option<PfnIsName>,
 }
 
+#[cfg(not(target_arch = "wasm32"))]
 impl RawGl {
     /// `glGetString`, `None` where the driver returns NULL.
     pub(crate) fn string(&self, name: u32) -> Option<String> {
@@ -215,6 +223,9 @@ pub struct GlInfo {
     pub compute: bool,
     /// Every extension the context advertises.
     pub extensions: Vec<String>,
+    /// The GL dialect the programs are generated in and the host speaks
+    /// ([`Dialect::Glsl120`] natively, [`Dialect::Essl100`] on WebGL 1).
+    pub dialect: Dialect,
     /// Each required capability (human-readable, naming the GL version/extension that
     /// provides it), the value found and whether this context has it.
     pub features: Vec<Check>,
@@ -433,6 +444,7 @@ impl fmt::Display for GlInfo {
 }
 
 /// Resolves the [`RawGl`] entry points; only the always-present GL 1.x/1.5 ones are mandatory.
+#[cfg(not(target_arch = "wasm32"))]
 pub(super) fn load_raw_gl(loader: &dyn Fn(&str) -> *const c_void) -> Result<RawGl> {
     let get = |name: &str| -> Result<*const c_void> {
         let p = loader(name);
@@ -466,6 +478,7 @@ pub(super) fn load_raw_gl(loader: &dyn Fn(&str) -> *const c_void) -> Result<RawG
 
 /// Reads version strings, limits and extensions, and evaluates the requirements.
 /// `session` is the display API's platform, vendor and version, as reported.
+#[cfg(not(target_arch = "wasm32"))]
 pub(super) fn gather_info(
     gl: &glow::Context,
     raw: &mut RawGl,
@@ -517,6 +530,7 @@ pub(super) fn gather_info(
         timer_query: false,
         compute: false,
         extensions,
+        dialect: Dialect::Glsl120,
         features: Vec::new(),
         optional: Vec::new(),
     };
@@ -586,6 +600,7 @@ mod tests {
                 "GL_ARB_texture_float".into(),
                 "GL_ARB_framebuffer_object".into(),
             ],
+            dialect: Dialect::Glsl120,
             features: Vec::new(),
             optional: Vec::new(),
         };

@@ -19,9 +19,12 @@
 //! This layer depends on `scene`, `accel` and the shared output types only, never on the
 //! render front door, the CLI or the bench.
 
+#[cfg(not(target_arch = "wasm32"))]
 mod compute;
 pub mod context;
 pub mod contract;
+pub mod dialect;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod egl;
 mod fragment;
 pub mod gl;
@@ -33,6 +36,8 @@ pub mod request;
 pub mod scene;
 pub mod shader;
 pub mod wave;
+#[cfg(target_arch = "wasm32")]
+pub mod web;
 
 #[cfg(test)]
 mod lifetime_tests;

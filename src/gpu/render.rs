@@ -5,6 +5,7 @@
 //! [`render`] and [`trace_rays_on`] take a [`GpuScene`], uploaded once and rendered from as
 //! often as asked; [`render_gl`] and [`trace_rays`] build one for a single call.
 
+#[cfg(not(target_arch = "wasm32"))]
 use super::compute;
 use super::context::GlContext;
 use super::fragment;
@@ -26,9 +27,14 @@ pub fn render<'a>(
     req: &ImageRequest,
     observer: Option<&'a mut Observer<'a>>,
 ) -> Result<GpuOutput> {
+    // Only the compute wing, absent from the wasm32 build, borrows it before the fragment one.
+    #[cfg_attr(target_arch = "wasm32", allow(unused_mut))]
     let mut observer = observer;
     let kernel = match req.gpu.choose_kernel(&gs.ctx().info)? {
         KernelChoice::Fragment(k) => k,
+        #[cfg(target_arch = "wasm32")]
+        KernelChoice::Compute { .. } => return Err(no_compute()),
+        #[cfg(not(target_arch = "wasm32"))]
         KernelChoice::Compute { fallback } => {
             match compute::render(gs, req, observer.as_deref_mut()) {
                 Err(Error::Unfinished(why)) if fallback.is_some() => {
@@ -44,6 +50,13 @@ pub fn render<'a>(
         }
     };
     fragment::render(gs, req, kernel, observer)
+}
+
+/// The compute wing is not in the wasm32 build: WebGL has no compute shaders, and
+/// `GlInfo::compute` is false there, so only an explicit `compute` kernel gets here.
+#[cfg(target_arch = "wasm32")]
+fn no_compute() -> Error {
+    Error::GlUnavailable("the compute kernel needs OpenGL 4.3; WebGL has no compute shaders".into())
 }
 
 /// Renders `scene` over `accel` on the GPU in `ctx`: [`render`] of a scene uploaded for
@@ -72,6 +85,9 @@ pub fn trace_rays_on(
     }
     let kernel = match opts.choose_kernel(&gs.ctx().info)? {
         KernelChoice::Fragment(k) => k,
+        #[cfg(target_arch = "wasm32")]
+        KernelChoice::Compute { .. } => return Err(no_compute()),
+        #[cfg(not(target_arch = "wasm32"))]
         KernelChoice::Compute { fallback } => {
             let size = wave_size(rays.len() as u32);
             match compute::trace_wave(gs, rays, query, size, &opts) {

@@ -16,19 +16,17 @@ use std::any::{Any, TypeId};
 use std::cell::{Cell, OnceCell, RefCell, RefMut};
 use std::collections::HashMap;
 use std::rc::Rc;
-use std::time::Instant;
 
 use glow::HasContext;
 
 use super::context::GlContext;
 use super::contract::STORAGE_BINDING_BASE;
 use super::contract::{uniform, Unit};
-use super::gl::{
-    compile_compute, compile_program, Program, StorageBuffer, Texture, QUAD_VERTEX_SHADER,
-};
+use super::gl::{compile_compute, compile_program, Program, StorageBuffer, Texture};
 use super::layout::SceneTextures;
-use super::shader::{assemble, assemble_compute, ComputePass, ComputeSpec, Features, Pass};
+use super::shader::{assemble_compute, assemble_in, ComputePass, ComputeSpec, Features, Pass};
 use crate::accel::AccelRef;
+use crate::clock::Instant;
 use crate::scene::Scene;
 use crate::technique::Techniques;
 use crate::Result;
@@ -301,17 +299,17 @@ impl<'s> GpuScene<'s> {
     /// The fragment program of `pass`, compiled on first use.
     pub fn fragment_program(&self, pass: Pass, techniques: Techniques) -> Result<Rc<Program>> {
         self.program(ProgramKey::Fragment(pass, techniques), || {
+            let dialect = self.ctx.info.dialect;
             #[allow(unused_mut)]
-            let mut a = assemble(pass, self.features, techniques, &self.layout)?;
+            let mut a = assemble_in(dialect, pass, self.features, techniques, &self.layout)?;
             #[cfg(test)]
             if BREAK_PASS.get() == Some(pass) {
                 a.source.push_str("this line does not compile\n");
                 a.lines.push(("<test hook>".into(), 1));
             }
+            let vertex = dialect.quad_vertex_shader();
             let program =
-                compile_program(self.ctx, pass.name(), QUAD_VERTEX_SHADER, &a.source, &|n| {
-                    a.origin(n)
-                })?;
+                compile_program(self.ctx, pass.name(), vertex, &a.source, &|n| a.origin(n))?;
             Ok(program.declaring(a.declared))
         })
     }

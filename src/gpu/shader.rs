@@ -1,4 +1,6 @@
-//! Shader assembly: every pass is `#version 120`, then generated `#define`s (ray-state
+//! Shader assembly: every pass is the dialect's header (`#version 120` natively; GLSL ES
+//! 1.00's version, extension and precision lines on WebGL 1, see [`super::dialect`]), then
+//! generated `#define`s (ray-state
 //! codes, scene features, pass variant, the Rust/GLSL contract of [`super::contract`]),
 //! then the generated texel-layout declarations,
 //! then `common.glsl`, then the pass's `.frag` with its `#include "x.glsl"` lines expanded
@@ -6,6 +8,7 @@
 //! back to (file, line).
 
 use super::contract;
+pub use super::dialect::Dialect;
 pub use super::layout::Fetch;
 use super::layout::SceneTextures;
 use crate::scene::Scene;
@@ -356,9 +359,26 @@ pub fn assemble(
     techniques: Techniques,
     layout: &SceneTextures,
 ) -> Result<Assembled> {
+    assemble_in(Dialect::Glsl120, pass, features, techniques, layout)
+}
+
+/// [`assemble`] in `dialect`: the same sources and contract under that dialect's header.
+pub fn assemble_in(
+    dialect: Dialect,
+    pass: Pass,
+    features: Features,
+    techniques: Techniques,
+    layout: &SceneTextures,
+) -> Result<Assembled> {
     let defines = pass.defines();
     let defines: Vec<&str> = defines.iter().map(String::as_str).collect();
-    assemble_text(
+    let target = Target {
+        version: dialect.fragment_header(),
+        fetch: Fetch::Texture2D,
+        extra: String::new(),
+    };
+    assemble_for(
+        &target,
         pass.name(),
         pass.file(),
         source(pass.file())?,

@@ -17,7 +17,8 @@ pub use camera_path::{CameraPath, Interpolation, Keyframe, Orbit, PathError, Pat
 pub use obj::{load_obj, parse_obj_with_mtl, ObjMesh};
 pub use toml_scene::{
     builtin_scene, load_scene, load_scene_str, load_scene_str_with_search_path,
-    load_scene_with_search_path, model_search_path, parse_scene_str, DEFAULT_SCENE_TOML,
+    load_scene_str_with_texts, load_scene_with_search_path, model_search_path, parse_scene_str,
+    MeshTexts, DEFAULT_SCENE_TOML,
 };
 
 /// Sentinel for "no vertex normal" in [`Triangle::n`].

@@ -79,10 +79,10 @@ pub fn parse_obj_with_mtl(obj_text: &str, mtl_text: Option<&str>) -> Result<ObjM
 }
 
 /// What an `mtllib` resolves to: (name for messages, text), or why it cannot be read.
-type MtlSource<'a> = dyn Fn(&Path) -> std::result::Result<(String, String), String> + 'a;
+pub(crate) type MtlSource<'a> = dyn Fn(&Path) -> std::result::Result<(String, String), String> + 'a;
 
 /// [`parse_obj`] with the MTL libraries supplied by `mtl`.
-fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Result<ObjMesh> {
+pub(crate) fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Result<ObjMesh> {
     let scan = prescan(text, name)?;
     let filtered;
     let tobj_text: &str = if scan.polylines.is_empty() {

@@ -15,7 +15,8 @@ use super::passes::passes_for;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::{uniform, GlslType, Uniform, Unit, REQUIRED_TEXTURE_UNITS};
 use crate::gpu::gl::{
-    FullscreenQuad, OcclusionQuery, Program, RenderTarget, Renderbuffer, Texture, TimerQuery,
+    FullscreenQuad, OcclusionQuery, Program, RenderTarget, Renderbuffer, TexFormat, Texture,
+    TimerQuery,
 };
 use crate::gpu::layout::Fetch;
 use crate::gpu::options::{FragmentKernel, GpuOptions, Mask, Storage};
@@ -45,7 +46,7 @@ pub(super) struct Frame<'a> {
     /// Colour accumulator, ping-ponged.
     pub(super) acc: [RenderTarget; 2],
     pub(super) acc_cur: usize,
-    count_query: OcclusionQuery,
+    counter: Counter,
     /// Depth or depth-stencil buffer shared by both ray-state targets (`--mask`).
     pub(super) mask_buffer: Option<Renderbuffer>,
     timers: Option<TimerPool>,
@@ -89,6 +90,18 @@ pub(super) enum Slot {
     Rec2(usize),
     /// Colour accumulator 0 or 1.
     Acc(usize),
+    /// The byte mask of [`Counter::Bytes`].
+    Count,
+}
+
+/// How the host counts the fragments that survive the `count` pass
+/// ([`Dialect::counts_by_query`](crate::gpu::dialect::Dialect::counts_by_query)).
+enum Counter {
+    /// A `GL_SAMPLES_PASSED` occlusion query around the pass (colour writes off).
+    Query(OcclusionQuery),
+    /// WebGL 1: an RGBA8 target cleared to 1 into which the pass writes 0 where a fragment
+    /// survives, read back and counted (exact, at one `readPixels` of a byte per channel).
+    Bytes(RenderTarget),
 }
 
 impl<'a> Frame<'a> {
@@ -107,8 +120,24 @@ impl<'a> Frame<'a> {
         techniques: Techniques,
     ) -> Result<Self> {
         let ctx = gs.ctx();
+        let mask = match (
+            opts.mask.resolve(kernel),
+            ctx.info.dialect.counts_by_query(),
+        ) {
+            (m, true) => m,
+            // The masks are written by the counting pass into the ray-state targets' depth
+            // buffer, and WebGL 1 counts into a byte target of its own instead.
+            (_, false) if opts.mask == Mask::Auto => Mask::None,
+            (m @ (Mask::EarlyZ | Mask::Stencil), false) => {
+                return Err(Error::GlUnavailable(format!(
+                    "--mask {m} needs occlusion queries, which {} lacks",
+                    ctx.info.dialect.name()
+                )))
+            }
+            (m, false) => m,
+        };
         let opts = GpuOptions {
-            mask: opts.mask.resolve(kernel),
+            mask,
             techniques,
             ..*opts
         };
@@ -192,7 +221,16 @@ impl<'a> Frame<'a> {
                 RenderTarget::with_formats(ctx, width, height, &colour)?,
             ],
             acc_cur: 0,
-            count_query: OcclusionQuery::new(ctx)?,
+            counter: if info.dialect.counts_by_query() {
+                Counter::Query(OcclusionQuery::new(ctx)?)
+            } else {
+                Counter::Bytes(RenderTarget::with_formats(
+                    ctx,
+                    width,
+                    height,
+                    &[TexFormat::Rgba8],
+                )?)
+            },
             mask_buffer,
             progress: Progress::hidden(),
             timers: (opts.timers && info.timer_query).then(|| TimerPool {
@@ -228,6 +266,10 @@ impl<'a> Frame<'a> {
             Slot::Rec01(l) => &self.rec01[l],
             Slot::Rec2(l) => &self.rec2[l],
             Slot::Acc(k) => &self.acc[k],
+            Slot::Count => match &self.counter {
+                Counter::Bytes(t) => t,
+                Counter::Query(_) => unreachable!("no count target beside an occlusion query"),
+            },
         }
     }
 
@@ -332,16 +374,37 @@ impl<'a> Frame<'a> {
         if let Some(level) = node {
             self.bind_node(level);
         }
+        self.stats.termination_queries += (what == Count::Rays) as u64;
+        if let Counter::Bytes(target) = &self.counter {
+            target.bind(self.gl());
+            // SAFETY: the context is current.
+            unsafe {
+                self.gl().clear_color(1.0, 1.0, 1.0, 1.0);
+                self.gl().clear(glow::COLOR_BUFFER_BIT);
+            }
+            self.draw(pass, Slot::Count)?;
+            let Counter::Bytes(target) = &self.counter else {
+                unreachable!()
+            };
+            let bytes = target.read_bytes(self.gl())?;
+            // count.frag writes 0 where it does not discard.
+            return Ok(bytes.chunks_exact(4).filter(|px| px[0] == 0).count() as u64);
+        }
+        let Counter::Query(query) = &self.counter else {
+            unreachable!()
+        };
         // SAFETY: the context is current.
         unsafe { self.gl().color_mask(false, false, false, false) };
-        self.count_query.begin(self.ctx);
+        query.begin(self.ctx);
         let r = self.draw(pass, slot);
-        self.count_query.end(self.ctx);
+        let Counter::Query(query) = &self.counter else {
+            unreachable!()
+        };
+        query.end(self.ctx);
         // SAFETY: as above.
         unsafe { self.gl().color_mask(true, true, true, true) };
         r?;
-        self.stats.termination_queries += (what == Count::Rays) as u64;
-        Ok(self.count_query.result(self.ctx)? as u64)
+        Ok(query.result(self.ctx)? as u64)
     }
 
     /// [`Frame::count_into`] the colour accumulator that is not being read.

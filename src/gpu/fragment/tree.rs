@@ -3,7 +3,7 @@
 //! light) and the reflected and refracted children, skipping a child's whole subtree when
 //! an occlusion query finds no pixel where it exists.
 
-use std::time::Instant;
+use crate::clock::Instant;
 
 use glow::HasContext;
 use rayon::prelude::*;

@@ -124,6 +124,8 @@ impl GlKind for ProgramKind {
     unsafe fn delete(gl: &glow::Context, name: glow::Program) {
         // A program in use survives glDeleteProgram until another is made current, so the
         // last program a frame drew with would outlive the frame.
+        // WebGL names are opaque (and WebGL defers the delete itself).
+        #[cfg(not(target_arch = "wasm32"))]
         if gl.get_parameter_i32(glow::CURRENT_PROGRAM) as u32 == name.0.get() {
             gl.use_program(None);
         }

@@ -9,6 +9,7 @@ use super::{
 use crate::error::{Error, Result};
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::{GlslType, Uniform, SAMPLERS};
+use crate::gpu::dialect::Dialect;
 
 /// Generic attribute index of the quad's position (`a_pos`). Index 0 on purpose: in a
 /// compatibility profile attribute 0 aliases `gl_Vertex`, and some drivers (NVIDIA) draw
@@ -22,15 +23,7 @@ pub const ATTRIB_UV: u32 = 1;
 /// The thesis sets an orthographic projection over [-1,1]^2 and draws the quad at z = -0.5;
 /// that projection maps the quad onto itself, so the shader passes the position through as
 /// clip coordinates instead of multiplying by an identity matrix.
-pub const QUAD_VERTEX_SHADER: &str = "#version 120
-attribute vec3 a_pos;
-attribute vec2 a_uv;
-varying vec2 v_uv;
-void main() {
-    v_uv = a_uv;
-    gl_Position = vec4(a_pos, 1.0);
-}
-";
+pub const QUAD_VERTEX_SHADER: &str = Dialect::Glsl120.quad_vertex_shader();
 
 /// Interleaved `x, y, z, u, v` of the quad's corners, counter-clockwise from bottom-left,
 /// exactly as in the thesis.

@@ -87,7 +87,9 @@ impl RenderTarget {
             // Completeness depends on the draw/read buffer state (GL 2.1 + ARB_fbo rule
             // INCOMPLETE_DRAW_BUFFER), so set them before checking.
             target.set_draw_buffers(gl);
-            gl.read_buffer(glow::COLOR_ATTACHMENT0);
+            if ctx.info.dialect.has_read_buffer() {
+                gl.read_buffer(glow::COLOR_ATTACHMENT0);
+            }
             let status = gl.check_framebuffer_status(glow::FRAMEBUFFER);
             gl.bind_framebuffer(glow::FRAMEBUFFER, None);
             if status != glow::FRAMEBUFFER_COMPLETE {
@@ -147,7 +149,17 @@ impl RenderTarget {
             .map(|i| glow::COLOR_ATTACHMENT0 + i)
             .collect();
         // SAFETY: every listed attachment exists and the count is within MAX_DRAW_BUFFERS.
-        unsafe { gl.draw_buffers(&buffers) };
+        #[cfg(not(target_arch = "wasm32"))]
+        unsafe {
+            gl.draw_buffers(&buffers)
+        };
+        // glow 0.16 hands WEBGL_draw_buffers a nested array on WebGL 1 (drawing nothing);
+        // the page's context calls the extension itself.
+        #[cfg(target_arch = "wasm32")]
+        {
+            let _ = gl;
+            crate::gpu::web::draw_buffers(&buffers);
+        }
     }
 
     /// Makes this the render destination: binds the FBO, routes `gl_FragData[i]` to
@@ -190,6 +202,29 @@ impl RenderTarget {
         &self.textures
     }
 
+    /// Reads attachment 0 of an RGBA8 target back as `width*height*4` bytes (bottom row
+    /// first): the byte mask the WebGL page counts active rays in. Leaves this target bound.
+    pub fn read_bytes(&self, gl: &glow::Context) -> Result<Vec<u8>> {
+        let mut out = vec![0u8; rgba_len(self.width, self.height)];
+        // SAFETY: the buffer holds exactly width*height RGBA bytes; RGBA/UNSIGNED_BYTE is
+        // the read format every GL and WebGL accepts from a normalised colour buffer.
+        unsafe {
+            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(self.framebuffer.name()));
+            gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
+            gl.read_pixels(
+                0,
+                0,
+                self.width as i32,
+                self.height as i32,
+                glow::RGBA,
+                glow::UNSIGNED_BYTE,
+                glow::PixelPackData::Slice(Some(&mut out)),
+            );
+        }
+        check_gl_error(gl, "reading a byte mask")?;
+        Ok(out)
+    }
+
     /// Reads attachment `index` back as `width*height*4` floats (bottom row first). Leaves
     /// this target bound as the framebuffer.
     pub fn read_attachment(&self, gl: &glow::Context, index: usize) -> Result<Vec<f32>> {
@@ -228,6 +263,14 @@ impl RenderTarget {
             // separate read binding. Float buffers are not clamped on read because
             // GL_CLAMP_READ_COLOR defaults to GL_FIXED_ONLY.
             gl.bind_framebuffer(glow::FRAMEBUFFER, Some(self.framebuffer.name()));
+            // WebGL 1 has no glReadBuffer: it reads attachment 0.
+            #[cfg(target_arch = "wasm32")]
+            if index != 0 {
+                return Err(Error::GlUnavailable(format!(
+                    "WebGL 1 reads colour attachment 0 only, {index} requested"
+                )));
+            }
+            #[cfg(not(target_arch = "wasm32"))]
             gl.read_buffer(glow::COLOR_ATTACHMENT0 + index as u32);
             gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
             if out.len() >= PACK_BUFFER_MIN_FLOATS && gl.version().major >= 3 {

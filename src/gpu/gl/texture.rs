@@ -18,7 +18,9 @@ pub enum TexFormat {
     /// 16-bit floats (ARB_texture_float's RGBA16F, as on GeForce 6/7-class cards): half the
     /// memory traffic, 11 significant bits, integers exact only to 2048.
     Rgba16F,
-    /// 8-bit unsigned normalised: the 8-bit sRGB image read back for a PNG.
+    /// 8-bit unsigned normalised: the 8-bit sRGB image read back for a PNG, and the byte
+    /// mask the WebGL page counts active rays in (no occlusion queries there); never
+    /// uploaded from floats.
     Rgba8,
 }
 
@@ -28,6 +30,14 @@ impl TexFormat {
             TexFormat::Rgba32F => glow::RGBA32F,
             TexFormat::Rgba16F => glow::RGBA16F,
             TexFormat::Rgba8 => glow::RGBA8,
+        }
+    }
+
+    /// The pixel type its texels are specified in.
+    fn gl_type(self) -> u32 {
+        match self {
+            TexFormat::Rgba32F | TexFormat::Rgba16F => glow::FLOAT,
+            TexFormat::Rgba8 => glow::UNSIGNED_BYTE,
         }
     }
 
@@ -105,6 +115,11 @@ impl Texture {
         let gl = ctx.gl();
         check_texture_size(gl, width, height)?;
         if let Some(d) = data {
+            if format == TexFormat::Rgba8 {
+                return Err(Error::Internal(
+                    "an RGBA8 texture is not filled from floats".into(),
+                ));
+            }
             if d.len() != rgba_len(width, height) {
                 return Err(Error::Internal(format!(
                     "texture data has {} floats, {width}x{height} RGBA needs {}",
@@ -139,12 +154,12 @@ impl Texture {
             gl.tex_image_2d(
                 glow::TEXTURE_2D,
                 0,
-                format.gl_enum() as i32,
+                ctx.info.dialect.internal_format(format.gl_enum()) as i32,
                 width as i32,
                 height as i32,
                 0,
                 glow::RGBA,
-                glow::FLOAT,
+                format.gl_type(),
                 glow::PixelUnpackData::Slice(data.map(f32_bytes)),
             );
             gl.bind_texture(glow::TEXTURE_2D, None);

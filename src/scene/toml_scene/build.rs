@@ -19,17 +19,24 @@ use super::schema::{
     CameraDef, MaterialDef, MaterialRef, Numbers, ObjectDef, SceneDef, ShapeKind, S,
 };
 use super::{DEFAULT_SPHERE_SUBDIVISIONS, MAX_DEPTH_LIMIT, MAX_IMAGE_SIZE, MODEL_PATH_VAR};
-use crate::scene::obj::{load_obj, ObjMesh};
+use crate::scene::obj::{load_obj, parse_obj_with, ObjMesh};
 use crate::scene::shapes::{self, MAX_SPHERE_SUBDIVISIONS};
 use crate::scene::{Camera, Checker, CheckerAxes, Light, Material, Scene, Triangle, NO_NORMAL};
 use crate::{Error, Result};
 
-/// The loader proper; `files` is where meshes are looked up, `None` to refuse them.
-pub(super) fn build_scene(
-    text: &str,
-    name: &str,
-    files: Option<(&Path, &[PathBuf])>,
-) -> Result<Scene> {
+/// Where a scene's meshes come from.
+#[derive(Clone, Copy)]
+pub(super) enum Meshes<'a> {
+    /// Nowhere: a `mesh = ...` is an error.
+    Refused,
+    /// Files: the scene's folder, then the search path.
+    Files(&'a Path, &'a [PathBuf]),
+    /// Texts handed over with the scene (the web page's), by path or file name.
+    Texts(&'a super::MeshTexts),
+}
+
+/// The loader proper; `files` is where meshes are looked up.
+pub(super) fn build_scene(text: &str, name: &str, files: Meshes<'_>) -> Result<Scene> {
     let ctx = Ctx { name, text };
     let def: SceneDef = serde_path_to_error::deserialize(toml::Deserializer::new(text))
         .map_err(|e| ctx.toml_error(&e))?;
@@ -188,8 +195,8 @@ type LoadedMesh = (Rc<ObjMesh>, PathBuf);
 
 struct Builder<'a> {
     ctx: Ctx<'a>,
-    /// The scene's folder and the mesh search path; `None` when no file may be read.
-    files: Option<(&'a Path, &'a [PathBuf])>,
+    /// Where meshes are looked up.
+    files: Meshes<'a>,
     scene: Scene,
     /// World positions in f64, before the local origin is subtracted.
     world: World,
@@ -680,14 +687,68 @@ impl Builder<'_> {
     }
 
     /// Resolves and loads (once per file) the mesh an object names.
+    /// [`Builder::mesh`] from texts handed over with the scene: the OBJ (and each of its
+    /// `mtllib`s) by the path written, else by its file name.
+    fn mesh_from_text(
+        &mut self,
+        path: &S<String>,
+        field: &str,
+        texts: &super::MeshTexts,
+    ) -> Result<LoadedMesh> {
+        let written = path.get_ref();
+        let key = PathBuf::from(written);
+        if let Some((m, _)) = self.meshes.get(&key) {
+            return Ok((m.clone(), key));
+        }
+        let lookup = |p: &str| {
+            texts
+                .get(p)
+                .or_else(|| texts.get(Path::new(p).file_name()?.to_str()?))
+                .map(String::as_str)
+        };
+        let Some(obj) = lookup(written) else {
+            let line = self.ctx.line_of(path.span().start);
+            return Err(Error::Mesh {
+                file: written.clone(),
+                message: format!(
+                    "mesh not given (referenced by {field} at {}:{line}); hand over {} with \
+                     the scene",
+                    self.ctx.name,
+                    Path::new(written)
+                        .file_name()
+                        .map_or(written.clone(), |n| n.to_string_lossy().into_owned())
+                ),
+            });
+        };
+        let mtl = |m: &Path| {
+            let shown = m.display().to_string();
+            lookup(&shown)
+                .map(|t| (shown.clone(), t.to_owned()))
+                .ok_or_else(|| format!("{shown}: not given"))
+        };
+        let mesh = Rc::new(parse_obj_with(obj, written, &mtl).map_err(|e| match e {
+            Error::Mesh { .. } | Error::Io { .. } => {
+                self.ctx.err(path.span(), field, e.to_string())
+            }
+            other => other,
+        })?);
+        self.warnings.extend(mesh.warnings.iter().cloned());
+        self.meshes.insert(key.clone(), (mesh.clone(), None));
+        Ok((mesh, key))
+    }
+
     fn mesh(&mut self, path: &S<String>, field: &str) -> Result<(Rc<ObjMesh>, PathBuf)> {
         let written = path.get_ref();
-        let Some((base_dir, search)) = self.files else {
-            return Err(self.ctx.err(
-                path.span(),
-                field,
-                "mesh files are not read by this text-only parser",
-            ));
+        let (base_dir, search) = match self.files {
+            Meshes::Refused => {
+                return Err(self.ctx.err(
+                    path.span(),
+                    field,
+                    "mesh files are not read by this text-only parser",
+                ))
+            }
+            Meshes::Texts(texts) => return self.mesh_from_text(path, field, texts),
+            Meshes::Files(base_dir, search) => (base_dir, search),
         };
         let found = resolve_mesh(written, base_dir, search).map_err(|searched| {
             let line = self.ctx.line_of(path.span().start);

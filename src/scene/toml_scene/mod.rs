@@ -97,13 +97,23 @@ pub fn load_scene_str_with_search_path(
     base_dir: &Path,
     search: &[PathBuf],
 ) -> Result<Scene> {
-    build::build_scene(text, name, Some((base_dir, search)))
+    build::build_scene(text, name, build::Meshes::Files(base_dir, search))
+}
+
+/// Mesh files handed over as text with a scene: path or file name -> contents (OBJ or MTL).
+pub type MeshTexts = std::collections::HashMap<String, String>;
+
+/// Parses scene text whose meshes and their MTL libraries are in `files` (looked up by the
+/// path the scene writes, else by its file name), without touching the file system: how
+/// the web page loads a shipped or dropped scene with dropped or fetched OBJ files.
+pub fn load_scene_str_with_texts(text: &str, name: &str, files: &MeshTexts) -> Result<Scene> {
+    build::build_scene(text, name, build::Meshes::Texts(files))
 }
 
 /// Parses scene text without touching the file system: any `mesh = ...` is an error naming
 /// the object. For fuzzing and for checking a scene's syntax and values.
 pub fn parse_scene_str(text: &str, name: &str) -> Result<Scene> {
-    build::build_scene(text, name, None)
+    build::build_scene(text, name, build::Meshes::Refused)
 }
 
 /// The built-in Whitted scene ([`DEFAULT_SCENE_TOML`]).

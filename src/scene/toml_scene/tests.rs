@@ -592,3 +592,50 @@ fn serde_path_names_array_elements_and_quoted_keys() {
     ));
     assert_eq!((line, field.as_str()), (7, "objects[0].material.albedo"));
 }
+
+/// Meshes handed over as text (the web page's drop or fetch): found by the path the scene
+/// writes or by file name, with the MTL the OBJ names, giving the scene the same files
+/// give; a mesh not handed over is a mesh error naming it.
+#[test]
+fn meshes_from_texts_load_like_files() {
+    let obj = "mtllib tri.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
+    let mtl = "newmtl red\nKd 1 0 0\nKs 0.5 0.5 0.5\nNs 20\n";
+    let text = format!("{CAM}[[objects]]\nmesh = \"some/dir/tri.obj\"\n");
+    let dir = std::env::temp_dir().join(format!("fragtrace-texts-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("some/dir")).unwrap();
+    std::fs::write(dir.join("some/dir/tri.obj"), obj).unwrap();
+    std::fs::write(dir.join("some/dir/tri.mtl"), mtl).unwrap();
+    let from_files = load_scene_str_with_search_path(&text, "t.toml", &dir, &[]).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    for obj_key in ["some/dir/tri.obj", "tri.obj"] {
+        let texts: MeshTexts = [(obj_key, obj), ("tri.mtl", mtl)]
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        let s = load_scene_str_with_texts(&text, "t.toml", &texts).unwrap();
+        assert_eq!(s.positions, from_files.positions, "{obj_key}");
+        assert_eq!(s.triangles.len(), 1);
+        let look = |s: &Scene| -> Vec<(String, Vec3, Vec3, f32)> {
+            s.materials
+                .iter()
+                .map(|m| (m.name.clone(), m.albedo, m.ks, m.ns))
+                .collect()
+        };
+        assert_eq!(look(&s), look(&from_files), "{obj_key}");
+        let used = &s.materials[s.triangles[0].material as usize];
+        assert_eq!((used.name.as_str(), used.albedo), ("red", Vec3::X));
+    }
+    match load_scene_str_with_texts(&text, "t.toml", &MeshTexts::new()) {
+        Err(Error::Mesh { file, message }) => {
+            assert_eq!(file, "some/dir/tri.obj");
+            assert!(
+                message.contains("tri.obj") && message.contains("t.toml:"),
+                "{message}"
+            );
+        }
+        other => panic!(
+            "expected a mesh error, got {:?}",
+            other.map(|s| s.triangles.len())
+        ),
+    }
+}

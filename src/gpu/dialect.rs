@@ -1,0 +1,111 @@
+//! The GL dialects the one renderer speaks: desktop OpenGL 2.1+ with GLSL 1.20 (the native
+//! EGL path) and WebGL 1 with GLSL ES 1.00 (the web page, docs/web.md). The shaders of
+//! both are generated from the same `glsl120/` sources and the same contract
+//! ([`super::contract`]); a dialect only decides the program header (version line,
+//! extension and precision lines), the quad's vertex shader, the texture formats a float
+//! stream is created with, and how the host learns how many rays are still active.
+//!
+//! The GLSL 1.20 the passes are written in is, apart from the header, also GLSL ES 1.00:
+//! no loops in the `multipass` kernel, no integer bit operations, no implicit int-to-float
+//! conversions, `texture2D` and `gl_FragData`. tests/glsl_es_validate.rs holds the sources
+//! to that (every generated ES program passes glslangValidator), and a snapshot test holds
+//! the GLSL 1.20 output byte for byte.
+
+/// A GL dialect (see the module documentation). Every difference is an exhaustive `match`
+/// here, not a string edit elsewhere.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Dialect {
+    /// Desktop OpenGL 2.1 or later (compatibility profile), GLSL 1.20: the native build.
+    Glsl120,
+    /// WebGL 1 (OpenGL ES 2.0) with `OES_texture_float`, `WEBGL_color_buffer_float` and
+    /// `WEBGL_draw_buffers`, GLSL ES 1.00. No occlusion queries: the host counts active
+    /// rays by reading back a byte mask ([`Dialect::counts_by_query`]).
+    Essl100,
+}
+
+impl Dialect {
+    /// The first lines of every fragment program: the version line, then what the dialect
+    /// needs before any other line (extensions, default precisions).
+    pub fn fragment_header(self) -> &'static str {
+        match self {
+            Dialect::Glsl120 => "#version 120",
+            // highp in fragment shaders is optional in ES 2.0; every WebGL implementation
+            // with float render targets has it, and the f32 arithmetic needs it.
+            Dialect::Essl100 => {
+                "#version 100\n\
+                 #extension GL_EXT_draw_buffers : require\n\
+                 precision highp float;\n\
+                 precision highp int;\n\
+                 precision highp sampler2D;"
+            }
+        }
+    }
+
+    /// The vertex shader of the full-screen quad every pass draws
+    /// ([`QUAD_VERTEX_SHADER`](crate::gpu::gl::QUAD_VERTEX_SHADER) natively).
+    pub const fn quad_vertex_shader(self) -> &'static str {
+        match self {
+            Dialect::Glsl120 => {
+                "#version 120
+attribute vec3 a_pos;
+attribute vec2 a_uv;
+varying vec2 v_uv;
+void main() {
+    v_uv = a_uv;
+    gl_Position = vec4(a_pos, 1.0);
+}
+"
+            }
+            Dialect::Essl100 => {
+                "#version 100
+precision highp float;
+attribute vec3 a_pos;
+attribute vec2 a_uv;
+varying vec2 v_uv;
+void main() {
+    v_uv = a_uv;
+    gl_Position = vec4(a_pos, 1.0);
+}
+"
+            }
+        }
+    }
+
+    /// Whether `GL_SAMPLES_PASSED` occlusion queries count the `count` pass's fragments.
+    /// WebGL 1 has no queries (and WebGL 2's only say whether any sample passed), so there
+    /// the `count` pass writes a byte per surviving fragment into an RGBA8 target that the
+    /// host reads back and counts: exact counts, one `readPixels` per termination test.
+    pub fn counts_by_query(self) -> bool {
+        match self {
+            Dialect::Glsl120 => true,
+            Dialect::Essl100 => false,
+        }
+    }
+
+    /// The internal format a texture of `sized` (`GL_RGBA32F`, `GL_RGBA16F`, `GL_RGBA8`) is
+    /// created with: WebGL 1 takes the unsized `GL_RGBA` and gets the precision from the
+    /// pixel type alone (`GL_FLOAT` through `OES_texture_float`).
+    pub fn internal_format(self, sized: u32) -> u32 {
+        match self {
+            Dialect::Glsl120 => sized,
+            Dialect::Essl100 => glow::RGBA,
+        }
+    }
+
+    /// Whether the context can pick a framebuffer's read buffer (`glReadBuffer`); WebGL 1
+    /// reads attachment 0 only.
+    pub fn has_read_buffer(self) -> bool {
+        match self {
+            Dialect::Glsl120 => true,
+            Dialect::Essl100 => false,
+        }
+    }
+
+    /// A short name for reports (`GLSL 1.20`, `GLSL ES 1.00`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Dialect::Glsl120 => "GLSL 1.20",
+            Dialect::Essl100 => "GLSL ES 1.00",
+        }
+    }
+}

@@ -1,0 +1,671 @@
+//! fragtrace's faithful multipass kernel in a web page (docs/web.md): the library built for
+//! wasm32-unknown-unknown renders on the page's WebGL 1 context through glow, with the
+//! passes generated in GLSL ES 1.00 from the same sources as the native GLSL 1.20.
+//!
+//! The page ([`start`]) picks a shipped scene (embedded) or takes a dropped TOML with its
+//! OBJ/MTL files (meshes the shipped scenes name are fetched from `models/` next to the
+//! page when served, never shipped). A render runs in bands of rows, one band per animation
+//! frame (each band the whole multipass walk over its rows: the browser shows nothing until
+//! the script returns, so a band is the unit of visible progress), drawing the image as it
+//! fills; dragging orbits the camera and restarts. The query string sets what a test needs:
+//! `scene=NAME`, `size=WxH`, `kernel=multipass|unrolled:K`, `accel=irregular|uniform`,
+//! `band=ROWS|full`, and `report=URL`, to which the finished linear image is POSTed (f32
+//! RGB, little-endian, top row first) with the passes, time and WebGL limits in the
+//! `X-Fragtrace-Report` header (JSON); an error is POSTed there as `X-Fragtrace-Error`.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use fragtrace::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
+use fragtrace::clock::Instant;
+use fragtrace::gpu::options::{GpuOptions, Kernel, Mask};
+use fragtrace::gpu::render::{render, ImageRequest};
+use fragtrace::gpu::{GlContext, GpuScene};
+use fragtrace::output::Readback;
+use fragtrace::region::Region;
+use fragtrace::scene::{load_scene_str_with_texts, Camera, MeshTexts, Scene};
+use fragtrace::technique::Techniques;
+use wasm_bindgen::prelude::*;
+use wasm_bindgen::JsCast;
+
+/// The shipped scenes, embedded (their meshes are not).
+const SCENES: &[(&str, &str)] = &[
+    ("whitted", include_str!("../../scenes/whitted.toml")),
+    ("glass", include_str!("../../scenes/glass.toml")),
+    ("lights", include_str!("../../scenes/lights.toml")),
+    ("turntable", include_str!("../../scenes/turntable.toml")),
+    ("bunny", include_str!("../../scenes/bunny.toml")),
+    ("ground", include_str!("../../scenes/ground.toml")),
+    ("cornell", include_str!("../../scenes/cornell.toml")),
+    ("teapot", include_str!("../../scenes/teapot.toml")),
+    ("dragon", include_str!("../../scenes/dragon.toml")),
+    ("stadium", include_str!("../../scenes/stadium.toml")),
+    ("sponza", include_str!("../../scenes/sponza.toml")),
+];
+
+/// Wall time one band aims at, so the page stays responsive while the image fills.
+const BAND_TARGET_MS: f64 = 150.0;
+
+/// What the query string asks.
+struct Params {
+    scene: String,
+    size: Option<(u32, u32)>,
+    kernel: Kernel,
+    accel: AccelKind,
+    /// Rows per band; `None`: adaptive.
+    band: Option<u32>,
+    report: Option<String>,
+}
+
+impl Params {
+    fn from_query(search: &str) -> Result<Params, String> {
+        let q = web_sys::UrlSearchParams::new_with_str(search).map_err(|_| "bad query")?;
+        let size = match q.get("size") {
+            Some(s) => {
+                let (w, h) = s.split_once('x').ok_or(format!("size={s}: expected WxH"))?;
+                let n = |v: &str| {
+                    v.parse::<u32>()
+                        .map_err(|_| format!("size={s}: expected WxH"))
+                };
+                Some((n(w)?, n(h)?))
+            }
+            None => None,
+        };
+        let kernel = match q.get("kernel").as_deref() {
+            None | Some("multipass") => Kernel::Multipass,
+            Some(k) => match k.strip_prefix("unrolled:").map(str::parse::<u32>) {
+                Some(Ok(n)) if n > 0 => Kernel::Unrolled(n),
+                _ => return Err(format!("kernel={k}: expected multipass or unrolled:K")),
+            },
+        };
+        let accel = match q.get("accel").as_deref() {
+            None | Some("irregular") => AccelKind::Irregular,
+            Some("uniform") => AccelKind::Uniform,
+            Some(a) => return Err(format!("accel={a}: expected irregular or uniform")),
+        };
+        let band = match q.get("band").as_deref() {
+            None | Some("auto") => None,
+            Some("full") => Some(u32::MAX),
+            Some(b) => Some(
+                b.parse()
+                    .map_err(|_| format!("band={b}: expected ROWS or full"))?,
+            ),
+        };
+        Ok(Params {
+            scene: q.get("scene").unwrap_or_else(|| "whitted".into()),
+            size,
+            kernel,
+            accel,
+            band,
+            report: q.get("report"),
+        })
+    }
+}
+
+/// A scene on the GPU. The scene and its grid are leaked boxes that the [`GpuScene`]
+/// borrows for as long as it lives; `Drop` frees the GPU scene first, then them.
+struct Loaded {
+    gs: Option<GpuScene<'static>>,
+    scene: *mut Scene,
+    accel: *mut Accel,
+}
+
+impl Loaded {
+    fn new(ctx: &'static GlContext, scene: Scene, kind: AccelKind) -> fragtrace::Result<Loaded> {
+        let accel = Accel::build(
+            &scene,
+            kind,
+            &GridConfig::default(),
+            &IrregularConfig::default(),
+        )?;
+        let scene = Box::into_raw(Box::new(scene));
+        let accel = Box::into_raw(Box::new(accel));
+        // SAFETY: both boxes live until `drop`, which drops the GPU scene before them.
+        let (s, a) = unsafe { (&*scene, &*accel) };
+        let mut loaded = Loaded {
+            gs: None,
+            scene,
+            accel,
+        };
+        loaded.gs = Some(GpuScene::new(ctx, s, a.as_ref(), false)?);
+        Ok(loaded)
+    }
+
+    fn scene(&self) -> &Scene {
+        // SAFETY: see the type's documentation.
+        unsafe { &*self.scene }
+    }
+}
+
+impl Drop for Loaded {
+    fn drop(&mut self) {
+        self.gs = None;
+        // SAFETY: made by Box::into_raw in `new`, no borrow of them is left.
+        unsafe {
+            drop(Box::from_raw(self.accel));
+            drop(Box::from_raw(self.scene));
+        }
+    }
+}
+
+/// A render in progress, band by band.
+struct Job {
+    camera: Camera,
+    next_row: u32,
+    band: u32,
+    passes: u64,
+    rays: u64,
+    render_ms: f64,
+    started: Instant,
+}
+
+struct App {
+    ctx: &'static GlContext,
+    params: Params,
+    width: u32,
+    height: u32,
+    scene_name: String,
+    toml: String,
+    texts: MeshTexts,
+    loaded: Option<Loaded>,
+    camera: Option<Camera>,
+    job: Option<Job>,
+    /// The linear image (RGB, top row first) and its sRGB display copy (RGBA).
+    image: Vec<f32>,
+    display: Vec<u8>,
+    status: String,
+    drag: Option<(f64, f64)>,
+    reported: bool,
+}
+
+fn document() -> web_sys::Document {
+    web_sys::window().unwrap().document().unwrap()
+}
+
+fn element<T: JsCast>(id: &str) -> T {
+    document()
+        .get_element_by_id(id)
+        .unwrap_or_else(|| panic!("no #{id} in the page"))
+        .dyn_into::<T>()
+        .unwrap_or_else(|_| panic!("#{id} has the wrong type"))
+}
+
+/// A file next to the page, read synchronously (the `models/` folder; `None` when absent).
+fn fetch_text(url: &str) -> Option<String> {
+    let xhr = web_sys::XmlHttpRequest::new().ok()?;
+    xhr.open_with_async("GET", url, false).ok()?;
+    xhr.send().ok()?;
+    (xhr.status().ok()? == 200).then(|| xhr.response_text().ok().flatten())?
+}
+
+impl App {
+    fn limits(&self) -> String {
+        let i = &self.ctx.info;
+        format!(
+            "{} | {} | max texture {} | draw buffers {} | texture units {} | \
+             viewport {}x{} | programs in {}\nextensions: {}",
+            i.gl_version,
+            i.renderer,
+            i.max_texture_size,
+            i.max_draw_buffers,
+            i.max_texture_units,
+            i.max_viewport_dims.0,
+            i.max_viewport_dims.1,
+            i.dialect.name(),
+            i.extensions.join(" ")
+        )
+    }
+
+    /// Loads `self.toml`, fetching meshes it names from `models/` when they were not
+    /// dropped, and starts a render from the scene's camera.
+    fn load(&mut self) -> Result<(), String> {
+        self.loaded = None;
+        self.job = None;
+        let mut fetched = 0;
+        let scene = loop {
+            match load_scene_str_with_texts(&self.toml, &self.scene_name, &self.texts) {
+                Ok(s) => break s,
+                Err(fragtrace::Error::Mesh { file, message }) if fetched < 8 => {
+                    let obj = fetch_text(&format!("models/{file}")).ok_or_else(|| {
+                        format!("{file}: {message}; or serve it under models/{file}")
+                    })?;
+                    // The MTL libraries it names sit beside it.
+                    let dir = file.rsplit_once('/').map_or("", |(d, _)| d);
+                    for lib in obj.lines().filter_map(|l| l.trim().strip_prefix("mtllib ")) {
+                        let path = if dir.is_empty() {
+                            lib.trim().to_string()
+                        } else {
+                            format!("{dir}/{}", lib.trim())
+                        };
+                        if let Some(t) = fetch_text(&format!("models/{path}")) {
+                            self.texts.insert(lib.trim().to_string(), t);
+                        }
+                    }
+                    self.texts.insert(file, obj);
+                    fetched += 1;
+                }
+                Err(e) => return Err(e.to_string()),
+            }
+        };
+        let (w, h) = self.params.size.unwrap_or((scene.width, scene.height));
+        self.width = w;
+        self.height = h;
+        self.camera = Some(scene.camera);
+        let t = Instant::now();
+        self.loaded =
+            Some(Loaded::new(self.ctx, scene, self.params.accel).map_err(|e| e.to_string())?);
+        let canvas: web_sys::HtmlCanvasElement = element("view");
+        canvas.set_width(w);
+        canvas.set_height(h);
+        self.image = vec![0.0; (w * h * 3) as usize];
+        self.display = vec![0; (w * h * 4) as usize];
+        self.status = format!(
+            "{}: {} triangles, grid and upload {:.0} ms",
+            self.scene_name,
+            self.loaded.as_ref().unwrap().scene().triangles.len(),
+            t.elapsed().as_secs_f64() * 1e3
+        );
+        self.restart();
+        Ok(())
+    }
+
+    fn restart(&mut self) {
+        let Some(camera) = self.camera else { return };
+        self.job = Some(Job {
+            camera,
+            next_row: 0,
+            band: self.params.band.unwrap_or(8).min(self.height).max(1),
+            passes: 0,
+            rays: 0,
+            render_ms: 0.0,
+            started: Instant::now(),
+        });
+    }
+
+    /// Renders the next band of the job, if any.
+    fn step(&mut self) -> Result<(), String> {
+        let (Some(job), Some(loaded)) = (self.job.as_mut(), self.loaded.as_ref()) else {
+            return Ok(());
+        };
+        let scene = loaded.scene();
+        let gs = loaded.gs.as_ref().expect("GPU scene");
+        let (w, h) = (self.width, self.height);
+        let y1 = (job.next_row + job.band).min(h);
+        let req = ImageRequest {
+            camera: job.camera,
+            width: w,
+            height: h,
+            spp: 1,
+            max_depth: scene.max_depth,
+            techniques: Techniques::default(),
+            progress: false,
+            gpu: GpuOptions {
+                kernel: self.params.kernel,
+                mask: Mask::Auto,
+                ..GpuOptions::default()
+            },
+            readback: Readback {
+                aov: false,
+                srgb8: false,
+            },
+            region: Some(Region {
+                x0: 0,
+                y0: job.next_row,
+                x1: w,
+                y1,
+            }),
+        };
+        let t = Instant::now();
+        let out = render(gs, &req, None).map_err(|e| e.to_string())?;
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        job.render_ms += ms;
+        job.passes += out.gpu.as_ref().map_or(0, |g| g.passes_total);
+        job.rays += out.rays.total;
+        let rows = (y1 - job.next_row) as usize;
+        let start = job.next_row as usize * w as usize;
+        self.image[start * 3..(start + rows * w as usize) * 3].copy_from_slice(&out.image.data);
+        for (px, rgb) in self.display[start * 4..(start + rows * w as usize) * 4]
+            .chunks_mut(4)
+            .zip(out.image.data.chunks(3))
+        {
+            for k in 0..3 {
+                px[k] = srgb8(rgb[k]);
+            }
+            px[3] = 255;
+        }
+        job.next_row = y1;
+        // Adapt the band to the frame budget (a fixed band when the query string sets one).
+        if self.params.band.is_none() {
+            let per_row = ms / rows as f64;
+            job.band = ((BAND_TARGET_MS / per_row.max(1e-3)) as u32).clamp(1, h);
+        }
+        let done = job.next_row >= h;
+        let rays_per_s = job.rays as f64 / (job.render_ms * 1e-3);
+        self.status = format!(
+            "{}: {w}x{h}, {} kernel, rows {}/{h}, {} passes, {} rays, render {:.0} ms \
+             ({:.2} Mrays/s), wall {:.0} ms{}",
+            self.scene_name,
+            self.params.kernel,
+            job.next_row,
+            job.passes,
+            job.rays,
+            job.render_ms,
+            rays_per_s * 1e-6,
+            job.started.elapsed().as_secs_f64() * 1e3,
+            if done { " - done" } else { "" }
+        );
+        self.present()?;
+        if done {
+            let job = self.job.take().expect("job");
+            if !self.reported {
+                if let Some(url) = self.params.report.clone() {
+                    self.reported = true;
+                    self.post_report(&url, &job);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn present(&self) -> Result<(), String> {
+        let canvas: web_sys::HtmlCanvasElement = element("view");
+        let c2d = canvas
+            .get_context("2d")
+            .ok()
+            .flatten()
+            .and_then(|c| c.dyn_into::<web_sys::CanvasRenderingContext2d>().ok())
+            .ok_or("no 2d context")?;
+        let data = web_sys::ImageData::new_with_u8_clamped_array_and_sh(
+            wasm_bindgen::Clamped(&self.display),
+            self.width,
+            self.height,
+        )
+        .map_err(|e| format!("{e:?}"))?;
+        c2d.put_image_data(&data, 0.0, 0.0)
+            .map_err(|e| format!("{e:?}"))?;
+        Ok(())
+    }
+
+    fn post_report(&self, url: &str, job: &Job) {
+        let i = &self.ctx.info;
+        let json = format!(
+            "{{\"scene\":{:?},\"width\":{},\"height\":{},\"kernel\":\"{}\",\"passes\":{},\
+             \"rays\":{},\"render_ms\":{:.1},\"wall_ms\":{:.1},\"renderer\":{:?},\
+             \"gl_version\":{:?},\"glsl\":{:?},\"max_texture_size\":{},\"max_draw_buffers\":{},\
+             \"max_texture_units\":{},\"max_viewport\":[{},{}],\"extensions\":{:?}}}",
+            self.scene_name,
+            self.width,
+            self.height,
+            self.params.kernel,
+            job.passes,
+            job.rays,
+            job.render_ms,
+            job.started.elapsed().as_secs_f64() * 1e3,
+            i.renderer,
+            i.gl_version,
+            i.glsl_version,
+            i.max_texture_size,
+            i.max_draw_buffers,
+            i.max_texture_units,
+            i.max_viewport_dims.0,
+            i.max_viewport_dims.1,
+            i.extensions
+        );
+        let bytes: Vec<u8> = self.image.iter().flat_map(|v| v.to_le_bytes()).collect();
+        post(url, "X-Fragtrace-Report", &json, &bytes);
+    }
+
+    /// Orbits the camera about its look-at point by a mouse move of (dx, dy) pixels.
+    fn orbit(&mut self, dx: f64, dy: f64) {
+        let Some(c) = self.camera.as_mut() else {
+            return;
+        };
+        let offset = (c.eye - c.look_at).as_dvec3();
+        let r = offset.length();
+        let yaw = offset.x.atan2(offset.z) - dx * 0.01;
+        let pitch = (offset.y / r).clamp(-1.0, 1.0).asin() + dy * 0.01;
+        let pitch = pitch.clamp(-1.5, 1.5);
+        let d = glam::DVec3::new(
+            pitch.cos() * yaw.sin(),
+            pitch.sin(),
+            pitch.cos() * yaw.cos(),
+        );
+        c.eye = c.look_at + (d * r).as_vec3();
+        self.restart();
+    }
+}
+
+/// Linear to 8-bit sRGB.
+fn srgb8(v: f32) -> u8 {
+    let v = v.clamp(0.0, 1.0);
+    let s = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// POSTs `body` to `url` with one header (fire and forget).
+fn post(url: &str, header: &str, value: &str, body: &[u8]) {
+    let Ok(xhr) = web_sys::XmlHttpRequest::new() else {
+        return;
+    };
+    if xhr.open("POST", url).is_err() {
+        return;
+    }
+    let _ = xhr.set_request_header(header, value);
+    let _ = xhr.send_with_opt_u8_array(Some(body));
+}
+
+fn show(app: &App) {
+    let stats: web_sys::HtmlElement = element("stats");
+    stats.set_text_content(Some(&format!("{}\n{}", app.status, app.limits())));
+}
+
+/// Reports `msg` on the page, on the console and, when the page reports, to the test.
+fn fail(app: &mut App, msg: &str) {
+    app.status = format!("error: {msg}");
+    app.job = None;
+    web_sys::console::error_1(&msg.into());
+    if let (Some(url), false) = (app.params.report.clone(), app.reported) {
+        app.reported = true;
+        post(
+            &url,
+            "X-Fragtrace-Error",
+            &msg.replace(['\n', '\r'], " "),
+            &[],
+        );
+    }
+    show(app);
+}
+
+/// The page's entry: sets up WebGL, the scene list, the events and the frame loop.
+#[wasm_bindgen(start)]
+pub fn start() -> Result<(), JsValue> {
+    std::panic::set_hook(Box::new(|info| {
+        web_sys::console::error_1(&format!("fragtrace panicked: {info}").into());
+        let url = web_sys::window()
+            .and_then(|w| w.location().search().ok())
+            .and_then(|s| web_sys::UrlSearchParams::new_with_str(&s).ok())
+            .and_then(|q| q.get("report"));
+        if let Some(url) = url {
+            let msg = format!("panic: {info}").replace(['\n', '\r'], " ");
+            post(&url, "X-Fragtrace-Error", &msg, &[]);
+        }
+    }));
+    let window = web_sys::window().ok_or("no window")?;
+    let search = window.location().search()?;
+    let params = Params::from_query(&search).map_err(|e| JsValue::from_str(&e))?;
+    // The WebGL canvas is never shown: every pass draws into float textures, and the page
+    // shows the image read back through a 2D canvas.
+    let gl_canvas: web_sys::HtmlCanvasElement = document().create_element("canvas")?.dyn_into()?;
+    let webgl: web_sys::WebGlRenderingContext = gl_canvas
+        .get_context("webgl")?
+        .ok_or("this browser gives no WebGL 1 context")?
+        .dyn_into()?;
+    let ctx: &'static GlContext = Box::leak(Box::new(GlContext::from_webgl1_unchecked(webgl)));
+    let scene_name = params.scene.clone();
+    let toml = SCENES
+        .iter()
+        .find(|(n, _)| *n == scene_name)
+        .map(|(_, t)| t.to_string());
+    let app = Rc::new(RefCell::new(App {
+        ctx,
+        params,
+        width: 0,
+        height: 0,
+        scene_name: scene_name.clone(),
+        toml: toml.clone().unwrap_or_default(),
+        texts: MeshTexts::new(),
+        loaded: None,
+        camera: None,
+        job: None,
+        image: Vec::new(),
+        display: Vec::new(),
+        status: String::new(),
+        drag: None,
+        reported: false,
+    }));
+
+    // The scene list.
+    let select: web_sys::HtmlSelectElement = element("scene");
+    for (name, _) in SCENES {
+        let opt = web_sys::HtmlOptionElement::new_with_text_and_value(name, name)?;
+        opt.set_selected(*name == scene_name);
+        select.add_with_html_option_element(&opt)?;
+    }
+    {
+        let app = app.clone();
+        let on_change = Closure::<dyn FnMut()>::new(move || {
+            let name = element::<web_sys::HtmlSelectElement>("scene").value();
+            let mut a = app.borrow_mut();
+            if let Some((n, t)) = SCENES.iter().find(|(n, _)| *n == name) {
+                a.scene_name = n.to_string();
+                a.toml = t.to_string();
+                a.reported = true; // only the first render reports
+                if let Err(e) = a.load() {
+                    fail(&mut a, &e);
+                }
+            }
+        });
+        select.add_event_listener_with_callback("change", on_change.as_ref().unchecked_ref())?;
+        on_change.forget();
+    }
+    install_mouse(&app)?;
+    install_drop(&app)?;
+
+    {
+        let mut a = app.borrow_mut();
+        if let Err(e) = a.ctx.info.verdict() {
+            fail(&mut a, &format!("WebGL 1 context unusable: {e}"));
+        } else if toml.is_none() {
+            let msg = format!("scene={scene_name}: not a shipped scene");
+            fail(&mut a, &msg);
+        } else if let Err(e) = a.load() {
+            fail(&mut a, &e);
+        } else {
+            show(&a);
+        }
+    }
+    frame_loop(app)
+}
+
+/// The animation-frame callback, which schedules itself again.
+type FrameCallback = Closure<dyn FnMut()>;
+
+/// Renders a band per animation frame while a job runs.
+fn frame_loop(app: Rc<RefCell<App>>) -> Result<(), JsValue> {
+    let f: Rc<RefCell<Option<FrameCallback>>> = Rc::new(RefCell::new(None));
+    let g = f.clone();
+    *g.borrow_mut() = Some(Closure::new(move || {
+        {
+            let mut a = app.borrow_mut();
+            if a.job.is_some() {
+                match a.step() {
+                    Ok(()) => show(&a),
+                    Err(e) => fail(&mut a, &e),
+                }
+            }
+        }
+        let w = web_sys::window().unwrap();
+        let cb = f.borrow();
+        let _ = w.request_animation_frame(cb.as_ref().unwrap().as_ref().unchecked_ref());
+    }));
+    let w = web_sys::window().ok_or("no window")?;
+    w.request_animation_frame(g.borrow().as_ref().unwrap().as_ref().unchecked_ref())?;
+    Ok(())
+}
+
+fn install_mouse(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
+    let canvas: web_sys::HtmlCanvasElement = element("view");
+    let a = app.clone();
+    let down = Closure::<dyn FnMut(web_sys::MouseEvent)>::new(move |e: web_sys::MouseEvent| {
+        a.borrow_mut().drag = Some((e.client_x() as f64, e.client_y() as f64));
+    });
+    canvas.add_event_listener_with_callback("mousedown", down.as_ref().unchecked_ref())?;
+    down.forget();
+    let a = app.clone();
+    let moved = Closure::<dyn FnMut(web_sys::MouseEvent)>::new(move |e: web_sys::MouseEvent| {
+        let mut app = a.borrow_mut();
+        let Some((x, y)) = app.drag else { return };
+        if e.buttons() == 0 {
+            app.drag = None;
+            return;
+        }
+        let (nx, ny) = (e.client_x() as f64, e.client_y() as f64);
+        app.drag = Some((nx, ny));
+        app.orbit(nx - x, ny - y);
+    });
+    canvas.add_event_listener_with_callback("mousemove", moved.as_ref().unchecked_ref())?;
+    moved.forget();
+    Ok(())
+}
+
+/// A dropped `.toml` replaces the scene; dropped `.obj`/`.mtl` files are its meshes (by
+/// file name). Files are read through `Blob.text()` promises, then the scene reloads.
+fn install_drop(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
+    let body = document().body().ok_or("no body")?;
+    let over = Closure::<dyn FnMut(web_sys::DragEvent)>::new(|e: web_sys::DragEvent| {
+        e.prevent_default();
+    });
+    body.add_event_listener_with_callback("dragover", over.as_ref().unchecked_ref())?;
+    over.forget();
+    let a = app.clone();
+    let drop = Closure::<dyn FnMut(web_sys::DragEvent)>::new(move |e: web_sys::DragEvent| {
+        e.prevent_default();
+        let Some(files) = e.data_transfer().and_then(|d| d.files()) else {
+            return;
+        };
+        let pending = Rc::new(RefCell::new(files.length()));
+        for k in 0..files.length() {
+            let Some(file) = files.get(k) else { continue };
+            let name = file.name();
+            let (a, pending) = (a.clone(), pending.clone());
+            let then = Closure::<dyn FnMut(JsValue)>::new(move |text: JsValue| {
+                let text = text.as_string().unwrap_or_default();
+                let mut app = a.borrow_mut();
+                if name.ends_with(".toml") {
+                    app.scene_name = name.trim_end_matches(".toml").to_string();
+                    app.toml = text;
+                } else {
+                    app.texts.insert(name.clone(), text);
+                }
+                *pending.borrow_mut() -= 1;
+                if *pending.borrow() == 0 {
+                    app.reported = true;
+                    if let Err(e) = app.load() {
+                        fail(&mut app, &e);
+                    } else {
+                        show(&app);
+                    }
+                }
+            });
+            let _ = file.text().then(&then);
+            then.forget();
+        }
+    });
+    body.add_event_listener_with_callback("drop", drop.as_ref().unchecked_ref())?;
+    drop.forget();
+    Ok(())
+}
