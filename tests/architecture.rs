@@ -207,7 +207,8 @@ fn no_import_cycles_between_files_of_src() {
     assert!(files.len() > 50, "found only {} files", files.len());
 }
 
-/// Measured here: the longest file before its tests is src/cli.rs at 853 lines; the
+/// Measured here: the longest file before its tests is src/scene/toml_scene/build.rs at 871
+/// lines (src/cli.rs, 865, was split into src/cli/ at stop 34); the
 /// bound leaves room to finish a change and say "split me" before it becomes a habit.
 #[test]
 fn no_source_file_far_past_800_lines() {

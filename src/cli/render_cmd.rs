@@ -1,0 +1,316 @@
+//! `fragtrace render`: one image, the parts of a tiled or distributed render, an
+//! animation's frames; and the summary line, `-v` report and `--stats` file every render
+//! writes.
+
+use std::path::Path;
+
+use super::{check_writable, load};
+use crate::dist::plan::Plan;
+use crate::image_io;
+use crate::options::RenderArgs;
+use crate::region::Region;
+use crate::render;
+use crate::scene::Scene;
+use crate::{Error, Result};
+
+/// The `render` command: load, render, write the image (and stats). With `--tile`,
+/// `--region` or `--task-index`, the parts this process owns ([`run_parts`]).
+pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
+    let env = |k: &str| std::env::var(k).ok();
+    if let Some(frames) = &args.frames {
+        if !Plan::wanted(args) {
+            run_frames(args, frames)?;
+            return Ok(None);
+        }
+        // A share of an animation (frames x tiles): the frames come from the scene's path.
+        let scene = load(args.scene.as_deref())?;
+        let path = scene.animation.as_ref().ok_or_else(|| {
+            Error::Usage(format!(
+                "--frames needs a camera path: {} has no [animation] table (docs/scene-format.md)",
+                scene.source
+            ))
+        })?;
+        let frames: Vec<u32> = frames.frames(&path.frames())?.collect();
+        let plan = Plan::new(args, Some(&frames), env)?.expect("parts wanted");
+        return run_parts(args, &plan, scene).map(Some);
+    }
+    if let Some(plan) = Plan::new(args, None, env)? {
+        let scene = load(args.scene.as_deref())?;
+        return run_parts(args, &plan, scene).map(Some);
+    }
+    // Fail on an unusable output path or AOV list before loading or rendering anything;
+    // a folder is reported as one, not as a file with an unknown extension.
+    check_writable(&args.output, "image")?;
+    image_io::Format::from_path(&args.output)?;
+    if let Some(stats) = &args.stats {
+        check_writable(stats, "statistics")?;
+    }
+    let aovs = args
+        .aov
+        .as_deref()
+        .map(crate::aov::AovKind::parse_list)
+        .transpose()?;
+    let scene = load(args.scene.as_deref())?;
+    let mut opts = args.to_options(&scene)?;
+    // Read back only what the output needs: a PNG as 8-bit sRGB (converted on the GPU
+    // where it can), the AOVs only with --aov.
+    opts.readback = crate::output::Readback {
+        aov: aovs.is_some(),
+        srgb8: image_io::Format::from_path(&args.output)? == image_io::Format::Png,
+    };
+    let out = render::render(&scene, &opts)?;
+    let finite = match out.nonfinite {
+        Some(n) => n == 0,
+        None => out.image.all_finite(),
+    };
+    if !finite {
+        return Err(Error::Internal(
+            "the render produced a NaN or Inf pixel".into(),
+        ));
+    }
+    match &out.srgb8 {
+        Some(rgb) => {
+            image_io::write_png_srgb8(&args.output, out.image.width, out.image.height, rgb)?
+        }
+        None => image_io::write_image(&args.output, &out.image)?,
+    }
+    if let Some(kinds) = &aovs {
+        crate::aov::write_aovs(&args.output, &out.aov, kinds)?;
+    }
+    if let Some(path) = &args.stats {
+        write_stats(path, &out.stats)?;
+    }
+    if !args.quiet {
+        eprintln!("{}", summary_line(&args.output, &out.stats, None));
+    }
+    if args.verbose {
+        eprint!("{}", verbose_report(&out.stats));
+    }
+    Ok(Some(out))
+}
+
+/// `render --frames`: the animation of the scene's camera path ([`crate::animate`]).
+fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<()> {
+    if args.aov.is_some() {
+        return Err(Error::Usage(
+            "--frames renders whole images; --aov is for single renders".into(),
+        ));
+    }
+    if let Some(stats) = &args.stats {
+        check_writable(stats, "statistics")?;
+    }
+    let scene = load(args.scene.as_deref())?;
+    let opts = args.to_options(&scene)?;
+    let stats = crate::animate::render_frames(&scene, &opts, frames, &args.output, !args.quiet)?;
+    if let Some(path) = &args.stats {
+        let json =
+            serde_json::to_string_pretty(&stats).map_err(|e| Error::Internal(e.to_string()))?;
+        image_io::write_atomic(path, |tmp| {
+            std::fs::write(tmp, json.as_bytes()).map_err(|source| Error::Io {
+                path: path.clone(),
+                source,
+            })
+        })?;
+    }
+    if !args.quiet {
+        let first = stats.per_frame.first();
+        eprintln!(
+            "{}: {} frames of {}x{} on {}{}, set-up {:.0} ms, frames {:.0} ms ({:.1} frames/s after the first)",
+            args.output.display(),
+            stats.frames,
+            opts.width,
+            opts.height,
+            first.map_or("-".into(), |f| f.render.backend.clone()),
+            first
+                .and_then(|f| f.render.gpu.as_ref())
+                .map_or(String::new(), |g| format!(", {} kernel", g.kernel)),
+            stats.setup_ms,
+            stats.frames_ms,
+            stats.steady_fps
+        );
+    }
+    Ok(())
+}
+
+/// Writes render statistics as JSON (atomically).
+fn write_stats(path: &Path, stats: &render::RenderStats) -> Result<()> {
+    let json = serde_json::to_string_pretty(stats).map_err(|e| Error::Internal(e.to_string()))?;
+    image_io::write_atomic(path, |tmp| {
+        std::fs::write(tmp, json.as_bytes()).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+    })
+}
+
+/// `render` of parts: the units of work of `plan` ([`crate::dist`]), each rendered with
+/// its region and written as a part (or a crop).
+pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render::Rendered> {
+    for p in &plan.outputs {
+        check_writable(p, "image")?;
+    }
+    for p in &plan.stats {
+        check_writable(p, "statistics")?;
+    }
+    if args.aov.is_some() {
+        return Err(Error::Usage(
+            "--aov writes whole-image files; it cannot be combined with --tile, --region or --task-index"
+                .into(),
+        ));
+    }
+    let mut base = args.to_options(&scene)?;
+    // Parts carry linear floats (merged, or encoded on the host like any PNG); no AOVs.
+    base.readback = crate::output::Readback {
+        aov: false,
+        srgb8: false,
+    };
+    // Once per process, whatever the number of parts: the structure, the context and the
+    // renderer (the GPU scene uploaded once); each part sets its region and camera.
+    let prepared = render::prepare(&scene, &base)?;
+    let ctx = render::context_for(&base, !args.quiet)?;
+    let mut renderer = match &ctx {
+        Some(ctx) => prepared.gl_renderer(ctx, &base)?,
+        None => prepared.cpu_renderer(&base),
+    };
+    if let (Some(task), false) = (&plan.task, args.quiet) {
+        eprintln!(
+            "fragtrace: {task}: {} part(s) of {} tiles",
+            plan.units.len(),
+            match plan.cut {
+                crate::dist::plan::Cut::Tiles(t) => t.count(),
+                crate::dist::plan::Cut::Region(_) => 1,
+            }
+        );
+    }
+    let mut last = None;
+    for (k, unit) in plan.units.iter().enumerate() {
+        let region = plan.region(k, base.width, base.height)?;
+        let opts = crate::options::RenderOptions {
+            region: Some(region),
+            ..base.clone()
+        };
+        renderer.set_region(Some(region))?;
+        let camera = match (unit.frame, &scene.animation) {
+            (Some(f), Some(path)) => path.camera_at(f),
+            _ => scene.camera,
+        };
+        let out = renderer.render(&camera)?;
+        if !out.image.all_finite() {
+            return Err(Error::Internal(
+                "the render produced a NaN or Inf pixel".into(),
+            ));
+        }
+        crate::dist::write_unit(
+            &plan.outputs[k],
+            &scene,
+            &opts,
+            &out,
+            unit.frame,
+            plan.tile_label(k),
+        )?;
+        if let Some(path) = plan.stats.get(k) {
+            write_stats(path, &out.stats)?;
+        }
+        if !args.quiet {
+            eprintln!(
+                "{}",
+                summary_line(&plan.outputs[k], &out.stats, Some(region))
+            );
+        }
+        if args.verbose {
+            eprint!("{}", verbose_report(&out.stats));
+        }
+        last = Some(out);
+    }
+    last.ok_or_else(|| Error::Internal("a plan without units".into()))
+}
+
+/// The one-line summary of a render on stderr (`-q` turns it off).
+fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) -> String {
+    format!(
+            "{}: {}x{}{} spp {} on {} [{}{}{}], {} triangles, {} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
+            output.display(),
+            s.width,
+            s.height,
+            region.map_or(String::new(), |r| format!(" pixels {r}")),
+            s.spp,
+            s.backend,
+            s.precision,
+            match &s.gpu {
+                Some(g) => format!(", {} kernel", g.kernel),
+                None => String::new(),
+            },
+            if s.techniques == "default" {
+                String::new()
+            } else {
+                format!(", {}", s.techniques)
+            },
+            s.triangles,
+            s.accel.brief(),
+            s.grid_build_ms,
+            s.render_ms,
+            s.rays.total,
+            s.mrays_per_s
+        )
+}
+
+/// The `-v` log: per pass kind, how many passes and how much GPU time; where the backend
+/// counts it (CPU, compute kernel), the traversal work of all rays. One line per entry, most expensive first.
+pub fn verbose_report(s: &render::RenderStats) -> String {
+    let mut out = format!(
+        "{}: {}\nprimary rays: {} steps (cells + triangle tests) per ray\n",
+        s.accel.kind.name(),
+        s.accel.detail,
+        s.primary_steps_per_ray.map_or(
+            "n/a (--aov reads them with this kernel)".into(),
+            |v| format!("{v:.1}")
+        )
+    );
+    if let (Some(c), Some(t)) = (s.cells_visited, s.triangle_tests) {
+        out += &format!(
+            "all rays: {c} cells visited, {t} triangle tests ({:.1} cells and {:.1} tests per ray)\n",
+            c as f64 / s.rays.total.max(1) as f64,
+            t as f64 / s.rays.total.max(1) as f64
+        );
+    }
+    if let Some(g) = &s.gpu {
+        let mut rows: Vec<(String, u64, Option<f64>)> = g
+            .passes
+            .iter()
+            .map(|(k, &n)| {
+                (
+                    k.clone(),
+                    n,
+                    g.gpu_ms.as_ref().and_then(|m| m.get(k).copied()),
+                )
+            })
+            .collect();
+        rows.sort_by(|a, b| {
+            b.2.unwrap_or(0.0)
+                .total_cmp(&a.2.unwrap_or(0.0))
+                .then(b.1.cmp(&a.1))
+        });
+        out += &format!(
+            "{:<24} {:>10} {:>12} {:>12}\n",
+            "pass", "count", "gpu ms", "ms/pass"
+        );
+        for (name, n, t) in rows {
+            let (t, per) = match t {
+                Some(t) => (format!("{t:.2}"), format!("{:.4}", t / n.max(1) as f64)),
+                // No timer queries, or they measured nothing (GpuStats::add_gpu_time).
+                None => ("n/a".into(), "n/a".into()),
+            };
+            out += &format!("{name:<24} {n:>10} {t:>12} {per:>12}\n");
+        }
+        out += &format!(
+            "total: {} passes, {} termination queries, gpu {}, compile {:.1} ms, upload {:.1} ms\n",
+            g.passes_total,
+            g.termination_queries,
+            g.gpu_ms_total
+                .map_or("n/a".into(), |t| format!("{t:.2} ms")),
+            g.compile_ms,
+            g.upload_ms,
+        );
+    }
+    out
+}
