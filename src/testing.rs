@@ -195,3 +195,17 @@ pub(crate) fn gamma64(n: f64) -> f64 {
     let u = f64::EPSILON / 2.0;
     n * u / (1.0 - n * u)
 }
+
+/// The built-in scene and its irregular grid (default configuration).
+pub(crate) fn builtin_irregular() -> (Scene, crate::accel::Accel) {
+    use crate::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
+    let scene = crate::scene::builtin_scene();
+    let accel = Accel::build(
+        &scene,
+        AccelKind::Irregular,
+        &GridConfig::default(),
+        &IrregularConfig::default(),
+    )
+    .unwrap();
+    (scene, accel)
+}

@@ -514,10 +514,9 @@ pub(crate) fn trace_wave(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
     use crate::gpu::context::with_test_context;
     use crate::gpu::options::Kernel;
-    use crate::scene::builtin_scene;
+    use crate::testing::builtin_irregular;
 
     thread_local! {
         /// Test hook: a storage-block size (and no storage blocks for the scene) in place
@@ -550,19 +549,6 @@ mod tests {
         });
     }
 
-    /// The built-in scene and its irregular grid.
-    fn builtin_irregular() -> (crate::scene::Scene, Accel) {
-        let scene = builtin_scene();
-        let accel = Accel::build(
-            &scene,
-            AccelKind::Irregular,
-            &GridConfig::default(),
-            &IrregularConfig::default(),
-        )
-        .unwrap();
-        (scene, accel)
-    }
-
     /// A compute render of `scene` 96 pixels wide and 600 high (three bands when a test
     /// narrows the storage blocks to 256 rows), everything read back.
     fn tall_request(
@@ -585,6 +571,17 @@ mod tests {
             },
             readback: crate::output::Readback::default(),
             region: None,
+        }
+    }
+
+    /// `req` reading back only the 8-bit image (no AOVs).
+    fn srgb8_only(req: ImageRequest) -> ImageRequest {
+        ImageRequest {
+            readback: crate::output::Readback {
+                aov: false,
+                srgb8: true,
+            },
+            ..req
         }
     }
 
@@ -651,13 +648,7 @@ mod tests {
             let (scene, accel) = builtin_irregular();
             let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
             let full = tall_request(&scene, 1, SceneFetch::TexelFetch);
-            let lean = ImageRequest {
-                readback: crate::output::Readback {
-                    aov: false,
-                    srgb8: true,
-                },
-                ..full
-            };
+            let lean = srgb8_only(full);
             let first = render(&gs, &lean, None).unwrap();
             BAND_TIME_HOOK.set(Some(Duration::ZERO));
             let timed = render(&gs, &lean, None);
@@ -696,13 +687,7 @@ mod tests {
             let (scene, accel) = builtin_irregular();
             let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
             let full = tall_request(&scene, 2, SceneFetch::TexelFetch);
-            let lean = ImageRequest {
-                readback: crate::output::Readback {
-                    aov: false,
-                    srgb8: true,
-                },
-                ..full
-            };
+            let lean = srgb8_only(full);
             let a = render(&gs, &full, None).unwrap();
             // Three bands: the ring's two slots are each reused.
             BLOCK_BYTES.set(Some(96 * 16 * 256));

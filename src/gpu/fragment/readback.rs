@@ -126,13 +126,12 @@ pub(crate) fn trace_wave(
 
 #[cfg(test)]
 mod tests {
-    use crate::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
     use crate::gpu::context::with_test_context;
     use crate::gpu::options::{FragmentKernel, GpuOptions, Kernel};
     use crate::gpu::request::ImageRequest;
     use crate::gpu::scene::GpuScene;
     use crate::output::Readback;
-    use crate::scene::builtin_scene;
+    use crate::testing::builtin_irregular;
 
     /// The 8-bit image converted on the GPU (`srgb8.frag`) is byte for byte the host's
     /// conversion of the linear image read back, on the thesis's kernel and the looped
@@ -140,14 +139,7 @@ mod tests {
     #[test]
     fn srgb8_pass_is_the_host_conversion() {
         with_test_context(|ctx| {
-            let scene = builtin_scene();
-            let accel = Accel::build(
-                &scene,
-                AccelKind::Irregular,
-                &GridConfig::default(),
-                &IrregularConfig::default(),
-            )
-            .unwrap();
+            let (scene, accel) = builtin_irregular();
             let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
             for (kernel, fk) in [
                 (Kernel::Multipass, FragmentKernel::Multipass),
