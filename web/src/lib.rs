@@ -1,6 +1,7 @@
 //! fragtrace's faithful multipass kernel in a web page (docs/web.md): the library built for
-//! wasm32-unknown-unknown renders on the page's WebGL 1 context through glow, with the
-//! passes generated in GLSL ES 1.00 from the same sources as the native GLSL 1.20.
+//! wasm32-unknown-unknown renders on the page's WebGL 2 context (WebGL 1 where there is no
+//! 2, or with `webgl=1`) through glow, with the passes generated in GLSL ES 3.00 (1.00) from
+//! the same sources as the native GLSL 1.20.
 //!
 //! The page ([`start`]) picks a shipped scene (embedded) or takes a dropped TOML with its
 //! OBJ/MTL files (meshes the shipped scenes name are fetched from `models/` next to the
@@ -8,7 +9,8 @@
 //! frame (each band the whole multipass walk over its rows: the browser shows nothing until
 //! the script returns, so a band is the unit of visible progress), drawing the image as it
 //! fills; dragging orbits the camera and restarts. The query string sets what a test needs:
-//! `scene=NAME`, `size=WxH`, `kernel=multipass|unrolled:K`, `accel=irregular|uniform`,
+//! `scene=NAME`, `size=WxH`, `webgl=1|2`, `kernel=multipass|unrolled:K|looped` (looped on
+//! WebGL 2), `accel=irregular|uniform`,
 //! `band=ROWS|full`, and `report=URL`, to which the finished linear image is POSTed (f32
 //! RGB, little-endian, top row first) with the passes, time and WebGL limits in the
 //! `X-Fragtrace-Report` header (JSON); an error is POSTed there as `X-Fragtrace-Error`.
@@ -51,6 +53,8 @@ struct Params {
     scene: String,
     size: Option<(u32, u32)>,
     kernel: Kernel,
+    /// `webgl=1|2`; `None`: 2 where the browser has it.
+    webgl: Option<u32>,
     accel: AccelKind,
     /// Rows per band; `None`: adaptive.
     band: Option<u32>,
@@ -73,10 +77,21 @@ impl Params {
         };
         let kernel = match q.get("kernel").as_deref() {
             None | Some("multipass") => Kernel::Multipass,
+            Some("looped") => Kernel::Looped,
             Some(k) => match k.strip_prefix("unrolled:").map(str::parse::<u32>) {
                 Some(Ok(n)) if n > 0 => Kernel::Unrolled(n),
-                _ => return Err(format!("kernel={k}: expected multipass or unrolled:K")),
+                _ => {
+                    return Err(format!(
+                        "kernel={k}: expected multipass, unrolled:K or looped"
+                    ))
+                }
             },
+        };
+        let webgl = match q.get("webgl").as_deref() {
+            None => None,
+            Some("1") => Some(1),
+            Some("2") => Some(2),
+            Some(v) => return Err(format!("webgl={v}: expected 1 or 2")),
         };
         let accel = match q.get("accel").as_deref() {
             None | Some("irregular") => AccelKind::Irregular,
@@ -95,6 +110,7 @@ impl Params {
             scene: q.get("scene").unwrap_or_else(|| "whitted".into()),
             size,
             kernel,
+            webgl,
             accel,
             band,
             report: q.get("report"),
@@ -391,7 +407,7 @@ impl App {
         let json = format!(
             "{{\"scene\":{:?},\"width\":{},\"height\":{},\"kernel\":\"{}\",\"passes\":{},\
              \"rays\":{},\"render_ms\":{:.1},\"wall_ms\":{:.1},\"renderer\":{:?},\
-             \"gl_version\":{:?},\"glsl\":{:?},\"max_texture_size\":{},\"max_draw_buffers\":{},\
+             \"gl_version\":{:?},\"glsl\":{:?},\"dialect\":{:?},\"max_texture_size\":{},\"max_draw_buffers\":{},\
              \"max_texture_units\":{},\"max_viewport\":[{},{}],\"extensions\":{:?}}}",
             self.scene_name,
             self.width,
@@ -404,6 +420,7 @@ impl App {
             i.renderer,
             i.gl_version,
             i.glsl_version,
+            i.dialect.name(),
             i.max_texture_size,
             i.max_draw_buffers,
             i.max_texture_units,
@@ -500,11 +517,28 @@ pub fn start() -> Result<(), JsValue> {
     // The WebGL canvas is never shown: every pass draws into float textures, and the page
     // shows the image read back through a 2D canvas.
     let gl_canvas: web_sys::HtmlCanvasElement = document().create_element("canvas")?.dyn_into()?;
-    let webgl: web_sys::WebGlRenderingContext = gl_canvas
-        .get_context("webgl")?
-        .ok_or("this browser gives no WebGL 1 context")?
-        .dyn_into()?;
-    let ctx: &'static GlContext = Box::leak(Box::new(GlContext::from_webgl1_unchecked(webgl)));
+    let webgl2 = if params.webgl == Some(1) {
+        None
+    } else {
+        gl_canvas.get_context("webgl2")?
+    };
+    let ctx = match webgl2 {
+        Some(webgl2) => GlContext::from_webgl2_unchecked(webgl2.dyn_into()?),
+        None if params.webgl == Some(2) => {
+            return Err("webgl=2: this browser gives no WebGL 2 context".into())
+        }
+        None => {
+            let webgl: web_sys::WebGlRenderingContext = gl_canvas
+                .get_context("webgl")?
+                .ok_or("this browser gives no WebGL 1 context")?
+                .dyn_into()?;
+            GlContext::from_webgl1_unchecked(webgl)
+        }
+    };
+    if params.kernel == Kernel::Looped && !ctx.info.dialect.has_loops() {
+        return Err("kernel=looped needs WebGL 2 (GLSL ES 1.00 has no run-time loops)".into());
+    }
+    let ctx: &'static GlContext = Box::leak(Box::new(ctx));
     let scene_name = params.scene.clone();
     let toml = SCENES
         .iter()
