@@ -1,9 +1,10 @@
 //! The GL dialects the one renderer speaks: desktop OpenGL 2.1+ with GLSL 1.20 (the native
-//! EGL path) and WebGL 1 with GLSL ES 1.00 (the web page, docs/web.md). The shaders of
-//! both are generated from the same `glsl120/` sources and the same contract
-//! ([`super::contract`]); a dialect only decides the program header (version line,
-//! extension and precision lines), the quad's vertex shader, the texture formats a float
-//! stream is created with, and how the host learns how many rays are still active.
+//! EGL path), WebGL 1 with GLSL ES 1.00 and WebGL 2 with GLSL ES 3.00 (the web page,
+//! docs/web.md). The shaders of all three are generated from the same `glsl120/` sources
+//! and the same contract ([`super::contract`]); a dialect only decides the program header
+//! (version line, extension and precision lines; ES 3.00's renamed built-ins and declared
+//! outputs), the quad's vertex shader, the texture formats a float stream is created with,
+//! and how the host learns how many rays are still active.
 //!
 //! The GLSL 1.20 the passes are written in is, apart from the header, also GLSL ES 1.00:
 //! no loops in the `multipass` kernel, no integer bit operations, no implicit int-to-float
@@ -215,4 +216,38 @@ fn map_identifiers(
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whole identifiers only, outputs declared once each in location order, GLSL 1.20
+    /// and ES 1.00 untouched.
+    #[test]
+    fn essl300_translates_removed_builtins() {
+        let src = "#version 300 es\nvarying vec2 v_uv;\nvoid main() {\n    \
+                   gl_FragData[3] = texture2D(u_s0, v_uv);\n    \
+                   gl_FragData[0] = my_texture2D(v_uv) + varying_x;\n    \
+                   gl_FragData[3] = vec4(0.0);\n}\n";
+        let mut s = src.to_string();
+        let decls = Dialect::Essl300.translate(&mut s);
+        assert_eq!(
+            decls,
+            "layout(location = 0) out vec4 frag_data_0;\n\
+             layout(location = 3) out vec4 frag_data_3;\n"
+        );
+        assert_eq!(
+            s,
+            "#version 300 es\nin vec2 v_uv;\nvoid main() {\n    \
+             frag_data_3 = texture(u_s0, v_uv);\n    \
+             frag_data_0 = my_texture2D(v_uv) + varying_x;\n    \
+             frag_data_3 = vec4(0.0);\n}\n"
+        );
+        for d in [Dialect::Glsl120, Dialect::Essl100] {
+            let mut s = src.to_string();
+            assert_eq!(d.translate(&mut s), "");
+            assert_eq!(s, src);
+        }
+    }
 }

@@ -1,10 +1,11 @@
-//! The browser's WebGL 1 context as a [`GlContext`] (wasm32 only, docs/web.md): glow over
-//! `web_sys::WebGlRenderingContext`, and the capability report of what fragtrace needs
-//! there, in the terms WebGL names it: `OES_texture_float` (float textures),
-//! `WEBGL_color_buffer_float` (rendering into them), `WEBGL_draw_buffers` (four output
-//! streams per pass), the texture units and the image size. The programs are generated in
-//! [`Dialect::Essl100`]; the termination test reads back a byte mask instead of an
-//! occlusion query, which WebGL 1 lacks.
+//! The browser's WebGL 1 or 2 context as a [`GlContext`] (wasm32 only, docs/web.md): glow
+//! over `web_sys::WebGlRenderingContext` or `WebGl2RenderingContext`, and the capability
+//! report of what fragtrace needs there, in the terms WebGL names it. WebGL 1:
+//! `OES_texture_float` (float textures), `WEBGL_color_buffer_float` (rendering into them),
+//! `WEBGL_draw_buffers` (four output streams per pass), programs in [`Dialect::Essl100`].
+//! WebGL 2: `EXT_color_buffer_float` (the rest is core), programs in [`Dialect::Essl300`].
+//! Both: the texture units and the image size; the termination test reads back a byte
+//! mask instead of an occlusion query, which WebGL 1 lacks and WebGL 2 has only as a yes/no.
 
 use glow::HasContext;
 
