@@ -9,7 +9,7 @@
 //! frame (each band the whole multipass walk over its rows: the browser shows nothing until
 //! the script returns, so a band is the unit of visible progress), drawing the image as it
 //! fills; dragging orbits the camera and restarts. The query string sets what a test needs:
-//! `scene=NAME`, `size=WxH`, `webgl=1|2`, `kernel=multipass|unrolled:K|looped` (looped on
+//! `scene=NAME`, `size=WxH`, `webgl=1|2`, `aov=depth|normal|primid|steps` (WebGL 2), `kernel=multipass|unrolled:K|looped` (looped on
 //! WebGL 2), `accel=irregular|uniform`,
 //! `band=ROWS|full`, and `report=URL`, to which the finished linear image is POSTed (f32
 //! RGB, little-endian, top row first) with the passes, time and WebGL limits in the
@@ -19,6 +19,7 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use fragtrace::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
+use fragtrace::aov::{heat_map, preview, AovKind};
 use fragtrace::clock::Instant;
 use fragtrace::gpu::options::{GpuOptions, Kernel, Mask};
 use fragtrace::gpu::render::{render, ImageRequest};
@@ -55,6 +56,9 @@ struct Params {
     kernel: Kernel,
     /// `webgl=1|2`; `None`: 2 where the browser has it.
     webgl: Option<u32>,
+    /// `aov=depth|normal|primid|steps`: show that primary-ray AOV in false colour, as
+    /// `--aov`'s previews (WebGL 2 only: it reads the ray state's fourth attachment).
+    aov: Option<AovKind>,
     accel: AccelKind,
     /// Rows per band; `None`: adaptive.
     band: Option<u32>,
@@ -93,6 +97,17 @@ impl Params {
             Some("2") => Some(2),
             Some(v) => return Err(format!("webgl={v}: expected 1 or 2")),
         };
+        let aov = match q.get("aov") {
+            None => None,
+            Some(a) => match AovKind::parse_list(&a).map_err(|e| e.to_string())?[..] {
+                [k] => Some(k),
+                _ => {
+                    return Err(format!(
+                        "aov={a}: expected one of depth, normal, primid, steps"
+                    ))
+                }
+            },
+        };
         let accel = match q.get("accel").as_deref() {
             None | Some("irregular") => AccelKind::Irregular,
             Some("uniform") => AccelKind::Uniform,
@@ -111,6 +126,7 @@ impl Params {
             size,
             kernel,
             webgl,
+            aov,
             accel,
             band,
             report: q.get("report"),
@@ -290,7 +306,12 @@ impl App {
         self.job = Some(Job {
             camera,
             next_row: 0,
-            band: self.params.band.unwrap_or(8).min(self.height).max(1),
+            // An AOV is read from the whole image's primary wave: one band.
+            band: if self.params.aov.is_some() {
+                self.height.max(1)
+            } else {
+                self.params.band.unwrap_or(8).min(self.height).max(1)
+            },
             passes: 0,
             rays: 0,
             render_ms: 0.0,
@@ -321,7 +342,7 @@ impl App {
                 ..GpuOptions::default()
             },
             readback: Readback {
-                aov: false,
+                aov: self.params.aov.is_some(),
                 srgb8: false,
             },
             region: Some(Region {
@@ -340,9 +361,21 @@ impl App {
         let rows = (y1 - job.next_row) as usize;
         let start = job.next_row as usize * w as usize;
         self.image[start * 3..(start + rows * w as usize) * 3].copy_from_slice(&out.image.data);
+        // `--aov`'s preview colours (the steps heat map without its colour bar).
+        let shown = match self.params.aov {
+            None => None,
+            Some(AovKind::Steps) => {
+                let steps: Vec<f32> = out.aov.pixels.iter().map(|p| p.steps).collect();
+                let map = heat_map(w, h, &steps);
+                let rows = map.data.chunks(map.width as usize * 3);
+                Some(rows.flat_map(|r| r[..w as usize * 3].to_vec()).collect())
+            }
+            Some(k) => Some(preview(&out.aov, k).data),
+        };
+        let shown: &[f32] = shown.as_deref().unwrap_or(&out.image.data);
         for (px, rgb) in self.display[start * 4..(start + rows * w as usize) * 4]
             .chunks_mut(4)
-            .zip(out.image.data.chunks(3))
+            .zip(shown.chunks(3))
         {
             for k in 0..3 {
                 px[k] = srgb8(rgb[k]);
@@ -351,7 +384,7 @@ impl App {
         }
         job.next_row = y1;
         // Adapt the band to the frame budget (a fixed band when the query string sets one).
-        if self.params.band.is_none() {
+        if self.params.band.is_none() && self.params.aov.is_none() {
             let per_row = ms / rows as f64;
             job.band = ((BAND_TARGET_MS / per_row.max(1e-3)) as u32).clamp(1, h);
         }
@@ -537,6 +570,9 @@ pub fn start() -> Result<(), JsValue> {
     };
     if params.kernel == Kernel::Looped && !ctx.info.dialect.has_loops() {
         return Err("kernel=looped needs WebGL 2 (GLSL ES 1.00 has no run-time loops)".into());
+    }
+    if params.aov.is_some() && !ctx.info.dialect.has_read_buffer() {
+        return Err("aov= needs WebGL 2 (WebGL 1 reads colour attachment 0 only)".into());
     }
     let ctx: &'static GlContext = Box::leak(Box::new(ctx));
     let scene_name = params.scene.clone();
