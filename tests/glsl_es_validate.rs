@@ -2,7 +2,9 @@
 //! GLSL ES 1.00 as [`Dialect::Essl100`] generates it from the same sources and contract as
 //! the native GLSL 1.20, is valid for the Khronos reference compiler (glslangValidator),
 //! with GLSL ES 1.00's Appendix A limits on (WebGL enforces them: only constant-bounded
-//! `for` loops, constant or loop-index array indexing). And the native GLSL 1.20 output is
+//! `for` loops, constant or loop-index array indexing); every pass the WebGL 2 page can
+//! draw (the `looped` kernel's too), in GLSL ES 3.00 ([`Dialect::Essl300`]), is valid
+//! under glslangValidator's default limits. And the native GLSL 1.20 output is
 //! unchanged by the dialect generator: a hash of every pass of every feature set against
 //! the value the generator gave before dialects existed.
 
@@ -51,9 +53,9 @@ fn appendix_a_config(dir: &Path) -> std::path::PathBuf {
     path
 }
 
-fn validate(conf: &Path, path: &Path) -> (bool, String) {
+fn validate(conf: Option<&Path>, path: &Path) -> (bool, String) {
     let out = Command::new("glslangValidator")
-        .arg(conf)
+        .args(conf)
         .arg(path)
         .output()
         .expect("glslangValidator");
@@ -67,29 +69,45 @@ fn validate(conf: &Path, path: &Path) -> (bool, String) {
     )
 }
 
-/// The passes of the kernels the web page runs on WebGL 1: `multipass` and `unrolled:K`.
-fn web_passes() -> Vec<Pass> {
+/// The passes of the kernels the web page runs: `multipass` and `unrolled:K` on WebGL 1,
+/// and `looped` too on WebGL 2.
+fn web_passes(dialect: Dialect) -> Vec<Pass> {
     all_passes()
         .into_iter()
-        .filter(|p| !matches!(p, Pass::Looped(_)))
+        .filter(|p| dialect.has_loops() || !matches!(p, Pass::Looped(_)))
         .collect()
 }
 
-fn check_dialect(accel: AccelRef, tag: &str) -> usize {
-    let dir = std::env::temp_dir().join(format!("fragtrace-essl-{tag}-{}", std::process::id()));
+fn check_dialect(dialect: Dialect, accel: AccelRef, tag: &str) -> usize {
+    let dir = std::env::temp_dir().join(format!(
+        "fragtrace-essl-{tag}-{dialect:?}-{}",
+        std::process::id()
+    ));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let conf = appendix_a_config(&dir);
+    // GLSL ES 3.00 has no Appendix A loop and indexing limits: the defaults.
+    let conf = match dialect {
+        Dialect::Essl100 => Some(appendix_a_config(&dir)),
+        _ => None,
+    };
+    let version = dialect.fragment_header().lines().next().unwrap();
     let scene = builtin_scene();
     let layout = SceneTextures::pack_with(&scene, accel, MAX_ROW, true).unwrap();
     let vert = dir.join("quad.vert");
-    std::fs::write(&vert, Dialect::Essl100.quad_vertex_shader()).unwrap();
+    std::fs::write(&vert, dialect.quad_vertex_shader()).unwrap();
     let mut files = vec![vert];
     for f in all_feature_sets() {
-        for pass in web_passes() {
-            let a = assemble_in(Dialect::Essl100, pass, f, Techniques::default(), &layout).unwrap();
-            assert!(a.source.starts_with("#version 100\n"), "{pass:?}");
+        for pass in web_passes(dialect) {
+            let a = assemble_in(dialect, pass, f, Techniques::default(), &layout).unwrap();
+            assert!(a.source.starts_with(&format!("{version}\n")), "{pass:?}");
             assert_eq!(a.source.lines().count(), a.lines.len());
+            if dialect == Dialect::Essl300 {
+                // Nothing of GLSL 1.20's removed words is left for the compiler to accept
+                // as an extension.
+                for word in ["gl_FragData", "texture2D(", "varying "] {
+                    assert!(!a.source.contains(word), "{pass:?}: {word}");
+                }
+            }
             let name = match pass {
                 Pass::Unrolled(_, k) => format!("{}-{}{k}.frag", f.tag(), pass.name()),
                 _ => format!("{}-{}.frag", f.tag(), pass.name()),
@@ -98,23 +116,28 @@ fn check_dialect(accel: AccelRef, tag: &str) -> usize {
             // glslangValidator does not know GL_EXT_draw_buffers (it allows gl_FragData[n]
             // up to its MaxDrawBuffers anyway); the browser test compiles the line as is.
             let ext = "#extension GL_EXT_draw_buffers : require\n";
-            assert!(a.source.contains(ext), "{pass:?}");
+            assert_eq!(
+                a.source.contains(ext),
+                dialect == Dialect::Essl100,
+                "{pass:?}"
+            );
             std::fs::write(&path, a.source.replacen(ext, "", 1)).unwrap();
             files.push(path);
         }
     }
     let mut bad = Vec::new();
     for f in &files {
-        let (ok, log) = validate(&conf, f);
+        let (ok, log) = validate(conf.as_deref(), f);
         if !ok {
             bad.push(format!("{}:\n{log}", f.display()));
         }
     }
     assert!(
         bad.is_empty(),
-        "{} of {} invalid as GLSL ES 1.00:\n{}",
+        "{} of {} invalid as {}:\n{}",
         bad.len(),
         files.len(),
+        dialect.name(),
         bad[..bad.len().min(3)].join("\n")
     );
     std::fs::remove_dir_all(&dir).unwrap();
@@ -125,7 +148,7 @@ fn check_dialect(accel: AccelRef, tag: &str) -> usize {
 fn every_web_pass_is_valid_glsl_es_100_uniform_grid() {
     let scene = builtin_scene();
     let grid = Grid::build(&scene, &GridConfig::default()).unwrap();
-    let n = check_dialect((&grid).into(), "uniform");
+    let n = check_dialect(Dialect::Essl100, (&grid).into(), "uniform");
     println!("{n} GLSL ES 1.00 shaders validated");
 }
 
@@ -133,8 +156,24 @@ fn every_web_pass_is_valid_glsl_es_100_uniform_grid() {
 fn every_web_pass_is_valid_glsl_es_100_irregular_grid() {
     let scene = builtin_scene();
     let grid = IrregularGrid::build(&scene, &IrregularConfig::default()).unwrap();
-    let n = check_dialect((&grid).into(), "irregular");
+    let n = check_dialect(Dialect::Essl100, (&grid).into(), "irregular");
     println!("{n} GLSL ES 1.00 shaders validated");
+}
+
+#[test]
+fn every_web_pass_is_valid_glsl_es_300_uniform_grid() {
+    let scene = builtin_scene();
+    let grid = Grid::build(&scene, &GridConfig::default()).unwrap();
+    let n = check_dialect(Dialect::Essl300, (&grid).into(), "uniform");
+    println!("{n} GLSL ES 3.00 shaders validated");
+}
+
+#[test]
+fn every_web_pass_is_valid_glsl_es_300_irregular_grid() {
+    let scene = builtin_scene();
+    let grid = IrregularGrid::build(&scene, &IrregularConfig::default()).unwrap();
+    let n = check_dialect(Dialect::Essl300, (&grid).into(), "irregular");
+    println!("{n} GLSL ES 3.00 shaders validated");
 }
 
 /// The native programs are byte-identical to what the generator gave before the dialects:

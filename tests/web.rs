@@ -229,15 +229,17 @@ fn json_number(json: &str, key: &str) -> f64 {
         .unwrap_or_else(|_| panic!("{key} in {json}"))
 }
 
-/// The default scene in bands of 16 rows (three renders of the whole multipass walk) equals
-/// the f32 CPU render.
-#[test]
-fn page_renders_whitted_like_the_f32_cpu() {
+/// The default scene in bands of 16 rows (three renders of the whole walk) on `query`'s
+/// context and kernel equals the f32 CPU render; the page used `dialect`.
+fn page_matches_f32_cpu(query: &str, dialect: &str) {
+    // One build and one browser at a time (they share target/web-test and the profile).
+    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = ONE.lock().unwrap_or_else(|e| e.into_inner());
     let dir = build_page();
     let t = std::time::Instant::now();
     let posted = open_page(
         &dir,
-        &format!("scene=whitted&size={W}x{H}&band=16"),
+        &format!("scene=whitted&size={W}x{H}&band=16&{query}"),
         PAGE_TIMEOUT,
     );
     let wall = t.elapsed();
@@ -246,13 +248,18 @@ fn page_renders_whitted_like_the_f32_cpu() {
         Posted::Error(e) => panic!("the page failed: {e}"),
     };
     println!("page report ({wall:.1?} from browser start): {json}");
+    assert!(
+        json.contains(&format!("\"dialect\":\"{dialect}\"")),
+        "{json}"
+    );
     assert_eq!(body.len(), (W * H * 3 * 4) as usize, "image bytes");
     let data: Vec<f32> = body
         .chunks_exact(4)
         .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect();
     let web = Image::from_rgb(W, H, data);
-    assert!(json_number(&json, "passes") > 100.0, "{json}");
+    // Multipass: thousands of passes; looped: a few per wave.
+    assert!(json_number(&json, "passes") > 10.0, "{json}");
     assert!(json_number(&json, "max_draw_buffers") >= 4.0, "{json}");
 
     let scene = load_scene(&root().join("scenes/whitted.toml")).unwrap();
@@ -274,6 +281,18 @@ fn page_renders_whitted_like_the_f32_cpu() {
     );
 }
 
+/// The thesis's multipass kernel on WebGL 1 (GLSL ES 1.00).
+#[test]
+fn page_renders_whitted_like_the_f32_cpu() {
+    page_matches_f32_cpu("webgl=1&kernel=multipass", "GLSL ES 1.00");
+}
+
+/// The `looped` kernel on WebGL 2 (GLSL ES 3.00).
+#[test]
+fn page_renders_whitted_looped_on_webgl2_like_the_f32_cpu() {
+    page_matches_f32_cpu("webgl=2&kernel=looped", "GLSL ES 3.00");
+}
+
 /// The figures of docs/web.md: passes and time of the default scene and bunny.toml at
 /// 512x512 (or `FRAGTRACE_WEB_FIGURE_SIZE`) in one band (the whole image per pass, as natively), and the limits the page
 /// met. Needs `FRAGTRACE_MODEL_PATH` for the bunny (served as `models/`). Run with
@@ -289,7 +308,9 @@ fn web_figures_512() {
         std::env::var("FRAGTRACE_WEB_FIGURE_SCENES").unwrap_or_else(|_| "whitted,bunny".into());
     for scene in scenes.split(',') {
         let t = std::time::Instant::now();
-        let query = format!("scene={scene}&size={size}&band=full");
+        // FRAGTRACE_WEB_FIGURE_QUERY adds to the query (`webgl=2&kernel=looped`).
+        let extra = std::env::var("FRAGTRACE_WEB_FIGURE_QUERY").unwrap_or_default();
+        let query = format!("scene={scene}&size={size}&band=full&{extra}");
         match open_page(&dir, &query, Duration::from_secs(1800)) {
             Posted::Report { json, .. } => {
                 println!(

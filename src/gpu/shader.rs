@@ -377,7 +377,7 @@ pub fn assemble_in(
         fetch: Fetch::Texture2D,
         extra: String::new(),
     };
-    assemble_for(
+    let mut a = assemble_for(
         &target,
         pass.name(),
         pass.file(),
@@ -386,7 +386,24 @@ pub fn assemble_in(
         features,
         techniques,
         layout,
-    )
+    )?;
+    let decls = dialect.translate(&mut a.source);
+    if !decls.is_empty() {
+        // After the header's lines (version and precision lines come first).
+        let header = dialect.fragment_header().lines().count();
+        let at = a
+            .source
+            .match_indices('\n')
+            .nth(header - 1)
+            .map_or(a.source.len(), |(i, _)| i + 1);
+        a.source.insert_str(at, &decls);
+        let n = decls.lines().count();
+        a.lines.splice(
+            header..header,
+            (1..=n).map(|k| ("<generated outputs>".to_string(), k)),
+        );
+    }
+    Ok(a)
 }
 
 /// Assembles a fragment program from `text` (named `file`) with the same prelude and

@@ -1,10 +1,11 @@
-//! The browser's WebGL 1 context as a [`GlContext`] (wasm32 only, docs/web.md): glow over
-//! `web_sys::WebGlRenderingContext`, and the capability report of what fragtrace needs
-//! there, in the terms WebGL names it: `OES_texture_float` (float textures),
-//! `WEBGL_color_buffer_float` (rendering into them), `WEBGL_draw_buffers` (four output
-//! streams per pass), the texture units and the image size. The programs are generated in
-//! [`Dialect::Essl100`]; the termination test reads back a byte mask instead of an
-//! occlusion query, which WebGL 1 lacks.
+//! The browser's WebGL 1 or 2 context as a [`GlContext`] (wasm32 only, docs/web.md): glow
+//! over `web_sys::WebGlRenderingContext` or `WebGl2RenderingContext`, and the capability
+//! report of what fragtrace needs there, in the terms WebGL names it. WebGL 1:
+//! `OES_texture_float` (float textures), `WEBGL_color_buffer_float` (rendering into them),
+//! `WEBGL_draw_buffers` (four output streams per pass), programs in [`Dialect::Essl100`].
+//! WebGL 2: `EXT_color_buffer_float` (the rest is core), programs in [`Dialect::Essl300`].
+//! Both: the texture units and the image size; the termination test reads back a byte
+//! mask instead of an occlusion query, which WebGL 1 lacks and WebGL 2 has only as a yes/no.
 
 use glow::HasContext;
 
@@ -20,6 +21,10 @@ pub const REQUIRED_EXTENSIONS: [(&str, &str); 3] = [
     ("WEBGL_color_buffer_float", "float render targets"),
     ("WEBGL_draw_buffers", "several output streams per pass"),
 ];
+
+/// The extension the WebGL 2 path needs (float textures, draw buffers and loops are core).
+pub const REQUIRED_EXTENSIONS_WEBGL2: [(&str, &str); 1] =
+    [("EXT_color_buffer_float", "float render targets")];
 
 /// `WEBGL_debug_renderer_info`'s names of the implementation's vendor and renderer.
 const UNMASKED_VENDOR_WEBGL: u32 = 0x9245;
@@ -49,13 +54,23 @@ impl GlContext {
             .map(wasm_bindgen::JsCast::unchecked_into::<web_sys::WebglDrawBuffers>);
         DRAW_BUFFERS.with(|d| *d.borrow_mut() = ext);
         let gl = glow::Context::from_webgl1_context(webgl);
-        let info = gather_web_info(&gl);
+        let info = gather_web_info(&gl, Dialect::Essl100);
+        web_context(gl, info)
+    }
+
+    /// A canvas's WebGL 2 context, unjudged like [`GlContext::from_webgl1_unchecked`]:
+    /// programs in [`Dialect::Essl300`], so the `looped` kernel runs too.
+    pub fn from_webgl2_unchecked(webgl: web_sys::WebGl2RenderingContext) -> GlContext {
+        DRAW_BUFFERS.with(|d| *d.borrow_mut() = None);
+        let gl = glow::Context::from_webgl2_context(webgl);
+        let info = gather_web_info(&gl, Dialect::Essl300);
         web_context(gl, info)
     }
 }
 
-/// Version strings, limits and extensions of a WebGL 1 context, and its verdict.
-fn gather_web_info(gl: &glow::Context) -> GlInfo {
+/// Version strings, limits and extensions of a WebGL 1 or 2 context, and its verdict.
+fn gather_web_info(gl: &glow::Context, dialect: Dialect) -> GlInfo {
+    let webgl2 = dialect == Dialect::Essl300;
     // SAFETY (all calls): plain state queries on the page's context.
     let int = |name| unsafe { gl.get_parameter_i32(name) };
     let string = |name| unsafe { gl.get_parameter_string(name) };
@@ -67,17 +82,22 @@ fn gather_web_info(gl: &glow::Context) -> GlInfo {
     unsafe { gl.get_parameter_i32_slice(glow::MAX_VIEWPORT_DIMS, &mut dims) };
     // WEBGL_draw_buffers' MAX_DRAW_BUFFERS_WEBGL has the value of GL_MAX_DRAW_BUFFERS;
     // without the extension the query is an error, and one buffer is what there is.
-    let max_draw_buffers = if has("WEBGL_draw_buffers") {
+    let max_draw_buffers = if webgl2 || has("WEBGL_draw_buffers") {
         int(glow::MAX_DRAW_BUFFERS)
     } else {
         1
     };
     let mut info = GlInfo {
-        egl_platform: "WebGL 1 (browser canvas)".into(),
+        egl_platform: if webgl2 {
+            "WebGL 2 (browser canvas)".into()
+        } else {
+            "WebGL 1 (browser canvas)".into()
+        },
         egl_vendor: String::new(),
         egl_version: String::new(),
         gl_version: string(glow::VERSION),
         // The multipass design of GL 2.x is what `--kernel auto` picks here.
+        // (WebGL 2 is ES 3.0; `auto` still picks multipass, the thesis's kernel.)
         gl_major_minor: (2, 0),
         // WebGL's RENDERER is a fixed string ("WebKit WebGL"); the debug extension names
         // the implementation underneath (SwiftShader, ANGLE on a GPU).
@@ -100,12 +120,17 @@ fn gather_web_info(gl: &glow::Context) -> GlInfo {
         occlusion_query_bits: 0,
         timer_query: false,
         compute: false,
-        dialect: Dialect::Essl100,
+        dialect,
         features: Vec::new(),
         optional: Vec::new(),
         extensions: Vec::new(),
     };
-    let mut features: Vec<Check> = REQUIRED_EXTENSIONS
+    let required: &[(&str, &str)] = if webgl2 {
+        &REQUIRED_EXTENSIONS_WEBGL2
+    } else {
+        &REQUIRED_EXTENSIONS
+    };
+    let mut features: Vec<Check> = required
         .iter()
         .map(|(ext, what)| Check::flag(format!("{what} ({ext})"), has(ext)))
         .collect();
@@ -136,7 +161,8 @@ thread_local! {
 
 /// `drawBuffersWEBGL(buffers)` on the page's context. glow 0.16 wraps the list in a second
 /// array, which WebGL reads as `[GL_NONE]`: every pass would draw nothing.
-pub(crate) fn draw_buffers(buffers: &[u32]) {
+/// On WebGL 2 (no extension object) glow's `drawBuffers` is right.
+pub(crate) fn draw_buffers(gl: &glow::Context, buffers: &[u32]) {
     DRAW_BUFFERS.with(|d| {
         if let Some(ext) = d.borrow().as_ref() {
             let list = js_sys::Array::new();
@@ -144,6 +170,9 @@ pub(crate) fn draw_buffers(buffers: &[u32]) {
                 list.push(&wasm_bindgen::JsValue::from(b));
             }
             ext.draw_buffers_webgl(&list);
+        } else {
+            // SAFETY: every listed attachment exists (the caller's target's).
+            unsafe { gl.draw_buffers(buffers) };
         }
     });
 }

@@ -1,6 +1,7 @@
 //! fragtrace's faithful multipass kernel in a web page (docs/web.md): the library built for
-//! wasm32-unknown-unknown renders on the page's WebGL 1 context through glow, with the
-//! passes generated in GLSL ES 1.00 from the same sources as the native GLSL 1.20.
+//! wasm32-unknown-unknown renders on the page's WebGL 2 context (WebGL 1 where there is no
+//! 2, or with `webgl=1`) through glow, with the passes generated in GLSL ES 3.00 (1.00) from
+//! the same sources as the native GLSL 1.20.
 //!
 //! The page ([`start`]) picks a shipped scene (embedded) or takes a dropped TOML with its
 //! OBJ/MTL files (meshes the shipped scenes name are fetched from `models/` next to the
@@ -8,7 +9,8 @@
 //! frame (each band the whole multipass walk over its rows: the browser shows nothing until
 //! the script returns, so a band is the unit of visible progress), drawing the image as it
 //! fills; dragging orbits the camera and restarts. The query string sets what a test needs:
-//! `scene=NAME`, `size=WxH`, `kernel=multipass|unrolled:K`, `accel=irregular|uniform`,
+//! `scene=NAME`, `size=WxH`, `webgl=1|2`, `aov=depth|normal|primid|steps` (WebGL 2), `kernel=multipass|unrolled:K|looped` (looped on
+//! WebGL 2), `accel=irregular|uniform`,
 //! `band=ROWS|full`, and `report=URL`, to which the finished linear image is POSTed (f32
 //! RGB, little-endian, top row first) with the passes, time and WebGL limits in the
 //! `X-Fragtrace-Report` header (JSON); an error is POSTed there as `X-Fragtrace-Error`.
@@ -17,6 +19,7 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use fragtrace::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
+use fragtrace::aov::{heat_map, preview, AovKind};
 use fragtrace::clock::Instant;
 use fragtrace::gpu::options::{GpuOptions, Kernel, Mask};
 use fragtrace::gpu::render::{render, ImageRequest};
@@ -51,6 +54,11 @@ struct Params {
     scene: String,
     size: Option<(u32, u32)>,
     kernel: Kernel,
+    /// `webgl=1|2`; `None`: 2 where the browser has it.
+    webgl: Option<u32>,
+    /// `aov=depth|normal|primid|steps`: show that primary-ray AOV in false colour, as
+    /// `--aov`'s previews (WebGL 2 only: it reads the ray state's fourth attachment).
+    aov: Option<AovKind>,
     accel: AccelKind,
     /// Rows per band; `None`: adaptive.
     band: Option<u32>,
@@ -73,9 +81,31 @@ impl Params {
         };
         let kernel = match q.get("kernel").as_deref() {
             None | Some("multipass") => Kernel::Multipass,
+            Some("looped") => Kernel::Looped,
             Some(k) => match k.strip_prefix("unrolled:").map(str::parse::<u32>) {
                 Some(Ok(n)) if n > 0 => Kernel::Unrolled(n),
-                _ => return Err(format!("kernel={k}: expected multipass or unrolled:K")),
+                _ => {
+                    return Err(format!(
+                        "kernel={k}: expected multipass, unrolled:K or looped"
+                    ))
+                }
+            },
+        };
+        let webgl = match q.get("webgl").as_deref() {
+            None => None,
+            Some("1") => Some(1),
+            Some("2") => Some(2),
+            Some(v) => return Err(format!("webgl={v}: expected 1 or 2")),
+        };
+        let aov = match q.get("aov") {
+            None => None,
+            Some(a) => match AovKind::parse_list(&a).map_err(|e| e.to_string())?[..] {
+                [k] => Some(k),
+                _ => {
+                    return Err(format!(
+                        "aov={a}: expected one of depth, normal, primid, steps"
+                    ))
+                }
             },
         };
         let accel = match q.get("accel").as_deref() {
@@ -95,6 +125,8 @@ impl Params {
             scene: q.get("scene").unwrap_or_else(|| "whitted".into()),
             size,
             kernel,
+            webgl,
+            aov,
             accel,
             band,
             report: q.get("report"),
@@ -274,7 +306,12 @@ impl App {
         self.job = Some(Job {
             camera,
             next_row: 0,
-            band: self.params.band.unwrap_or(8).min(self.height).max(1),
+            // An AOV is read from the whole image's primary wave: one band.
+            band: if self.params.aov.is_some() {
+                self.height.max(1)
+            } else {
+                self.params.band.unwrap_or(8).min(self.height).max(1)
+            },
             passes: 0,
             rays: 0,
             render_ms: 0.0,
@@ -305,7 +342,7 @@ impl App {
                 ..GpuOptions::default()
             },
             readback: Readback {
-                aov: false,
+                aov: self.params.aov.is_some(),
                 srgb8: false,
             },
             region: Some(Region {
@@ -324,9 +361,21 @@ impl App {
         let rows = (y1 - job.next_row) as usize;
         let start = job.next_row as usize * w as usize;
         self.image[start * 3..(start + rows * w as usize) * 3].copy_from_slice(&out.image.data);
+        // `--aov`'s preview colours (the steps heat map without its colour bar).
+        let shown = match self.params.aov {
+            None => None,
+            Some(AovKind::Steps) => {
+                let steps: Vec<f32> = out.aov.pixels.iter().map(|p| p.steps).collect();
+                let map = heat_map(w, h, &steps);
+                let rows = map.data.chunks(map.width as usize * 3);
+                Some(rows.flat_map(|r| r[..w as usize * 3].to_vec()).collect())
+            }
+            Some(k) => Some(preview(&out.aov, k).data),
+        };
+        let shown: &[f32] = shown.as_deref().unwrap_or(&out.image.data);
         for (px, rgb) in self.display[start * 4..(start + rows * w as usize) * 4]
             .chunks_mut(4)
-            .zip(out.image.data.chunks(3))
+            .zip(shown.chunks(3))
         {
             for k in 0..3 {
                 px[k] = srgb8(rgb[k]);
@@ -335,7 +384,7 @@ impl App {
         }
         job.next_row = y1;
         // Adapt the band to the frame budget (a fixed band when the query string sets one).
-        if self.params.band.is_none() {
+        if self.params.band.is_none() && self.params.aov.is_none() {
             let per_row = ms / rows as f64;
             job.band = ((BAND_TARGET_MS / per_row.max(1e-3)) as u32).clamp(1, h);
         }
@@ -391,7 +440,7 @@ impl App {
         let json = format!(
             "{{\"scene\":{:?},\"width\":{},\"height\":{},\"kernel\":\"{}\",\"passes\":{},\
              \"rays\":{},\"render_ms\":{:.1},\"wall_ms\":{:.1},\"renderer\":{:?},\
-             \"gl_version\":{:?},\"glsl\":{:?},\"max_texture_size\":{},\"max_draw_buffers\":{},\
+             \"gl_version\":{:?},\"glsl\":{:?},\"dialect\":{:?},\"max_texture_size\":{},\"max_draw_buffers\":{},\
              \"max_texture_units\":{},\"max_viewport\":[{},{}],\"extensions\":{:?}}}",
             self.scene_name,
             self.width,
@@ -404,6 +453,7 @@ impl App {
             i.renderer,
             i.gl_version,
             i.glsl_version,
+            i.dialect.name(),
             i.max_texture_size,
             i.max_draw_buffers,
             i.max_texture_units,
@@ -500,11 +550,31 @@ pub fn start() -> Result<(), JsValue> {
     // The WebGL canvas is never shown: every pass draws into float textures, and the page
     // shows the image read back through a 2D canvas.
     let gl_canvas: web_sys::HtmlCanvasElement = document().create_element("canvas")?.dyn_into()?;
-    let webgl: web_sys::WebGlRenderingContext = gl_canvas
-        .get_context("webgl")?
-        .ok_or("this browser gives no WebGL 1 context")?
-        .dyn_into()?;
-    let ctx: &'static GlContext = Box::leak(Box::new(GlContext::from_webgl1_unchecked(webgl)));
+    let webgl2 = if params.webgl == Some(1) {
+        None
+    } else {
+        gl_canvas.get_context("webgl2")?
+    };
+    let ctx = match webgl2 {
+        Some(webgl2) => GlContext::from_webgl2_unchecked(webgl2.dyn_into()?),
+        None if params.webgl == Some(2) => {
+            return Err("webgl=2: this browser gives no WebGL 2 context".into())
+        }
+        None => {
+            let webgl: web_sys::WebGlRenderingContext = gl_canvas
+                .get_context("webgl")?
+                .ok_or("this browser gives no WebGL 1 context")?
+                .dyn_into()?;
+            GlContext::from_webgl1_unchecked(webgl)
+        }
+    };
+    if params.kernel == Kernel::Looped && !ctx.info.dialect.has_loops() {
+        return Err("kernel=looped needs WebGL 2 (GLSL ES 1.00 has no run-time loops)".into());
+    }
+    if params.aov.is_some() && !ctx.info.dialect.has_read_buffer() {
+        return Err("aov= needs WebGL 2 (WebGL 1 reads colour attachment 0 only)".into());
+    }
+    let ctx: &'static GlContext = Box::leak(Box::new(ctx));
     let scene_name = params.scene.clone();
     let toml = SCENES
         .iter()

@@ -150,7 +150,7 @@ pub(crate) fn render<'a>(
         }
         f.observe()?;
     }
-    let t = std::time::Instant::now();
+    let t = crate::clock::Instant::now();
     let (image, srgb8, nonfinite) = if req.readback.srgb8 {
         let (bytes, nonfinite) = read_srgb8(&mut f, width, height)?;
         (

@@ -155,11 +155,9 @@ impl RenderTarget {
         };
         // glow 0.16 hands WEBGL_draw_buffers a nested array on WebGL 1 (drawing nothing);
         // the page's context calls the extension itself.
+        // WebGL 2 has drawBuffers itself (glow's call is right there).
         #[cfg(target_arch = "wasm32")]
-        {
-            let _ = gl;
-            crate::gpu::web::draw_buffers(&buffers);
-        }
+        crate::gpu::web::draw_buffers(gl, &buffers);
     }
 
     /// Makes this the render destination: binds the FBO, routes `gl_FragData[i]` to
@@ -263,17 +261,25 @@ impl RenderTarget {
             // separate read binding. Float buffers are not clamped on read because
             // GL_CLAMP_READ_COLOR defaults to GL_FIXED_ONLY.
             gl.bind_framebuffer(glow::FRAMEBUFFER, Some(self.framebuffer.name()));
-            // WebGL 1 has no glReadBuffer: it reads attachment 0.
+            // WebGL 1 has no glReadBuffer: it reads attachment 0 (WebGL 2 has it).
             #[cfg(target_arch = "wasm32")]
-            if index != 0 {
-                return Err(Error::GlUnavailable(format!(
-                    "WebGL 1 reads colour attachment 0 only, {index} requested"
-                )));
+            if gl.version().major < 3 {
+                if index != 0 {
+                    return Err(Error::GlUnavailable(format!(
+                        "WebGL 1 reads colour attachment 0 only, {index} requested"
+                    )));
+                }
+            } else {
+                gl.read_buffer(glow::COLOR_ATTACHMENT0 + index as u32);
             }
             #[cfg(not(target_arch = "wasm32"))]
             gl.read_buffer(glow::COLOR_ATTACHMENT0 + index as u32);
             gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
-            if out.len() >= PACK_BUFFER_MIN_FLOATS && gl.version().major >= 3 {
+            // WebGL 2 cannot map buffers: the pack-buffer read is native only.
+            if cfg!(not(target_arch = "wasm32"))
+                && out.len() >= PACK_BUFFER_MIN_FLOATS
+                && gl.version().major >= 3
+            {
                 read_through_pack_buffer(gl, (x, y, width, height), &mut out)?;
                 check_gl_error(gl, "reading a render target attachment")?;
                 return Ok(out);
