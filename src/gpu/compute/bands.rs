@@ -79,8 +79,8 @@ pub(super) const BAND_TIME: Duration = Duration::from_millis(250);
 /// band has taken an eighth of the target. Rows of sky at the top of an image are fast: a
 /// rate measured on them alone sized a band of glass.toml to take 5 s of a 15 s render
 /// (llvmpipe). On a GPU where no band takes that long the bands just double (an 18 ms
-/// 4096x4096 frame on the H200: 7 bands; capped at 1/32 it took 33 bands and 28% more GPU
-/// time). Without a target every band is the largest the limits allow.
+/// 4096x4096 frame on the H200 would take 7 bands; capped at 1/32 it took 33 bands and 28%
+/// more GPU time). Without a target every band is the largest the limits allow.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct BandPlan {
     height: u32,
