@@ -33,16 +33,35 @@ pub(super) fn flip_rgba_to_rgb(data: &[f32], w: u32, h: u32) -> Vec<f32> {
     out
 }
 
+/// The 8-bit target `srgb8.frag` draws into, kept between renders of one size.
+struct Srgb8Target(RenderTarget);
+
 /// The finished image as 8-bit sRGB, rows from the top (`srgb8.frag`, the host's rounding),
 /// and its number of non-finite pixels: 4 bytes a pixel read back where the linear image
 /// costs 16.
 pub(super) fn read_srgb8(f: &mut Frame, w: u32, h: u32) -> Result<(Vec<u8>, u64)> {
-    // Made before binding: creating a texture unbinds the active unit's.
-    let target = RenderTarget::with_formats(f.ctx, w, h, &[TexFormat::Rgba8])?;
-    let thresholds = f.gs.srgb_texture()?;
+    // The RGBA8 target is kept in the GPU scene per image size (as the compute kernel's
+    // outputs are), so an animation's frames do not each allocate one. Made before
+    // binding: creating a texture unbinds the active unit's.
+    let gs = f.gs;
+    let mut kept = gs.kept::<Srgb8Target>();
+    if kept
+        .as_ref()
+        .is_none_or(|t| (t.0.width(), t.0.height()) != (w, h))
+    {
+        *kept = None;
+        *kept = Some(Srgb8Target(RenderTarget::with_formats(
+            f.ctx,
+            w,
+            h,
+            &[TexFormat::Rgba8],
+        )?));
+    }
+    let target = &kept.as_ref().expect("made above").0;
+    let thresholds = gs.srgb_texture()?;
     bind_texture(f.gl(), Unit::Acc, f.acc[f.acc_cur].texture(0));
     bind_texture(f.gl(), Unit::Node, thresholds);
-    f.draw_into(Pass::Srgb8, &target)?;
+    f.draw_into(Pass::Srgb8, target)?;
     let mut rgba = vec![0u8; w as usize * h as usize * 4];
     let gl = f.gl();
     // SAFETY: the context is current, the target bound; `rgba` holds exactly w x h RGBA
