@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::frame::Frame;
 use crate::gpu::contract::{ray, RayState, StateTexels, Unit};
-use crate::gpu::gl::{check_gl_error, RenderTarget, TexFormat};
+use crate::gpu::gl::{check_gl_error, ReadbackRing, RenderTarget, TexFormat};
 use crate::gpu::options::{FragmentKernel, GpuOptions};
 use crate::gpu::request::aov_pixel;
 use crate::gpu::scene::bind_texture;
@@ -33,8 +33,9 @@ pub(super) fn flip_rgba_to_rgb(data: &[f32], w: u32, h: u32) -> Vec<f32> {
     out
 }
 
-/// The 8-bit target `srgb8.frag` draws into, kept between renders of one size.
-struct Srgb8Target(RenderTarget);
+/// The 8-bit target `srgb8.frag` draws into and the staging ring its pixels come back
+/// through (none without persistent mapping: GL < 4.4), kept between renders of one size.
+struct Srgb8Target(RenderTarget, Option<ReadbackRing>);
 
 /// The finished image as 8-bit sRGB, rows from the top (`srgb8.frag`, the host's rounding),
 /// and its number of non-finite pixels: 4 bytes a pixel read back where the linear image
@@ -50,18 +51,22 @@ pub(super) fn read_srgb8(f: &mut Frame, w: u32, h: u32) -> Result<(Vec<u8>, u64)
         .is_none_or(|t| (t.0.width(), t.0.height()) != (w, h))
     {
         *kept = None;
-        *kept = Some(Srgb8Target(RenderTarget::with_formats(
-            f.ctx,
-            w,
-            h,
-            &[TexFormat::Rgba8],
-        )?));
+        let target = RenderTarget::with_formats(f.ctx, w, h, &[TexFormat::Rgba8])?;
+        let ring = ReadbackRing::new(f.ctx, w as usize * h as usize * 4).ok();
+        *kept = Some(Srgb8Target(target, ring));
     }
-    let target = &kept.as_ref().expect("made above").0;
+    let Srgb8Target(target, ring) = kept.as_mut().expect("made above");
     let thresholds = gs.srgb_texture()?;
     bind_texture(f.gl(), Unit::Acc, f.acc[f.acc_cur].texture(0));
     bind_texture(f.gl(), Unit::Node, thresholds);
     f.draw_into(Pass::Srgb8, target)?;
+    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    if let Some(ring) = ring {
+        // Through a staging buffer (H200, 4096x4096: see docs/performance.md).
+        let k = ring.read_pixels(f.ctx, glow::COLOR_ATTACHMENT0, w, h)?;
+        let nonfinite = ring.take(f.ctx, k, |rgba| rgba_to_rgb(rgba, &mut rgb))?;
+        return Ok((rgb, nonfinite));
+    }
     let mut rgba = vec![0u8; w as usize * h as usize * 4];
     let gl = f.gl();
     // SAFETY: the context is current, the target bound; `rgba` holds exactly w x h RGBA
@@ -79,10 +84,13 @@ pub(super) fn read_srgb8(f: &mut Frame, w: u32, h: u32) -> Result<(Vec<u8>, u64)
         );
     }
     check_gl_error(gl, "reading the 8-bit image")?;
-    // Alpha marks the finite pixels; RGB is the image.
-    let mut rgb = vec![0u8; w as usize * h as usize * 3];
-    let nonfinite = rgb
-        .par_chunks_mut(3 << 12)
+    let nonfinite = rgba_to_rgb(&rgba, &mut rgb);
+    Ok((rgb, nonfinite))
+}
+
+/// Drops alpha, which marks the finite pixels (0: not finite), and counts the others.
+fn rgba_to_rgb(rgba: &[u8], rgb: &mut [u8]) -> u64 {
+    rgb.par_chunks_mut(3 << 12)
         .zip(rgba.par_chunks(4 << 12))
         .map(|(dst, src)| {
             let mut bad = 0u64;
@@ -92,8 +100,7 @@ pub(super) fn read_srgb8(f: &mut Frame, w: u32, h: u32) -> Result<(Vec<u8>, u64)
             }
             bad
         })
-        .sum();
-    Ok((rgb, nonfinite))
+        .sum()
 }
 
 /// Reads the current ray-state set's textures s0 and s3 (the others stay empty).

@@ -150,6 +150,14 @@ pub(crate) fn render<'a>(
         }
         f.observe()?;
     }
+    // The passes are queued, not done: wait for them here, so that `read_back` times the
+    // copy and not the GPU's last passes (measured apart: docs/performance.md, run 4).
+    let t = crate::clock::Instant::now();
+    // SAFETY: the context is current.
+    unsafe { f.gl().finish() };
+    f.stats
+        .phases_ms
+        .insert("drain".into(), t.elapsed().as_secs_f64() * 1e3);
     let t = crate::clock::Instant::now();
     let (image, srgb8, nonfinite) = if req.readback.srgb8 {
         let (bytes, nonfinite) = read_srgb8(&mut f, width, height)?;

@@ -2,7 +2,10 @@
 //! staging buffers (`GL_ARB_buffer_storage`, GL 4.4). Each band's output is copied into a
 //! slot on the GPU and fenced; the host takes the slot's bytes once its fence has passed,
 //! while the next band is already being traced. Nothing is mapped or unmapped per band and
-//! no call waits for more than the copy it needs.
+//! no call waits for more than the copy it needs. The fragment kernels' framebuffers come
+//! back the same way ([`ReadbackRing::read_pixels`]: `glReadPixels` into a slot bound as
+//! the pixel-pack buffer, a copy the GPU makes on its own, where reading into client
+//! memory makes the driver copy on the host).
 
 use glow::HasContext;
 
@@ -116,6 +119,47 @@ impl ReadbackRing {
             Owned::<SyncKind>::new(ctx, f)
         };
         check_gl_error(gl, "copying to a staging buffer")?;
+        self.slots[k].pending = Some((fence, len));
+        self.next = 1 - k;
+        Ok(k)
+    }
+
+    /// Queues `glReadPixels` of the bound read framebuffer's `w` x `h` RGBA8 pixels from
+    /// `attachment` into the next slot (which must have been taken) and returns the slot.
+    pub fn read_pixels(
+        &mut self,
+        ctx: &GlContext,
+        attachment: u32,
+        w: u32,
+        h: u32,
+    ) -> Result<usize> {
+        let gl = ctx.gl();
+        let k = self.next;
+        let len = w as usize * h as usize * 4;
+        assert!(len <= self.bytes, "read past the staging buffer");
+        assert!(self.slots[k].pending.is_none(), "slot {k} not taken yet");
+        // SAFETY: the context is current; the slot is alive and holds `len` bytes, rows of
+        // 4-byte pixels meet any pack alignment, and offset 0 is inside the bound buffer.
+        let fence = unsafe {
+            gl.bind_buffer(glow::PIXEL_PACK_BUFFER, Some(self.slots[k].buf.name()));
+            gl.read_buffer(attachment);
+            gl.read_pixels(
+                0,
+                0,
+                w as i32,
+                h as i32,
+                glow::RGBA,
+                glow::UNSIGNED_BYTE,
+                glow::PixelPackData::BufferOffset(0),
+            );
+            gl.bind_buffer(glow::PIXEL_PACK_BUFFER, None);
+            let f = gl
+                .fence_sync(glow::SYNC_GPU_COMMANDS_COMPLETE, 0)
+                .map_err(|e| Error::Internal(format!("glFenceSync: {e}")))?;
+            gl.flush();
+            Owned::<SyncKind>::new(ctx, f)
+        };
+        check_gl_error(gl, "reading pixels into a staging buffer")?;
         self.slots[k].pending = Some((fence, len));
         self.next = 1 - k;
         Ok(k)
