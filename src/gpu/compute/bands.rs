@@ -48,23 +48,22 @@ impl Limits {
     }
 
     /// Rows per band: as many as keep the AOV output (16 bytes per pixel) within one
-    /// storage block, a multiple of 256 rows unless the whole image fits (so a band's
-    /// outputs start at offsets any alignment GL asks of a range keeps).
+    /// storage block. Each band's outputs are buffers of their own, bound whole, so no GL
+    /// range alignment applies (bands were once 256-row multiples for that).
     pub fn band_rows(&self, width: u32, height: u32) -> Result<u32> {
         let per_row = width as u64 * 16;
         let fit = self.block_bytes / per_row;
         if fit >= height as u64 {
             return Ok(height);
         }
-        let rows = fit / 256 * 256;
-        if rows == 0 {
+        if fit == 0 {
             return Err(Error::Limit(format!(
-                "a {width}-pixel row needs 256 x {per_row} bytes of output per band; \
+                "a {width}-pixel row needs {per_row} bytes of output; \
                  GL_MAX_SHADER_STORAGE_BLOCK_SIZE is {}",
                 self.block_bytes
             )));
         }
-        Ok(rows as u32)
+        Ok(fit as u32)
     }
 }
 
@@ -197,15 +196,18 @@ mod tests {
     use super::*;
 
     #[test]
-    fn band_rows_fit_the_block_and_keep_alignment() {
+    fn band_rows_fit_the_block() {
         let l = |block_bytes| Limits {
             blocks: 16,
             block_bytes,
         };
         assert_eq!(l(1 << 30).band_rows(640, 480).unwrap(), 480);
-        // 600 rows of 300 pixels at 16 bytes: 256 rows fit in 1.5 MB, 2 x 256 do not.
-        assert_eq!(l(300 * 16 * 300).band_rows(300, 600).unwrap(), 256);
-        assert!(l(300 * 16 * 255).band_rows(300, 600).is_err());
+        // 600 rows of 300 pixels at 16 bytes (4800 bytes a row).
+        assert_eq!(l(300 * 16 * 600).band_rows(300, 600).unwrap(), 600);
+        assert_eq!(l(300 * 16 * 300 + 4799).band_rows(300, 600).unwrap(), 300);
+        assert_eq!(l(300 * 16).band_rows(300, 600).unwrap(), 1);
+        let e = l(300 * 16 - 1).band_rows(300, 600).unwrap_err();
+        assert!(e.to_string().contains("needs 4800 bytes"), "{e}");
     }
 
     /// Headless: the limit's bands. Timed: 1/64 of the image first, then bands sized by
