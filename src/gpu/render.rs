@@ -57,12 +57,16 @@ pub fn render<'a>(
 /// `observer` answers [`Flow::Pause`] after a pass, and its result comes from the last
 /// resume. The same walk and passes as [`render`] (which runs the pauses through); the
 /// fragment kernels only: the compute kernel (native) runs in one go on the first resume.
+///
+/// `gs` is the scene or anything that holds it (an `Rc`: the page keeps the render beside
+/// the scene it renders).
 pub fn render_stepped<'a>(
-    gs: &'a GpuScene<'a>,
+    gs: impl std::ops::Deref<Target = GpuScene<'a>> + 'a,
     req: ImageRequest,
     mut observer: Box<Observer<'a>>,
 ) -> Stepped<'a, Result<GpuOutput>> {
     Stepped::new(async move {
+        let gs: &GpuScene = &gs;
         let kernel = match req.gpu.choose_kernel(&gs.ctx().info)? {
             KernelChoice::Fragment(k) => k,
             #[cfg(target_arch = "wasm32")]
