@@ -222,6 +222,11 @@ impl App {
         let canvas: web_sys::HtmlCanvasElement = element("view");
         canvas.set_width(w);
         canvas.set_height(h);
+        // Small renders are shown enlarged by a whole factor (pixelated), to about 512 wide.
+        let zoom = (512 / w.max(1)).max(1);
+        let _ = canvas
+            .style()
+            .set_property("width", &format!("{}px", w * zoom));
         self.image = vec![0.0; (w * h * 3) as usize];
         self.display = vec![0; (w * h * 4) as usize];
         self.aov = empty_aov(w, h);
@@ -552,8 +557,7 @@ pub fn start() -> Result<(), JsValue> {
 }
 
 /// Why the display control is off on WebGL 1.
-const AOV_NEEDS_WEBGL2: &str =
-    "AOVs need WebGL 2: WebGL 1 reads colour attachment 0 only, the AOVs are in the fourth";
+const AOV_NEEDS_WEBGL2: &str = "AOVs need WebGL 2 (WebGL 1 reads colour attachment 0 only)";
 
 /// What a control does with its new value.
 type OnChange = dyn Fn(&mut App, String);
