@@ -376,13 +376,15 @@ fn page_renders_whitted_looped_on_webgl2_like_the_f32_cpu() {
     page_matches_f32_cpu("webgl=2&kernel=looped", "GLSL ES 3.00");
 }
 
-/// `spp=2` on the page accumulates the samples at `render --spp 2`'s offsets: like the f32
-/// CPU with two samples (and not like one sample: the test would not notice spp ignored
-/// otherwise).
+/// `spp=2` on the page, pass by pass with the display control on `depth`: the samples
+/// accumulate at `render --spp 2`'s offsets (like the f32 CPU with two samples, and not
+/// like one sample: the test would not notice spp ignored otherwise); the depth AOV is the
+/// CPU's (of the first sample, on both) and reaches the canvas before the render ends
+/// (after the first sample's primary rays), in `--aov`'s depth preview.
 #[test]
 fn page_renders_two_samples_like_the_f32_cpu() {
-    let query = "webgl=2&kernel=looped&spp=2";
-    let r = run_page(&format!("band=16&{query}"));
+    let query = "webgl=2&kernel=looped&spp=2&progress=passes:100&aov=depth";
+    let r = run_page(query);
     assert!(r.json.contains("\"spp\":2"), "{}", r.json);
     let one = compare(&r.image, &cpu_f32(1).image, 0.02, true).unwrap();
     println!("spp=2 page vs 1-sample CPU: RMSE {:.3e}", one.rmse);
@@ -391,22 +393,46 @@ fn page_renders_two_samples_like_the_f32_cpu() {
         one.rmse > 100.0 * RMSE_VS_F32,
         "spp=2 looks like one sample"
     );
-    assert_like_cpu(&r.image, &cpu_f32(2).image, query);
+    let cpu = cpu_f32(2);
+    assert_like_cpu(&r.image, &cpu.image, query);
+    assert_aov_like_cpu(&r, &cpu, AovKind::Depth);
+    let (at, passes) = (
+        json_number(&r.json, "aov_at_pass"),
+        json_number(&r.json, "passes"),
+    );
+    // Measured: at pass 100 of 1,074 (the first pause: the primary wave is done by then).
+    assert!(
+        at >= 0.0 && at < passes / 2.0,
+        "AOV at pass {at} of {passes}"
+    );
+    assert!(json_number(&r.json, "frames") > 3.0, "{}", r.json);
 }
 
-/// The display control on `primid` (`aov=primid` sets its first value, through the same
-/// path as a change of the control) on WebGL 2: the page's primary-ray AOVs are the f32
-/// CPU's (same directions, same triangles: every primitive id equal except at tie pixels,
-/// where two triangles are hit at the same distance, the diagonal of a quad; depth to
-/// float rounding), and the canvas shows the primitive-id preview of them (`--aov`'s
-/// colours). The colour image is unchanged by the display.
+/// The display control on `primid` in bands on WebGL 2 (`aov=primid` sets its first
+/// value; a change of the control redraws through the same code): the page's AOVs,
+/// assembled band by band, are the f32 CPU's, and the canvas shows their primitive-id
+/// preview. The colour image is unchanged by the display.
 #[test]
 fn page_shows_the_primid_aov_like_the_f32_cpu() {
     let r = run_page("webgl=2&kernel=looped&band=16&aov=primid");
-    assert!(r.json.contains("\"shown\":\"primid\""), "{}", r.json);
-    let web = r.aov.as_ref().expect("the page read the AOVs");
     let cpu = cpu_f32(1);
     assert_like_cpu(&r.image, &cpu.image, "aov=primid");
+    assert_aov_like_cpu(&r, &cpu, AovKind::PrimId);
+}
+
+/// The page's primary-ray AOVs are the f32 CPU's (same directions, same triangles: every
+/// primitive id equal except at tie pixels, where two triangles are hit at the same
+/// distance, the diagonal of a quad; depth to float rounding), and the canvas shows
+/// `kind`'s preview of them (`--aov`'s colours, as 8-bit sRGB: the page's own sRGB rounding
+/// may differ by one step).
+fn assert_aov_like_cpu(r: &Report, cpu: &fragtrace::render::Rendered, kind: AovKind) {
+    let name = format!("{kind:?}").to_lowercase();
+    assert!(
+        r.json.contains(&format!("\"shown\":\"{name}\"")),
+        "{}",
+        r.json
+    );
+    let web = r.aov.as_ref().expect("the page read the AOVs");
     let (mut ties, mut depth_err) = (0usize, 0.0f32);
     let mut mismatches = Vec::new();
     for (k, (p, q)) in web.iter().zip(&cpu.aov.pixels).enumerate() {
@@ -422,17 +448,15 @@ fn page_shows_the_primid_aov_like_the_f32_cpu() {
             mismatches.push((k, p.primid, q.primid, p.depth, q.depth));
         }
     }
-    println!("primid: {ties} tie pixels, depth relative error {depth_err:.2e}");
+    println!("{name}: {ties} tie pixels, depth relative error {depth_err:.2e}");
     assert!(
         mismatches.is_empty(),
         "primid differs (pixel, web, cpu): {mismatches:?}"
     );
-    // Measured: 0 ties, depth relative error 0 at 64x48.
+    // Measured: 0 ties, depth relative error 0 at 64x48 (one and two samples).
     assert!(ties <= 2, "{ties} tie pixels");
     assert!(depth_err <= 1e-5, "depth relative error {depth_err:.2e}");
-    // The canvas: the CPU AOV's primid preview, as 8-bit sRGB (the page's own sRGB
-    // rounding may differ by one step).
-    let expected = to_srgb8(&preview(&cpu.aov, AovKind::PrimId));
+    let expected = to_srgb8(&preview(&cpu.aov, kind));
     let mut off = 0;
     for (k, px) in r.canvas.chunks_exact(4).enumerate() {
         let e = &expected[k * 3..k * 3 + 3];
@@ -442,7 +466,7 @@ fn page_shows_the_primid_aov_like_the_f32_cpu() {
             off += 1;
         }
     }
-    assert_eq!(off, 0, "{off} canvas pixels are not the primid preview");
+    assert_eq!(off, 0, "{off} canvas pixels are not the {name} preview");
 }
 
 /// The figures of docs/web.md: passes and time of the default scene and bunny.toml at

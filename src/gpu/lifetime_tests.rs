@@ -355,7 +355,8 @@ fn an_observer_watches_without_changing_and_cancels_at_once() {
 /// A stepped render (the web page's pass-by-pass display) that pauses after every pass
 /// and reads the radiance back at each pause draws the same passes and gives the same
 /// image, bit for bit, as the plain render; the radiance read at the pauses grows from
-/// black to the final image; a stepped render dropped half-way frees every GL object.
+/// black to the final image; the AOVs are shown from the first sample's primary wave on,
+/// as the render returns them; a stepped render dropped half-way frees every GL object.
 #[test]
 fn a_stepped_render_pauses_after_every_pass_and_ends_as_the_plain_one() {
     with_test_context(|ctx| {
@@ -367,10 +368,16 @@ fn a_stepped_render_pauses_after_every_pass_and_ends_as_the_plain_one() {
         };
         let req = ImageRequest {
             spp: 2,
+            readback: crate::output::Readback {
+                aov: true,
+                srgb8: false,
+            },
             ..request(&scene, 24, 16, gpu)
         };
         let plain = render_gl(ctx, &scene, &grid, &req).unwrap();
         let passes = plain.gpu.as_ref().unwrap().passes_total;
+        let first_aov = std::rc::Rc::new(std::cell::RefCell::new(None));
+        let aov_sink = first_aov.clone();
 
         let gs = GpuScene::new(ctx, &scene, &grid, false).unwrap();
         let seen = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
@@ -387,6 +394,10 @@ fn a_stepped_render_pauses_after_every_pass_and_ends_as_the_plain_one() {
                     .map(|&v| v as f64)
                     .sum();
                 sink.borrow_mut().push((s.passes, s.pass, sum));
+                let first = aov_sink.borrow().is_none();
+                if let (Some(a), true) = (s.aov, first) {
+                    *aov_sink.borrow_mut() = Some((s.passes, a.pixels.clone()));
+                }
                 Flow::Pause
             }),
         );
@@ -422,6 +433,10 @@ fn a_stepped_render_pauses_after_every_pass_and_ends_as_the_plain_one() {
         );
         assert!(seen.iter().any(|s| s.2 > 0.0 && s.2 < 0.9 * final_sum));
         drop(seen);
+        let (at, aov) = first_aov.borrow_mut().take().expect("the AOVs were shown");
+        assert!(at < passes / 2, "AOVs first shown at pass {at} of {passes}");
+        assert_eq!(aov, out.aov.pixels);
+        assert_eq!(out.aov.pixels, plain.aov.pixels);
 
         // Abandoned after 40 pauses: nothing is left.
         let before_upto = probe_names(ctx) + 4096;

@@ -72,6 +72,9 @@ pub struct Snapshot<'f> {
     /// The kind of the last pass drawn ([`crate::gpu::shader::Pass::name`], e.g.
     /// `traverse_step`; `compute` for the compute kernel), for a display of the walk.
     pub pass: &'static str,
+    /// The primary-ray AOVs, once read (after the first sample's primary wave, where the
+    /// request reads them: [`crate::output::Readback::aov`]).
+    pub aov: Option<&'f crate::output::Aov>,
 }
 
 /// An observer's answer: go on, or stop the render (which then returns

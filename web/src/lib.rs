@@ -318,7 +318,7 @@ impl App {
         let i = &self.ctx.info;
         let json = format!(
             "{{\"scene\":{:?},\"width\":{},\"height\":{},\"kernel\":\"{}\",\"spp\":{},\
-             \"progress\":\"{}\",\"frames\":{},\"shown\":\"{}\",\"aov_read\":{},\"passes\":{},\
+             \"progress\":\"{}\",\"frames\":{},\"shown\":\"{}\",\"aov_read\":{},\"aov_at_pass\":{},\"passes\":{},\
              \"rays\":{},\"render_ms\":{:.1},\"wall_ms\":{:.1},\"renderer\":{:?},\
              \"gl_version\":{:?},\"glsl\":{:?},\"dialect\":{:?},\"max_texture_size\":{},\"max_draw_buffers\":{},\
              \"max_texture_units\":{},\"max_viewport\":[{},{}],\"extensions\":{:?}}}",
@@ -331,6 +331,7 @@ impl App {
             job.frames,
             show_name(self.show),
             self.aov_rows == self.height && self.reads_aov(),
+            job.aov_at_pass.map_or(-1, |p| p as i64),
             job.passes,
             job.rays,
             job.render_ms,
@@ -411,8 +412,8 @@ fn post(url: &str, header: &str, value: &str, body: &[u8]) {
 fn show_status(app: &App) {
     let note = match app.show {
         Some(k) if app.reads_aov() && !app.aov_shown() => format!(
-            "\nshowing the colour until the {} AOV comes (pass by pass: when the render \
-             finishes)",
+            "\nshowing the colour until the {} AOV comes (after the first sample's primary \
+             rays)",
             show_name(Some(k))
         ),
         _ => String::new(),

@@ -410,6 +410,7 @@ pub(crate) fn render(
             samples: spec.samples,
             passes: setup.stats.passes_total,
             pass: "compute",
+            aov: None,
         };
         if observer(&snap) == Flow::Cancel {
             return Err(Error::Cancelled);

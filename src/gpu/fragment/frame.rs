@@ -24,7 +24,7 @@ use crate::gpu::pause::pause;
 use crate::gpu::request::{Flow, Observer, Snapshot};
 use crate::gpu::scene::{bind_texture, GpuScene};
 use crate::gpu::shader::{Count, Pass};
-use crate::output::GpuStats;
+use crate::output::{Aov, GpuStats};
 use crate::progress::Progress;
 use crate::technique::Techniques;
 use crate::{Error, Result};
@@ -63,6 +63,8 @@ pub(super) struct Frame<'a> {
     pub(super) watch: Option<Watch<'a>>,
     /// The last pass drawn, for the observer ([`Snapshot::pass`]).
     last_pass: &'static str,
+    /// The primary-ray AOVs once read, shown to the observer and then returned.
+    pub(super) aov: Option<Aov>,
 }
 
 /// Timer queries in flight, resolved in batches so the pipeline is not stalled per pass.
@@ -246,6 +248,7 @@ impl<'a> Frame<'a> {
             max_iterations: gs.max_iterations(),
             watch: None,
             last_pass: "none",
+            aov: None,
         })
     }
 
@@ -468,6 +471,7 @@ impl Frame<'_> {
             samples: w.samples,
             passes: self.stats.passes_total,
             pass: self.last_pass,
+            aov: self.aov.as_ref(),
         };
         match (w.observer)(&snap) {
             Flow::Continue => Ok(()),

@@ -114,7 +114,6 @@ pub(crate) async fn walk<'a>(
     }
     let offsets = camera::sample_offsets(spp);
     let mut rays = RayCounts::default();
-    let mut aov = None;
     f.set(Pass::RayGen, uniform::EYE, req.camera.eye)?;
     // The primary directions of one sample, re-filled per sample into one texture.
     let dir_tex = Texture::new_f32(f.ctx, width, height, None)?;
@@ -157,7 +156,7 @@ pub(crate) async fn walk<'a>(
         rays.primary += width as u64 * height as u64;
         f.trace(Query::Closest).await?;
         if k == 0 && req.readback.aov {
-            aov = Some(read_aov(&f, scene, width, height)?);
+            f.aov = Some(read_aov(&f, scene, width, height)?);
         }
         f.record(0)?;
         shade_node(&mut f, scene, 0, max_depth, secondary, &mut rays).await?;
@@ -187,7 +186,10 @@ pub(crate) async fn walk<'a>(
     f.stats.trace_ms = t_trace.elapsed().as_secs_f64() * 1e3;
     Ok(GpuOutput {
         image,
-        aov: aov.unwrap_or_else(|| Aov::from_vec(0, 0, Vec::new())),
+        aov: f
+            .aov
+            .take()
+            .unwrap_or_else(|| Aov::from_vec(0, 0, Vec::new())),
         rays: RayCounts::new(rays.primary, rays.shadow, rays.reflected, rays.refracted),
         work: None,
         gpu: Some(std::mem::take(&mut f.stats)),
