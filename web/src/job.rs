@@ -58,6 +58,9 @@ struct Live {
     samples_done: u32,
     samples: u32,
     pauses: u64,
+    /// The primary-ray AOVs, copied at the first pause that has them (`taken` after).
+    aov: Option<Vec<AovPixel>>,
+    aov_taken: bool,
     /// A read-back failed: the render was cancelled for this reason.
     error: Option<String>,
 }
@@ -85,6 +88,8 @@ pub struct Job {
     /// The last pass drawn and the samples finished, in a pass-by-pass render.
     pub pass: &'static str,
     pub samples_done: u32,
+    /// Passes drawn when a pass-by-pass render's AOVs reached the page.
+    pub aov_at_pass: Option<u64>,
     pub done: bool,
 }
 
@@ -105,6 +110,7 @@ impl Job {
             show_ms: 0.0,
             pass: "",
             samples_done: 0,
+            aov_at_pass: None,
             done: false,
         }
     }
@@ -139,6 +145,10 @@ fn pausing_observer(ctx: &'static GlContext, live: Rc<RefCell<Live>>) -> Box<Obs
         l.samples_done = s.samples_done;
         l.samples = s.samples;
         l.pauses += 1;
+        if let (Some(a), false) = (s.aov, l.aov_taken) {
+            l.aov = Some(a.pixels.clone());
+            l.aov_taken = true;
+        }
         Flow::Pause
     })
 }
@@ -252,6 +262,7 @@ impl App {
             let stepped = render_stepped(gs, req, pausing_observer(self.ctx, live.clone()));
             self.job.as_mut().expect("job").stepped = Some((stepped, live));
         }
+        let reads_aov = self.reads_aov();
         let job = self.job.as_mut().expect("job");
         let (stepped, live) = job.stepped.as_mut().expect("stepped");
         {
@@ -276,6 +287,12 @@ impl App {
                 let begun = (l.samples_done + 1).min(l.samples.max(1));
                 let scale = l.samples.max(1) as f32 / begun as f32;
                 let radiance = std::mem::take(&mut l.radiance);
+                if let Some(aov) = l.aov.take() {
+                    // After the first sample's primary wave: the display can show it now.
+                    self.aov = aov;
+                    self.aov_rows = self.height;
+                    job.aov_at_pass = Some(l.last_pause);
+                }
                 drop(l);
                 let t = Instant::now();
                 flip_into(&radiance, self.width, self.height, scale, &mut self.image);
@@ -290,7 +307,8 @@ impl App {
                 job.done = true;
                 job.stepped = None;
                 self.image = out.image.data;
-                if self.reads_aov() {
+                if reads_aov {
+                    job.aov_at_pass.get_or_insert(job.passes);
                     self.aov = out.aov.pixels;
                     self.aov_rows = self.height;
                 }

@@ -285,6 +285,9 @@ impl App {
     /// Switches the display (the control): redraws from what is there, renders nothing.
     fn set_show(&mut self, show: Show) {
         self.show = show;
+        if self.width == 0 {
+            return; // no scene loaded
+        }
         self.redraw();
         if let Err(e) = self.present() {
             web_sys::console::error_1(&e.into());
@@ -501,7 +504,8 @@ pub fn start() -> Result<(), JsValue> {
         loaded: None,
         camera: None,
         job: None,
-        show,
+        // Set by the control's handler below (from the query's value).
+        show: None,
         spp,
         progress,
         image: Vec::new(),
@@ -554,6 +558,12 @@ pub fn start() -> Result<(), JsValue> {
             show_status(&a);
         }
     }
+    if show.is_some() {
+        // The query's display goes through the control's own handler, as a person's
+        // choice would (the test of the AOV display checks the canvas it draws).
+        element::<web_sys::HtmlSelectElement>("show")
+            .dispatch_event(&web_sys::Event::new("change")?)?;
+    }
     frame_loop(app)
 }
 
@@ -568,7 +578,7 @@ type OnChange = dyn Fn(&mut App, String);
 fn install_controls(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
     let a = app.borrow();
     let show: web_sys::HtmlSelectElement = element("show");
-    show.set_value(show_name(a.show));
+    show.set_value(show_name(a.params.show));
     if !a.reads_aov() {
         show.set_disabled(true);
         element::<web_sys::HtmlElement>("show-why").set_text_content(Some(AOV_NEEDS_WEBGL2));
