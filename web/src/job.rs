@@ -85,6 +85,8 @@ pub struct Job {
     pub frames: u64,
     /// How long showing the last frame took on the host (image, canvas).
     show_ms: f64,
+    /// Time spent showing frames in all: read-backs at the pauses, image and canvas.
+    pub show_total_ms: f64,
     /// The last pass drawn and the samples finished, in a pass-by-pass render.
     pub pass: &'static str,
     pub samples_done: u32,
@@ -108,6 +110,7 @@ impl Job {
             started: Instant::now(),
             frames: 0,
             show_ms: 0.0,
+            show_total_ms: 0.0,
             pass: "",
             samples_done: 0,
             aov_at_pass: None,
@@ -197,7 +200,9 @@ impl App {
         self.redraw();
         self.present()?;
         let job = self.job.as_mut().expect("job");
-        job.show_ms += t.elapsed().as_secs_f64() * 1e3;
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        job.show_ms += ms;
+        job.show_total_ms += ms;
         job.frames += 1;
         if job.done {
             let job = self.job.take().expect("job");
@@ -287,6 +292,7 @@ impl App {
                 let begun = (l.samples_done + 1).min(l.samples.max(1));
                 let scale = l.samples.max(1) as f32 / begun as f32;
                 let radiance = std::mem::take(&mut l.radiance);
+                let l_read_ms = l.read_ms;
                 if let Some(aov) = l.aov.take() {
                     // After the first sample's primary wave: the display can show it now.
                     self.aov = aov;
@@ -297,6 +303,7 @@ impl App {
                 let t = Instant::now();
                 flip_into(&radiance, self.width, self.height, scale, &mut self.image);
                 job.show_ms = t.elapsed().as_secs_f64() * 1e3;
+                job.show_total_ms += job.show_ms + l_read_ms;
             }
             Some(Err(e)) => return Err(e.to_string()),
             Some(Ok(out)) => {

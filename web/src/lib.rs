@@ -321,7 +321,7 @@ impl App {
         let i = &self.ctx.info;
         let json = format!(
             "{{\"scene\":{:?},\"width\":{},\"height\":{},\"kernel\":\"{}\",\"spp\":{},\
-             \"progress\":\"{}\",\"frames\":{},\"shown\":\"{}\",\"aov_read\":{},\"aov_at_pass\":{},\"passes\":{},\
+             \"progress\":\"{}\",\"frames\":{},\"shown\":\"{}\",\"aov_read\":{},\"aov_at_pass\":{},\"show_ms\":{:.1},\"passes\":{},\
              \"rays\":{},\"render_ms\":{:.1},\"wall_ms\":{:.1},\"renderer\":{:?},\
              \"gl_version\":{:?},\"glsl\":{:?},\"dialect\":{:?},\"max_texture_size\":{},\"max_draw_buffers\":{},\
              \"max_texture_units\":{},\"max_viewport\":[{},{}],\"extensions\":{:?}}}",
@@ -335,6 +335,7 @@ impl App {
             show_name(self.show),
             self.aov_rows == self.height && self.reads_aov(),
             job.aov_at_pass.map_or(-1, |p| p as i64),
+            job.show_total_ms,
             job.passes,
             job.rays,
             job.render_ms,
