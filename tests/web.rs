@@ -3,9 +3,11 @@
 //! Chromium (Debian's `chromium`; SwiftShader's WebGL when there is no GPU) opens it on a
 //! shipped scene at 64x48, and the page POSTs its finished linear image back with the
 //! passes, time and WebGL limits it met. The image must equal the f32 CPU render of the same
-//! scene, camera, size and grid within the GL tests' bound (tests/gpu_backend.rs,
-//! `RMSE_VS_F32`). Nothing here skips: without Chromium or the wasm toolchain it fails,
-//! naming what to install (`ci/test.sh` installs both).
+//! scene, camera, size, grid and samples within the GL tests' bound (tests/gpu_backend.rs,
+//! `RMSE_VS_F32`), in bands and pass by pass (and those two the same to the bit); the AOV
+//! the display control shows must be the CPU's primary-ray AOV. Nothing here skips:
+//! without Chromium or the wasm toolchain it fails, naming what to install (`ci/test.sh`
+//! installs both).
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -14,9 +16,11 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
 
+use fragtrace::aov::{preview, AovKind};
 use fragtrace::compare::compare;
-use fragtrace::image_io::Image;
+use fragtrace::image_io::{to_srgb8, Image};
 use fragtrace::options::{Precision, RenderOptions};
+use fragtrace::output::AovPixel;
 use fragtrace::render::render_cpu;
 use fragtrace::scene::load_scene;
 
@@ -217,6 +221,89 @@ fn open_page(dir: &Path, query: &str, timeout: Duration) -> Posted {
     })
 }
 
+/// What a finished page POSTed, its body split: the linear image, the primary-ray AOVs
+/// (where the page read them: WebGL 2) and the canvas as shown (sRGB RGBA).
+struct Report {
+    json: String,
+    image: Image,
+    aov: Option<Vec<AovPixel>>,
+    canvas: Vec<u8>,
+}
+
+/// Opens the page on `query` (the default scene at W x H) and splits its report.
+fn run_page(query: &str) -> Report {
+    // One build and one browser at a time (they share target/web-test and the profile).
+    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = ONE.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = build_page();
+    let t = std::time::Instant::now();
+    let posted = open_page(
+        &dir,
+        &format!("scene=whitted&size={W}x{H}&{query}"),
+        PAGE_TIMEOUT,
+    );
+    let wall = t.elapsed();
+    let (json, body) = match posted {
+        Posted::Report { json, body } => (json, body),
+        Posted::Error(e) => panic!("the page failed: {e}"),
+    };
+    println!("page report ({query}: {wall:.1?} from browser start): {json}");
+    let n = (W * H) as usize;
+    let floats = |b: &[u8]| -> Vec<f32> {
+        b.chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect()
+    };
+    let aov_read = json.contains("\"aov_read\":true");
+    let aov_bytes = if aov_read { n * 6 * 4 } else { 0 };
+    assert_eq!(body.len(), n * 3 * 4 + aov_bytes + n * 4, "report bytes");
+    let (colour, rest) = body.split_at(n * 3 * 4);
+    let (aov, canvas) = rest.split_at(aov_bytes);
+    let aov = aov_read.then(|| {
+        floats(aov)
+            .chunks_exact(6)
+            .map(|p| AovPixel {
+                depth: p[0],
+                primid: p[1],
+                normal: [p[2], p[3], p[4]],
+                steps: p[5],
+            })
+            .collect()
+    });
+    Report {
+        json,
+        image: Image::from_rgb(W, H, floats(colour)),
+        aov,
+        canvas: canvas.to_vec(),
+    }
+}
+
+/// The f32 CPU render of the default scene at W x H with `spp` samples.
+fn cpu_f32(spp: u32) -> fragtrace::render::Rendered {
+    let scene = load_scene(&root().join("scenes/whitted.toml")).unwrap();
+    let mut o = RenderOptions::for_scene(&scene);
+    o.width = W;
+    o.height = H;
+    o.spp = spp;
+    o.precision = Precision::F32;
+    render_cpu(&scene, &o).unwrap()
+}
+
+/// Asserts the page's colour image is the f32 CPU's within `RMSE_VS_F32`.
+fn assert_like_cpu(web: &Image, cpu: &Image, what: &str) {
+    let c = compare(web, cpu, 0.02, true).unwrap();
+    println!(
+        "{what}: web vs f32 CPU: RMSE {:.3e}, {:.2}% of pixels above 0.02",
+        c.rmse,
+        c.share_above * 100.0
+    );
+    assert!(
+        c.rmse <= RMSE_VS_F32,
+        "{what}: web vs f32 CPU RMSE {:.3e} > {RMSE_VS_F32:e}",
+        c.rmse
+    );
+}
+
 fn json_number(json: &str, key: &str) -> f64 {
     let at = json
         .find(&format!("\"{key}\":"))
@@ -231,66 +318,155 @@ fn json_number(json: &str, key: &str) -> f64 {
 
 /// The default scene in bands of 16 rows (three renders of the whole walk) on `query`'s
 /// context and kernel equals the f32 CPU render; the page used `dialect`.
-fn page_matches_f32_cpu(query: &str, dialect: &str) {
-    // One build and one browser at a time (they share target/web-test and the profile).
-    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _one = ONE.lock().unwrap_or_else(|e| e.into_inner());
-    let dir = build_page();
-    let t = std::time::Instant::now();
-    let posted = open_page(
-        &dir,
-        &format!("scene=whitted&size={W}x{H}&band=16&{query}"),
-        PAGE_TIMEOUT,
-    );
-    let wall = t.elapsed();
-    let (json, body) = match posted {
-        Posted::Report { json, body } => (json, body),
-        Posted::Error(e) => panic!("the page failed: {e}"),
-    };
-    println!("page report ({wall:.1?} from browser start): {json}");
+fn page_matches_f32_cpu(query: &str, dialect: &str) -> Report {
+    let r = run_page(&format!("band=16&{query}"));
     assert!(
-        json.contains(&format!("\"dialect\":\"{dialect}\"")),
-        "{json}"
+        r.json.contains(&format!("\"dialect\":\"{dialect}\"")),
+        "{}",
+        r.json
     );
-    assert_eq!(body.len(), (W * H * 3 * 4) as usize, "image bytes");
-    let data: Vec<f32> = body
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect();
-    let web = Image::from_rgb(W, H, data);
     // Multipass: thousands of passes; looped: a few per wave.
-    assert!(json_number(&json, "passes") > 10.0, "{json}");
-    assert!(json_number(&json, "max_draw_buffers") >= 4.0, "{json}");
-
-    let scene = load_scene(&root().join("scenes/whitted.toml")).unwrap();
-    let mut o = RenderOptions::for_scene(&scene);
-    o.width = W;
-    o.height = H;
-    o.precision = Precision::F32;
-    let cpu = render_cpu(&scene, &o).unwrap();
-    let c = compare(&web, &cpu.image, 0.02, true).unwrap();
-    println!(
-        "web vs f32 CPU: RMSE {:.3e}, {:.2}% of pixels above 0.02",
-        c.rmse,
-        c.share_above * 100.0
-    );
+    assert!(json_number(&r.json, "passes") > 10.0, "{}", r.json);
     assert!(
-        c.rmse <= RMSE_VS_F32,
-        "web vs f32 CPU RMSE {:.3e} > {RMSE_VS_F32:e}",
-        c.rmse
+        json_number(&r.json, "max_draw_buffers") >= 4.0,
+        "{}",
+        r.json
     );
+    assert_like_cpu(&r.image, &cpu_f32(1).image, query);
+    r
 }
 
-/// The thesis's multipass kernel on WebGL 1 (GLSL ES 1.00).
+/// The thesis's multipass kernel on WebGL 1 (GLSL ES 1.00), in bands and pass by pass
+/// (`progress=passes:500`: the page shows the image every 500 passes, read back from the
+/// accumulator between two passes): both like the f32 CPU, and the same image to the bit
+/// (the same pixels, one walk over the image against three over bands).
 #[test]
 fn page_renders_whitted_like_the_f32_cpu() {
-    page_matches_f32_cpu("webgl=1&kernel=multipass", "GLSL ES 1.00");
+    let bands = page_matches_f32_cpu("webgl=1&kernel=multipass", "GLSL ES 1.00");
+    let passes = page_matches_f32_cpu(
+        "webgl=1&kernel=multipass&progress=passes:500",
+        "GLSL ES 1.00",
+    );
+    assert!(
+        passes.json.contains("\"progress\":\"passes:500\""),
+        "{}",
+        passes.json
+    );
+    // About 12,000 passes (the native count at 64x48) shown every 500: more than 10
+    // frames. One frame would mean the walk never paused.
+    let frames = json_number(&passes.json, "frames");
+    assert!(frames > 10.0, "{frames} frames");
+    let (b, p) = (&bands.image.data, &passes.image.data);
+    let differ = b
+        .iter()
+        .zip(p)
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .count();
+    assert_eq!(
+        differ,
+        0,
+        "pass by pass differs from bands in {differ} of {} values",
+        b.len()
+    );
 }
 
 /// The `looped` kernel on WebGL 2 (GLSL ES 3.00).
 #[test]
 fn page_renders_whitted_looped_on_webgl2_like_the_f32_cpu() {
     page_matches_f32_cpu("webgl=2&kernel=looped", "GLSL ES 3.00");
+}
+
+/// `spp=2` on the page, pass by pass with the display control on `depth`: the samples
+/// accumulate at `render --spp 2`'s offsets (like the f32 CPU with two samples, and not
+/// like one sample: the test would not notice spp ignored otherwise); the depth AOV is the
+/// CPU's (of the first sample, on both) and reaches the canvas before the render ends
+/// (after the first sample's primary rays), in `--aov`'s depth preview.
+#[test]
+fn page_renders_two_samples_like_the_f32_cpu() {
+    let query = "webgl=2&kernel=looped&spp=2&progress=passes:100&aov=depth";
+    let r = run_page(query);
+    assert!(r.json.contains("\"spp\":2"), "{}", r.json);
+    let one = compare(&r.image, &cpu_f32(1).image, 0.02, true).unwrap();
+    println!("spp=2 page vs 1-sample CPU: RMSE {:.3e}", one.rmse);
+    // Measured 7.1e-2 (the two samples' edges against the one's).
+    assert!(
+        one.rmse > 100.0 * RMSE_VS_F32,
+        "spp=2 looks like one sample"
+    );
+    let cpu = cpu_f32(2);
+    assert_like_cpu(&r.image, &cpu.image, query);
+    assert_aov_like_cpu(&r, &cpu, AovKind::Depth);
+    let (at, passes) = (
+        json_number(&r.json, "aov_at_pass"),
+        json_number(&r.json, "passes"),
+    );
+    // Measured: at pass 100 of 1,074 (the first pause: the primary wave is done by then).
+    assert!(
+        at >= 0.0 && at < passes / 2.0,
+        "AOV at pass {at} of {passes}"
+    );
+    assert!(json_number(&r.json, "frames") > 3.0, "{}", r.json);
+}
+
+/// The display control on `primid` in bands on WebGL 2 (`aov=primid` sets its first
+/// value; a change of the control redraws through the same code): the page's AOVs,
+/// assembled band by band, are the f32 CPU's, and the canvas shows their primitive-id
+/// preview. The colour image is unchanged by the display.
+#[test]
+fn page_shows_the_primid_aov_like_the_f32_cpu() {
+    let r = run_page("webgl=2&kernel=looped&band=16&aov=primid");
+    let cpu = cpu_f32(1);
+    assert_like_cpu(&r.image, &cpu.image, "aov=primid");
+    assert_aov_like_cpu(&r, &cpu, AovKind::PrimId);
+}
+
+/// The page's primary-ray AOVs are the f32 CPU's (same directions, same triangles: every
+/// primitive id equal except at tie pixels, where two triangles are hit at the same
+/// distance, the diagonal of a quad; depth to float rounding), and the canvas shows
+/// `kind`'s preview of them (`--aov`'s colours, as 8-bit sRGB: the page's own sRGB rounding
+/// may differ by one step).
+fn assert_aov_like_cpu(r: &Report, cpu: &fragtrace::render::Rendered, kind: AovKind) {
+    let name = format!("{kind:?}").to_lowercase();
+    assert!(
+        r.json.contains(&format!("\"shown\":\"{name}\"")),
+        "{}",
+        r.json
+    );
+    let web = r.aov.as_ref().expect("the page read the AOVs");
+    let (mut ties, mut depth_err) = (0usize, 0.0f32);
+    let mut mismatches = Vec::new();
+    for (k, (p, q)) in web.iter().zip(&cpu.aov.pixels).enumerate() {
+        if p.primid == q.primid {
+            if q.depth.is_finite() {
+                depth_err = depth_err.max((p.depth - q.depth).abs() / q.depth);
+            } else {
+                assert_eq!(p.depth, q.depth, "pixel {k}: a miss on the CPU");
+            }
+        } else if p.depth.is_finite() && (p.depth - q.depth).abs() <= 1e-5 * q.depth {
+            ties += 1;
+        } else {
+            mismatches.push((k, p.primid, q.primid, p.depth, q.depth));
+        }
+    }
+    println!("{name}: {ties} tie pixels, depth relative error {depth_err:.2e}");
+    assert!(
+        mismatches.is_empty(),
+        "primid differs (pixel, web, cpu): {mismatches:?}"
+    );
+    // Measured: 0 ties, depth relative error 0 at 64x48 (one and two samples).
+    assert!(ties <= 2, "{ties} tie pixels");
+    assert!(depth_err <= 1e-5, "depth relative error {depth_err:.2e}");
+    let expected = to_srgb8(&preview(&cpu.aov, kind));
+    let mut off = 0;
+    for (k, px) in r.canvas.chunks_exact(4).enumerate() {
+        let e = &expected[k * 3..k * 3 + 3];
+        if web[k].primid == cpu.aov.pixels[k].primid
+            && px[..3].iter().zip(e).any(|(a, b)| a.abs_diff(*b) > 1)
+        {
+            off += 1;
+        }
+    }
+    assert_eq!(off, 0, "{off} canvas pixels are not the {name} preview");
 }
 
 /// The figures of docs/web.md: passes and time of the default scene and bunny.toml at
@@ -310,7 +486,8 @@ fn web_figures_512() {
         let t = std::time::Instant::now();
         // FRAGTRACE_WEB_FIGURE_QUERY adds to the query (`webgl=2&kernel=looped`).
         let extra = std::env::var("FRAGTRACE_WEB_FIGURE_QUERY").unwrap_or_default();
-        let query = format!("scene={scene}&size={size}&band=full&{extra}");
+        // First: where it sets `band` or `progress` too, its value is the one the page reads.
+        let query = format!("{extra}&scene={scene}&size={size}&band=full");
         match open_page(&dir, &query, Duration::from_secs(1800)) {
             Posted::Report { json, .. } => {
                 println!(

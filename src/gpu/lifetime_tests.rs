@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use glow::HasContext;
 
 use super::options::GpuOptions;
-use super::render::{render, render_gl, trace_rays, Flow, ImageRequest, Snapshot};
+use super::render::{render, render_gl, render_stepped, trace_rays, Flow, ImageRequest, Snapshot};
 use super::scene::GpuScene;
 use super::scene::BREAK_PASS;
 use crate::accel::{Grid, GridConfig};
@@ -349,5 +349,109 @@ fn an_observer_watches_without_changing_and_cancels_at_once() {
         assert_eq!(calls, 50, "the render went on after the cancel");
         let upto = before_upto.max(probe_names(ctx) + 4096);
         assert_eq!(live_objects(ctx, upto), before, "a cancelled render leaked");
+    });
+}
+
+/// A stepped render (the web page's pass-by-pass display) that pauses after every pass
+/// and reads the radiance back at each pause draws the same passes and gives the same
+/// image, bit for bit, as the plain render; the radiance read at the pauses grows from
+/// black to the final image; the AOVs are shown from the first sample's primary wave on,
+/// as the render returns them; a stepped render dropped half-way frees every GL object.
+#[test]
+fn a_stepped_render_pauses_after_every_pass_and_ends_as_the_plain_one() {
+    with_test_context(|ctx| {
+        let scene = builtin_scene();
+        let grid = Grid::build(&scene, &GridConfig::default()).unwrap();
+        let gpu = GpuOptions {
+            kernel: Kernel::Multipass,
+            ..GpuOptions::default()
+        };
+        let req = ImageRequest {
+            spp: 2,
+            readback: crate::output::Readback {
+                aov: true,
+                srgb8: false,
+            },
+            ..request(&scene, 24, 16, gpu)
+        };
+        let plain = render_gl(ctx, &scene, &grid, &req).unwrap();
+        let passes = plain.gpu.as_ref().unwrap().passes_total;
+        let first_aov = std::rc::Rc::new(std::cell::RefCell::new(None));
+        let aov_sink = first_aov.clone();
+
+        let gs = GpuScene::new(ctx, &scene, &grid, false).unwrap();
+        let seen = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+        let sink = seen.clone();
+        let mut stepped = render_stepped(
+            &gs,
+            req,
+            Box::new(move |s: &Snapshot| {
+                let sum: f64 = s
+                    .radiance
+                    .read_f32(ctx)
+                    .unwrap()
+                    .iter()
+                    .map(|&v| v as f64)
+                    .sum();
+                sink.borrow_mut().push((s.passes, s.pass, sum));
+                let first = aov_sink.borrow().is_none();
+                if let (Some(a), true) = (s.aov, first) {
+                    *aov_sink.borrow_mut() = Some((s.passes, a.pixels.clone()));
+                }
+                Flow::Pause
+            }),
+        );
+        let mut resumes = 0u64;
+        let out = loop {
+            resumes += 1;
+            if let Some(out) = stepped.resume() {
+                break out.unwrap();
+            }
+        };
+        assert!(stepped.is_done());
+        drop(stepped);
+        assert_eq!(out.image.data, plain.image.data);
+        assert_eq!(out.gpu.as_ref().unwrap().passes_total, passes);
+        let seen = seen.borrow();
+        // One pause per observed pass (ray-state and accumulation passes, and one per
+        // sample), and a last resume that finishes.
+        assert_eq!(resumes, seen.len() as u64 + 1);
+        assert!(
+            seen.len() as u64 > passes / 2,
+            "{} pauses, {passes} passes",
+            seen.len()
+        );
+        assert!(seen.iter().any(|s| s.1 == "traverse_step"));
+        assert!(seen.iter().any(|s| s.1 == "accum_light"));
+        // Black before the first accumulation, the whole image's sum at the end.
+        let final_sum: f64 = plain.image.data.iter().map(|&v| v as f64).sum();
+        assert_eq!(seen[0].2, 0.0);
+        let last = seen.last().unwrap().2;
+        assert!(
+            (last - final_sum).abs() <= 1e-3 * final_sum,
+            "{last} vs {final_sum}"
+        );
+        assert!(seen.iter().any(|s| s.2 > 0.0 && s.2 < 0.9 * final_sum));
+        drop(seen);
+        let (at, aov) = first_aov.borrow_mut().take().expect("the AOVs were shown");
+        assert!(at < passes / 2, "AOVs first shown at pass {at} of {passes}");
+        assert_eq!(aov, out.aov.pixels);
+        assert_eq!(out.aov.pixels, plain.aov.pixels);
+
+        // Abandoned after 40 pauses: nothing is left.
+        let before_upto = probe_names(ctx) + 4096;
+        let before = live_objects(ctx, before_upto);
+        let mut stepped = render_stepped(&gs, req, Box::new(|_: &Snapshot| Flow::Pause));
+        for _ in 0..40 {
+            assert!(stepped.resume().is_none());
+        }
+        drop(stepped);
+        let upto = before_upto.max(probe_names(ctx) + 4096);
+        assert_eq!(
+            live_objects(ctx, upto),
+            before,
+            "a dropped stepped render leaked"
+        );
+        drop(gs);
     });
 }

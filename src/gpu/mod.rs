@@ -2,11 +2,12 @@
 //! owning GL objects ([`gl`]), the Rust/GLSL contract ([`contract`]), the scene's texel
 //! layout ([`layout`]), shader assembly ([`shader`]), options ([`options`]), the scene
 //! uploaded once ([`scene`]), what a render is asked and gives back ([`request`], [`wave`]),
+//! how a render pauses between passes ([`pause`]),
 //! the two wings that render (`fragment`: the thesis's passes; `compute`: one dispatch) and
 //! the one entry that picks the wing ([`render`]).
 //!
 //! Imports run one way inside: `context`/`gl`/`contract`/`layout`/`shader`/`options` ->
-//! `scene`, `request`, `wave` -> `fragment` | `compute` (never each other) -> `render`.
+//! `scene`, `request`, `wave`, `pause` -> `fragment` | `compute` (never each other) -> `render`.
 //!
 //! The backend follows the OpenGL 2.1-era stream design: every pass is a GLSL 1.20 fragment
 //! program drawn over a [`gl::FullscreenQuad`] into a [`gl::RenderTarget`] of RGBA32F
@@ -31,6 +32,7 @@ pub mod gl;
 pub mod info;
 pub mod layout;
 pub mod options;
+pub mod pause;
 pub mod render;
 pub mod request;
 pub mod scene;

@@ -10,6 +10,7 @@ use super::compute;
 use super::context::GlContext;
 use super::fragment;
 use super::options::{GpuOptions, KernelChoice};
+use super::pause::Stepped;
 use super::scene::GpuScene;
 use super::shader::Query;
 use super::wave::wave_size;
@@ -50,6 +51,31 @@ pub fn render<'a>(
         }
     };
     fragment::render(gs, req, kernel, observer)
+}
+
+/// [`render`] one stretch at a time: the render runs on each [`Stepped::resume`] until
+/// `observer` answers [`Flow::Pause`] after a pass, and its result comes from the last
+/// resume. The same walk and passes as [`render`] (which runs the pauses through); the
+/// fragment kernels only: the compute kernel (native) runs in one go on the first resume.
+///
+/// `gs` is the scene or anything that holds it (an `Rc`: the page keeps the render beside
+/// the scene it renders).
+pub fn render_stepped<'a>(
+    gs: impl std::ops::Deref<Target = GpuScene<'a>> + 'a,
+    req: ImageRequest,
+    mut observer: Box<Observer<'a>>,
+) -> Stepped<'a, Result<GpuOutput>> {
+    Stepped::new(async move {
+        let gs: &GpuScene = &gs;
+        let kernel = match req.gpu.choose_kernel(&gs.ctx().info)? {
+            KernelChoice::Fragment(k) => k,
+            #[cfg(target_arch = "wasm32")]
+            KernelChoice::Compute { .. } => return Err(no_compute()),
+            #[cfg(not(target_arch = "wasm32"))]
+            KernelChoice::Compute { .. } => return render(gs, &req, Some(&mut *observer)),
+        };
+        fragment::walk(gs, req, kernel, Some(&mut *observer)).await
+    })
 }
 
 /// The compute wing is not in the wasm32 build: WebGL has no compute shaders, and

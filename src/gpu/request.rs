@@ -1,8 +1,9 @@
 //! What a GPU render is asked ([`ImageRequest`]) and gives back ([`GpuOutput`], [`Work`]),
 //! and how a render is watched while it runs: an [`Observer`] is called after every
 //! ray-state and accumulation pass with a [`Snapshot`] of the colour so far and the ray
-//! state, and may cancel the render. This is how `fragtrace view` shows the wave of rays
-//! advancing; the headless path passes no observer. Both wings of the backend
+//! state, and may cancel the render or pause it ([`Flow::Pause`]: the web page's
+//! pass-by-pass display, `gpu::pause`). This is how `fragtrace view` shows the wave of
+//! rays advancing; the headless path passes no observer. Both wings of the backend
 //! (`gpu::fragment`, `gpu::compute`) speak these types.
 
 use crate::gpu::gl::Texture;
@@ -68,6 +69,12 @@ pub struct Snapshot<'f> {
     pub samples: u32,
     /// Passes drawn so far in this render.
     pub passes: u64,
+    /// The kind of the last pass drawn ([`crate::gpu::shader::Pass::name`], e.g.
+    /// `traverse_step`; `compute` for the compute kernel), for a display of the walk.
+    pub pass: &'static str,
+    /// The primary-ray AOVs, once read (after the first sample's primary wave, where the
+    /// request reads them: [`crate::output::Readback::aov`]).
+    pub aov: Option<&'f crate::output::Aov>,
 }
 
 /// An observer's answer: go on, or stop the render (which then returns
@@ -78,10 +85,16 @@ pub enum Flow {
     Continue,
     /// Abandon the render now.
     Cancel,
+    /// Hand control back to whoever polls the render ([`crate::gpu::pause::Stepped`]) and
+    /// go on with the next pass when polled again: how the web page shows the image
+    /// between passes without blocking the browser. A render run to completion
+    /// ([`crate::gpu::render::render`]) polls again at once, so there it is `Continue`.
+    Pause,
 }
 
 /// The hook an observed render calls after every ray-state and accumulation pass (and
-/// after each finished sample), with this render's context current.
+/// after each finished sample), with this render's context current. The fragment kernels'
+/// walk pauses there on [`Flow::Pause`]; the compute kernel (native only) goes on.
 pub type Observer<'o> = dyn FnMut(&Snapshot<'_>) -> Flow + 'o;
 
 /// One primary ray's AOV pixel: its hit (t, triangle) if any and its traversal steps.

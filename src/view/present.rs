@@ -367,6 +367,8 @@ mod tests {
                     samples_done,
                     samples: 2,
                     passes: 10,
+                    pass: "traverse_step",
+                    aov: None,
                 };
                 p.draw_live(ctx, &snap, 8, 4).unwrap();
                 let after = SavedState::save(gl);

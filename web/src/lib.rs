@@ -5,15 +5,21 @@
 //!
 //! The page ([`start`]) picks a shipped scene (embedded) or takes a dropped TOML with its
 //! OBJ/MTL files (meshes the shipped scenes name are fetched from `models/` next to the
-//! page when served, never shipped). A render runs in bands of rows, one band per animation
-//! frame (each band the whole multipass walk over its rows: the browser shows nothing until
-//! the script returns, so a band is the unit of visible progress), drawing the image as it
-//! fills; dragging orbits the camera and restarts. The query string sets what a test needs:
-//! `scene=NAME`, `size=WxH`, `webgl=1|2`, `aov=depth|normal|primid|steps` (WebGL 2), `kernel=multipass|unrolled:K|looped` (looped on
-//! WebGL 2), `accel=irregular|uniform`,
-//! `band=ROWS|full`, and `report=URL`, to which the finished linear image is POSTed (f32
-//! RGB, little-endian, top row first) with the passes, time and WebGL limits in the
-//! `X-Fragtrace-Report` header (JSON); an error is POSTed there as `X-Fragtrace-Error`.
+//! page when served, never shipped). A render shows its progress in bands of rows or pass
+//! by pass (`job`); dragging orbits the camera and restarts. Controls pick what is shown
+//! (the colour or a primary-ray AOV, without rendering again), the progress mode and the
+//! samples per pixel. The query string (`params`) sets their first values and what a test
+//! needs: `scene=NAME`, `size=WxH`, `webgl=1|2`, `aov=colour|depth|normal|primid|steps`
+//! (AOVs on WebGL 2), `spp=N`, `progress=passes|passes:N|bands` (default `passes`, or
+//! `bands` where `band=` is given),
+//! `kernel=multipass|unrolled:K|looped` (looped on WebGL 2), `accel=irregular|uniform`,
+//! `band=ROWS|full`, and `report=URL`, to which the first finished render is POSTed (the
+//! linear image, the primary-ray AOVs where read, and the canvas as shown) with the
+//! passes, time and WebGL limits in the `X-Fragtrace-Report` header (JSON); an error is
+//! POSTed there as `X-Fragtrace-Error`.
+
+mod job;
+mod params;
 
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -21,15 +27,15 @@ use std::rc::Rc;
 use fragtrace::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
 use fragtrace::aov::{heat_map, preview, AovKind};
 use fragtrace::clock::Instant;
-use fragtrace::gpu::options::{GpuOptions, Kernel, Mask};
-use fragtrace::gpu::render::{render, ImageRequest};
+use fragtrace::gpu::options::Kernel;
 use fragtrace::gpu::{GlContext, GpuScene};
-use fragtrace::output::Readback;
-use fragtrace::region::Region;
+use fragtrace::output::{Aov, AovPixel};
 use fragtrace::scene::{load_scene_str_with_texts, Camera, MeshTexts, Scene};
-use fragtrace::technique::Techniques;
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
+
+use job::{empty_aov, Job};
+use params::{parse_show, show_name, Params, Progress, Show, MAX_SPP};
 
 /// The shipped scenes, embedded (their meshes are not).
 const SCENES: &[(&str, &str)] = &[
@@ -46,98 +52,11 @@ const SCENES: &[(&str, &str)] = &[
     ("sponza", include_str!("../../scenes/sponza.toml")),
 ];
 
-/// Wall time one band aims at, so the page stays responsive while the image fills.
-const BAND_TARGET_MS: f64 = 150.0;
-
-/// What the query string asks.
-struct Params {
-    scene: String,
-    size: Option<(u32, u32)>,
-    kernel: Kernel,
-    /// `webgl=1|2`; `None`: 2 where the browser has it.
-    webgl: Option<u32>,
-    /// `aov=depth|normal|primid|steps`: show that primary-ray AOV in false colour, as
-    /// `--aov`'s previews (WebGL 2 only: it reads the ray state's fourth attachment).
-    aov: Option<AovKind>,
-    accel: AccelKind,
-    /// Rows per band; `None`: adaptive.
-    band: Option<u32>,
-    report: Option<String>,
-}
-
-impl Params {
-    fn from_query(search: &str) -> Result<Params, String> {
-        let q = web_sys::UrlSearchParams::new_with_str(search).map_err(|_| "bad query")?;
-        let size = match q.get("size") {
-            Some(s) => {
-                let (w, h) = s.split_once('x').ok_or(format!("size={s}: expected WxH"))?;
-                let n = |v: &str| {
-                    v.parse::<u32>()
-                        .map_err(|_| format!("size={s}: expected WxH"))
-                };
-                Some((n(w)?, n(h)?))
-            }
-            None => None,
-        };
-        let kernel = match q.get("kernel").as_deref() {
-            None | Some("multipass") => Kernel::Multipass,
-            Some("looped") => Kernel::Looped,
-            Some(k) => match k.strip_prefix("unrolled:").map(str::parse::<u32>) {
-                Some(Ok(n)) if n > 0 => Kernel::Unrolled(n),
-                _ => {
-                    return Err(format!(
-                        "kernel={k}: expected multipass, unrolled:K or looped"
-                    ))
-                }
-            },
-        };
-        let webgl = match q.get("webgl").as_deref() {
-            None => None,
-            Some("1") => Some(1),
-            Some("2") => Some(2),
-            Some(v) => return Err(format!("webgl={v}: expected 1 or 2")),
-        };
-        let aov = match q.get("aov") {
-            None => None,
-            Some(a) => match AovKind::parse_list(&a).map_err(|e| e.to_string())?[..] {
-                [k] => Some(k),
-                _ => {
-                    return Err(format!(
-                        "aov={a}: expected one of depth, normal, primid, steps"
-                    ))
-                }
-            },
-        };
-        let accel = match q.get("accel").as_deref() {
-            None | Some("irregular") => AccelKind::Irregular,
-            Some("uniform") => AccelKind::Uniform,
-            Some(a) => return Err(format!("accel={a}: expected irregular or uniform")),
-        };
-        let band = match q.get("band").as_deref() {
-            None | Some("auto") => None,
-            Some("full") => Some(u32::MAX),
-            Some(b) => Some(
-                b.parse()
-                    .map_err(|_| format!("band={b}: expected ROWS or full"))?,
-            ),
-        };
-        Ok(Params {
-            scene: q.get("scene").unwrap_or_else(|| "whitted".into()),
-            size,
-            kernel,
-            webgl,
-            aov,
-            accel,
-            band,
-            report: q.get("report"),
-        })
-    }
-}
-
 /// A scene on the GPU. The scene and its grid are leaked boxes that the [`GpuScene`]
-/// borrows for as long as it lives; `Drop` frees the GPU scene first, then them.
+/// borrows for as long as it lives; `Drop` frees the GPU scene first, then them. A
+/// pass-by-pass render holds the GPU scene too (an `Rc`): the page drops the render first.
 struct Loaded {
-    gs: Option<GpuScene<'static>>,
+    gs: Option<Rc<GpuScene<'static>>>,
     scene: *mut Scene,
     accel: *mut Accel,
 }
@@ -159,8 +78,17 @@ impl Loaded {
             scene,
             accel,
         };
-        loaded.gs = Some(GpuScene::new(ctx, s, a.as_ref(), false)?);
+        loaded.gs = Some(Rc::new(GpuScene::new(ctx, s, a.as_ref(), false)?));
         Ok(loaded)
+    }
+
+    fn gs(&self) -> &GpuScene<'static> {
+        self.gs.as_ref().expect("GPU scene")
+    }
+
+    /// The GPU scene, for a render that keeps it.
+    fn gs_shared(&self) -> Rc<GpuScene<'static>> {
+        self.gs.clone().expect("GPU scene")
     }
 
     fn scene(&self) -> &Scene {
@@ -171,24 +99,20 @@ impl Loaded {
 
 impl Drop for Loaded {
     fn drop(&mut self) {
-        self.gs = None;
+        if let Some(gs) = self.gs.take() {
+            if Rc::strong_count(&gs) > 1 {
+                // A render still holds the GPU scene, which borrows the boxes: leak them
+                // rather than free what it borrows (the page drops its render first).
+                std::mem::forget(gs);
+                return;
+            }
+        }
         // SAFETY: made by Box::into_raw in `new`, no borrow of them is left.
         unsafe {
             drop(Box::from_raw(self.accel));
             drop(Box::from_raw(self.scene));
         }
     }
-}
-
-/// A render in progress, band by band.
-struct Job {
-    camera: Camera,
-    next_row: u32,
-    band: u32,
-    passes: u64,
-    rays: u64,
-    render_ms: f64,
-    started: Instant,
 }
 
 struct App {
@@ -202,9 +126,17 @@ struct App {
     loaded: Option<Loaded>,
     camera: Option<Camera>,
     job: Option<Job>,
-    /// The linear image (RGB, top row first) and its sRGB display copy (RGBA).
+    /// What the controls set: the display, samples per pixel, progress mode.
+    show: Show,
+    spp: u32,
+    progress: Progress,
+    /// The linear image (RGB, top row first) and what the canvas shows (sRGB RGBA).
     image: Vec<f32>,
     display: Vec<u8>,
+    /// The primary-ray AOVs (WebGL 2), top row first, and how many rows hold the current
+    /// render's (the rest are misses).
+    aov: Vec<AovPixel>,
+    aov_rows: u32,
     status: String,
     drag: Option<(f64, f64)>,
     reported: bool,
@@ -251,8 +183,9 @@ impl App {
     /// Loads `self.toml`, fetching meshes it names from `models/` when they were not
     /// dropped, and starts a render from the scene's camera.
     fn load(&mut self) -> Result<(), String> {
-        self.loaded = None;
+        // The render first: it may hold the GPU scene.
         self.job = None;
+        self.loaded = None;
         let mut fetched = 0;
         let scene = loop {
             match load_scene_str_with_texts(&self.toml, &self.scene_name, &self.texts) {
@@ -289,8 +222,14 @@ impl App {
         let canvas: web_sys::HtmlCanvasElement = element("view");
         canvas.set_width(w);
         canvas.set_height(h);
+        // Small renders are shown enlarged by a whole factor (pixelated), to about 512 wide.
+        let zoom = (512 / w.max(1)).max(1);
+        let _ = canvas
+            .style()
+            .set_property("width", &format!("{}px", w * zoom));
         self.image = vec![0.0; (w * h * 3) as usize];
         self.display = vec![0; (w * h * 4) as usize];
+        self.aov = empty_aov(w, h);
         self.status = format!(
             "{}: {} triangles, grid and upload {:.0} ms",
             self.scene_name,
@@ -301,119 +240,58 @@ impl App {
         Ok(())
     }
 
+    /// Starts the render again from the current camera (and spp, progress mode).
     fn restart(&mut self) {
         let Some(camera) = self.camera else { return };
-        self.job = Some(Job {
-            camera,
-            next_row: 0,
-            // An AOV is read from the whole image's primary wave: one band.
-            band: if self.params.aov.is_some() {
-                self.height.max(1)
-            } else {
-                self.params.band.unwrap_or(8).min(self.height).max(1)
-            },
-            passes: 0,
-            rays: 0,
-            render_ms: 0.0,
-            started: Instant::now(),
-        });
+        // Dropped before the next render starts: a pass-by-pass render's GL objects go now.
+        self.job = None;
+        self.aov = empty_aov(self.width, self.height);
+        self.aov_rows = 0;
+        let band = self.params.band.unwrap_or(8).min(self.height).max(1);
+        self.job = Some(Job::new(camera, self.progress, band));
     }
 
-    /// Renders the next band of the job, if any.
-    fn step(&mut self) -> Result<(), String> {
-        let (Some(job), Some(loaded)) = (self.job.as_mut(), self.loaded.as_ref()) else {
-            return Ok(());
-        };
-        let scene = loaded.scene();
-        let gs = loaded.gs.as_ref().expect("GPU scene");
+    /// Whether the AOV shown is there: read (WebGL 2) and rendered (from the top row
+    /// down in bands; at the end pass by pass).
+    fn aov_shown(&self) -> bool {
+        self.show.is_some() && self.reads_aov() && self.aov_rows > 0
+    }
+
+    /// Makes the canvas bytes from the colour image or the AOV the control picks, in
+    /// `--aov`'s preview colours (the steps heat map without its colour bar, scaled to the
+    /// image's most steps).
+    fn redraw(&mut self) {
         let (w, h) = (self.width, self.height);
-        let y1 = (job.next_row + job.band).min(h);
-        let req = ImageRequest {
-            camera: job.camera,
-            width: w,
-            height: h,
-            spp: 1,
-            max_depth: scene.max_depth,
-            techniques: Techniques::default(),
-            progress: false,
-            gpu: GpuOptions {
-                kernel: self.params.kernel,
-                mask: Mask::Auto,
-                ..GpuOptions::default()
-            },
-            readback: Readback {
-                aov: self.params.aov.is_some(),
-                srgb8: false,
-            },
-            region: Some(Region {
-                x0: 0,
-                y0: job.next_row,
-                x1: w,
-                y1,
-            }),
-        };
-        let t = Instant::now();
-        let out = render(gs, &req, None).map_err(|e| e.to_string())?;
-        let ms = t.elapsed().as_secs_f64() * 1e3;
-        job.render_ms += ms;
-        job.passes += out.gpu.as_ref().map_or(0, |g| g.passes_total);
-        job.rays += out.rays.total;
-        let rows = (y1 - job.next_row) as usize;
-        let start = job.next_row as usize * w as usize;
-        self.image[start * 3..(start + rows * w as usize) * 3].copy_from_slice(&out.image.data);
-        // `--aov`'s preview colours (the steps heat map without its colour bar).
-        let shown = match self.params.aov {
-            None => None,
+        let shown: Option<Vec<f32>> = match self.show {
+            _ if !self.aov_shown() => None,
             Some(AovKind::Steps) => {
-                let steps: Vec<f32> = out.aov.pixels.iter().map(|p| p.steps).collect();
+                let steps: Vec<f32> = self.aov.iter().map(|p| p.steps).collect();
                 let map = heat_map(w, h, &steps);
                 let rows = map.data.chunks(map.width as usize * 3);
                 Some(rows.flat_map(|r| r[..w as usize * 3].to_vec()).collect())
             }
-            Some(k) => Some(preview(&out.aov, k).data),
+            Some(k) => Some(preview(&Aov::from_vec(w, h, self.aov.clone()), k).data),
+            None => None,
         };
-        let shown: &[f32] = shown.as_deref().unwrap_or(&out.image.data);
-        for (px, rgb) in self.display[start * 4..(start + rows * w as usize) * 4]
-            .chunks_mut(4)
-            .zip(shown.chunks(3))
-        {
+        let shown: &[f32] = shown.as_deref().unwrap_or(&self.image);
+        for (px, rgb) in self.display.chunks_mut(4).zip(shown.chunks(3)) {
             for k in 0..3 {
                 px[k] = srgb8(rgb[k]);
             }
             px[3] = 255;
         }
-        job.next_row = y1;
-        // Adapt the band to the frame budget (a fixed band when the query string sets one).
-        if self.params.band.is_none() && self.params.aov.is_none() {
-            let per_row = ms / rows as f64;
-            job.band = ((BAND_TARGET_MS / per_row.max(1e-3)) as u32).clamp(1, h);
+    }
+
+    /// Switches the display (the control): redraws from what is there, renders nothing.
+    fn set_show(&mut self, show: Show) {
+        self.show = show;
+        if self.width == 0 {
+            return; // no scene loaded
         }
-        let done = job.next_row >= h;
-        let rays_per_s = job.rays as f64 / (job.render_ms * 1e-3);
-        self.status = format!(
-            "{}: {w}x{h}, {} kernel, rows {}/{h}, {} passes, {} rays, render {:.0} ms \
-             ({:.2} Mrays/s), wall {:.0} ms{}",
-            self.scene_name,
-            self.params.kernel,
-            job.next_row,
-            job.passes,
-            job.rays,
-            job.render_ms,
-            rays_per_s * 1e-6,
-            job.started.elapsed().as_secs_f64() * 1e3,
-            if done { " - done" } else { "" }
-        );
-        self.present()?;
-        if done {
-            let job = self.job.take().expect("job");
-            if !self.reported {
-                if let Some(url) = self.params.report.clone() {
-                    self.reported = true;
-                    self.post_report(&url, &job);
-                }
-            }
+        self.redraw();
+        if let Err(e) = self.present() {
+            web_sys::console::error_1(&e.into());
         }
-        Ok(())
     }
 
     fn present(&self) -> Result<(), String> {
@@ -435,10 +313,15 @@ impl App {
         Ok(())
     }
 
+    /// POSTs the finished render: the body is the linear image (f32 RGB, little-endian,
+    /// top row first), then where `aov_read` the primary-ray AOVs (f32 depth, primid,
+    /// normal x, y, z and steps per pixel, top row first), then the canvas as shown (sRGB
+    /// RGBA bytes).
     fn post_report(&self, url: &str, job: &Job) {
         let i = &self.ctx.info;
         let json = format!(
-            "{{\"scene\":{:?},\"width\":{},\"height\":{},\"kernel\":\"{}\",\"passes\":{},\
+            "{{\"scene\":{:?},\"width\":{},\"height\":{},\"kernel\":\"{}\",\"spp\":{},\
+             \"progress\":\"{}\",\"frames\":{},\"shown\":\"{}\",\"aov_read\":{},\"aov_at_pass\":{},\"show_ms\":{:.1},\"passes\":{},\
              \"rays\":{},\"render_ms\":{:.1},\"wall_ms\":{:.1},\"renderer\":{:?},\
              \"gl_version\":{:?},\"glsl\":{:?},\"dialect\":{:?},\"max_texture_size\":{},\"max_draw_buffers\":{},\
              \"max_texture_units\":{},\"max_viewport\":[{},{}],\"extensions\":{:?}}}",
@@ -446,6 +329,13 @@ impl App {
             self.width,
             self.height,
             self.params.kernel,
+            self.spp,
+            job.progress.name(),
+            job.frames,
+            show_name(self.show),
+            self.aov_rows == self.height && self.reads_aov(),
+            job.aov_at_pass.map_or(-1, |p| p as i64),
+            job.show_total_ms,
             job.passes,
             job.rays,
             job.render_ms,
@@ -461,7 +351,21 @@ impl App {
             i.max_viewport_dims.1,
             i.extensions
         );
-        let bytes: Vec<u8> = self.image.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let mut floats = self.image.clone();
+        if self.aov_rows == self.height && self.reads_aov() {
+            floats.extend(self.aov.iter().flat_map(|p| {
+                [
+                    p.depth,
+                    p.primid,
+                    p.normal[0],
+                    p.normal[1],
+                    p.normal[2],
+                    p.steps,
+                ]
+            }));
+        }
+        let mut bytes: Vec<u8> = floats.iter().flat_map(|v| v.to_le_bytes()).collect();
+        bytes.extend_from_slice(&self.display);
         post(url, "X-Fragtrace-Report", &json, &bytes);
     }
 
@@ -508,9 +412,18 @@ fn post(url: &str, header: &str, value: &str, body: &[u8]) {
     let _ = xhr.send_with_opt_u8_array(Some(body));
 }
 
-fn show(app: &App) {
+/// The status line (with a note while the AOV picked is not there yet) and the limits.
+fn show_status(app: &App) {
+    let note = match app.show {
+        Some(k) if app.reads_aov() && !app.aov_shown() => format!(
+            "\nshowing the colour until the {} AOV comes (after the first sample's primary \
+             rays)",
+            show_name(Some(k))
+        ),
+        _ => String::new(),
+    };
     let stats: web_sys::HtmlElement = element("stats");
-    stats.set_text_content(Some(&format!("{}\n{}", app.status, app.limits())));
+    stats.set_text_content(Some(&format!("{}{note}\n{}", app.status, app.limits())));
 }
 
 /// Reports `msg` on the page, on the console and, when the page reports, to the test.
@@ -527,7 +440,7 @@ fn fail(app: &mut App, msg: &str) {
             &[],
         );
     }
-    show(app);
+    show_status(app);
 }
 
 /// The page's entry: sets up WebGL, the scene list, the events and the frame loop.
@@ -571,8 +484,8 @@ pub fn start() -> Result<(), JsValue> {
     if params.kernel == Kernel::Looped && !ctx.info.dialect.has_loops() {
         return Err("kernel=looped needs WebGL 2 (GLSL ES 1.00 has no run-time loops)".into());
     }
-    if params.aov.is_some() && !ctx.info.dialect.has_read_buffer() {
-        return Err("aov= needs WebGL 2 (WebGL 1 reads colour attachment 0 only)".into());
+    if params.show.is_some() && !ctx.info.dialect.has_read_buffer() {
+        return Err(format!("aov=: {AOV_NEEDS_WEBGL2}").into());
     }
     let ctx: &'static GlContext = Box::leak(Box::new(ctx));
     let scene_name = params.scene.clone();
@@ -580,6 +493,7 @@ pub fn start() -> Result<(), JsValue> {
         .iter()
         .find(|(n, _)| *n == scene_name)
         .map(|(_, t)| t.to_string());
+    let (show, spp, progress) = (params.show, params.spp, params.progress);
     let app = Rc::new(RefCell::new(App {
         ctx,
         params,
@@ -591,8 +505,14 @@ pub fn start() -> Result<(), JsValue> {
         loaded: None,
         camera: None,
         job: None,
+        // Set by the control's handler below (from the query's value).
+        show: None,
+        spp,
+        progress,
         image: Vec::new(),
         display: Vec::new(),
+        aov: Vec::new(),
+        aov_rows: 0,
         status: String::new(),
         drag: None,
         reported: false,
@@ -622,6 +542,7 @@ pub fn start() -> Result<(), JsValue> {
         select.add_event_listener_with_callback("change", on_change.as_ref().unchecked_ref())?;
         on_change.forget();
     }
+    install_controls(&app)?;
     install_mouse(&app)?;
     install_drop(&app)?;
 
@@ -635,10 +556,89 @@ pub fn start() -> Result<(), JsValue> {
         } else if let Err(e) = a.load() {
             fail(&mut a, &e);
         } else {
-            show(&a);
+            show_status(&a);
         }
     }
+    if show.is_some() {
+        // The query's display goes through the control's own handler, as a person's
+        // choice would (the test of the AOV display checks the canvas it draws).
+        element::<web_sys::HtmlSelectElement>("show")
+            .dispatch_event(&web_sys::Event::new("change")?)?;
+    }
     frame_loop(app)
+}
+
+/// Why the display control is off on WebGL 1.
+const AOV_NEEDS_WEBGL2: &str = "AOVs need WebGL 2 (WebGL 1 reads colour attachment 0 only)";
+
+/// What a control does with its new value.
+type OnChange = dyn Fn(&mut App, String);
+
+/// The display, progress and samples controls: they start from the query's values; the
+/// display redraws what is there, the others render again.
+fn install_controls(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
+    let a = app.borrow();
+    let show: web_sys::HtmlSelectElement = element("show");
+    show.set_value(show_name(a.params.show));
+    if !a.reads_aov() {
+        show.set_disabled(true);
+        element::<web_sys::HtmlElement>("show-why").set_text_content(Some(AOV_NEEDS_WEBGL2));
+    }
+    let progress: web_sys::HtmlSelectElement = element("progress");
+    // `passes:N` is the query's (reproducible) form of the control's `passes`.
+    progress.set_value(match a.progress {
+        Progress::Bands => "bands",
+        Progress::Passes { .. } => "passes",
+    });
+    let spp: web_sys::HtmlInputElement = element("spp");
+    spp.set_max(&MAX_SPP.to_string());
+    spp.set_value(&a.spp.to_string());
+    drop(a);
+
+    let on = |id: &str, f: Box<OnChange>| -> Result<(), JsValue> {
+        let app = app.clone();
+        let id2 = id.to_string();
+        let cb = Closure::<dyn FnMut()>::new(move || {
+            let value = element::<web_sys::HtmlElement>(&id2)
+                .dyn_into::<web_sys::HtmlSelectElement>()
+                .map(|s| s.value())
+                .or_else(|e| e.dyn_into::<web_sys::HtmlInputElement>().map(|i| i.value()))
+                .unwrap_or_default();
+            let mut a = app.borrow_mut();
+            f(&mut a, value);
+            show_status(&a);
+        });
+        element::<web_sys::HtmlElement>(id)
+            .add_event_listener_with_callback("change", cb.as_ref().unchecked_ref())?;
+        cb.forget();
+        Ok(())
+    };
+    on(
+        "show",
+        Box::new(|a, v| match parse_show(&v) {
+            Ok(s) => a.set_show(s),
+            Err(e) => web_sys::console::error_1(&e.into()),
+        }),
+    )?;
+    on(
+        "progress",
+        Box::new(|a, v| {
+            if let Ok(p) = Progress::parse(&v) {
+                a.progress = p;
+                a.restart();
+            }
+        }),
+    )?;
+    on(
+        "spp",
+        Box::new(|a, v| {
+            if let Ok(n) = v.trim().parse::<u32>() {
+                a.spp = n.clamp(1, MAX_SPP);
+                a.restart();
+            }
+        }),
+    )?;
+    Ok(())
 }
 
 /// The animation-frame callback, which schedules itself again.
@@ -653,7 +653,7 @@ fn frame_loop(app: Rc<RefCell<App>>) -> Result<(), JsValue> {
             let mut a = app.borrow_mut();
             if a.job.is_some() {
                 match a.step() {
-                    Ok(()) => show(&a),
+                    Ok(()) => show_status(&a),
                     Err(e) => fail(&mut a, &e),
                 }
             }
@@ -727,7 +727,7 @@ fn install_drop(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
                     if let Err(e) = app.load() {
                         fail(&mut app, &e);
                     } else {
-                        show(&app);
+                        show_status(&app);
                     }
                 }
             });

@@ -409,6 +409,8 @@ pub(crate) fn render(
             samples_done: spec.samples,
             samples: spec.samples,
             passes: setup.stats.passes_total,
+            pass: "compute",
+            aov: None,
         };
         if observer(&snap) == Flow::Cancel {
             return Err(Error::Cancelled);

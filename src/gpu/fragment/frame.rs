@@ -20,10 +20,11 @@ use crate::gpu::gl::{
 };
 use crate::gpu::layout::Fetch;
 use crate::gpu::options::{FragmentKernel, GpuOptions, Mask, Storage};
+use crate::gpu::pause::pause;
 use crate::gpu::request::{Flow, Observer, Snapshot};
 use crate::gpu::scene::{bind_texture, GpuScene};
 use crate::gpu::shader::{Count, Pass};
-use crate::output::GpuStats;
+use crate::output::{Aov, GpuStats};
 use crate::progress::Progress;
 use crate::technique::Techniques;
 use crate::{Error, Result};
@@ -60,6 +61,10 @@ pub(super) struct Frame<'a> {
     pub(super) max_iterations: u64,
     /// The render's observer, if any (the hook of an observed render).
     pub(super) watch: Option<Watch<'a>>,
+    /// The last pass drawn, for the observer ([`Snapshot::pass`]).
+    last_pass: &'static str,
+    /// The primary-ray AOVs once read, shown to the observer and then returned.
+    pub(super) aov: Option<Aov>,
 }
 
 /// Timer queries in flight, resolved in batches so the pipeline is not stalled per pass.
@@ -242,6 +247,8 @@ impl<'a> Frame<'a> {
             kernel,
             max_iterations: gs.max_iterations(),
             watch: None,
+            last_pass: "none",
+            aov: None,
         })
     }
 
@@ -341,6 +348,7 @@ impl<'a> Frame<'a> {
             .entry(pass.name().to_string())
             .or_default() += 1;
         self.stats.passes_total += 1;
+        self.last_pass = pass.name();
         Ok(())
     }
 
@@ -351,13 +359,14 @@ impl<'a> Frame<'a> {
         }
     }
 
-    /// Runs a ray-state pass: reads the current set, writes the other, swaps.
-    pub(super) fn state_pass(&mut self, pass: Pass) -> Result<()> {
+    /// Runs a ray-state pass: reads the current set, writes the other, swaps; then
+    /// observes (and may pause there).
+    pub(super) async fn state_pass(&mut self, pass: Pass) -> Result<()> {
         self.bind_state_input();
         let other = 1 - self.cur;
         self.draw(pass, Slot::State(other))?;
         self.cur = other;
-        self.observe()
+        self.observe().await
     }
 
     /// Counts fragments that survive the `count` pass (active rays, or pixels where the
@@ -413,14 +422,14 @@ impl<'a> Frame<'a> {
     }
 
     /// Accumulation pass: reads level `level` records and the colour so far.
-    pub(super) fn accumulate(&mut self, pass: Pass, level: usize) -> Result<()> {
+    pub(super) async fn accumulate(&mut self, pass: Pass, level: usize) -> Result<()> {
         self.bind_state_input();
         self.bind_records(level);
         bind_texture(self.gl(), Unit::Acc, self.acc[self.acc_cur].texture(0));
         let other = 1 - self.acc_cur;
         self.draw(pass, Slot::Acc(other))?;
         self.acc_cur = other;
-        self.observe()
+        self.observe().await
     }
 
     /// Stores the finished wave in level `level`'s records.
@@ -449,8 +458,9 @@ impl Frame<'_> {
     /// The one hook of an observed render, called after every ray-state and accumulation
     /// pass and after each finished sample: shows the observer a [`Snapshot`] and turns
     /// its [`Flow::Cancel`] into [`Error::Cancelled`], which unwinds the walk (every GL
-    /// object of the frame frees itself).
-    pub(super) fn observe(&mut self) -> Result<()> {
+    /// object of the frame frees itself), and its [`Flow::Pause`] into a suspension of the
+    /// walk's future ([`crate::gpu::pause`]).
+    pub(super) async fn observe(&mut self) -> Result<()> {
         let Some(w) = self.watch.as_mut() else {
             return Ok(());
         };
@@ -460,10 +470,16 @@ impl Frame<'_> {
             samples_done: w.samples_done,
             samples: w.samples,
             passes: self.stats.passes_total,
+            pass: self.last_pass,
+            aov: self.aov.as_ref(),
         };
         match (w.observer)(&snap) {
             Flow::Continue => Ok(()),
             Flow::Cancel => Err(Error::Cancelled),
+            Flow::Pause => {
+                pause().await;
+                Ok(())
+            }
         }
     }
 }

@@ -24,4 +24,4 @@ mod trace;
 mod tree;
 
 pub(crate) use readback::trace_wave;
-pub(crate) use tree::render;
+pub(crate) use tree::{render, walk};

@@ -146,7 +146,7 @@ pub(crate) fn trace_wave(
     for (tex, data) in f.state[f.cur].textures().iter().zip(&s.texels) {
         tex.upload(f.gl(), data)?;
     }
-    f.trace(query)?;
+    crate::gpu::pause::block_on(f.trace(query))?;
     Ok(traces_from(&read_state(&f)?, rays.len()))
 }
 

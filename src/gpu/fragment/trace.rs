@@ -19,16 +19,16 @@ impl Frame<'_> {
     /// ping-pong pair may disagree on them. The first pass after each mask refresh therefore
     /// runs unmasked: its write-through copies every finished ray into the other target, and
     /// from then on both hold the same state for every ray outside the mask.
-    pub(super) fn trace(&mut self, query: Query) -> Result<()> {
+    pub(super) async fn trace(&mut self, query: Query) -> Result<()> {
         self.progress.begin_trace();
-        let r = self.trace_inner(query);
+        let r = self.trace_inner(query).await;
         self.set_mask_test(false);
         self.progress.end_trace();
         r
     }
 
-    fn trace_inner(&mut self, query: Query) -> Result<()> {
-        self.state_pass(Pass::TraverseInit)?;
+    async fn trace_inner(&mut self, query: Query) -> Result<()> {
+        self.state_pass(Pass::TraverseInit).await?;
         let kernel = self.kernel;
         let advance = Pass::advance(kernel, query);
         // Several iterations per pass: query every `query_every` iterations' worth.
@@ -62,11 +62,11 @@ impl Frame<'_> {
             }
             self.set_mask_test(synced);
             match advance {
-                Some(pass) => self.state_pass(pass)?,
+                Some(pass) => self.state_pass(pass).await?,
                 None => {
-                    self.state_pass(Pass::TraverseStep)?;
+                    self.state_pass(Pass::TraverseStep).await?;
                     self.set_mask_test(true);
-                    self.state_pass(Pass::Intersect(query))?;
+                    self.state_pass(Pass::Intersect(query)).await?;
                 }
             }
             synced = true;

@@ -2,6 +2,10 @@
 //! rays per sample, then at each level the ambient and light terms (one shadow wave per
 //! light) and the reflected and refracted children, skipping a child's whole subtree when
 //! an occlusion query finds no pixel where it exists.
+//!
+//! The walk is `async` ([`walk`]): the observer may pause it after any pass and the web
+//! page resumes it on the next animation frame ([`crate::gpu::pause`]); [`render`] runs it
+//! to the end. Either way the passes drawn are the same.
 
 use crate::clock::Instant;
 
@@ -13,6 +17,7 @@ use super::readback::{flip_rgba_to_rgb, read_aov, read_srgb8};
 use crate::gpu::contract::{uniform, Unit};
 use crate::gpu::gl::Texture;
 use crate::gpu::options::FragmentKernel;
+use crate::gpu::pause::block_on;
 use crate::gpu::request::{GpuOutput, ImageRequest, Observer};
 use crate::gpu::scene::{bind_texture, GpuScene};
 use crate::gpu::shader::{Count, Pass, Query};
@@ -56,10 +61,21 @@ impl Branch {
 }
 
 /// Renders `req` with the fragment kernel `kernel`, calling `observer` (if any) between
-/// passes; it may cancel the render.
+/// passes; it may cancel the render (a pause is run straight through).
 pub(crate) fn render<'a>(
     gs: &'a GpuScene<'a>,
     req: &ImageRequest,
+    kernel: FragmentKernel,
+    observer: Option<&'a mut Observer<'a>>,
+) -> Result<GpuOutput> {
+    block_on(walk(gs, *req, kernel, observer))
+}
+
+/// [`render`] as a future that suspends where the observer answers
+/// [`Flow::Pause`](crate::gpu::request::Flow::Pause).
+pub(crate) async fn walk<'a>(
+    gs: &'a GpuScene<'a>,
+    req: ImageRequest,
     kernel: FragmentKernel,
     observer: Option<&'a mut Observer<'a>>,
 ) -> Result<GpuOutput> {
@@ -98,7 +114,6 @@ pub(crate) fn render<'a>(
     }
     let offsets = camera::sample_offsets(spp);
     let mut rays = RayCounts::default();
-    let mut aov = None;
     f.set(Pass::RayGen, uniform::EYE, req.camera.eye)?;
     // The primary directions of one sample, re-filled per sample into one texture.
     let dir_tex = Texture::new_f32(f.ctx, width, height, None)?;
@@ -137,18 +152,18 @@ pub(crate) fn render<'a>(
         bind_texture(f.gl(), Unit::Node, &dir_tex);
         f.progress
             .stage(format!("sample {}/{}: primary rays", k + 1, offsets.len()));
-        f.state_pass(Pass::RayGen)?;
+        f.state_pass(Pass::RayGen).await?;
         rays.primary += width as u64 * height as u64;
-        f.trace(Query::Closest)?;
+        f.trace(Query::Closest).await?;
         if k == 0 && req.readback.aov {
-            aov = Some(read_aov(&f, scene, width, height)?);
+            f.aov = Some(read_aov(&f, scene, width, height)?);
         }
         f.record(0)?;
-        shade_node(&mut f, scene, 0, max_depth, secondary, &mut rays)?;
+        shade_node(&mut f, scene, 0, max_depth, secondary, &mut rays).await?;
         if let Some(w) = f.watch.as_mut() {
             w.samples_done = k as u32 + 1;
         }
-        f.observe()?;
+        f.observe().await?;
     }
     // The passes are queued, not done: wait for them here, so that `read_back` times the
     // copy and not the GPU's last passes (measured apart: docs/performance.md, run 4).
@@ -179,7 +194,10 @@ pub(crate) fn render<'a>(
     f.stats.trace_ms = t_trace.elapsed().as_secs_f64() * 1e3;
     Ok(GpuOutput {
         image,
-        aov: aov.unwrap_or_else(|| Aov::from_vec(0, 0, Vec::new())),
+        aov: f
+            .aov
+            .take()
+            .unwrap_or_else(|| Aov::from_vec(0, 0, Vec::new())),
         rays: RayCounts::new(rays.primary, rays.shadow, rays.reflected, rays.refracted),
         work: None,
         gpu: Some(std::mem::take(&mut f.stats)),
@@ -191,16 +209,16 @@ pub(crate) fn render<'a>(
 
 /// Shades level `level`'s records (ambient, every light) and recurses into the node's
 /// reflected and refracted children.
-fn shade_node(
-    f: &mut Frame,
+async fn shade_node(
+    f: &mut Frame<'_>,
     scene: &Scene,
     level: usize,
     max_depth: u32,
     secondary: bool,
     rays: &mut RayCounts,
 ) -> Result<()> {
-    f.accumulate(Pass::AccumAmbient, level)?;
-    shade_children(f, scene, level, max_depth, secondary, rays)
+    f.accumulate(Pass::AccumAmbient, level).await?;
+    shade_children(f, scene, level, max_depth, secondary, rays).await
 }
 
 /// The most traces a node at `level` and its subtree can run, what the progress bar counts
@@ -216,8 +234,8 @@ fn subtree_traces(scene: &Scene, level: usize, max_depth: u32, secondary: bool) 
 }
 
 /// The body of [`shade_node`]: the lights, then the children.
-fn shade_children(
-    f: &mut Frame,
+async fn shade_children(
+    f: &mut Frame<'_>,
     scene: &Scene,
     level: usize,
     max_depth: u32,
@@ -229,15 +247,15 @@ fn shade_children(
         f.set(Pass::AccumLight, uniform::LIGHT_RAD, light.radiance())?;
         f.bind_records(level);
         f.progress.stage(format!("depth {level}: shadow rays"));
-        f.state_pass(Pass::ShadowSpawn)?;
+        f.state_pass(Pass::ShadowSpawn).await?;
         let n = f.count(Count::Rays, None)?;
         rays.shadow += n;
         if n > 0 {
-            f.trace(Query::Any)?;
+            f.trace(Query::Any).await?;
         } else {
             f.progress.skip(1.0);
         }
-        f.accumulate(Pass::AccumLight, level)?;
+        f.accumulate(Pass::AccumLight, level).await?;
     }
     if !secondary || level as u32 >= max_depth {
         return Ok(());
@@ -260,10 +278,11 @@ fn shade_children(
             .stage(format!("depth {child}: {} rays", branch.rays_name()));
         f.bind_records(level);
         f.bind_node(child);
-        f.state_pass(Pass::Spawn)?;
-        f.trace(Query::Closest)?;
+        f.state_pass(Pass::Spawn).await?;
+        f.trace(Query::Closest).await?;
         f.record(child)?;
-        shade_node(f, scene, child, max_depth, secondary, rays)?;
+        // The recursion goes through a box: a future cannot contain itself.
+        Box::pin(shade_node(f, scene, child, max_depth, secondary, rays)).await?;
     }
     Ok(())
 }

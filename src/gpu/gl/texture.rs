@@ -4,7 +4,8 @@
 use glow::HasContext;
 
 use super::{
-    check_gl_error, f32_bytes, f32_bytes_mut, rgba_len, Owned, RenderbufferKind, TextureKind,
+    check_gl_error, f32_bytes, f32_bytes_mut, rgba_len, FramebufferKind, Owned, RenderbufferKind,
+    TextureKind,
 };
 use crate::error::{Error, Result};
 use crate::gpu::context::GlContext;
@@ -171,6 +172,45 @@ impl Texture {
     /// The raw name, to bind as a pass's input.
     pub fn name(&self) -> glow::Texture {
         self.obj.name()
+    }
+
+    /// Reads the texture back as `width*height*4` floats (bottom row first) through a
+    /// framebuffer made for this read: how an observer that holds only a texture (the
+    /// radiance of a [`Snapshot`](crate::gpu::request::Snapshot)) sees it. Leaves no
+    /// framebuffer bound.
+    pub fn read_f32(&self, ctx: &GlContext) -> Result<Vec<f32>> {
+        let gl = ctx.gl();
+        let mut out = vec![0.0f32; rgba_len(self.width, self.height)];
+        // SAFETY: the context is current; the framebuffer is owned here and deleted on
+        // return; the buffer holds exactly width*height RGBA floats.
+        unsafe {
+            let fb = gl
+                .create_framebuffer()
+                .map_err(|e| Error::Internal(format!("glGenFramebuffers: {e}")))?;
+            let fb: Owned<FramebufferKind> = Owned::new(ctx, fb);
+            gl.bind_framebuffer(glow::FRAMEBUFFER, Some(fb.name()));
+            gl.framebuffer_texture_2d(
+                glow::FRAMEBUFFER,
+                glow::COLOR_ATTACHMENT0,
+                glow::TEXTURE_2D,
+                Some(self.name()),
+                0,
+            );
+            // A new framebuffer reads attachment 0 (WebGL 1 knows no other).
+            gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
+            gl.read_pixels(
+                0,
+                0,
+                self.width as i32,
+                self.height as i32,
+                glow::RGBA,
+                glow::FLOAT,
+                glow::PixelPackData::Slice(Some(f32_bytes_mut(&mut out))),
+            );
+            gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+        }
+        check_gl_error(gl, "reading a texture")?;
+        Ok(out)
     }
 
     /// Width in texels.
