@@ -33,3 +33,23 @@ fn stats_line_reports_every_figure() {
     s.empty_cells = 0;
     assert!(s.to_string().contains(" 0 cells (0.0% empty,"), "{s}");
 }
+
+/// `world_box` maps virtual corners to world ones by `min + k * cell_size` in f64: values
+/// chosen so every product and sum is exact, worked out by hand.
+#[test]
+fn world_box_is_min_plus_corner_times_cell_size() {
+    let mut scene = crate::scene::Scene::empty(crate::scene::Camera {
+        eye: Vec3::Z,
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+    });
+    let m = scene.add_material(crate::scene::Material::default());
+    scene.add_triangle(Vec3::ZERO, Vec3::X, Vec3::Y, m);
+    let mut g = IrregularGrid::build(&scene, &IrregularConfig::default()).unwrap();
+    g.min = Vec3::new(-1.0, 0.0, 2.0);
+    g.cell_size = Vec3::new(0.5, 0.25, 2.0);
+    let (lo, hi) = g.world_box([1, 2, 3], [4, 5, 6]);
+    assert_eq!(lo, DVec3::new(-0.5, 0.5, 8.0));
+    assert_eq!(hi, DVec3::new(1.0, 1.25, 14.0));
+}
