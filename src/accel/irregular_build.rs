@@ -468,7 +468,9 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         range: CellRange::default(),
     };
     let mut vmap = vec![0u32; n_vmap];
-    let mut cells = vec![blank; n_cells];
+    // Filled in parallel: `vec!` writes a struct's copies on one thread (zeros it gets
+    // from the allocator untouched, as for the integer tables).
+    let mut cells: Vec<IrrCell> = (0..n_cells).into_par_iter().map(|_| blank).collect();
     let mut list = vec![0u32; n_refs];
     let (top, below) = vmap.split_at_mut(n_top);
     let outs: Vec<Out> = split_lens(below, sizes.iter().map(|s| s.vmap))

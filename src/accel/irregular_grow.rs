@@ -222,7 +222,11 @@ impl Occupancy {
             .map(|&e| e & NODE != 0 || g.cells[e as usize].range.count > 0)
             .collect();
         let n_top = dim.iter().map(|d| d - 1).product::<usize>();
-        let mut tight = vec![([0; 3], [0; 3]); g.vmap.len()];
+        // Filled in parallel: `vec!` writes tuples' copies on one thread.
+        let mut tight: Vec<([u32; 3], [u32; 3])> = (0..g.vmap.len())
+            .into_par_iter()
+            .map(|_| ([0; 3], [0; 3]))
+            .collect();
         // The top cells that are nodes, in top order, with the start of their stretch.
         let roots: Vec<(usize, u32)> = (0..n_top)
             .filter(|&i| g.vmap[i] & NODE != 0)
