@@ -185,6 +185,12 @@ impl Occupancy {
     /// by tree (each top cell's subtree owns one stretch of the voxel map when laid out as
     /// the build lays it out; any other layout is built serially).
     pub(super) fn new(g: &IrregularGrid) -> Occupancy {
+        Occupancy::build(g, true)
+    }
+
+    /// [`Occupancy::new`], its tight boxes tree by tree in parallel only when `by_tree`
+    /// (else in one serial pass, as for a voxel map laid out otherwise).
+    fn build(g: &IrregularGrid, by_tree: bool) -> Occupancy {
         let dim = g.top_res.map(|r| r as usize + 1);
         let slab = dim[0] * dim[1];
         let mut sum = vec![0u32; slab * dim[2]];
@@ -246,7 +252,7 @@ impl Occupancy {
             ];
             [0, 1, 2].map(|a| t[a] << g.shift[a])
         };
-        let laid_out = starts[0] >= n_top && starts.windows(2).all(|w| w[0] < w[1]);
+        let laid_out = by_tree && starts[0] >= n_top && starts.windows(2).all(|w| w[0] < w[1]);
         let boxes: Vec<([u32; 3], [u32; 3])> = if laid_out {
             let (_, below) = tight.split_at_mut(starts[0]);
             let mut rest = below;
@@ -476,3 +482,7 @@ impl Ancestors {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "irregular_grow_tests.rs"]
+mod tests;
