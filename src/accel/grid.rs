@@ -326,6 +326,12 @@ fn check_fixed(res: [u32; 3]) -> Result<()> {
 /// indices and non-finite vertices.
 pub(crate) fn check_vertices(scene: &Scene) -> Result<()> {
     let n = scene.positions.len();
+    // Checked in parallel; the serial pass below, which names the first offender, runs
+    // only when there is one.
+    let bad = |v: &u32| *v as usize >= n || !scene.positions[*v as usize].is_finite();
+    if !scene.triangles.par_iter().any(|t| t.v.iter().any(bad)) {
+        return Ok(());
+    }
     for (i, t) in scene.triangles.iter().enumerate() {
         for &v in &t.v {
             if v as usize >= n {

@@ -122,8 +122,10 @@ pub struct IrrCell {
 pub struct IrregularStats {
     /// Wall-clock build time in milliseconds.
     pub build_ms: f64,
-    /// Of which the exit-box growth.
+    /// Of which the exit-box growth (its occupancy tables included).
     pub expand_ms: f64,
+    /// The build's wall-clock time phase by phase.
+    pub phases: IrregularPhases,
     /// Memory of the tables: `vmap * 4 + cells * 32 + references * 4` (as the GPU stores
     /// them: one float per entry, two RGBA texels per cell).
     pub bytes: usize,
@@ -155,7 +157,7 @@ impl fmt::Display for IrregularStats {
             f,
             "{} top cells, {} levels, {} cells ({:.1}% empty, exit boxes {:.1}x own), {} refs \
              (mean {:.2}, max {} per non-empty cell), {:.2} MiB ({:.1} B/triangle), built in \
-             {:.1} ms ({:.1} ms growing exit boxes)",
+             {:.1} ms ({:.1} ms growing exit boxes; {})",
             self.top_cells,
             self.levels,
             self.cells,
@@ -171,7 +173,53 @@ impl fmt::Display for IrregularStats {
             self.bytes as f64 / (1024.0 * 1024.0),
             self.bytes_per_triangle,
             self.build_ms,
-            self.expand_ms
+            self.expand_ms,
+            self.phases
+        )
+    }
+}
+
+/// Wall-clock milliseconds of the irregular build's phases, in build order; they add up to
+/// about [`IrregularStats::build_ms`]. Kept so that a run on many cores shows which phase
+/// does not scale.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct IrregularPhases {
+    /// Checks, bounds and the split schedule.
+    pub setup_ms: f64,
+    /// The triangles' vertices gathered, and their bounds.
+    pub convert_ms: f64,
+    /// Every triangle binned to the top cells it overlaps.
+    pub top_bin_ms: f64,
+    /// The (top cell, triangle) pairs sorted by cell.
+    pub sort_ms: f64,
+    /// The voxel map below every top cell.
+    pub voxel_map_ms: f64,
+    /// The trees flattened into the voxel map, cell and reference tables (unused levels
+    /// dropped from the cells' coordinates on the way).
+    pub flatten_ms: f64,
+    /// The occupancy tables the exit-box growth queries.
+    pub occupancy_ms: f64,
+    /// The exit boxes grown.
+    pub grow_ms: f64,
+    /// The statistics.
+    pub finish_ms: f64,
+}
+
+impl fmt::Display for IrregularPhases {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "phases ms: setup {:.1}, convert {:.1}, top bins {:.1}, sort {:.1}, voxel map {:.1}, \
+             flatten {:.1}, occupancy {:.1}, growth {:.1}, finish {:.1}",
+            self.setup_ms,
+            self.convert_ms,
+            self.top_bin_ms,
+            self.sort_ms,
+            self.voxel_map_ms,
+            self.flatten_ms,
+            self.occupancy_ms,
+            self.grow_ms,
+            self.finish_ms
         )
     }
 }

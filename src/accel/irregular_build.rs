@@ -6,11 +6,13 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use std::sync::atomic::{AtomicU32, Ordering};
+
 use super::binning::{counting_sort, Frame};
 use super::grid::{check_vertices, padded_bounds, CellRange, Grid};
 use super::irregular::{
-    IrrCell, IrregularConfig, IrregularGrid, IrregularStats, MAX_CELLS, MAX_ENTRIES, MAX_LEVELS,
-    MAX_VIRTUAL_AXIS, NODE,
+    IrrCell, IrregularConfig, IrregularGrid, IrregularPhases, IrregularStats, MAX_CELLS,
+    MAX_ENTRIES, MAX_LEVELS, MAX_VIRTUAL_AXIS, NODE,
 };
 use super::irregular_grow::{grow, Occupancy};
 use crate::clock::Instant;
@@ -77,8 +79,8 @@ enum Node {
 
 /// What every node build needs.
 struct Ctx<'a> {
-    /// Every triangle's vertices in f64, converted once for all levels.
-    tris: &'a [[DVec3; 3]],
+    /// Every triangle's vertices, gathered once for all levels.
+    tris: &'a [[Vec3; 3]],
     levels: &'a [[bool; 3]],
     min: DVec3,
     cs: DVec3,
@@ -88,7 +90,7 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     #[inline]
     fn tri(&self, t: u32) -> [DVec3; 3] {
-        self.tris[t as usize]
+        self.tris[t as usize].map(|v| v.as_dvec3())
     }
 
     /// Builds the node at `level` covering `1 << rem[a]` virtual cells from `lo`.
@@ -151,47 +153,170 @@ impl Ctx<'_> {
     }
 }
 
-/// Flattens one top cell's subtree: returns its vmap entry, appending child blocks to
-/// `vmap` and cells to `cells`/`list` in depth-first order.
-fn flatten(
-    node: Node,
+/// A stretch of the final tables one tree is flattened into: its voxel-map blocks, cells
+/// and references, each a slice at a known global offset, filled front to back.
+struct Out<'a> {
+    /// Levels dropped per axis: the cells' coordinates are shifted down by these.
+    dropped: [u32; 3],
+    vmap: &'a mut [u32],
+    vmap_base: usize,
+    vmap_len: usize,
+    cells: &'a mut [IrrCell],
+    cell_base: usize,
+    cell_len: usize,
+    list: &'a mut [u32],
+    list_base: usize,
+    list_len: usize,
+}
+
+/// What one tree adds to the tables: voxel-map entries below its top cell, cells,
+/// references, and its depth.
+#[derive(Clone, Copy, Default)]
+struct Size {
+    vmap: usize,
+    cells: usize,
+    refs: usize,
     depth: usize,
-    deepest: &mut usize,
-    vmap: &mut Vec<u32>,
-    cells: &mut Vec<IrrCell>,
-    list: &mut Vec<u32>,
-) -> u32 {
-    *deepest = (*deepest).max(depth);
+}
+
+/// [`Size`] of the subtree `node` at `depth`.
+fn size(node: &Node, depth: usize) -> Size {
+    match node {
+        Node::Leaf { tris, .. } => Size {
+            vmap: 0,
+            cells: 1,
+            refs: tris.len(),
+            depth,
+        },
+        Node::Inner(children) => children.iter().fold(
+            Size {
+                vmap: children.len(),
+                depth,
+                ..Size::default()
+            },
+            |a, c| {
+                let b = size(c, depth + 1);
+                Size {
+                    vmap: a.vmap + b.vmap,
+                    cells: a.cells + b.cells,
+                    refs: a.refs + b.refs,
+                    depth: a.depth.max(b.depth),
+                }
+            },
+        ),
+    }
+}
+
+/// Flattens one top cell's subtree into `out` in depth-first order (a node's child block
+/// before its children's blocks, cells and references in leaf order): returns its vmap
+/// entry. Trees fill disjoint stretches laid out in top-cell order, so the tables are those
+/// a single pass appending tree after tree makes.
+fn flatten(node: Node, out: &mut Out) -> u32 {
     match node {
         Node::Leaf { lo, hi, tris } => {
-            let id = cells.len() as u32;
-            cells.push(IrrCell {
+            let id = (out.cell_base + out.cell_len) as u32;
+            let lo = [0, 1, 2].map(|a| lo[a] >> out.dropped[a]);
+            let hi = [0, 1, 2].map(|a| hi[a] >> out.dropped[a]);
+            out.cells[out.cell_len] = IrrCell {
                 lo,
                 hi,
                 exit_lo: lo,
                 exit_hi: hi,
                 range: CellRange {
-                    offset: list.len() as u32,
+                    offset: (out.list_base + out.list_len) as u32,
                     count: tris.len() as u32,
                 },
-            });
-            list.extend_from_slice(&tris);
+            };
+            out.cell_len += 1;
+            out.list[out.list_len..out.list_len + tris.len()].copy_from_slice(&tris);
+            out.list_len += tris.len();
             id
         }
         Node::Inner(children) => {
-            let block = vmap.len();
-            vmap.resize(block + children.len(), 0);
+            let block = out.vmap_len;
+            out.vmap_len += children.len();
             for (i, c) in children.into_iter().enumerate() {
-                let e = flatten(c, depth + 1, deepest, vmap, cells, list);
-                vmap[block + i] = e;
+                let e = flatten(c, out);
+                out.vmap[block + i] = e;
             }
-            NODE | block as u32
+            NODE | (out.vmap_base + block) as u32
         }
     }
 }
 
+/// Splits `s` into consecutive slices of the given lengths.
+fn split_lens<T>(mut s: &mut [T], lens: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+    lens.map(|n| {
+        let (a, b) = std::mem::take(&mut s).split_at_mut(n);
+        s = b;
+        a
+    })
+    .collect()
+}
+
+/// Exclusive prefix sums of `v`, from `base`.
+fn offsets(v: impl Iterator<Item = usize>, base: usize) -> Vec<usize> {
+    v.scan(base, |acc, n| {
+        let o = *acc;
+        *acc += n;
+        Some(o)
+    })
+    .collect()
+}
+
+/// Sorts the `(top cell, triangle)` pairs by cell in parallel: per-cell ranges and the
+/// list. Within a cell the order depends on the threads; the voxel-map build sorts each
+/// cell's triangles ascending, which makes it that of [`counting_sort`] (a triangle meets
+/// a cell once).
+fn sort_pairs(n_top: usize, chunks: &[Vec<(u32, u32)>]) -> (Vec<CellRange>, Vec<AtomicU32>) {
+    let count: Vec<AtomicU32> = (0..n_top)
+        .into_par_iter()
+        .map(|_| AtomicU32::new(0))
+        .collect();
+    chunks.par_iter().for_each(|c| {
+        for &(cell, _) in c {
+            count[cell as usize].fetch_add(1, Ordering::Relaxed);
+        }
+    });
+    let mut total = 0u32;
+    let ranges: Vec<CellRange> = count
+        .iter()
+        .map(|n| {
+            let n = n.load(Ordering::Relaxed);
+            let r = CellRange {
+                offset: total,
+                count: n,
+            };
+            total += n;
+            r
+        })
+        .collect();
+    // Reused as each cell's write cursor.
+    count
+        .par_iter()
+        .zip(&ranges)
+        .for_each(|(c, r)| c.store(r.offset, Ordering::Relaxed));
+    let list: Vec<AtomicU32> = (0..total as usize)
+        .into_par_iter()
+        .map(|_| AtomicU32::new(0))
+        .collect();
+    chunks.par_iter().for_each(|c| {
+        for &(cell, t) in c {
+            let slot = count[cell as usize].fetch_add(1, Ordering::Relaxed);
+            list[slot as usize].store(t, Ordering::Relaxed);
+        }
+    });
+    (ranges, list)
+}
+
 fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     let start = Instant::now();
+    let mut phases = IrregularPhases::default();
+    let mut lap = Instant::now();
+    let mut phase = |ms: &mut f64| {
+        *ms += lap.elapsed().as_secs_f64() * 1e3;
+        lap = Instant::now();
+    };
     if !(cfg.top_density > 0.0 && cfg.top_density.is_finite()) {
         return Err(Error::Usage(format!(
             "irregular grid top density must be a positive finite number, got {}",
@@ -210,7 +335,21 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
             "{n_tris} triangles: the irregular grid indexes fewer than {MAX_ENTRIES}"
         )));
     }
-    let (min, max, top_res) = match scene.bounds() {
+    phase(&mut phases.setup_ms);
+    // Gathered once: the bounds, the top level and every voxel-map level read the same
+    // triangles (kept in f32; the conversion to f64 on use is exact).
+    let tris: Vec<[Vec3; 3]> = (0..n_tris)
+        .into_par_iter()
+        .map(|t| scene.triangle_vertices(t))
+        .collect();
+    // Those of `Scene::bounds`, in parallel: minima and maxima of finite numbers are the
+    // same in any order (but for the sign of a zero, which no later step can tell).
+    let bounds = tris
+        .par_iter()
+        .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
+        .reduce_with(|a, b| (a.0.min(b.0), a.1.max(b.1)));
+    phase(&mut phases.convert_ms);
+    let (min, max, top_res) = match bounds {
         None => (Vec3::splat(-1.0), Vec3::splat(1.0), [1, 1, 1]),
         Some((lo, hi)) => {
             let (min, max) = padded_bounds(scene, lo, hi)?;
@@ -238,31 +377,35 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         (max - min) / Vec3::new(fine_res[0] as f32, fine_res[1] as f32, fine_res[2] as f32);
     let min64 = min.as_dvec3();
     let cs64 = fine_cs.as_dvec3();
+    phase(&mut phases.setup_ms);
 
     // Top level: which top cells each triangle touches, chunk by chunk in triangle order.
     let top_frame = Frame::new(min64, top_cs, top_res, min64, max.as_dvec3());
-    // Converted once: the top level and every voxel-map level bin the same triangles.
-    let tris: Vec<[DVec3; 3]> = (0..n_tris)
-        .into_par_iter()
-        .map(|t| scene.triangle_vertices(t).map(|v| v.as_dvec3()))
-        .collect();
-    let tri64 = |t: usize| tris[t];
-    let chunks: Vec<Vec<(u32, u32)>> = (0..n_tris)
-        .collect::<Vec<_>>()
+    let chunks: Vec<Vec<(u32, u32)>> = tris
         .par_chunks(CHUNK)
-        .map(|ids| {
-            let mut pairs = Vec::new();
+        .enumerate()
+        .map(|(k, ts)| {
+            let mut pairs = Vec::with_capacity(ts.len() * 2);
             let mut cells = Vec::new();
-            for &t in ids {
+            for (i, t) in ts.iter().enumerate() {
                 cells.clear();
-                top_frame.bin(tri64(t), &mut cells);
-                pairs.extend(cells.iter().map(|&c| (c, t as u32)));
+                top_frame.bin(t.map(|v| v.as_dvec3()), &mut cells);
+                let t = (k * CHUNK + i) as u32;
+                pairs.extend(cells.iter().map(|&c| (c, t)));
             }
             pairs
         })
         .collect();
-    let (top_ranges, top_list) = counting_sort(n_top, chunks.iter().flatten().copied());
+    phase(&mut phases.top_bin_ms);
+    let (top_ranges, top_list) = if rayon::current_num_threads() == 1 {
+        // One thread: the serial sort, no atomics (the same order the sort below leaves).
+        let (r, l) = counting_sort(n_top, chunks.iter().flatten().copied());
+        (r, l.into_iter().map(AtomicU32::new).collect())
+    } else {
+        sort_pairs(n_top, &chunks)
+    };
     drop(chunks);
+    phase(&mut phases.sort_ms);
 
     // Voxel map below every top cell, in parallel; then flattened in top-cell order.
     let ctx = Ctx {
@@ -283,39 +426,80 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
                 i / (top_res[0] * top_res[1]),
             ];
             let lo = [0, 1, 2].map(|a| t[a] << shift[a]);
-            let tris = top_list[r.offset as usize..(r.offset + r.count) as usize].to_vec();
+            let mut tris: Vec<u32> = top_list[r.offset as usize..(r.offset + r.count) as usize]
+                .iter()
+                .map(|t| t.load(Ordering::Relaxed))
+                .collect();
+            tris.sort_unstable();
             ctx.node(lo, shift, 0, tris)
         })
         .collect();
     drop(top_list);
-    let mut vmap = vec![0u32; n_top];
-    let mut cells = Vec::new();
-    let mut list = Vec::new();
-    let mut deepest = 0;
-    for (i, tree) in trees.into_iter().enumerate() {
-        vmap[i] = flatten(tree, 0, &mut deepest, &mut vmap, &mut cells, &mut list);
-        if cells.len() > MAX_CELLS || vmap.len() > MAX_ENTRIES || list.len() > MAX_ENTRIES {
-            return Err(Error::Limit(format!(
-                "the irregular grid needs more than {MAX_CELLS} cells, {MAX_ENTRIES} voxel-map \
-                 entries or {MAX_ENTRIES} triangle references ({n_tris} triangles); raise its \
-                 leaf size"
-            )));
-        }
-    }
+    drop(tris);
+    phase(&mut phases.voxel_map_ms);
 
+    // Flattened in parallel: every tree's size, their offsets in the tables in top-cell
+    // order, then every tree written into its own stretch.
+    let sizes: Vec<Size> = trees.par_iter().map(|t| size(t, 0)).collect();
+    let n_vmap = n_top + sizes.iter().map(|s| s.vmap).sum::<usize>();
+    let n_cells = sizes.iter().map(|s| s.cells).sum::<usize>();
+    let n_refs = sizes.iter().map(|s| s.refs).sum::<usize>();
+    if n_cells > MAX_CELLS || n_vmap > MAX_ENTRIES || n_refs > MAX_ENTRIES {
+        return Err(Error::Limit(format!(
+            "the irregular grid needs more than {MAX_CELLS} cells, {MAX_ENTRIES} voxel-map \
+             entries or {MAX_ENTRIES} triangle references ({n_tris} triangles); raise its \
+             leaf size"
+        )));
+    }
     // Levels no node reached only make the virtual grid finer: drop them, scaling the
-    // virtual coordinates down (every box is a multiple of the dropped resolution; the
-    // world boundaries stay the same numbers, the cell size scaling by powers of two).
+    // virtual coordinates down as the cells are written (every box is a multiple of the
+    // dropped resolution; the world boundaries stay the same numbers, the cell size scaling
+    // by powers of two).
+    let deepest = sizes.iter().map(|s| s.depth).max().unwrap_or(0);
     let mut levels = levels;
     levels.truncate(deepest);
     let used = [0, 1, 2].map(|a| levels.iter().filter(|m| m[a]).count() as u32);
-    let drop = [0, 1, 2].map(|a| shift[a] - used[a]);
-    for c in &mut cells {
-        c.lo = [0, 1, 2].map(|a| c.lo[a] >> drop[a]);
-        c.hi = [0, 1, 2].map(|a| c.hi[a] >> drop[a]);
-        c.exit_lo = c.lo;
-        c.exit_hi = c.hi;
-    }
+    let dropped = [0, 1, 2].map(|a| shift[a] - used[a]);
+    let blank = IrrCell {
+        lo: [0; 3],
+        hi: [0; 3],
+        exit_lo: [0; 3],
+        exit_hi: [0; 3],
+        range: CellRange::default(),
+    };
+    let mut vmap = vec![0u32; n_vmap];
+    // Filled in parallel: `vec!` writes a struct's copies on one thread (zeros it gets
+    // from the allocator untouched, as for the integer tables).
+    let mut cells: Vec<IrrCell> = (0..n_cells).into_par_iter().map(|_| blank).collect();
+    let mut list = vec![0u32; n_refs];
+    let (top, below) = vmap.split_at_mut(n_top);
+    let outs: Vec<Out> = split_lens(below, sizes.iter().map(|s| s.vmap))
+        .into_iter()
+        .zip(offsets(sizes.iter().map(|s| s.vmap), n_top))
+        .zip(split_lens(&mut cells, sizes.iter().map(|s| s.cells)))
+        .zip(offsets(sizes.iter().map(|s| s.cells), 0))
+        .zip(split_lens(&mut list, sizes.iter().map(|s| s.refs)))
+        .zip(offsets(sizes.iter().map(|s| s.refs), 0))
+        .map(
+            |(((((vmap, vmap_base), cells), cell_base), list), list_base)| Out {
+                dropped,
+                vmap,
+                vmap_base,
+                vmap_len: 0,
+                cells,
+                cell_base,
+                cell_len: 0,
+                list,
+                list_base,
+                list_len: 0,
+            },
+        )
+        .collect();
+    top.par_iter_mut()
+        .zip(trees.into_par_iter().zip(outs))
+        .for_each(|(e, (tree, mut out))| *e = flatten(tree, &mut out));
+    phase(&mut phases.flatten_ms);
+
     let shift = used;
     let res = [0, 1, 2].map(|a| top_res[a] << shift[a]);
     let cell_size = (max - min) / Vec3::new(res[0] as f32, res[1] as f32, res[2] as f32);
@@ -333,6 +517,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         stats: IrregularStats {
             build_ms: 0.0,
             expand_ms: 0.0,
+            phases: IrregularPhases::default(),
             bytes: 0,
             bytes_per_triangle: 0.0,
             top_cells: n_top,
@@ -348,6 +533,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     };
     let expand_start = Instant::now();
     let occ = Occupancy::new(&g);
+    phase(&mut phases.occupancy_ms);
     // Only empty cells grow: growing the others too (the paper does) changed the bunny's
     // 11.0 cells per ray by 0.1 for more than twice the growth work.
     let exits: Vec<([u32; 3], [u32; 3])> = g
@@ -361,27 +547,37 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
             }
         })
         .collect();
-    for (c, (lo, hi)) in g.cells.iter_mut().zip(exits) {
-        c.exit_lo = lo;
-        c.exit_hi = hi;
-    }
+    drop(occ);
+    let vol = |lo: [u32; 3], hi: [u32; 3]| (0..3).map(|a| (hi[a] - lo[a]) as f64).product::<f64>();
+    // Each cell's growth as a logarithm, for the mean below.
+    let logs: Vec<f64> = g
+        .cells
+        .par_iter_mut()
+        .zip(exits)
+        .map(|(c, (lo, hi))| {
+            c.exit_lo = lo;
+            c.exit_hi = hi;
+            (vol(lo, hi) / vol(c.lo, c.hi)).ln()
+        })
+        .collect();
     let expand_ms = expand_start.elapsed().as_secs_f64() * 1e3;
+    phase(&mut phases.grow_ms);
 
     let n_cells = g.cells.len();
-    let empty = g.cells.iter().filter(|c| c.range.count == 0).count();
-    let refs = g.tri_indices.len();
-    let vol = |lo: [u32; 3], hi: [u32; 3]| (0..3).map(|a| (hi[a] - lo[a]) as f64).product::<f64>();
-    let growth = (g
+    let (empty, max_per_cell) = g
         .cells
-        .iter()
-        .map(|c| (vol(c.exit_lo, c.exit_hi) / vol(c.lo, c.hi)).ln())
-        .sum::<f64>()
-        / n_cells.max(1) as f64)
-        .exp();
+        .par_iter()
+        .map(|c| ((c.range.count == 0) as usize, c.range.count))
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1.max(b.1)));
+    let refs = g.tri_indices.len();
+    // Summed in cell order: the same figure on any thread count.
+    let growth = (logs.iter().sum::<f64>() / n_cells.max(1) as f64).exp();
     let bytes = g.vmap.len() * 4 + n_cells * 32 + refs * 4;
+    phase(&mut phases.finish_ms);
     g.stats = IrregularStats {
         build_ms: start.elapsed().as_secs_f64() * 1e3,
         expand_ms,
+        phases,
         bytes,
         bytes_per_triangle: if n_tris == 0 {
             0.0
@@ -399,7 +595,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         } else {
             refs as f64 / (n_cells - empty) as f64
         },
-        max_per_cell: g.cells.iter().map(|c| c.range.count).max().unwrap_or(0),
+        max_per_cell,
         mean_growth: growth,
     };
     Ok(g)

@@ -11,6 +11,17 @@ fn stats_line_reports_every_figure() {
     let mut s = IrregularStats {
         build_ms: 12.34,
         expand_ms: 3.46,
+        phases: IrregularPhases {
+            setup_ms: 0.01,
+            convert_ms: 0.12,
+            top_bin_ms: 1.26,
+            sort_ms: 0.34,
+            voxel_map_ms: 5.56,
+            flatten_ms: 0.66,
+            occupancy_ms: 0.26,
+            grow_ms: 3.21,
+            finish_ms: 0.94,
+        },
         bytes: 3 << 19,
         bytes_per_triangle: 96.04,
         top_cells: 100,
@@ -27,7 +38,8 @@ fn stats_line_reports_every_figure() {
         s.to_string(),
         "100 top cells, 3 levels, 400 cells (25.0% empty, exit boxes 6.4x own), 1200 refs \
          (mean 4.00, max 9 per non-empty cell), 1.50 MiB (96.0 B/triangle), built in 12.3 ms \
-         (3.5 ms growing exit boxes)"
+         (3.5 ms growing exit boxes; phases ms: setup 0.0, convert 0.1, top bins 1.3, sort 0.3, \
+         voxel map 5.6, flatten 0.7, occupancy 0.3, growth 3.2, finish 0.9)"
     );
     s.cells = 0;
     s.empty_cells = 0;

@@ -3,6 +3,8 @@
 //! growth of an empty cell's box face by face. Split from the build by job; imports the
 //! structure, never the build (`irregular_build.rs` imports this).
 
+use rayon::prelude::*;
+
 use super::irregular::{IrrCell, IrregularGrid, MAX_LEVELS, NODE};
 
 /// Rounds of exit-box growth (each round tries all six faces once).
@@ -179,41 +181,109 @@ pub(super) struct Occupancy {
 }
 
 impl Occupancy {
+    /// Built in parallel: the summed-volume table slab by slab, [`Occupancy::tight`] tree
+    /// by tree (each top cell's subtree owns one stretch of the voxel map when laid out as
+    /// the build lays it out; any other layout is built serially).
     pub(super) fn new(g: &IrregularGrid) -> Occupancy {
+        Occupancy::build(g, true)
+    }
+
+    /// [`Occupancy::new`], its tight boxes tree by tree in parallel only when `by_tree`
+    /// (else in one serial pass, as for a voxel map laid out otherwise).
+    fn build(g: &IrregularGrid, by_tree: bool) -> Occupancy {
         let dim = g.top_res.map(|r| r as usize + 1);
-        let mut sum = vec![0u32; dim[0] * dim[1] * dim[2]];
-        let at = |x: usize, y: usize, z: usize| x + dim[0] * (y + dim[1] * z);
-        for z in 1..dim[2] {
-            for y in 1..dim[1] {
-                for x in 1..dim[0] {
-                    let e = g.vmap[g.top_index([x as u32 - 1, y as u32 - 1, z as u32 - 1])];
-                    let full = (e & NODE != 0 || g.cells[e as usize].range.count > 0) as u32;
-                    sum[at(x, y, z)] =
-                        full + sum[at(x - 1, y, z)] + sum[at(x, y - 1, z)] + sum[at(x, y, z - 1)]
-                            - sum[at(x - 1, y - 1, z)]
-                            - sum[at(x - 1, y, z - 1)]
-                            - sum[at(x, y - 1, z - 1)]
-                            + sum[at(x - 1, y - 1, z - 1)];
+        let slab = dim[0] * dim[1];
+        let mut sum = vec![0u32; slab * dim[2]];
+        let occupied = |x: usize, y: usize, z: usize| {
+            let e = g.vmap[g.top_index([x as u32, y as u32, z as u32])];
+            (e & NODE != 0 || g.cells[e as usize].range.count > 0) as u32
+        };
+        // Each top cell's count at (x+1, y+1, z+1), then prefix sums along x and y within
+        // every z slab, then along z: the same integers as the 3-D recurrence.
+        sum.par_chunks_mut(slab)
+            .enumerate()
+            .skip(1)
+            .for_each(|(z, s)| {
+                for y in 1..dim[1] {
+                    for x in 1..dim[0] {
+                        s[x + dim[0] * y] = s[x - 1 + dim[0] * y] + occupied(x - 1, y - 1, z - 1);
+                    }
                 }
-            }
+                for y in 2..dim[1] {
+                    for x in 1..dim[0] {
+                        s[x + dim[0] * y] += s[x + dim[0] * (y - 1)];
+                    }
+                }
+            });
+        for z in 2..dim[2] {
+            let (done, rest) = sum.split_at_mut(z * slab);
+            rest[..slab]
+                .par_chunks_mut(4096)
+                .zip(done[(z - 1) * slab..].par_chunks(4096))
+                .for_each(|(c, p)| c.iter_mut().zip(p).for_each(|(c, p)| *c += p));
         }
         let full = g
             .vmap
-            .iter()
+            .par_iter()
             .map(|&e| e & NODE != 0 || g.cells[e as usize].range.count > 0)
             .collect();
-        let mut tight = vec![([0; 3], [0; 3]); g.vmap.len()];
-        for z in 0..g.top_res[2] {
-            for y in 0..g.top_res[1] {
-                for x in 0..g.top_res[0] {
-                    let idx = g.top_index([x, y, z]);
-                    let e = g.vmap[idx];
-                    if e & NODE != 0 {
-                        let lo = [x << g.shift[0], y << g.shift[1], z << g.shift[2]];
-                        tight[idx] = tight_box(g, e, lo, g.shift, 0, &mut tight);
+        let n_top = dim.iter().map(|d| d - 1).product::<usize>();
+        // Filled in parallel: `vec!` writes tuples' copies on one thread.
+        let mut tight: Vec<([u32; 3], [u32; 3])> = (0..g.vmap.len())
+            .into_par_iter()
+            .map(|_| ([0; 3], [0; 3]))
+            .collect();
+        // The top cells that are nodes, in top order, with the start of their stretch.
+        let roots: Vec<(usize, u32)> = (0..n_top)
+            .filter(|&i| g.vmap[i] & NODE != 0)
+            .map(|i| (i, g.vmap[i]))
+            .collect();
+        let starts: Vec<usize> = roots
+            .iter()
+            .map(|&(_, e)| (e & !NODE) as usize)
+            .chain([g.vmap.len()])
+            .collect();
+        let top_lo = |i: usize| {
+            let r = g.top_res;
+            let t = [
+                i as u32 % r[0],
+                (i as u32 / r[0]) % r[1],
+                i as u32 / (r[0] * r[1]),
+            ];
+            [0, 1, 2].map(|a| t[a] << g.shift[a])
+        };
+        let laid_out = by_tree && starts[0] >= n_top && starts.windows(2).all(|w| w[0] < w[1]);
+        let boxes: Vec<([u32; 3], [u32; 3])> = if laid_out {
+            let (_, below) = tight.split_at_mut(starts[0]);
+            let mut rest = below;
+            let stretches: Vec<Stretch> = starts
+                .windows(2)
+                .map(|w| {
+                    let (a, b) = std::mem::take(&mut rest).split_at_mut(w[1] - w[0]);
+                    rest = b;
+                    Stretch {
+                        tight: a,
+                        off: w[0],
                     }
-                }
-            }
+                })
+                .collect();
+            roots
+                .par_iter()
+                .zip(stretches)
+                .map(|(&(i, e), mut out)| tight_box(g, e, top_lo(i), g.shift, 0, &mut out))
+                .collect()
+        } else {
+            let mut out = Stretch {
+                tight: &mut tight,
+                off: 0,
+            };
+            roots
+                .iter()
+                .map(|&(i, e)| tight_box(g, e, top_lo(i), g.shift, 0, &mut out))
+                .collect()
+        };
+        for (&(i, _), b) in roots.iter().zip(boxes) {
+            tight[i] = b;
         }
         Occupancy {
             sum,
@@ -251,6 +321,12 @@ impl Occupancy {
     }
 }
 
+/// The part of [`Occupancy::tight`] from entry `off` on that one build of it writes.
+struct Stretch<'a> {
+    tight: &'a mut [([u32; 3], [u32; 3])],
+    off: usize,
+}
+
 /// [`Occupancy::tight`] of node `e` at `level` covering `1 << rem[a]` virtual cells from
 /// `node_lo`, writing that of every node below into `tight`.
 fn tight_box(
@@ -259,7 +335,7 @@ fn tight_box(
     node_lo: [u32; 3],
     rem: [u32; 3],
     level: usize,
-    tight: &mut [([u32; 3], [u32; 3])],
+    tight: &mut Stretch,
 ) -> ([u32; 3], [u32; 3]) {
     let mask = g.levels[level];
     let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
@@ -276,8 +352,9 @@ fn tight_box(
                     node_lo[2] + (bz << crem[2]),
                 ];
                 let b = if child & NODE != 0 {
-                    tight[idx] = tight_box(g, child, clo, crem, level + 1, tight);
-                    tight[idx]
+                    let b = tight_box(g, child, clo, crem, level + 1, tight);
+                    tight.tight[idx - tight.off] = b;
+                    b
                 } else if g.cells[child as usize].range.count > 0 {
                     (clo, [0, 1, 2].map(|a| clo[a] + (1 << crem[a])))
                 } else {
@@ -405,3 +482,7 @@ impl Ancestors {
         }
     }
 }
+
+#[cfg(test)]
+#[path = "irregular_grow_tests.rs"]
+mod tests;
