@@ -53,3 +53,117 @@ fn occupancy_tables_match_brute_force_and_serial_build() {
         }
     }
 }
+
+/// Boxes of every voxel-map node below the top cells (inner entries only), found by walking
+/// the map from the top entries: the independent answer's view of where `box_is_empty` may
+/// answer conservatively.
+fn inner_node_boxes(g: &IrregularGrid) -> Vec<([u32; 3], [u32; 3])> {
+    fn walk(
+        g: &IrregularGrid,
+        e: u32,
+        lo: [u32; 3],
+        rem: [u32; 3],
+        level: usize,
+        out: &mut Vec<([u32; 3], [u32; 3])>,
+    ) {
+        if e & NODE == 0 {
+            return;
+        }
+        out.push((lo, [0, 1, 2].map(|a| lo[a] + (1 << rem[a]))));
+        let mask = g.levels[level];
+        let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
+        let n = [0, 1, 2].map(|a| if mask[a] { 2 } else { 1 });
+        let base = e & !NODE;
+        for bz in 0..n[2] {
+            for by in 0..n[1] {
+                for bx in 0..n[0] {
+                    let b = [bx, by, bz];
+                    let idx = base + bx + n[0] * (by + n[1] * bz);
+                    let clo = [0, 1, 2].map(|a| lo[a] + (b[a] << crem[a]));
+                    walk(g, g.vmap[idx as usize], clo, crem, level + 1, out);
+                }
+            }
+        }
+    }
+    let mut out = Vec::new();
+    let r = g.top_res;
+    for z in 0..r[2] {
+        for y in 0..r[1] {
+            for x in 0..r[0] {
+                let lo = [x << g.shift[0], y << g.shift[1], z << g.shift[2]];
+                walk(g, g.vmap[g.top_index([x, y, z])], lo, g.shift, 0, &mut out);
+            }
+        }
+    }
+    out
+}
+
+/// `box_is_empty` against brute force on random boxes over random soups: a box that
+/// overlaps a cell with triangles is never empty; a box that overlaps neither such a cell
+/// nor any split node (where the query may answer "not empty" conservatively) is empty.
+/// Both kinds are required often, so neither answer can be constant.
+#[test]
+fn box_is_empty_agrees_with_brute_force() {
+    let seed = test_seed("irregular box emptiness", 0x1_77E6_0004);
+    let mut rng = Rng::new(seed);
+    let overlaps = |alo: [u32; 3], ahi: [u32; 3], blo: [u32; 3], bhi: [u32; 3]| {
+        (0..3).all(|a| alo[a] < bhi[a] && blo[a] < ahi[a])
+    };
+    let (mut full, mut empty, mut free) = (0, 0, 0);
+    for (round, density) in [0.125, 1.0, 0.05].into_iter().enumerate() {
+        let s = scene_of(&soup(&mut rng, 200));
+        let cfg = IrregularConfig {
+            top_density: density,
+            leaf_max: 2,
+        };
+        let g = IrregularGrid::build(&s, &cfg).unwrap();
+        let ctx = format!("seed {seed} round {round}: {}", g.stats);
+        let nodes = inner_node_boxes(&g);
+        let occ = Occupancy::new(&g);
+        for _ in 0..3000 {
+            // Boxes from one cell to a few top cells wide, anywhere in the grid.
+            let (lo, hi) = {
+                let mut lo = [0u32; 3];
+                let mut hi = [0u32; 3];
+                for a in 0..3 {
+                    let span = 1 + (rng.f64() * rng.f64() * (3 << g.shift[a]) as f64) as u32;
+                    let span = span.min(g.res[a]);
+                    lo[a] = (rng.f64() * (g.res[a] - span + 1) as f64) as u32;
+                    hi[a] = lo[a] + span;
+                }
+                (lo, hi)
+            };
+            let got = g.box_is_empty(lo, hi);
+            assert_eq!(
+                got,
+                g.box_is_empty_with(&occ, lo, hi),
+                "{ctx}: {lo:?}..{hi:?}"
+            );
+            let holds = g
+                .cells
+                .iter()
+                .any(|c| c.range.count > 0 && overlaps(c.lo, c.hi, lo, hi));
+            let near_node = nodes.iter().any(|&(nlo, nhi)| overlaps(nlo, nhi, lo, hi));
+            if holds {
+                full += 1;
+                assert!(
+                    !got,
+                    "{ctx}: {lo:?}..{hi:?} holds triangles but was called empty"
+                );
+            } else if !near_node {
+                free += 1;
+                assert!(
+                    got,
+                    "{ctx}: {lo:?}..{hi:?} touches nothing but was called not empty"
+                );
+            } else {
+                empty += u32::from(got);
+            }
+        }
+    }
+    eprintln!("box_is_empty: {full} boxes with triangles, {free} touching nothing, {empty} empty near split nodes");
+    assert!(
+        full > 1000 && free > 300 && empty > 100,
+        "{full} {free} {empty}"
+    );
+}
