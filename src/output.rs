@@ -209,8 +209,9 @@ pub struct GpuStats {
     /// A timer query of this render measured nothing: its GPU time stays unknown.
     #[serde(skip)]
     pub(crate) timers_void: bool,
-    /// Wall time of the compute kernel's phases (setup, dispatch, read_back, aov); empty
-    /// for the fragment kernels, whose time is per pass in `gpu_ms`.
+    /// Wall time of the render's phases: the compute kernel's setup, dispatch, read_back,
+    /// aov; the fragment kernels' drain (waiting for the walk's queued passes), srgb8 (the
+    /// 8-bit conversion pass of a PNG) and read_back (their passes' GPU time is in `gpu_ms`).
     pub phases_ms: HashMap<String, f64>,
     /// Shader compile and link time.
     pub compile_ms: f64,

@@ -60,6 +60,13 @@ pub(super) fn read_srgb8(f: &mut Frame, w: u32, h: u32) -> Result<(Vec<u8>, u64)
     bind_texture(f.gl(), Unit::Acc, f.acc[f.acc_cur].texture(0));
     bind_texture(f.gl(), Unit::Node, thresholds);
     f.draw_into(Pass::Srgb8, target)?;
+    // The conversion pass timed apart from the transfer (the transfer waits for it anyway).
+    let t = crate::clock::Instant::now();
+    // SAFETY: the context is current.
+    unsafe { f.gl().finish() };
+    f.stats
+        .phases_ms
+        .insert("srgb8".into(), t.elapsed().as_secs_f64() * 1e3);
     let mut rgb = vec![0u8; w as usize * h as usize * 3];
     if let Some(ring) = ring {
         // Through a staging buffer (H200, 4096x4096: see docs/performance.md).
