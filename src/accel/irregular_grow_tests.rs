@@ -152,9 +152,23 @@ fn box_is_empty_agrees_with_brute_force() {
         let ctx = format!("seed {seed} round {round}: {}", g.stats);
         let nodes = inner_node_boxes(&g);
         let occ = Occupancy::new(&g);
-        for _ in 0..3000 {
-            // Boxes from one cell to a few top cells wide, anywhere in the grid.
-            let (lo, hi) = {
+        let filled: Vec<&IrrCell> = g.cells.iter().filter(|c| c.range.count > 0).collect();
+        for i in 0..3000 {
+            // Boxes from one cell to a few top cells wide, anywhere in the grid; every
+            // third one starts inside a cell with triangles and reaches over whole top cells
+            // beyond it (the empty ones of the sparse scenes).
+            let (lo, hi) = if i % 3 == 0 {
+                let c = filled[(rng.f64() * filled.len() as f64) as usize % filled.len()];
+                let mut lo = [0u32; 3];
+                let mut hi = [0u32; 3];
+                for a in 0..3 {
+                    lo[a] = c.lo[a]
+                        + (rng.f64() * (c.hi[a] - c.lo[a]) as f64) as u32 % (c.hi[a] - c.lo[a]);
+                    let span = 1 + (rng.f64() * (3 << g.shift[a]) as f64) as u32;
+                    hi[a] = (lo[a] + span).min(g.res[a]);
+                }
+                (lo, hi)
+            } else {
                 let mut lo = [0u32; 3];
                 let mut hi = [0u32; 3];
                 for a in 0..3 {
