@@ -98,7 +98,7 @@ impl ReadbackRing {
         assert!(len <= self.bytes, "copy past the staging buffer");
         assert!(self.slots[k].pending.is_none(), "slot {k} not taken yet");
         // SAFETY: the context is current; both buffers are alive and `len` fits both.
-        let fence = unsafe {
+        unsafe {
             gl.memory_barrier(glow::BUFFER_UPDATE_BARRIER_BIT);
             gl.bind_buffer(glow::COPY_READ_BUFFER, Some(src.name()));
             gl.bind_buffer(glow::COPY_WRITE_BUFFER, Some(self.slots[k].buf.name()));
@@ -111,14 +111,24 @@ impl ReadbackRing {
             );
             gl.bind_buffer(glow::COPY_READ_BUFFER, None);
             gl.bind_buffer(glow::COPY_WRITE_BUFFER, None);
+        }
+        check_gl_error(gl, "copying to a staging buffer")?;
+        self.fence(ctx, k, len)
+    }
+
+    /// Fences the copy just queued into slot `k` (`len` bytes), submits it and moves on to
+    /// the other slot; returns `k`.
+    fn fence(&mut self, ctx: &GlContext, k: usize, len: usize) -> Result<usize> {
+        let gl = ctx.gl();
+        // SAFETY: the context is current.
+        let fence = unsafe {
             let f = gl
                 .fence_sync(glow::SYNC_GPU_COMMANDS_COMPLETE, 0)
                 .map_err(|e| Error::Internal(format!("glFenceSync: {e}")))?;
-            // Submit now, so the wait below cannot wait on commands never sent.
+            // Submit now, so the wait in `take` cannot wait on commands never sent.
             gl.flush();
             Owned::<SyncKind>::new(ctx, f)
         };
-        check_gl_error(gl, "copying to a staging buffer")?;
         self.slots[k].pending = Some((fence, len));
         self.next = 1 - k;
         Ok(k)
@@ -140,7 +150,7 @@ impl ReadbackRing {
         assert!(self.slots[k].pending.is_none(), "slot {k} not taken yet");
         // SAFETY: the context is current; the slot is alive and holds `len` bytes, rows of
         // 4-byte pixels meet any pack alignment, and offset 0 is inside the bound buffer.
-        let fence = unsafe {
+        unsafe {
             gl.bind_buffer(glow::PIXEL_PACK_BUFFER, Some(self.slots[k].buf.name()));
             gl.read_buffer(attachment);
             gl.read_pixels(
@@ -153,16 +163,9 @@ impl ReadbackRing {
                 glow::PixelPackData::BufferOffset(0),
             );
             gl.bind_buffer(glow::PIXEL_PACK_BUFFER, None);
-            let f = gl
-                .fence_sync(glow::SYNC_GPU_COMMANDS_COMPLETE, 0)
-                .map_err(|e| Error::Internal(format!("glFenceSync: {e}")))?;
-            gl.flush();
-            Owned::<SyncKind>::new(ctx, f)
-        };
+        }
         check_gl_error(gl, "reading pixels into a staging buffer")?;
-        self.slots[k].pending = Some((fence, len));
-        self.next = 1 - k;
-        Ok(k)
+        self.fence(ctx, k, len)
     }
 
     /// Waits for slot `k`'s copy and passes its bytes to `take`.
