@@ -255,7 +255,9 @@ impl Texture {
 
     /// Reads the whole texture back as f32 RGBA with `glGetTexImage`. Use
     /// [`RenderTarget::read_attachment`](super::RenderTarget::read_attachment) for a texture
-    /// attached to an FBO that was just rendered; both return the same data.
+    /// attached to an FBO that was just rendered; both return the same data. WebGL has no
+    /// `glGetTexImage`: [`Texture::read_f32`] reads through a framebuffer of its own and
+    /// works on every context (two ways kept: this one binds no framebuffer).
     pub fn read(&self, gl: &glow::Context) -> Result<Vec<f32>> {
         let mut out = vec![0.0f32; rgba_len(self.width, self.height)];
         // SAFETY: the buffer holds exactly width*height RGBA floats, the size of level 0.
