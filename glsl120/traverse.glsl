@@ -117,29 +117,29 @@ vec2 irr_exit(vec3 o, vec3 d, vec3 lo, vec3 hi, float t_prev) {
     return vec2(tn.z, 2.0);
 }
 
-// One correction of a lateral cell index towards the cell whose crossings bracket t:
-// `back` moves against the direction when the cell's entering crossing is after t,
-// otherwise forward when its leaving crossing is at or before t.
-float irr_fix(float k, bool back, float o, float d, float t, float mn, float cs, float lo, float hi) {
-    float enter = d > 0.0 ? 0.0 : 1.0;
-    if (back) {
-        if (d > 0.0 && k > lo && irr_crossing(o, d, mn, cs, k + enter) > t) return k - 1.0;
-        if (d < 0.0 && k < hi && irr_crossing(o, d, mn, cs, k + enter) > t) return k + 1.0;
-    } else {
-        if (d > 0.0 && k < hi && irr_crossing(o, d, mn, cs, k + 1.0 - enter) <= t) return k + 1.0;
-        if (d < 0.0 && k > lo && irr_crossing(o, d, mn, cs, k + 1.0 - enter) <= t) return k - 1.0;
-    }
-    return k;
-}
-
-// Virtual cell on a lateral axis at the exit parameter t, within lo..hi (inclusive).
+// Virtual cell on a lateral axis at the exit parameter t, within lo..hi (inclusive): the
+// exit point's cell, then moved (at most two cells each way) until its own crossings
+// bracket t. The CPU twin's `lateral` makes two backward then two forward corrections;
+// here each crossing is computed once, with the same choices: a correction that does not
+// move k would not move it when repeated, and after a backward move the forward test reads
+// the crossing just found to lie after t, so it fails. The common case (no move) costs two
+// crossings instead of four.
 float irr_lateral(float o, float d, float t, float mn, float cs, float lo, float hi) {
     float k = clamp(floor((o + d * t - mn) / cs), lo, hi);
     if (d == 0.0) return k;
-    k = irr_fix(k, true, o, d, t, mn, cs, lo, hi);
-    k = irr_fix(k, true, o, d, t, mn, cs, lo, hi);
-    k = irr_fix(k, false, o, d, t, mn, cs, lo, hi);
-    return irr_fix(k, false, o, d, t, mn, cs, lo, hi);
+    // Entering boundary of cell k: its lower face when d > 0, else its upper one.
+    float enter = d > 0.0 ? 0.0 : 1.0;
+    float back = d > 0.0 ? -1.0 : 1.0;
+    if ((d > 0.0 ? k > lo : k < hi) && irr_crossing(o, d, mn, cs, k + enter) > t) {
+        k += back;
+        if ((d > 0.0 ? k > lo : k < hi) && irr_crossing(o, d, mn, cs, k + enter) > t) k += back;
+        return k;
+    }
+    if ((d > 0.0 ? k < hi : k > lo) && irr_crossing(o, d, mn, cs, k + 1.0 - enter) <= t) {
+        k -= back;
+        if ((d > 0.0 ? k < hi : k > lo) && irr_crossing(o, d, mn, cs, k + 1.0 - enter) <= t) k -= back;
+    }
+    return k;
 }
 
 // Virtual cell on the exit axis: the first one beyond the face.

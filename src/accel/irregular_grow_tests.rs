@@ -110,7 +110,7 @@ fn box_is_empty_agrees_with_brute_force() {
     let overlaps = |alo: [u32; 3], ahi: [u32; 3], blo: [u32; 3], bhi: [u32; 3]| {
         (0..3).all(|a| alo[a] < bhi[a] && blo[a] < ahi[a])
     };
-    let (mut full, mut empty, mut free) = (0, 0, 0);
+    let (mut full, mut empty, mut free, mut ends_in_cut) = (0, 0, 0, 0);
     // Dense soups, then sparse scenes: two small clusters in opposite corners of a large
     // box and a few lone triangles, so that boxes cover whole empty top cells next to cut
     // cells with triangles (what the query's shortcuts over whole top cells decide).
@@ -154,10 +154,45 @@ fn box_is_empty_agrees_with_brute_force() {
         let occ = Occupancy::new(&g);
         let filled: Vec<&IrrCell> = g.cells.iter().filter(|c| c.range.count > 0).collect();
         for i in 0..3000 {
-            // Boxes from one cell to a few top cells wide, anywhere in the grid; every
-            // third one starts inside a cell with triangles and reaches over whole top cells
-            // beyond it (the empty ones of the sparse scenes).
-            let (lo, hi) = if i % 3 == 0 {
+            // Boxes from one cell to a few top cells wide, anywhere in the grid; one in four
+            // starts inside a cell with triangles and reaches over whole top cells beyond it
+            // (the empty ones of the sparse scenes), and one in four ends inside such a cell,
+            // its low end on a top-cell boundary one or two top cells below, its high end
+            // either inside that cell's top cell (a partial top cell at the high end) or on
+            // the boundary past it: the shortcuts over whole top cells must not claim the
+            // partial one.
+            let (lo, hi) = if i % 4 == 1 {
+                let c = filled[(rng.f64() * filled.len() as f64) as usize % filled.len()];
+                let mut lo = [0u32; 3];
+                let mut hi = [0u32; 3];
+                for a in 0..3 {
+                    let s = g.shift[a];
+                    hi[a] = c.lo[a]
+                        + 1
+                        + (rng.f64() * (c.hi[a] - c.lo[a]) as f64) as u32 % (c.hi[a] - c.lo[a]);
+                    let top = (hi[a] - 1) >> s;
+                    if rng.f64() < 0.4 {
+                        hi[a] = (top + 1) << s;
+                    }
+                    let below = 1 + u32::from(rng.f64() < 0.5);
+                    lo[a] = top.saturating_sub(below) << s;
+                }
+                let partial = (0..3).any(|a| hi[a] % (1 << g.shift[a]) != 0);
+                let whole_lo = [0, 1, 2].map(|a| lo[a] >> g.shift[a]);
+                let whole_hi = [0, 1, 2].map(|a| hi[a] >> g.shift[a]);
+                if partial && (0..3).all(|a| whole_lo[a] < whole_hi[a]) {
+                    let whole = [0, 1, 2].map(|a| whole_lo[a] << g.shift[a]);
+                    let whole_end = [0, 1, 2].map(|a| whole_hi[a] << g.shift[a]);
+                    if !g
+                        .cells
+                        .iter()
+                        .any(|c| c.range.count > 0 && overlaps(c.lo, c.hi, whole, whole_end))
+                    {
+                        ends_in_cut += 1;
+                    }
+                }
+                (lo, hi)
+            } else if i % 4 == 0 {
                 let c = filled[(rng.f64() * filled.len() as f64) as usize % filled.len()];
                 let mut lo = [0u32; 3];
                 let mut hi = [0u32; 3];
@@ -207,9 +242,12 @@ fn box_is_empty_agrees_with_brute_force() {
             }
         }
     }
-    eprintln!("box_is_empty: {full} boxes with triangles, {free} touching nothing, {empty} empty near split nodes");
+    eprintln!(
+        "box_is_empty: {full} boxes with triangles, {free} touching nothing, {empty} empty \
+         near split nodes, {ends_in_cut} ending in a partial top cell past empty whole ones"
+    );
     assert!(
-        full > 1000 && free > 300 && empty > 100,
-        "{full} {free} {empty}"
+        full > 1000 && free > 300 && empty > 100 && ends_in_cut > 100,
+        "{full} {free} {empty} {ends_in_cut}"
     );
 }

@@ -12,6 +12,7 @@ pub mod grid;
 pub mod irregular;
 mod irregular_build;
 mod irregular_grow;
+pub mod irregular_wide;
 pub mod tribox;
 
 pub use grid::{CellRange, Grid, GridConfig, GridRes, GridStats};
@@ -52,6 +53,9 @@ impl AccelKind {
 }
 
 /// A built acceleration structure.
+// One per render, held by reference while it is walked: the variants' sizes differ by a
+// few hundred bytes, which boxing would trade for an indirection on every use.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Accel {
     /// Uniform grid.

@@ -19,10 +19,13 @@
 //! | `list` | 1 per 4 references | four triangle indices |
 //!
 //! For the irregular grid the layout also generates `irr_lookup(k)`, the voxel-map descent
-//! from a virtual cell to its cell id, unrolled level by level with the split masks of the
-//! built grid as constants (no loop: the multipass kernel's programs have none).
+//! from a virtual cell to its cell id, unrolled hop by hop with the splits of each hop as
+//! constants (no loop: the multipass kernel's programs have none). The map uploaded is the
+//! built one with its levels merged into hops of several levels ([`WideMap`]), so a lookup
+//! waits on fewer dependent reads; the cells are the built grid's.
 
 use super::contract::{mat as slot, Field, Unit};
+use crate::accel::irregular_wide::WideMap;
 use crate::accel::{AccelRef, IrregularGrid};
 use crate::scene::{CheckerAxes, Scene};
 use crate::{Error, Result};
@@ -247,8 +250,8 @@ pub struct IrregularLayout {
     pub vmap: PackedTexture,
     /// Top cells per axis.
     pub top_res: [u32; 3],
-    /// Split masks, top-down.
-    pub levels: Vec<[bool; 3]>,
+    /// Splits per axis of each hop of the descent, top-down ([`WideMap`]).
+    pub hops: Vec<[u32; 3]>,
     /// Splits per axis.
     pub shift: [u32; 3],
 }
@@ -260,7 +263,9 @@ fn pow2_literal(n: u32) -> String {
 
 impl IrregularLayout {
     fn pack(g: &IrregularGrid, max_size: u32) -> Result<Self> {
-        let entries: Vec<f32> = g
+        let forced = hop_bits_override().map(|bits| WideMap::build(g, bits));
+        let w = forced.as_ref().unwrap_or(&g.wide);
+        let entries: Vec<f32> = w
             .vmap
             .iter()
             .map(|&e| {
@@ -274,12 +279,12 @@ impl IrregularLayout {
         Ok(IrregularLayout {
             vmap: PackedTexture::pack_entries("vmap", &entries, max_size)?,
             top_res: g.top_res,
-            levels: g.levels.clone(),
+            hops: w.hops.clone(),
             shift: g.shift,
         })
     }
 
-    /// GLSL: the voxel-map fetch and `irr_lookup`, the descent unrolled over the levels.
+    /// GLSL: the voxel-map fetch and `irr_lookup`, the descent unrolled over the hops.
     fn glsl(&self) -> String {
         let v3 = |v: [String; 3]| format!("vec3({}, {}, {})", v[0], v[1], v[2]);
         let mut s = String::from(
@@ -288,9 +293,10 @@ impl IrregularLayout {
              #pragma optionNV(fastmath off)\n\
              // Voxel-map entry i.\n\
              float vmap_entry(float i) { return entry_vmap(i); }\n\
-             // Cell id of virtual cell k: the top entry, then one child block per level while\n\
-             // the entry is a node (CPU twin: IrregularGrid::lookup). Every product is an\n\
-             // integer times a power of two, so exact.\n\
+             // Cell id of virtual cell k: the top entry, then one child block per hop of\n\
+             // levels while the entry is a node (CPU twin: WideMap::lookup, the same cell as\n\
+             // IrregularGrid::lookup). Every product is an integer times a power of two and\n\
+             // every mod by a power of two of an integer, so exact.\n\
              float irr_lookup(vec3 k) {\n",
         );
         s += &format!(
@@ -300,25 +306,35 @@ impl IrregularLayout {
             self.top_res[1] as f32
         );
         let mut rem = self.shift;
-        for mask in &self.levels {
-            let mut stride = [0u32; 3];
-            let mut st = 1;
+        for n in &self.hops {
             for a in 0..3 {
-                if mask[a] {
-                    rem[a] -= 1;
-                    stride[a] = st;
-                    st *= 2;
-                }
+                rem[a] -= n[a];
             }
+            let span = n.map(|b| format!("{:.1}", (1u32 << b) as f32));
+            let stride = [1u32, 1 << n[0], 1 << (n[0] + n[1])].map(|v| format!("{v:.1}"));
             s += &format!(
-                "    if (e < 0.0) e = vmap_entry(-e - 1.0 + dot(mod(floor(k * {}), 2.0), {}));\n",
+                "    if (e < 0.0) e = vmap_entry(-e - 1.0 + dot(mod(floor(k * {}), {}), {}));\n",
                 v3(rem.map(pow2_literal)),
-                v3(stride.map(|v| format!("{v:.1}")))
+                v3(span),
+                v3(stride)
             );
         }
         s += "    return e;\n}\n";
         s
     }
+}
+
+/// Environment variable that fixes the hop width of the GPU's voxel map (1 to
+/// [`MAX_HOP_BITS`](crate::accel::irregular_wide::MAX_HOP_BITS) splits a hop; 1 uploads the
+/// built map's levels one per hop) instead of the grid's own ([`IrregularGrid::wide`]): for
+/// measuring what the hops buy. Other values are ignored.
+pub const HOP_BITS_ENV: &str = "FRAGTRACE_VMAP_HOP_BITS";
+
+fn hop_bits_override() -> Option<u32> {
+    let bits: u32 = std::env::var(HOP_BITS_ENV).ok()?.parse().ok()?;
+    (1..=crate::accel::irregular_wide::MAX_HOP_BITS)
+        .contains(&bits)
+        .then_some(bits)
 }
 
 /// Numeric code of a checker's axes in the material texture (and in GLSL).

@@ -1,0 +1,145 @@
+//! Tests of the voxel map in hops (`accel/irregular_wide.rs`) against the cells it must
+//! find and the built map's descent, [`IrregularGrid::lookup`], at every hop width.
+
+use super::*;
+use crate::accel::irregular::IrrCell;
+use crate::accel::IrregularConfig;
+use crate::testing::{scene_of, soup, test_seed, with_threads, Rng};
+use glam::Vec3;
+
+/// Random grids, dense (soups at several densities: few levels) and sparse (small clusters
+/// in opposite corners of a large box: many levels): at every hop width every cell's
+/// corners and a random virtual cell inside it map to that cell, 20,000 random virtual
+/// cells map to the built map's cell, reads never exceed the built descent's and are fewer
+/// somewhere once hops take several levels, and the map is the same on 1 and 4 threads.
+#[test]
+fn every_cell_maps_to_itself_at_every_hop_width() {
+    let seed = test_seed("irregular wide map", 0x1_77E6_0005);
+    let mut rng = Rng::new(seed);
+    let sparse = |rng: &mut Rng| {
+        let mut t = soup(rng, 150);
+        for (i, tri) in t.iter_mut().enumerate() {
+            let at = match i % 10 {
+                0 => Vec3::new(
+                    rng.f64() as f32 * 6.0 - 3.0,
+                    -3.0,
+                    rng.f64() as f32 * 6.0 - 3.0,
+                ),
+                k if k % 2 == 0 => Vec3::splat(-3.0),
+                _ => Vec3::splat(3.0),
+            };
+            *tri = tri.map(|v| at + v * 0.02);
+        }
+        t
+    };
+    let mut deepest = 0;
+    for (round, (density, is_sparse)) in [(0.125, false), (1.0, false), (1.0, true), (4.0, true)]
+        .into_iter()
+        .enumerate()
+    {
+        let tris = if is_sparse {
+            sparse(&mut rng)
+        } else {
+            soup(&mut rng, 300)
+        };
+        let g = IrregularGrid::build(
+            &scene_of(&tris),
+            &IrregularConfig {
+                top_density: density,
+                leaf_max: 2,
+            },
+        )
+        .unwrap();
+        let ctx = format!("seed {seed} round {round}: {}", g.stats);
+        deepest = deepest.max(g.levels.len());
+        let narrow = WideMap::build(&g, 1);
+        assert_eq!(narrow.hops.len(), g.levels.len(), "{ctx}");
+        assert_eq!(narrow.vmap.len(), g.vmap.len(), "{ctx}: one level a hop");
+        let inside = |c: &IrrCell, rng: &mut Rng| {
+            [0, 1, 2].map(|a| {
+                c.lo[a] + (rng.f64() * (c.hi[a] - c.lo[a]) as f64) as u32 % (c.hi[a] - c.lo[a])
+            })
+        };
+        let random: Vec<[u32; 3]> = (0..20_000)
+            .map(|_| [0, 1, 2].map(|a| (rng.f64() * g.res[a] as f64) as u32 % g.res[a]))
+            .collect();
+        let mut fewer = 0u64;
+        for bits in 1..=MAX_HOP_BITS {
+            let w = with_threads(1, || WideMap::build(&g, bits));
+            assert_eq!(
+                with_threads(4, || WideMap::build(&g, bits)),
+                w,
+                "{ctx}: {bits} bits, 4 threads against 1"
+            );
+            assert_eq!(
+                w.hops
+                    .iter()
+                    .fold([0; 3], |s, n| [0, 1, 2].map(|a| s[a] + n[a])),
+                g.shift,
+                "{ctx}: hops of {bits} bits"
+            );
+            for (id, c) in g.cells.iter().enumerate() {
+                let hi = c.hi.map(|v| v - 1);
+                for k in [c.lo, hi, inside(c, &mut rng)] {
+                    assert_eq!(
+                        g.lookup(k),
+                        id as u32,
+                        "{ctx}: built map, cell {id} at {k:?}"
+                    );
+                    assert_eq!(
+                        w.lookup(k),
+                        id as u32,
+                        "{ctx}: {bits} bits, cell {id} at {k:?}"
+                    );
+                }
+            }
+            for &k in &random {
+                assert_eq!(
+                    w.lookup(k),
+                    g.lookup(k),
+                    "{ctx}: {bits} bits, virtual cell {k:?}"
+                );
+                let (r, r1) = (w.reads(k), narrow.reads(k));
+                assert!(r <= r1, "{ctx}: {bits} bits, {k:?}: {r} reads > {r1}");
+                fewer += u64::from(r < r1);
+            }
+        }
+        if g.levels.len() >= 4 {
+            assert!(fewer > 0, "{ctx}: no descent got shorter");
+        }
+    }
+    assert!(
+        deepest >= 6,
+        "seed {seed}: the deepest grid has {deepest} levels"
+    );
+}
+
+/// `within` keeps to its budget while a width fits, and falls back to one level a hop.
+#[test]
+fn within_takes_the_widest_map_that_fits() {
+    let seed = test_seed("irregular wide budget", 0x1_77E6_0006);
+    let mut rng = Rng::new(seed);
+    let g = IrregularGrid::build(
+        &scene_of(&soup(&mut rng, 300)),
+        &IrregularConfig {
+            top_density: 0.125,
+            leaf_max: 2,
+        },
+    )
+    .unwrap();
+    let sizes: Vec<usize> = (1..=MAX_HOP_BITS)
+        .map(|b| WideMap::build(&g, b).vmap.len())
+        .collect();
+    let widest = WideMap::within(&g, usize::MAX);
+    assert_eq!(widest, WideMap::build(&g, MAX_HOP_BITS));
+    let tight = WideMap::within(&g, 0);
+    assert_eq!(tight, WideMap::build(&g, 1));
+    for b in 2..=MAX_HOP_BITS as usize {
+        let w = WideMap::within(&g, sizes[b - 1]);
+        assert!(w.vmap.len() <= sizes[b - 1], "seed {seed}: {sizes:?}");
+        assert!(
+            w.hops.len() <= WideMap::build(&g, b as u32).hops.len(),
+            "seed {seed}"
+        );
+    }
+}
