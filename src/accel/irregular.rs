@@ -63,7 +63,6 @@ use std::fmt;
 use glam::{DVec3, Vec3};
 
 use super::grid::CellRange;
-use super::irregular_wide::WideMap;
 
 /// Default `top_density`: top cells per triangle. Measured with `leaf_max` 8 on 256x256
 /// primary rays (`measure_bunny` in `cpu/traverse_irregular_tests.rs`): `scenes/bunny.toml`
@@ -127,8 +126,8 @@ pub struct IrregularStats {
     pub expand_ms: f64,
     /// The build's wall-clock time phase by phase.
     pub phases: IrregularPhases,
-    /// Memory of the tables: `wide_entries * 4 + cells * 32 + references * 4` (as the GPU
-    /// stores them: one float per voxel-map entry in hops, two RGBA texels per cell).
+    /// Memory of the tables: `vmap * 4 + cells * 32 + references * 4` (as the GPU stores
+    /// them: one float per entry, two RGBA texels per cell).
     pub bytes: usize,
     /// `bytes / triangles` (0 for an empty scene).
     pub bytes_per_triangle: f64,
@@ -138,10 +137,6 @@ pub struct IrregularStats {
     pub vmap_entries: usize,
     /// Split levels below the top grid.
     pub levels: usize,
-    /// Hops in which the walks read the voxel map ([`IrregularGrid::wide`]).
-    pub hops: usize,
-    /// Entries of the voxel map in hops.
-    pub wide_entries: usize,
     /// Cells (voxel-map leaves).
     pub cells: usize,
     /// Cells with no triangle.
@@ -160,13 +155,11 @@ impl fmt::Display for IrregularStats {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{} top cells, {} levels (read in {} hops, {} entries), {} cells ({:.1}% empty, exit \
-             boxes {:.1}x own), {} refs (mean {:.2}, max {} per non-empty cell), {:.2} MiB \
-             ({:.1} B/triangle), built in {:.1} ms ({:.1} ms growing exit boxes; {})",
+            "{} top cells, {} levels, {} cells ({:.1}% empty, exit boxes {:.1}x own), {} refs \
+             (mean {:.2}, max {} per non-empty cell), {:.2} MiB ({:.1} B/triangle), built in \
+             {:.1} ms ({:.1} ms growing exit boxes; {})",
             self.top_cells,
             self.levels,
-            self.hops,
-            self.wide_entries,
             self.cells,
             if self.cells == 0 {
                 0.0
@@ -208,8 +201,6 @@ pub struct IrregularPhases {
     pub occupancy_ms: f64,
     /// The exit boxes grown.
     pub grow_ms: f64,
-    /// The voxel map merged into hops ([`IrregularGrid::wide`]).
-    pub hops_ms: f64,
     /// The statistics.
     pub finish_ms: f64,
 }
@@ -219,7 +210,7 @@ impl fmt::Display for IrregularPhases {
         write!(
             f,
             "phases ms: setup {:.1}, convert {:.1}, top bins {:.1}, sort {:.1}, voxel map {:.1}, \
-             flatten {:.1}, occupancy {:.1}, growth {:.1}, hops {:.1}, finish {:.1}",
+             flatten {:.1}, occupancy {:.1}, growth {:.1}, finish {:.1}",
             self.setup_ms,
             self.convert_ms,
             self.top_bin_ms,
@@ -228,7 +219,6 @@ impl fmt::Display for IrregularPhases {
             self.flatten_ms,
             self.occupancy_ms,
             self.grow_ms,
-            self.hops_ms,
             self.finish_ms
         )
     }
@@ -253,9 +243,6 @@ pub struct IrregularGrid {
     pub cell_size: Vec3,
     /// Voxel map: top entries, then child blocks (see the module docs).
     pub vmap: Vec<u32>,
-    /// The voxel map as every walk reads it, CPU and GPU: its levels merged into hops
-    /// ([`WideMap::for_walks`]), the same cells in fewer dependent reads.
-    pub wide: WideMap,
     /// Cells in depth-first order.
     pub cells: Vec<IrrCell>,
     /// Triangle indices, cell after cell, ascending within each cell.

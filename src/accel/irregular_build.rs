@@ -15,7 +15,6 @@ use super::irregular::{
     MAX_ENTRIES, MAX_LEVELS, MAX_VIRTUAL_AXIS, NODE,
 };
 use super::irregular_grow::{grow, Occupancy};
-use super::irregular_wide::WideMap;
 use crate::clock::Instant;
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -513,7 +512,6 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         res,
         cell_size,
         vmap,
-        wide: WideMap::default(),
         cells,
         tri_indices: list,
         stats: IrregularStats {
@@ -525,8 +523,6 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
             top_cells: n_top,
             vmap_entries: 0,
             levels: 0,
-            hops: 0,
-            wide_entries: 0,
             cells: 0,
             empty_cells: 0,
             references: 0,
@@ -566,8 +562,6 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         .collect();
     let expand_ms = expand_start.elapsed().as_secs_f64() * 1e3;
     phase(&mut phases.grow_ms);
-    g.wide = WideMap::for_walks(&g);
-    phase(&mut phases.hops_ms);
 
     let n_cells = g.cells.len();
     let (empty, max_per_cell) = g
@@ -578,7 +572,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     let refs = g.tri_indices.len();
     // Summed in cell order: the same figure on any thread count.
     let growth = (logs.iter().sum::<f64>() / n_cells.max(1) as f64).exp();
-    let bytes = g.wide.vmap.len() * 4 + n_cells * 32 + refs * 4;
+    let bytes = g.vmap.len() * 4 + n_cells * 32 + refs * 4;
     phase(&mut phases.finish_ms);
     g.stats = IrregularStats {
         build_ms: start.elapsed().as_secs_f64() * 1e3,
@@ -593,8 +587,6 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         top_cells: n_top,
         vmap_entries: g.vmap.len(),
         levels: g.levels.len(),
-        hops: g.wide.hops.len(),
-        wide_entries: g.wide.vmap.len(),
         cells: n_cells,
         empty_cells: empty,
         references: refs,

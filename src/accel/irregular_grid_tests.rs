@@ -20,7 +20,6 @@ fn stats_line_reports_every_figure() {
             flatten_ms: 0.66,
             occupancy_ms: 0.26,
             grow_ms: 3.21,
-            hops_ms: 0.46,
             finish_ms: 0.94,
         },
         bytes: 3 << 19,
@@ -28,8 +27,6 @@ fn stats_line_reports_every_figure() {
         top_cells: 100,
         vmap_entries: 180,
         levels: 3,
-        hops: 2,
-        wide_entries: 372,
         cells: 400,
         empty_cells: 100,
         references: 1200,
@@ -39,11 +36,10 @@ fn stats_line_reports_every_figure() {
     };
     assert_eq!(
         s.to_string(),
-        "100 top cells, 3 levels (read in 2 hops, 372 entries), 400 cells (25.0% empty, exit \
-         boxes 6.4x own), 1200 refs (mean 4.00, max 9 per non-empty cell), 1.50 MiB (96.0 \
-         B/triangle), built in 12.3 ms (3.5 ms growing exit boxes; phases ms: setup 0.0, \
-         convert 0.1, top bins 1.3, sort 0.3, voxel map 5.6, flatten 0.7, occupancy 0.3, \
-         growth 3.2, hops 0.5, finish 0.9)"
+        "100 top cells, 3 levels, 400 cells (25.0% empty, exit boxes 6.4x own), 1200 refs \
+         (mean 4.00, max 9 per non-empty cell), 1.50 MiB (96.0 B/triangle), built in 12.3 ms \
+         (3.5 ms growing exit boxes; phases ms: setup 0.0, convert 0.1, top bins 1.3, sort 0.3, \
+         voxel map 5.6, flatten 0.7, occupancy 0.3, growth 3.2, finish 0.9)"
     );
     s.cells = 0;
     s.empty_cells = 0;

@@ -12,9 +12,16 @@
 //! (the bunny on a floor: 16 reads at most become 9 with 6-bit hops, 6 with 9-bit ones).
 //!
 //! Layout as the built map's (see [`super::irregular`]): top entries first, x fastest, then
-//! child blocks, each top cell's tree together (breadth first within it); an entry is a cell id or [`NODE`] plus its child block's index. In a hop
-//! with `n[a]` splits of axis `a`, child `(px, py, pz)` (the hop's bits of each axis, most
-//! significant first as the levels take them) sits at `px + 2^n[0] * (py + 2^n[1] * pz)`.
+//! child blocks, each top cell's tree together (breadth first within it); an entry is a
+//! cell id or [`NODE`] plus its child block's index. In a hop with `n[a]` splits of axis
+//! `a`, child `(px, py, pz)` (the hop's bits of each axis, most significant first as the
+//! levels take them) sits at `px + 2^n[0] * (py + 2^n[1] * pz)`.
+//!
+//! Only the GPU reads it (`gpu/layout.rs` uploads it in place of the built map). The CPU
+//! walks keep the built map: with this one the H200 host's CPU render did not get faster
+//! (2 threads within the noise, 16 threads 8-15% slower: a larger map in the caches), and
+//! building it inside the grid's build cost the 3.3 M-triangle icosphere 0.4 s
+//! (docs/performance.md, run 7).
 
 use rayon::prelude::*;
 
@@ -40,20 +47,7 @@ impl WideMap {
     /// The map of `g` in hops of at most `max_bits` splits (a level with more splits is a
     /// hop of its own, so `max_bits` 1 descends level by level as the built map does).
     pub fn build(g: &IrregularGrid, max_bits: u32) -> WideMap {
-        // Consecutive levels per hop, greedily: (first level, end level, splits per axis).
-        let mut spans: Vec<(usize, usize, [u32; 3])> = Vec::new();
-        for (l, mask) in g.levels.iter().enumerate() {
-            let bits = mask.iter().filter(|&&m| m).count() as u32;
-            match spans.last_mut() {
-                Some((_, end, n)) if n.iter().sum::<u32>() + bits <= max_bits => {
-                    *end = l + 1;
-                    for a in 0..3 {
-                        n[a] += u32::from(mask[a]);
-                    }
-                }
-                _ => spans.push((l, l + 1, mask.map(u32::from))),
-            }
-        }
+        let spans = spans(g, max_bits);
         let tops = g.top_res.iter().map(|&r| r as usize).product::<usize>();
         // Each top node's tree on its own (in parallel), blocks numbered from 0 within it;
         // then the trees one after another in top-cell order, their node entries moved by
@@ -91,20 +85,28 @@ impl WideMap {
 
     /// The widest map of `g` whose entries number at most `budget`: hops of
     /// [`MAX_HOP_BITS`] splits, then narrower ones, down to one level a hop (returned
-    /// whatever its size: it holds as many entries as the built map).
+    /// whatever its size: it holds as many entries as the built map). Each width's size is
+    /// counted from the built map's nodes per level before one map is built: a hop's blocks
+    /// are one per built node at its first level.
     pub fn within(g: &IrregularGrid, budget: usize) -> WideMap {
-        for bits in (2..=MAX_HOP_BITS).rev() {
-            let w = WideMap::build(g, bits);
-            if w.vmap.len() <= budget {
-                return w;
-            }
-        }
-        WideMap::build(g, 1)
+        let nodes = nodes_per_level(g);
+        let tops = g.top_res.iter().map(|&r| r as usize).product::<usize>();
+        let size = |bits: u32| {
+            tops + spans(g, bits)
+                .iter()
+                .map(|&(first, _, n)| nodes[first] << n.iter().sum::<u32>())
+                .sum::<usize>()
+        };
+        let bits = (2..=MAX_HOP_BITS)
+            .rev()
+            .find(|&b| size(b) <= budget)
+            .unwrap_or(1);
+        WideMap::build(g, bits)
     }
 
-    /// The map every walk uses, CPU and GPU alike: the widest within [`walk_budget`].
-    pub fn for_walks(g: &IrregularGrid) -> WideMap {
-        WideMap::within(g, walk_budget(g.vmap.len()))
+    /// The map the GPU walks read: the widest within [`gpu_budget`].
+    pub fn for_gpu(g: &IrregularGrid) -> WideMap {
+        WideMap::within(g, gpu_budget(g.vmap.len()))
     }
 
     /// The cell holding virtual cell `k`: [`IrregularGrid::lookup`]'s answer.
@@ -142,6 +144,51 @@ impl WideMap {
         }
         (e, reads)
     }
+}
+
+/// Consecutive levels of `g` per hop of at most `max_bits` splits, greedily: (first level,
+/// end level, splits per axis); a level with more splits is a hop of its own.
+fn spans(g: &IrregularGrid, max_bits: u32) -> Vec<(usize, usize, [u32; 3])> {
+    let mut spans: Vec<(usize, usize, [u32; 3])> = Vec::new();
+    for (l, mask) in g.levels.iter().enumerate() {
+        let bits = mask.iter().filter(|&&m| m).count() as u32;
+        match spans.last_mut() {
+            Some((_, end, n)) if n.iter().sum::<u32>() + bits <= max_bits => {
+                *end = l + 1;
+                for a in 0..3 {
+                    n[a] += u32::from(mask[a]);
+                }
+            }
+            _ => spans.push((l, l + 1, mask.map(u32::from))),
+        }
+    }
+    spans
+}
+
+/// Built voxel-map nodes whose child block is split by level `l`, per level.
+fn nodes_per_level(g: &IrregularGrid) -> Vec<usize> {
+    let tops = g.top_res.iter().map(|&r| r as usize).product::<usize>();
+    let mut counts = vec![0; g.levels.len()];
+    let mut level: Vec<u32> = g.vmap[..tops]
+        .iter()
+        .copied()
+        .filter(|e| e & NODE != 0)
+        .collect();
+    for (l, mask) in g.levels.iter().enumerate() {
+        counts[l] = level.len();
+        let size = 1usize << mask.iter().filter(|&&m| m).count();
+        level = level
+            .iter()
+            .flat_map(|&e| {
+                let b = (e & !NODE) as usize;
+                g.vmap[b..b + size]
+                    .iter()
+                    .copied()
+                    .filter(|e| e & NODE != 0)
+            })
+            .collect();
+    }
+    counts
 }
 
 /// The blocks below the built node entry `node` of a top cell, in hops `spans` (first
@@ -193,11 +240,11 @@ fn widen_tree(g: &IrregularGrid, spans: &[(usize, usize, [u32; 3])], node: u32) 
     out
 }
 
-/// Entries a walk's voxel map may take when its levels are merged into hops, for a built
+/// Entries the GPU's voxel map may take when its levels are merged into hops, for a built
 /// map of `built` entries: sixteen times as many, at least 2^20 (4 MiB), at most 2^24 (what
 /// an f32 index in the GPU's textures reaches exactly). The bunny on a floor takes 9-bit
 /// hops in 8.8 times its built map's entries.
-pub fn walk_budget(built: usize) -> usize {
+pub fn gpu_budget(built: usize) -> usize {
     (16 * built).clamp(1 << 20, 1 << 24)
 }
 

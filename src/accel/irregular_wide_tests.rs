@@ -16,22 +16,6 @@ use glam::Vec3;
 fn every_cell_maps_to_itself_at_every_hop_width() {
     let seed = test_seed("irregular wide map", 0x1_77E6_0005);
     let mut rng = Rng::new(seed);
-    let sparse = |rng: &mut Rng| {
-        let mut t = soup(rng, 150);
-        for (i, tri) in t.iter_mut().enumerate() {
-            let at = match i % 10 {
-                0 => Vec3::new(
-                    rng.f64() as f32 * 6.0 - 3.0,
-                    -3.0,
-                    rng.f64() as f32 * 6.0 - 3.0,
-                ),
-                k if k % 2 == 0 => Vec3::splat(-3.0),
-                _ => Vec3::splat(3.0),
-            };
-            *tri = tri.map(|v| at + v * 0.02);
-        }
-        t
-    };
     let mut deepest = 0;
     for (round, (density, is_sparse)) in [(0.125, false), (1.0, false), (1.0, true), (4.0, true)]
         .into_iter()
@@ -114,32 +98,58 @@ fn every_cell_maps_to_itself_at_every_hop_width() {
     );
 }
 
-/// `within` keeps to its budget while a width fits, and falls back to one level a hop.
+/// `within` takes the widest map within its budget (its sizes counted before building),
+/// and falls back to one level a hop: on a deep grid, every budget at and around each
+/// width's size.
 #[test]
 fn within_takes_the_widest_map_that_fits() {
     let seed = test_seed("irregular wide budget", 0x1_77E6_0006);
     let mut rng = Rng::new(seed);
     let g = IrregularGrid::build(
-        &scene_of(&soup(&mut rng, 300)),
+        &scene_of(&sparse(&mut rng)),
         &IrregularConfig {
-            top_density: 0.125,
+            top_density: 1.0,
             leaf_max: 2,
         },
     )
     .unwrap();
+    assert!(g.levels.len() >= 6, "seed {seed}: {}", g.stats);
     let sizes: Vec<usize> = (1..=MAX_HOP_BITS)
         .map(|b| WideMap::build(&g, b).vmap.len())
         .collect();
-    let widest = WideMap::within(&g, usize::MAX);
-    assert_eq!(widest, WideMap::build(&g, MAX_HOP_BITS));
-    let tight = WideMap::within(&g, 0);
-    assert_eq!(tight, WideMap::build(&g, 1));
-    for b in 2..=MAX_HOP_BITS as usize {
-        let w = WideMap::within(&g, sizes[b - 1]);
-        assert!(w.vmap.len() <= sizes[b - 1], "seed {seed}: {sizes:?}");
-        assert!(
-            w.hops.len() <= WideMap::build(&g, b as u32).hops.len(),
-            "seed {seed}"
+    assert_eq!(
+        WideMap::within(&g, usize::MAX),
+        WideMap::build(&g, MAX_HOP_BITS)
+    );
+    assert_eq!(WideMap::within(&g, 0), WideMap::build(&g, 1));
+    for budget in sizes.iter().flat_map(|&n| [n - 1, n, n + 1]) {
+        let want = (2..=MAX_HOP_BITS)
+            .rev()
+            .find(|&b| sizes[b as usize - 1] <= budget)
+            .unwrap_or(1);
+        assert_eq!(
+            WideMap::within(&g, budget),
+            WideMap::build(&g, want),
+            "seed {seed}: budget {budget}, sizes {sizes:?}"
         );
     }
+}
+
+/// Two small clusters of triangles in opposite corners of a 6-unit box and a few lone
+/// triangles on its floor: a grid with many levels.
+fn sparse(rng: &mut Rng) -> Vec<[Vec3; 3]> {
+    let mut t = soup(rng, 150);
+    for (i, tri) in t.iter_mut().enumerate() {
+        let at = match i % 10 {
+            0 => Vec3::new(
+                rng.f64() as f32 * 6.0 - 3.0,
+                -3.0,
+                rng.f64() as f32 * 6.0 - 3.0,
+            ),
+            k if k % 2 == 0 => Vec3::splat(-3.0),
+            _ => Vec3::splat(3.0),
+        };
+        *tri = tri.map(|v| at + v * 0.02);
+    }
+    t
 }

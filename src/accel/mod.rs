@@ -53,9 +53,6 @@ impl AccelKind {
 }
 
 /// A built acceleration structure.
-// One per render, held by reference while it is walked: the variants' sizes differ by a
-// few hundred bytes, which boxing would trade for an indirection on every use.
-#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Accel {
     /// Uniform grid.

@@ -10,8 +10,7 @@
 //! axis. The next virtual cell is, on the exit axis, the first one beyond the face; on the
 //! other axes the one holding `o + d * t_exit`, clamped into the exit box's range (the exit
 //! point lies on that face, so the clamp only absorbs rounding and guarantees progress).
-//! The voxel map gives the cell holding it (read in hops of several levels,
-//! [`IrregularGrid::wide`], as the GLSL reads it). A cell's closest hit is accepted when it is
+//! The voxel map gives the cell holding it. A cell's closest hit is accepted when it is
 //! within `t_exit` plus `gamma(8)` relative slack, as [`CellWalk::closest_hit`]
 //! accepts a cell's; the exit box holds no other triangle, so nothing closer can follow.
 //! `Work::cells` counts steps.
@@ -201,7 +200,7 @@ impl<T: Real> IrregularWalker<'_, T> {
         let g = self.grid;
         let k = [0, 1, 2].map(|a| self.virtual_at(ray, t_enter, a, 0, g.res[a] - 1));
         Some(WalkState {
-            id: self.grid.wide.lookup(k),
+            id: g.lookup(k),
             t_prev: t_enter,
             t_leave,
             steps: 0,
@@ -263,7 +262,7 @@ impl<T: Real> IrregularWalker<'_, T> {
     /// once [`MAX_STEPS`] are taken.
     #[inline(always)]
     pub fn enter(&self, st: &mut WalkState<T>, k: [u32; 3], t_exit: T) -> bool {
-        st.id = self.grid.wide.lookup(k);
+        st.id = self.grid.lookup(k);
         st.t_prev = t_exit;
         st.steps += 1;
         st.steps < MAX_STEPS

@@ -263,8 +263,10 @@ fn pow2_literal(n: u32) -> String {
 
 impl IrregularLayout {
     fn pack(g: &IrregularGrid, max_size: u32) -> Result<Self> {
-        let forced = hop_bits_override().map(|bits| WideMap::build(g, bits));
-        let w = forced.as_ref().unwrap_or(&g.wide);
+        let w = match hop_bits_override() {
+            Some(bits) => WideMap::build(g, bits),
+            None => WideMap::for_gpu(g),
+        };
         let entries: Vec<f32> = w
             .vmap
             .iter()
@@ -279,7 +281,7 @@ impl IrregularLayout {
         Ok(IrregularLayout {
             vmap: PackedTexture::pack_entries("vmap", &entries, max_size)?,
             top_res: g.top_res,
-            hops: w.hops.clone(),
+            hops: w.hops,
             shift: g.shift,
         })
     }
@@ -294,8 +296,8 @@ impl IrregularLayout {
              // Voxel-map entry i.\n\
              float vmap_entry(float i) { return entry_vmap(i); }\n\
              // Cell id of virtual cell k: the top entry, then one child block per hop of\n\
-             // levels while the entry is a node (CPU twin: WideMap::lookup, the same cell as\n\
-             // IrregularGrid::lookup). Every product is an integer times a power of two and\n\
+             // levels while the entry is a node (CPU twins: WideMap::lookup and\n\
+             // IrregularGrid::lookup, the same cell). Every product is an integer times a power of two and\n\
              // every mod by a power of two of an integer, so exact.\n\
              float irr_lookup(vec3 k) {\n",
         );
@@ -311,7 +313,7 @@ impl IrregularLayout {
                 rem[a] -= n[a];
             }
             let span = n.map(|b| format!("{:.1}", (1u32 << b) as f32));
-            let stride = [1u32, 1 << n[0], 1 << (n[0] + n[1])].map(|v| format!("{v:.1}"));
+            let stride = [1u32, 1 << n[0], 1 << (n[0] + n[1])].map(|v| format!("{:.1}", v as f32));
             s += &format!(
                 "    if (e < 0.0) e = vmap_entry(-e - 1.0 + dot(mod(floor(k * {}), {}), {}));\n",
                 v3(rem.map(pow2_literal)),
@@ -326,7 +328,7 @@ impl IrregularLayout {
 
 /// Environment variable that fixes the hop width of the GPU's voxel map (1 to
 /// [`MAX_HOP_BITS`](crate::accel::irregular_wide::MAX_HOP_BITS) splits a hop; 1 uploads the
-/// built map's levels one per hop) instead of the grid's own ([`IrregularGrid::wide`]): for
+/// built map's levels one per hop) instead of [`WideMap::for_gpu`]'s choice: for
 /// measuring what the hops buy. Other values are ignored.
 pub const HOP_BITS_ENV: &str = "FRAGTRACE_VMAP_HOP_BITS";
 
