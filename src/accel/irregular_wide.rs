@@ -104,9 +104,11 @@ impl WideMap {
         WideMap::build(g, bits)
     }
 
-    /// The map the GPU walks read: the widest within [`gpu_budget`].
-    pub fn for_gpu(g: &IrregularGrid) -> WideMap {
-        WideMap::within(g, gpu_budget(g.vmap.len()))
+    /// The map the GPU walks read: the widest within [`gpu_budget`] and within `capacity`
+    /// entries (what the GPU's largest texture holds), so that no scene that packs with
+    /// the built map fails to pack with hops.
+    pub fn for_gpu(g: &IrregularGrid, capacity: usize) -> WideMap {
+        WideMap::within(g, gpu_budget(g.vmap.len()).min(capacity))
     }
 
     /// The cell holding virtual cell `k`: [`IrregularGrid::lookup`]'s answer.

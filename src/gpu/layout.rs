@@ -265,7 +265,12 @@ impl IrregularLayout {
     fn pack(g: &IrregularGrid, max_size: u32) -> Result<Self> {
         let w = match hop_bits_override() {
             Some(bits) => WideMap::build(g, bits),
-            None => WideMap::for_gpu(g),
+            None => {
+                // Entries the largest texture of this GPU holds (as `PackedTexture::pack`
+                // lays it out).
+                let row = prev_pow2(max_size.min(MAX_ROW)).max(1) as usize;
+                WideMap::for_gpu(g, row * max_size as usize * LIST_PER_TEXEL as usize)
+            }
         };
         let entries: Vec<f32> = w
             .vmap

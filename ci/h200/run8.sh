@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# H200, last device call of the session (issue 26): the final build (86be750: the map in
+# hops built by the GPU layout only) against OLD = a03c542 on the equal-work view and the
+# full Whitted scenes, every shipped scene's image, and the GL test binaries of 9712123
+# (the GPU code of the final build but for the literal form of irr_lookup's strides), the
+# CLI tests running the final binary. Carried as in run7.sh. Log to stdout.
+set -uo pipefail
+for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
+export __EGL_VENDOR_LIBRARY_FILENAMES=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
+mkdir -p /tmp/models && tar xJf .models.tar.xz -C /tmp/models
+export FRAGTRACE_MODEL_PATH=/tmp/models
+OLD=.devbin/fragtrace-old NEW=.devbin/fragtrace
+summ() { python3 - "$1" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1])); fr = d["per_frame"]
+def med(v): v = sorted(v); return v[len(v) // 2]
+r = [f["render"]["render_ms"] for f in fr[1:]]
+g = [f["render"]["gpu"]["gpu_ms_total"] for f in fr[1:]]
+print(f"   frames 2..{len(fr)} render_ms median {med(r):.2f} (min {min(r):.2f}), GPU median {med(g):.2f} ms")
+PY
+}
+for b in $OLD $NEW; do for s in ci/peers/equal-work.toml scenes/bunny.toml ""; do $b render $s --width 128 --height 128 -q -o /tmp/warm.png 2>/dev/null; done; done
+echo "== equal-work steady state (frames 2..10), 2 rounds"
+for size in 4096 1024; do for round in 1 2; do for v in OLD NEW; do b=${!v}
+  $b render ci/h200/equal-work-still.toml --frames 0..9 --width $size --height $size -q -o /tmp/st-$v-####.png --stats /tmp/st.json; echo "$v ${size}² round $round"; summ /tmp/st.json
+done; done; echo "   OLD vs NEW ${size}²: $($NEW compare /tmp/st-OLD-0009.png /tmp/st-NEW-0009.png 2>&1 | tail -1)"; done
+echo "== full Whitted scenes 4096², GPU ms, 2 rounds"
+for s in scenes/bunny.toml ""; do for round in 1 2; do for v in OLD NEW; do b=${!v}
+  $b render $s --width 4096 --height 4096 -q -o /tmp/sc-$v.png --stats /tmp/sc.json
+  python3 -c "import json; d=json.load(open('/tmp/sc.json')); print('${s:-default} $v round $round: GPU', round(d['gpu']['gpu_ms_total'],2), 'ms, render_ms', round(d['render_ms'],1))"
+done; done; echo "   OLD vs NEW: $($NEW compare /tmp/sc-OLD.png /tmp/sc-NEW.png 2>&1 | tail -1)"; done
+echo "== every shipped scene, OLD vs NEW, 512x384: compute, looped, multipass"
+for s in scenes/*.toml; do case $s in *turntable*) continue;; esac
+  for k in compute looped multipass; do
+    $OLD render "$s" --kernel $k --width 512 --height 384 -q -o /tmp/p-old.png 2>/dev/null
+    $NEW render "$s" --kernel $k --width 512 --height 384 -q -o /tmp/p-new.png 2>/dev/null
+    echo "$(basename $s) $k: $($NEW compare /tmp/p-old.png /tmp/p-new.png 2>&1 | tail -1)"
+  done; done
+echo "== GL test binaries (9712123) on the H200"
+export FRAGTRACE_ALLOW_SKIP=1
+mkdir -p /work/main/target/debug /work/main/target/release
+ln -sf "$PWD/$NEW" /work/main/target/debug/fragtrace; ln -sf "$PWD/$NEW" /work/main/target/release/fragtrace
+for t in .devbin/tests/compute_kernel-* .devbin/tests/glsl_twins-* .devbin/tests/gpu_backend-* .devbin/tests/hard_cases-* .devbin/tests/fragtrace-*; do
+  f=(); case $(basename $t) in fragtrace-*) f=(gpu::);; esac
+  echo "-- $(basename $t)"; timeout 150 $t "${f[@]}" --test-threads 8 2>&1 | grep -E "^test result|FAILED|panicked|failures:" | head -8
+done
