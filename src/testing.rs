@@ -93,6 +93,31 @@ pub(crate) fn soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
         .collect()
 }
 
+/// A sparse scene: a soup of `n` triangles shrunk by `scale`, one in `period` scattered on
+/// the floor of the `[-3, 3]^3` box, the others in two clusters at its opposite corners
+/// (alternating): grids over it have empty top cells beside cut ones, and many levels.
+pub(crate) fn corner_clusters(
+    rng: &mut Rng,
+    n: usize,
+    period: usize,
+    scale: f32,
+) -> Vec<[Vec3; 3]> {
+    let mut t = soup(rng, n);
+    for (i, tri) in t.iter_mut().enumerate() {
+        let at = match i % period {
+            0 => Vec3::new(
+                rng.f64() as f32 * 6.0 - 3.0,
+                -3.0,
+                rng.f64() as f32 * 6.0 - 3.0,
+            ),
+            k if k % 2 == 0 => Vec3::splat(-3.0),
+            _ => Vec3::splat(3.0),
+        };
+        *tri = tri.map(|v| at + v * scale);
+    }
+    t
+}
+
 /// Closed UV sphere of `n` x `2n` quads (each two triangles) with bitwise-shared vertices.
 pub(crate) fn sphere(center: Vec3, radius: f32, n: usize) -> Vec<[Vec3; 3]> {
     let p = |i: usize, j: usize| {

@@ -7,27 +7,7 @@
 # default). Carried: .gl, .devbin (fragtrace, fragtrace-old, stripped), .models.tar.xz,
 # .peers (ci/h200/frames3.sh says how each is made). Log to stdout.
 set -uo pipefail
-for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
-export __EGL_VENDOR_LIBRARY_FILENAMES=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
-mkdir -p /tmp/models && tar xJf .models.tar.xz -C /tmp/models
-export FRAGTRACE_MODEL_PATH=/tmp/models
-OLD=.devbin/fragtrace-old NEW=.devbin/fragtrace
-nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
-one() { python3 - "$1" <<'PY'
-import json, sys
-d = json.load(open(sys.argv[1])); g = d.get("gpu") or {}
-print(f"   render_ms {d['render_ms']:.1f} gpu_ms_total {g.get('gpu_ms_total') or 0:.2f} phases " + ", ".join(f"{k} {v:.2f}" for k, v in sorted((g.get('phases_ms') or {}).items())))
-PY
-}
-summ() { python3 - "$1" <<'PY'
-import json, sys
-d = json.load(open(sys.argv[1])); fr = d["per_frame"]
-def med(v): v = sorted(v); return v[len(v) // 2]
-r = [f["render"]["render_ms"] for f in fr[1:]]
-g = [f["render"]["gpu"]["gpu_ms_total"] for f in fr[1:]]
-print(f"   frames 2..{len(fr)} render_ms median {med(r):.2f} (min {min(r):.2f}), GPU median {med(g):.2f} ms (min {min(g):.2f})")
-PY
-}
+. ci/h200/setup.sh
 # config name -> binary and hop bits ("" = the binary's default)
 cfgs=(old new1 new6 new9 new)
 run_cfg() { local c=$1; shift

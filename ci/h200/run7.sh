@@ -5,11 +5,7 @@
 # binaries of this build. Carried: .gl, .devbin (fragtrace, fragtrace-old, stripped; test
 # binaries under .devbin/tests), .models.tar.xz. Log to stdout.
 set -uo pipefail
-for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
-export __EGL_VENDOR_LIBRARY_FILENAMES=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
-mkdir -p /tmp/models && tar xJf .models.tar.xz -C /tmp/models
-export FRAGTRACE_MODEL_PATH=/tmp/models
-OLD=.devbin/fragtrace-old NEW=.devbin/fragtrace
+. ci/h200/setup.sh
 echo "== CPU f32 (--cpu-path simd, the default), equal-work 1024², OLD vs NEW, 3 rounds interleaved"
 for th in 2 16; do
   for round in 1 2 3; do

@@ -3,22 +3,10 @@
 # hops built by the GPU layout only) against OLD = a03c542 on the equal-work view and the
 # full Whitted scenes, every shipped scene's image, and the GL test binaries of 9712123
 # (the GPU code of the final build but for the literal form of irr_lookup's strides), the
-# CLI tests running the final binary. Carried as in run7.sh. Log to stdout.
+# CLI tests running the final binary. Carried as in run7.sh. Log to stdout. (Written with
+# its set-up inline; since moved into setup.sh, which run6-run8 share.)
 set -uo pipefail
-for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
-export __EGL_VENDOR_LIBRARY_FILENAMES=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
-mkdir -p /tmp/models && tar xJf .models.tar.xz -C /tmp/models
-export FRAGTRACE_MODEL_PATH=/tmp/models
-OLD=.devbin/fragtrace-old NEW=.devbin/fragtrace
-summ() { python3 - "$1" <<'PY'
-import json, sys
-d = json.load(open(sys.argv[1])); fr = d["per_frame"]
-def med(v): v = sorted(v); return v[len(v) // 2]
-r = [f["render"]["render_ms"] for f in fr[1:]]
-g = [f["render"]["gpu"]["gpu_ms_total"] for f in fr[1:]]
-print(f"   frames 2..{len(fr)} render_ms median {med(r):.2f} (min {min(r):.2f}), GPU median {med(g):.2f} ms")
-PY
-}
+. ci/h200/setup.sh
 for b in $OLD $NEW; do for s in ci/peers/equal-work.toml scenes/bunny.toml ""; do $b render $s --width 128 --height 128 -q -o /tmp/warm.png 2>/dev/null; done; done
 echo "== equal-work steady state (frames 2..10), 2 rounds"
 for size in 4096 1024; do for round in 1 2; do for v in OLD NEW; do b=${!v}

@@ -6,8 +6,7 @@
 
 use super::*;
 use crate::accel::IrregularConfig;
-use crate::testing::{scene_of, soup, test_seed, with_threads, Rng};
-use glam::Vec3;
+use crate::testing::{corner_clusters, scene_of, soup, test_seed, with_threads, Rng};
 
 /// On random soups: `count` of random blocks of top cells equals the cells counted one by
 /// one, and the parallel build of the tables equals the serial one, entry for entry.
@@ -114,22 +113,6 @@ fn box_is_empty_agrees_with_brute_force() {
     // Dense soups, then sparse scenes: two small clusters in opposite corners of a large
     // box and a few lone triangles, so that boxes cover whole empty top cells next to cut
     // cells with triangles (what the query's shortcuts over whole top cells decide).
-    let sparse = |rng: &mut Rng| {
-        let mut t = soup(rng, 120);
-        for (i, tri) in t.iter_mut().enumerate() {
-            let at = match i % 12 {
-                0 => Vec3::new(
-                    rng.f64() as f32 * 6.0 - 3.0,
-                    -3.0,
-                    rng.f64() as f32 * 6.0 - 3.0,
-                ),
-                k if k % 2 == 0 => Vec3::splat(-3.0),
-                _ => Vec3::splat(3.0),
-            };
-            *tri = tri.map(|v| at + v * 0.04);
-        }
-        t
-    };
     let scenes = [
         (0.125, false),
         (1.0, false),
@@ -139,7 +122,7 @@ fn box_is_empty_agrees_with_brute_force() {
     ];
     for (round, (density, is_sparse)) in scenes.into_iter().enumerate() {
         let tris = if is_sparse {
-            sparse(&mut rng)
+            corner_clusters(&mut rng, 120, 12, 0.04)
         } else {
             soup(&mut rng, 200)
         };

@@ -4,8 +4,7 @@
 use super::*;
 use crate::accel::irregular::IrrCell;
 use crate::accel::IrregularConfig;
-use crate::testing::{scene_of, soup, test_seed, with_threads, Rng};
-use glam::Vec3;
+use crate::testing::{corner_clusters, scene_of, soup, test_seed, with_threads, Rng};
 
 /// Random grids, dense (soups at several densities: few levels) and sparse (small clusters
 /// in opposite corners of a large box: many levels): at every hop width every cell's
@@ -22,7 +21,7 @@ fn every_cell_maps_to_itself_at_every_hop_width() {
         .enumerate()
     {
         let tris = if is_sparse {
-            sparse(&mut rng)
+            corner_clusters(&mut rng, 150, 10, 0.02)
         } else {
             soup(&mut rng, 300)
         };
@@ -106,7 +105,7 @@ fn within_takes_the_widest_map_that_fits() {
     let seed = test_seed("irregular wide budget", 0x1_77E6_0006);
     let mut rng = Rng::new(seed);
     let g = IrregularGrid::build(
-        &scene_of(&sparse(&mut rng)),
+        &scene_of(&corner_clusters(&mut rng, 150, 10, 0.02)),
         &IrregularConfig {
             top_density: 1.0,
             leaf_max: 2,
@@ -133,23 +132,4 @@ fn within_takes_the_widest_map_that_fits() {
             "seed {seed}: budget {budget}, sizes {sizes:?}"
         );
     }
-}
-
-/// Two small clusters of triangles in opposite corners of a 6-unit box and a few lone
-/// triangles on its floor: a grid with many levels.
-fn sparse(rng: &mut Rng) -> Vec<[Vec3; 3]> {
-    let mut t = soup(rng, 150);
-    for (i, tri) in t.iter_mut().enumerate() {
-        let at = match i % 10 {
-            0 => Vec3::new(
-                rng.f64() as f32 * 6.0 - 3.0,
-                -3.0,
-                rng.f64() as f32 * 6.0 - 3.0,
-            ),
-            k if k % 2 == 0 => Vec3::splat(-3.0),
-            _ => Vec3::splat(3.0),
-        };
-        *tri = tri.map(|v| at + v * 0.02);
-    }
-    t
 }
