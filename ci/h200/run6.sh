@@ -56,14 +56,7 @@ for round in 1 2 3; do
   done
 done
 echo "== every shipped scene, OLD vs NEW (default hops), 512x384: compute, looped, multipass"
-for s in scenes/*.toml; do
-  case $s in *turntable*) continue;; esac
-  for k in compute looped multipass; do
-    $OLD render "$s" --kernel $k --width 512 --height 384 -q -o /tmp/p-old.png 2>/dev/null
-    $NEW render "$s" --kernel $k --width 512 --height 384 -q -o /tmp/p-new.png 2>/dev/null
-    echo "$(basename $s) $k: $($NEW compare /tmp/p-old.png /tmp/p-new.png 2>&1 | tail -1)"
-  done
-done
+compare_scenes compute looped multipass
 echo "== Mitsuba 3.9.1 cuda_ad_rgb, same view"
 mkdir -p /tmp/site && tar xJf .peers/mitsuba-cuda.tar.xz -C /tmp/site && export PYTHONPATH=/tmp/site
 PYTHONUNBUFFERED=1 timeout 200 python3 ci/peers/mitsuba_equal_work.py /tmp/models/bunny/stanford-bunny.obj cuda_ad_rgb 1024,4096 5 2>&1 | tail -4

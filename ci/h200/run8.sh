@@ -18,12 +18,7 @@ for s in scenes/bunny.toml ""; do for round in 1 2; do for v in OLD NEW; do b=${
   python3 -c "import json; d=json.load(open('/tmp/sc.json')); print('${s:-default} $v round $round: GPU', round(d['gpu']['gpu_ms_total'],2), 'ms, render_ms', round(d['render_ms'],1))"
 done; done; echo "   OLD vs NEW: $($NEW compare /tmp/sc-OLD.png /tmp/sc-NEW.png 2>&1 | tail -1)"; done
 echo "== every shipped scene, OLD vs NEW, 512x384: compute, looped, multipass"
-for s in scenes/*.toml; do case $s in *turntable*) continue;; esac
-  for k in compute looped multipass; do
-    $OLD render "$s" --kernel $k --width 512 --height 384 -q -o /tmp/p-old.png 2>/dev/null
-    $NEW render "$s" --kernel $k --width 512 --height 384 -q -o /tmp/p-new.png 2>/dev/null
-    echo "$(basename $s) $k: $($NEW compare /tmp/p-old.png /tmp/p-new.png 2>&1 | tail -1)"
-  done; done
+compare_scenes compute looped multipass
 echo "== GL test binaries (9712123) on the H200"
 export FRAGTRACE_ALLOW_SKIP=1
 mkdir -p /work/main/target/debug /work/main/target/release

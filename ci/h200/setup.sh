@@ -1,7 +1,8 @@
 # Sourced by the H200 scripts from run6.sh on (`. ci/h200/setup.sh`): the GL loader packages
 # of the device recipe (.gl), NVIDIA's EGL vendor file, the meshes (.models.tar.xz) under
 # FRAGTRACE_MODEL_PATH, OLD/NEW binaries from .devbin, and two printers of `--stats` JSON:
-# `one FILE` (a single render) and `summ FILE` (frames 2..N of `render --frames`).
+# `one FILE` (a single render) and `summ FILE` (frames 2..N of `render --frames`), and
+# `compare_scenes KERNEL...`: every shipped scene at 512x384, OLD vs NEW, one line each.
 for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
 export __EGL_VENDOR_LIBRARY_FILENAMES=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
 mkdir -p /tmp/models && tar xJf .models.tar.xz -C /tmp/models
@@ -21,4 +22,13 @@ r = [f["render"]["render_ms"] for f in fr[1:]]
 g = [f["render"]["gpu"]["gpu_ms_total"] for f in fr[1:]]
 print(f"   frames 2..{len(fr)} render_ms median {med(r):.2f} (min {min(r):.2f}), GPU median {med(g):.2f} ms (min {min(g):.2f})")
 PY
+}
+compare_scenes() {
+  for s in scenes/*.toml; do case $s in *turntable*) continue;; esac
+    for k in "$@"; do
+      $OLD render "$s" --kernel $k --width 512 --height 384 -q -o /tmp/p-old.png 2>/dev/null
+      $NEW render "$s" --kernel $k --width 512 --height 384 -q -o /tmp/p-new.png 2>/dev/null
+      echo "$(basename $s) $k: $($NEW compare /tmp/p-old.png /tmp/p-new.png 2>&1 | tail -1)"
+    done
+  done
 }
