@@ -37,9 +37,16 @@ void traverse_setup(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
         s0.S0_STATE = ST_INVALID;
         return;
     }
-    vec3 c = start_cell(s0.S0_ORIGIN, s1.S1_DIR, span.x);
 #ifdef ACCEL_IRREGULAR
-    // The cell holding the virtual cell of the entry point.
+    // The cell holding the virtual cell whose crossings bracket the entry parameter, chosen
+    // as after an exit (irr_lateral): the entry point's own cell can be one off where the
+    // ray starts on a face, and then its far face would lie behind the ray.
+    vec3 o = s0.S0_ORIGIN;
+    vec3 d = s1.S1_DIR;
+    vec3 top = u_grid_res - 1.0;
+    vec3 c = vec3(irr_lateral(o.x, d.x, span.x, u_grid_min.x, u_cell_size.x, 0.0, top.x),
+                  irr_lateral(o.y, d.y, span.x, u_grid_min.y, u_cell_size.y, 0.0, top.y),
+                  irr_lateral(o.z, d.z, span.x, u_grid_min.z, u_cell_size.z, 0.0, top.z));
     float id = irr_lookup(c);
     vec4 lo = irr_lo(id);
     vec4 hi = irr_hi(id);
@@ -49,6 +56,7 @@ void traverse_setup(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     // kept so that steps need not clip the ray against the box again.
     c = vec3(id, span.x, span.y);
 #else
+    vec3 c = start_cell(s0.S0_ORIGIN, s1.S1_DIR, span.x);
     vec4 cell = fetch_cell(cell_linear(c));
 #endif
     s2 = S2_TEXEL(c, cell.x);

@@ -96,15 +96,23 @@ vec4 irr_cur_hi(float id) { return irr_hi(id); }
 // Parameter at which the ray crosses virtual boundary k of one axis (d != 0): the
 // expression of boundary1 above.
 float irr_crossing(float o, float d, float mn, float cs, float k) {
-    return (mn + k * cs - o) / d;
+    float f = mn + k * cs;
+#ifdef SKEW_FACES
+    // Tests only (GpuScene::with_skewed_faces): every face moved by about an ulp, up for
+    // even k and down for odd, as NVIDIA's fused multiply-add rounds mn + k * cs one way
+    // where the CPU rounds it another, so that llvmpipe shows what that does to the walk.
+    f += (mod(k, 2.0) < 1.0 ? 1.0 : -1.0) * abs(f) * 1.1920929e-7;
+#endif
+    return (f - o) / d;
 }
 
-// Crossing of one axis's far face, BIG where the ray does not move along the axis or
-// crossed the face before t_prev (exits never go back in t: see the CPU twin).
+// Crossing of one axis's far face: BIG where the ray does not move along the axis, and
+// t_prev where the face lies before the previous exit (exits never go back in t: see the
+// CPU twin; the ray is already past that face, so the walk leaves through it at once).
 float irr_far(float o, float d, float mn, float cs, float lo, float hi, float t_prev) {
     if (d == 0.0) return BIG;
     float t = irr_crossing(o, d, mn, cs, d > 0.0 ? hi : lo);
-    return t < t_prev ? BIG : t;
+    return max(t, t_prev);
 }
 
 // (t_exit, axis) of the box lo..hi after the previous exit t_prev; ties go to the lower axis.

@@ -235,4 +235,4 @@ impl Fnv1a {
 }
 
 /// See [`glsl_120_output_is_unchanged`].
-const GLSL_120_HASH: u64 = 0xb75a_452f_b2fb_98b2;
+const GLSL_120_HASH: u64 = 0x6689_391f_b837_dae4;

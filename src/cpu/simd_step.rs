@@ -59,7 +59,10 @@ pub unsafe fn step(
     let face = _mm_blendv_ps(lo_f, hi_f, dpos);
     let crossing = |k: __m128| _mm_div_ps(_mm_sub_ps(_mm_add_ps(min, _mm_mul_ps(k, cs)), o), d);
     let t = crossing(face);
-    let t = _mm_blendv_ps(t, big, _mm_cmplt_ps(t, _mm_set1_ps(t_prev)));
+    // A face behind the previous exit is crossed at once (t_prev), as in `exit`. maxps
+    // returns its second operand on equal values (and NaN, which only d = 0 lanes make,
+    // replaced below), so t itself there, as the scalar `exit` keeps it (-0 stays -0).
+    let t = _mm_max_ps(_mm_set1_ps(t_prev), t);
     let t = _mm_blendv_ps(t, big, dzero);
     let mut tn = [0.0f32; 4];
     _mm_storeu_ps(tn.as_mut_ptr(), t);

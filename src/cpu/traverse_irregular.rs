@@ -111,11 +111,15 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
     }
 
     /// Exit parameter of `cell`'s exit box and the axis it leaves through (ties to the
-    /// lower axis); `BIG` on an axis the ray does not move along, and on a face the ray
-    /// crossed before `t_prev` (the previous exit): exits never go back in t, so the walk
-    /// cannot cycle even where the GPU evaluates one crossing two ways (an fma here, a
-    /// multiply-add there). With the bracketed lateral choice no such face arises in
-    /// IEEE arithmetic, so the CPU's walk is the same with or without the rule.
+    /// lower axis); `BIG` on an axis the ray does not move along, and `t_prev` (the
+    /// previous exit) on a face the ray crossed before it: exits never go back in t, so the
+    /// walk cannot cycle even where the GPU evaluates one crossing two ways (an fma here,
+    /// a multiply-add there), and the ray, already past that face, leaves through it at
+    /// once. Treating such a face as never crossed (`BIG`, as before) kept the walk in the
+    /// cell until a later face and skipped the cells between: on the H200, whose fused
+    /// multiply-add rounds `min + k * cs` otherwise than the CPU, rays starting on faces
+    /// missed triangles (hard case 08/09). With the bracketed start and lateral choices
+    /// no such face arises in IEEE arithmetic, so the CPU's walk is the same either way.
     #[inline(always)]
     pub fn exit(&self, ray: &Ray<T>, cell: &IrrCell, t_prev: T) -> (T, usize) {
         let tn = [0, 1, 2].map(|a| {
@@ -130,7 +134,7 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
             };
             let t = (self.min[a] + T::from_f32(k as f32) * self.cs[a] - ray.o[a]) / d;
             if t < t_prev {
-                T::BIG
+                t_prev
             } else {
                 t
             }
@@ -193,12 +197,15 @@ pub struct WalkState<T> {
 }
 
 impl<T: Real> IrregularWalker<'_, T> {
-    /// The walk's first cell, or `None` when the ray misses the grid box.
+    /// The walk's first cell, or `None` when the ray misses the grid box: the one holding
+    /// the virtual cell whose crossings bracket the entry parameter, chosen as after an
+    /// exit ([`IrregularWalker::lateral`]). The entry point's own cell can be one off where
+    /// the ray starts on a face (rounding of `(o - min) / cs`).
     #[inline(always)]
     pub fn start(&self, ray: &Ray<T>) -> Option<WalkState<T>> {
         let (t_enter, t_leave) = self.clip(ray)?;
         let g = self.grid;
-        let k = [0, 1, 2].map(|a| self.virtual_at(ray, t_enter, a, 0, g.res[a] - 1));
+        let k = [0, 1, 2].map(|a| self.lateral(ray, t_enter, a, 0, g.res[a] - 1));
         Some(WalkState {
             id: g.lookup(k),
             t_prev: t_enter,

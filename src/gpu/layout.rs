@@ -254,6 +254,11 @@ pub struct IrregularLayout {
     pub hops: Vec<[u32; 3]>,
     /// Splits per axis.
     pub shift: [u32; 3],
+    /// Tests only: compile the walk with every face crossing moved by about an ulp
+    /// (`SKEW_FACES` in `glsl120/traverse.glsl`; see [`GpuScene::with_skewed_faces`]).
+    ///
+    /// [`GpuScene::with_skewed_faces`]: super::scene::GpuScene::with_skewed_faces
+    pub skew_faces: bool,
 }
 
 /// Exact decimal literal of 2^-n (every such power has a finite decimal expansion).
@@ -288,6 +293,7 @@ impl IrregularLayout {
             top_res: g.top_res,
             hops: w.hops,
             shift: g.shift,
+            skew_faces: false,
         })
     }
 
@@ -327,6 +333,9 @@ impl IrregularLayout {
             );
         }
         s += "    return e;\n}\n";
+        if self.skew_faces {
+            s += "#define SKEW_FACES 1\n";
+        }
         s
     }
 }

@@ -116,6 +116,19 @@ impl<'s> GpuScene<'s> {
         })
     }
 
+    /// Tests only: programs compiled from here on move every face crossing of the
+    /// irregular grid's walk by about an ulp (`SKEW_FACES` in `glsl120/traverse.glsl`), as
+    /// NVIDIA's fused multiply-add rounds `min + k * cell_size` otherwise than IEEE
+    /// arithmetic does, so that a driver with IEEE arithmetic (llvmpipe in CI) shows
+    /// whether the walk still finds every hit (`tests/hard_cases/grid.rs`, case 08/09).
+    /// The uniform grid is left as it is.
+    pub fn with_skewed_faces(mut self) -> Self {
+        if let Some(i) = &mut self.layout.irregular {
+            i.skew_faces = true;
+        }
+        self
+    }
+
     /// The context the scene lives in.
     pub fn ctx(&self) -> &'s GlContext {
         self.ctx

@@ -22,7 +22,8 @@ use fragtrace::cpu::traverse::{CellWalk, GridWalker, Ray, Work};
 use fragtrace::cpu::walker::Walker;
 use fragtrace::gpu::options::GpuOptions;
 use fragtrace::gpu::options::Kernel;
-use fragtrace::gpu::render::{trace_rays, GpuRay};
+use fragtrace::gpu::render::{trace_rays_on, GpuRay};
+use fragtrace::gpu::scene::GpuScene;
 use fragtrace::gpu::shader::{Query, RayState};
 use fragtrace::gpu::GlContext;
 use fragtrace::image_io::Image;
@@ -472,13 +473,30 @@ pub fn gl_trace<'a>(
     q: Query,
     kernel: Kernel,
 ) -> Vec<Found> {
+    gl_trace_with(ctx, scene, accel, rays, q, kernel, false)
+}
+
+/// [`gl_trace`], with the irregular grid's faces skewed by an ulp where `skew` is set
+/// ([`GpuScene::with_skewed_faces`]: how NVIDIA's fused multiply-add rounds them).
+pub fn gl_trace_with<'a>(
+    ctx: &GlContext,
+    scene: &Scene,
+    accel: impl Into<AccelRef<'a>>,
+    rays: &[TRay],
+    q: Query,
+    kernel: Kernel,
+    skew: bool,
+) -> Vec<Found> {
+    let accel: AccelRef<'a> = accel.into();
     let gpu: Vec<GpuRay> = rays.iter().map(TRay::gpu).collect();
     let t0 = Instant::now();
     let opts = GpuOptions {
         kernel,
         ..faithful()
     };
-    let out = trace_rays(ctx, scene, accel, &gpu, q, opts)
+    let out = GpuScene::new(ctx, scene, accel, opts.no_specialize)
+        .map(|gs| if skew { gs.with_skewed_faces() } else { gs })
+        .and_then(|gs| trace_rays_on(&gs, &gpu, q, opts))
         .unwrap_or_else(|e| panic!("trace_rays ({kernel}) failed: {e}"));
     let ms = t0.elapsed().as_secs_f64() * 1e3;
     if ms > 500.0 {
