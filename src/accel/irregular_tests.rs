@@ -157,7 +157,31 @@ fn schedule_makes_cells_cubic() {
         ]
     );
     assert_eq!(shift[0] - shift[1], 3);
-    // The cap keeps virtual coordinates exact.
-    let (_, shift) = schedule(DVec3::splat(1.0), [1 << 20, 1, 1], 0.0);
-    assert!((1u32 << 20) << shift[0] <= MAX_VIRTUAL_AXIS, "{shift:?}");
+}
+
+/// The schedule worked by hand: which axes halve at each level, and where it stops (the
+/// finest size reached, the level cap, the virtual-resolution cap).
+#[test]
+fn schedule_stops_where_it_should() {
+    let (xz, xyz) = ([true, false, true], [true; 3]);
+    // 8 x 1 x 8 halves x and z to 1 x 1 x 1 (three levels), then all three: 0.5, 0.25,
+    // 0.125 and 0.0625, the first side not above 0.1.
+    let (levels, shift) = schedule(DVec3::new(8.0, 1.0, 8.0), [4, 1, 4], 0.1);
+    assert_eq!(levels, [xz, xz, xz, xyz, xyz, xyz, xyz]);
+    assert_eq!(shift, [7, 4, 7]);
+    // A side equal to the finest size is fine enough: stop at 0.125.
+    let (levels, shift) = schedule(DVec3::new(8.0, 1.0, 8.0), [4, 1, 4], 0.125);
+    assert_eq!(levels, [xz, xz, xz, xyz, xyz, xyz]);
+    assert_eq!(shift, [6, 3, 6]);
+    // No finest size: the level cap ends it.
+    let (levels, shift) = schedule(DVec3::splat(1.0), [1, 1, 1], 0.0);
+    assert_eq!(levels, vec![xyz; MAX_LEVELS]);
+    assert_eq!(shift, [MAX_LEVELS as u32; 3]);
+    // The virtual-resolution cap keeps virtual coordinates exact: 2^20 top cells along x
+    // split twice (2^22 = MAX_VIRTUAL_AXIS); y and z once more, after which x is the longest
+    // side and may not split, and no other axis is long enough to.
+    assert_eq!(MAX_VIRTUAL_AXIS, 1 << 22);
+    let (levels, shift) = schedule(DVec3::splat(1.0), [1 << 20, 1, 1], 0.0);
+    assert_eq!(levels, [xyz, xyz, [false, true, true]]);
+    assert_eq!(shift, [2, 3, 3]);
 }

@@ -19,6 +19,7 @@ use super::real::{Real, V3};
 use super::simd::{self, Best, Isa, RayConsts};
 #[cfg(target_arch = "x86_64")]
 use super::simd_step;
+use super::simd_step::Lanes8;
 use super::soa::SoaTris;
 use super::traverse::{scalar_any_hit, scalar_closest_hit, CellWalk, Hit, Ray, Work};
 use super::traverse_irregular::{IrregularWalker, WalkState};
@@ -285,18 +286,20 @@ impl SimdWalker<'_> {
         hits.iter_mut().for_each(|h| *h = None);
         let mut next = 0;
         let mut lanes: [Option<Lane>; STREAM] = [None; STREAM];
-        for slot in lanes.iter_mut() {
+        let mut soa = Lanes8::default();
+        for (j, slot) in lanes.iter_mut().enumerate() {
             *slot = self.lane(w, rays, &mut next);
+            sync::<VSTEP>(&mut soa, j, w, rays, slot, true);
         }
         let mut active = lanes.iter().filter(|l| l.is_some()).count();
         while active > 0 {
-            for slot in lanes.iter_mut() {
+            let steps = step_lanes::<VSTEP>(w, rays, &lanes, &soa);
+            for (j, (slot, &(t_exit, axis, k))) in lanes.iter_mut().zip(&steps).enumerate() {
                 let Some(l) = slot else { continue };
                 let ray = &rays[l.i];
                 let wk = &mut work[l.i];
                 wk.cells += 1;
                 let cell = &w.grid.cells[l.st.id as usize];
-                let (t_exit, axis, k) = step::<VSTEP>(w, ray, cell, l.st.t_prev);
                 wk.tests += cell.range.count as u64;
                 let done = match self.cell_closest(&l.rc, cell.range, t_exit) {
                     Some(h) => {
@@ -305,11 +308,13 @@ impl SimdWalker<'_> {
                     }
                     None => {
                         let more = advance::<VSTEP>(w, ray, &mut l.st, cell, t_exit, axis, k);
+                        sync::<VSTEP>(&mut soa, j, w, rays, slot, false);
                         !more
                     }
                 };
                 if done {
                     *slot = self.lane(w, rays, &mut next);
+                    sync::<VSTEP>(&mut soa, j, w, rays, slot, true);
                     if slot.is_none() {
                         active -= 1;
                     }
@@ -362,26 +367,30 @@ impl SimdWalker<'_> {
         hit.iter_mut().for_each(|h| *h = false);
         let mut next = 0;
         let mut lanes: [Option<Lane>; STREAM] = [None; STREAM];
-        for slot in lanes.iter_mut() {
+        let mut soa = Lanes8::default();
+        for (j, slot) in lanes.iter_mut().enumerate() {
             *slot = self.lane(w, rays, &mut next);
+            sync::<VSTEP>(&mut soa, j, w, rays, slot, true);
         }
         let mut active = lanes.iter().filter(|l| l.is_some()).count();
         while active > 0 {
-            for slot in lanes.iter_mut() {
+            let steps = step_lanes::<VSTEP>(w, rays, &lanes, &soa);
+            for (j, (slot, &(t_exit, axis, k))) in lanes.iter_mut().zip(&steps).enumerate() {
                 let Some(l) = slot else { continue };
                 let ray = &rays[l.i];
                 work.cells += 1;
                 let cell = &w.grid.cells[l.st.id as usize];
-                let (t_exit, axis, k) = step::<VSTEP>(w, ray, cell, l.st.t_prev);
                 let done = if self.cell_any(&l.rc, cell.range, &mut work.tests) {
                     hit[l.i] = true;
                     true
                 } else {
                     let more = advance::<VSTEP>(w, ray, &mut l.st, cell, t_exit, axis, k);
+                    sync::<VSTEP>(&mut soa, j, w, rays, slot, false);
                     !more
                 };
                 if done {
                     *slot = self.lane(w, rays, &mut next);
+                    sync::<VSTEP>(&mut soa, j, w, rays, slot, true);
                     if slot.is_none() {
                         active -= 1;
                     }
@@ -391,26 +400,60 @@ impl SimdWalker<'_> {
     }
 }
 
-/// The exit of `cell` (t_exit, axis) and, with `VSTEP`, the next virtual cell already
-/// (`simd_step::step`, which computes both at once); without, `None`, and
-/// [`advance`] finds it only when the walk goes on, as the scalar walk does.
+/// One step of every lane of a stream: the exit of its cell (t_exit, axis) and, with
+/// `VSTEP`, the next virtual cell already (`simd_step::step8`, eight rays in the lanes of
+/// AVX2 registers); without, `None`, and [`advance`] finds it only when the walk goes on, as
+/// the scalar walk does. An idle lane's entry is meaningless.
 #[inline(always)]
-fn step<const VSTEP: bool>(
+fn step_lanes<const VSTEP: bool>(
     w: &IrregularWalker<'_, f32>,
-    ray: &Ray<f32>,
-    cell: &IrrCell,
-    t_prev: f32,
-) -> (f32, usize, Option<[u32; 3]>) {
+    rays: &[Ray<f32>],
+    lanes: &[Option<Lane>; STREAM],
+    soa: &Lanes8,
+) -> [(f32, usize, Option<[u32; 3]>); STREAM] {
+    let cell = |l: &Lane| &w.grid.cells[l.st.id as usize];
     #[cfg(target_arch = "x86_64")]
     if VSTEP {
+        let args = lanes
+            .each_ref()
+            .map(|l| l.as_ref().map(|l| (&rays[l.i], cell(l))));
         // SAFETY: `VSTEP` is set only in the AVX2 streams, run where AVX2 was detected.
-        return unsafe { simd_step::step(w, ray, cell, t_prev) };
+        return unsafe { simd_step::step8(w, soa, &args) };
     }
-    let (t_exit, axis) = w.exit(ray, cell, t_prev);
-    (t_exit, axis, None)
+    lanes.each_ref().map(|l| match l {
+        Some(l) => {
+            let (t_exit, axis) = w.exit(&rays[l.i], cell(l), l.st.t_prev);
+            (t_exit, axis, None)
+        }
+        None => (0.0, 0, None),
+    })
 }
 
-/// [`IrregularWalker::advance`] with the next cell `k` of [`step`] where it gave one.
+/// With `VSTEP`, lane `j` of `soa` follows the walk in `slot` (its ray too when `new`, a
+/// walk just started); an idle lane keeps what it held.
+#[inline(always)]
+fn sync<const VSTEP: bool>(
+    soa: &mut Lanes8,
+    j: usize,
+    w: &IrregularWalker<'_, f32>,
+    rays: &[Ray<f32>],
+    slot: &Option<Lane>,
+    new: bool,
+) {
+    let Some(l) = slot else { return };
+    if !VSTEP {
+        return;
+    }
+    if new {
+        soa.set_ray(j, &rays[l.i]);
+    }
+    // A walk that ended keeps its last cell: the lane idles until refilled.
+    if let Some(cell) = w.grid.cells.get(l.st.id as usize) {
+        soa.set_cell(j, cell, l.st.t_prev);
+    }
+}
+
+/// [`IrregularWalker::advance`] with the next cell `k` of [`step_lanes`] where it gave one.
 #[inline(always)]
 fn advance<const VSTEP: bool>(
     w: &IrregularWalker<'_, f32>,
