@@ -358,19 +358,10 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         }
     };
     let n_top = top_res.iter().map(|&r| r as usize).product::<usize>();
-    if n_top > MAX_ENTRIES {
-        return Err(Error::Limit(format!(
-            "{n_top} top cells, at most {MAX_ENTRIES}"
-        )));
-    }
+    check_top(n_top)?;
     let top_cs = (max - min).as_dvec3()
         / DVec3::new(top_res[0] as f64, top_res[1] as f64, top_res[2] as f64);
-    // Finest cell: the split stops by triangle count long before this in a sane mesh; the
-    // floor keeps degenerate clusters (many triangles through one point) from splitting
-    // down to nothing.
-    let mag = min.abs().max(max.abs()).max_element() as f64;
-    let finest = ((max - min).as_dvec3().max_element() * 2f64.powi(-20))
-        .max(MIN_CELL_ULPS * mag * f32::EPSILON as f64);
+    let finest = finest_side(min, max);
     let (levels, shift) = schedule(top_cs, top_res, finest);
     let fine_res = [0, 1, 2].map(|a| top_res[a] << shift[a]);
     let fine_cs =
@@ -444,13 +435,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     let n_vmap = n_top + sizes.iter().map(|s| s.vmap).sum::<usize>();
     let n_cells = sizes.iter().map(|s| s.cells).sum::<usize>();
     let n_refs = sizes.iter().map(|s| s.refs).sum::<usize>();
-    if n_cells > MAX_CELLS || n_vmap > MAX_ENTRIES || n_refs > MAX_ENTRIES {
-        return Err(Error::Limit(format!(
-            "the irregular grid needs more than {MAX_CELLS} cells, {MAX_ENTRIES} voxel-map \
-             entries or {MAX_ENTRIES} triangle references ({n_tris} triangles); raise its \
-             leaf size"
-        )));
-    }
+    check_sizes(n_tris, n_cells, n_vmap, n_refs)?;
     // Levels no node reached only make the virtual grid finer: drop them, scaling the
     // virtual coordinates down as the cells are written (every box is a multiple of the
     // dropped resolution; the world boundaries stay the same numbers, the cell size scaling
@@ -599,6 +584,41 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         mean_growth: growth,
     };
     Ok(g)
+}
+
+/// The finest cell side the split schedule may reach for a grid over `min..max`: the split
+/// stops by triangle count long before this in a sane mesh; the floor keeps degenerate
+/// clusters (many triangles through one point) from splitting down to nothing. The larger
+/// of 2^-20 of the longest side and `MIN_CELL_ULPS` f32 ulps of the largest coordinate.
+fn finest_side(min: Vec3, max: Vec3) -> f64 {
+    let mag = min.abs().max(max.abs()).max_element() as f64;
+    ((max - min).as_dvec3().max_element() * 2f64.powi(-20))
+        .max(MIN_CELL_ULPS * mag * f32::EPSILON as f64)
+}
+
+/// Refuses a top grid of more than `MAX_ENTRIES` cells (the voxel map's first entries).
+/// `Grid::auto_resolution` caps its grids at `MAX_AUTO_CELLS` (today the same number), so
+/// this holds the line should either constant move.
+fn check_top(n_top: usize) -> Result<()> {
+    if n_top > MAX_ENTRIES {
+        return Err(Error::Limit(format!(
+            "{n_top} top cells, at most {MAX_ENTRIES}"
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses a structure whose cells, voxel-map entries or references exceed what f32 texels
+/// index (`MAX_CELLS`, `MAX_ENTRIES`), before any table is allocated.
+fn check_sizes(n_tris: usize, n_cells: usize, n_vmap: usize, n_refs: usize) -> Result<()> {
+    if n_cells > MAX_CELLS || n_vmap > MAX_ENTRIES || n_refs > MAX_ENTRIES {
+        return Err(Error::Limit(format!(
+            "the irregular grid needs more than {MAX_CELLS} cells, {MAX_ENTRIES} voxel-map \
+             entries or {MAX_ENTRIES} triangle references ({n_tris} triangles); raise its \
+             leaf size"
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -51,6 +51,12 @@ pub(crate) fn check(g: &IrregularGrid, s: &Scene, rng: &mut Rng, ctx: &str) {
                 && c.exit_hi[a] <= res[a]),
             "{ctx}: cell {id} {c:?}"
         );
+        // Only empty cells grow (the build's choice; growing the others too would still
+        // be sound, so nothing below would notice).
+        assert!(
+            c.range.count == 0 || (c.exit_lo, c.exit_hi) == (c.lo, c.hi),
+            "{ctx}: cell {id} has triangles and grew: {c:?}"
+        );
         let (lo, hi) = g.world_box(c.exit_lo, c.exit_hi);
         for (t, v) in tris.iter().enumerate() {
             if tri_box_overlap(0.5 * (lo + hi), 0.5 * (hi - lo), *v) {
@@ -117,6 +123,11 @@ fn empty_and_bad_input() {
     let g = IrregularGrid::build(&empty_scene(), &IrregularConfig::default()).unwrap();
     assert_eq!((g.cells.len(), g.tri_indices.len()), (1, 0));
     assert_eq!(g.lookup([0, 0, 0]), 0);
+    // Nothing to bound: the box -1..1, one cell whose exit box is itself.
+    assert_eq!((g.min, g.max), (Vec3::splat(-1.0), Vec3::splat(1.0)));
+    let st = &g.stats;
+    assert_eq!((st.empty_cells, st.mean_per_nonempty), (1, 0.0));
+    assert_eq!((st.bytes_per_triangle, st.mean_growth), (0.0, 1.0));
     let s = scene_of(&[[glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y]]);
     for cfg in [
         IrregularConfig {
@@ -184,4 +195,107 @@ fn schedule_stops_where_it_should() {
     let (levels, shift) = schedule(DVec3::splat(1.0), [1 << 20, 1, 1], 0.0);
     assert_eq!(levels, [xyz, xyz, [false, true, true]]);
     assert_eq!(shift, [2, 3, 3]);
+}
+
+/// The finest side worked by hand: 2^-20 of the longest side near the origin, four f32
+/// ulps of the largest coordinate far from it.
+#[test]
+fn finest_side_is_the_larger_floor() {
+    // Longest side 2 (y), largest coordinate 1: 2 * 2^-20 = 2^-19 beats 4 * 2^-23 = 2^-21.
+    let f = finest_side(Vec3::new(-1.0, -1.0, 0.0), Vec3::new(0.5, 1.0, 0.25));
+    assert_eq!(f, 2f64.powi(-19));
+    // At 1e4 with sides of 1: four ulps of 10001 (4 * 10001 * 2^-23 = 0.0048) beat 2^-20.
+    let f = finest_side(Vec3::splat(1.0e4), Vec3::splat(10001.0));
+    assert_eq!(f, 4.0 * 10001.0 * 2f64.powi(-23));
+}
+
+/// The limits at their boundaries: as many as the tables index is allowed, one more is not,
+/// whichever table overflows.
+#[test]
+fn limits_refuse_one_past_the_tables_reach() {
+    assert!(check_top(MAX_ENTRIES).is_ok());
+    assert!(matches!(check_top(MAX_ENTRIES + 1), Err(Error::Limit(_))));
+    assert!(check_sizes(9, MAX_CELLS, MAX_ENTRIES, MAX_ENTRIES).is_ok());
+    for (cells, vmap, refs) in [
+        (MAX_CELLS + 1, 0, 0),
+        (0, MAX_ENTRIES + 1, 0),
+        (0, 0, MAX_ENTRIES + 1),
+    ] {
+        let e = check_sizes(9, cells, vmap, refs).unwrap_err();
+        assert!(
+            matches!(e, Error::Limit(_)) && e.to_string().contains("(9 triangles)"),
+            "{cells} {vmap} {refs}: {e}"
+        );
+    }
+}
+
+/// Every figure of the statistics recomputed from the tables it describes, and the build's
+/// phases adding up to its time.
+#[test]
+fn stats_agree_with_the_tables() {
+    let seed = test_seed("irregular stats", 0x1_77E6_0003);
+    let mut rng = Rng::new(seed);
+    let s = scene_of(&soup(&mut rng, 400));
+    let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
+    let (st, ctx) = (&g.stats, format!("seed {seed}: {}", g.stats));
+    let n = g.cells.len();
+    let counts: Vec<u32> = g.cells.iter().map(|c| c.range.count).collect();
+    let empty = counts.iter().filter(|&&k| k == 0).count();
+    let refs = g.tri_indices.len();
+    assert_eq!(
+        st.top_cells,
+        g.top_res.iter().product::<u32>() as usize,
+        "{ctx}"
+    );
+    assert_eq!(st.vmap_entries, g.vmap.len(), "{ctx}");
+    assert_eq!((st.levels, st.cells), (g.levels.len(), n), "{ctx}");
+    assert_eq!((st.empty_cells, st.references), (empty, refs), "{ctx}");
+    assert!(
+        empty > 0 && empty < n,
+        "{ctx}: a soup has empty and full cells"
+    );
+    assert_eq!(st.max_per_cell, *counts.iter().max().unwrap(), "{ctx}");
+    let bytes = g.vmap.len() * 4 + n * 32 + refs * 4;
+    assert_eq!(st.bytes, bytes, "{ctx}");
+    assert_eq!(st.bytes_per_triangle, bytes as f64 / 400.0, "{ctx}");
+    assert_eq!(
+        st.mean_per_nonempty,
+        refs as f64 / (n - empty) as f64,
+        "{ctx}"
+    );
+    let vol =
+        |lo: [u32; 3], hi: [u32; 3]| -> f64 { (0..3).map(|a| (hi[a] - lo[a]) as f64).product() };
+    let log_sum: f64 = g
+        .cells
+        .iter()
+        .map(|c| (vol(c.exit_lo, c.exit_hi) / vol(c.lo, c.hi)).ln())
+        .sum();
+    let growth = (log_sum / n as f64).exp();
+    assert!(growth > 1.0, "{ctx}: empty cells grew");
+    assert!(
+        (st.mean_growth / growth - 1.0).abs() < 1e-12,
+        "{ctx}: growth {growth}"
+    );
+    // Timings: every phase counted once, back to back, so they add up to the whole but for
+    // the moments between its first two and last two clock reads (microseconds; allowed
+    // half the build, so a test preempted there does not fail).
+    let p = &st.phases;
+    let phases = [
+        p.setup_ms,
+        p.convert_ms,
+        p.top_bin_ms,
+        p.sort_ms,
+        p.voxel_map_ms,
+        p.flatten_ms,
+        p.occupancy_ms,
+        p.grow_ms,
+        p.finish_ms,
+    ];
+    let sum: f64 = phases.iter().sum();
+    assert!(phases.iter().all(|&ms| ms >= 0.0), "{ctx}");
+    assert!(sum <= st.build_ms + 1e-9, "{ctx}: phases {sum} ms");
+    assert!(sum >= 0.5 * st.build_ms, "{ctx}: phases {sum} ms");
+    let expand = p.occupancy_ms + p.grow_ms;
+    assert!(st.expand_ms <= expand + 1e-9, "{ctx}");
+    assert!(st.expand_ms >= 0.5 * expand, "{ctx}");
 }
