@@ -124,8 +124,7 @@ impl Ctx<'_> {
         // node's surface area. Triangles larger than the children gain nothing (they are
         // in every child they cross), which keeps big or crossing triangles from splitting
         // the map down to its last level.
-        let sa = |e: DVec3| e.x * e.y + e.y * e.z + e.z * e.x;
-        let share = sa(ccs) / sa(hi64 - lo64);
+        let share = surface_share(ccs, hi64 - lo64);
         let split_cost =
             2.0 * STEP_COST + share * child_tris.iter().map(|c| c.len()).sum::<usize>() as f64;
         // And not when two or more children would each keep every triangle: then the
@@ -151,6 +150,13 @@ impl Ctx<'_> {
         };
         Node::Inner(children)
     }
+}
+
+/// The probability that a ray crossing a box of extent `node` crosses a box of extent
+/// `child` inside it: the ratio of their surface areas (half of each, which cancels).
+fn surface_share(child: DVec3, node: DVec3) -> f64 {
+    let sa = |e: DVec3| e.x * e.y + e.y * e.z + e.z * e.x;
+    sa(child) / sa(node)
 }
 
 /// A stretch of the final tables one tree is flattened into: its voxel-map blocks, cells

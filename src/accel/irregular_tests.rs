@@ -299,3 +299,21 @@ fn stats_agree_with_the_tables() {
     assert!(st.expand_ms <= expand + 1e-9, "{ctx}");
     assert!(st.expand_ms >= 0.5 * expand, "{ctx}");
 }
+
+/// The split's surface-area share worked by hand, where the axes differ (a flat node split in
+/// two axes only) and where they do not (every axis halved: a quarter, whatever the shape).
+#[test]
+fn surface_share_is_the_area_ratio() {
+    // Node 2 x 1 x 2 (area terms 2 + 2 + 4), child 1 x 1 x 1 (1 + 1 + 1).
+    assert_eq!(
+        surface_share(DVec3::ONE, DVec3::new(2.0, 1.0, 2.0)),
+        3.0 / 8.0
+    );
+    // Node 4 x 2 x 1 (8 + 2 + 4), child 2 x 2 x 1 (4 + 2 + 2).
+    assert_eq!(
+        surface_share(DVec3::new(2.0, 2.0, 1.0), DVec3::new(4.0, 2.0, 1.0)),
+        8.0 / 14.0
+    );
+    let node = DVec3::new(3.0, 5.0, 7.0);
+    assert_eq!(surface_share(0.5 * node, node), 0.25);
+}

@@ -477,3 +477,64 @@ fn lateral_cell_is_the_one_whose_crossings_bracket_the_exit() {
     // f32 4477, f64 5227 of 40,000 each).
     assert!(c32 > 1000 && c64 > 1000, "f32 {c32}, f64 {c64}");
 }
+
+/// Rays leaving an exit box exactly through an edge (two faces crossed at one parameter):
+/// the cell the walk enters lies across the face it leaves through, its lateral coordinates
+/// inside the box's range (the lateral window `exit_lo ..= exit_hi - 1`), not diagonally past
+/// the edge where the unclamped bracketing cell would be. Returns how many edges were tried.
+fn edge_exits<T: Real>(w: &IrregularWalker<'_, T>, ctx: &str) -> usize {
+    let g = w.grid;
+    // A dyadic step back from the edge, so origin and crossings are exact in `T`.
+    let s = 2f64.powi(-12);
+    let mut tried = 0;
+    for c in &g.cells {
+        if c.exit_hi[0] >= g.res[0] || c.exit_hi[1] >= g.res[1] {
+            continue;
+        }
+        let b = [0, 1].map(|a| {
+            w.crossing(&ray_of::<T>(DVec3::ZERO, DVec3::ONE, 1.0), a, c.exit_hi[a])
+                .to_f64()
+        });
+        let z = w.min[2].to_f64() + 0.5 * (c.exit_lo[2] + c.exit_hi[2]) as f64 * w.cs[2].to_f64();
+        let o = DVec3::new(b[0] - s, b[1] - s, z);
+        let ray = ray_of::<T>(o, DVec3::new(1.0, 1.0, 0.0), 1.0e30);
+        let t = w.crossing(&ray, 0, c.exit_hi[0]);
+        if ray.o[0].to_f64() != o.x
+            || ray.o[1].to_f64() != o.y
+            || w.crossing(&ray, 1, c.exit_hi[1]) != t
+        {
+            continue;
+        }
+        let (t_exit, axis) = w.exit(&ray, c, T::ZERO);
+        assert_eq!((t_exit, axis), (t, 0), "{ctx}: {c:?} o {o}");
+        let k = w.next_cell(&ray, c, t_exit, axis).expect("inside the grid");
+        assert!(
+            k[0] == c.exit_hi[0]
+                && (c.exit_lo[1]..c.exit_hi[1]).contains(&k[1])
+                && (c.exit_lo[2]..c.exit_hi[2]).contains(&k[2]),
+            "{ctx} {}: {c:?} o {o}: next cell {k:?} is not across the exit face",
+            T::NAME
+        );
+        tried += 1;
+    }
+    tried
+}
+
+#[test]
+fn next_cell_through_an_exit_box_edge_stays_across_the_face() {
+    let seed = test_seed("irregular edge exits", 0x1_77E6_0106);
+    let mut rng = Rng::new(seed);
+    let s = scene_of(&soup(&mut rng, 200));
+    let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
+    let ctx = format!("seed {seed}");
+    let n32 = edge_exits(
+        &IrregularWalker::<f32>::new(&s, &g, Techniques::default()),
+        &ctx,
+    );
+    let n64 = edge_exits(
+        &IrregularWalker::<f64>::new(&s, &g, Techniques::default()),
+        &ctx,
+    );
+    println!("edges tried: f32 {n32}, f64 {n64}");
+    assert!(n32 > 100 && n64 > 100, "{ctx}: f32 {n32}, f64 {n64} edges");
+}
