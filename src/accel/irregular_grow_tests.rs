@@ -98,6 +98,14 @@ fn inner_node_boxes(g: &IrregularGrid) -> Vec<([u32; 3], [u32; 3])> {
     out
 }
 
+/// The scenes [`box_is_empty_agrees_with_brute_force`] asks about.
+#[derive(Clone, Copy)]
+enum Kind {
+    Soup,
+    Sparse,
+    Flat,
+}
+
 /// `box_is_empty` against brute force on random boxes over random soups: a box that
 /// overlaps a cell with triangles is never empty; a box that overlaps neither such a cell
 /// nor any split node (where the query may answer "not empty" conservatively) is empty.
@@ -113,18 +121,24 @@ fn box_is_empty_agrees_with_brute_force() {
     // Dense soups, then sparse scenes: two small clusters in opposite corners of a large
     // box and a few lone triangles, so that boxes cover whole empty top cells next to cut
     // cells with triangles (what the query's shortcuts over whole top cells decide).
+    // Last, a soup squashed flat in x: one top cell across x, so the first levels split y
+    // and z only (every other scene's levels split all three axes).
     let scenes = [
-        (0.125, false),
-        (1.0, false),
-        (0.05, false),
-        (1.0, true),
-        (4.0, true),
+        (0.125, Kind::Soup),
+        (1.0, Kind::Soup),
+        (0.05, Kind::Soup),
+        (1.0, Kind::Sparse),
+        (4.0, Kind::Sparse),
+        (0.125, Kind::Flat),
     ];
-    for (round, (density, is_sparse)) in scenes.into_iter().enumerate() {
-        let tris = if is_sparse {
-            corner_clusters(&mut rng, 120, 12, 0.04)
-        } else {
-            soup(&mut rng, 200)
+    for (round, (density, kind)) in scenes.into_iter().enumerate() {
+        let tris = match kind {
+            Kind::Soup => soup(&mut rng, 200),
+            Kind::Sparse => corner_clusters(&mut rng, 120, 12, 0.04),
+            Kind::Flat => soup(&mut rng, 200)
+                .into_iter()
+                .map(|t| t.map(|v| v * glam::Vec3::new(0.03, 1.0, 1.0)))
+                .collect(),
         };
         let s = scene_of(&tris);
         let cfg = IrregularConfig {
@@ -133,6 +147,14 @@ fn box_is_empty_agrees_with_brute_force() {
         };
         let g = IrregularGrid::build(&s, &cfg).unwrap();
         let ctx = format!("seed {seed} round {round}: {}", g.stats);
+        if let Kind::Flat = kind {
+            assert!(
+                g.top_res[0] == 1 && g.levels.first().is_some_and(|m| !m[0]),
+                "{ctx}: the flat scene's first level splits x ({:?}, {:?})",
+                g.top_res,
+                g.levels
+            );
+        }
         let nodes = inner_node_boxes(&g);
         let occ = Occupancy::new(&g);
         let filled: Vec<&IrrCell> = g.cells.iter().filter(|c| c.range.count > 0).collect();
