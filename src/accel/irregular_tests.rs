@@ -295,8 +295,11 @@ fn stats_agree_with_the_tables() {
     assert!(phases.iter().all(|&ms| ms >= 0.0), "{ctx}");
     assert!(sum <= st.build_ms + 1e-9, "{ctx}: phases {sum} ms");
     assert!(sum >= 0.5 * st.build_ms, "{ctx}: phases {sum} ms");
+    // The growth's own clock starts just after the occupancy phase's and stops just before
+    // the growth phase's, and spans the gap between the two phases' clock reads: equal to
+    // their sum within microseconds.
     let expand = p.occupancy_ms + p.grow_ms;
-    assert!(st.expand_ms <= expand + 1e-9, "{ctx}");
+    assert!(st.expand_ms <= expand + 0.01, "{ctx}");
     assert!(st.expand_ms >= 0.5 * expand, "{ctx}");
 }
 
