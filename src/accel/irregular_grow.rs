@@ -178,6 +178,9 @@ pub(super) struct Occupancy {
     /// contains that cell, which the box would then overlap). So the query skips the
     /// nodes it only cuts on their empty side, with the same answer.
     tight: Vec<([u32; 3], [u32; 3])>,
+    /// Whether the tight boxes were built tree by tree in parallel (the build's layout
+    /// was recognised); false means the serial pass ran, the same tables more slowly.
+    by_tree: bool,
 }
 
 impl Occupancy {
@@ -290,6 +293,7 @@ impl Occupancy {
             dim,
             full,
             tight,
+            by_tree: laid_out,
         }
     }
 
