@@ -134,7 +134,7 @@ impl<'s> Prepared<'s> {
                 let walker = SimdWalker::new(scene, accel.as_ref(), tech);
                 let kernel = walker.isa().name();
                 let r = CpuRenderer::with_walker(scene, walker, depth, tech);
-                (Engine::Cpu32Simd(Box::new(r)), kernel)
+                (Engine::Cpu32Simd(r), kernel)
             }
         };
         Renderer {
@@ -244,8 +244,8 @@ impl<'s> Prepared<'s> {
 enum Engine<'p> {
     Cpu64(CpuRenderer<'p, f64>),
     Cpu32(CpuRenderer<'p, f32>),
-    /// The vectorised f32 path (`--cpu-path simd`), boxed: its walker carries more tables.
-    Cpu32Simd(Box<CpuRenderer<'p, f32, SimdWalker<'p>>>),
+    /// The vectorised f32 path (`--cpu-path simd`).
+    Cpu32Simd(CpuRenderer<'p, f32, SimdWalker<'p>>),
     Gl(Box<GpuScene<'p>>),
 }
 

@@ -6,7 +6,6 @@
 pub mod intersect;
 pub mod real;
 pub mod render;
-pub mod ropes;
 pub mod shade;
 pub mod simd;
 pub mod simd_step;

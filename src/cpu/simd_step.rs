@@ -15,22 +15,9 @@
 //! register instead: four dependent divisions a step, about 10% slower on the equal-work
 //! view.)
 
-use super::ropes::{self, RopedCell, NO_ROPE};
 use super::traverse::Ray;
-use super::traverse_irregular::{ExitBox, IrregularWalker};
-
-/// Where a walk goes after its current cell, as far as the step found out.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Next {
-    /// Not worked out yet (the scalar step finds it only if the walk goes on).
-    Unknown,
-    /// Into this cell (the face's rope).
-    Cell(u32),
-    /// Into the cell holding this virtual cell (found by the voxel-map lookup).
-    Virtual([u32; 3]),
-    /// Out of the grid.
-    Leaves,
-}
+use super::traverse_irregular::IrregularWalker;
+use crate::accel::irregular::IrrCell;
 
 /// What [`step8`] reads of eight walks, lane by lane and axis by axis: kept up to date by
 /// the stream as each walk starts or moves, so that its vector loads read stores made a
@@ -69,11 +56,10 @@ impl Lanes8 {
 
     /// Lane `j`'s walk is in `cell`, entered at `t_prev`.
     #[inline(always)]
-    pub fn set_cell(&mut self, j: usize, cell: &impl ExitBox, t_prev: f32) {
-        let (lo, hi) = (cell.exit_lo(), cell.exit_hi());
+    pub fn set_cell(&mut self, j: usize, cell: &IrrCell, t_prev: f32) {
         for a in 0..3 {
-            self.lo[a][j] = lo[a] as i32;
-            self.hi[a][j] = hi[a] as i32;
+            self.lo[a][j] = cell.exit_lo[a] as i32;
+            self.hi[a][j] = cell.exit_hi[a] as i32;
         }
         self.t_prev[j] = t_prev;
     }
@@ -94,8 +80,8 @@ impl Lanes8 {
 pub unsafe fn step8(
     w: &IrregularWalker<'_, f32>,
     soa: &Lanes8,
-    lanes: &[Option<(&Ray<f32>, &RopedCell)>; 8],
-) -> [(f32, usize, Next); 8] {
+    lanes: &[Option<(&Ray<f32>, &IrrCell)>; 8],
+) -> [(f32, usize, Option<[u32; 3]>); 8] {
     use std::arch::x86_64::*;
     let Lanes8 {
         o,
@@ -176,24 +162,21 @@ pub unsafe fn step8(
         _mm256_storeu_ps(kf[a].as_mut_ptr(), k);
     }
     let g = w.grid;
-    let mut out = [(0.0f32, 0usize, Next::Unknown); 8];
+    let mut out = [(0.0f32, 0usize, None); 8];
     for (j, l) in lanes.iter().enumerate() {
         let Some((ray, cell)) = l else { continue };
         let (t_exit, axis) = exit[j];
-        let rope = cell.ropes[ropes::face(axis, ray.d[axis] > 0.0)];
-        let next = if rope != NO_ROPE {
-            Next::Cell(rope)
-        } else {
-            let k = next_of(w, g, ray, cell, t_exit, axis, |a| {
+        out[j] = (
+            t_exit,
+            axis,
+            next_of(w, g, ray, cell, t_exit, axis, |a| {
                 if off[a] & (1 << j) != 0 {
                     None
                 } else {
                     Some(kf[a][j] as u32)
                 }
-            });
-            k.map_or(Next::Leaves, Next::Virtual)
-        };
-        out[j] = (t_exit, axis, next);
+            }),
+        );
     }
     out
 }
@@ -207,7 +190,7 @@ fn next_of(
     w: &IrregularWalker<'_, f32>,
     g: &crate::accel::irregular::IrregularGrid,
     ray: &Ray<f32>,
-    cell: &RopedCell,
+    cell: &IrrCell,
     t_exit: f32,
     axis: usize,
     vector: impl Fn(usize) -> Option<u32>,

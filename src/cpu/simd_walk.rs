@@ -10,27 +10,21 @@
 //! every query with the scalar walk on random soups, and whole renders of every shipped
 //! scene image for image (`tests/cpu_simd.rs`).
 //!
-//! On the irregular grid the streams step through a compact copy of the cells with each
-//! exit-box face's neighbour where it is one cell (`cpu/ropes.rs`): the same next cell as
-//! the voxel-map lookup, found in the cache line the step reads anyway. The next cells of
-//! all eight lanes are found (rope or lookup) and their records prefetched right after the
-//! vector step, before any lane's triangles are tested.
-//!
 //! Möller-Trumbore (`--intersect moller-trumbore`) has no vector kernel: with it, and on
 //! CPUs without SSE2 (not x86-64), the walker runs the scalar per-cell step and reports
 //! [`Isa::Scalar`].
 
 use super::intersect::RayShear;
 use super::real::{Real, V3};
-use super::ropes::{self, RopedCell, NO_ROPE};
 use super::simd::{self, Best, Isa, RayConsts};
 #[cfg(target_arch = "x86_64")]
 use super::simd_step;
-use super::simd_step::{Lanes8, Next};
+use super::simd_step::Lanes8;
 use super::soa::SoaTris;
 use super::traverse::{scalar_any_hit, scalar_closest_hit, CellWalk, Hit, Ray, Work};
 use super::traverse_irregular::{IrregularWalker, WalkState};
 use super::walker::Walker;
+use crate::accel::irregular::IrrCell;
 use crate::accel::{AccelRef, CellRange};
 use crate::scene::Scene;
 use crate::technique::{IntersectMethod, TBound, Techniques};
@@ -40,9 +34,6 @@ pub struct SimdWalker<'a> {
     walker: Walker<'a, f32>,
     soa: SoaTris,
     isa: Isa,
-    /// On the irregular grid with a vector kernel, each cell's exit box, triangles and
-    /// ropes in one cache line (`cpu/ropes.rs`), what the streams step through.
-    cells: Vec<RopedCell>,
 }
 
 impl<'a> SimdWalker<'a> {
@@ -70,16 +61,7 @@ impl<'a> SimdWalker<'a> {
         } else {
             SoaTris::new(walker.tris(), walker.list())
         };
-        let cells = match &walker {
-            Walker::Irregular(w) if isa != Isa::Scalar => ropes::build(w.grid),
-            _ => Vec::new(),
-        };
-        SimdWalker {
-            walker,
-            soa,
-            isa,
-            cells,
-        }
+        SimdWalker { walker, soa, isa }
     }
 
     /// The kernel the queries run.
@@ -307,17 +289,17 @@ impl SimdWalker<'_> {
         let mut soa = Lanes8::default();
         for (j, slot) in lanes.iter_mut().enumerate() {
             *slot = self.lane(w, rays, &mut next);
-            sync::<VSTEP>(&mut soa, j, &self.cells, rays, slot, true);
+            sync::<VSTEP>(&mut soa, j, w, rays, slot, true);
         }
         let mut active = lanes.iter().filter(|l| l.is_some()).count();
         while active > 0 {
-            let steps = step_lanes::<VSTEP>(w, &self.cells, rays, &lanes, &soa);
+            let steps = step_lanes::<VSTEP>(w, rays, &lanes, &soa);
             for (j, (slot, &(t_exit, axis, k))) in lanes.iter_mut().zip(&steps).enumerate() {
                 let Some(l) = slot else { continue };
                 let ray = &rays[l.i];
                 let wk = &mut work[l.i];
                 wk.cells += 1;
-                let cell = &self.cells[l.st.id as usize];
+                let cell = &w.grid.cells[l.st.id as usize];
                 wk.tests += cell.range.count as u64;
                 let done = match self.cell_closest(&l.rc, cell.range, t_exit) {
                     Some(h) => {
@@ -325,14 +307,14 @@ impl SimdWalker<'_> {
                         true
                     }
                     None => {
-                        let more = advance(w, ray, &mut l.st, cell, t_exit, axis, k);
-                        sync::<VSTEP>(&mut soa, j, &self.cells, rays, slot, false);
+                        let more = advance::<VSTEP>(w, ray, &mut l.st, cell, t_exit, axis, k);
+                        sync::<VSTEP>(&mut soa, j, w, rays, slot, false);
                         !more
                     }
                 };
                 if done {
                     *slot = self.lane(w, rays, &mut next);
-                    sync::<VSTEP>(&mut soa, j, &self.cells, rays, slot, true);
+                    sync::<VSTEP>(&mut soa, j, w, rays, slot, true);
                     if slot.is_none() {
                         active -= 1;
                     }
@@ -388,27 +370,27 @@ impl SimdWalker<'_> {
         let mut soa = Lanes8::default();
         for (j, slot) in lanes.iter_mut().enumerate() {
             *slot = self.lane(w, rays, &mut next);
-            sync::<VSTEP>(&mut soa, j, &self.cells, rays, slot, true);
+            sync::<VSTEP>(&mut soa, j, w, rays, slot, true);
         }
         let mut active = lanes.iter().filter(|l| l.is_some()).count();
         while active > 0 {
-            let steps = step_lanes::<VSTEP>(w, &self.cells, rays, &lanes, &soa);
+            let steps = step_lanes::<VSTEP>(w, rays, &lanes, &soa);
             for (j, (slot, &(t_exit, axis, k))) in lanes.iter_mut().zip(&steps).enumerate() {
                 let Some(l) = slot else { continue };
                 let ray = &rays[l.i];
                 work.cells += 1;
-                let cell = &self.cells[l.st.id as usize];
+                let cell = &w.grid.cells[l.st.id as usize];
                 let done = if self.cell_any(&l.rc, cell.range, &mut work.tests) {
                     hit[l.i] = true;
                     true
                 } else {
-                    let more = advance(w, ray, &mut l.st, cell, t_exit, axis, k);
-                    sync::<VSTEP>(&mut soa, j, &self.cells, rays, slot, false);
+                    let more = advance::<VSTEP>(w, ray, &mut l.st, cell, t_exit, axis, k);
+                    sync::<VSTEP>(&mut soa, j, w, rays, slot, false);
                     !more
                 };
                 if done {
                     *slot = self.lane(w, rays, &mut next);
-                    sync::<VSTEP>(&mut soa, j, &self.cells, rays, slot, true);
+                    sync::<VSTEP>(&mut soa, j, w, rays, slot, true);
                     if slot.is_none() {
                         active -= 1;
                     }
@@ -419,49 +401,31 @@ impl SimdWalker<'_> {
 }
 
 /// One step of every lane of a stream: the exit of its cell (t_exit, axis) and, with
-/// `VSTEP`, where the walk goes next already (`simd_step::step8`, eight rays in the lanes
-/// of AVX2 registers); without, [`Next::Unknown`], and [`advance`] finds it only when the
-/// walk goes on, as the scalar walk does. An idle lane's entry is meaningless.
+/// `VSTEP`, the next virtual cell already (`simd_step::step8`, eight rays in the lanes of
+/// AVX2 registers); without, `None`, and [`advance`] finds it only when the walk goes on, as
+/// the scalar walk does. An idle lane's entry is meaningless.
 #[inline(always)]
 fn step_lanes<const VSTEP: bool>(
     w: &IrregularWalker<'_, f32>,
-    cells: &[RopedCell],
     rays: &[Ray<f32>],
     lanes: &[Option<Lane>; STREAM],
     soa: &Lanes8,
-) -> [(f32, usize, Next); STREAM] {
-    let cell = |l: &Lane| &cells[l.st.id as usize];
+) -> [(f32, usize, Option<[u32; 3]>); STREAM] {
+    let cell = |l: &Lane| &w.grid.cells[l.st.id as usize];
     #[cfg(target_arch = "x86_64")]
     if VSTEP {
         let args = lanes
             .each_ref()
             .map(|l| l.as_ref().map(|l| (&rays[l.i], cell(l))));
         // SAFETY: `VSTEP` is set only in the AVX2 streams, run where AVX2 was detected.
-        let mut steps = unsafe { simd_step::step8(w, soa, &args) };
-        // Every lane's next cell looked up and its record fetched now, all lanes at once,
-        // so that the loads overlap one another and the triangle tests of the current cells
-        // instead of stalling each lane in turn where it moves on (a lane that stops here
-        // wasted one lookup).
-        for (_, _, next) in steps.iter_mut() {
-            if let Next::Virtual(k) = *next {
-                *next = Next::Cell(w.grid.lookup(k));
-            }
-            if let Next::Cell(id) = *next {
-                // SAFETY: prefetching reads nothing; the address is in bounds.
-                unsafe {
-                    use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                    _mm_prefetch::<_MM_HINT_T0>(cells.as_ptr().add(id as usize).cast());
-                }
-            }
-        }
-        return steps;
+        return unsafe { simd_step::step8(w, soa, &args) };
     }
     lanes.each_ref().map(|l| match l {
         Some(l) => {
             let (t_exit, axis) = w.exit(&rays[l.i], cell(l), l.st.t_prev);
-            (t_exit, axis, Next::Unknown)
+            (t_exit, axis, None)
         }
-        None => (0.0, 0, Next::Unknown),
+        None => (0.0, 0, None),
     })
 }
 
@@ -471,7 +435,7 @@ fn step_lanes<const VSTEP: bool>(
 fn sync<const VSTEP: bool>(
     soa: &mut Lanes8,
     j: usize,
-    cells: &[RopedCell],
+    w: &IrregularWalker<'_, f32>,
     rays: &[Ray<f32>],
     slot: &Option<Lane>,
     new: bool,
@@ -484,39 +448,31 @@ fn sync<const VSTEP: bool>(
         soa.set_ray(j, &rays[l.i]);
     }
     // A walk that ended keeps its last cell: the lane idles until refilled.
-    if let Some(cell) = cells.get(l.st.id as usize) {
+    if let Some(cell) = w.grid.cells.get(l.st.id as usize) {
         soa.set_cell(j, cell, l.st.t_prev);
     }
 }
 
-/// [`IrregularWalker::advance`] from `cell`, left at `t_exit` through `axis`, to where
-/// [`step_lanes`] found the walk goes (`next`), or, where it did not look, through the
-/// face's rope (the cell the lookup would find) or the scalar step.
+/// [`IrregularWalker::advance`] with the next cell `k` of [`step_lanes`] where it gave one.
 #[inline(always)]
-fn advance(
+fn advance<const VSTEP: bool>(
     w: &IrregularWalker<'_, f32>,
     ray: &Ray<f32>,
     st: &mut WalkState<f32>,
-    cell: &RopedCell,
+    cell: &IrrCell,
     t_exit: f32,
     axis: usize,
-    next: Next,
+    k: Option<[u32; 3]>,
 ) -> bool {
+    if !VSTEP {
+        return w.advance(ray, st, cell, t_exit, axis);
+    }
     if t_exit >= st.t_leave {
         return false;
     }
-    match next {
-        Next::Cell(id) => w.enter_cell(st, id, t_exit),
-        Next::Virtual(k) => w.enter(st, k, t_exit),
-        Next::Leaves => false,
-        Next::Unknown => {
-            let rope = cell.ropes[ropes::face(axis, ray.d[axis] > 0.0)];
-            if rope != NO_ROPE {
-                w.enter_cell(st, rope, t_exit)
-            } else {
-                w.advance(ray, st, cell, t_exit, axis)
-            }
-        }
+    match k {
+        Some(k) => w.enter(st, k, t_exit),
+        None => false,
     }
 }
 

@@ -22,26 +22,6 @@ use crate::accel::CellRange;
 use crate::scene::Scene;
 use crate::technique::Techniques;
 
-/// What a step reads of a cell: its exit box. The grid's own [`IrrCell`] and the
-/// vectorised walk's compact record (`cpu/ropes.rs`) both give it.
-pub trait ExitBox {
-    /// Lower corner of the exit box (virtual coordinates).
-    fn exit_lo(&self) -> [u32; 3];
-    /// Upper corner (exclusive) of the exit box.
-    fn exit_hi(&self) -> [u32; 3];
-}
-
-impl ExitBox for IrrCell {
-    #[inline(always)]
-    fn exit_lo(&self) -> [u32; 3] {
-        self.exit_lo
-    }
-    #[inline(always)]
-    fn exit_hi(&self) -> [u32; 3] {
-        self.exit_hi
-    }
-}
-
 /// Most steps of one walk: a safety net, never reached by a walk that makes progress (each
 /// step leaves an exit box for a cell beyond its face).
 pub const MAX_STEPS: u64 = 1 << 20;
@@ -141,14 +121,17 @@ impl<'a, T: Real> IrregularWalker<'a, T> {
     /// missed triangles (hard case 08/09). With the bracketed start and lateral choices
     /// no such face arises in IEEE arithmetic, so the CPU's walk is the same either way.
     #[inline(always)]
-    pub fn exit(&self, ray: &Ray<T>, cell: &impl ExitBox, t_prev: T) -> (T, usize) {
-        let (lo, hi) = (cell.exit_lo(), cell.exit_hi());
+    pub fn exit(&self, ray: &Ray<T>, cell: &IrrCell, t_prev: T) -> (T, usize) {
         let tn = [0, 1, 2].map(|a| {
             let d = ray.d[a];
             if d == T::ZERO {
                 return T::BIG;
             }
-            let k = if d > T::ZERO { hi[a] } else { lo[a] };
+            let k = if d > T::ZERO {
+                cell.exit_hi[a]
+            } else {
+                cell.exit_lo[a]
+            };
             let t = (self.min[a] + T::from_f32(k as f32) * self.cs[a] - ray.o[a]) / d;
             if t < t_prev {
                 t_prev
@@ -239,7 +222,7 @@ impl<T: Real> IrregularWalker<'_, T> {
         &self,
         ray: &Ray<T>,
         st: &mut WalkState<T>,
-        cell: &impl ExitBox,
+        cell: &IrrCell,
         t_exit: T,
         axis: usize,
     ) -> bool {
@@ -258,26 +241,25 @@ impl<T: Real> IrregularWalker<'_, T> {
     pub fn next_cell(
         &self,
         ray: &Ray<T>,
-        cell: &impl ExitBox,
+        cell: &IrrCell,
         t_exit: T,
         axis: usize,
     ) -> Option<[u32; 3]> {
         let g = self.grid;
-        let (lo, hi) = (cell.exit_lo(), cell.exit_hi());
         let mut k = [0u32; 3];
         for (a, ka) in k.iter_mut().enumerate() {
             *ka = if a != axis {
-                self.lateral(ray, t_exit, a, lo[a], hi[a] - 1)
+                self.lateral(ray, t_exit, a, cell.exit_lo[a], cell.exit_hi[a] - 1)
             } else if ray.d[a] > T::ZERO {
-                if hi[a] >= g.res[a] {
+                if cell.exit_hi[a] >= g.res[a] {
                     return None;
                 }
-                hi[a]
+                cell.exit_hi[a]
             } else {
-                if lo[a] == 0 {
+                if cell.exit_lo[a] == 0 {
                     return None;
                 }
-                lo[a] - 1
+                cell.exit_lo[a] - 1
             };
         }
         Some(k)
@@ -287,13 +269,7 @@ impl<T: Real> IrregularWalker<'_, T> {
     /// once [`MAX_STEPS`] are taken.
     #[inline(always)]
     pub fn enter(&self, st: &mut WalkState<T>, k: [u32; 3], t_exit: T) -> bool {
-        self.enter_cell(st, self.grid.lookup(k), t_exit)
-    }
-
-    /// [`IrregularWalker::enter`] with the cell already known (`id`).
-    #[inline(always)]
-    pub fn enter_cell(&self, st: &mut WalkState<T>, id: u32, t_exit: T) -> bool {
-        st.id = id;
+        st.id = self.grid.lookup(k);
         st.t_prev = t_exit;
         st.steps += 1;
         st.steps < MAX_STEPS
