@@ -268,8 +268,9 @@ fn box_is_empty_agrees_with_brute_force() {
          cutting split nodes, {covers} covering one whole, {ends_in_cut} ending in a partial \
          top cell past empty whole ones"
     );
+    // Boxes cutting split nodes are the rarest kind: 112-206 over six seeds tried.
     assert!(
-        full > 1000 && free > 300 && cut > 100 && ends_in_cut > 100,
+        full > 1000 && free > 300 && cut > 50 && ends_in_cut > 100,
         "{full} {free} {cut} {covers} {ends_in_cut}"
     );
 }
