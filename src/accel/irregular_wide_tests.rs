@@ -16,14 +16,30 @@ fn every_cell_maps_to_itself_at_every_hop_width() {
     let seed = test_seed("irregular wide map", 0x1_77E6_0005);
     let mut rng = Rng::new(seed);
     let mut deepest = 0;
-    for (round, (density, is_sparse)) in [(0.125, false), (1.0, false), (1.0, true), (4.0, true)]
-        .into_iter()
-        .enumerate()
+    // Last, soups squashed flat in x, then in x and y: levels of two splits and of one,
+    // which hops of a few bits group otherwise than levels of three.
+    let flat = [
+        glam::Vec3::new(0.03, 1.0, 1.0),
+        glam::Vec3::new(0.03, 0.03, 1.0),
+    ];
+    for (round, (density, kind)) in [
+        (0.125, 0),
+        (1.0, 0),
+        (1.0, 1),
+        (4.0, 1),
+        (0.125, 2),
+        (0.125, 3),
+    ]
+    .into_iter()
+    .enumerate()
     {
-        let tris = if is_sparse {
-            corner_clusters(&mut rng, 150, 10, 0.02)
-        } else {
-            soup(&mut rng, 300)
+        let tris = match kind {
+            0 => soup(&mut rng, 300),
+            1 => corner_clusters(&mut rng, 150, 10, 0.02),
+            k => soup(&mut rng, 300)
+                .into_iter()
+                .map(|t| t.map(|v| v * flat[k - 2]))
+                .collect(),
         };
         let g = IrregularGrid::build(
             &scene_of(&tris),
@@ -48,7 +64,40 @@ fn every_cell_maps_to_itself_at_every_hop_width() {
             .collect();
         let mut fewer = 0u64;
         for bits in 1..=MAX_HOP_BITS {
+            // The hops group the levels in order, greedily, each of at most `bits` splits
+            // unless one level alone has more.
+            let level_bits = |l: usize| g.levels[l].iter().filter(|&&m| m).count() as u32;
+            let sp = spans(&g, bits);
+            let mut next = 0;
+            for (i, &(first, end, n)) in sp.iter().enumerate() {
+                assert!(
+                    first == next && end > first,
+                    "{ctx}: {bits} bits, spans {sp:?}"
+                );
+                let want = (first..end).fold([0; 3], |s, l| {
+                    [0, 1, 2].map(|a| s[a] + u32::from(g.levels[l][a]))
+                });
+                assert_eq!(n, want, "{ctx}: {bits} bits, span {i} of {sp:?}");
+                let sum: u32 = n.iter().sum();
+                assert!(
+                    sum <= bits || end == first + 1,
+                    "{ctx}: {bits} bits, span {i} of {sp:?} too wide"
+                );
+                if let Some(&(f, _, _)) = sp.get(i + 1) {
+                    assert!(
+                        sum + level_bits(f) > bits,
+                        "{ctx}: {bits} bits, span {i} of {sp:?} could take level {f}"
+                    );
+                }
+                next = end;
+            }
+            assert_eq!(next, g.levels.len(), "{ctx}: {bits} bits, spans {sp:?}");
             let w = with_threads(1, || WideMap::build(&g, bits));
+            assert_eq!(
+                w.hops,
+                sp.iter().map(|s| s.2).collect::<Vec<_>>(),
+                "{ctx}: {bits} bits"
+            );
             assert_eq!(
                 with_threads(4, || WideMap::build(&g, bits)),
                 w,
