@@ -195,6 +195,13 @@ impl RenderOptions {
                 self.max_depth
             )));
         }
+        if self.backend == Backend::Gl && !self.accel.on_gpu() {
+            return Err(Error::Usage(format!(
+                "--accel {} is walked on the CPU backend only: add --backend cpu, or take \
+                 --accel irregular for the GPU",
+                self.accel.name()
+            )));
+        }
         Ok(())
     }
 }
@@ -432,6 +439,11 @@ impl RenderArgs {
             match args.accel {
                 AccelKind::Uniform => grid.density = d,
                 AccelKind::Irregular => opts.irregular.top_density = d,
+                AccelKind::Bvh => {
+                    return Err(Error::Usage(
+                        "--grid-density sets a grid's cells; the BVH has none".into(),
+                    ))
+                }
             }
         }
         if args.accel != AccelKind::Uniform && args.grid != GridRes::Auto {

@@ -9,8 +9,11 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::accel::{Accel, AccelSummary};
+use crate::accel::{AccelRef, GridRef};
+use crate::cpu::simd::Isa;
 use crate::cpu::simd_walk::SimdWalker;
-use crate::cpu::traverse::CellWalk;
+use crate::cpu::traverse::Trace;
+use crate::cpu::traverse_bvh::BvhWalker;
 use crate::cpu::CpuRenderer;
 use crate::gpu::render::ImageRequest;
 use crate::gpu::{self, GlContext, GlInfo, GpuScene};
@@ -119,22 +122,28 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
 impl<'s> Prepared<'s> {
     /// A renderer of this scene on the CPU.
     pub fn cpu_renderer(&self, opts: &RenderOptions) -> Renderer<'_> {
-        let (scene, accel, depth, tech) =
-            (self.scene, &self.accel, opts.max_depth, opts.techniques);
-        let (engine, kernel) = match (opts.precision, opts.cpu_path) {
-            (Precision::F64, _) => (
-                Engine::Cpu64(CpuRenderer::new(scene, accel, depth, tech)),
-                "scalar",
-            ),
-            (Precision::F32, CpuPath::Scalar) => (
-                Engine::Cpu32(CpuRenderer::new(scene, accel, depth, tech)),
-                "scalar",
-            ),
-            (Precision::F32, CpuPath::Simd) => {
-                let walker = SimdWalker::new(scene, accel.as_ref(), tech);
+        let (scene, depth, tech) = (self.scene, opts.max_depth, opts.techniques);
+        let (engine, kernel) = match (self.accel.as_ref(), opts.precision, opts.cpu_path) {
+            (AccelRef::Bvh(b), Precision::F64, _) => {
+                let walker = BvhWalker::new(scene, b, tech);
+                let r = CpuRenderer::with_walker(scene, walker, depth, tech);
+                (Engine::Cpu64Bvh(r), "scalar")
+            }
+            (AccelRef::Bvh(b), Precision::F32, path) => {
+                let isa = match path {
+                    CpuPath::Scalar => Isa::Scalar,
+                    CpuPath::Simd => Isa::detect(),
+                };
+                let walker = BvhWalker::vectorised(scene, b, tech, isa);
                 let kernel = walker.isa().name();
                 let r = CpuRenderer::with_walker(scene, walker, depth, tech);
-                (Engine::Cpu32Simd(r), kernel)
+                (Engine::Cpu32Bvh(r), kernel)
+            }
+            (AccelRef::Uniform(g), precision, path) => {
+                grid_engine(scene, g.into(), opts, precision, path)
+            }
+            (AccelRef::Irregular(g), precision, path) => {
+                grid_engine(scene, g.into(), opts, precision, path)
             }
         };
         Renderer {
@@ -240,12 +249,44 @@ impl<'s> Prepared<'s> {
     }
 }
 
+/// The CPU engine over a grid in `precision` by `path`, and the name of its triangle
+/// kernel.
+fn grid_engine<'p>(
+    scene: &'p Scene,
+    grid: GridRef<'p>,
+    opts: &RenderOptions,
+    precision: Precision,
+    path: CpuPath,
+) -> (Engine<'p>, &'static str) {
+    let (depth, tech) = (opts.max_depth, opts.techniques);
+    match (precision, path) {
+        (Precision::F64, _) => (
+            Engine::Cpu64(CpuRenderer::new(scene, grid, depth, tech)),
+            "scalar",
+        ),
+        (Precision::F32, CpuPath::Scalar) => (
+            Engine::Cpu32(CpuRenderer::new(scene, grid, depth, tech)),
+            "scalar",
+        ),
+        (Precision::F32, CpuPath::Simd) => {
+            let walker = SimdWalker::new(scene, grid, tech);
+            let kernel = walker.isa().name();
+            let r = CpuRenderer::with_walker(scene, walker, depth, tech);
+            (Engine::Cpu32Simd(r), kernel)
+        }
+    }
+}
+
 /// The backend a [`Renderer`] keeps between frames.
 enum Engine<'p> {
     Cpu64(CpuRenderer<'p, f64>),
     Cpu32(CpuRenderer<'p, f32>),
     /// The vectorised f32 path (`--cpu-path simd`).
     Cpu32Simd(CpuRenderer<'p, f32, SimdWalker<'p>>),
+    /// The BVH's walk in f64.
+    Cpu64Bvh(CpuRenderer<'p, f64, BvhWalker<'p, f64>>),
+    /// The BVH's walk in f32 (scalar or vectorised, as `--cpu-path` says).
+    Cpu32Bvh(CpuRenderer<'p, f32, BvhWalker<'p, f32>>),
     Gl(Box<GpuScene<'p>>),
 }
 
@@ -296,6 +337,14 @@ impl Renderer<'_> {
                 r.set_camera(*camera);
                 (cpu_frame(r, opts), "cpu", "f32")
             }
+            Engine::Cpu64Bvh(r) => {
+                r.set_camera(*camera);
+                (cpu_frame(r, opts), "cpu", "f64")
+            }
+            Engine::Cpu32Bvh(r) => {
+                r.set_camera(*camera);
+                (cpu_frame(r, opts), "cpu", "f32")
+            }
             Engine::Gl(gs) => {
                 let req = self.prepared.request(opts, camera);
                 (gpu::render::render(gs, &req, None)?, "gl", "f32")
@@ -316,14 +365,18 @@ impl Renderer<'_> {
     pub fn gpu_scene(&self) -> Option<&GpuScene<'_>> {
         match &self.engine {
             Engine::Gl(gs) => Some(gs),
-            Engine::Cpu64(_) | Engine::Cpu32(_) | Engine::Cpu32Simd(_) => None,
+            Engine::Cpu64(_)
+            | Engine::Cpu32(_)
+            | Engine::Cpu32Simd(_)
+            | Engine::Cpu64Bvh(_)
+            | Engine::Cpu32Bvh(_) => None,
         }
     }
 }
 
 /// One CPU frame (of the region's pixels, or the whole image's) with a progress bar over
 /// its rows.
-fn cpu_frame<T: crate::cpu::real::Real, W: CellWalk<T> + Sync>(
+fn cpu_frame<T: crate::cpu::real::Real, W: Trace<T>>(
     r: &CpuRenderer<'_, T, W>,
     opts: &RenderOptions,
 ) -> BackendOutput {
@@ -375,6 +428,15 @@ pub fn context_for(opts: &RenderOptions, notices: bool) -> Result<Option<GlConte
     match opts.backend {
         Backend::Cpu => Ok(None),
         Backend::Gl => GlContext::on_device(opts.device).map(Some),
+        Backend::Auto if !opts.accel.on_gpu() => {
+            if notices {
+                eprintln!(
+                    "fragtrace: notice: using the CPU backend: --accel {} is walked on the CPU only",
+                    opts.accel.name()
+                );
+            }
+            Ok(None)
+        }
         Backend::Auto => {
             let why = match GlContext::on_device(opts.device) {
                 Ok(ctx) => match auto_declines(&ctx.info) {

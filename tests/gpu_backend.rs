@@ -476,7 +476,7 @@ fn gpu_trace_rays_equal_cpu_f32_traversal() {
             &IrregularConfig::default(),
         )
         .unwrap();
-        let accel = Walker::<f32>::new(&scene, built.as_ref(), Default::default());
+        let accel = Walker::<f32>::new(&scene, built.as_ref().grid().unwrap(), Default::default());
         let (closest, any) = with_test_context(|ctx| {
             (
                 trace_rays(

@@ -429,7 +429,7 @@ fn agree<T: Real>(
     rays: &[([f64; 3], [f64; 3])],
     tally: &mut Tally,
 ) -> Result<(), TestCaseError> {
-    let accel = Walker::<T>::new(s, grid, Default::default());
+    let accel = Walker::<T>::new(s, grid.grid().unwrap(), Default::default());
     // Brute force over every triangle, whichever walker holds them (the same function).
     let brute = |ray: &Ray<T>| accel.brute_force(ray);
     for (o, d) in rays {

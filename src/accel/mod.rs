@@ -1,13 +1,15 @@
 //! Acceleration structures over the scene's triangles, built on the CPU and walked one
 //! step at a time by every backend: the thesis's uniform grid ([`grid`], a 3D-DDA) and the
 //! irregular grid ([`irregular`], adaptive cells with exit boxes), chosen with `--accel`
-//! ([`AccelKind`]). (The two-level grid they were measured against was removed; see
-//! docs/architecture.md.)
+//! ([`AccelKind`]); and for the CPU backend alone a bounding volume hierarchy ([`bvh`], the
+//! structure CPU ray tracers such as Embree use, walked with a stack, no GLSL twin). (The
+//! two-level grid they were measured against was removed; see docs/architecture.md.)
 //!
 //! [`binning`] bins triangles into a level's cells conservatively; [`tribox`] holds the
 //! exact triangle/box overlap test the binning relies on.
 
 pub mod binning;
+pub mod bvh;
 pub mod grid;
 pub mod irregular;
 mod irregular_build;
@@ -25,6 +27,7 @@ pub use grid::{CellRange, Grid, GridConfig, GridRes, GridStats};
 /// prelude gets it as `TIE_EPS`.
 pub const TIE_EPS: f64 = 1.0 / 524_288.0;
 
+pub use bvh::Bvh;
 pub use irregular::{IrregularConfig, IrregularGrid};
 
 use crate::scene::Scene;
@@ -40,6 +43,9 @@ pub enum AccelKind {
     /// exit boxes grown over empty space, walked one cell at a time.
     #[default]
     Irregular,
+    /// A 4-wide bounding volume hierarchy (binned SAH build), walked with a stack: the CPU
+    /// backend's fastest structure; the GPU backend does not walk it.
+    Bvh,
 }
 
 impl AccelKind {
@@ -48,6 +54,15 @@ impl AccelKind {
         match self {
             AccelKind::Uniform => "uniform",
             AccelKind::Irregular => "irregular",
+            AccelKind::Bvh => "bvh",
+        }
+    }
+
+    /// Whether the GPU backend walks this structure (the grids; not the BVH).
+    pub fn on_gpu(self) -> bool {
+        match self {
+            AccelKind::Uniform | AccelKind::Irregular => true,
+            AccelKind::Bvh => false,
         }
     }
 }
@@ -59,6 +74,8 @@ pub enum Accel {
     Uniform(Grid),
     /// Irregular grid.
     Irregular(IrregularGrid),
+    /// Bounding volume hierarchy (CPU only).
+    Bvh(Bvh),
 }
 
 /// A borrowed acceleration structure: what renderers take, so that a `&Grid` or a
@@ -69,6 +86,8 @@ pub enum AccelRef<'a> {
     Uniform(&'a Grid),
     /// Irregular grid.
     Irregular(&'a IrregularGrid),
+    /// Bounding volume hierarchy (CPU only).
+    Bvh(&'a Bvh),
 }
 
 impl<'a> From<&'a Grid> for AccelRef<'a> {
@@ -83,11 +102,64 @@ impl<'a> From<&'a IrregularGrid> for AccelRef<'a> {
     }
 }
 
+impl<'a> From<&'a Bvh> for AccelRef<'a> {
+    fn from(b: &'a Bvh) -> Self {
+        AccelRef::Bvh(b)
+    }
+}
+
 impl<'a> From<&'a Accel> for AccelRef<'a> {
     fn from(a: &'a Accel) -> Self {
         match a {
             Accel::Uniform(g) => AccelRef::Uniform(g),
             Accel::Irregular(g) => AccelRef::Irregular(g),
+            Accel::Bvh(b) => AccelRef::Bvh(b),
+        }
+    }
+}
+
+/// A borrowed grid: the structures the GPU backend and the grids' CPU walkers
+/// ([`Walker`](crate::cpu::walker::Walker)) step through cell by cell.
+#[derive(Clone, Copy, Debug)]
+pub enum GridRef<'a> {
+    /// Uniform grid.
+    Uniform(&'a Grid),
+    /// Irregular grid.
+    Irregular(&'a IrregularGrid),
+}
+
+impl<'a> From<&'a Grid> for GridRef<'a> {
+    fn from(g: &'a Grid) -> Self {
+        GridRef::Uniform(g)
+    }
+}
+
+impl<'a> From<&'a IrregularGrid> for GridRef<'a> {
+    fn from(g: &'a IrregularGrid) -> Self {
+        GridRef::Irregular(g)
+    }
+}
+
+impl<'a> From<GridRef<'a>> for AccelRef<'a> {
+    fn from(g: GridRef<'a>) -> Self {
+        match g {
+            GridRef::Uniform(g) => AccelRef::Uniform(g),
+            GridRef::Irregular(g) => AccelRef::Irregular(g),
+        }
+    }
+}
+
+impl<'a> GridRef<'a> {
+    /// Which structure this is.
+    pub fn kind(&self) -> AccelKind {
+        AccelRef::from(*self).kind()
+    }
+
+    /// The triangle-index list the cells' ranges point into.
+    pub fn tri_indices(&self) -> &'a [u32] {
+        match self {
+            GridRef::Uniform(g) => &g.tri_indices,
+            GridRef::Irregular(g) => &g.tri_indices,
         }
     }
 }
@@ -97,7 +169,8 @@ impl<'a> From<&'a Accel> for AccelRef<'a> {
 pub struct AccelSummary {
     /// Which structure.
     pub kind: AccelKind,
-    /// Cells per axis: the uniform grid's, or the irregular grid's virtual resolution.
+    /// Cells per axis: the uniform grid's, or the irregular grid's virtual resolution
+    /// (zeros for the BVH, which has no cells).
     pub resolution: [u32; 3],
     /// Top cells per axis (irregular grid only).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -108,7 +181,7 @@ pub struct AccelSummary {
     pub bytes: usize,
     /// `bytes / triangles` (0 for an empty scene).
     pub bytes_per_triangle: f64,
-    /// Cells.
+    /// Cells (the BVH: its nodes).
     pub cells: usize,
     /// Cells with no triangle.
     pub empty_cells: usize,
@@ -120,7 +193,7 @@ pub struct AccelSummary {
 
 impl Accel {
     /// Builds the structure `kind` for `scene`, with `grid` for the uniform grid and
-    /// `irregular` for the irregular one.
+    /// `irregular` for the irregular one (the BVH has no settings).
     pub fn build(
         scene: &Scene,
         kind: AccelKind,
@@ -130,6 +203,7 @@ impl Accel {
         Ok(match kind {
             AccelKind::Uniform => Accel::Uniform(Grid::build(scene, grid)?),
             AccelKind::Irregular => Accel::Irregular(IrregularGrid::build(scene, irregular)?),
+            AccelKind::Bvh => Accel::Bvh(Bvh::build(scene)?),
         })
     }
 
@@ -150,17 +224,33 @@ impl AccelSummary {
             (AccelKind::Irregular, Some([tx, ty, tz])) => {
                 format!("irregular grid (top {tx}x{ty}x{tz}, {} cells)", self.cells)
             }
+            (AccelKind::Bvh, _) => format!("4-wide BVH ({} nodes)", self.cells),
             _ => format!("{} grid {x}x{y}x{z}", self.kind.name()),
         }
     }
 }
 
-impl AccelRef<'_> {
+impl<'a> AccelRef<'a> {
+    /// The grid this is, or the error saying a walk of cells (the GPU backend) cannot take
+    /// the BVH.
+    pub fn grid(self) -> Result<GridRef<'a>> {
+        match self {
+            AccelRef::Uniform(g) => Ok(GridRef::Uniform(g)),
+            AccelRef::Irregular(g) => Ok(GridRef::Irregular(g)),
+            AccelRef::Bvh(_) => Err(crate::Error::Usage(
+                "--accel bvh is walked on the CPU backend only: the GPU walks the grids \
+                 (--accel irregular or uniform)"
+                    .into(),
+            )),
+        }
+    }
+
     /// Which structure this is.
     pub fn kind(&self) -> AccelKind {
         match self {
             AccelRef::Uniform(_) => AccelKind::Uniform,
             AccelRef::Irregular(_) => AccelKind::Irregular,
+            AccelRef::Bvh(_) => AccelKind::Bvh,
         }
     }
 
@@ -197,6 +287,18 @@ impl AccelRef<'_> {
                 empty_cells: g.stats.empty_cells,
                 references: g.stats.references,
                 detail: g.stats.to_string(),
+            },
+            AccelRef::Bvh(b) => AccelSummary {
+                kind: AccelKind::Bvh,
+                resolution: [0; 3],
+                top_resolution: None,
+                build_ms: b.stats.build_ms,
+                bytes: b.stats.bytes,
+                bytes_per_triangle: per_tri(b.stats.bytes),
+                cells: b.stats.nodes,
+                empty_cells: 0,
+                references: b.stats.references,
+                detail: b.stats.to_string(),
             },
         }
     }

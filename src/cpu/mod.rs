@@ -1,5 +1,6 @@
 //! CPU reference renderer: the same algorithm the GPU runs (the uniform grid's 3D-DDA or
-//! the irregular grid's cell walk, watertight triangle tests, Whitted shading), in f64 for
+//! the irregular grid's cell walk, watertight triangle tests, Whitted shading), or the
+//! walk of the CPU-only BVH (`traverse_bvh.rs`), in f64 for
 //! ground truth or f32 to mirror the GPU's arithmetic; in f32 either the scalar walk (the
 //! GLSL's twin) or the vectorised one (`simd_walk.rs`, the same decisions, faster).
 
@@ -12,6 +13,7 @@ pub mod simd_step;
 pub mod simd_walk;
 pub mod soa;
 pub mod traverse;
+pub mod traverse_bvh;
 pub mod traverse_irregular;
 pub mod walker;
 

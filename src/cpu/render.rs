@@ -1,4 +1,5 @@
-//! The CPU reference renderer: recursive Whitted ray tracing over the uniform or irregular grid,
+//! The CPU reference renderer: recursive Whitted ray tracing over the uniform or irregular
+//! grid or the BVH,
 //! generic over precision (f64 is the ground truth, f32 mirrors the GPU). Rows are rendered
 //! in parallel with rayon; every pixel is computed independently, so the image does not
 //! depend on the thread count, and a region of the image (`--tile`, `--region`) has the
@@ -10,9 +11,9 @@ use super::real::{Real, V3};
 use super::shade::{
     albedo, light_term, offset_origin_with, secondary, shadow_origin, surface, SurfacePoint,
 };
-use super::traverse::{CellWalk, Hit, Ray, Work};
+use super::traverse::{Hit, Ray, Trace, Work};
 use super::walker::Walker;
-use crate::accel::AccelRef;
+use crate::accel::GridRef;
 use crate::image_io::Image;
 use crate::output::{Aov, AovPixel, RayCounts};
 use crate::progress::Progress;
@@ -44,8 +45,9 @@ struct Tally {
 }
 
 /// A scene prepared for CPU rendering in precision `T`, its structure walked by `W` (the
-/// scalar [`Walker`] by default; the vectorised f32 walk is
-/// [`SimdWalker`](super::simd_walk::SimdWalker)).
+/// grids' scalar [`Walker`] by default; the vectorised f32 walk of the grids is
+/// [`SimdWalker`](super::simd_walk::SimdWalker), the BVH's
+/// [`BvhWalker`](super::traverse_bvh::BvhWalker)).
 pub struct CpuRenderer<'a, T, W = Walker<'a, T>> {
     scene: &'a Scene,
     /// The camera primary rays start from (the scene's, or a frame's of an animation).
@@ -61,21 +63,22 @@ pub struct CpuRenderer<'a, T, W = Walker<'a, T>> {
 pub type CpuOutput = crate::output::BackendOutput;
 
 impl<'a, T: Real> CpuRenderer<'a, T> {
-    /// Prepares `scene` with its acceleration structure (a `&Grid`, `&IrregularGrid` or
-    /// `&Accel`); `max_depth` bounds the recursion; `techniques` selects the robustness
-    /// techniques (`Techniques::default()` for the normal ones).
+    /// Prepares `scene` with its grid (a `&Grid`, `&IrregularGrid` or [`GridRef`]; the BVH
+    /// goes through [`CpuRenderer::with_walker`]); `max_depth` bounds the recursion;
+    /// `techniques` selects the robustness techniques (`Techniques::default()` for the
+    /// normal ones).
     pub fn new(
         scene: &'a Scene,
-        accel: impl Into<AccelRef<'a>>,
+        grid: impl Into<GridRef<'a>>,
         max_depth: u32,
         techniques: Techniques,
     ) -> Self {
-        let walker = Walker::new(scene, accel.into(), techniques);
+        let walker = Walker::new(scene, grid, techniques);
         Self::with_walker(scene, walker, max_depth, techniques)
     }
 }
 
-impl<'a, T: Real, W: CellWalk<T> + Sync> CpuRenderer<'a, T, W> {
+impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     /// Prepares `scene` with `walker` over its structure (built with the same
     /// `techniques`).
     pub fn with_walker(
@@ -125,7 +128,7 @@ impl<'a, T: Real, W: CellWalk<T> + Sync> CpuRenderer<'a, T, W> {
 
     /// [`CpuRenderer::shade`] of a batch of primary hits (`None` for a miss, which gets the
     /// background) into `out`: the same terms added in the same order for each ray, with
-    /// the shadow rays to each light traced as one batch ([`CellWalk::any_hits`]).
+    /// the shadow rays to each light traced as one batch ([`Trace::any_hits`]).
     fn shade_batch(
         &self,
         rays: &[Ray<T>],

@@ -180,6 +180,76 @@ pub fn closest(isa: Isa, rc: &RayConsts, soa: &SoaTris, off: usize, n: usize, be
     let _ = (rc, soa, off, n, best);
 }
 
+/// A candidate of [`scan`]: a lane that passed the test against the chunk's bound, with
+/// the values the scalar test computes.
+#[derive(Clone, Copy, Debug)]
+pub struct Candidate {
+    /// Reference index (into the structure's list).
+    pub r: usize,
+    /// `t * |det|`, for the scalar test's final comparison `tt < hi * |det|`.
+    pub tt: f32,
+    /// `|det|`.
+    pub det_abs: f32,
+    /// The hit's t.
+    pub t: f32,
+    /// Edge functions u, v, w and det, for the barycentrics.
+    pub uvwd: [f32; 4],
+}
+
+/// References `off .. off + n` tested a chunk at a time against the bound `bound(state)`
+/// gives at the chunk's start, each candidate handed to `offer` in reference order: the
+/// BVH's leaf step (`cpu/traverse_bvh.rs`), whose tie rule is not [`closest`]'s. `offer`
+/// must repeat the scalar comparison against the bound of its own moment (the bound may
+/// only shrink as `offer` changes `state`, so the chunk's candidates are a superset).
+/// `isa` must be available.
+#[inline(always)]
+pub fn scan<S>(
+    isa: Isa,
+    rc: &RayConsts,
+    soa: &SoaTris,
+    (off, n): (usize, usize),
+    state: &mut S,
+    bound: impl Fn(&S) -> f32,
+    mut offer: impl FnMut(&mut S, Candidate),
+) {
+    debug_assert!(isa.available() && isa != Isa::Scalar && off + n <= soa.len);
+    #[cfg(target_arch = "x86_64")]
+    {
+        let mut lanes = Lanes::default();
+        let w = if isa == Isa::Avx2 { 8 } else { 4 };
+        let mut r = off;
+        while r < off + n {
+            let left = off + n - r;
+            let hi = bound(state);
+            // SAFETY: as in `closest`.
+            let mut bits = unsafe {
+                if isa == Isa::Avx2 {
+                    avx2::chunk(rc, soa, r, left, hi, &mut lanes)
+                } else {
+                    sse2::chunk(rc, soa, r, left, hi, &mut lanes)
+                }
+            };
+            while bits != 0 {
+                let i = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                offer(
+                    state,
+                    Candidate {
+                        r: r + i,
+                        tt: lanes.tt[i],
+                        det_abs: lanes.det_abs[i],
+                        t: lanes.t[i],
+                        uvwd: [lanes.u[i], lanes.v[i], lanes.w[i], lanes.det[i]],
+                    },
+                );
+            }
+            r += w;
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (rc, soa, off, n, state, bound, &mut offer);
+}
+
 /// Position (0-based, in reference order) of the first of references `off .. off + n` the
 /// ray hits in (t_min, t_max), or `None`: the any-hit step, which counts tests up to it.
 #[inline(always)]

@@ -25,7 +25,7 @@ use super::traverse::{scalar_any_hit, scalar_closest_hit, CellWalk, Hit, Ray, Wo
 use super::traverse_irregular::{IrregularWalker, WalkState};
 use super::walker::Walker;
 use crate::accel::irregular::IrrCell;
-use crate::accel::{AccelRef, CellRange};
+use crate::accel::{CellRange, GridRef};
 use crate::scene::Scene;
 use crate::technique::{IntersectMethod, TBound, Techniques};
 
@@ -37,20 +37,20 @@ pub struct SimdWalker<'a> {
 }
 
 impl<'a> SimdWalker<'a> {
-    /// Prepares `scene` and `accel` with the widest kernel this CPU runs.
-    pub fn new(scene: &Scene, accel: AccelRef<'a>, techniques: Techniques) -> Self {
-        Self::with_isa(scene, accel, techniques, Isa::detect())
+    /// Prepares `scene` and `grid` with the widest kernel this CPU runs.
+    pub fn new(scene: &Scene, grid: GridRef<'a>, techniques: Techniques) -> Self {
+        Self::with_isa(scene, grid, techniques, Isa::detect())
     }
 
     /// [`SimdWalker::new`] with kernel `isa` (tests run each one). Panics when this CPU
     /// cannot run it.
-    pub fn with_isa(scene: &Scene, accel: AccelRef<'a>, techniques: Techniques, isa: Isa) -> Self {
+    pub fn with_isa(scene: &Scene, grid: GridRef<'a>, techniques: Techniques, isa: Isa) -> Self {
         assert!(
             isa.available(),
             "this CPU cannot run the {} kernel",
             isa.name()
         );
-        let walker = Walker::new(scene, accel, techniques);
+        let walker = Walker::new(scene, grid, techniques);
         let isa = if techniques.intersect == IntersectMethod::Watertight {
             isa
         } else {

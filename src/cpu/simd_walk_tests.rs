@@ -9,7 +9,7 @@
 use glam::{DVec3, Vec3};
 
 use super::*;
-use crate::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
+use crate::accel::{Accel, AccelKind, GridConfig, GridRef, IrregularConfig};
 use crate::technique::TBound;
 use crate::testing::{random_rays, ray_of, rays_through, scene_of, soup, sphere, test_seed, Rng};
 
@@ -32,7 +32,7 @@ fn check(s: &Scene, accel: &Accel, rays: &[(DVec3, DVec3, f64)], ctx: &str) -> u
     let mut hits = 0;
     for t_bound in [TBound::On, TBound::Off] {
         let tech = Techniques::default().with_t_bound(t_bound);
-        let scalar = Walker::<f32>::new(s, accel.as_ref(), tech);
+        let scalar = Walker::<f32>::new(s, accel.as_ref().grid().unwrap(), tech);
         let rs: Vec<Ray<f32>> = rays.iter().map(|&(o, d, t)| ray_of(o, d, t)).collect();
         let mut want = vec![None; rs.len()];
         let mut want_work = vec![Work::default(); rs.len()];
@@ -44,7 +44,7 @@ fn check(s: &Scene, accel: &Accel, rays: &[(DVec3, DVec3, f64)], ctx: &str) -> u
         }
         hits = want.iter().filter(|h| h.is_some()).count();
         for isa in isas() {
-            let w = SimdWalker::with_isa(s, accel.as_ref(), tech, isa);
+            let w = SimdWalker::with_isa(s, accel.as_ref().grid().unwrap(), tech, isa);
             let who = format!("{ctx} {} {t_bound:?}", isa.name());
             let mut any_work = Work::default();
             for (i, r) in rs.iter().enumerate() {
@@ -139,9 +139,9 @@ fn closed_meshes_cell_faces_and_shared_edges_equal_the_scalar_walk() {
             rays_through(&mut rng, w, &mut rays);
             rays_through(&mut rng, t[2].as_dvec3(), &mut rays);
         }
-        let (min, cs, res) = match &a {
-            Accel::Uniform(g) => (g.min, g.cell_size, g.res),
-            Accel::Irregular(g) => (g.min, g.cell_size, g.res),
+        let (min, cs, res) = match a.as_ref().grid().unwrap() {
+            GridRef::Uniform(g) => (g.min, g.cell_size, g.res),
+            GridRef::Irregular(g) => (g.min, g.cell_size, g.res),
         };
         for _ in 0..400 {
             let c = [0, 1, 2].map(|k| (rng.f64() * (res[k] + 1) as f64) as u32);
@@ -170,7 +170,10 @@ fn moller_trumbore_runs_the_scalar_step() {
     .unwrap();
     let tech =
         Techniques::default().with_intersect(crate::technique::IntersectMethod::MollerTrumbore);
-    assert_eq!(SimdWalker::new(&s, a.as_ref(), tech).isa(), Isa::Scalar);
-    let w = SimdWalker::new(&s, a.as_ref(), Techniques::default());
+    assert_eq!(
+        SimdWalker::new(&s, a.as_ref().grid().unwrap(), tech).isa(),
+        Isa::Scalar
+    );
+    let w = SimdWalker::new(&s, a.as_ref().grid().unwrap(), Techniques::default());
     assert_eq!(w.isa(), Isa::detect());
 }

@@ -228,6 +228,75 @@ pub trait CellWalk<T: Real> {
     }
 }
 
+/// The queries a renderer asks of whatever structure it renders over: the closest hit and
+/// whether anything is hit, one ray or a batch at a time, and the triangles hits index.
+/// The grids' walkers answer them through [`CellWalk`] (the renderer's
+/// [`Walker`](super::walker::Walker) and the vectorised
+/// [`SimdWalker`](super::simd_walk::SimdWalker)); the BVH's
+/// [`BvhWalker`](super::traverse_bvh::BvhWalker), which has no cells to walk, directly.
+pub trait Trace<T: Real>: Sync {
+    /// Vertices of every triangle, in load order, in precision `T` (what `Hit::tri`
+    /// indexes).
+    fn tris(&self) -> &[[V3<T>; 3]];
+
+    /// The closest hit in (t_min, t_max), its work added to `work`.
+    fn closest_hit(&self, ray: &Ray<T>, work: &mut Work) -> Option<Hit<T>>;
+
+    /// Whether anything is hit in (t_min, t_max): the shadow-ray query.
+    fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool;
+
+    /// The closest hit of each of `rays` into `hits`, each ray's work into `work` (all
+    /// three the same length).
+    fn closest_hits(&self, rays: &[Ray<T>], hits: &mut [Option<Hit<T>>], work: &mut [Work]) {
+        for ((ray, hit), w) in rays.iter().zip(hits.iter_mut()).zip(work.iter_mut()) {
+            *hit = self.closest_hit(ray, w);
+        }
+    }
+
+    /// Whether each of `rays` hits anything, into `hit`, the work of all added to `work`.
+    fn any_hits(&self, rays: &[Ray<T>], hit: &mut [bool], work: &mut Work) {
+        for (ray, h) in rays.iter().zip(hit.iter_mut()) {
+            *h = self.any_hit(ray, work);
+        }
+    }
+}
+
+/// [`Trace`] for a [`CellWalk`] type: its own queries.
+macro_rules! trace_by_cell_walk {
+    ($t:ty, $real:ty $(, $gen:ident)?) => {
+        impl<$($gen: Real)?> Trace<$real> for $t {
+            #[inline(always)]
+            fn tris(&self) -> &[[V3<$real>; 3]] {
+                CellWalk::tris(self)
+            }
+            #[inline(always)]
+            fn closest_hit(&self, ray: &Ray<$real>, work: &mut Work) -> Option<Hit<$real>> {
+                CellWalk::closest_hit(self, ray, work)
+            }
+            #[inline(always)]
+            fn any_hit(&self, ray: &Ray<$real>, work: &mut Work) -> bool {
+                CellWalk::any_hit(self, ray, work)
+            }
+            #[inline(always)]
+            fn closest_hits(
+                &self,
+                rays: &[Ray<$real>],
+                hits: &mut [Option<Hit<$real>>],
+                work: &mut [Work],
+            ) {
+                CellWalk::closest_hits(self, rays, hits, work)
+            }
+            #[inline(always)]
+            fn any_hits(&self, rays: &[Ray<$real>], hit: &mut [bool], work: &mut Work) {
+                CellWalk::any_hits(self, rays, hit, work)
+            }
+        }
+    };
+}
+
+trace_by_cell_walk!(super::walker::Walker<'_, T>, T, T);
+trace_by_cell_walk!(super::simd_walk::SimdWalker<'_>, f32);
+
 /// [`CellWalk::closest_hit`] with the scalar per-cell step ([`closest_of`]): the default,
 /// and what a walker overriding it (the vectorised one) falls back to.
 #[inline(always)]

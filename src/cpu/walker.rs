@@ -1,12 +1,12 @@
-//! The CPU renderer's traversal over whichever structure was built: a closed enum over the
-//! uniform-grid and irregular-grid walkers, so the renderer's inner loop dispatches with
+//! The CPU renderer's traversal over whichever grid was built: a closed enum over the
+//! uniform-grid and irregular-grid walkers (the BVH has its own, `traverse_bvh.rs`), so the renderer's inner loop dispatches with
 //! one predictable branch instead of a virtual call. Its queries (`closest_hit`, `any_hit`,
 //! `brute_force`) come from [`CellWalk`], like every walker's.
 
 use super::real::{Real, V3};
 use super::traverse::{CellWalk, GridWalker, Ray, Work};
 use super::traverse_irregular::IrregularWalker;
-use crate::accel::{AccelRef, CellRange};
+use crate::accel::{CellRange, GridRef};
 use crate::scene::Scene;
 use crate::technique::Techniques;
 
@@ -19,13 +19,13 @@ pub enum Walker<'a, T> {
 }
 
 impl<'a, T: Real> Walker<'a, T> {
-    /// Prepares `scene` and `accel` for traversal in precision `T`.
-    pub fn new(scene: &Scene, accel: AccelRef<'a>, techniques: Techniques) -> Self {
-        match accel {
-            AccelRef::Uniform(g) => {
+    /// Prepares `scene` and `grid` for traversal in precision `T`.
+    pub fn new(scene: &Scene, grid: impl Into<GridRef<'a>>, techniques: Techniques) -> Self {
+        match grid.into() {
+            GridRef::Uniform(g) => {
                 Walker::Uniform(GridWalker::with_techniques(scene, g, techniques))
             }
-            AccelRef::Irregular(g) => Walker::Irregular(IrregularWalker::new(scene, g, techniques)),
+            GridRef::Irregular(g) => Walker::Irregular(IrregularWalker::new(scene, g, techniques)),
         }
     }
 }
@@ -92,14 +92,11 @@ mod tests {
                 &IrregularConfig::default(),
             )
             .unwrap();
-            let w = Walker::<f32>::new(&s, accel.as_ref(), tech);
+            let grid = accel.as_ref().grid().unwrap();
+            let w = Walker::<f32>::new(&s, grid, tech);
             assert_eq!(w.techniques(), &tech, "{kind:?}");
             assert_eq!(w.tris().len(), s.triangles.len(), "{kind:?}");
-            let list = match accel.as_ref() {
-                AccelRef::Uniform(g) => &g.tri_indices,
-                AccelRef::Irregular(g) => &g.tri_indices,
-            };
-            assert_eq!(w.list(), &list[..], "{kind:?}");
+            assert_eq!(w.list(), grid.tri_indices(), "{kind:?}");
             let mut hits = 0;
             for (i, &(o, d, t_max)) in rays.iter().enumerate() {
                 let ray = ray_of::<f32>(o, d, t_max);

@@ -53,6 +53,7 @@ pub fn options_line(opts: &RenderOptions, stats: &RenderStats) -> String {
                 opts.irregular.top_density, opts.irregular.leaf_max
             )
         }
+        crate::accel::AccelKind::Bvh => {}
     }
     s += &format!(" --techniques {}", opts.techniques.tag());
     if let Some(g) = &stats.gpu {

@@ -26,7 +26,7 @@
 
 use super::contract::{mat as slot, Field, Unit};
 use crate::accel::irregular_wide::WideMap;
-use crate::accel::{AccelRef, IrregularGrid};
+use crate::accel::{AccelRef, GridRef, IrregularGrid};
 use crate::scene::{CheckerAxes, Scene};
 use crate::{Error, Result};
 
@@ -378,7 +378,7 @@ impl SceneTextures {
         max_size: u32,
         normals: bool,
     ) -> Result<Self> {
-        let accel = accel.into();
+        let accel = accel.into().grid()?;
         let smooth = normals || scene.has_smooth_normals();
         let mut tri = Vec::with_capacity(scene.triangles.len() * 3);
         let mut nrm = Vec::new();
@@ -425,7 +425,7 @@ impl SceneTextures {
             put(slot::CHECKER_PHASE, &phase);
         }
         let (cell, tri_indices, irregular) = match accel {
-            AccelRef::Uniform(grid) => (
+            GridRef::Uniform(grid) => (
                 grid.cells
                     .iter()
                     .map(|c| [c.offset as f32, c.count as f32, 0.0, 0.0])
@@ -433,7 +433,7 @@ impl SceneTextures {
                 &grid.tri_indices,
                 None,
             ),
-            AccelRef::Irregular(g) => (
+            GridRef::Irregular(g) => (
                 g.cells
                     .iter()
                     .flat_map(|c| {

@@ -25,7 +25,7 @@ use super::contract::{uniform, Unit};
 use super::gl::{compile_compute, compile_program, Program, StorageBuffer, Texture};
 use super::layout::SceneTextures;
 use super::shader::{assemble_compute, assemble_in, ComputePass, ComputeSpec, Features, Pass};
-use crate::accel::AccelRef;
+use crate::accel::{AccelRef, GridRef};
 use crate::clock::Instant;
 use crate::scene::Scene;
 use crate::technique::Techniques;
@@ -60,7 +60,7 @@ enum ProgramKey {
 pub struct GpuScene<'s> {
     ctx: &'s GlContext,
     scene: &'s Scene,
-    accel: AccelRef<'s>,
+    accel: GridRef<'s>,
     features: Features,
     layout: SceneTextures,
     textures: OnceCell<Vec<(Unit, Texture)>>,
@@ -86,7 +86,7 @@ impl<'s> GpuScene<'s> {
         accel: impl Into<AccelRef<'s>>,
         no_specialize: bool,
     ) -> Result<Self> {
-        let accel = accel.into();
+        let accel = accel.into().grid()?;
         let t = Instant::now();
         let features = if no_specialize {
             Features::all()
@@ -140,7 +140,7 @@ impl<'s> GpuScene<'s> {
     }
 
     /// Its acceleration structure.
-    pub fn accel(&self) -> AccelRef<'s> {
+    pub fn accel(&self) -> GridRef<'s> {
         self.accel
     }
 
@@ -364,8 +364,8 @@ impl<'s> GpuScene<'s> {
         let gl = self.ctx.gl();
         program.bind_samplers(gl);
         let (min, max, cell_size, res) = match self.accel {
-            AccelRef::Uniform(g) => (g.min, g.max, g.cell_size, g.res),
-            AccelRef::Irregular(g) => (g.min, g.max, g.cell_size, g.res),
+            GridRef::Uniform(g) => (g.min, g.max, g.cell_size, g.res),
+            GridRef::Irregular(g) => (g.min, g.max, g.cell_size, g.res),
         };
         let res = glam::UVec3::from(res).as_vec3();
         for (u, v) in [
@@ -386,10 +386,10 @@ impl<'s> GpuScene<'s> {
 
 /// Traversal iterations after which a ray on `accel` that has not finished is a bug (see
 /// [`GpuScene::max_iterations`]).
-pub fn max_iterations(accel: AccelRef<'_>) -> u64 {
+pub fn max_iterations(accel: GridRef<'_>) -> u64 {
     let (res, refs) = match accel {
-        AccelRef::Uniform(g) => (g.res, g.tri_indices.len()),
-        AccelRef::Irregular(g) => (g.res, g.tri_indices.len()),
+        GridRef::Uniform(g) => (g.res, g.tri_indices.len()),
+        GridRef::Irregular(g) => (g.res, g.tri_indices.len()),
     };
     16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs as u64 + 16)
 }

@@ -67,7 +67,7 @@ fn trace_spawned<T: Real>(
     grid: AccelRef<'_>,
     spawned: &[Spawned<T>],
 ) -> Vec<Option<u32>> {
-    let accel = Walker::<T>::new(s, grid, Techniques::default());
+    let accel = Walker::<T>::new(s, grid.grid().unwrap(), Techniques::default());
     spawned
         .iter()
         .map(|x| {
@@ -157,7 +157,11 @@ impl Decade {
     /// The reflected (kind 0), refracted (1) and light (2, t_max = distance) rays spawned
     /// at every primary hit, in precision `T`, primary rays traced through `accel`.
     fn spawn<T: Real>(&self, accel: AccelKind) -> Vec<Spawned<T>> {
-        let accel = Walker::<T>::new(&self.scene, self.grid.get(accel), Techniques::default());
+        let accel = Walker::<T>::new(
+            &self.scene,
+            self.grid.get(accel).grid().unwrap(),
+            Techniques::default(),
+        );
         let light = V3::<T>::from_vec3(self.scene.lights[0].position);
         let mut out = Vec::new();
         for r in &self.primary {
@@ -292,7 +296,7 @@ fn case_17_close_parallel_surfaces() {
     }
     /// The transmitted continuation of each ray that hits.
     fn transmit<T: Real>(s: &Scene, grid: AccelRef<'_>, rays: &[TRay]) -> Vec<Spawned<T>> {
-        let accel = Walker::<T>::new(s, grid, Techniques::default());
+        let accel = Walker::<T>::new(s, grid.grid().unwrap(), Techniques::default());
         rays.iter()
             .filter_map(|r| hit_and_secondary(s, &accel, r))
             .map(|(tri, sp, sec)| spawn(tri, 0, &sp, sec.refracted, T::BIG))

@@ -295,6 +295,7 @@ impl Accels {
         match kind {
             AccelKind::Uniform => (&self.uniform).into(),
             AccelKind::Irregular => (&self.irregular).into(),
+            AccelKind::Bvh => unimplemented!("the hard cases do not build the BVH yet"),
         }
     }
 
@@ -423,7 +424,7 @@ pub fn cpu_closest<'a, T: Real>(
     accel: impl Into<AccelRef<'a>>,
     rays: &[TRay],
 ) -> Vec<Found> {
-    let accel = Walker::<T>::new(scene, accel.into(), Techniques::default());
+    let accel = Walker::<T>::new(scene, accel.into().grid().unwrap(), Techniques::default());
     rays.par_iter()
         .map(|r| {
             let mut w = Work::default();
@@ -443,7 +444,7 @@ pub fn cpu_any<'a, T: Real>(
     accel: impl Into<AccelRef<'a>>,
     rays: &[TRay],
 ) -> Vec<bool> {
-    let accel = Walker::<T>::new(scene, accel.into(), Techniques::default());
+    let accel = Walker::<T>::new(scene, accel.into().grid().unwrap(), Techniques::default());
     rays.par_iter()
         .map(|r| accel.any_hit(&r.cpu::<T>(), &mut Work::default()))
         .collect()

@@ -156,7 +156,7 @@ pub fn dump_shaders<'a>(
     dir: &std::path::Path,
     all_variants: bool,
 ) -> Result<Vec<std::path::PathBuf>> {
-    let accel = accel.into();
+    let accel = accel.into().grid()?;
     // Variants with smooth normals on fetch from the normal texture, so it is declared.
     let layout = SceneTextures::pack_with(scene, accel, layout::MAX_ROW, all_variants)?;
     let max_iterations = crate::gpu::scene::max_iterations(accel).min(i32::MAX as u64) as u32;

@@ -1,0 +1,466 @@
+//! A bounding volume hierarchy over the scene's triangles (`--accel bvh`): the structure
+//! CPU ray tracers such as Embree use, here for the CPU backend only (the GPU walks the
+//! grids; `RenderOptions::validate` refuses `--accel bvh` with `--backend gl`).
+//!
+//! Built top-down as a binary tree with binned surface-area-heuristic splits
+//! ([`BINS`] bins on each axis, the cheapest of the three axes, Wald 2007), in parallel
+//! below the root's first levels, then collapsed into a 4-wide tree ([`Node4`]): each
+//! node holds its four children's boxes side by side, one array per axis and side, so one
+//! SSE operation tests the ray against all four slabs of an axis. The walk is
+//! `cpu/traverse_bvh.rs`.
+//!
+//! The boxes are exact: the minimum and maximum of f32 vertex coordinates, so a triangle
+//! lies inside every box above it; the walk pads only its own slab arithmetic.
+
+use glam::Vec3;
+use std::time::Instant;
+
+use crate::scene::Scene;
+use crate::{Error, Result};
+
+/// Children per node of the collapsed tree.
+pub const WIDTH: usize = 4;
+/// Most triangles in a leaf: the binary build splits any node with more (one 8-wide
+/// triangle-kernel chunk holds them all).
+pub const LEAF_MAX: usize = 8;
+/// Bins per axis of the SAH split search.
+pub const BINS: usize = 16;
+/// Deepest binary node: below it a node becomes a leaf whatever its size (only a pile of
+/// triangles with one centroid gets there; the median split halves it at every level).
+pub const MAX_DEPTH: usize = 60;
+/// Nodes with fewer triangles build their two subtrees on this thread.
+const PAR_MIN: usize = 4096;
+/// Cost of visiting a node relative to one triangle test, in the SAH.
+const TRAVERSAL_COST: f32 = 1.0;
+
+/// A node of the 4-wide tree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct Node4 {
+    /// `lo[a][i]`: lower bound on axis `a` of child `i`'s box (`+inf` for an empty slot).
+    pub lo: [[f32; WIDTH]; 3],
+    /// `hi[a][i]`: upper bound on axis `a` of child `i`'s box (`-inf` for an empty slot).
+    pub hi: [[f32; WIDTH]; 3],
+    /// Child `i`: its node's index when `count[i]` is 0, else the offset of its leaf's
+    /// range in [`Bvh::tri_indices`].
+    pub child: [u32; WIDTH],
+    /// Child `i`: 0 for an inner node or an empty slot, else its leaf's triangle count.
+    pub count: [u32; WIDTH],
+}
+
+impl Node4 {
+    /// A node with four empty slots: boxes no ray meets (lower bound above upper).
+    const EMPTY: Node4 = Node4 {
+        lo: [[f32::INFINITY; WIDTH]; 3],
+        hi: [[f32::NEG_INFINITY; WIDTH]; 3],
+        child: [0; WIDTH],
+        count: [0; WIDTH],
+    };
+
+    /// Whether slot `i` holds nothing.
+    pub fn is_empty_slot(&self, i: usize) -> bool {
+        self.count[i] == 0 && self.lo[0][i] > self.hi[0][i]
+    }
+}
+
+/// Build figures for `--stats`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BvhStats {
+    /// Wall-clock build time in milliseconds.
+    pub build_ms: f64,
+    /// Nodes of the 4-wide tree.
+    pub nodes: usize,
+    /// Leaves.
+    pub leaves: usize,
+    /// Triangle references (each triangle once).
+    pub references: usize,
+    /// Deepest leaf below the root (the root's children are at depth 1).
+    pub depth: usize,
+    /// Mean triangles per leaf (0 when there is none).
+    pub mean_per_leaf: f64,
+    /// Memory: nodes * 128 + references * 4 bytes.
+    pub bytes: usize,
+    /// The SAH cost of the binary tree, relative to one triangle test per ray that meets
+    /// the root box.
+    pub sah_cost: f64,
+}
+
+impl std::fmt::Display for BvhStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} nodes, {} leaves ({:.2} triangles each), depth {}, SAH cost {:.1}, {:.1} MB, built in {:.1} ms",
+            self.nodes,
+            self.leaves,
+            self.mean_per_leaf,
+            self.depth,
+            self.sah_cost,
+            self.bytes as f64 / 1e6,
+            self.build_ms
+        )
+    }
+}
+
+/// The 4-wide tree: node 0 is the root.
+#[derive(Clone, Debug)]
+pub struct Bvh {
+    /// Nodes, depth first.
+    pub nodes: Vec<Node4>,
+    /// Triangle indices, leaf after leaf, ascending within each leaf.
+    pub tri_indices: Vec<u32>,
+    /// The scene's box (the root's children together).
+    pub min: Vec3,
+    /// See `min`.
+    pub max: Vec3,
+    /// Build figures.
+    pub stats: BvhStats,
+}
+
+/// A triangle's box and centroid.
+#[derive(Clone, Copy)]
+struct Prim {
+    lo: Vec3,
+    hi: Vec3,
+    c: Vec3,
+}
+
+/// An axis-aligned box being grown.
+#[derive(Clone, Copy, Debug)]
+struct Aabb {
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb {
+        lo: Vec3::splat(f32::INFINITY),
+        hi: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    fn grow(&mut self, lo: Vec3, hi: Vec3) {
+        self.lo = self.lo.min(lo);
+        self.hi = self.hi.max(hi);
+    }
+
+    fn join(self, o: Aabb) -> Aabb {
+        Aabb {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
+    }
+
+    /// Half the surface area (the SAH needs only ratios); 0 for an empty box.
+    fn half_area(&self) -> f32 {
+        let e = (self.hi - self.lo).max(Vec3::ZERO);
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+}
+
+/// A node of the binary tree the build makes first.
+enum Bin2 {
+    Leaf { bounds: Aabb, start: u32, n: u32 },
+    Inner { bounds: Aabb, kids: Box<[Bin2; 2]> },
+}
+
+impl Bin2 {
+    fn bounds(&self) -> Aabb {
+        match self {
+            Bin2::Leaf { bounds, .. } | Bin2::Inner { bounds, .. } => *bounds,
+        }
+    }
+
+    /// SAH cost of the subtree, in area-weighted units (divide by the root's area).
+    fn sah(&self) -> f64 {
+        match self {
+            Bin2::Leaf { bounds, n, .. } => bounds.half_area() as f64 * *n as f64,
+            Bin2::Inner { bounds, kids } => {
+                bounds.half_area() as f64 * TRAVERSAL_COST as f64 + kids[0].sah() + kids[1].sah()
+            }
+        }
+    }
+}
+
+impl Bvh {
+    /// Builds the tree over `scene`'s triangles.
+    pub fn build(scene: &Scene) -> Result<Bvh> {
+        use rayon::prelude::*;
+        let t0 = Instant::now();
+        let n = scene.triangles.len();
+        if n >= u32::MAX as usize {
+            return Err(Error::Limit(format!(
+                "{n} triangles: the BVH indexes them with 32 bits"
+            )));
+        }
+        let prims: Vec<Prim> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let [a, b, c] = scene.triangle_vertices(i);
+                let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+                Prim {
+                    lo,
+                    hi,
+                    c: (lo + hi) * 0.5,
+                }
+            })
+            .collect();
+        let mut refs: Vec<u32> = (0..n as u32).collect();
+        let mut nodes = Vec::new();
+        let mut bvh = Bvh {
+            nodes: Vec::new(),
+            tri_indices: Vec::new(),
+            min: Vec3::ZERO,
+            max: Vec3::ZERO,
+            stats: BvhStats::default(),
+        };
+        if n == 0 {
+            nodes.push(Node4::EMPTY);
+        } else {
+            let root = build2(&prims, &mut refs, 0, 0);
+            let b = root.bounds();
+            bvh.min = b.lo;
+            bvh.max = b.hi;
+            bvh.stats.sah_cost = root.sah() / (b.half_area() as f64).max(f64::MIN_POSITIVE);
+            match &root {
+                Bin2::Leaf { .. } => {
+                    // A root leaf: one node whose first slot is it.
+                    let mut node = Node4::EMPTY;
+                    set_slot(&mut node, 0, &root, 0);
+                    nodes.push(node);
+                }
+                Bin2::Inner { .. } => {
+                    collapse(&root, &mut nodes);
+                }
+            }
+        }
+        bvh.nodes = nodes;
+        bvh.tri_indices = refs;
+        bvh.stats = BvhStats {
+            build_ms: t0.elapsed().as_secs_f64() * 1e3,
+            ..bvh.finish_stats()
+        };
+        Ok(bvh)
+    }
+
+    /// The figures recounted from the tables (the build time and SAH cost kept).
+    fn finish_stats(&self) -> BvhStats {
+        let mut leaves = 0;
+        let mut depth = 0;
+        let mut stack = vec![(0u32, 1usize)];
+        while let Some((k, d)) = stack.pop() {
+            let node = &self.nodes[k as usize];
+            for i in 0..WIDTH {
+                if node.count[i] > 0 {
+                    leaves += 1;
+                    depth = depth.max(d);
+                } else if !node.is_empty_slot(i) {
+                    stack.push((node.child[i], d + 1));
+                }
+            }
+        }
+        let references = self.tri_indices.len();
+        BvhStats {
+            build_ms: self.stats.build_ms,
+            nodes: self.nodes.len(),
+            leaves,
+            references,
+            depth,
+            mean_per_leaf: if leaves == 0 {
+                0.0
+            } else {
+                references as f64 / leaves as f64
+            },
+            bytes: self.nodes.len() * std::mem::size_of::<Node4>() + references * 4,
+            sah_cost: self.stats.sah_cost,
+        }
+    }
+}
+
+/// The binary tree over `refs` (whose first index is `start` in the whole list): leaves of
+/// at most [`LEAF_MAX`] triangles, the SAH's cheapest split of the [`BINS`] per axis, or a
+/// leaf where the SAH says one is cheaper.
+fn build2(prims: &[Prim], refs: &mut [u32], start: u32, depth: usize) -> Bin2 {
+    let n = refs.len();
+    let mut bounds = Aabb::EMPTY;
+    let mut cb = Aabb::EMPTY;
+    for &r in refs.iter() {
+        let p = &prims[r as usize];
+        bounds.grow(p.lo, p.hi);
+        cb.grow(p.c, p.c);
+    }
+    let leaf = |refs: &mut [u32]| {
+        refs.sort_unstable();
+        Bin2::Leaf {
+            bounds,
+            start,
+            n: n as u32,
+        }
+    };
+    if n <= 2 || depth >= MAX_DEPTH {
+        return leaf(refs);
+    }
+    let split = best_split(prims, refs, &cb);
+    let mid = match split {
+        Some((cost, axis, bin)) => {
+            let leaf_cost = n as f32 * bounds.half_area();
+            if n <= LEAF_MAX && cost >= leaf_cost {
+                return leaf(refs);
+            }
+            let k = bin_of(&cb, axis);
+            partition(refs, |r| k(prims[r as usize].c[axis]) < bin)
+        }
+        // Every centroid in one point: halve the list (the order is the load order).
+        None if n <= LEAF_MAX => return leaf(refs),
+        None => n / 2,
+    };
+    let (l, r) = refs.split_at_mut(mid);
+    let (a, b) = if n >= PAR_MIN {
+        rayon::join(
+            || build2(prims, l, start, depth + 1),
+            || build2(prims, r, start + mid as u32, depth + 1),
+        )
+    } else {
+        (
+            build2(prims, l, start, depth + 1),
+            build2(prims, r, start + mid as u32, depth + 1),
+        )
+    };
+    Bin2::Inner {
+        bounds,
+        kids: Box::new([a, b]),
+    }
+}
+
+/// The bin of a centroid coordinate on `axis` over the centroid box `cb` (clamped into
+/// `0 .. BINS`).
+fn bin_of(cb: &Aabb, axis: usize) -> impl Fn(f32) -> usize {
+    let lo = cb.lo[axis];
+    let ext = cb.hi[axis] - lo;
+    let scale = if ext > 0.0 { BINS as f32 / ext } else { 0.0 };
+    move |c| (((c - lo) * scale) as usize).min(BINS - 1)
+}
+
+/// The cheapest SAH split of `refs`: (cost, axis, first bin on the right), or `None` when
+/// the centroids do not spread on any axis. The cost is in the leaf cost's units
+/// (`n * half_area` of the node is the leaf's).
+fn best_split(prims: &[Prim], refs: &[u32], cb: &Aabb) -> Option<(f32, usize, usize)> {
+    let mut best: Option<(f32, usize, usize)> = None;
+    let node_area = {
+        let mut b = Aabb::EMPTY;
+        for &r in refs {
+            let p = &prims[r as usize];
+            b.grow(p.lo, p.hi);
+        }
+        b.half_area()
+    };
+    for axis in 0..3 {
+        if cb.hi[axis] <= cb.lo[axis] {
+            continue;
+        }
+        let k = bin_of(cb, axis);
+        let mut boxes = [Aabb::EMPTY; BINS];
+        let mut counts = [0u32; BINS];
+        for &r in refs {
+            let p = &prims[r as usize];
+            let b = k(p.c[axis]);
+            boxes[b].grow(p.lo, p.hi);
+            counts[b] += 1;
+        }
+        // Right-to-left sweep: the area and count of bins b.. for every b.
+        let mut right_area = [0.0f32; BINS];
+        let mut right_n = [0u32; BINS];
+        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        for b in (1..BINS).rev() {
+            acc = acc.join(boxes[b]);
+            cnt += counts[b];
+            right_area[b] = acc.half_area();
+            right_n[b] = cnt;
+        }
+        let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+        for b in 1..BINS {
+            acc = acc.join(boxes[b - 1]);
+            cnt += counts[b - 1];
+            if cnt == 0 || right_n[b] == 0 {
+                continue;
+            }
+            let cost = TRAVERSAL_COST * node_area
+                + acc.half_area() * cnt as f32
+                + right_area[b] * right_n[b] as f32;
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, axis, b));
+            }
+        }
+    }
+    best
+}
+
+/// Moves the elements for which `left` holds to the front, returning how many there are.
+fn partition(refs: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
+    let mut i = 0;
+    for j in 0..refs.len() {
+        if left(refs[j]) {
+            refs.swap(i, j);
+            i += 1;
+        }
+    }
+    i
+}
+
+/// Writes binary node `b` into slot `i` of `node`: its box, and its leaf range or the node
+/// index `index` of its collapsed subtree.
+fn set_slot(node: &mut Node4, i: usize, b: &Bin2, index: u32) {
+    let bounds = b.bounds();
+    for a in 0..3 {
+        node.lo[a][i] = bounds.lo[a];
+        node.hi[a][i] = bounds.hi[a];
+    }
+    match b {
+        Bin2::Leaf { start, n, .. } => {
+            node.child[i] = *start;
+            node.count[i] = *n;
+        }
+        Bin2::Inner { .. } => {
+            node.child[i] = index;
+            node.count[i] = 0;
+        }
+    }
+}
+
+/// Collapses the inner binary node `b` into 4-wide nodes appended to `nodes` (its own
+/// first), returning its index: its children are its two, then the inner one of largest
+/// area replaced by its own two, until there are four or only leaves.
+fn collapse(b: &Bin2, nodes: &mut Vec<Node4>) -> u32 {
+    let Bin2::Inner { kids, .. } = b else {
+        unreachable!("collapse is called on inner nodes only")
+    };
+    let index = nodes.len() as u32;
+    nodes.push(Node4::EMPTY);
+    let mut slots: Vec<&Bin2> = vec![&kids[0], &kids[1]];
+    while slots.len() < WIDTH {
+        let widest = slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| matches!(s, Bin2::Inner { .. }))
+            .max_by(|(_, a), (_, b)| a.bounds().half_area().total_cmp(&b.bounds().half_area()))
+            .map(|(i, _)| i);
+        let Some(i) = widest else { break };
+        let Bin2::Inner { kids, .. } = slots[i] else {
+            unreachable!("filtered to inner nodes")
+        };
+        slots[i] = &kids[0];
+        slots.insert(i + 1, &kids[1]);
+    }
+    for (i, s) in slots.iter().enumerate() {
+        let child = match s {
+            Bin2::Inner { .. } => collapse(s, nodes),
+            Bin2::Leaf { .. } => 0,
+        };
+        let mut node = nodes[index as usize];
+        set_slot(&mut node, i, s, child);
+        nodes[index as usize] = node;
+    }
+    index
+}
+
+#[cfg(test)]
+#[path = "bvh_tests.rs"]
+mod tests;

@@ -1,0 +1,1 @@
+//! Tests of the BVH build (`bvh.rs`): placeholder replaced below.
