@@ -161,8 +161,10 @@ impl<T: Real> BoxRay<T> {
                 near = max_ps((T::from_f32(n) - self.o[a]) * self.inv[a], near);
                 far = min_ps((T::from_f32(f) - self.o[a]) * self.inv[a], far);
             }
+            // A far distance of -inf (a ray parallel to a slab it runs outside of) pads to
+            // NaN, which `hi` first in the `min` keeps: a miss, as it should be.
             far = far + far.abs() * self.pad;
-            far = min_ps(far, hi);
+            far = min_ps(hi, far);
             *near_i = near;
             if near <= far {
                 bits |= 1 << i;
@@ -555,7 +557,7 @@ mod sse {
             }
             let abs = _mm_andnot_ps(_mm_set1_ps(-0.0), far);
             far = _mm_add_ps(far, _mm_mul_ps(abs, r.pad));
-            far = _mm_min_ps(far, _mm_set1_ps(hi));
+            far = _mm_min_ps(_mm_set1_ps(hi), far);
             let bits = _mm_movemask_ps(_mm_cmple_ps(near, far)) as u32;
             let mut out = [0.0f32; WIDTH];
             _mm_storeu_ps(out.as_mut_ptr(), near);
