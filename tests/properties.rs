@@ -1,6 +1,7 @@
 //! Property tests (proptest): scene text loads or fails with an error (and what loads
-//! renders finite), OBJ text likewise, and the traversal of either structure (the uniform
-//! grid and the irregular grid) finds exactly what brute force finds, in f64 and f32.
+//! renders finite), OBJ text likewise, and the traversal of every structure (the uniform
+//! grid, the irregular grid and the CPU's BVH) finds exactly what brute force finds, in f64
+//! and f32 (the BVH's f32 also through its vectorised walk, with every kernel the CPU runs).
 //!
 //! Each property runs twice: with a fixed RNG seed (so CI is reproducible), then with a
 //! fresh seed taken from the clock, on an eighth of the cases, so every run also explores
@@ -12,14 +13,18 @@ use glam::Vec3;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, RngSeed};
 
-use fragtrace::accel::{AccelRef, Grid, GridConfig, GridRes, IrregularConfig, IrregularGrid};
+use fragtrace::accel::{AccelRef, Bvh, Grid, GridConfig, GridRes, IrregularConfig, IrregularGrid};
+use fragtrace::cpu::intersect::{intersect_with, RayShear};
 use fragtrace::cpu::real::{Real, V3};
-use fragtrace::cpu::traverse::{CellWalk, Hit, Ray, Work};
+use fragtrace::cpu::simd::Isa;
+use fragtrace::cpu::traverse::{tie_limit, CellWalk, GridWalker, Hit, Ray, Trace, Work};
+use fragtrace::cpu::traverse_bvh::BvhWalker;
 use fragtrace::cpu::walker::Walker;
 use fragtrace::options::{Backend, Precision, RenderOptions};
 use fragtrace::scene::{
     parse_obj_with_mtl, parse_scene_str, Camera, Material, Scene, Triangle, NO_NORMAL,
 };
+use fragtrace::technique::Techniques;
 use fragtrace::Error;
 
 const DEFAULT_SEED: u64 = 0x6672_6167_7472_6163; // "fragtrac"
@@ -415,23 +420,137 @@ struct Tally {
     /// Irregular grid only: rays where the walk kept a different triangle within the tie
     /// margin of brute force's (see `agree`).
     ties: usize,
+    /// BVH only: rays where the walk kept another hit of a chain of hits each within the
+    /// tie margin of the next but spanning more ([`tie_chain`]).
+    chains: usize,
 }
 
-/// Grid and brute force agree on `rays` in precision `T`: both miss, or both hit the same
-/// triangle at the same t. Ties (shared edges and vertices, coplanar overlaps) included:
-/// brute force gives a tie to the lowest index (`TIE_EPS`), and so must the grid, whatever
-/// cell it finds the hit in. An earlier version allowed different triangles within a
-/// relative 1e-9 of each other and counted them; the count was 0 in f64 and f32, with the
-/// edge-aimed rays too (184,320 rays each), so any such tie is now a failure.
+/// Which walk [`agree_with`] checks, for its exemptions.
+#[derive(Clone, Copy, PartialEq)]
+enum Walk {
+    /// The uniform grid: no exemption.
+    Uniform,
+    /// The irregular grid: ties within twice the margin across a cell face.
+    Irregular,
+    /// The BVH: chains of three or more hits ([`tie_chain`]).
+    Bvh,
+}
+
+/// The structure and brute force agree on `rays` in precision `T`: both miss, or both hit
+/// the same triangle at the same t, and the any-hit query says whether brute force hits.
+/// Ties (shared edges and vertices, coplanar overlaps) included: brute force gives a tie to
+/// the lowest index (`TIE_EPS`), and so must the grid, whatever cell it finds the hit in,
+/// and the BVH, whatever leaf it meets first. An earlier version allowed different
+/// triangles within a relative 1e-9 of each other and counted them; the count was 0 in f64
+/// and f32, with the edge-aimed rays too (184,320 rays each), so any such tie is now a
+/// failure (the irregular grid's cell-face ties and the BVH's documented tie chains
+/// excepted, below). The grids are walked by [`Walker`], the BVH by the scalar
+/// [`BvhWalker::new`] ([`agree_vectorised`] for its vectorised f32 walk).
 fn agree<T: Real>(
     s: &Scene,
-    grid: AccelRef<'_>,
+    accel: AccelRef<'_>,
     rays: &[([f64; 3], [f64; 3])],
     tally: &mut Tally,
 ) -> Result<(), TestCaseError> {
-    let accel = Walker::<T>::new(s, grid.grid().unwrap(), Default::default());
-    // Brute force over every triangle, whichever walker holds them (the same function).
-    let brute = |ray: &Ray<T>| accel.brute_force(ray);
+    match accel {
+        AccelRef::Bvh(b) => {
+            let w = BvhWalker::<T>::new(s, b, Default::default());
+            agree_with(s, &w, "bvh", Walk::Bvh, rays, tally)
+        }
+        grid => {
+            let w = Walker::<T>::new(s, grid.grid().unwrap(), Default::default());
+            let (what, walk) = match w {
+                Walker::Irregular(_) => ("irregular grid", Walk::Irregular),
+                Walker::Uniform(_) => ("uniform grid", Walk::Uniform),
+            };
+            agree_with(s, &w, what, walk, rays, tally)
+        }
+    }
+}
+
+/// [`agree`] for the BVH's vectorised f32 walk with the kernel `isa`, as strictly.
+fn agree_vectorised(
+    s: &Scene,
+    bvh: &Bvh,
+    isa: Isa,
+    rays: &[([f64; 3], [f64; 3])],
+    tally: &mut Tally,
+) -> Result<(), TestCaseError> {
+    let w = BvhWalker::vectorised(s, bvh, Default::default(), isa);
+    prop_assert_eq!(w.isa(), isa);
+    agree_with(
+        s,
+        &w,
+        &format!("bvh {}", isa.name()),
+        Walk::Bvh,
+        rays,
+        tally,
+    )
+}
+
+/// Whether the BVH's closest hit `g`, another than brute force's `w`, is the exception its
+/// tie rule documents (src/cpu/traverse_bvh.rs): the rule is applied pair by pair in the
+/// walk's order, so where three or more hits lie each within `TIE_EPS` of the next (by
+/// the rule's own comparison, `tie_limit` on the hits' t) but the first and the last
+/// farther apart, the first pair met decides. True when, among every hit of the ray
+/// (each triangle's test alone, sorted by t), `g` and `w` lie, with their exact t, in
+/// one such run of at least three hits that spans more than the margin; any other
+/// difference (a pair, or hits farther apart) is not the documented exception.
+fn tie_chain<T: Real>(tris: &[[V3<T>; 3]], ray: &Ray<T>, g: &Hit<T>, w: &Hit<T>) -> bool {
+    let shear = RayShear::new(ray.d);
+    let tech = Techniques::default();
+    let mut hits: Vec<(T, u32)> = tris
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| {
+            intersect_with(ray.o, ray.d, &shear, p, ray.t_min, ray.t_max, &tech)
+                .map(|h| (h.t, i as u32))
+        })
+        .collect();
+    hits.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap().then(a.1.cmp(&b.1)));
+    // Within the margin of each other: the nearer is not closer than the farther by more
+    // than TIE_EPS (so on sorted hits, runs of neighbours within it are the chains).
+    let near = |a: T, b: T| a >= tie_limit(b);
+    let at = |h: &Hit<T>| hits.iter().position(|&(t, i)| i == h.tri && t == h.t);
+    let (Some(i), Some(j)) = (at(g), at(w)) else {
+        return false;
+    };
+    let (i, j) = (i.min(j), i.max(j));
+    if !(i..j).all(|k| near(hits[k].0, hits[k + 1].0)) {
+        return false;
+    }
+    let (mut lo, mut hi) = (i, j);
+    while lo > 0 && near(hits[lo - 1].0, hits[lo].0) {
+        lo -= 1;
+    }
+    while hi + 1 < hits.len() && near(hits[hi].0, hits[hi + 1].0) {
+        hi += 1;
+    }
+    hi - lo >= 2 && !near(hits[lo].0, hits[hi].0)
+}
+
+/// [`agree`] with the walk `accel` (named `what` in failures) of the kind `walk`, for its
+/// exemptions.
+fn agree_with<T: Real>(
+    s: &Scene,
+    accel: &dyn Trace<T>,
+    what: &str,
+    walk: Walk,
+    rays: &[([f64; 3], [f64; 3])],
+    tally: &mut Tally,
+) -> Result<(), TestCaseError> {
+    // Brute force over every triangle (`CellWalk::brute_force`), held by a grid of one
+    // cell: the same triangles, converted to `T` the same way, whatever the structure.
+    let one = Grid::build(
+        s,
+        &GridConfig {
+            res: GridRes::Fixed([1, 1, 1]),
+            ..GridConfig::default()
+        },
+    )
+    .unwrap();
+    let oracle = GridWalker::<T>::new(s, &one);
+    let brute = |ray: &Ray<T>| oracle.brute_force(ray);
     for (o, d) in rays {
         let v = |a: &[f64; 3]| V3::new(T::from_f64(a[0]), T::from_f64(a[1]), T::from_f64(a[2]));
         let ray = Ray {
@@ -446,6 +565,12 @@ fn agree<T: Real>(
         tally.rays += 1;
         let got = accel.closest_hit(&ray, &mut Work::default());
         let want = brute(&ray);
+        let any = accel.any_hit(&ray, &mut Work::default());
+        prop_assert!(
+            any == want.is_some(),
+            "{what}: any-hit {any}, brute force {:?}; ray {o:?} {d:?}",
+            want.map(|h: Hit<T>| (h.tri, h.t.to_f64()))
+        );
         if let Some(w) = &want {
             tally.hits += 1;
             let low =
@@ -454,7 +579,6 @@ fn agree<T: Real>(
                     .fold(f64::INFINITY, f64::min);
             tally.edge_hits += (low < 1e-6) as usize;
         }
-        let irregular = matches!(accel, Walker::Irregular(_));
         match (got, want) {
             (None, None) => {}
             // The irregular walk decides ties per cell like the DDA, but its cells are
@@ -462,17 +586,28 @@ fn agree<T: Real>(
             // first cell's triangle, brute force's to the lower index. Both are answers of
             // the tie rule; they are counted and bounded by the caller.
             (Some(g), Some(w))
-                if irregular
+                if walk == Walk::Irregular
                     && g.tri != w.tri
                     && (g.t.to_f64() - w.t.to_f64()).abs()
                         <= 2.0 * fragtrace::accel::TIE_EPS * w.t.to_f64().abs() =>
             {
                 tally.ties += 1;
             }
+            // The BVH applies the tie rule pair by pair in its own order: in a chain of
+            // hits each within the margin of the next but spanning more, the first pair met
+            // decides (its module doc). Counted and bounded by the caller; a difference
+            // that is no such chain fails below.
+            (Some(g), Some(w))
+                if walk == Walk::Bvh
+                    && (g.tri, g.t) != (w.tri, w.t)
+                    && tie_chain(CellWalk::tris(&oracle), &ray, &g, &w) =>
+            {
+                tally.chains += 1;
+            }
             (Some(g), Some(w)) => {
                 prop_assert!(
                     g.tri == w.tri && g.t == w.t,
-                    "grid hit triangle {} at t = {}, brute force {} at t = {}; ray {o:?} {d:?}",
+                    "{what} hit triangle {} at t = {}, brute force {} at t = {}; ray {o:?} {d:?}",
                     g.tri,
                     g.t.to_f64(),
                     w.tri,
@@ -481,7 +616,7 @@ fn agree<T: Real>(
             }
             (g, w) => prop_assert!(
                 false,
-                "grid {:?} vs brute force {:?}; ray {o:?} {d:?}",
+                "{what} {:?} vs brute force {:?}; ray {o:?} {d:?}",
                 g.map(|h: Hit<T>| (h.tri, h.t.to_f64())),
                 w.map(|h: Hit<T>| (h.tri, h.t.to_f64()))
             ),
@@ -490,11 +625,12 @@ fn agree<T: Real>(
     Ok(())
 }
 
-/// Build parameters of either structure.
+/// Build parameters of a structure (the BVH has none).
 #[derive(Clone, Debug)]
 enum Structure {
     Uniform(GridRes),
     Irregular(IrregularConfig),
+    Bvh,
 }
 
 #[test]
@@ -541,8 +677,33 @@ fn irregular_traversal_agrees_with_brute_force() {
     );
 }
 
+/// The BVH's walks against brute force on the uniform grid's meshes and rays, as strictly
+/// as the uniform grid's (the same triangle at the same t bits, and the any-hit answer):
+/// the scalar walk in f64 and f32 and the vectorised f32 walk with each kernel this CPU
+/// runs (AVX2 and SSE2 on x86-64; none elsewhere). Only its documented exception to brute
+/// force, a chain of three or more hits each within `TIE_EPS` of the next but spanning
+/// more (src/cpu/traverse_bvh.rs), is counted instead of failing ([`tie_chain`]), and
+/// bounded. Measured (fixed seed plus the fresh seed 1): f64 184,480 rays, 80,483 hits
+/// (43.6%), 27,063 within 1e-6 of an edge; f32 (each walk alike) 72,102 hits (39.1%),
+/// 17,713 at an edge. The fresh seeds 1796296070110771985 and 121 failed it before the
+/// BVH decided its ties with the intersection test's own comparison, on a pair of hits one
+/// ulp past the margin (`bvh_tie_at_the_margin_goes_as_brute_force`); they pass now.
+#[test]
+fn bvh_traversal_agrees_with_brute_force() {
+    traversal_agrees_with_brute_force("bvh traversal", mesh(), Just(Structure::Bvh));
+}
+
+/// The vectorised kernels of the BVH's f32 walk that this CPU runs, widest first.
+fn vector_isas() -> Vec<Isa> {
+    [Isa::Avx2, Isa::Sse2]
+        .into_iter()
+        .filter(|i| i.available())
+        .collect()
+}
+
 /// Random meshes, free rays and rays aimed at triangle edges and vertices: the walk of the
-/// structure `structure` builds finds what brute force finds, in f64 and f32.
+/// structure `structure` builds finds what brute force finds, in f64 and f32 (and, for the
+/// BVH, its vectorised f32 walk with every kernel of [`vector_isas`]).
 fn traversal_agrees_with_brute_force(
     name: &str,
     meshes: impl Strategy<Value = (Vec<Vec3>, Vec<[u32; 3]>)> + Clone,
@@ -554,7 +715,14 @@ fn traversal_agrees_with_brute_force(
         up: Vec3::Y,
         vfov_deg: 45.0,
     };
-    let tally = std::cell::RefCell::new([Tally::default(), Tally::default()]);
+    let isas = vector_isas();
+    // f64, f32, then the vectorised f32 walk per kernel (the BVH's only).
+    let labels: Vec<String> = ["f64".to_string(), "f32".to_string()]
+        .into_iter()
+        .chain(isas.iter().map(|i| format!("f32 {}", i.name())))
+        .collect();
+    let tally =
+        std::cell::RefCell::new(labels.iter().map(|_| Tally::default()).collect::<Vec<_>>());
     for cfg in configs(name, 4096) {
         proptest!(cfg, |((positions, tris) in meshes.clone(), st in structure.clone(), free in prop::collection::vec(ray(), 24), aimed in prop::collection::vec(aimed_ray(), 16))| {
             let mut s = Scene::empty(cam);
@@ -574,7 +742,7 @@ fn traversal_agrees_with_brute_force(
                 let target = a + (b - a) * along;
                 rays.push((o, (target - glam::DVec3::from_array(o)).to_array()));
             }
-            let (grid, irregular);
+            let (grid, irregular, bvh);
             let accel: AccelRef = match st {
                 Structure::Uniform(res) => {
                     grid = Grid::build(&s, &GridConfig { res, ..GridConfig::default() }).unwrap();
@@ -584,16 +752,28 @@ fn traversal_agrees_with_brute_force(
                     irregular = IrregularGrid::build(&s, &cfg).unwrap();
                     (&irregular).into()
                 }
+                Structure::Bvh => {
+                    bvh = Bvh::build(&s).unwrap();
+                    (&bvh).into()
+                }
             };
             let mut t = tally.borrow_mut();
             agree::<f64>(&s, accel, &rays, &mut t[0])?;
             agree::<f32>(&s, accel, &rays, &mut t[1])?;
+            if let AccelRef::Bvh(b) = accel {
+                for (k, &isa) in isas.iter().enumerate() {
+                    agree_vectorised(&s, b, isa, &rays, &mut t[2 + k])?;
+                }
+            }
         });
     }
-    for (prec, t) in ["f64", "f32"].iter().zip(tally.borrow().iter()) {
+    for (prec, t) in labels.iter().zip(tally.borrow().iter()) {
+        if t.rays == 0 {
+            continue; // a vectorised walk of a grid: not run here
+        }
         eprintln!(
-            "{name} {prec}: {} rays, {} hits, {} within 1e-6 of an edge, {} tie disagreements",
-            t.rays, t.hits, t.edge_hits, t.ties
+            "{name} {prec}: {} rays, {} hits, {} within 1e-6 of an edge, {} tie disagreements, {} tie chains",
+            t.rays, t.hits, t.edge_hits, t.ties, t.chains
         );
         // The property says something only if rays hit, and hit edges. Measured (fixed
         // seed plus a fresh eighth): 43% of the rays hit in f64, 39% in f32; 15% (f64)
@@ -618,6 +798,16 @@ fn traversal_agrees_with_brute_force(
             share(t.ties) <= 2e-4,
             "{name} {prec}: {} tie disagreements in {} rays",
             t.ties,
+            t.rays
+        );
+        // The BVH's tie chains (only the BVH counts any). Measured over the fixed seed and
+        // 31 fresh ones (13, 100-129): one ray, with the fresh seed 13, in f32 on every
+        // walk (`bvh_tie_chain_is_the_documented_exception`), none in f64; so at most one
+        // in 184,480 per run. Bound: 2e-5 (3 rays).
+        assert!(
+            share(t.chains) <= 2e-5,
+            "{name} {prec}: {} tie chains in {} rays",
+            t.chains,
             t.rays
         );
     }
@@ -673,13 +863,197 @@ fn irregular_tie_at_a_shared_vertex_goes_to_the_lowest_index() {
     );
     let grid = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
     let uniform = Grid::build(&s, &GridConfig::default()).unwrap();
+    let bvh = Bvh::build(&s).unwrap();
     let mut t = Tally::default();
-    // The uniform grid keeps the tie rule on this ray (control).
+    // The uniform grid and the BVH (every walk) keep the tie rule on this ray (controls).
     agree::<f64>(&s, (&uniform).into(), &[ray], &mut t).unwrap();
     agree::<f32>(&s, (&uniform).into(), &[ray], &mut t).unwrap();
+    agree::<f64>(&s, (&bvh).into(), &[ray], &mut t).unwrap();
+    agree::<f32>(&s, (&bvh).into(), &[ray], &mut t).unwrap();
+    for isa in vector_isas() {
+        agree_vectorised(&s, &bvh, isa, &[ray], &mut t).unwrap();
+    }
     let r64 = agree::<f64>(&s, (&grid).into(), &[ray], &mut t);
     let r32 = agree::<f32>(&s, (&grid).into(), &[ray], &mut t);
     assert!(r64.is_ok() && r32.is_ok(), "f64: {r64:?}\nf32: {r32:?}");
+}
+
+/// A scene of the property's kind: `positions`, and `tris` listed by index (the others
+/// `[0, 0, 0]`, zero-area triangles that are never hit), default camera and material.
+fn scene_of(positions: Vec<Vec3>, n: usize, tris: &[(usize, [u32; 3])]) -> Scene {
+    let mut s = Scene::empty(Camera {
+        eye: Vec3::new(0.0, 0.0, 10.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 45.0,
+    });
+    let m = s.add_material(Material::default());
+    s.positions = positions;
+    s.triangles = vec![
+        Triangle {
+            v: [0; 3],
+            n: [NO_NORMAL; 3],
+            material: m,
+        };
+        n
+    ];
+    for &(i, v) in tris {
+        s.triangles[i].v = v;
+    }
+    s
+}
+
+/// A closest hit in f32 as (triangle, t bits), or a miss.
+type Answer = Option<(u32, u32)>;
+
+/// The closest hit of `ray` in f32 by brute force and by every BVH walk (scalar, then each
+/// vectorised kernel), as (triangle, t bits).
+fn bvh_answers(s: &Scene, ray: ([f64; 3], [f64; 3])) -> (Answer, Vec<Answer>) {
+    let r = Ray {
+        o: V3::new(ray.0[0] as f32, ray.0[1] as f32, ray.0[2] as f32),
+        d: V3::new(ray.1[0] as f32, ray.1[1] as f32, ray.1[2] as f32),
+        t_min: 0.0,
+        t_max: f32::BIG,
+    };
+    let one = Grid::build(
+        s,
+        &GridConfig {
+            res: GridRes::Fixed([1, 1, 1]),
+            ..GridConfig::default()
+        },
+    )
+    .unwrap();
+    let key = |h: Option<Hit<f32>>| h.map(|h| (h.tri, h.t.to_bits()));
+    let brute = key(GridWalker::<f32>::new(s, &one).brute_force(&r));
+    let bvh = Bvh::build(s).unwrap();
+    let mut walks = vec![BvhWalker::<f32>::new(s, &bvh, Default::default())];
+    for isa in vector_isas() {
+        walks.push(BvhWalker::vectorised(s, &bvh, Default::default(), isa));
+    }
+    let got = walks
+        .iter()
+        .map(|w| key(w.closest_hit(&r, &mut Work::default())))
+        .collect();
+    (brute, got)
+}
+
+/// [`bvh_answers`]'s answers for a message: triangle, t and its bits.
+fn show(h: &[Answer]) -> String {
+    h.iter()
+        .map(|h| match h {
+            Some((tri, b)) => format!("{tri} at t = {:e} ({b:#010x})", f32::from_bits(*b)),
+            None => "miss".into(),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Found by `bvh_traversal_agrees_with_brute_force` with the fresh seed
+/// 1796296070110771985 (shrunk; the seed 121 found one of the same kind): a ray aimed at
+/// the edge 0-3 shared by triangles 9 = (3, 1, 0) and 26 = (0, 4, 3) (8 and 17 are
+/// zero-area triangles on that edge, never hit). In f32 triangle 9 is hit at t =
+/// 0x3f7ffffe and 26, which the ray meets at a grazing angle, at 0x3f7fffdd: one ulp below
+/// `tie_limit(t9)` = 0x3f7fffde, so by the divided t 26 is closer by more than `TIE_EPS`
+/// (in f64 the two lie 5.6e-8 apart, a tie). Two hits, no chain. Brute force meets 9 first
+/// and tests 26 against the bound `tie_limit(t9)` inside the intersection test, which
+/// compares `tt < bound * |det|` and rounds that to a rejection: brute force (and the
+/// grids, which share its per-cell step) answer 9. The BVH's leaf lists 26 first; its
+/// `takes` then keeps 26 over 9 by comparing the divided t (`t26 < tie_limit(t9)`), and
+/// answered 26 (scalar and vectorised alike). The module doc promises brute force's answer
+/// for any pair, so that was a failure of the BVH, not of the check; the BVH now decides
+/// each pair with the intersection test's own comparison (the later index's test against
+/// the earlier's tie limit) and answers 9 on every walk.
+#[test]
+fn bvh_tie_at_the_margin_goes_as_brute_force() {
+    let v = Vec3::new;
+    let s = scene_of(
+        vec![
+            v(-1.3139267, 3.533847, -1.1232452),
+            v(-2.986162, 3.3324988, 3.2213686),
+            v(0.0, -3.8282645, -1.0),
+            v(-3.820194, 3.195389, 2.5887568),
+            v(-3.5, -4.0, 1.134179),
+            v(3.7252297, 3.1781821, -1.0),
+        ],
+        32,
+        &[
+            (8, [3, 0, 0]),
+            (9, [3, 1, 0]),
+            (14, [1, 0, 0]),
+            (17, [0, 3, 0]),
+            (26, [0, 4, 3]),
+        ],
+    );
+    let ray = (
+        [-1.3500417677849195, -5.173491625166071, -2.5710431077228644],
+        [-1.9869180295344575, 8.434138865532475, 4.4440875964419675],
+    );
+    let (brute, got) = bvh_answers(&s, ray);
+    println!("brute force {}; BVH walks {}", show(&[brute]), show(&got));
+    assert_eq!(brute, Some((9, 0x3f7f_fffe)));
+    for g in &got {
+        assert!(
+            *g == brute,
+            "the BVH's walks (scalar, then vectorised) answer {}; brute force {}",
+            show(&got),
+            show(&[brute])
+        );
+    }
+}
+
+/// The documented exception, found by `bvh_traversal_agrees_with_brute_force` with the
+/// fresh seed 13 (shrunk): a ray aimed at the edge 3-2 shared by triangles 1 = (1, 2, 3),
+/// its reversed copy 10 = (1, 3, 2), and 19 = (0, 3, 2). In f32 they are hit at t =
+/// 0x3f800011, 0x3f800010 and 0x3f800000: 19 lies exactly at `tie_limit(t10)` =
+/// 0x3f800000 (within the margin of 10), 10 one ulp from 1, but 19 below
+/// `tie_limit(t1)` = 0x3f800001 (closer than 1 by more than the margin): a chain of three.
+/// Brute force meets 1 first, rejects 10 against it and takes 19, closer by the margin.
+/// With the tie rule on divided t the BVH met 19, then 1 (19 closer: kept), then 10
+/// (within the margin of 19 and of lower index: taken), and answered 10, a hit brute force
+/// never picks. Deciding each pair as brute force does (the later index's intersection
+/// test against the earlier's tie limit), 19's own test against `tie_limit(t10)` passes
+/// (in `t * |det|` it lies below the limit), so 10 does not displace it: every walk now
+/// answers 19, brute force's answer (measured). Chains remain
+/// where the module doc of src/cpu/traverse_bvh.rs allows the BVH to differ, and the
+/// property counts such rays ([`tie_chain`]) instead of failing. Asserted: brute force's
+/// answer, and that each BVH walk gives it or another hit of the chain, as [`tie_chain`]
+/// recognises it.
+#[test]
+fn bvh_tie_chain_is_the_documented_exception() {
+    let v = Vec3::new;
+    let s = scene_of(
+        vec![
+            v(1.6623226, -3.0826209, -2.5611625),
+            v(3.8368146, -3.002395, 0.1704698),
+            v(-0.5, 1.7310702, -0.64373577),
+            v(0.73258317, 1.7776021, -1.1254395),
+        ],
+        24,
+        &[
+            (1, [1, 2, 3]),
+            (4, [1, 3, 0]),
+            (10, [1, 3, 2]),
+            (18, [1, 1, 1]),
+            (19, [0, 3, 2]),
+            (20, [0, 2, 0]),
+            (23, [0, 2, 2]),
+        ],
+    );
+    let ray = (
+        [1.276452788786673, 5.903439863491041, -3.5599252819401075],
+        [-0.5438696236179108, -4.1258377869605845, 2.4344857572895338],
+    );
+    let (brute, got) = bvh_answers(&s, ray);
+    println!("brute force {}; BVH walks {}", show(&[brute]), show(&got));
+    assert_eq!(brute, Some((19, 0x3f80_0000)));
+    let bvh = Bvh::build(&s).unwrap();
+    let mut t = Tally::default();
+    agree::<f32>(&s, (&bvh).into(), &[ray], &mut t).unwrap();
+    for isa in vector_isas() {
+        agree_vectorised(&s, &bvh, isa, &[ray], &mut t).unwrap();
+    }
+    let differ = got.iter().filter(|g| **g != brute).count();
+    assert_eq!(t.chains, differ, "{}", show(&got));
 }
 
 /// Thirty zero-area triangles lying on the three edges of one triangle (ten per edge, as

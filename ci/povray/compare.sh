@@ -10,7 +10,7 @@
 # Both sides are timed with /usr/bin/time -f %e around the whole process: POV-Ray's parse of
 # the generated .pov (the 69k-triangle mesh2) and its bounding build are included, as are
 # fragtrace's OBJ load and grid build.  Both run 2 threads, 1 sample per pixel, no AA.
-# Runs are interleaved round-robin (pov, irregular, uniform, pov, ...) so that a load change
+# Runs are interleaved round-robin (pov, irregular, uniform, bvh, pov, ...) so that a load change
 # on the machine hits every configuration alike.  CPU seconds (user+sys, %U+%S) are reported
 # next to the wall clock: on a shared machine they are the steadier of the two.
 #
@@ -50,7 +50,7 @@ ft_cmd() { # $1 = accel
         --accel "$1" --width "$W" --height "$H" -q -o "$OUTDIR/ft-$1.png"
 }
 echo "   povray:    ${POV_CMD[*]}"
-echo "   fragtrace: $(ft_cmd '{irregular|uniform}')"
+echo "   fragtrace: $(ft_cmd '{irregular|uniform|bvh}')"
 
 timed() { # label cmd... ; appends seconds to $WORK/label
     local label=$1; shift
@@ -65,11 +65,11 @@ timed() { # label cmd... ; appends seconds to $WORK/label
 
 for ((i = 1; i <= RUNS; i++)); do
     timed povray "${POV_CMD[@]}"
-    for a in irregular uniform; do
+    for a in irregular uniform bvh; do
         # shellcheck disable=SC2046  # ft_cmd prints a word list without spaces inside words
         timed "ft-$a" $(ft_cmd "$a")
     done
-    echo "   round $i: povray $(tail -1 "$WORK/povray") s, irregular $(tail -1 "$WORK/ft-irregular") s, uniform $(tail -1 "$WORK/ft-uniform") s"
+    echo "   round $i: povray $(tail -1 "$WORK/povray") s, irregular $(tail -1 "$WORK/ft-irregular") s, uniform $(tail -1 "$WORK/ft-uniform") s, bvh $(tail -1 "$WORK/ft-bvh") s"
 done
 
 median() { sort -g "$1" | awk '{a[NR]=$1} END {print (NR%2 ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2)}'; }
@@ -81,7 +81,7 @@ TRACE=$(tr '\r' '\n' <"$WORK/povray.log" | awk '/Trace Time:/ {gsub(/[()]/,""); 
 echo
 printf '%-28s %8s %8s   %s\n' "configuration (medians)" "wall s" "cpu s" "fragtrace / povray (wall, cpu)"
 printf '%-28s %8s %8s   %s\n' "povray 3.7 (-A, +WT2)" "$P" "$PC" "1.00 (last run: parse ${PARSE}s, trace ${TRACE}s)"
-for a in irregular uniform; do
+for a in irregular uniform bvh; do
     F=$(median "$WORK/ft-$a")
     FC=$(median "$WORK/ft-$a.cpu")
     printf '%-28s %8s %8s   %s\n' "fragtrace cpu f32 $a" "$F" "$FC" \

@@ -30,8 +30,13 @@ pub const BINS: usize = 16;
 pub const MAX_DEPTH: usize = 60;
 /// Nodes with fewer triangles build their two subtrees on this thread.
 const PAR_MIN: usize = 4096;
-/// Cost of visiting a node relative to one triangle test, in the SAH.
-const TRAVERSAL_COST: f32 = 1.0;
+/// Cost of visiting a node relative to one triangle test, in the SAH. Four, not the
+/// textbook one: the vectorised walk tests up to eight of a leaf's triangles in one
+/// kernel call, so larger leaves cost little and save node visits. Measured on the
+/// equal-work bunny (1024², f32): with 1, 6.0 nodes and 1.8 triangle tests per ray, 18,853
+/// nodes, built in 129 ms (here, 1 thread, median of 7); with 4, 5.0 nodes and 5.7 tests,
+/// 6,140 nodes, 94 ms; renders alike within this machine's noise.
+const TRAVERSAL_COST: f32 = 4.0;
 
 /// A node of the 4-wide tree.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -47,6 +47,16 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
         presets: D,
     },
     ConfigRow {
+        name: "cpu-f32-bvh",
+        args: "--backend cpu --precision f32 --accel bvh --cpu-path simd",
+        presets: DQ,
+    },
+    ConfigRow {
+        name: "cpu-f32-bvh-scalar",
+        args: "--backend cpu --precision f32 --accel bvh --cpu-path scalar",
+        presets: D,
+    },
+    ConfigRow {
         name: "gl-looped",
         args: "--backend gl --kernel looped",
         presets: DQ,

@@ -14,10 +14,12 @@
 //! The tie rule: hits closer than the held one by more than [`TIE_EPS`](crate::accel::TIE_EPS)
 //! replace it; within it, the lower triangle index wins whichever was met first. The
 //! grids' walk meets a cell's triangles in index order, so there the lower index wins
-//! within the margin by construction; the BVH meets triangles in its own order and applies
-//! the rule pair by pair, which gives brute force's answer except for chains of three or
-//! more hits each within the margin of the next (coplanar piles), where the first pair met
-//! decides. Only hits within `2 TIE_EPS` of the closest one seen are tested at all.
+//! within the margin by construction; the BVH meets triangles in its own order and decides
+//! each pair as brute force does when it meets them in index order (the later one's
+//! intersection test against the earlier's tie limit), which gives brute force's answer
+//! except for chains of three or more hits each within the margin of the next (coplanar
+//! piles), where the pairs met decide. Only hits within `2 TIE_EPS` of the closest one
+//! seen are tested at all.
 
 use super::intersect::{intersect_with, RayShear};
 use super::real::{Real, V3};
@@ -57,9 +59,46 @@ struct Entry<T> {
     near: T,
 }
 
+/// The walk's stack, left uninitialised: zeroing its 2 KB per query cost 3% of a render.
+struct Stack<T> {
+    items: [std::mem::MaybeUninit<Entry<T>>; STACK],
+    len: usize,
+}
+
+impl<T: Copy> Stack<T> {
+    #[inline(always)]
+    fn with(first: Entry<T>) -> Self {
+        let mut s = Stack {
+            items: [const { std::mem::MaybeUninit::uninit() }; STACK],
+            len: 0,
+        };
+        s.push(first);
+        s
+    }
+
+    #[inline(always)]
+    fn push(&mut self, e: Entry<T>) {
+        // Indexing checks the bound: the build's depth limit keeps it unreachable.
+        self.items[self.len].write(e);
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<Entry<T>> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: every slot below `len` was written by `push`.
+        Some(unsafe { self.items[self.len].assume_init() })
+    }
+}
+
 /// The closest hit held, and the closest t of any hit seen: what bounds the tests.
 struct Closest<T> {
     hit: Option<Hit<T>>,
+    /// The held hit's `t * |det|` and `|det|` (the vectorised walk's, for the tie rule).
+    tt_det: (T, T),
     t_low: T,
 }
 
@@ -67,6 +106,7 @@ impl<T: Real> Closest<T> {
     fn new(t_max: T) -> Self {
         Closest {
             hit: None,
+            tt_det: (T::ZERO, T::ZERO),
             t_low: t_max,
         }
     }
@@ -81,14 +121,18 @@ impl<T: Real> Closest<T> {
         }
     }
 
-    /// Whether a hit at `t` on triangle `tri` replaces the one held (the module's rule);
-    /// it is seen either way.
+    /// Whether a hit at `t` on triangle `tri` replaces the one held; it is seen either
+    /// way. Brute force meets the pair in index order and keeps the earlier unless the
+    /// later passes its intersection test against the earlier's [`tie_limit`]; so does
+    /// this, in whichever order the walk met them: `later_passes(candidate_is_later, hi)`
+    /// answers that test (the test's own comparison `t * |det| < hi * |det|`, not one on
+    /// the divided t, which can differ by an ulp at the margin).
     #[inline(always)]
-    fn takes(&mut self, t: T, tri: u32) -> bool {
+    fn takes(&mut self, t: T, tri: u32, later_passes: impl FnOnce(bool, T) -> bool) -> bool {
         let take = match &self.hit {
             None => true,
-            // Hits are never NaN, so `>=` is the negation of `<` here.
-            Some(h) => t < tie_limit(h.t) || (tri < h.tri && h.t >= tie_limit(t)),
+            Some(h) if tri > h.tri => later_passes(true, tie_limit(h.t)),
+            Some(_) => !later_passes(false, tie_limit(t)),
         };
         if t < self.t_low {
             self.t_low = t;
@@ -174,17 +218,17 @@ impl<T: Real> BoxRay<T> {
     }
 }
 
-/// Pushes the children `bits` of `node` with entry distances `near`: nearest last (popped
-/// first), ties in slot order, when `ordered`; in reverse slot order otherwise.
+/// The children `bits` of `node` with entry distances `near`, in the order the walk takes
+/// them: nearest first (ties in slot order) when `ordered`, slot order otherwise. The
+/// first is returned, to be walked next; the others are pushed so that they pop in order.
 #[inline(always)]
 fn push_children<T: Real>(
     node: &Node4,
     near: &[T; WIDTH],
     mut bits: u32,
     ordered: bool,
-    stack: &mut [Entry<T>; STACK],
-    sp: &mut usize,
-) {
+    stack: &mut Stack<T>,
+) -> Option<Entry<T>> {
     let mut order = [0usize; WIDTH];
     let mut m = 0;
     while bits != 0 {
@@ -199,14 +243,15 @@ fn push_children<T: Real>(
         order[k] = i;
         m += 1;
     }
-    for &i in order[..m].iter().rev() {
-        stack[*sp] = Entry {
-            child: node.child[i],
-            count: node.count[i],
-            near: near[i],
-        };
-        *sp += 1;
+    let entry = |i: usize| Entry {
+        child: node.child[i],
+        count: node.count[i],
+        near: near[i],
+    };
+    for &i in order[1..m.max(1)].iter().rev() {
+        stack.push(entry(i));
     }
+    (m > 0).then(|| entry(order[0]))
 }
 
 impl<'a, T: Real> BvhWalker<'a, T> {
@@ -246,12 +291,18 @@ impl<'a, T: Real> BvhWalker<'a, T> {
                         *tests += 1;
                         let tri = self.bvh.tri_indices[r];
                         let hi = best.bound(ray.t_max);
-                        let p = &self.tris[tri as usize];
-                        let shear = &shear;
-                        if let Some(h) =
-                            intersect_with(ray.o, ray.d, shear, p, ray.t_min, hi, &self.techniques)
-                        {
-                            if best.takes(h.t, tri) {
+                        let test = |tri: u32, hi: T| {
+                            let p = &self.tris[tri as usize];
+                            intersect_with(ray.o, ray.d, &shear, p, ray.t_min, hi, &self.techniques)
+                        };
+                        if let Some(h) = test(tri, hi) {
+                            let held = best.hit.map_or(tri, |h| h.tri);
+                            // The pair's later triangle tested again against the other's
+                            // tie limit: the very comparison brute force makes.
+                            let later = |cand: bool, hi: T| {
+                                test(if cand { tri } else { held }, hi).is_some()
+                            };
+                            if best.takes(h.t, tri, later) {
                                 best.hit = Some(Hit {
                                     t: h.t,
                                     tri,
@@ -309,17 +360,14 @@ impl<'a, T: Real> BvhWalker<'a, T> {
         best: &mut Closest<T>,
     ) {
         let nodes = &self.bvh.nodes;
-        let mut stack = [Entry {
+        let mut stack = Stack::with(Entry {
             child: 0,
             count: 0,
-            near: T::ZERO,
-        }; STACK];
-        stack[0].near = ray.t_min;
-        let mut sp = 1;
+            near: ray.t_min,
+        });
         let mut tests = 0u64;
-        while sp > 0 {
-            sp -= 1;
-            let e = stack[sp];
+        let mut next = None;
+        while let Some(e) = next.take().or_else(|| stack.pop()) {
             let hi = best.bound(ray.t_max);
             if e.near > hi {
                 continue;
@@ -331,7 +379,7 @@ impl<'a, T: Real> BvhWalker<'a, T> {
             work.cells += 1;
             let node = &nodes[e.child as usize];
             let (near, bits) = slabs(node, ray.t_min, hi);
-            push_children(node, &near, bits, true, &mut stack, &mut sp);
+            next = push_children(node, &near, bits, true, &mut stack);
         }
         work.tests += tests;
     }
@@ -347,17 +395,15 @@ impl<'a, T: Real> BvhWalker<'a, T> {
         mut leaf: impl FnMut(usize, usize, &mut u64) -> bool,
     ) -> bool {
         let nodes = &self.bvh.nodes;
-        let mut stack = [Entry {
+        let mut stack = Stack::with(Entry {
             child: 0,
             count: 0,
             near: ray.t_min,
-        }; STACK];
-        let mut sp = 1;
+        });
         let mut tests = 0u64;
         let mut found = false;
-        while sp > 0 {
-            sp -= 1;
-            let e = stack[sp];
+        let mut next = None;
+        while let Some(e) = next.take().or_else(|| stack.pop()) {
             if e.count > 0 {
                 if leaf(e.child as usize, e.count as usize, &mut tests) {
                     found = true;
@@ -368,7 +414,7 @@ impl<'a, T: Real> BvhWalker<'a, T> {
             work.cells += 1;
             let node = &nodes[e.child as usize];
             let (near, bits) = slabs(node);
-            push_children(node, &near, bits, false, &mut stack, &mut sp);
+            next = push_children(node, &near, bits, false, &mut stack);
         }
         work.tests += tests;
         found
@@ -441,7 +487,17 @@ impl<'a> BvhWalker<'a, f32> {
                             return; // never NaN: the kernel passed it against a bound
                         }
                         let tri = list[c.r];
-                        if best.takes(c.t, tri) {
+                        let (tt_h, det_h) = best.tt_det;
+                        // The scalar test's comparison on the lanes' values (the scalar
+                        // walk reruns the test: the same operations, the same bits).
+                        let later = |cand: bool, hi: f32| {
+                            if cand {
+                                c.tt < hi * c.det_abs
+                            } else {
+                                tt_h < hi * det_h
+                            }
+                        };
+                        if best.takes(c.t, tri, later) {
                             let [u, v, w, det] = c.uvwd;
                             let inv = 1.0 / det;
                             best.hit = Some(Hit {
@@ -449,6 +505,7 @@ impl<'a> BvhWalker<'a, f32> {
                                 tri,
                                 b: [u * inv, v * inv, w * inv],
                             });
+                            best.tt_det = (c.tt, c.det_abs);
                         }
                     },
                 );

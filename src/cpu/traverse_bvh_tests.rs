@@ -331,7 +331,11 @@ fn tie_rule_does_not_depend_on_meeting_order() {
             let mut c = Closest::<f32>::new(100.0);
             let mut bounds = vec![c.bound(100.0)];
             for (t, tri) in order {
-                if c.takes(t, tri) {
+                // The later triangle's test against the other's tie limit, on t itself
+                // (as if |det| = 1).
+                let held_t = c.hit.map_or(t, |h| h.t);
+                let later = |cand: bool, hi: f32| if cand { t < hi } else { held_t < hi };
+                if c.takes(t, tri, later) {
                     c.hit = Some(Hit {
                         t,
                         tri,

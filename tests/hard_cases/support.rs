@@ -4,21 +4,28 @@
 //!
 //! The acceleration structure is a dimension of the backend list: each of the four
 //! backends (CPU f64, CPU f32, GL with the faithful multipass kernel, GL with the compute
-//! kernel) runs once on the uniform grid and once on the irregular grid, so a case's
-//! `[_; 8]` results read in [`BACKENDS`] order and every per-backend loop covers both
+//! kernel) runs once on the uniform grid and once on the irregular grid, and the CPU's two
+//! once more on the BVH (`--accel bvh`, which the GPU does not walk), so a case's
+//! `[_; NB]` results read in [`BACKENDS`] order and every per-backend loop covers the three
 //! structures and both GL kernels (the fragment kernels share the multipass kernel's step
 //! chunk pass by pass, tests/gpu_backend.rs; the compute kernel runs it in one dispatch:
-//! `trace_rays` through `wave.comp`, renders through `render.comp`). The reference, [`F64`], is the f64 CPU on the uniform grid: for
-//! the irregular backends it is an answer from another structure.
+//! `trace_rays` through `wave.comp`, renders through `render.comp`). The GL backends are
+//! the grids' only ([`ACCELS`], [`is_gl`]): the BVH's two entries follow the grids' eight,
+//! at the positions a third structure's CPU f64 and CPU f32 would take, so
+//! [`precision_of`] and `bi % PER` read them as for the grids. The reference, [`F64`], is
+//! the f64 CPU on the uniform grid: for the irregular and BVH backends it is an answer
+//! from another structure.
 
 use std::time::Instant;
 
 use fragtrace::accel::{
-    AccelKind, AccelRef, Grid, GridConfig, GridRes, IrregularConfig, IrregularGrid,
+    AccelKind, AccelRef, Bvh, Grid, GridConfig, GridRes, IrregularConfig, IrregularGrid,
 };
 use fragtrace::compare::compare;
 use fragtrace::cpu::real::{Real, V3};
-use fragtrace::cpu::traverse::{CellWalk, GridWalker, Ray, Work};
+use fragtrace::cpu::simd::Isa;
+use fragtrace::cpu::traverse::{CellWalk, GridWalker, Ray, Trace, Work};
+use fragtrace::cpu::traverse_bvh::BvhWalker;
 use fragtrace::cpu::walker::Walker;
 use fragtrace::gpu::options::GpuOptions;
 use fragtrace::gpu::options::Kernel;
@@ -36,15 +43,20 @@ use rayon::prelude::*;
 
 /// "No upper bound" for a ray, as every backend spells it (GLSL 1.20 has no infinity).
 pub const BIG: f32 = 1.0e30;
-/// The structures every case runs on, in [`BACKENDS`] order.
+/// The grids, which every backend walks (the GL batches index them), in [`BACKENDS`]
+/// order; the BVH, CPU only, follows them ([`accel_of`]).
 pub const ACCELS: [AccelKind; 2] = [AccelKind::Uniform, AccelKind::Irregular];
-/// Backends per structure (CPU f64, CPU f32, GL multipass, GL compute).
+/// Every structure the CPU walks, in [`BACKENDS`] order: the grids, then the BVH.
+pub const CPU_ACCELS: [AccelKind; 3] = [AccelKind::Uniform, AccelKind::Irregular, AccelKind::Bvh];
+/// Backends per grid (CPU f64, CPU f32, GL multipass, GL compute).
 pub const PER: usize = 4;
-/// Backends times structures.
-pub const NB: usize = 8;
+/// The grids' backends: backends per grid times grids (the first `NG` of [`BACKENDS`]).
+pub const NG: usize = 8;
+/// Every backend: the grids' [`NG`], then the BVH's CPU f64 and CPU f32.
+pub const NB: usize = NG + 2;
 /// Backend names, in the order results are reported: every `[_; NB]` below is in this
-/// order, the uniform grid's three first (a `[_; PER]` of one structure is in this order
-/// too).
+/// order, the uniform grid's four first, the BVH's two last (a `[_; PER]` of one grid is
+/// in this order too).
 pub const BACKENDS: [&str; NB] = [
     "CPU f64 uniform",
     "CPU f32 uniform",
@@ -54,13 +66,20 @@ pub const BACKENDS: [&str; NB] = [
     "CPU f32 irregular",
     "GL irregular",
     "GL compute irregular",
+    "CPU f64 bvh",
+    "CPU f32 bvh",
 ];
 /// Index of the f64 CPU on the uniform grid, the reference, in [`BACKENDS`].
 pub const F64: usize = 0;
 
-/// True for the GL backends of [`BACKENDS`].
+/// Index in [`BACKENDS`] of the first backend (CPU f64) of the structure `kind`.
+pub fn first_of(kind: AccelKind) -> usize {
+    CPU_ACCELS.iter().position(|&k| k == kind).unwrap() * PER
+}
+
+/// True for the GL backends of [`BACKENDS`] (the grids' only).
 pub fn is_gl(bi: usize) -> bool {
-    bi % PER >= 2
+    bi < NG && bi % PER >= 2
 }
 
 /// The GL kernel of backend `bi` of [`BACKENDS`] (only meaningful where [`is_gl`]).
@@ -77,7 +96,11 @@ pub const GL_KERNELS: [Kernel; 2] = [Kernel::Multipass, Kernel::Compute];
 
 /// The structure of backend `bi` of [`BACKENDS`].
 pub fn accel_of(bi: usize) -> AccelKind {
-    ACCELS[bi / PER]
+    if bi < NG {
+        ACCELS[bi / PER]
+    } else {
+        AccelKind::Bvh
+    }
 }
 
 /// The precision of backend `bi` of [`BACKENDS`] (GL computes in f32).
@@ -281,12 +304,15 @@ pub fn add_quad_outward(s: &mut Scene, q: [Vec3; 4], inside: Vec3, material: u32
     }
 }
 
-/// Both structures of one scene, built once and traced by every backend.
+/// The three structures of one scene, built once and traced by every backend (the BVH by
+/// the CPU's only).
 pub struct Accels {
     /// The uniform grid.
     pub uniform: Grid,
     /// The irregular grid.
     pub irregular: IrregularGrid,
+    /// The 4-wide BVH (it has no parameters).
+    pub bvh: Bvh,
 }
 
 impl Accels {
@@ -295,30 +321,36 @@ impl Accels {
         match kind {
             AccelKind::Uniform => (&self.uniform).into(),
             AccelKind::Irregular => (&self.irregular).into(),
-            AccelKind::Bvh => unimplemented!("the hard cases do not build the BVH yet"),
+            AccelKind::Bvh => (&self.bvh).into(),
         }
     }
 
-    /// Both resolutions, for the report (the irregular grid's top and virtual ones).
+    /// The grids' resolutions (the irregular grid's top and virtual ones) and the BVH's
+    /// nodes, for the report.
     pub fn describe(&self) -> String {
         format!(
-            "uniform {:?}, irregular top {:?} virtual {:?}",
-            self.uniform.res, self.irregular.top_res, self.irregular.res
+            "uniform {:?}, irregular top {:?} virtual {:?}, bvh {} nodes",
+            self.uniform.res,
+            self.irregular.top_res,
+            self.irregular.res,
+            self.bvh.nodes.len()
         )
     }
 }
 
-/// Both structures with their default (automatic) parameters.
+/// The three structures, the grids with their default (automatic) parameters.
 pub fn accels(scene: &Scene) -> Accels {
     Accels {
         uniform: auto_grid(scene),
         irregular: IrregularGrid::build(scene, &IrregularConfig::default()).unwrap(),
+        bvh: Bvh::build(scene).unwrap(),
     }
 }
 
-/// A uniform grid of exactly `res` cells, and an irregular grid with as many top cells
-/// per triangle as that grid has cells (it has no fixed resolution; its top grid is as
-/// fine, so the case's triangles are split over as many cells, with its own cell faces).
+/// A uniform grid of exactly `res` cells, an irregular grid with as many top cells per
+/// triangle as that grid has cells (it has no fixed resolution; its top grid is as fine,
+/// so the case's triangles are split over as many cells, with its own cell faces), and the
+/// BVH (the same as [`accels`]'s: it has no parameters).
 pub fn accels_fixed(scene: &Scene, res: [u32; 3]) -> Accels {
     let cells = res.iter().map(|&r| r as f32).product::<f32>();
     let cfg = IrregularConfig {
@@ -328,6 +360,7 @@ pub fn accels_fixed(scene: &Scene, res: [u32; 3]) -> Accels {
     Accels {
         uniform: fixed_grid(scene, res),
         irregular: IrregularGrid::build(scene, &cfg).unwrap(),
+        bvh: Bvh::build(scene).unwrap(),
     }
 }
 
@@ -418,17 +451,26 @@ impl Found {
     }
 }
 
-/// Closest hits on the CPU in precision `T`, through either structure.
-pub fn cpu_closest<'a, T: Real>(
+/// The CPU's scalar walk of `accel` in precision `T` with `techniques`, whichever
+/// structure it is: the grids' [`Walker`], the BVH's [`BvhWalker::new`].
+pub fn cpu_tracer<'a, T: Real>(
     scene: &Scene,
     accel: impl Into<AccelRef<'a>>,
-    rays: &[TRay],
-) -> Vec<Found> {
-    let accel = Walker::<T>::new(scene, accel.into().grid().unwrap(), Techniques::default());
+    techniques: Techniques,
+) -> Box<dyn Trace<T> + 'a> {
+    match accel.into() {
+        AccelRef::Bvh(b) => Box::new(BvhWalker::<T>::new(scene, b, techniques)),
+        grid => Box::new(Walker::<T>::new(scene, grid.grid().unwrap(), techniques)),
+    }
+}
+
+/// Closest hits through `tracer`, with the work of each (nodes or cells visited plus
+/// triangle tests).
+fn closest_through<T: Real>(tracer: &dyn Trace<T>, rays: &[TRay]) -> Vec<Found> {
     rays.par_iter()
         .map(|r| {
             let mut w = Work::default();
-            let h = accel.closest_hit(&r.cpu::<T>(), &mut w);
+            let h = tracer.closest_hit(&r.cpu::<T>(), &mut w);
             Found {
                 hit: h.map(|h| (h.t.to_f64(), h.tri)),
                 steps: (w.cells + w.tests) as f64,
@@ -438,16 +480,64 @@ pub fn cpu_closest<'a, T: Real>(
         .collect()
 }
 
-/// Any-hit answers on the CPU in precision `T`, through either structure.
+/// Whether `T` is f32 (the precision of the BVH's vectorised walk).
+fn is_f32<T: Real>() -> bool {
+    std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>()
+}
+
+/// Closest hits on the CPU in precision `T`, through any of the three structures (the
+/// scalar walks). On the BVH in f32 the vectorised walk ([`BvhWalker::vectorised`], the
+/// renderer's default) must also return the same hits, bit for bit, and the same work.
+pub fn cpu_closest<'a, T: Real>(
+    scene: &Scene,
+    accel: impl Into<AccelRef<'a>>,
+    rays: &[TRay],
+) -> Vec<Found> {
+    let accel = accel.into();
+    let found = closest_through(&*cpu_tracer::<T>(scene, accel, Techniques::default()), rays);
+    if let (AccelRef::Bvh(b), true) = (accel, is_f32::<T>()) {
+        let v = BvhWalker::vectorised(scene, b, Techniques::default(), Isa::detect());
+        let simd = closest_through::<f32>(&v, rays);
+        let differ = (0..rays.len()).filter(|&k| simd[k] != found[k]).count();
+        assert!(
+            differ == 0,
+            "the BVH's vectorised f32 walk ({}) differs from the scalar one on {differ} of {} rays, e.g. ray {:?}",
+            v.isa().name(),
+            rays.len(),
+            (0..rays.len())
+                .find(|&k| simd[k] != found[k])
+                .map(|k| (rays[k], found[k], simd[k]))
+        );
+    }
+    found
+}
+
+/// Any-hit answers on the CPU in precision `T`, through any of the three structures (on
+/// the BVH in f32 the vectorised walk must give the same answers).
 pub fn cpu_any<'a, T: Real>(
     scene: &Scene,
     accel: impl Into<AccelRef<'a>>,
     rays: &[TRay],
 ) -> Vec<bool> {
-    let accel = Walker::<T>::new(scene, accel.into().grid().unwrap(), Techniques::default());
-    rays.par_iter()
-        .map(|r| accel.any_hit(&r.cpu::<T>(), &mut Work::default()))
-        .collect()
+    let accel = accel.into();
+    let tracer = cpu_tracer::<T>(scene, accel, Techniques::default());
+    let any: Vec<bool> = rays
+        .par_iter()
+        .map(|r| tracer.any_hit(&r.cpu::<T>(), &mut Work::default()))
+        .collect();
+    if let (AccelRef::Bvh(b), true) = (accel, is_f32::<T>()) {
+        let v = BvhWalker::vectorised(scene, b, Techniques::default(), Isa::detect());
+        let simd: Vec<bool> = rays
+            .par_iter()
+            .map(|r| v.any_hit(&r.cpu::<f32>(), &mut Work::default()))
+            .collect();
+        assert!(
+            simd == any,
+            "the BVH's vectorised f32 any-hit ({}) differs from the scalar one",
+            v.isa().name()
+        );
+    }
+    any
 }
 
 /// Brute force over every triangle (no grid) in precision `T`: the traversal's reference.
@@ -531,7 +621,7 @@ pub fn gl_trace_with<'a>(
         .collect()
 }
 
-/// Closest hits on the four backends through one structure, in [`BACKENDS`] order.
+/// Closest hits on the four backends through one grid, in [`BACKENDS`] order.
 pub fn closest_one<'a>(
     ctx: &GlContext,
     scene: &Scene,
@@ -557,7 +647,16 @@ pub fn closest_all(
 ) -> [Vec<Found>; NB] {
     let [a, b, c, d] = closest_one(ctx, scene, &accels.uniform, rays);
     let [e, f, g, h] = closest_one(ctx, scene, &accels.irregular, rays);
-    [a, b, c, d, e, f, g, h]
+    let [i, j] = closest_bvh(scene, &accels.bvh, rays);
+    [a, b, c, d, e, f, g, h, i, j]
+}
+
+/// Closest hits on the BVH's two backends (CPU f64, CPU f32), in [`BACKENDS`] order.
+pub fn closest_bvh(scene: &Scene, bvh: &Bvh, rays: &[TRay]) -> [Vec<Found>; 2] {
+    [
+        cpu_closest::<f64>(scene, bvh, rays),
+        cpu_closest::<f32>(scene, bvh, rays),
+    ]
 }
 
 /// Per backend, how many of `res`'s rays `bad` holds for (`bad` gets the ray's index).
