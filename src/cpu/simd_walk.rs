@@ -165,6 +165,8 @@ impl CellWalk<f32> for SimdWalker<'_> {
     }
 }
 
+crate::trace_by_cell_walk!(SimdWalker<'_>, f32);
+
 /// Rays stepped together by the streams: enough independent walks for the CPU to overlap
 /// one ray's dependent loads and divisions with the others'.
 pub const STREAM: usize = 8;

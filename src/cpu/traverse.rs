@@ -261,41 +261,55 @@ pub trait Trace<T: Real>: Sync {
     }
 }
 
-/// [`Trace`] for a [`CellWalk`] type: its own queries.
+/// [`Trace`] for a [`CellWalk`] type `$t` in precision `$real`: its own queries. Invoked
+/// beside each walker the renderer takes (`walker.rs`, `simd_walk.rs`), so that this file
+/// need not import them.
+#[macro_export]
+#[doc(hidden)]
 macro_rules! trace_by_cell_walk {
     ($t:ty, $real:ty $(, $gen:ident)?) => {
-        impl<$($gen: Real)?> Trace<$real> for $t {
+        impl<$($gen: $crate::cpu::real::Real)?> $crate::cpu::traverse::Trace<$real> for $t {
             #[inline(always)]
-            fn tris(&self) -> &[[V3<$real>; 3]] {
-                CellWalk::tris(self)
+            fn tris(&self) -> &[[$crate::cpu::real::V3<$real>; 3]] {
+                $crate::cpu::traverse::CellWalk::tris(self)
             }
             #[inline(always)]
-            fn closest_hit(&self, ray: &Ray<$real>, work: &mut Work) -> Option<Hit<$real>> {
-                CellWalk::closest_hit(self, ray, work)
+            fn closest_hit(
+                &self,
+                ray: &$crate::cpu::traverse::Ray<$real>,
+                work: &mut $crate::cpu::traverse::Work,
+            ) -> Option<$crate::cpu::traverse::Hit<$real>> {
+                $crate::cpu::traverse::CellWalk::closest_hit(self, ray, work)
             }
             #[inline(always)]
-            fn any_hit(&self, ray: &Ray<$real>, work: &mut Work) -> bool {
-                CellWalk::any_hit(self, ray, work)
+            fn any_hit(
+                &self,
+                ray: &$crate::cpu::traverse::Ray<$real>,
+                work: &mut $crate::cpu::traverse::Work,
+            ) -> bool {
+                $crate::cpu::traverse::CellWalk::any_hit(self, ray, work)
             }
             #[inline(always)]
             fn closest_hits(
                 &self,
-                rays: &[Ray<$real>],
-                hits: &mut [Option<Hit<$real>>],
-                work: &mut [Work],
+                rays: &[$crate::cpu::traverse::Ray<$real>],
+                hits: &mut [Option<$crate::cpu::traverse::Hit<$real>>],
+                work: &mut [$crate::cpu::traverse::Work],
             ) {
-                CellWalk::closest_hits(self, rays, hits, work)
+                $crate::cpu::traverse::CellWalk::closest_hits(self, rays, hits, work)
             }
             #[inline(always)]
-            fn any_hits(&self, rays: &[Ray<$real>], hit: &mut [bool], work: &mut Work) {
-                CellWalk::any_hits(self, rays, hit, work)
+            fn any_hits(
+                &self,
+                rays: &[$crate::cpu::traverse::Ray<$real>],
+                hit: &mut [bool],
+                work: &mut $crate::cpu::traverse::Work,
+            ) {
+                $crate::cpu::traverse::CellWalk::any_hits(self, rays, hit, work)
             }
         }
     };
 }
-
-trace_by_cell_walk!(super::walker::Walker<'_, T>, T, T);
-trace_by_cell_walk!(super::simd_walk::SimdWalker<'_>, f32);
 
 /// [`CellWalk::closest_hit`] with the scalar per-cell step ([`closest_of`]): the default,
 /// and what a walker overriding it (the vectorised one) falls back to.

@@ -61,6 +61,8 @@ impl<T: Real> CellWalk<T> for Walker<'_, T> {
     }
 }
 
+crate::trace_by_cell_walk!(Walker<'_, T>, T, T);
+
 #[cfg(test)]
 mod tests {
     use glam::Vec3;
