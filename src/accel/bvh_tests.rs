@@ -212,8 +212,9 @@ fn empty_scene_has_an_empty_root() {
 #[test]
 fn build_does_not_depend_on_threads() {
     let mut rng = Rng::new(test_seed("bvh threads", 0xB0B0_0004));
-    // Above PAR_MIN triangles, so the top splits run in parallel.
-    let s = scene_of(&soup(&mut rng, 3 * PAR_MIN));
+    // Above PAR_BIN triangles, so the top splits bin in parallel chunks and build their
+    // halves in parallel.
+    let s = scene_of(&soup(&mut rng, PAR_BIN + PAR_BIN / 2));
     let one = with_threads(1, || Bvh::build(&s).unwrap());
     let four = with_threads(4, || Bvh::build(&s).unwrap());
     assert_eq!(one.nodes, four.nodes);
