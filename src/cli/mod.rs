@@ -79,7 +79,8 @@ pub struct ViewArgs {
     /// pattern of `render --spp`); the picture is refined after each.
     #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = count_in(1, MAX_SPP))]
     pub spp: u32,
-    /// Acceleration structure: irregular (the default) or uniform (the thesis's grid).
+    /// Acceleration structure: irregular (the default) or uniform (the thesis's grid); the
+    /// window renders on the GPU, which refuses the CPU's bvh.
     #[arg(long, value_enum, default_value_t = crate::accel::AccelKind::default())]
     pub accel: crate::accel::AccelKind,
     /// Uniform grid resolution: auto or AxBxC (with --accel uniform).
