@@ -367,14 +367,15 @@ impl Bins {
         counts: [[0; BINS]; 3],
     };
 
-    /// `refs` binned by centroid over the centroid box `cb`, on every axis it spreads on.
+    /// `refs` binned by centroid over the centroid box `cb` on each axis (all in bin 0 on
+    /// an axis it does not spread on, which the split search skips).
     fn of(prims: &[Prim], refs: &[u32], cb: &Aabb) -> Bins {
         let mut b = Bins::EMPTY;
         let k = [0, 1, 2].map(|a| bin_of(cb, a));
         for &r in refs {
             let p = &prims[r as usize];
-            for a in 0..3 {
-                let i = k[a](p.c[a]);
+            for (a, bin) in k.iter().enumerate() {
+                let i = bin(p.c[a]);
                 b.boxes[a][i].grow(p.lo, p.hi);
                 b.counts[a][i] += 1;
             }

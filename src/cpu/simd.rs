@@ -17,7 +17,8 @@
 
 use super::intersect::RayShear;
 use super::soa::SoaTris;
-use super::traverse::tie_limit;
+use super::traverse::{tie_limit, Ray};
+use crate::technique::{TBound, Techniques};
 
 /// Which triangle-test kernel a vectorised walk runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,6 +98,18 @@ impl RayConsts {
             t_max,
             t_bound,
         }
+    }
+
+    /// The constants of `ray` for a walk with `techniques` (their t bound).
+    #[inline(always)]
+    pub fn of_ray(ray: &Ray<f32>, techniques: &Techniques) -> Self {
+        RayConsts::new(
+            [ray.o.x, ray.o.y, ray.o.z],
+            &RayShear::new(ray.d),
+            ray.t_min,
+            ray.t_max,
+            techniques.t_bound == TBound::On,
+        )
     }
 }
 

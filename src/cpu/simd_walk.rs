@@ -14,7 +14,6 @@
 //! CPUs without SSE2 (not x86-64), the walker runs the scalar per-cell step and reports
 //! [`Isa::Scalar`].
 
-use super::intersect::RayShear;
 use super::real::{Real, V3};
 use super::simd::{self, Best, Isa, RayConsts};
 #[cfg(target_arch = "x86_64")]
@@ -27,7 +26,7 @@ use super::walker::Walker;
 use crate::accel::irregular::IrrCell;
 use crate::accel::{CellRange, GridRef};
 use crate::scene::Scene;
-use crate::technique::{IntersectMethod, TBound, Techniques};
+use crate::technique::{IntersectMethod, Techniques};
 
 /// The render's structure walked in f32 with vectorised triangle tests.
 pub struct SimdWalker<'a> {
@@ -72,15 +71,7 @@ impl<'a> SimdWalker<'a> {
     /// The kernels' constants for `ray`.
     #[inline(always)]
     fn consts(&self, ray: &Ray<f32>) -> RayConsts {
-        let t_bound = self.walker.techniques().t_bound == TBound::On;
-        let sh = RayShear::new(ray.d);
-        RayConsts::new(
-            [ray.o.x, ray.o.y, ray.o.z],
-            &sh,
-            ray.t_min,
-            ray.t_max,
-            t_bound,
-        )
+        RayConsts::of_ray(ray, self.walker.techniques())
     }
 }
 

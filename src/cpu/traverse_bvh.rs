@@ -29,7 +29,7 @@ use super::traverse::{tie_limit, Hit, Ray, Trace, Work};
 use crate::accel::bvh::{Bvh, Node4, WIDTH};
 use crate::accel::TIE_EPS;
 use crate::scene::Scene;
-use crate::technique::{IntersectMethod, TBound, Techniques};
+use crate::technique::{IntersectMethod, Techniques};
 
 /// Stack entries: three per level of the deepest tree the build makes, and a node's four.
 const STACK: usize = 3 * crate::accel::bvh::MAX_DEPTH + WIDTH + 1;
@@ -448,15 +448,7 @@ impl<'a> BvhWalker<'a, f32> {
     /// The vector kernels' constants for `ray`.
     #[inline(always)]
     fn consts(&self, ray: &Ray<f32>) -> RayConsts {
-        let sh = RayShear::new(ray.d);
-        let t_bound = self.techniques.t_bound == TBound::On;
-        RayConsts::new(
-            [ray.o.x, ray.o.y, ray.o.z],
-            &sh,
-            ray.t_min,
-            ray.t_max,
-            t_bound,
-        )
+        RayConsts::of_ray(ray, &self.techniques)
     }
 
     /// The closest hit, by the vectorised walk.
