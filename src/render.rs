@@ -8,8 +8,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::accel::{Accel, AccelSummary};
-use crate::accel::{AccelRef, GridRef};
+use crate::accel::{Accel, AccelRef, AccelSummary, GridRef};
 use crate::cpu::simd::Isa;
 use crate::cpu::simd_walk::SimdWalker;
 use crate::cpu::traverse::Trace;
