@@ -405,6 +405,9 @@ fn step_lanes<const VSTEP: bool>(
     soa: &Lanes8,
 ) -> [(f32, usize, Option<[u32; 3]>); STREAM] {
     let cell = |l: &Lane| &w.grid.cells[l.st.id as usize];
+    // Read only by the AVX2 step (the web page's wasm32 build warned of it unread).
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = soa;
     #[cfg(target_arch = "x86_64")]
     if VSTEP {
         let args = lanes
