@@ -3,8 +3,8 @@
 //! grids; `RenderOptions::validate` refuses `--accel bvh` with `--backend gl`).
 //!
 //! Built top-down as a binary tree with binned surface-area-heuristic splits
-//! ([`BINS`] bins on each axis, the cheapest of the three axes, Wald 2007), in parallel
-//! below the root's first levels, then collapsed into a 4-wide tree ([`Node4`]): each
+//! ([`BINS`] bins on each axis, the cheapest of the three axes, Wald 2007), the two halves
+//! of a node in parallel and the largest nodes' bins in parallel chunks, then collapsed into a 4-wide tree ([`Node4`]): each
 //! node holds its four children's boxes side by side, one array per axis and side, so one
 //! SSE operation tests the ray against all four slabs of an axis. The walk is
 //! `cpu/traverse_bvh.rs`.
@@ -25,13 +25,14 @@ pub const WIDTH: usize = 4;
 pub const LEAF_MAX: usize = 8;
 /// Bins per axis of the SAH split search.
 pub const BINS: usize = 16;
-/// Deepest binary node: below it a node becomes a leaf whatever its size (only a pile of
-/// triangles with one centroid gets there; the median split halves it at every level).
+/// Deepest binary node: there a node becomes a leaf whatever its size. A guard against
+/// splits that peel off a few triangles at a time (triangles spaced geometrically can make
+/// the SAH do so); piles with one centroid are halved by the median and stay shallow.
 pub const MAX_DEPTH: usize = 60;
 /// Nodes with fewer triangles build their two subtrees on this thread.
 const PAR_MIN: usize = 4096;
-/// Nodes with at least this many triangles find their box and bins in parallel chunks of a
-/// quarter of it: the top splits, which otherwise run on one thread while the others wait
+/// Nodes with at least this many triangles find their box and bins in parallel, in chunks
+/// of a quarter of this: the top splits, which otherwise run on one thread while the others wait
 /// (the 3.3 M-triangle icosphere built only 2.8x faster on 16 threads than on 2).
 const PAR_BIN: usize = 1 << 16;
 /// Cost of visiting a node relative to one triangle test, in the SAH. Four, not the
