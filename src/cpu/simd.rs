@@ -159,6 +159,32 @@ fn accept(mut bits: u32, lanes: &Lanes, r0: usize, t_max: f32, best: &mut Best) 
     }
 }
 
+/// Tests references `r .. r + W` (those past `left` masked off) with the kernel `isa`
+/// against the upper bound `hi`: the candidate lanes as bits, their values in `lanes`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn chunk(
+    isa: Isa,
+    rc: &RayConsts,
+    soa: &SoaTris,
+    r: usize,
+    left: usize,
+    hi: f32,
+    lanes: &mut Lanes,
+) -> u32 {
+    debug_assert!(isa.available() && isa != Isa::Scalar && r < soa.len);
+    // SAFETY: `isa` was detected on this CPU (the callers' contract); the loads read
+    // `r .. r + W`, inside the padded arrays since `r < soa.len` and the padding is a full
+    // AVX2 load.
+    unsafe {
+        if isa == Isa::Avx2 {
+            avx2::chunk(rc, soa, r, left, hi, lanes)
+        } else {
+            sse2::chunk(rc, soa, r, left, hi, lanes)
+        }
+    }
+}
+
 /// The closest hit among references `off .. off + n` of `soa` with the tie rule of
 /// `traverse::closest_of` (`best` starts empty for each cell). `isa` must be available.
 #[inline(always)]
@@ -176,15 +202,7 @@ pub fn closest(isa: Isa, rc: &RayConsts, soa: &SoaTris, off: usize, n: usize, be
                 rc.t_max
             };
             let left = off + n - r;
-            // SAFETY: `isa` was detected on this CPU; the loads read `r .. r + w`, inside
-            // the padded arrays since `r < soa.len` and the padding is a full AVX2 load.
-            let bits = unsafe {
-                if isa == Isa::Avx2 {
-                    avx2::chunk(rc, soa, r, left, hi, &mut lanes)
-                } else {
-                    sse2::chunk(rc, soa, r, left, hi, &mut lanes)
-                }
-            };
+            let bits = chunk(isa, rc, soa, r, left, hi, &mut lanes);
             accept(bits, &lanes, r, rc.t_max, best);
             r += w;
         }
@@ -234,14 +252,7 @@ pub fn scan<S>(
         while r < off + n {
             let left = off + n - r;
             let hi = bound(state);
-            // SAFETY: as in `closest`.
-            let mut bits = unsafe {
-                if isa == Isa::Avx2 {
-                    avx2::chunk(rc, soa, r, left, hi, &mut lanes)
-                } else {
-                    sse2::chunk(rc, soa, r, left, hi, &mut lanes)
-                }
-            };
+            let mut bits = chunk(isa, rc, soa, r, left, hi, &mut lanes);
             while bits != 0 {
                 let i = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
@@ -275,14 +286,7 @@ pub fn first_hit(isa: Isa, rc: &RayConsts, soa: &SoaTris, off: usize, n: usize) 
         let mut r = off;
         while r < off + n {
             let left = off + n - r;
-            // SAFETY: as in `closest`.
-            let bits = unsafe {
-                if isa == Isa::Avx2 {
-                    avx2::chunk(rc, soa, r, left, rc.t_max, &mut lanes)
-                } else {
-                    sse2::chunk(rc, soa, r, left, rc.t_max, &mut lanes)
-                }
-            };
+            let bits = chunk(isa, rc, soa, r, left, rc.t_max, &mut lanes);
             if bits != 0 {
                 return Some(r - off + bits.trailing_zeros() as usize);
             }
