@@ -540,8 +540,11 @@ mod tests {
             .into_iter()
             .map(|c| c.name)
             .collect();
-        assert_eq!(default.len(), 15);
+        assert_eq!(default.len(), 17);
         assert!(default.iter().any(|c| c == "gl-compute"), "{default:?}");
+        for bvh in ["cpu-f32-bvh", "cpu-f32-bvh-scalar"] {
+            assert!(default.iter().any(|c| c == bvh), "{bvh}: {default:?}");
+        }
         assert_eq!(default[0], "cpu-f64");
         let quick = resolve_configs("quick").unwrap();
         assert!(quick.len() >= 3 && quick.iter().any(|c| c.name == "cpu-f64"));
