@@ -730,7 +730,33 @@ fn grid_without_accel_uniform_and_bad_accel_flags_are_usage_errors() {
     ] {
         fails(&d, args, &[], &["--grid 8x8x8", "--accel uniform"]);
     }
-    fails(&d, &["render", "--accel", "bvh"], &[], &["bvh", "--accel"]);
+    fails(
+        &d,
+        &["render", "--accel", "kdtree"],
+        &[],
+        &["kdtree", "--accel"],
+    );
+    // The BVH is the CPU's alone: the GPU backend refuses it, and it has no grid density.
+    fails(
+        &d,
+        &["render", "--backend", "gl", "--accel", "bvh"],
+        &[],
+        &["--accel bvh", "CPU backend only"],
+    );
+    fails(
+        &d,
+        &[
+            "render",
+            "--backend",
+            "cpu",
+            "--accel",
+            "bvh",
+            "--grid-density",
+            "2",
+        ],
+        &[],
+        &["--grid-density", "BVH"],
+    );
     for accel in ["uniform", "irregular"] {
         fails(
             &d,
