@@ -97,8 +97,11 @@ pub fn render_frames(
         srgb8: format == Format::Png,
     };
     opts.progress = false;
-    let prepared = render::prepare(scene, &opts)?;
+    opts.validate()?;
     let ctx = render::context_for(&opts, progress)?;
+    // `--accel auto`: the structure of the backend the context settles.
+    let opts = opts.on_backend(ctx.is_some());
+    let prepared = render::prepare(scene, &opts)?;
     let mut renderer: Renderer<'_> = match &ctx {
         Some(ctx) => prepared.gl_renderer(ctx, &opts)?,
         None => prepared.cpu_renderer(&opts),

@@ -386,12 +386,14 @@ fn cpu_frame<T: crate::cpu::real::Real, W: Trace<T>>(
 
 /// Builds the acceleration structure and renders `scene` on the CPU.
 pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+    let opts = &opts.on_backend(false);
     prepare(scene, opts)?.render_cpu(opts)
 }
 
 /// Builds the acceleration structure and renders `scene` on the GPU in `ctx` (the kernel
 /// `opts.gpu.kernel` resolves to).
 pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+    let opts = &opts.on_backend(true);
     opts.validate()?;
     // The pixels rendered must fit the driver's textures and viewport before any work is
     // done (a tile of a poster larger than the limit does).

@@ -586,22 +586,26 @@ fn stats_of(d: &std::path::Path, args: &[&str], stats: &str) -> serde_json::Valu
     serde_json::from_slice(&std::fs::read(d.join(stats)).unwrap()).unwrap()
 }
 
-/// `--accel uniform` and `--accel irregular` render on the CPU and on GL, and `--stats`
-/// reports the structure built: its kind (irregular by default), resolution, memory and
-/// cell counts (the top resolution only for the irregular grid). The two structures find
-/// the same closest hits, so the f64 CPU renders the same PNG on both (measured: every
-/// byte equal).
+/// `--accel uniform`, `irregular` and `bvh` render on the CPU, the grids on GL too, and
+/// `--stats` reports the structure built: its kind, resolution (none for the BVH), memory
+/// and cell (node) counts, the top resolution only for the irregular grid. `auto`, the
+/// default, is the BVH on the CPU and the irregular grid on GL, and the irregular grid on
+/// the CPU with `--grid-density`. The three structures find the same closest hits, so the
+/// f64 CPU renders the same PNG on each (measured: every byte equal).
 #[test]
 fn accel_flag_selects_the_structure_and_stats_report_it() {
     let d = tmpdir("accel");
     let size = ["--width", "40", "--height", "30"];
     let mut pngs = Vec::new();
-    for (accel, backend) in [
-        (None, "cpu"),
-        (Some("uniform"), "cpu"),
-        (Some("irregular"), "cpu"),
-        (Some("uniform"), "gl"),
-        (Some("irregular"), "gl"),
+    for (accel, backend, want) in [
+        (None, "cpu", "bvh"),
+        (Some("auto"), "cpu", "bvh"),
+        (Some("uniform"), "cpu", "uniform"),
+        (Some("irregular"), "cpu", "irregular"),
+        (Some("bvh"), "cpu", "bvh"),
+        (None, "gl", "irregular"),
+        (Some("uniform"), "gl", "uniform"),
+        (Some("irregular"), "gl", "irregular"),
     ] {
         let png = format!("{}-{backend}.png", accel.unwrap_or("default"));
         let mut args = vec!["--backend", backend, "-o", &png];
@@ -611,12 +615,14 @@ fn accel_flag_selects_the_structure_and_stats_report_it() {
         }
         let s = stats_of(&d, &args, "s.json");
         let a = &s["accel"];
-        let want = accel.unwrap_or("irregular");
         assert_eq!(a["kind"], want, "{args:?}: {a}");
         assert_eq!(s["backend"], backend);
         let res = a["resolution"].as_array().unwrap();
         assert_eq!(res.len(), 3, "{a}");
-        assert!(res.iter().all(|r| r.as_u64().unwrap() >= 1), "{a}");
+        assert!(
+            res.iter().all(|r| r.as_u64().unwrap() >= 1) == (want != "bvh"),
+            "{a}"
+        );
         assert_eq!(
             a.get("top_resolution").is_some(),
             want == "irregular",
@@ -627,21 +633,40 @@ fn accel_flag_selects_the_structure_and_stats_report_it() {
             cells > 0 && a["empty_cells"].as_u64().unwrap() < cells,
             "{a}"
         );
-        assert!(a["references"].as_u64().unwrap() >= s["triangles"].as_u64().unwrap());
+        // The BVH holds every triangle once; a grid at least once.
+        let (refs, tris) = (a["references"].as_u64().unwrap(), s["triangles"].as_u64());
+        assert!(
+            refs >= tris.unwrap() && (want != "bvh" || Some(refs) == tris),
+            "{a}"
+        );
         assert!(a["bytes"].as_u64().unwrap() > 0, "{a}");
         assert!(a["bytes_per_triangle"].as_f64().unwrap() > 0.0, "{a}");
         assert!(a["build_ms"].as_f64().unwrap() >= 0.0, "{a}");
         assert!(!a["detail"].as_str().unwrap().is_empty(), "{a}");
         let img = image::open(d.join(&png)).unwrap();
         assert_eq!((img.width(), img.height()), (40, 30));
-        if backend == "cpu" && accel.is_some() {
+        if backend == "cpu" {
             pngs.push(img.to_rgb8().into_raw());
         }
     }
     assert!(
-        pngs[0] == pngs[1],
-        "uniform and irregular f64 renders differ"
+        pngs.iter().all(|p| *p == pngs[0]),
+        "the f64 CPU renders differ between structures"
     );
+    // `auto` with a grid density asks for a grid: the irregular one.
+    let s = stats_of(
+        &d,
+        &[
+            "--backend",
+            "cpu",
+            "--grid-density",
+            "0.5",
+            "-o",
+            "dens.png",
+        ],
+        "s.json",
+    );
+    assert_eq!(s["accel"]["kind"], "irregular", "{s}");
 }
 
 /// Output formats by extension, as the `image` crate writes them: Radiance HDR, TIFF and

@@ -28,17 +28,17 @@ const A: &[&str] = &[];
 pub const CONFIG_TABLE: &[ConfigRow] = &[
     ConfigRow {
         name: "cpu-f64",
-        args: "--backend cpu --precision f64",
+        args: "--backend cpu --precision f64 --accel irregular",
         presets: DQ,
     },
     ConfigRow {
         name: "cpu-f32",
-        args: "--backend cpu --precision f32 --cpu-path simd",
+        args: "--backend cpu --precision f32 --accel irregular --cpu-path simd",
         presets: DQ,
     },
     ConfigRow {
         name: "cpu-f32-scalar",
-        args: "--backend cpu --precision f32 --cpu-path scalar",
+        args: "--backend cpu --precision f32 --accel irregular --cpu-path scalar",
         presets: D,
     },
     ConfigRow {
@@ -193,12 +193,12 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
     },
     ConfigRow {
         name: "cpu-f32-moller-trumbore",
-        args: "--backend cpu --precision f32 --intersect moller-trumbore",
+        args: "--backend cpu --precision f32 --accel irregular --intersect moller-trumbore",
         presets: A,
     },
     ConfigRow {
         name: "cpu-f32-epsilon",
-        args: "--backend cpu --precision f32 --offset epsilon",
+        args: "--backend cpu --precision f32 --accel irregular --offset epsilon",
         presets: A,
     },
     ConfigRow {

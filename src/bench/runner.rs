@@ -281,7 +281,17 @@ fn bench_one(
     progress: &Progress,
 ) -> BenchRow {
     let stage = |what: String| progress.message(format!("{} / {}: {what}", spec.name, cfg.name));
-    // `--steady`: one renderer for the warm-up (its first frame) and every run.
+    // `--steady`: one renderer for the warm-up (its first frame) and every run, its
+    // structure (`--accel auto` resolved) that of the backend the context settles.
+    let ctx = match (cfg.steady, ropts.backend) {
+        (true, Backend::Gl) => gl.get().ok(),
+        (true, Backend::Auto) => gl
+            .get()
+            .ok()
+            .filter(|ctx| render::auto_declines(&ctx.info).is_none()),
+        _ => None,
+    };
+    let ropts = &ropts.on_backend(ctx.is_some() || ropts.backend == Backend::Gl);
     let prepared = match cfg
         .steady
         .then(|| render::prepare(scene, ropts))
@@ -289,14 +299,6 @@ fn bench_one(
     {
         Ok(p) => p,
         Err(e) => return BenchRow::failed(&spec.name, cfg, opts.size, e.to_string()),
-    };
-    let ctx = match (&prepared, ropts.backend) {
-        (Some(_), Backend::Gl) => gl.get().ok(),
-        (Some(_), Backend::Auto) => gl
-            .get()
-            .ok()
-            .filter(|ctx| render::auto_declines(&ctx.info).is_none()),
-        _ => None,
     };
     let mut renderer = match (&prepared, ctx) {
         (Some(p), Some(ctx)) => match p.gl_renderer(ctx, ropts) {

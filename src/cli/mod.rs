@@ -472,7 +472,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         cpu_path: crate::options::CpuPath::default(),
         max_depth: args.max_depth,
         spp: args.spp,
-        accel: args.accel,
+        accel: args.accel.into(),
         grid: args.grid,
         grid_density: args.grid_density,
         query_every: args.query_every,

@@ -164,10 +164,13 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render:
         aov: false,
         srgb8: false,
     };
-    // Once per process, whatever the number of parts: the structure, the context and the
-    // renderer (the GPU scene uploaded once); each part sets its region and camera.
-    let prepared = render::prepare(&scene, &base)?;
+    // Once per process, whatever the number of parts: the context, the structure (`auto`
+    // resolved for the backend the context settles) and the renderer (the GPU scene
+    // uploaded once); each part sets its region and camera.
+    base.validate()?;
     let ctx = render::context_for(&base, !args.quiet)?;
+    let base = base.on_backend(ctx.is_some());
+    let prepared = render::prepare(&scene, &base)?;
     let mut renderer = match &ctx {
         Some(ctx) => prepared.gl_renderer(ctx, &base)?,
         None => prepared.cpu_renderer(&base),
