@@ -69,7 +69,7 @@ impl CpuPath {
 pub enum AccelChoice {
     /// The irregular grid on the GPU (the structure its kernels walk fastest), the BVH on
     /// the CPU (3-4x faster to walk there, and 6x faster to build, with the same images);
-    /// with `--grid-density`, the irregular grid on both.
+    /// the irregular grid on both when a grid density is given.
     #[default]
     Auto,
     /// The thesis's uniform grid.
@@ -305,7 +305,7 @@ pub struct RenderArgs {
     pub spp: u32,
     /// Acceleration structure: auto (the default: the irregular grid on the GPU, the BVH
     /// on the CPU, each the fastest there, with the same images; the irregular grid on both
-    /// with --grid-density), irregular (adaptive cells with exit boxes grown over empty
+    /// when a grid density is given), irregular (adaptive cells with exit boxes grown over empty
     /// space, after Perard-Gayot et al. 2017), uniform (the thesis's grid over the scene
     /// box) or bvh (CPU backend only: a 4-wide BVH).
     #[arg(long, value_enum, default_value_t = AccelChoice::default())]
