@@ -16,7 +16,7 @@ w=${size%x*} h=${size#*x}
 export FRAGTRACE_MODEL_PATH="${FRAGTRACE_MODEL_PATH:-$(cd .. && pwd)/shared/models}"
 out=$(mktemp -d)
 configs=(
-    "cpu64:--backend cpu --precision f64" "cpu32:--backend cpu --precision f32"
+    "cpu64:--backend cpu --accel irregular --precision f64" "cpu32:--backend cpu --accel irregular --precision f32"
     "looped:--backend gl --kernel looped" "unrolled4:--backend gl --kernel unrolled:4"
     "multipass:--backend gl --kernel multipass"
     "multipass-earlyz:--backend gl --kernel multipass --mask early-z"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Build time of the irregular grid, two (or more) binaries interleaved round-robin so that a
 # load change on the machine hits them alike: medians of RUNS of `accel.build_ms` and of
-# the exit-box growth from `render SCENE --backend cpu --precision f32 --width 8 --height 8
+# the exit-box growth from `render SCENE --backend cpu --accel irregular --precision f32 --width 8 --height 8
 # --stats` (an 8x8 render, so the build is most of the process), and of each build phase
 # where the binary reports them (`accel.detail`'s "phases ms: ...").
 # Usage: ci/compare-build.sh OLD_BINARY NEW_BINARY... (env: SCENE=scenes/bunny.toml, RUNS=5,
@@ -18,7 +18,7 @@ trap 'rm -rf "$WORK"' EXIT
 echo "== irregular build of $(basename "$SCENE"), $THREADS threads, $RUNS rounds; $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg), $(date -u +%FT%TZ)"
 for ((i = 1; i <= RUNS; i++)); do
     for b in "$@"; do
-        RAYON_NUM_THREADS=$THREADS "$b" render "$SCENE" --backend cpu --precision f32 \
+        RAYON_NUM_THREADS=$THREADS "$b" render "$SCENE" --backend cpu --accel irregular --precision f32 \
             --width 8 --height 8 -q -o "$WORK/x.png" --stats "$WORK/s.json"
         python3 - "$WORK/s.json" "$b" <<'PY'
 import json, re, sys

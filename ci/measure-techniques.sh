@@ -33,8 +33,8 @@ flags_of() {
 backends=("cpu-f64" "cpu-f32" "gl")
 backend_flags() {
   case "$1" in
-    cpu-f64) echo "--backend cpu --precision f64" ;;
-    cpu-f32) echo "--backend cpu --precision f32" ;;
+    cpu-f64) echo "--backend cpu --accel irregular --precision f64" ;;
+    cpu-f32) echo "--backend cpu --accel irregular --precision f32" ;;
     gl) echo "--backend gl" ;;
   esac
 }
