@@ -3,7 +3,6 @@
 //! two-level and the irregular grid builds, which bin level after level into frames of
 //! their own.
 
-use crate::numeric::Floor;
 use glam::DVec3;
 
 use super::grid::CellRange;
@@ -17,6 +16,19 @@ const PAD_ULPS: f64 = 4.0;
 /// `PAD_ULPS` f32 ulps of a coordinate of magnitude `mag`.
 fn ulps(mag: f64) -> f64 {
     PAD_ULPS * mag * f32::EPSILON as f64
+}
+
+/// `x.floor() as i64` (saturating; NaN gives 0) without calling `floor`, which x86-64's
+/// baseline has no instruction for: the build takes six of these per triangle and level.
+/// The truncation is exact, and one below it is the floor of a negative non-integer.
+#[inline(always)]
+pub(crate) fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
 }
 
 /// A uniform grid frame to bin into: cell `j` spans `lo + j * cs .. lo + (j + 1) * cs`,
@@ -72,7 +84,7 @@ impl Frame {
         let bb_lo = tri[0].min(tri[1]).min(tri[2]) - self.pad;
         let bb_hi = tri[0].max(tri[1]).max(tri[2]) + self.pad;
         // `as i64` saturates; the clamp below absorbs anything outside the frame.
-        let raw = |p: f64, i: usize| ((p - self.lo[i]) / self.cs[i]).floor_exact() as i64;
+        let raw = |p: f64, i: usize| floor_i64((p - self.lo[i]) / self.cs[i]);
         let raw_lo = [raw(bb_lo.x, 0), raw(bb_lo.y, 1), raw(bb_lo.z, 2)];
         let raw_hi = [raw(bb_hi.x, 0), raw(bb_hi.y, 1), raw(bb_hi.z, 2)];
         // A padded bounding box inside one cell of the frame: the triangle lies in that
@@ -88,6 +100,23 @@ impl Frame {
         let clamp = |c: i64, i: usize| c.clamp(0, self.res[i] as i64 - 1) as u32;
         let lo = [0, 1, 2].map(|i| clamp(raw_lo[i], i));
         let hi = [0, 1, 2].map(|i| clamp(raw_hi[i], i));
+        // A padded bounding box inside the frame and inside one cell's slab on two axes,
+        // crossing cells only along the third: the triangle lies inside those cells' span on
+        // the two axes, so it meets a cell's padded box exactly when its extent on the
+        // third axis meets the cell's padded span, which is what the range says. Each cell
+        // of the run overlaps, as the exact test finds but for a triangle touching a
+        // padded face within rounding, which this adds (conservative, as the padding is).
+        let inside = (0..3).all(|i| raw_lo[i] >= 0 && raw_hi[i] < self.res[i] as i64);
+        if inside && (0..3).filter(|&i| lo[i] != hi[i]).count() == 1 {
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    let row =
+                        self.res[0] as usize * (y as usize + self.res[1] as usize * z as usize);
+                    out.extend((lo[0]..=hi[0]).map(|x| (row + x as usize) as u32));
+                }
+            }
+            return;
+        }
         for z in lo[2]..=hi[2] {
             let sz = self.span(2, z);
             for y in lo[1]..=hi[1] {
@@ -131,4 +160,119 @@ pub(crate) fn counting_sort(
         *slot += 1;
     }
     (cells, list)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::numeric::Floor;
+    use crate::testing::{test_seed, Rng};
+
+    /// `floor_i64` is `floor_exact() as i64` on edge values and random bit patterns.
+    #[test]
+    fn floor_i64_is_floor_then_the_saturating_cast() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            -1e-300,
+            -2.5,
+            4503599627370495.5,
+            -4503599627370495.5,
+            9.2233720368547758e18,
+            -9.2233720368547758e18,
+            -9.3e18,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        let mut rng = Rng::new(test_seed("floor_i64", 77));
+        for _ in 0..200_000 {
+            xs.push(f64::from_bits(rng.next_u64()));
+            xs.push(rng.range(-1e4, 1e4));
+        }
+        for x in xs {
+            assert_eq!(floor_i64(x), x.floor_exact() as i64, "{x:e}");
+        }
+    }
+
+    /// The binning without the run shortcut: every cell of the clamped range through the
+    /// exact test (the bounding-box-in-one-cell shortcut kept, as before it).
+    fn bin_exact(f: &Frame, tri: [DVec3; 3]) -> Vec<u32> {
+        let bb_lo = tri[0].min(tri[1]).min(tri[2]) - f.pad;
+        let bb_hi = tri[0].max(tri[1]).max(tri[2]) + f.pad;
+        let raw = |p: f64, i: usize| ((p - f.lo[i]) / f.cs[i]).floor_exact() as i64;
+        let raw_lo = [raw(bb_lo.x, 0), raw(bb_lo.y, 1), raw(bb_lo.z, 2)];
+        let raw_hi = [raw(bb_hi.x, 0), raw(bb_hi.y, 1), raw(bb_hi.z, 2)];
+        let idx = |x: u32, y: u32, z: u32| x + f.res[0] * (y + f.res[1] * z);
+        if raw_lo == raw_hi && (0..3).all(|i| (0..f.res[i] as i64).contains(&raw_lo[i])) {
+            return vec![idx(raw_lo[0] as u32, raw_lo[1] as u32, raw_lo[2] as u32)];
+        }
+        let c = |v: i64, i: usize| v.clamp(0, f.res[i] as i64 - 1) as u32;
+        let mut out = Vec::new();
+        for z in c(raw_lo[2], 2)..=c(raw_hi[2], 2) {
+            for y in c(raw_lo[1], 1)..=c(raw_hi[1], 1) {
+                for x in c(raw_lo[0], 0)..=c(raw_hi[0], 0) {
+                    let (sx, sy, sz) = (f.span(0, x), f.span(1, y), f.span(2, z));
+                    let a = DVec3::new(sx.0, sy.0, sz.0);
+                    let b = DVec3::new(sx.1, sy.1, sz.1);
+                    if tri_box_overlap(0.5 * (a + b), 0.5 * (b - a) + f.pad, tri) {
+                        out.push(idx(x, y, z));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The run shortcut (a triangle crossing cells along one axis only goes to every cell
+    /// of the run without the exact test) gives the exact test's cells: on random frames,
+    /// random triangles and triangles thin across two axes (which take the shortcut), never
+    /// fewer cells, and the same cells wherever no padded face is touched within rounding
+    /// (all of these: measured 0 differences in 200,000 cases, of which about 50,000 bin to
+    /// runs of two or more cells). Taking the shortcut on two axes makes about 800 differ.
+    #[test]
+    fn run_shortcut_gives_the_exact_tests_cells() {
+        let mut rng = Rng::new(test_seed("binning run shortcut", 0xB1_4411));
+        let (mut runs, mut differ) = (0, 0);
+        for case in 0..200_000 {
+            let res = [0, 1, 2].map(|_| 1 + (rng.next_u64() % 4) as u32);
+            let lo = rng.dvec3(-10.0, 10.0);
+            let cs = rng.dvec3(0.1, 3.0);
+            let ext = DVec3::new(res[0] as f64, res[1] as f64, res[2] as f64) * cs;
+            let f = Frame::new(lo, cs, res, lo, lo + ext);
+            let centre = lo + rng.dvec3(-0.2, 1.2) * ext;
+            let size = cs.max_element() * rng.range(0.01, 1.5);
+            let mut tri = [0; 3].map(|_| centre + rng.dvec3(-size, size));
+            if case % 2 == 0 {
+                // Thin across two axes: crosses cells along the third at most.
+                let a = (rng.next_u64() % 3) as usize;
+                for (k, v) in tri.iter_mut().enumerate() {
+                    for b in (0..3).filter(|&b| b != a) {
+                        v[b] = centre[b] + 1e-3 * cs[b] * (k as f64 - 1.0);
+                    }
+                }
+            }
+            let mut got = Vec::new();
+            f.bin(tri, &mut got);
+            let want = bin_exact(&f, tri);
+            assert!(
+                want.iter().all(|c| got.contains(c)),
+                "case {case}: exact {want:?}, binned {got:?}, {tri:?}"
+            );
+            assert!(got.windows(2).all(|w| w[0] < w[1]), "{got:?}");
+            runs += (got.len() > 1) as usize;
+            differ += (got != want) as usize;
+        }
+        println!("runs of two or more cells {runs}, differing {differ}");
+        assert!(runs > 10_000, "too few cases bin to runs: {runs}");
+        assert_eq!(differ, 0);
+    }
 }

@@ -108,13 +108,31 @@ impl Ctx<'_> {
         let ccs = v(crem.map(|r| 1 << r)) * self.cs;
         let frame = Frame::new(lo64, ccs, n, lo64, hi64);
         let n_children = (n[0] * n[1] * n[2]) as usize;
-        let mut child_tris: Vec<Vec<u32>> = vec![Vec::new(); n_children];
+        // Each triangle's children as a bit set (a node has at most 8), counted, then the
+        // lists filled at their exact sizes: one allocation per child instead of a list
+        // grown push by push. Each list keeps the triangles in ascending order.
+        let mut masks = Vec::with_capacity(tris.len());
+        let mut counts = [0usize; 8];
         let mut cells = Vec::with_capacity(8);
         for &t in &tris {
             cells.clear();
             frame.bin(self.tri(t), &mut cells);
+            let mut m = 0u8;
             for &c in &cells {
-                child_tris[c as usize].push(t);
+                m |= 1 << c;
+                counts[c as usize] += 1;
+            }
+            masks.push(m);
+        }
+        let mut child_tris: Vec<Vec<u32>> = counts[..n_children]
+            .iter()
+            .map(|&k| Vec::with_capacity(k))
+            .collect();
+        for (&t, &m) in tris.iter().zip(&masks) {
+            let mut m = m;
+            while m != 0 {
+                child_tris[m.trailing_zeros() as usize].push(t);
+                m &= m - 1;
             }
         }
         // Split only when it is expected to pay (the surface-area heuristic of the grid
