@@ -5,6 +5,8 @@
 
 use glam::DVec3;
 
+use crate::numeric::floor_i64;
+
 use super::grid::CellRange;
 use super::tribox::tri_box_overlap;
 
@@ -16,19 +18,6 @@ const PAD_ULPS: f64 = 4.0;
 /// `PAD_ULPS` f32 ulps of a coordinate of magnitude `mag`.
 fn ulps(mag: f64) -> f64 {
     PAD_ULPS * mag * f32::EPSILON as f64
-}
-
-/// `x.floor() as i64` (saturating; NaN gives 0) without calling `floor`, which x86-64's
-/// baseline has no instruction for: the build takes six of these per triangle and level.
-/// The truncation is exact, and one below it is the floor of a negative non-integer.
-#[inline(always)]
-pub(crate) fn floor_i64(x: f64) -> i64 {
-    let t = x as i64;
-    if (t as f64) > x {
-        t.saturating_sub(1)
-    } else {
-        t
-    }
 }
 
 /// A uniform grid frame to bin into: cell `j` spans `lo + j * cs .. lo + (j + 1) * cs`,
@@ -167,41 +156,6 @@ mod tests {
     use super::*;
     use crate::numeric::Floor;
     use crate::testing::{test_seed, Rng};
-
-    /// `floor_i64` is `floor_exact() as i64` on edge values and random bit patterns.
-    #[test]
-    fn floor_i64_is_floor_then_the_saturating_cast() {
-        let mut xs = vec![
-            0.0,
-            -0.0,
-            0.5,
-            -0.5,
-            1.0,
-            -1.0,
-            -1e-300,
-            -2.5,
-            4503599627370495.5,
-            -4503599627370495.5,
-            9.223_372_036_854_776e18, // 2^63
-            -9.223_372_036_854_776e18,
-            -9.3e18,
-            1e300,
-            -1e300,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NAN,
-            f64::MIN_POSITIVE,
-            -f64::MIN_POSITIVE,
-        ];
-        let mut rng = Rng::new(test_seed("floor_i64", 77));
-        for _ in 0..200_000 {
-            xs.push(f64::from_bits(rng.next_u64()));
-            xs.push(rng.range(-1e4, 1e4));
-        }
-        for x in xs {
-            assert_eq!(floor_i64(x), x.floor_exact() as i64, "{x:e}");
-        }
-    }
 
     /// The binning without the run shortcut: every cell of the clamped range through the
     /// exact test (the bounding-box-in-one-cell shortcut kept, as before it).
