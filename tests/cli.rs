@@ -878,8 +878,9 @@ fn gl21_irregular_multipass_equals_cpu_f32() {
 /// says why in one line naming the driver and `--backend gl` (nothing with `-q`), rendering
 /// the image `--backend cpu` renders (every PNG byte equal); `--backend gl` still renders on
 /// that GL, and `info` says which backend `auto` takes. Whole renders, parts (`--tile`)
-/// and animations (`--frames`) resolve it the same way. On a hardware GL `auto` takes GL
-/// without a word.
+/// and animations (`--frames`) resolve it the same way, and build the structure `--accel
+/// auto` names for the backend taken (the BVH on the CPU, the irregular grid on GL). On a
+/// hardware GL `auto` takes GL without a word.
 #[test]
 fn auto_backend_takes_the_cpu_over_a_software_gl_and_says_so() {
     let d = tmpdir("auto");
@@ -892,6 +893,11 @@ fn auto_backend_takes_the_cpu_over_a_software_gl_and_says_so() {
     };
     let software = fragtrace::gpu::info::software_renderer(&renderer);
     let want = if software { "cpu" } else { "gl" };
+    let (want_accel, accel_brief) = if software {
+        ("bvh", "4-wide BVH")
+    } else {
+        ("irregular", "irregular grid")
+    };
     let run = |args: &[&str]| {
         let o = bin().current_dir(&d).args(args).output().unwrap();
         let err = String::from_utf8_lossy(&o.stderr).into_owned();
@@ -906,7 +912,14 @@ fn auto_backend_takes_the_cpu_over_a_software_gl_and_says_so() {
         let err = run(&a);
         let s: serde_json::Value =
             serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
-        (s["backend"].as_str().unwrap().to_owned(), err)
+        let kind = s["accel"]["kind"].as_str().unwrap();
+        let backend = s["backend"].as_str().unwrap();
+        assert_eq!(
+            kind == "bvh",
+            backend == "cpu",
+            "{extra:?}: {kind} on {backend}"
+        );
+        (backend.to_owned(), err)
     };
     let notices = |err: &str| -> Vec<String> {
         err.lines()
@@ -945,6 +958,7 @@ fn auto_backend_takes_the_cpu_over_a_software_gl_and_says_so() {
     tile.extend(size);
     let err = run(&tile);
     assert!(err.contains(&format!(" on {want} [")), "{err}");
+    assert!(err.contains(accel_brief), "{err}");
     assert_eq!(notices(&err).len(), usize::from(software), "{err}");
     // An animation: one camera path over a sphere, two frames.
     std::fs::write(
@@ -955,10 +969,17 @@ fn auto_backend_takes_the_cpu_over_a_software_gl_and_says_so() {
     .unwrap();
     let mut frames = vec!["render", "anim.toml", "--frames", "0..1", "-o", "f_#.png"];
     frames.extend(size);
+    frames.extend(["--stats", "f.json"]);
     let err = run(&frames);
     assert!(
         err.contains(&format!("2 frames of 24x18 on {want}")),
         "{err}"
+    );
+    let f: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("f.json")).unwrap()).unwrap();
+    assert_eq!(
+        f["per_frame"][0]["render"]["accel"]["kind"], want_accel,
+        "{f}"
     );
     assert_eq!(notices(&err).len(), usize::from(software), "{err}");
     let o = bin().arg("info").output().unwrap();
