@@ -1,7 +1,7 @@
 //! Conservative binning of triangles into the cells of a uniform frame, and the stable
-//! counting sort that turns (cell, triangle) pairs into per-cell lists: shared by the
-//! two-level and the irregular grid builds, which bin level after level into frames of
-//! their own.
+//! counting sort that turns (cell, triangle) pairs into per-cell lists: the irregular grid's
+//! build bins its top level and every voxel-map node into frames of their own (the
+//! two-level grid, removed at 5d36e05, did too).
 
 use glam::DVec3;
 
