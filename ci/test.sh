@@ -101,6 +101,8 @@ export FRAGTRACE_MODEL_PATH="${FRAGTRACE_MODEL_PATH:-$(cd .. && pwd)/shared/mode
 
 step "cargo fmt --check" cargo fmt --all -- --check
 step "cargo clippy" cargo clippy --release --all-targets -- -D warnings
+# The library's documentation: a link to a private or renamed item is an error.
+step "cargo doc" env RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --lib
 # The fuzz targets live in their own workspace, which `cargo test` never builds: check them
 # so an API change cannot leave them uncompilable unnoticed (running them needs cargo-fuzz
 # and nightly; docs/fuzzing.md).

@@ -394,7 +394,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count_in(0, u32::MAX))]
     pub gpu: Option<u32>,
     /// Render the frames A..B (both included), or all, of the scene's camera path
-    /// ([animation] in the scene file), uploading the scene once; -o names each frame with
+    /// (the scene file's `[animation]` table), uploading the scene once; -o names each frame with
     /// a run of # (out/frame_####.png) or {frame}.
     #[arg(long, value_name = "A..B|all")]
     pub frames: Option<FrameRange>,

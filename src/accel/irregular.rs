@@ -48,7 +48,7 @@
 //! - `tri_indices`: triangles, cell after cell, ascending within each cell.
 //!
 //! Binning is exact ([`super::tribox::tri_box_overlap`]) against boxes grown as [`Grid`](super::Grid)
-//! grows them ([`Frame`](super::binning::Frame)), node after node, so a triangle on a cell face is in the cells on
+//! grows them (`binning::Frame`), node after node, so a triangle on a cell face is in the cells on
 //! both sides. An exit box grows only over cells whose padded boxes no triangle touches, so
 //! any hit inside the exit box is a hit on one of the cell's own triangles.
 //!

@@ -311,7 +311,7 @@ macro_rules! trace_by_cell_walk {
     };
 }
 
-/// [`CellWalk::closest_hit`] with the scalar per-cell step ([`closest_of`]): the default,
+/// [`CellWalk::closest_hit`] with the scalar per-cell step (`closest_of`): the default,
 /// and what a walker overriding it (the vectorised one) falls back to.
 #[inline(always)]
 pub fn scalar_closest_hit<T: Real, W: CellWalk<T> + ?Sized>(
@@ -339,7 +339,7 @@ pub fn scalar_closest_hit<T: Real, W: CellWalk<T> + ?Sized>(
     found
 }
 
-/// [`CellWalk::any_hit`] with the scalar per-cell step ([`any_of`]).
+/// [`CellWalk::any_hit`] with the scalar per-cell step (`any_of`).
 #[inline(always)]
 pub fn scalar_any_hit<T: Real, W: CellWalk<T> + ?Sized>(
     w: &W,

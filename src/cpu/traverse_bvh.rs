@@ -11,7 +11,7 @@
 //! `2 gamma(3)` relative, so a ray that meets a triangle meets every box around it. Node
 //! visits count as the `cells` of [`Work`].
 //!
-//! The tie rule: hits closer than the held one by more than [`TIE_EPS`](crate::accel::TIE_EPS)
+//! The tie rule: hits closer than the held one by more than [`TIE_EPS`]
 //! replace it; within it, the lower triangle index wins whichever was met first. The
 //! grids' walk meets a cell's triangles in index order, so there the lower index wins
 //! within the margin by construction; the BVH meets triangles in its own order and decides

@@ -199,7 +199,7 @@ pub struct WalkState<T> {
 impl<T: Real> IrregularWalker<'_, T> {
     /// The walk's first cell, or `None` when the ray misses the grid box: the one holding
     /// the virtual cell whose crossings bracket the entry parameter, chosen as after an
-    /// exit ([`IrregularWalker::lateral`]). The entry point's own cell can be one off where
+    /// exit (`IrregularWalker::lateral`). The entry point's own cell can be one off where
     /// the ray starts on a face (rounding of `(o - min) / cs`).
     #[inline(always)]
     pub fn start(&self, ray: &Ray<T>) -> Option<WalkState<T>> {

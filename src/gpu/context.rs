@@ -21,7 +21,7 @@
 //! [`GlContext::from_external`] wraps a context someone else created and made current (a
 //! window's, in `fragtrace view`) behind the [`ExternalContext`] trait, so the same
 //! renderer runs in it. `GlShared` then holds that owner instead of an EGL session
-//! ([`Session`]); because it holds it (an `Rc` of the window's GL state, say), the
+//! (`Session`); because it holds it (an `Rc` of the window's GL state, say), the
 //! foreign context too lives until the last GL object made in it is gone, and Drop makes
 //! it current through the trait before deleting a name.
 

@@ -16,7 +16,7 @@
 //!    desktop this is usually X11/Wayland.
 //!
 //! The first candidate that yields a current desktop-GL context wins; [`PLATFORM_ENV`] can
-//! restrict the search to one of them. `--gpu N` ([`open_session_on`]) skips the search
+//! restrict the search to one of them. `--gpu N` (`open_session_on`) skips the search
 //! and opens device N of `EGL_EXT_device_enumeration`'s list ([`list_devices`]): one GPU
 //! per task on a multi-GPU node.
 

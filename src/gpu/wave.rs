@@ -20,7 +20,7 @@ pub struct GpuRay {
 /// What [`trace_rays`](super::render::trace_rays) found for one ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GpuTrace {
-    /// (t, triangle) of the hit; for [`Query::Any`] the first hit found.
+    /// (t, triangle) of the hit; for [`Query::Any`](crate::gpu::shader::Query::Any) the first hit found.
     pub hit: Option<(f32, u32)>,
     /// Final ray state.
     pub state: RayState,

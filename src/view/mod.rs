@@ -2,7 +2,7 @@
 //!
 //! The window is another surface, not another ray tracer: its GL context (glutin, on X11)
 //! is wrapped as a [`GlContext`] ([`GlContext::from_external`]) and the same
-//! [`render_gl_observed`] as the headless path renders into it. Its observer, called
+//! [`gpu::render::render`](crate::gpu::render::render) as the headless path renders into it. Its observer, called
 //! between passes, pumps the window's events (a camera change cancels the render within
 //! one pass) and presents the render in progress every `--frame-ms` milliseconds or every
 //! `--passes-per-frame` passes, so the multipass wave is seen advancing; a finished

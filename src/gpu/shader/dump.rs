@@ -146,7 +146,7 @@ fn compute_programs(
 
 /// Writes the final sources of every program for `scene` into `dir`: every fragment pass
 /// (`<pass>.frag`), the compute kernel's programs (`<program>.comp`, see
-/// [`compute_programs`]) and the vertex shader. With `all_variants`, for every combination
+/// `compute_programs`) and the vertex shader. With `all_variants`, for every combination
 /// of scene features, one sub-folder each, plus one sub-folder `techniques-<tag>` per
 /// non-default technique setting of [`Techniques::one_off`], with every scene feature on.
 /// Returns the files written.
