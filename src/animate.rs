@@ -98,9 +98,8 @@ pub fn render_frames(
     };
     opts.progress = false;
     opts.validate()?;
-    let ctx = render::context_for(&opts, progress)?;
     // `--accel auto`: the structure of the backend the context settles.
-    let opts = opts.on_backend(ctx.is_some());
+    let (ctx, opts) = render::context_for(&opts, progress)?;
     let prepared = render::prepare(scene, &opts)?;
     let mut renderer: Renderer<'_> = match &ctx {
         Some(ctx) => prepared.gl_renderer(ctx, &opts)?,

@@ -424,8 +424,20 @@ pub fn auto_declines(info: &GlInfo) -> Option<String> {
 /// the GPU when a suitable context can be made (on `--gpu N`'s device) and is not a
 /// software rasterizer ([`auto_declines`]), and otherwise the CPU, saying why in one line
 /// on stderr when `notices` (off with `-q`); `Gl` never falls back, and neither does a
-/// bad `--gpu N`.
-pub fn context_for(opts: &RenderOptions, notices: bool) -> Result<Option<GlContext>> {
+/// bad `--gpu N`. Returned with the options for that backend
+/// ([`RenderOptions::on_backend`]: `--accel auto` settled), which whoever prepares the
+/// render then uses.
+pub fn context_for(
+    opts: &RenderOptions,
+    notices: bool,
+) -> Result<(Option<GlContext>, RenderOptions)> {
+    let ctx = choose_context(opts, notices)?;
+    let opts = opts.on_backend(ctx.is_some());
+    Ok((ctx, opts))
+}
+
+/// [`context_for`]'s context alone.
+fn choose_context(opts: &RenderOptions, notices: bool) -> Result<Option<GlContext>> {
     match opts.backend {
         Backend::Cpu => Ok(None),
         Backend::Gl => GlContext::on_device(opts.device).map(Some),
@@ -460,7 +472,7 @@ pub fn context_for(opts: &RenderOptions, notices: bool) -> Result<Option<GlConte
 /// with `opts.progress`, which `-q` turns off with the progress display).
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
     match context_for(opts, opts.progress)? {
-        Some(ctx) => render_gl_with(&ctx, scene, opts),
-        None => render_cpu(scene, opts),
+        (Some(ctx), opts) => render_gl_with(&ctx, scene, &opts),
+        (None, opts) => render_cpu(scene, &opts),
     }
 }

@@ -743,35 +743,14 @@ fn grid_without_accel_uniform_and_bad_accel_flags_are_usage_errors() {
         &[],
         &["--accel bvh", "CPU backend only"],
     );
-    fails(
-        &d,
-        &[
-            "render",
-            "--backend",
-            "cpu",
-            "--accel",
-            "bvh",
-            "--grid-density",
-            "2",
-        ],
-        &[],
-        &["--grid-density", "BVH"],
-    );
-    for accel in ["uniform", "irregular"] {
-        fails(
-            &d,
-            &[
-                "render",
-                "--backend",
-                "cpu",
-                "--accel",
-                accel,
-                "--grid-density",
-                "0",
-            ],
-            &[],
-            &["--grid-density 0"],
-        );
+    for (accel, density, said) in [
+        ("bvh", "2", &["--grid-density", "BVH"][..]),
+        ("uniform", "0", &["--grid-density 0"][..]),
+        ("irregular", "0", &["--grid-density 0"][..]),
+    ] {
+        let args = ["render", "--backend", "cpu", "--accel", accel];
+        let args = [&args[..], &["--grid-density", density]].concat();
+        fails(&d, &args, &[], said);
     }
     // Nothing was rendered by any of them.
     only_inputs(&d, &[]);

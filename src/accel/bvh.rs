@@ -4,8 +4,8 @@
 //!
 //! Built top-down as a binary tree with binned surface-area-heuristic splits
 //! ([`BINS`] bins on each axis, the cheapest of the three axes, Wald 2007), the two halves
-//! of a node in parallel and the largest nodes' bins in parallel chunks, then collapsed into a 4-wide tree ([`Node4`]): each
-//! node holds its four children's boxes side by side, one array per axis and side, so one
+//! of a node in parallel and the largest nodes' bins in parallel chunks, then collapsed
+//! into a 4-wide tree ([`Node4`]): each node holds its four children's boxes side by side, one array per axis and side, so one
 //! SSE operation tests the ray against all four slabs of an axis. The walk is
 //! `cpu/traverse_bvh.rs`.
 //!
@@ -32,8 +32,9 @@ pub const MAX_DEPTH: usize = 60;
 /// Nodes with fewer triangles build their two subtrees on this thread.
 const PAR_MIN: usize = 4096;
 /// Nodes with at least this many triangles find their box and bins in parallel, in chunks
-/// of a quarter of this: the top splits, which otherwise run on one thread while the others wait
-/// (the 3.3 M-triangle icosphere built only 2.8x faster on 16 threads than on 2).
+/// of a quarter of this: the top splits, which otherwise run on one thread while the
+/// others wait (the 3.3 M-triangle icosphere built only 2.8x faster on 16 threads than
+/// on 2).
 const PAR_BIN: usize = 1 << 16;
 /// Cost of visiting a node relative to one triangle test, in the SAH. Four, not the
 /// textbook one: the vectorised walk tests up to eight of a leaf's triangles in one
@@ -290,17 +291,12 @@ impl Bvh {
 /// leaf where the SAH says one is cheaper.
 fn build2(prims: &[Prim], refs: &mut [u32], start: u32, depth: usize) -> Bin2 {
     let n = refs.len();
-    let (bounds, cb) = if n >= PAR_BIN {
-        use rayon::prelude::*;
-        refs.par_chunks(PAR_BIN / 4)
-            .map(|c| node_bounds(prims, c))
-            .reduce(
-                || (Aabb::EMPTY, Aabb::EMPTY),
-                |a, b| (a.0.join(b.0), a.1.join(b.1)),
-            )
-    } else {
-        node_bounds(prims, refs)
-    };
+    let (bounds, cb) = over_chunks(
+        refs,
+        |c| node_bounds(prims, c),
+        (Aabb::EMPTY, Aabb::EMPTY),
+        |a, b| (a.0.join(b.0), a.1.join(b.1)),
+    );
     let leaf = |refs: &mut [u32]| {
         refs.sort_unstable();
         Bin2::Leaf {
@@ -342,6 +338,24 @@ fn build2(prims: &[Prim], refs: &mut [u32], start: u32, depth: usize) -> Bin2 {
         bounds,
         kids: Box::new([a, b]),
     }
+}
+
+/// `f` of `refs`: of the whole on this thread below [`PAR_BIN`] references, else of chunks
+/// of a quarter of it in parallel, joined by `merge` from `empty` (the same value when the
+/// merge is exact, as the boxes' and bins' are).
+fn over_chunks<T: Send + Copy + Sync>(
+    refs: &[u32],
+    f: impl Fn(&[u32]) -> T + Sync,
+    empty: T,
+    merge: impl Fn(T, T) -> T + Sync + Send,
+) -> T {
+    if refs.len() < PAR_BIN {
+        return f(refs);
+    }
+    use rayon::prelude::*;
+    refs.par_chunks(PAR_BIN / 4)
+        .map(&f)
+        .reduce(|| empty, &merge)
 }
 
 /// The box of `refs`' triangles and the box of their centroids.
@@ -415,14 +429,7 @@ fn best_split(
     cb: &Aabb,
     node_area: f32,
 ) -> Option<(f32, usize, usize)> {
-    let bins = if refs.len() >= PAR_BIN {
-        use rayon::prelude::*;
-        refs.par_chunks(PAR_BIN / 4)
-            .map(|c| Bins::of(prims, c, cb))
-            .reduce(|| Bins::EMPTY, Bins::merge)
-    } else {
-        Bins::of(prims, refs, cb)
-    };
+    let bins = over_chunks(refs, |c| Bins::of(prims, c, cb), Bins::EMPTY, Bins::merge);
     let mut best: Option<(f32, usize, usize)> = None;
     for axis in 0..3 {
         if cb.hi[axis] <= cb.lo[axis] {

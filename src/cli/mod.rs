@@ -103,8 +103,9 @@ pub struct ViewArgs {
     /// Present the render in progress at most every this many milliseconds.
     #[arg(long, default_value_t = 50.0)]
     pub frame_ms: f64,
-    /// Play the scene's camera path (the scene file's `[animation]` table) from its first frame,
-    /// one whole render per frame, in a loop (`p` pauses); with --frames N, stop after N.
+    /// Play the scene's camera path (the scene file's `[animation]` table) from its first
+    /// frame, one whole render per frame, in a loop (`p` pauses); with --frames N, stop
+    /// after N.
     #[arg(long)]
     pub play: bool,
     /// Present every P passes instead of by time (reproducible frames for --screenshot).

@@ -168,8 +168,7 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render:
     // resolved for the backend the context settles) and the renderer (the GPU scene
     // uploaded once); each part sets its region and camera.
     base.validate()?;
-    let ctx = render::context_for(&base, !args.quiet)?;
-    let base = base.on_backend(ctx.is_some());
+    let (ctx, base) = render::context_for(&base, !args.quiet)?;
     let prepared = render::prepare(&scene, &base)?;
     let mut renderer = match &ctx {
         Some(ctx) => prepared.gl_renderer(ctx, &base)?,
