@@ -52,15 +52,22 @@ impl IrregularGrid {
                     }
                     let idx = self.top_index([x, y, z]);
                     let e = self.vmap[idx];
-                    if e & NODE != 0 {
-                        match occ.tight_relation(idx, lo, hi) {
-                            Tight::Apart => {
-                                x += 1;
-                                continue;
-                            }
-                            Tight::Inside => return false,
-                            Tight::Cut => {}
+                    if e & NODE == 0 {
+                        // A top cell: empty or not by `full`, not the cell table (which the
+                        // growth fills in place while it asks).
+                        if occ.full[idx] {
+                            return false;
                         }
+                        x += 1;
+                        continue;
+                    }
+                    match occ.tight_relation(idx, lo, hi) {
+                        Tight::Apart => {
+                            x += 1;
+                            continue;
+                        }
+                        Tight::Inside => return false,
+                        Tight::Cut => {}
                     }
                     let node_lo = [x << self.shift[0], y << self.shift[1], z << self.shift[2]];
                     if !q.node_is_empty(e, node_lo, self.shift, 0) {
@@ -84,12 +91,11 @@ struct Query<'a> {
 
 impl Query<'_> {
     /// Whether the box holds nothing within voxel-map entry `e`, a node at `level`
-    /// covering `1 << rem[a]` virtual cells from `node_lo` (or a cell).
+    /// covering `1 << rem[a]` virtual cells from `node_lo`. Reads no cell of the cell table
+    /// (the growth fills it in place while it asks).
     fn node_is_empty(&self, e: u32, node_lo: [u32; 3], rem: [u32; 3], level: usize) -> bool {
         let (g, occ, lo, hi) = (self.g, self.occ, self.lo, self.hi);
-        if e & NODE == 0 {
-            return g.cells[e as usize].range.count == 0;
-        }
+        debug_assert!(e & NODE != 0, "asked about a cell entry");
         // A node was split for its triangles, so one the box covers whole is not empty
         // (conservatively: its triangles may only touch its padding; the box then just
         // does not grow there). Only nodes the box cuts are descended.
@@ -481,7 +487,8 @@ impl Ancestors {
         let holds = |n: &(u32, [u32; 3], [u32; 3], usize)| {
             (0..3).all(|a| n.1[a] <= lo[a] && hi[a] <= n.1[a] + (1 << n.2[a]))
         };
-        match self.nodes[..self.len].iter().rev().find(|n| holds(n)) {
+        // The nodes only: the cell's own entry never holds a box its growth asks about.
+        match self.nodes[..self.len - 1].iter().rev().find(|n| holds(n)) {
             Some(&(e, node_lo, rem, level)) => {
                 Query { g, occ, lo, hi }.node_is_empty(e, node_lo, rem, level)
             }
