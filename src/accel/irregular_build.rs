@@ -65,16 +65,54 @@ fn schedule(top: DVec3, top_res: [u32; 3], finest: f64) -> (Vec<[bool; 3]>, [u32
     (levels, shift)
 }
 
-/// A voxel-map subtree as built, before flattening.
-enum Node {
-    /// A cell: own box (virtual) and triangles.
-    Leaf {
-        lo: [u32; 3],
-        hi: [u32; 3],
-        tris: Vec<u32>,
-    },
-    /// Children in block order.
-    Inner(Vec<Node>),
+/// Voxel-map subtrees laid out as the final tables lay them out (a node's child block
+/// before its children's blocks, cells and references in leaf order), with indices local to
+/// these tables: entries `NODE | block` count from the start of `vmap`, cells from the start
+/// of `cells`, reference offsets from the start of `refs`. Built straight into this layout,
+/// so there is no tree of per-node lists to flatten (and free) afterwards.
+#[derive(Default)]
+struct Flat {
+    /// Each top cell's entry, for a run of top cells built one after the other.
+    top: Vec<u32>,
+    vmap: Vec<u32>,
+    /// Boxes in the virtual coordinates of every level (the unused ones are dropped when
+    /// the tables are assembled); exit boxes are the cells' own until the growth.
+    cells: Vec<IrrCell>,
+    refs: Vec<u32>,
+    /// Deepest level reached.
+    depth: usize,
+}
+
+impl Flat {
+    /// Appends `other` (built on its own), moving its indices past what `self` holds; returns
+    /// `entry`, an entry of `other`, moved likewise.
+    fn append(&mut self, other: Flat, entry: u32) -> u32 {
+        let (vbase, cbase, rbase) = (self.vmap.len(), self.cells.len(), self.refs.len());
+        let shift = |e: u32| {
+            if e & NODE != 0 {
+                NODE | ((e & !NODE) + vbase as u32)
+            } else {
+                e + cbase as u32
+            }
+        };
+        self.vmap.extend(other.vmap.into_iter().map(shift));
+        self.cells.extend(other.cells.into_iter().map(|mut c| {
+            c.range.offset += rbase as u32;
+            c
+        }));
+        self.refs.extend(other.refs);
+        self.depth = self.depth.max(other.depth);
+        shift(entry)
+    }
+}
+
+/// Per-thread working memory of the voxel-map build, reused from node to node: the
+/// triangle lists of the nodes on the current path (each node's children's lists pushed
+/// after its own, popped when it is done) and each triangle's children.
+#[derive(Default)]
+struct Scratch {
+    lists: Vec<u32>,
+    masks: Vec<u8>,
 }
 
 /// What every node build needs.
@@ -93,11 +131,37 @@ impl Ctx<'_> {
         self.tris[t as usize].map(|v| v.as_dvec3())
     }
 
-    /// Builds the node at `level` covering `1 << rem[a]` virtual cells from `lo`.
-    fn node(&self, lo: [u32; 3], rem: [u32; 3], level: usize, tris: Vec<u32>) -> Node {
+    /// Builds the node at `level` covering `1 << rem[a]` virtual cells from `lo`, whose
+    /// triangles (ascending) are `sc.lists[start..start + len]`, into `out`: returns its
+    /// entry there. Leaves `sc.lists` as it found it.
+    fn node(
+        &self,
+        lo: [u32; 3],
+        rem: [u32; 3],
+        level: usize,
+        (start, len): (usize, usize),
+        out: &mut Flat,
+        sc: &mut Scratch,
+    ) -> u32 {
         let hi = [0, 1, 2].map(|a| lo[a] + (1 << rem[a]));
-        if tris.len() <= self.leaf_max || level == self.levels.len() {
-            return Node::Leaf { lo, hi, tris };
+        let leaf = |out: &mut Flat, sc: &Scratch| {
+            let id = out.cells.len() as u32;
+            out.cells.push(IrrCell {
+                lo,
+                hi,
+                exit_lo: lo,
+                exit_hi: hi,
+                range: CellRange {
+                    offset: out.refs.len() as u32,
+                    count: len as u32,
+                },
+            });
+            out.refs.extend_from_slice(&sc.lists[start..start + len]);
+            out.depth = out.depth.max(level);
+            id
+        };
+        if len <= self.leaf_max || level == self.levels.len() {
+            return leaf(out, sc);
         }
         let mask = self.levels[level];
         let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
@@ -108,32 +172,20 @@ impl Ctx<'_> {
         let ccs = v(crem.map(|r| 1 << r)) * self.cs;
         let frame = Frame::new(lo64, ccs, n, lo64, hi64);
         let n_children = (n[0] * n[1] * n[2]) as usize;
-        // Each triangle's children as a bit set (a node has at most 8), counted, then the
-        // lists filled at their exact sizes: one allocation per child instead of a list
-        // grown push by push. Each list keeps the triangles in ascending order.
-        let mut masks = Vec::with_capacity(tris.len());
+        // Each triangle's children as a bit set (a node has at most 8), counted; then the
+        // children's lists pushed after this node's, each ascending as this one is.
+        let mask_base = sc.masks.len();
         let mut counts = [0usize; 8];
         let mut cells = Vec::with_capacity(8);
-        for &t in &tris {
+        for k in start..start + len {
             cells.clear();
-            frame.bin(self.tri(t), &mut cells);
+            frame.bin(self.tri(sc.lists[k]), &mut cells);
             let mut m = 0u8;
             for &c in &cells {
                 m |= 1 << c;
                 counts[c as usize] += 1;
             }
-            masks.push(m);
-        }
-        let mut child_tris: Vec<Vec<u32>> = counts[..n_children]
-            .iter()
-            .map(|&k| Vec::with_capacity(k))
-            .collect();
-        for (&t, &m) in tris.iter().zip(&masks) {
-            let mut m = m;
-            while m != 0 {
-                child_tris[m.trailing_zeros() as usize].push(t);
-                m &= m - 1;
-            }
+            sc.masks.push(m);
         }
         // Split only when it is expected to pay (the surface-area heuristic of the grid
         // and kd-tree literature): a ray through the node tests `n` triangles as a leaf;
@@ -143,30 +195,74 @@ impl Ctx<'_> {
         // in every child they cross), which keeps big or crossing triangles from splitting
         // the map down to its last level.
         let share = surface_share(ccs, hi64 - lo64);
-        let split_cost =
-            2.0 * STEP_COST + share * child_tris.iter().map(|c| c.len()).sum::<usize>() as f64;
+        let split_cost = 2.0 * STEP_COST + share * counts.iter().sum::<usize>() as f64;
         // And not when two or more children would each keep every triangle: then the
         // triangles all pass through one line or plane (zero-area or coincident
         // triangles, the line where planes meet), splitting never separates them, and the
         // cost estimate alone would split along it level after level (8 x 2^levels
         // cells). One child keeping them all is a small object in a large node: the split
         // isolates empty space and the next levels separate.
-        let full = child_tris.iter().filter(|c| c.len() == tris.len()).count();
-        if split_cost >= tris.len() as f64 || full >= 2 {
-            return Node::Leaf { lo, hi, tris };
+        let full = counts[..n_children].iter().filter(|&&c| c == len).count();
+        if split_cost >= len as f64 || full >= 2 {
+            sc.masks.truncate(mask_base);
+            return leaf(out, sc);
         }
-        let make = |(i, ct): (usize, Vec<u32>)| {
+        // The children's lists side by side after this node's, at their counted sizes,
+        // filled in one pass over the triangles.
+        let list_base = sc.lists.len();
+        let mut ranges = [(0usize, 0usize); 8];
+        let mut cursor = [0usize; 8];
+        let mut at = list_base;
+        for i in 0..n_children {
+            ranges[i] = (at, counts[i]);
+            cursor[i] = at;
+            at += counts[i];
+        }
+        sc.lists.resize(at, 0);
+        for k in 0..len {
+            let t = sc.lists[start + k];
+            let mut m = sc.masks[mask_base + k];
+            while m != 0 {
+                let i = m.trailing_zeros() as usize;
+                sc.lists[cursor[i]] = t;
+                cursor[i] += 1;
+                m &= m - 1;
+            }
+        }
+        sc.masks.truncate(mask_base);
+        let child_lo = |i: usize| {
             let i = i as u32;
             let b = [i % n[0], (i / n[0]) % n[1], i / (n[0] * n[1])];
-            let clo = [0, 1, 2].map(|a| lo[a] + (b[a] << crem[a]));
-            self.node(clo, crem, level + 1, ct)
+            [0, 1, 2].map(|a| lo[a] + (b[a] << crem[a]))
         };
-        let children = if tris.len() >= PAR_SPLIT {
-            child_tris.into_par_iter().enumerate().map(make).collect()
+        let block = out.vmap.len();
+        out.vmap.resize(block + n_children, 0);
+        if len >= PAR_SPLIT {
+            // Each child into tables of its own, in parallel, then appended in block order:
+            // the layout the serial build makes.
+            let built: Vec<(Flat, u32)> = ranges[..n_children]
+                .par_iter()
+                .enumerate()
+                .map(|(i, &(s, l))| {
+                    let mut sub = Scratch {
+                        lists: sc.lists[s..s + l].to_vec(),
+                        masks: Vec::new(),
+                    };
+                    let mut f = Flat::default();
+                    let e = self.node(child_lo(i), crem, level + 1, (0, l), &mut f, &mut sub);
+                    (f, e)
+                })
+                .collect();
+            for (i, (f, e)) in built.into_iter().enumerate() {
+                out.vmap[block + i] = out.append(f, e);
+            }
         } else {
-            child_tris.into_iter().enumerate().map(make).collect()
-        };
-        Node::Inner(children)
+            for (i, &r) in ranges[..n_children].iter().enumerate() {
+                out.vmap[block + i] = self.node(child_lo(i), crem, level + 1, r, out, sc);
+            }
+        }
+        sc.lists.truncate(list_base);
+        NODE | block as u32
     }
 }
 
@@ -175,97 +271,6 @@ impl Ctx<'_> {
 fn surface_share(child: DVec3, node: DVec3) -> f64 {
     let sa = |e: DVec3| e.x * e.y + e.y * e.z + e.z * e.x;
     sa(child) / sa(node)
-}
-
-/// A stretch of the final tables one tree is flattened into: its voxel-map blocks, cells
-/// and references, each a slice at a known global offset, filled front to back.
-struct Out<'a> {
-    /// Levels dropped per axis: the cells' coordinates are shifted down by these.
-    dropped: [u32; 3],
-    vmap: &'a mut [u32],
-    vmap_base: usize,
-    vmap_len: usize,
-    cells: &'a mut [IrrCell],
-    cell_base: usize,
-    cell_len: usize,
-    list: &'a mut [u32],
-    list_base: usize,
-    list_len: usize,
-}
-
-/// What one tree adds to the tables: voxel-map entries below its top cell, cells,
-/// references, and its depth.
-#[derive(Clone, Copy, Default)]
-struct Size {
-    vmap: usize,
-    cells: usize,
-    refs: usize,
-    depth: usize,
-}
-
-/// [`Size`] of the subtree `node` at `depth`.
-fn size(node: &Node, depth: usize) -> Size {
-    match node {
-        Node::Leaf { tris, .. } => Size {
-            vmap: 0,
-            cells: 1,
-            refs: tris.len(),
-            depth,
-        },
-        Node::Inner(children) => children.iter().fold(
-            Size {
-                vmap: children.len(),
-                depth,
-                ..Size::default()
-            },
-            |a, c| {
-                let b = size(c, depth + 1);
-                Size {
-                    vmap: a.vmap + b.vmap,
-                    cells: a.cells + b.cells,
-                    refs: a.refs + b.refs,
-                    depth: a.depth.max(b.depth),
-                }
-            },
-        ),
-    }
-}
-
-/// Flattens one top cell's subtree into `out` in depth-first order (a node's child block
-/// before its children's blocks, cells and references in leaf order): returns its vmap
-/// entry. Trees fill disjoint stretches laid out in top-cell order, so the tables are those
-/// a single pass appending tree after tree makes.
-fn flatten(node: Node, out: &mut Out) -> u32 {
-    match node {
-        Node::Leaf { lo, hi, tris } => {
-            let id = (out.cell_base + out.cell_len) as u32;
-            let lo = [0, 1, 2].map(|a| lo[a] >> out.dropped[a]);
-            let hi = [0, 1, 2].map(|a| hi[a] >> out.dropped[a]);
-            out.cells[out.cell_len] = IrrCell {
-                lo,
-                hi,
-                exit_lo: lo,
-                exit_hi: hi,
-                range: CellRange {
-                    offset: (out.list_base + out.list_len) as u32,
-                    count: tris.len() as u32,
-                },
-            };
-            out.cell_len += 1;
-            out.list[out.list_len..out.list_len + tris.len()].copy_from_slice(&tris);
-            out.list_len += tris.len();
-            id
-        }
-        Node::Inner(children) => {
-            let block = out.vmap_len;
-            out.vmap_len += children.len();
-            for (i, c) in children.into_iter().enumerate() {
-                let e = flatten(c, out);
-                out.vmap[block + i] = e;
-            }
-            NODE | (out.vmap_base + block) as u32
-        }
-    }
 }
 
 /// Splits `s` into consecutive slices of the given lengths.
@@ -422,7 +427,9 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     drop(chunks);
     phase(&mut phases.sort_ms);
 
-    // Voxel map below every top cell, in parallel; then flattened in top-cell order.
+    // Voxel map below every top cell, in parallel runs of top cells, each run built
+    // straight into its own tables in the final layout; then the runs' tables assembled in
+    // top-cell order.
     let ctx = Ctx {
         tris: &tris,
         levels: &levels,
@@ -430,45 +437,66 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         cs: cs64,
         leaf_max: cfg.leaf_max as usize,
     };
-    let trees: Vec<Node> = (0..n_top)
+    let run = n_top.div_ceil(rayon::current_num_threads() * 64).max(1);
+    let runs: Vec<Flat> = (0..n_top.div_ceil(run))
         .into_par_iter()
-        .map(|i| {
-            let r = top_ranges[i];
-            let i = i as u32;
-            let t = [
-                i % top_res[0],
-                (i / top_res[0]) % top_res[1],
-                i / (top_res[0] * top_res[1]),
-            ];
-            let lo = [0, 1, 2].map(|a| t[a] << shift[a]);
-            let mut tris: Vec<u32> = top_list[r.offset as usize..(r.offset + r.count) as usize]
-                .iter()
-                .map(|t| t.load(Ordering::Relaxed))
-                .collect();
-            tris.sort_unstable();
-            ctx.node(lo, shift, 0, tris)
+        .map(|k| {
+            let mut out = Flat::default();
+            let mut sc = Scratch::default();
+            for i in k * run..((k + 1) * run).min(n_top) {
+                let r = top_ranges[i];
+                let i = i as u32;
+                let t = [
+                    i % top_res[0],
+                    (i / top_res[0]) % top_res[1],
+                    i / (top_res[0] * top_res[1]),
+                ];
+                let lo = [0, 1, 2].map(|a| t[a] << shift[a]);
+                sc.lists.clear();
+                sc.lists.extend(
+                    top_list[r.offset as usize..(r.offset + r.count) as usize]
+                        .iter()
+                        .map(|t| t.load(Ordering::Relaxed)),
+                );
+                sc.lists.sort_unstable();
+                let len = sc.lists.len();
+                let e = ctx.node(lo, shift, 0, (0, len), &mut out, &mut sc);
+                out.top.push(e);
+            }
+            out
         })
         .collect();
     drop(top_list);
     drop(tris);
     phase(&mut phases.voxel_map_ms);
 
-    // Flattened in parallel: every tree's size, their offsets in the tables in top-cell
-    // order, then every tree written into its own stretch.
-    let sizes: Vec<Size> = trees.par_iter().map(|t| size(t, 0)).collect();
-    let n_vmap = n_top + sizes.iter().map(|s| s.vmap).sum::<usize>();
-    let n_cells = sizes.iter().map(|s| s.cells).sum::<usize>();
-    let n_refs = sizes.iter().map(|s| s.refs).sum::<usize>();
+    let n_vmap = n_top + runs.iter().map(|f| f.vmap.len()).sum::<usize>();
+    let n_cells = runs.iter().map(|f| f.cells.len()).sum::<usize>();
+    let n_refs = runs.iter().map(|f| f.refs.len()).sum::<usize>();
     check_sizes(n_tris, n_cells, n_vmap, n_refs)?;
     // Levels no node reached only make the virtual grid finer: drop them, scaling the
     // virtual coordinates down as the cells are written (every box is a multiple of the
     // dropped resolution; the world boundaries stay the same numbers, the cell size scaling
     // by powers of two).
-    let deepest = sizes.iter().map(|s| s.depth).max().unwrap_or(0);
+    let deepest = runs.iter().map(|f| f.depth).max().unwrap_or(0);
     let mut levels = levels;
     levels.truncate(deepest);
     let used = [0, 1, 2].map(|a| levels.iter().filter(|m| m[a]).count() as u32);
     let dropped = [0, 1, 2].map(|a| shift[a] - used[a]);
+    // Each run's stretch of the tables, in run order; filled in parallel.
+    let vmap_at = offsets(runs.iter().map(|f| f.vmap.len()), n_top);
+    let cell_at = offsets(runs.iter().map(|f| f.cells.len()), 0);
+    let ref_at = offsets(runs.iter().map(|f| f.refs.len()), 0);
+    let move_entry = |e: u32, k: usize| {
+        if e & NODE != 0 {
+            NODE | ((e & !NODE) + vmap_at[k] as u32)
+        } else {
+            e + cell_at[k] as u32
+        }
+    };
+    let mut vmap = vec![0u32; n_vmap];
+    // Filled in parallel: `vec!` writes a struct's copies on one thread (zeros it gets
+    // from the allocator untouched, as for the integer tables).
     let blank = IrrCell {
         lo: [0; 3],
         hi: [0; 3],
@@ -476,37 +504,43 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         exit_hi: [0; 3],
         range: CellRange::default(),
     };
-    let mut vmap = vec![0u32; n_vmap];
-    // Filled in parallel: `vec!` writes a struct's copies on one thread (zeros it gets
-    // from the allocator untouched, as for the integer tables).
     let mut cells: Vec<IrrCell> = (0..n_cells).into_par_iter().map(|_| blank).collect();
     let mut list = vec![0u32; n_refs];
     let (top, below) = vmap.split_at_mut(n_top);
-    let outs: Vec<Out> = split_lens(below, sizes.iter().map(|s| s.vmap))
-        .into_iter()
-        .zip(offsets(sizes.iter().map(|s| s.vmap), n_top))
-        .zip(split_lens(&mut cells, sizes.iter().map(|s| s.cells)))
-        .zip(offsets(sizes.iter().map(|s| s.cells), 0))
-        .zip(split_lens(&mut list, sizes.iter().map(|s| s.refs)))
-        .zip(offsets(sizes.iter().map(|s| s.refs), 0))
-        .map(
-            |(((((vmap, vmap_base), cells), cell_base), list), list_base)| Out {
-                dropped,
-                vmap,
-                vmap_base,
-                vmap_len: 0,
-                cells,
-                cell_base,
-                cell_len: 0,
-                list,
-                list_base,
-                list_len: 0,
-            },
-        )
-        .collect();
-    top.par_iter_mut()
-        .zip(trees.into_par_iter().zip(outs))
-        .for_each(|(e, (tree, mut out))| *e = flatten(tree, &mut out));
+    let tops = split_lens(top, runs.iter().map(|f| f.top.len()));
+    let belows = split_lens(below, runs.iter().map(|f| f.vmap.len()));
+    let cell_runs = split_lens(&mut cells, runs.iter().map(|f| f.cells.len()));
+    let list_runs = split_lens(&mut list, runs.iter().map(|f| f.refs.len()));
+    let drop_box = |b: [u32; 3]| [0, 1, 2].map(|a| b[a] >> dropped[a]);
+    runs.par_iter()
+        .zip(tops)
+        .zip(belows)
+        .zip(cell_runs)
+        .zip(list_runs)
+        .enumerate()
+        .for_each(|(k, ((((f, top), below), cells), list))| {
+            for (d, &e) in top.iter_mut().zip(&f.top) {
+                *d = move_entry(e, k);
+            }
+            for (d, &e) in below.iter_mut().zip(&f.vmap) {
+                *d = move_entry(e, k);
+            }
+            for (d, c) in cells.iter_mut().zip(&f.cells) {
+                let (lo, hi) = (drop_box(c.lo), drop_box(c.hi));
+                *d = IrrCell {
+                    lo,
+                    hi,
+                    exit_lo: lo,
+                    exit_hi: hi,
+                    range: CellRange {
+                        offset: c.range.offset + ref_at[k] as u32,
+                        count: c.range.count,
+                    },
+                };
+            }
+            list.copy_from_slice(&f.refs);
+        });
+    drop(runs);
     phase(&mut phases.flatten_ms);
 
     let shift = used;
