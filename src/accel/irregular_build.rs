@@ -438,14 +438,14 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         leaf_max: cfg.leaf_max as usize,
     };
     let run = n_top.div_ceil(rayon::current_num_threads() * 64).max(1);
-    let runs: Vec<Flat> = (0..n_top.div_ceil(run))
-        .into_par_iter()
-        .map(|k| {
+    let runs: Vec<Flat> = top_ranges
+        .par_chunks(run)
+        .enumerate()
+        .map(|(k, ranges)| {
             let mut out = Flat::default();
             let mut sc = Scratch::default();
-            for i in k * run..((k + 1) * run).min(n_top) {
-                let r = top_ranges[i];
-                let i = i as u32;
+            for (j, r) in ranges.iter().enumerate() {
+                let i = (k * run + j) as u32;
                 let t = [
                     i % top_res[0],
                     (i / top_res[0]) % top_res[1],
