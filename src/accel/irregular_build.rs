@@ -104,22 +104,29 @@ impl Flat {
         let part = |bases: &[usize], j: usize| bases.partition_point(|&b| b <= j) - 1;
         let (v0, c0, r0) = (self.vmap.len(), self.cells.len(), self.refs.len());
         let n = |f: fn(&Flat) -> usize| parts.iter().map(|p| f(&p.0)).sum::<usize>();
-        self.vmap.par_extend((v0..v0 + n(|f| f.vmap.len())).into_par_iter().map(|j| {
-            let k = part(&vb, j);
-            shift(parts[k].0.vmap[j - vb[k]], k)
-        }));
-        self.cells.par_extend((c0..c0 + n(|f| f.cells.len())).into_par_iter().map(|j| {
-            let k = part(&cb, j);
-            let mut c = parts[k].0.cells[j - cb[k]];
-            c.range.offset += rb[k] as u32;
-            c
-        }));
-        self.refs.par_extend((r0..r0 + n(|f| f.refs.len())).into_par_iter().map(|j| {
-            let k = part(&rb, j);
-            parts[k].0.refs[j - rb[k]]
-        }));
+        self.vmap
+            .par_extend((v0..v0 + n(|f| f.vmap.len())).into_par_iter().map(|j| {
+                let k = part(&vb, j);
+                shift(parts[k].0.vmap[j - vb[k]], k)
+            }));
+        self.cells
+            .par_extend((c0..c0 + n(|f| f.cells.len())).into_par_iter().map(|j| {
+                let k = part(&cb, j);
+                let mut c = parts[k].0.cells[j - cb[k]];
+                c.range.offset += rb[k] as u32;
+                c
+            }));
+        self.refs
+            .par_extend((r0..r0 + n(|f| f.refs.len())).into_par_iter().map(|j| {
+                let k = part(&rb, j);
+                parts[k].0.refs[j - rb[k]]
+            }));
         self.depth = parts.iter().map(|p| p.0.depth).fold(self.depth, usize::max);
-        parts.iter().enumerate().map(|(k, p)| shift(p.1, k)).collect()
+        parts
+            .iter()
+            .enumerate()
+            .map(|(k, p)| shift(p.1, k))
+            .collect()
     }
 }
 

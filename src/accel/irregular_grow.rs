@@ -7,6 +7,11 @@ use rayon::prelude::*;
 
 use super::irregular::{IrrCell, IrregularGrid, MAX_LEVELS, NODE};
 
+/// [`Occupancy::slot`] of a cell without triangles.
+const EMPTY: u32 = 0;
+/// [`Occupancy::slot`] of a cell with triangles.
+const FULL: u32 = 1;
+
 /// Rounds of exit-box growth (each round tries all six faces once).
 const GROW_ROUNDS: usize = 4;
 
@@ -54,9 +59,9 @@ impl IrregularGrid {
                     let idx = self.top_index([x, y, z]);
                     let e = self.vmap[idx];
                     if e & NODE == 0 {
-                        // A top cell: empty or not by `full`, not the cell table (which the
-                        // growth fills in place while it asks).
-                        if occ.full[idx] {
+                        // A top cell: empty or not by its slot, not the cell table (which
+                        // the growth fills in place while it asks).
+                        if occ.slot[idx] == FULL {
                             return false;
                         }
                         x += 1;
@@ -127,16 +132,15 @@ impl Query<'_> {
             for by in b0[1]..b1[1] {
                 for bx in b0[0]..b1[0] {
                     let idx = (base + bx * stride[0] + by * stride[1] + bz * stride[2]) as usize;
-                    // Empty cells are skipped and cells with triangles answer without
-                    // reading the cell table; a node is skipped when the box misses its
-                    // tight box, answers when the box holds it, and only else descended.
-                    if !occ.full[idx] {
-                        continue;
+                    // Empty cells are skipped and cells with triangles answer, both by the
+                    // slot alone; a node is skipped when the box misses its tight box,
+                    // answers when the box holds it, and only else descended.
+                    match occ.slot[idx] {
+                        EMPTY => continue,
+                        FULL => return false,
+                        _ => {}
                     }
                     let child = g.vmap[idx];
-                    if child & NODE == 0 {
-                        return false;
-                    }
                     match occ.tight_relation(idx, lo, hi) {
                         Tight::Apart => continue,
                         Tight::Inside => return false,
@@ -175,15 +179,17 @@ pub(super) struct Occupancy {
     sum: Vec<u32>,
     /// Top resolution plus one.
     dim: [usize; 3],
-    /// Per voxel-map entry: a node or a cell with triangles (what an emptiness query
-    /// cannot skip).
-    full: Vec<bool>,
-    /// Per voxel-map entry that is a node: the box around the part of it an emptiness
-    /// query can find non-empty, its cells with triangles (and, should a node hold none,
-    /// that node whole). A box missing it is empty there: no cell with triangles overlaps
-    /// it, and it covers no node below whole (a node with a cell with triangles below
-    /// contains that cell, which the box would then overlap). So the query skips the
-    /// nodes it only cuts on their empty side, with the same answer.
+    /// Per voxel-map entry: [`EMPTY`] (a cell without triangles), [`FULL`] (a cell with
+    /// triangles) or, for a node, `2 +` its number, nodes numbered in map order: what an
+    /// emptiness query decides a child by, and where it finds a node's tight box.
+    slot: Vec<u32>,
+    /// Per node (by number): the box around the part of it an emptiness query can find
+    /// non-empty, its cells with triangles (and, should a node hold none, that node
+    /// whole). A box missing it is empty there: no cell with triangles overlaps it, and it
+    /// covers no node below whole (a node with a cell with triangles below contains that
+    /// cell, which the box would then overlap). So the query skips the nodes it only cuts
+    /// on their empty side, with the same answer. One box per node, not per map entry:
+    /// a ninth of the memory (the queries wait on it, not on arithmetic).
     tight: Vec<([u32; 3], [u32; 3])>,
     /// Whether the tight boxes were built tree by tree in parallel (the build's layout
     /// was recognised); false means the serial pass ran, the same tables more slowly.
@@ -235,17 +241,8 @@ impl Occupancy {
                 .zip(done[(z - 1) * slab..].par_chunks(4096))
                 .for_each(|(c, p)| c.iter_mut().zip(p).for_each(|(c, p)| *c += p));
         }
-        let full = g
-            .vmap
-            .par_iter()
-            .map(|&e| e & NODE != 0 || g.cells[e as usize].range.count > 0)
-            .collect();
         let n_top = dim.iter().map(|d| d - 1).product::<usize>();
-        // Filled in parallel: `vec!` writes tuples' copies on one thread.
-        let mut tight: Vec<([u32; 3], [u32; 3])> = (0..g.vmap.len())
-            .into_par_iter()
-            .map(|_| ([0; 3], [0; 3]))
-            .collect();
+        let n_vmap = g.vmap.len();
         // The top cells that are nodes, in top order, with the start of their stretch.
         let roots: Vec<(usize, u32)> = (0..n_top)
             .filter(|&i| g.vmap[i] & NODE != 0)
@@ -254,7 +251,7 @@ impl Occupancy {
         let starts: Vec<usize> = roots
             .iter()
             .map(|&(_, e)| (e & !NODE) as usize)
-            .chain([g.vmap.len()])
+            .chain([n_vmap])
             .collect();
         let top_lo = |i: usize| {
             let r = g.top_res;
@@ -266,24 +263,81 @@ impl Occupancy {
             [0, 1, 2].map(|a| t[a] << g.shift[a])
         };
         let laid_out = by_tree && starts[0] >= n_top && starts.windows(2).all(|w| w[0] < w[1]);
+        // The map in pieces numbered in parallel: the top cells, then every tree's stretch
+        // (one piece when the layout is another).
+        let cuts: Vec<usize> = if laid_out {
+            [0].into_iter().chain(starts.iter().copied()).collect()
+        } else {
+            vec![0, n_vmap]
+        };
+        let pieces = |cuts: &[usize]| cuts.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>();
+        let lens = pieces(&cuts);
+        let node_counts: Vec<usize> = cuts
+            .par_windows(2)
+            .map(|w| {
+                g.vmap[w[0]..w[1]]
+                    .iter()
+                    .filter(|&&e| e & NODE != 0)
+                    .count()
+            })
+            .collect();
+        let first: Vec<usize> = node_counts
+            .iter()
+            .scan(0, |acc, &n| {
+                let o = *acc;
+                *acc += n;
+                Some(o)
+            })
+            .collect();
+        let n_nodes = node_counts.iter().sum::<usize>();
+        let mut slot = vec![EMPTY; n_vmap];
+        let mut rest = &mut slot[..];
+        let slot_pieces: Vec<&mut [u32]> = lens
+            .iter()
+            .map(|&n| {
+                let (a, b) = std::mem::take(&mut rest).split_at_mut(n);
+                rest = b;
+                a
+            })
+            .collect();
+        slot_pieces
+            .into_par_iter()
+            .zip(cuts.par_windows(2))
+            .zip(&first)
+            .for_each(|((out, w), &first)| {
+                let mut k = first as u32;
+                for (s, &e) in out.iter_mut().zip(&g.vmap[w[0]..w[1]]) {
+                    *s = if e & NODE != 0 {
+                        k += 1;
+                        k + 1
+                    } else if g.cells[e as usize].range.count > 0 {
+                        FULL
+                    } else {
+                        EMPTY
+                    };
+                }
+            });
+        // Filled in parallel: `vec!` writes tuples' copies on one thread.
+        let mut tight: Vec<([u32; 3], [u32; 3])> = (0..n_nodes)
+            .into_par_iter()
+            .map(|_| ([0; 3], [0; 3]))
+            .collect();
         let boxes: Vec<([u32; 3], [u32; 3])> = if laid_out {
-            let (_, below) = tight.split_at_mut(starts[0]);
-            let mut rest = below;
-            let stretches: Vec<Stretch> = starts
-                .windows(2)
-                .map(|w| {
-                    let (a, b) = std::mem::take(&mut rest).split_at_mut(w[1] - w[0]);
+            // Tree j's nodes are those of piece j + 1.
+            let mut rest = &mut tight[first[1.min(first.len() - 1)]..];
+            let stretches: Vec<Stretch> = node_counts[1..]
+                .iter()
+                .zip(&first[1..])
+                .map(|(&n, &off)| {
+                    let (a, b) = std::mem::take(&mut rest).split_at_mut(n);
                     rest = b;
-                    Stretch {
-                        tight: a,
-                        off: w[0],
-                    }
+                    Stretch { tight: a, off }
                 })
                 .collect();
             roots
                 .par_iter()
                 .zip(stretches)
-                .map(|(&(i, e), mut out)| tight_box(g, e, top_lo(i), g.shift, 0, &mut out))
+                .map(|(&(i, e), mut out)| tight_box(g, &slot, e, top_lo(i), g.shift, 0, &mut out))
                 .collect()
         } else {
             let mut out = Stretch {
@@ -292,16 +346,16 @@ impl Occupancy {
             };
             roots
                 .iter()
-                .map(|&(i, e)| tight_box(g, e, top_lo(i), g.shift, 0, &mut out))
+                .map(|&(i, e)| tight_box(g, &slot, e, top_lo(i), g.shift, 0, &mut out))
                 .collect()
         };
         for (&(i, _), b) in roots.iter().zip(boxes) {
-            tight[i] = b;
+            tight[(slot[i] - 2) as usize] = b;
         }
         Occupancy {
             sum,
             dim,
-            full,
+            slot,
             tight,
             by_tree: laid_out,
         }
@@ -310,7 +364,7 @@ impl Occupancy {
     /// How `lo .. hi` meets [`Occupancy::tight`] of node entry `idx`.
     #[inline]
     fn tight_relation(&self, idx: usize, lo: [u32; 3], hi: [u32; 3]) -> Tight {
-        let (tlo, thi) = self.tight[idx];
+        let (tlo, thi) = self.tight[(self.slot[idx] - 2) as usize];
         if (0..3).any(|a| thi[a] <= lo[a] || hi[a] <= tlo[a]) {
             Tight::Apart
         } else if (0..3).all(|a| lo[a] <= tlo[a] && thi[a] <= hi[a]) {
@@ -345,6 +399,7 @@ struct Stretch<'a> {
 /// `node_lo`, writing that of every node below into `tight`.
 fn tight_box(
     g: &IrregularGrid,
+    slot: &[u32],
     e: u32,
     node_lo: [u32; 3],
     rem: [u32; 3],
@@ -366,10 +421,10 @@ fn tight_box(
                     node_lo[2] + (bz << crem[2]),
                 ];
                 let b = if child & NODE != 0 {
-                    let b = tight_box(g, child, clo, crem, level + 1, tight);
-                    tight.tight[idx - tight.off] = b;
+                    let b = tight_box(g, slot, child, clo, crem, level + 1, tight);
+                    tight.tight[(slot[idx] - 2) as usize - tight.off] = b;
                     b
-                } else if g.cells[child as usize].range.count > 0 {
+                } else if slot[idx] == FULL {
                     (clo, [0, 1, 2].map(|a| clo[a] + (1 << crem[a])))
                 } else {
                     continue;

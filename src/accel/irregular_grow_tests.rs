@@ -32,7 +32,25 @@ fn occupancy_tables_match_brute_force_and_serial_build() {
             "{ctx}: the build's layout not recognised"
         );
         assert_eq!(par.sum, ser.sum, "{ctx}");
-        assert_eq!(par.full, ser.full, "{ctx}");
+        assert_eq!(par.slot, ser.slot, "{ctx}");
+        // Slots against the map itself: nodes numbered 0, 1, 2, ... in map order.
+        let mut next = 0;
+        for (i, (&e, &s)) in g.vmap.iter().zip(&par.slot).enumerate() {
+            let want = if e & NODE != 0 {
+                next += 1;
+                next + 1
+            } else if g.cells[e as usize].range.count > 0 {
+                FULL
+            } else {
+                EMPTY
+            };
+            assert_eq!(s, want, "{ctx}: slot of entry {i}");
+        }
+        assert_eq!(
+            par.tight.len(),
+            next as usize,
+            "{ctx}: one tight box per node"
+        );
         assert_eq!(par.tight, ser.tight, "{ctx}");
         let r = g.top_res;
         let full = |t: [u32; 3]| {
