@@ -460,15 +460,28 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         cs: cs64,
         leaf_max: cfg.leaf_max as usize,
     };
-    let run = n_top.div_ceil(rayon::current_num_threads() * 64).max(1);
-    let runs: Vec<Flat> = top_ranges
-        .par_chunks(run)
-        .enumerate()
-        .map(|(k, ranges)| {
+    // Runs cut by references, not top cells, so a top cell holding much of the mesh (the
+    // bunny beside a floor) is a run of its own that starts as soon as a thread is free.
+    let per_run = (top_list.len() / (rayon::current_num_threads() * 64)).max(1);
+    let mut cuts = vec![0];
+    let mut acc = 0;
+    for (i, r) in top_ranges.iter().enumerate() {
+        acc += r.count as usize;
+        if acc >= per_run {
+            cuts.push(i + 1);
+            acc = 0;
+        }
+    }
+    if *cuts.last().expect("starts at 0") != n_top {
+        cuts.push(n_top);
+    }
+    let runs: Vec<Flat> = cuts
+        .par_windows(2)
+        .map(|w| {
             let mut out = Flat::default();
             let mut sc = Scratch::default();
-            for (j, r) in ranges.iter().enumerate() {
-                let i = (k * run + j) as u32;
+            for (j, r) in top_ranges[w[0]..w[1]].iter().enumerate() {
+                let i = (w[0] + j) as u32;
                 let t = [
                     i % top_res[0],
                     (i / top_res[0]) % top_res[1],
