@@ -194,8 +194,8 @@ pub struct IrregularPhases {
     pub sort_ms: f64,
     /// The voxel map below every top cell.
     pub voxel_map_ms: f64,
-    /// The trees flattened into the voxel map, cell and reference tables (unused levels
-    /// dropped from the cells' coordinates on the way).
+    /// The runs of subtrees (built in the final layout) assembled into the voxel map, cell
+    /// and reference tables (unused levels dropped from the cells' coordinates on the way).
     pub flatten_ms: f64,
     /// The occupancy tables the exit-box growth queries.
     pub occupancy_ms: f64,

@@ -1,6 +1,7 @@
 //! The irregular grid's build (see [`super::irregular`] for the structure and its layout):
 //! the split schedule, the top-level binning, the voxel map below every top cell built in
-//! parallel, its flattening, and the exit-box growth of `irregular_grow.rs`. Split from the
+//! parallel straight into the final layout and assembled, and the exit-box growth of
+//! `irregular_grow.rs`. Split from the
 //! structure by job, so the structure and its queries import nothing of the build.
 
 use glam::{DVec3, Vec3};
@@ -14,7 +15,7 @@ use super::irregular::{
     IrrCell, IrregularConfig, IrregularGrid, IrregularPhases, IrregularStats, MAX_CELLS,
     MAX_ENTRIES, MAX_LEVELS, MAX_VIRTUAL_AXIS, NODE,
 };
-use super::irregular_grow::{grow, Occupancy};
+use super::irregular_grow::{grow, offsets, split_lens, Occupancy};
 use crate::clock::Instant;
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -294,26 +295,6 @@ impl Ctx<'_> {
 fn surface_share(child: DVec3, node: DVec3) -> f64 {
     let sa = |e: DVec3| e.x * e.y + e.y * e.z + e.z * e.x;
     sa(child) / sa(node)
-}
-
-/// Splits `s` into consecutive slices of the given lengths.
-fn split_lens<T>(mut s: &mut [T], lens: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
-    lens.map(|n| {
-        let (a, b) = std::mem::take(&mut s).split_at_mut(n);
-        s = b;
-        a
-    })
-    .collect()
-}
-
-/// Exclusive prefix sums of `v`, from `base`.
-fn offsets(v: impl Iterator<Item = usize>, base: usize) -> Vec<usize> {
-    v.scan(base, |acc, n| {
-        let o = *acc;
-        *acc += n;
-        Some(o)
-    })
-    .collect()
 }
 
 /// Sorts the `(top cell, triangle)` pairs by cell in parallel: per-cell ranges and the

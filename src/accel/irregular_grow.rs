@@ -188,8 +188,9 @@ pub(super) struct Occupancy {
     /// whole). A box missing it is empty there: no cell with triangles overlaps it, and it
     /// covers no node below whole (a node with a cell with triangles below contains that
     /// cell, which the box would then overlap). So the query skips the nodes it only cuts
-    /// on their empty side, with the same answer. One box per node, not per map entry:
-    /// a ninth of the memory (the queries wait on it, not on arithmetic).
+    /// on their empty side, with the same answer. One box per node rather than per map
+    /// entry: with the slots, about a third of the memory of a box and a flag per entry
+    /// (a node holds two to eight entries; the queries wait on memory, not arithmetic).
     tight: Vec<([u32; 3], [u32; 3])>,
     /// Whether the tight boxes were built tree by tree in parallel (the build's layout
     /// was recognised); false means the serial pass ran, the same tables more slowly.
@@ -270,8 +271,6 @@ impl Occupancy {
         } else {
             vec![0, n_vmap]
         };
-        let pieces = |cuts: &[usize]| cuts.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>();
-        let lens = pieces(&cuts);
         let node_counts: Vec<usize> = cuts
             .par_windows(2)
             .map(|w| {
@@ -281,25 +280,10 @@ impl Occupancy {
                     .count()
             })
             .collect();
-        let first: Vec<usize> = node_counts
-            .iter()
-            .scan(0, |acc, &n| {
-                let o = *acc;
-                *acc += n;
-                Some(o)
-            })
-            .collect();
+        let first = offsets(node_counts.iter().copied(), 0);
         let n_nodes = node_counts.iter().sum::<usize>();
         let mut slot = vec![EMPTY; n_vmap];
-        let mut rest = &mut slot[..];
-        let slot_pieces: Vec<&mut [u32]> = lens
-            .iter()
-            .map(|&n| {
-                let (a, b) = std::mem::take(&mut rest).split_at_mut(n);
-                rest = b;
-                a
-            })
-            .collect();
+        let slot_pieces = split_lens(&mut slot, cuts.windows(2).map(|w| w[1] - w[0]));
         slot_pieces
             .into_par_iter()
             .zip(cuts.par_windows(2))
@@ -324,15 +308,11 @@ impl Occupancy {
             .collect();
         let boxes: Vec<([u32; 3], [u32; 3])> = if laid_out {
             // Tree j's nodes are those of piece j + 1.
-            let mut rest = &mut tight[first[1.min(first.len() - 1)]..];
-            let stretches: Vec<Stretch> = node_counts[1..]
-                .iter()
+            let below = &mut tight[first.get(1).copied().unwrap_or(n_nodes)..];
+            let stretches: Vec<Stretch> = split_lens(below, node_counts[1..].iter().copied())
+                .into_iter()
                 .zip(&first[1..])
-                .map(|(&n, &off)| {
-                    let (a, b) = std::mem::take(&mut rest).split_at_mut(n);
-                    rest = b;
-                    Stretch { tight: a, off }
-                })
+                .map(|(tight, &off)| Stretch { tight, off })
                 .collect();
             roots
                 .par_iter()
@@ -389,7 +369,7 @@ impl Occupancy {
     }
 }
 
-/// The part of [`Occupancy::tight`] from entry `off` on that one build of it writes.
+/// The part of [`Occupancy::tight`] from node `off` on that one build of it writes.
 struct Stretch<'a> {
     tight: &'a mut [([u32; 3], [u32; 3])],
     off: usize,
@@ -551,6 +531,26 @@ impl Ancestors {
             None => g.box_is_empty_with(occ, lo, hi),
         }
     }
+}
+
+/// Splits `s` into consecutive slices of the given lengths.
+pub(super) fn split_lens<T>(mut s: &mut [T], lens: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+    lens.map(|n| {
+        let (a, b) = std::mem::take(&mut s).split_at_mut(n);
+        s = b;
+        a
+    })
+    .collect()
+}
+
+/// Exclusive prefix sums of `v`, from `base`.
+pub(super) fn offsets(v: impl Iterator<Item = usize>, base: usize) -> Vec<usize> {
+    v.scan(base, |acc, n| {
+        let o = *acc;
+        *acc += n;
+        Some(o)
+    })
+    .collect()
 }
 
 #[cfg(test)]
