@@ -1,3 +1,9 @@
+#!/usr/bin/env bash
+# H200 host, stop 42 (issue 27): the runs of top cells cut by references. OLD = 1b70342
+# (stop 41), NEW = be42dce, BAL = be42dce with the runs cut by references (0accbc6), BAL1K =
+# BAL with PAR_SPLIT 1024 (tried, not kept). bunny.toml interleaved at 16 and 2 threads,
+# 9 rounds; ci/measure-build.sh's icospheres at 16 threads, START BAL BAL1K then back.
+# Carried: .gl, .devbin, .models.tar.xz.
 set -uo pipefail
 . ci/h200/setup.sh
 START=.devbin/fragtrace-start BAL=.devbin/fragtrace-bal BAL1K=.devbin/fragtrace-bal1k
