@@ -1,8 +1,8 @@
 //! The irregular grid's build (see [`super::irregular`] for the structure and its layout):
 //! the split schedule, the top-level binning, the voxel map below every top cell built in
 //! parallel straight into the final layout and assembled, and the exit-box growth of
-//! `irregular_grow.rs`. Split from the
-//! structure by job, so the structure and its queries import nothing of the build.
+//! `irregular_grow.rs`. Split from the structure by job, so the structure and its queries
+//! import nothing of the build.
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -87,9 +87,8 @@ struct Flat {
 impl Flat {
     /// Appends `parts` (built on their own, in parallel), one after the other, moving
     /// their indices past what `self` holds; returns each part's `entry` moved likewise.
-    /// Copied in parallel: the parts of a node split in parallel hold all of its subtree,
-    /// which the levels above copy again (the bunny's whole voxel map at each of its top
-    /// levels), and a serial copy was the longest stretch of its 16-thread build.
+    /// Copied in parallel: the parts of a node split in parallel hold all of its subtree
+    /// (the bunny's whole voxel map at its top levels), which the levels above copy again.
     fn append(&mut self, parts: Vec<(Flat, u32)>) -> Vec<u32> {
         let vb = offsets(parts.iter().map(|p| p.0.vmap.len()), self.vmap.len());
         let cb = offsets(parts.iter().map(|p| p.0.cells.len()), self.cells.len());
