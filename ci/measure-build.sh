@@ -3,15 +3,10 @@
 # triangles (written to a temporary folder), each rendered at 8x8 on the CPU so that the
 # build dominates; prints accel.build_ms per scene and thread count.
 # Usage: ci/measure-build.sh [FRAGTRACE_BINARY] [ACCEL] [THREADS...]
+#        ci/measure-build.sh --write-scenes DIR   (only write the scenes, s010k.toml .. s3m.toml)
 set -euo pipefail
-bin=${1:-target/release/fragtrace}
-accel=${2:-irregular}
-shift $(( $# > 2 ? 2 : $# )) || true
-threads=("$@")
-[ ${#threads[@]} -gt 0 ] || threads=("$(nproc)" 2)
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
-python3 - "$dir" <<'PY'
+write_scenes() {
+python3 - "$1" <<'PY'
 import math, sys
 out = sys.argv[1]
 for name, (sub, n) in {"s010k": (4, 2), "s100k": (5, 5), "s330k": (7, 1), "s1m": (7, 4), "s3m": (7, 10)}.items():
@@ -25,6 +20,20 @@ for name, (sub, n) in {"s010k": (4, 2), "s100k": (5, 5), "s330k": (7, 1), "s1m":
         s += f'[[objects]]\nshape = "sphere"\nsubdivisions = {sub}\ntranslate = [{x}, 0.0, {z}]\nmaterial = "m"\n'
     open(f"{out}/{name}.toml", "w").write(s)
 PY
+}
+if [ "${1:-}" = --write-scenes ]; then
+    mkdir -p "$2"
+    write_scenes "$2"
+    exit 0
+fi
+bin=${1:-target/release/fragtrace}
+accel=${2:-irregular}
+shift $(( $# > 2 ? 2 : $# )) || true
+threads=("$@")
+[ ${#threads[@]} -gt 0 ] || threads=("$(nproc)" 2)
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+write_scenes "$dir"
 printf '%-8s %10s %8s %12s\n' threads triangles build_ms triangles/s
 for t in "${threads[@]}"; do
     for s in s010k s100k s330k s1m s3m; do
