@@ -18,29 +18,10 @@ use glam::DVec3;
 /// nothing, and the remaining axes are precisely the separating axes of a segment or a
 /// point against a box.
 pub fn tri_box_overlap(center: DVec3, half: DVec3, tri: [DVec3; 3]) -> bool {
-    // Work relative to the box centre so the box is symmetric and its projection onto an
-    // axis `a` is just `[-r, r]` with `r = half · |a|`.
-    let v = [tri[0] - center, tri[1] - center, tri[2] - center];
-
-    // Box normals: the triangle's bounding box against the box.
-    for k in 0..3 {
-        let lo = v[0][k].min(v[1][k]).min(v[2][k]);
-        let hi = v[0][k].max(v[1][k]).max(v[2][k]);
-        if lo > half[k] || hi < -half[k] {
-            return false;
-        }
+    match box_normals_and_inside(center, half, tri) {
+        Ok(v) => !cross_axes_separate(half, &v),
+        Err(answer) => answer,
     }
-
-    // A vertex inside the box by a margin far above the rounding error (1e-9 of the box
-    // against 1e-16): the triangle overlaps, and none of the remaining axes can separate it
-    // in floating point either (each projects that vertex inside the box's projection by
-    // the margin times the axis length), so the answer is what the full test gives,
-    // without its ten cross products. The build meets this for most of the triangles it
-    // tests against the cells they lie in.
-    if vertex_well_inside(half, &v) {
-        return true;
-    }
-    !cross_axes_separate(half, &v)
 }
 
 /// [`tri_box_overlap`] for a triangle lying inside the box's slab on axis `k`, its extent
@@ -51,34 +32,66 @@ pub fn tri_box_overlap(center: DVec3, half: DVec3, tri: [DVec3; 3]) -> bool {
 /// on those axes, so the same answer; a third of its work for the triangles of a grid
 /// build that cross cell boundaries on two axes only.
 pub fn tri_box_overlap_in_slab(center: DVec3, half: DVec3, tri: [DVec3; 3], k: usize) -> bool {
-    let v = [tri[0] - center, tri[1] - center, tri[2] - center];
-    for j in 0..3 {
-        let lo = v[0][j].min(v[1][j]).min(v[2][j]);
-        let hi = v[0][j].max(v[1][j]).max(v[2][j]);
-        if lo > half[j] || hi < -half[j] {
-            return false;
+    match box_normals_and_inside(center, half, tri) {
+        Ok(v) => {
+            let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
+            !edges.iter().any(|&e| edge_axis_separates(half, &v, e, k))
         }
+        Err(answer) => answer,
     }
-    if vertex_well_inside(half, &v) {
-        return true;
-    }
-    let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
-    !edges.iter().any(|&e| {
-        let a = e.abs();
-        match k {
-            0 => proj(&v, |p| -e.z * p.y + e.y * p.z, half.y * a.z + half.z * a.y),
-            1 => proj(&v, |p| e.z * p.x + -e.x * p.z, half.x * a.z + half.z * a.x),
-            _ => proj(&v, |p| -e.y * p.x + e.x * p.y, half.x * a.y + half.y * a.x),
-        }
-    })
 }
 
-/// Whether the projections `f` of the three vertices miss `[-r, r]`. Projecting all three
-/// (rather than the two distinct values the paper exploits) keeps the rounding of the
-/// general form.
+/// The first steps of both tests: the triangle relative to the box centre (so that the
+/// box is symmetric and its projection onto an axis `a` is just `[-r, r]` with
+/// `r = half · |a|`), or the answer when the box normals or a vertex well inside give it.
 #[inline(always)]
-fn proj(v: &[DVec3; 3], f: impl Fn(DVec3) -> f64, r: f64) -> bool {
-    let p = [f(v[0]), f(v[1]), f(v[2])];
+fn box_normals_and_inside(center: DVec3, half: DVec3, tri: [DVec3; 3]) -> Result<[DVec3; 3], bool> {
+    let v = [tri[0] - center, tri[1] - center, tri[2] - center];
+
+    // Box normals: the triangle's bounding box against the box.
+    for k in 0..3 {
+        let lo = v[0][k].min(v[1][k]).min(v[2][k]);
+        let hi = v[0][k].max(v[1][k]).max(v[2][k]);
+        if lo > half[k] || hi < -half[k] {
+            return Err(false);
+        }
+    }
+
+    // A vertex inside the box by a margin far above the rounding error (1e-9 of the box
+    // against 1e-16): the triangle overlaps, and none of the remaining axes can separate it
+    // in floating point either (each projects that vertex inside the box's projection by
+    // the margin times the axis length), so the answer is what the full test gives,
+    // without its ten cross products. The build meets this for most of the triangles it
+    // tests against the cells they lie in.
+    if vertex_well_inside(half, &v) {
+        return Err(true);
+    }
+    Ok(v)
+}
+
+/// Whether box normal `k` crossed with edge `e` separates the centred box `±half` from
+/// the triangle `v`. Written out: `X x e = (0, -e.z, e.y)` and so on; the zero
+/// component's products (`0 * v.x`) only add a zero, so these are the values
+/// `separates(DVec3::AXES[k].cross(e), ..)` computes, up to the sign of a zero result,
+/// with a third of the multiplications. Projecting all three vertices (rather than the two
+/// distinct values the paper exploits) keeps the rounding of the general form.
+#[inline(always)]
+fn edge_axis_separates(half: DVec3, v: &[DVec3; 3], e: DVec3, k: usize) -> bool {
+    let a = e.abs();
+    let (p, r): ([f64; 3], f64) = match k {
+        0 => (
+            v.map(|p| -e.z * p.y + e.y * p.z),
+            half.y * a.z + half.z * a.y,
+        ),
+        1 => (
+            v.map(|p| e.z * p.x + -e.x * p.z),
+            half.x * a.z + half.z * a.x,
+        ),
+        _ => (
+            v.map(|p| -e.y * p.x + e.x * p.y),
+            half.x * a.y + half.y * a.x,
+        ),
+    };
     let lo = p[0].min(p[1]).min(p[2]);
     let hi = p[0].max(p[1]).max(p[2]);
     lo > r || hi < -r
@@ -95,19 +108,12 @@ fn vertex_well_inside(half: DVec3, v: &[DVec3; 3]) -> bool {
 /// The remaining ten axes of the separating-axis test (after the box normals).
 #[inline]
 fn cross_axes_separate(half: DVec3, v: &[DVec3; 3]) -> bool {
-    // Edge x box-normal axes, written out: `X x e = (0, -e.z, e.y)` and so on. The zero
-    // component's products (`0 * v.x`) only add a zero, so these are the values
-    // `separates(DVec3::X.cross(e), ..)` computes, up to the sign of a zero result, with
-    // a third of the multiplications.
     let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
-    for e in edges {
-        let a = e.abs();
-        if proj(v, |p| -e.z * p.y + e.y * p.z, half.y * a.z + half.z * a.y)
-            || proj(v, |p| e.z * p.x + -e.x * p.z, half.x * a.z + half.z * a.x)
-            || proj(v, |p| -e.y * p.x + e.x * p.y, half.x * a.y + half.y * a.x)
-        {
-            return true;
-        }
+    if edges
+        .iter()
+        .any(|&e| (0..3).any(|k| edge_axis_separates(half, v, e, k)))
+    {
+        return true;
     }
 
     // Triangle normal: the plane through the triangle against the box. A zero normal
