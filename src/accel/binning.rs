@@ -97,9 +97,9 @@ impl Frame {
         // the frame or past its end, but meeting it): the triangle lies inside those
         // cells' span on the two axes, so it meets a cell's padded box exactly when its
         // extent on the third axis meets the cell's padded span, which is what the
-        // (clamped) range says. Each cell
-        // of the run overlaps, as the exact test finds but for a triangle touching a
-        // padded face within rounding, which this adds (conservative, as the padding is).
+        // (clamped) range says. Each cell of the run overlaps, as the exact test finds but
+        // for a triangle touching a padded face within rounding, which this adds
+        // (conservative, as the padding is).
         let meets = (0..3).all(|i| raw_hi[i] >= 0 && raw_lo[i] < self.res[i] as i64);
         if n_flat == 2 && meets {
             for z in lo[2]..=hi[2] {
