@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# H200 host, stop 43 (issue 27): the growth visiting top cells in tiles of 4^3 (TILE = HEAD
+# with `grow_all`) against table order (HEAD = b5decc2) and the issue's start (START =
+# e763231): the 3.3 M icosphere at 16 threads, five interleaved rounds; bunny.toml at 2
+# and 16 threads (ci/compare-build.sh, 9 rounds). CPU only; carried: .devbin,
+# .models.tar.xz.
+set -uo pipefail
+mkdir -p /tmp/models && tar xJf .models.tar.xz -C /tmp/models
+export FRAGTRACE_MODEL_PATH=/tmp/models
+B=.devbin/fragtrace
+nproc; uptime
+dir=$(mktemp -d)
+bash ci/measure-build.sh --write-scenes "$dir"
+for round in 1 2 3 4 5; do
+  for b in start head tile; do
+    RAYON_NUM_THREADS=16 $B-$b render $dir/s3m.toml --backend cpu --accel irregular --width 8 --height 8 -q -o $dir/x.png --stats $dir/s.json
+    python3 -c "import json,re; d=json.load(open('$dir/s.json')); m=re.search(r'built in .*', d['accel']['detail']); print('s3m 16 $b', m.group(0))"
+  done
+done
+for t in 2 16; do SCENE=scenes/bunny.toml THREADS=$t RUNS=9 bash ci/compare-build.sh $B-start $B-head $B-tile; done
+uptime
