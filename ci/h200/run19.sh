@@ -5,15 +5,11 @@
 # binning's slab and run paths widened, BLK = SLAB2 with the blocks' summed-volume table.
 # KNOWN = SLAB2 with the per-thread cache of known empty exit boxes.
 # CPU only; carried: .devbin, .models.tar.xz.
-# The scenes come from `ci/measure-build.sh --write-scenes` (when it ran, this script wrote
-# the same s3m.toml with its own copy of that generator).
+# The set-up is ci/h200/setup-cpu.sh's (when it ran, this script did the same steps itself,
+# writing s3m.toml with its own copy of ci/measure-build.sh's generator).
 set -uo pipefail
-mkdir -p /tmp/models && tar xJf .models.tar.xz -C /tmp/models
-export FRAGTRACE_MODEL_PATH=/tmp/models
-B=.devbin/fragtrace
-nproc; lscpu | grep -E "Model name|Thread|Core|Socket|L2|L3"; uptime
-dir=$(mktemp -d)
-bash ci/measure-build.sh --write-scenes "$dir"
+. ci/h200/setup-cpu.sh
+lscpu | grep -E "Model name|Thread|Core|Socket|L2|L3"
 for round in 1 2; do
   for t in 16 8 4; do
     for b in start base slab2 blk known; do

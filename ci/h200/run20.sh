@@ -3,13 +3,10 @@
 # page faults on fresh memory? BASE (1add14f) and SLAB2 with glibc's defaults and with its
 # mmap and trim thresholds raised (freed memory kept in the process), interleaved.
 # CPU only; carried: .devbin.
-# The scenes come from `ci/measure-build.sh --write-scenes` (when it ran, this script wrote
-# the same s3m.toml with its own copy of that generator).
+# The set-up is ci/h200/setup-cpu.sh's (when it ran, this script did the same steps itself,
+# writing s3m.toml with its own copy of ci/measure-build.sh's generator).
 set -uo pipefail
-B=.devbin/fragtrace
-uptime
-dir=$(mktemp -d)
-bash ci/measure-build.sh --write-scenes "$dir"
+. ci/h200/setup-cpu.sh
 T='glibc.malloc.mmap_threshold=4294967295:glibc.malloc.trim_threshold=4294967295:glibc.malloc.top_pad=268435456'
 for round in 1 2 3; do
   for b in base slab2; do

@@ -5,12 +5,7 @@
 # interleaved rounds, and once at 2 threads; bunny.toml and the equal-work bunny at 2 and 16
 # threads (ci/compare-build.sh, 11 rounds). CPU only; carried: .devbin, .models.tar.xz.
 set -uo pipefail
-mkdir -p /tmp/models && tar xJf .models.tar.xz -C /tmp/models
-export FRAGTRACE_MODEL_PATH=/tmp/models
-B=.devbin/fragtrace
-nproc; uptime
-dir=$(mktemp -d)
-bash ci/measure-build.sh --write-scenes "$dir"
+. ci/h200/setup-cpu.sh
 ico() {
   RAYON_NUM_THREADS=$1 $B-$2 render $dir/s3m.toml --backend cpu --accel irregular --width 8 --height 8 -q -o $dir/x.png --stats $dir/s.json
   python3 -c "import json,re; d=json.load(open('$dir/s.json')); m=re.search(r'built in .*', d['accel']['detail']); print('s3m $1 $2', m.group(0))"

@@ -5,12 +5,7 @@
 # and 16 threads (ci/compare-build.sh, 9 rounds). CPU only; carried: .devbin,
 # .models.tar.xz.
 set -uo pipefail
-mkdir -p /tmp/models && tar xJf .models.tar.xz -C /tmp/models
-export FRAGTRACE_MODEL_PATH=/tmp/models
-B=.devbin/fragtrace
-nproc; uptime
-dir=$(mktemp -d)
-bash ci/measure-build.sh --write-scenes "$dir"
+. ci/h200/setup-cpu.sh
 for round in 1 2 3 4 5; do
   for b in start head tile; do
     RAYON_NUM_THREADS=16 $B-$b render $dir/s3m.toml --backend cpu --accel irregular --width 8 --height 8 -q -o $dir/x.png --stats $dir/s.json
