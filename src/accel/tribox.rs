@@ -30,8 +30,14 @@ pub fn tri_box_overlap(center: DVec3, half: DVec3, tri: [DVec3; 3]) -> bool {
 /// the three axes `k x edge` can separate them (the other eight of the full test never do
 /// then: each would separate the projections too). The same arithmetic as the full test
 /// on those axes, so the same answer; a third of its work for the triangles of a grid
-/// build that cross cell boundaries on two axes only.
-pub fn tri_box_overlap_in_slab(center: DVec3, half: DVec3, tri: [DVec3; 3], k: usize) -> bool {
+/// build that cross cell boundaries on two axes only. Crate-internal: outside that
+/// precondition (which the binning checks) its answer can be wrong.
+pub(crate) fn tri_box_overlap_in_slab(
+    center: DVec3,
+    half: DVec3,
+    tri: [DVec3; 3],
+    k: usize,
+) -> bool {
     match box_normals_and_inside(center, half, tri) {
         Ok(v) => {
             let edges = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
