@@ -56,18 +56,17 @@ impl IrregularGrid {
                         x = fhi[0];
                         continue;
                     }
-                    let idx = self.top_index([x, y, z]);
-                    let e = self.vmap[idx];
-                    if e & NODE == 0 {
-                        // A top cell: empty or not by its slot, not the cell table (which
-                        // the growth fills in place while it asks).
-                        if occ.slot[idx] == FULL {
-                            return false;
+                    // A top cell: empty or not by its slot, not the cell table (which the
+                    // growth fills in place while it asks).
+                    let num = match occ.top[self.top_index([x, y, z])] {
+                        EMPTY => {
+                            x += 1;
+                            continue;
                         }
-                        x += 1;
-                        continue;
-                    }
-                    match occ.tight_relation(idx, lo, hi) {
+                        FULL => return false,
+                        s => s - 2,
+                    };
+                    match occ.tight_relation(num, lo, hi) {
                         Tight::Apart => {
                             x += 1;
                             continue;
@@ -76,7 +75,7 @@ impl IrregularGrid {
                         Tight::Cut => {}
                     }
                     let node_lo = [x << self.shift[0], y << self.shift[1], z << self.shift[2]];
-                    if !q.node_is_empty(e, node_lo, self.shift, 0) {
+                    if !q.node_is_empty(num, node_lo, self.shift, 0) {
                         return false;
                     }
                     x += 1;
@@ -96,12 +95,12 @@ struct Query<'a> {
 }
 
 impl Query<'_> {
-    /// Whether the box holds nothing within voxel-map entry `e`, a node at `level`
-    /// covering `1 << rem[a]` virtual cells from `node_lo`. Reads no cell of the cell table
-    /// (the growth fills it in place while it asks).
-    fn node_is_empty(&self, e: u32, node_lo: [u32; 3], rem: [u32; 3], level: usize) -> bool {
+    /// Whether the box holds nothing within node `num` (numbered as
+    /// [`Occupancy::nodes`]) at `level`, covering `1 << rem[a]` virtual cells from
+    /// `node_lo`. Reads the node records only, never the voxel map or the cell table (the
+    /// growth fills the latter in place while it asks).
+    fn node_is_empty(&self, num: u32, node_lo: [u32; 3], rem: [u32; 3], level: usize) -> bool {
         let (g, occ, lo, hi) = (self.g, self.occ, self.lo, self.hi);
-        debug_assert!(e & NODE != 0, "asked about a cell entry");
         // A node was split for its triangles, so one the box covers whole is not empty
         // (conservatively: its triangles may only touch its padding; the box then just
         // does not grow there). Only nodes the box cuts are descended.
@@ -110,56 +109,56 @@ impl Query<'_> {
         }
         let mask = g.levels[level];
         let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
-        // The children the box overlaps, per axis `b0[a] .. b1[a]`: on a split axis the
-        // low one when the box starts below the middle, the high one when it ends above
-        // it (the box overlaps this node, so at least one of them); one child on an
-        // unsplit axis. Child `b` sits at `base + b . stride`.
-        let mut b0 = [0u32; 3];
-        let mut b1 = [1u32; 3];
-        let mut stride = [0u32; 3];
-        let mut next = 1;
+        // The children the box overlaps as a bit set: on a split axis the low ones when
+        // the box starts below the middle, the high ones when it ends above it (the box
+        // overlaps this node, so at least one of them). Child `i`'s bit for a split axis
+        // is that of the axis's stride in `i` (x before y before z among the split ones).
+        let mut overlap = u8::MAX;
+        let mut stride = 1u32;
+        let mut bit_of = [0u32; 3];
         for a in 0..3 {
             if mask[a] {
                 let mid = node_lo[a] + (1 << crem[a]);
-                b0[a] = (lo[a] >= mid) as u32;
-                b1[a] = 1 + (hi[a] > mid) as u32;
-                stride[a] = next;
-                next *= 2;
+                let low = LOW_HALF[stride.trailing_zeros() as usize];
+                if lo[a] >= mid {
+                    overlap &= !low;
+                }
+                if hi[a] <= mid {
+                    overlap &= low;
+                }
+                bit_of[a] = stride;
+                stride *= 2;
             }
         }
-        let base = e & !NODE;
-        for bz in b0[2]..b1[2] {
-            for by in b0[1]..b1[1] {
-                for bx in b0[0]..b1[0] {
-                    let idx = (base + bx * stride[0] + by * stride[1] + bz * stride[2]) as usize;
-                    // Empty cells are skipped and cells with triangles answer, both by the
-                    // slot alone; a node is skipped when the box misses its tight box,
-                    // answers when the box holds it, and only else descended.
-                    match occ.slot[idx] {
-                        EMPTY => continue,
-                        FULL => return false,
-                        _ => {}
-                    }
-                    let child = g.vmap[idx];
-                    match occ.tight_relation(idx, lo, hi) {
-                        Tight::Apart => continue,
-                        Tight::Inside => return false,
-                        Tight::Cut => {}
-                    }
-                    let clo = [
-                        node_lo[0] + (bx << crem[0]),
-                        node_lo[1] + (by << crem[1]),
-                        node_lo[2] + (bz << crem[2]),
-                    ];
-                    if !self.node_is_empty(child, clo, crem, level + 1) {
-                        return false;
-                    }
-                }
+        let n = &occ.nodes[num as usize];
+        // A cell with triangles among them answers at once; empty cells are skipped; a
+        // node is skipped when the box misses its tight box, answers when the box holds
+        // it, and only else descended.
+        if overlap & n.full != 0 {
+            return false;
+        }
+        let mut kids = overlap & n.kids;
+        while kids != 0 {
+            let i = kids.trailing_zeros();
+            kids &= kids - 1;
+            // Children that are nodes are numbered one after the other in block order.
+            let child = n.first + (n.kids & ((1u8 << i) - 1)).count_ones();
+            match occ.tight_relation(child, lo, hi) {
+                Tight::Apart => continue,
+                Tight::Inside => return false,
+                Tight::Cut => {}
+            }
+            let clo = [0, 1, 2].map(|a| node_lo[a] + (((i & bit_of[a] != 0) as u32) << crem[a]));
+            if !self.node_is_empty(child, clo, crem, level + 1) {
+                return false;
             }
         }
         true
     }
 }
+
+/// Per stride 1, 2, 4 of a child block: the children on the low side of that axis.
+const LOW_HALF: [u8; 3] = [0x55, 0x33, 0x0F];
 
 /// How a query box meets a node's [`Occupancy::tight`] box.
 enum Tight {
@@ -172,27 +171,43 @@ enum Tight {
     Cut,
 }
 
+/// What an emptiness query knows of one voxel-map node: its children's kinds as bit
+/// sets and its tight box, in one record, so that a query reads neither the voxel map nor
+/// the cell table, and one record per node it descends (the queries wait on memory, and a
+/// child's entry, kind and box used to lie in three tables).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct NodeRec {
+    /// The box around the part of the node an emptiness query can find non-empty: its
+    /// cells with triangles (and, should it hold none, the node whole). A box missing it
+    /// is empty there: no cell with triangles overlaps it, and it covers no node below
+    /// whole (a node with a cell with triangles below contains that cell, which the box
+    /// would then overlap). So the query skips the nodes it only cuts on their empty side,
+    /// with the same answer.
+    tight_lo: [u32; 3],
+    tight_hi: [u32; 3],
+    /// Number of the first child that is a node: a block's nodes are numbered one after
+    /// the other (nodes are numbered in map order).
+    first: u32,
+    /// Bit `i`: child `i` is a cell with triangles.
+    full: u8,
+    /// Bit `i`: child `i` is a node.
+    kids: u8,
+}
+
 /// Summed-volume table of the top cells that are not empty (a node, or a cell with
-/// triangles): how many lie in a block of top cells, in constant time.
+/// triangles): how many lie in a block of top cells, in constant time; and the node
+/// records the emptiness queries descend.
 pub(super) struct Occupancy {
     /// `(res + 1)^3` prefix sums, x fastest, zero on the low faces.
     sum: Vec<u32>,
     /// Top resolution plus one.
     dim: [usize; 3],
-    /// Per voxel-map entry: [`EMPTY`] (a cell without triangles), [`FULL`] (a cell with
-    /// triangles) or, for a node, `2 +` its number, nodes numbered in map order: what an
-    /// emptiness query decides a child by, and where it finds a node's tight box.
-    slot: Vec<u32>,
-    /// Per node (by number): the box around the part of it an emptiness query can find
-    /// non-empty, its cells with triangles (and, should a node hold none, that node
-    /// whole). A box missing it is empty there: no cell with triangles overlaps it, and it
-    /// covers no node below whole (a node with a cell with triangles below contains that
-    /// cell, which the box would then overlap). So the query skips the nodes it only cuts
-    /// on their empty side, with the same answer. One box per node rather than per map
-    /// entry: with the slots, about a third of the memory of a box and a flag per entry
-    /// (a node holds two to eight entries; the queries wait on memory, not arithmetic).
-    tight: Vec<([u32; 3], [u32; 3])>,
-    /// Whether the tight boxes were built tree by tree in parallel (the build's layout
+    /// Per top cell: [`EMPTY`] (a cell without triangles), [`FULL`] (a cell with
+    /// triangles) or, for a node, `2 +` its number.
+    top: Vec<u32>,
+    /// Per node, numbered in voxel-map order (the order of their entries).
+    nodes: Vec<NodeRec>,
+    /// Whether the node records were built tree by tree in parallel (the build's layout
     /// was recognised); false means the serial pass ran, the same tables more slowly.
     /// Read by the tests only: a silent fall back to the serial pass is a slowdown that
     /// no comparison of tables can see.
@@ -201,14 +216,14 @@ pub(super) struct Occupancy {
 }
 
 impl Occupancy {
-    /// Built in parallel: the summed-volume table slab by slab, [`Occupancy::tight`] tree
+    /// Built in parallel: the summed-volume table slab by slab, [`Occupancy::nodes`] tree
     /// by tree (each top cell's subtree owns one stretch of the voxel map when laid out as
     /// the build lays it out; any other layout is built serially).
     pub(super) fn new(g: &IrregularGrid) -> Occupancy {
         Occupancy::build(g, true)
     }
 
-    /// [`Occupancy::new`], its tight boxes tree by tree in parallel only when `by_tree`
+    /// [`Occupancy::new`], its node records tree by tree in parallel only when `by_tree`
     /// (else in one serial pass, as for a voxel map laid out otherwise).
     fn build(g: &IrregularGrid, by_tree: bool) -> Occupancy {
         let dim = g.top_res.map(|r| r as usize + 1);
@@ -282,6 +297,7 @@ impl Occupancy {
             .collect();
         let first = offsets(node_counts.iter().copied(), 0);
         let n_nodes = node_counts.iter().sum::<usize>();
+        // Every entry's slot (as [`Occupancy::top`]'s), for the records' bit sets.
         let mut slot = vec![EMPTY; n_vmap];
         let slot_pieces = split_lens(&mut slot, cuts.windows(2).map(|w| w[1] - w[0]));
         slot_pieces
@@ -301,50 +317,52 @@ impl Occupancy {
                     };
                 }
             });
-        // Filled in parallel: `vec!` writes tuples' copies on one thread.
-        let mut tight: Vec<([u32; 3], [u32; 3])> = (0..n_nodes)
+        // Filled in parallel: `vec!` writes structs' copies on one thread.
+        let mut nodes: Vec<NodeRec> = (0..n_nodes)
             .into_par_iter()
-            .map(|_| ([0; 3], [0; 3]))
+            .map(|_| NodeRec::default())
             .collect();
-        let boxes: Vec<([u32; 3], [u32; 3])> = if laid_out {
+        let recs: Vec<NodeRec> = if laid_out {
             // Tree j's nodes are those of piece j + 1.
-            let below = &mut tight[first.get(1).copied().unwrap_or(n_nodes)..];
+            let below = &mut nodes[first.get(1).copied().unwrap_or(n_nodes)..];
             let stretches: Vec<Stretch> = split_lens(below, node_counts[1..].iter().copied())
                 .into_iter()
                 .zip(&first[1..])
-                .map(|(tight, &off)| Stretch { tight, off })
+                .map(|(nodes, &off)| Stretch { nodes, off })
                 .collect();
             roots
                 .par_iter()
                 .zip(stretches)
-                .map(|(&(i, e), mut out)| tight_box(g, &slot, e, top_lo(i), g.shift, 0, &mut out))
+                .map(|(&(i, e), mut out)| node_rec(g, &slot, e, top_lo(i), g.shift, 0, &mut out))
                 .collect()
         } else {
             let mut out = Stretch {
-                tight: &mut tight,
+                nodes: &mut nodes,
                 off: 0,
             };
             roots
                 .iter()
-                .map(|&(i, e)| tight_box(g, &slot, e, top_lo(i), g.shift, 0, &mut out))
+                .map(|&(i, e)| node_rec(g, &slot, e, top_lo(i), g.shift, 0, &mut out))
                 .collect()
         };
-        for (&(i, _), b) in roots.iter().zip(boxes) {
-            tight[(slot[i] - 2) as usize] = b;
+        for (&(i, _), r) in roots.iter().zip(recs) {
+            nodes[(slot[i] - 2) as usize] = r;
         }
+        slot.truncate(n_top);
         Occupancy {
             sum,
             dim,
-            slot,
-            tight,
+            top: slot,
+            nodes,
             by_tree: laid_out,
         }
     }
 
-    /// How `lo .. hi` meets [`Occupancy::tight`] of node entry `idx`.
+    /// How `lo .. hi` meets the tight box of node `num`.
     #[inline]
-    fn tight_relation(&self, idx: usize, lo: [u32; 3], hi: [u32; 3]) -> Tight {
-        let (tlo, thi) = self.tight[(self.slot[idx] - 2) as usize];
+    fn tight_relation(&self, num: u32, lo: [u32; 3], hi: [u32; 3]) -> Tight {
+        let n = &self.nodes[num as usize];
+        let (tlo, thi) = (n.tight_lo, n.tight_hi);
         if (0..3).any(|a| thi[a] <= lo[a] || hi[a] <= tlo[a]) {
             Tight::Apart
         } else if (0..3).all(|a| lo[a] <= tlo[a] && thi[a] <= hi[a]) {
@@ -369,31 +387,34 @@ impl Occupancy {
     }
 }
 
-/// The part of [`Occupancy::tight`] from node `off` on that one build of it writes.
+/// The part of [`Occupancy::nodes`] from node `off` on that one build of it writes.
 struct Stretch<'a> {
-    tight: &'a mut [([u32; 3], [u32; 3])],
+    nodes: &'a mut [NodeRec],
     off: usize,
 }
 
-/// [`Occupancy::tight`] of node `e` at `level` covering `1 << rem[a]` virtual cells from
-/// `node_lo`, writing that of every node below into `tight`.
-fn tight_box(
+/// The record of node `e` at `level` covering `1 << rem[a]` virtual cells from
+/// `node_lo`, writing that of every node below into `out` (`slot`: every entry's, as
+/// [`Occupancy::top`]'s).
+fn node_rec(
     g: &IrregularGrid,
     slot: &[u32],
     e: u32,
     node_lo: [u32; 3],
     rem: [u32; 3],
     level: usize,
-    tight: &mut Stretch,
-) -> ([u32; 3], [u32; 3]) {
+    out: &mut Stretch,
+) -> NodeRec {
     let mask = g.levels[level];
     let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
     let n = mask.map(|m| if m { 2u32 } else { 1 });
     let (mut lo, mut hi) = ([u32::MAX; 3], [0u32; 3]);
+    let mut rec = NodeRec::default();
     for bz in 0..n[2] {
         for by in 0..n[1] {
             for bx in 0..n[0] {
-                let idx = ((e & !NODE) + bx + n[0] * (by + n[1] * bz)) as usize;
+                let i = bx + n[0] * (by + n[1] * bz);
+                let idx = ((e & !NODE) + i) as usize;
                 let child = g.vmap[idx];
                 let clo = [
                     node_lo[0] + (bx << crem[0]),
@@ -401,10 +422,15 @@ fn tight_box(
                     node_lo[2] + (bz << crem[2]),
                 ];
                 let b = if child & NODE != 0 {
-                    let b = tight_box(g, slot, child, clo, crem, level + 1, tight);
-                    tight.tight[(slot[idx] - 2) as usize - tight.off] = b;
-                    b
+                    if rec.kids == 0 {
+                        rec.first = slot[idx] - 2;
+                    }
+                    rec.kids |= 1 << i;
+                    let r = node_rec(g, slot, child, clo, crem, level + 1, out);
+                    out.nodes[(slot[idx] - 2) as usize - out.off] = r;
+                    (r.tight_lo, r.tight_hi)
                 } else if slot[idx] == FULL {
+                    rec.full |= 1 << i;
                     (clo, [0, 1, 2].map(|a| clo[a] + (1 << crem[a])))
                 } else {
                     continue;
@@ -416,18 +442,20 @@ fn tight_box(
             }
         }
     }
-    if lo[0] == u32::MAX {
+    (rec.tight_lo, rec.tight_hi) = if lo[0] == u32::MAX {
         // No cell with triangles below: the node itself blocks a box covering it whole.
-        return (node_lo, [0, 1, 2].map(|a| node_lo[a] + (1 << rem[a])));
-    }
-    (lo, hi)
+        (node_lo, [0, 1, 2].map(|a| node_lo[a] + (1 << rem[a])))
+    } else {
+        (lo, hi)
+    };
+    rec
 }
 
 /// Grows the exit box of cell `c` over empty neighbours: each face in turn moves out by a
 /// step (the cell's own size at first, doubled after each success and halved after each
 /// failure down to that size) while the slab it sweeps holds no triangle.
 pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3], [u32; 3]) {
-    let path = Ancestors::of(g, c);
+    let path = Ancestors::of(g, occ, c);
     let (mut lo, mut hi) = (c.lo, c.hi);
     let own = [0, 1, 2].map(|a| c.hi[a] - c.lo[a]);
     // Per face (axis, upward): current step, or 0 once the face is done.
@@ -481,40 +509,45 @@ pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3]
 /// when it equals the box, which both ask first); most slabs a cell's growth sweeps lie in
 /// a node a few levels up, so the query skips the ten or more levels above it.
 struct Ancestors {
-    /// `(vmap entry, node_lo, rem, level)`, top cell first, the cell's own entry at `len - 1`.
-    nodes: [(u32, [u32; 3], [u32; 3], usize); MAX_LEVELS + 1],
+    /// `(node number, node_lo, rem, level)`, top cell first.
+    nodes: [(u32, [u32; 3], [u32; 3], usize); MAX_LEVELS],
     len: usize,
 }
 
 impl Ancestors {
-    fn of(g: &IrregularGrid, c: &IrrCell) -> Ancestors {
+    fn of(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> Ancestors {
         let t = [0, 1, 2].map(|a| c.lo[a] >> g.shift[a]);
-        let mut e = g.vmap[g.top_index(t)];
         let mut node_lo = [0, 1, 2].map(|a| t[a] << g.shift[a]);
         let mut rem = g.shift;
-        let mut nodes = [(e, node_lo, rem, 0); MAX_LEVELS + 1];
+        let mut nodes = [(0, node_lo, rem, 0); MAX_LEVELS];
+        let s = occ.top[g.top_index(t)];
+        if s < 2 {
+            return Ancestors { nodes, len: 0 };
+        }
+        let mut num = s - 2;
         let mut level = 0;
-        while e & NODE != 0 {
+        loop {
+            nodes[level] = (num, node_lo, rem, level);
             let mask = g.levels[level];
-            let mut idx = e & !NODE;
+            let mut i = 0;
             let mut stride = 1;
             for a in 0..3 {
                 if mask[a] {
                     rem[a] -= 1;
                     let bit = (c.lo[a] >> rem[a]) & 1;
                     node_lo[a] += bit << rem[a];
-                    idx += bit * stride;
+                    i += bit * stride;
                     stride *= 2;
                 }
             }
-            e = g.vmap[idx as usize];
+            let n = &occ.nodes[num as usize];
             level += 1;
-            nodes[level] = (e, node_lo, rem, level);
+            if n.kids & (1 << i) == 0 {
+                break;
+            }
+            num = n.first + (n.kids & ((1u8 << i) - 1)).count_ones();
         }
-        Ancestors {
-            nodes,
-            len: level + 1,
-        }
+        Ancestors { nodes, len: level }
     }
 
     /// [`IrregularGrid::box_is_empty_with`], starting at the deepest ancestor holding
@@ -523,10 +556,9 @@ impl Ancestors {
         let holds = |n: &(u32, [u32; 3], [u32; 3], usize)| {
             (0..3).all(|a| n.1[a] <= lo[a] && hi[a] <= n.1[a] + (1 << n.2[a]))
         };
-        // The nodes only: the cell's own entry never holds a box its growth asks about.
-        match self.nodes[..self.len - 1].iter().rev().find(|n| holds(n)) {
-            Some(&(e, node_lo, rem, level)) => {
-                Query { g, occ, lo, hi }.node_is_empty(e, node_lo, rem, level)
+        match self.nodes[..self.len].iter().rev().find(|n| holds(n)) {
+            Some(&(num, node_lo, rem, level)) => {
+                Query { g, occ, lo, hi }.node_is_empty(num, node_lo, rem, level)
             }
             None => g.box_is_empty_with(occ, lo, hi),
         }

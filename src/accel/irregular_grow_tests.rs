@@ -32,26 +32,66 @@ fn occupancy_tables_match_brute_force_and_serial_build() {
             "{ctx}: the build's layout not recognised"
         );
         assert_eq!(par.sum, ser.sum, "{ctx}");
-        assert_eq!(par.slot, ser.slot, "{ctx}");
-        // Slots against the map itself: nodes numbered 0, 1, 2, ... in map order.
+        assert_eq!(par.top, ser.top, "{ctx}");
+        assert_eq!(par.nodes, ser.nodes, "{ctx}");
+        // Against the map itself: nodes numbered 0, 1, 2, ... in map order; each record's
+        // bit sets and first child number from its block's entries.
+        let mut number = vec![u32::MAX; g.vmap.len()];
         let mut next = 0;
-        for (i, (&e, &s)) in g.vmap.iter().zip(&par.slot).enumerate() {
-            let want = if e & NODE != 0 {
+        for (i, &e) in g.vmap.iter().enumerate() {
+            if e & NODE != 0 {
+                number[i] = next;
                 next += 1;
-                next + 1
+            }
+        }
+        let slot_of = |i: usize| {
+            let e = g.vmap[i];
+            if e & NODE != 0 {
+                number[i] + 2
             } else if g.cells[e as usize].range.count > 0 {
                 FULL
             } else {
                 EMPTY
-            };
-            assert_eq!(s, want, "{ctx}: slot of entry {i}");
+            }
+        };
+        for i in 0..g.stats.top_cells {
+            assert_eq!(par.top[i], slot_of(i), "{ctx}: slot of top cell {i}");
         }
-        assert_eq!(
-            par.tight.len(),
-            next as usize,
-            "{ctx}: one tight box per node"
+        assert_eq!(par.nodes.len(), next as usize, "{ctx}: one record per node");
+        // Every node reached from the top cells, its block's size by its level.
+        let mut kinds = [0usize; 2];
+        let mut stack: Vec<(usize, usize)> = (0..g.stats.top_cells)
+            .filter(|&i| g.vmap[i] & NODE != 0)
+            .map(|i| (i, 0))
+            .collect();
+        while let Some((i, level)) = stack.pop() {
+            let rec = par.nodes[number[i] as usize];
+            let base = (g.vmap[i] & !NODE) as usize;
+            let n = 1 << g.levels[level].iter().filter(|&&m| m).count();
+            let (mut full, mut kids, mut first) = (0u8, 0u8, None);
+            for k in 0..n {
+                match slot_of(base + k) {
+                    FULL => full |= 1 << k,
+                    EMPTY => {}
+                    s => {
+                        kids |= 1 << k;
+                        first.get_or_insert(s - 2);
+                        stack.push((base + k, level + 1));
+                    }
+                }
+            }
+            assert_eq!(rec.full, full, "{ctx}: full children of node {}", number[i]);
+            assert_eq!(rec.kids, kids, "{ctx}: node children of node {}", number[i]);
+            if let Some(f) = first {
+                assert_eq!(rec.first, f, "{ctx}: first child of node {}", number[i]);
+            }
+            kinds[0] += full.count_ones() as usize;
+            kinds[1] += kids.count_ones() as usize;
+        }
+        assert!(
+            kinds[0] > 0 && kinds[1] > 0,
+            "{ctx}: records name no full cell or no node child: {kinds:?}"
         );
-        assert_eq!(par.tight, ser.tight, "{ctx}");
         let r = g.top_res;
         let full = |t: [u32; 3]| {
             let e = g.vmap[g.top_index(t)];
