@@ -29,6 +29,11 @@ pub(crate) struct Frame {
     outer_lo: DVec3,
     outer_hi: DVec3,
     pad: DVec3,
+    /// For frames of at most two cells an axis (every voxel-map node): per axis, the
+    /// least `p` with `floor((p - lo) / cs) >= j` for `j = 0, 1, 2` (infinite past the
+    /// last cell), so that a coordinate's cell is three comparisons instead of a
+    /// division, the same integer clamped to `-1 ..= res` (all the binning asks of it).
+    steps: Option<[[f64; 3]; 3]>,
 }
 
 impl Frame {
@@ -42,6 +47,18 @@ impl Frame {
         outer_hi: DVec3,
     ) -> Frame {
         let mag = outer_lo.abs().max(outer_hi.abs()).max(lo.abs());
+        let steps = if res.iter().all(|&r| r <= 2) {
+            let axis = |i: usize| -> Option<[f64; 3]> {
+                let mut t = [f64::INFINITY; 3];
+                for (j, t) in t.iter_mut().enumerate().take(res[i] as usize + 1) {
+                    *t = least_at(lo[i], cs[i], j as i64)?;
+                }
+                Some(t)
+            };
+            (|| Some([axis(0)?, axis(1)?, axis(2)?]))()
+        } else {
+            None
+        };
         Frame {
             lo,
             cs,
@@ -49,6 +66,20 @@ impl Frame {
             outer_lo,
             outer_hi,
             pad: CELL_PAD_FRACTION * cs + DVec3::new(ulps(mag.x), ulps(mag.y), ulps(mag.z)),
+            steps,
+        }
+    }
+
+    /// `floor((p - lo) / cs)` on `axis`, clamped to `-1 ..= res` where the frame has its
+    /// `steps`: the binning only compares it with `0`, `res` and the other end's.
+    #[inline(always)]
+    fn raw(&self, p: f64, axis: usize) -> i64 {
+        match &self.steps {
+            Some(t) => {
+                let t = &t[axis];
+                (p >= t[0]) as i64 + (p >= t[1]) as i64 + (p >= t[2]) as i64 - 1
+            }
+            None => floor_i64((p - self.lo[axis]) / self.cs[axis]),
         }
     }
 
@@ -73,9 +104,16 @@ impl Frame {
         let bb_lo = tri[0].min(tri[1]).min(tri[2]) - self.pad;
         let bb_hi = tri[0].max(tri[1]).max(tri[2]) + self.pad;
         // `as i64` saturates; the clamp below absorbs anything outside the frame.
-        let raw = |p: f64, i: usize| floor_i64((p - self.lo[i]) / self.cs[i]);
-        let raw_lo = [raw(bb_lo.x, 0), raw(bb_lo.y, 1), raw(bb_lo.z, 2)];
-        let raw_hi = [raw(bb_hi.x, 0), raw(bb_hi.y, 1), raw(bb_hi.z, 2)];
+        let raw_lo = [
+            self.raw(bb_lo.x, 0),
+            self.raw(bb_lo.y, 1),
+            self.raw(bb_lo.z, 2),
+        ];
+        let raw_hi = [
+            self.raw(bb_hi.x, 0),
+            self.raw(bb_hi.y, 1),
+            self.raw(bb_hi.z, 2),
+        ];
         // A padded bounding box inside one cell of the frame: the triangle lies in that
         // cell's box with the padding to spare on every side, where the exact test can only
         // say yes (every one of its 13 axes projects the triangle inside the box's
@@ -142,6 +180,49 @@ impl Frame {
     }
 }
 
+/// The least `p` with `floor((p - lo) / cs) >= j` in f64: the quotient rounds
+/// monotonically in `p`, so those `p` are all from one on, found by bisection between
+/// neighbours of `lo + j * cs` until the two bounds are adjacent floats. (Stepping ulp by
+/// ulp is not enough: near zero many `p` give the same `p - lo`.) `None` for a frame so
+/// extreme that no bracket is found, which then keeps the divisions.
+fn least_at(lo: f64, cs: f64, j: i64) -> Option<f64> {
+    let at = |p: f64| floor_i64((p - lo) / cs) >= j;
+    let guess = lo + j as f64 * cs;
+    // Mostly the guess or a neighbour.
+    let mut p = guess;
+    for _ in 0..4 {
+        match (at(p), at(p.next_down())) {
+            (true, false) => return Some(p),
+            (true, true) => p = p.next_down(),
+            (false, _) => p = p.next_up(),
+        }
+    }
+    let (mut below, mut above) = (guess, guess);
+    let mut step = cs * 1e-12;
+    for _ in 0..64 {
+        if !at(below) && at(above) {
+            break;
+        }
+        below -= step;
+        above += step;
+        step *= 2.0;
+    }
+    if at(below) || !at(above) {
+        return None;
+    }
+    loop {
+        let mid = below + 0.5 * (above - below);
+        if mid <= below || mid >= above {
+            return Some(above);
+        }
+        if at(mid) {
+            above = mid;
+        } else {
+            below = mid;
+        }
+    }
+}
+
 /// Stable counting sort of `(cell, triangle)` pairs given triangle after triangle in
 /// ascending order: per-cell ranges and the list, each cell's triangles ascending.
 pub(crate) fn counting_sort(
@@ -202,6 +283,49 @@ mod tests {
             }
         }
         out
+    }
+
+    /// A node frame's cell of a coordinate by comparisons (`steps`) is the division's,
+    /// clamped to `-1 ..= res`: on random frames, at random coordinates and at those within
+    /// a few ulps of every cell boundary (where the quotient's rounding decides).
+    #[test]
+    fn steps_give_the_divisions_cells() {
+        let mut rng = Rng::new(test_seed("binning steps", 0x57E95));
+        let mut near = 0;
+        for _ in 0..20_000 {
+            let res = [0, 1, 2].map(|_| 1 + (rng.next_u64() % 2) as u32);
+            let lo = rng.dvec3(-1e3, 1e3);
+            let cs = rng.dvec3(1e-3, 10.0);
+            let ext = DVec3::new(res[0] as f64, res[1] as f64, res[2] as f64) * cs;
+            let f = Frame::new(lo, cs, res, lo, lo + ext);
+            assert!(f.steps.is_some(), "no steps for {lo:?} {cs:?}");
+            for i in 0..3 {
+                for j in 0..=res[i] + 1 {
+                    let b = lo[i] + j as f64 * cs[i];
+                    let mut ps = vec![b + rng.range(-2.0, 2.0) * cs[i]];
+                    let mut p = b;
+                    for _ in 0..4 {
+                        p = p.next_down();
+                    }
+                    for _ in 0..9 {
+                        ps.push(p);
+                        p = p.next_up();
+                    }
+                    for p in ps {
+                        let want = ((p - lo[i]) / cs[i])
+                            .floor_exact()
+                            .clamp(-1.0, res[i] as f64) as i64;
+                        assert_eq!(f.raw(p, i), want, "p {p:e} lo {:e} cs {:e}", lo[i], cs[i]);
+                        near += ((p - b).abs() < 1e-9 * b.abs().max(1.0) && want >= 0 && p < b)
+                            as usize;
+                    }
+                }
+            }
+        }
+        assert!(
+            near > 1000,
+            "too few coordinates just below a boundary: {near}"
+        );
     }
 
     /// The shortcuts (a triangle crossing cells along one axis only goes to every cell of
