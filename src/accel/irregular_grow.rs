@@ -207,6 +207,10 @@ pub(super) struct Occupancy {
     top: Vec<u32>,
     /// Per node, numbered in voxel-map order (the order of their entries).
     nodes: Vec<NodeRec>,
+    /// `holding[a][d]`: one more than the deepest level whose nodes span at least `d` bits
+    /// of axis `a` (`1 << rem >= 1 << d`), 0 when not even a top cell does: where a growth
+    /// query starts, from how many low bits its box differs in from its cell.
+    holding: [[u8; 33]; 3],
     /// Whether the node records were built tree by tree in parallel (the build's layout
     /// was recognised); false means the serial pass ran, the same tables more slowly.
     /// Read by the tests only: a silent fall back to the serial pass is a slowdown that
@@ -349,11 +353,20 @@ impl Occupancy {
             nodes[(slot[i] - 2) as usize] = r;
         }
         slot.truncate(n_top);
+        let mut holding = [[0u8; 33]; 3];
+        let mut rem = g.shift;
+        for (level, mask) in g.levels.iter().enumerate() {
+            for a in 0..3 {
+                holding[a][..=rem[a] as usize].fill(level as u8 + 1);
+                rem[a] -= mask[a] as u32;
+            }
+        }
         Occupancy {
             sum,
             dim,
             top: slot,
             nodes,
+            holding,
             by_tree: laid_out,
         }
     }
@@ -512,6 +525,8 @@ struct Ancestors {
     /// `(node number, node_lo, rem, level)`, top cell first.
     nodes: [(u32, [u32; 3], [u32; 3], usize); MAX_LEVELS],
     len: usize,
+    /// The cell's lower corner.
+    cell: [u32; 3],
 }
 
 impl Ancestors {
@@ -522,7 +537,11 @@ impl Ancestors {
         let mut nodes = [(0, node_lo, rem, 0); MAX_LEVELS];
         let s = occ.top[g.top_index(t)];
         if s < 2 {
-            return Ancestors { nodes, len: 0 };
+            return Ancestors {
+                nodes,
+                len: 0,
+                cell: c.lo,
+            };
         }
         let mut num = s - 2;
         let mut level = 0;
@@ -547,7 +566,11 @@ impl Ancestors {
             }
             num = n.first + (n.kids & ((1u8 << i) - 1)).count_ones();
         }
-        Ancestors { nodes, len: level }
+        Ancestors {
+            nodes,
+            len: level,
+            cell: c.lo,
+        }
     }
 
     /// [`IrregularGrid::box_is_empty_with`], starting at the deepest ancestor holding
@@ -556,12 +579,20 @@ impl Ancestors {
         let holds = |n: &(u32, [u32; 3], [u32; 3], usize)| {
             (0..3).all(|a| n.1[a] <= lo[a] && hi[a] <= n.1[a] + (1 << n.2[a]))
         };
-        match self.nodes[..self.len].iter().rev().find(|n| holds(n)) {
-            Some(&(num, node_lo, rem, level)) => {
-                Query { g, occ, lo, hi }.node_is_empty(num, node_lo, rem, level)
-            }
-            None => g.box_is_empty_with(occ, lo, hi),
+        // The node at level `l` holds the box when the box's corners agree with the cell's
+        // above its `rem` bits on every axis (nodes are aligned blocks of `1 << rem`).
+        let mut l = u8::MAX;
+        for a in 0..3 {
+            let differ = (lo[a] ^ self.cell[a]) | ((hi[a] - 1) ^ self.cell[a]);
+            l = l.min(occ.holding[a][(u32::BITS - differ.leading_zeros()) as usize]);
         }
+        if self.len == 0 || l == 0 {
+            return g.box_is_empty_with(occ, lo, hi);
+        }
+        let (num, node_lo, rem, level) = self.nodes[(l as usize).min(self.len) - 1];
+        debug_assert!(holds(&self.nodes[level]));
+        debug_assert!(level + 1 == self.len || !holds(&self.nodes[level + 1]));
+        Query { g, occ, lo, hi }.node_is_empty(num, node_lo, rem, level)
     }
 }
 
