@@ -40,12 +40,7 @@ impl IrregularGrid {
             return false;
         }
         let inside = |v: u32, a: usize| whole && flo[a] <= v && v < fhi[a];
-        let q = Query {
-            g: self,
-            occ,
-            lo,
-            hi,
-        };
+        let q = Query { occ, lo, hi };
         for z in tlo[2]..=thi[2] {
             for y in tlo[1]..=thi[1] {
                 let yz_inside = inside(y, 1) && inside(z, 2);
@@ -75,7 +70,7 @@ impl IrregularGrid {
                         Tight::Cut => {}
                     }
                     let node_lo = [x << self.shift[0], y << self.shift[1], z << self.shift[2]];
-                    if !q.node_is_empty(num, node_lo, self.shift, 0) {
+                    if !q.node_is_empty(num, node_lo, 0) {
                         return false;
                     }
                     x += 1;
@@ -88,7 +83,6 @@ impl IrregularGrid {
 
 /// One emptiness query: the box `lo .. hi` (virtual coordinates) over `g`'s voxel map.
 struct Query<'a> {
-    g: &'a IrregularGrid,
     occ: &'a Occupancy,
     lo: [u32; 3],
     hi: [u32; 3],
@@ -99,35 +93,29 @@ impl Query<'_> {
     /// [`Occupancy::nodes`]) at `level`, covering `1 << rem[a]` virtual cells from
     /// `node_lo`. Reads the node records only, never the voxel map or the cell table (the
     /// growth fills the latter in place while it asks).
-    fn node_is_empty(&self, num: u32, node_lo: [u32; 3], rem: [u32; 3], level: usize) -> bool {
-        let (g, occ, lo, hi) = (self.g, self.occ, self.lo, self.hi);
+    fn node_is_empty(&self, num: u32, node_lo: [u32; 3], level: usize) -> bool {
+        let (occ, lo, hi) = (self.occ, self.lo, self.hi);
+        let lv = &occ.level[level];
         // A node was split for its triangles, so one the box covers whole is not empty
         // (conservatively: its triangles may only touch its padding; the box then just
         // does not grow there). Only nodes the box cuts are descended.
-        if (0..3).all(|a| lo[a] <= node_lo[a] && node_lo[a] + (1 << rem[a]) <= hi[a]) {
+        if (0..3).all(|a| lo[a] <= node_lo[a] && node_lo[a] + (1 << lv.rem[a]) <= hi[a]) {
             return false;
         }
-        let mask = g.levels[level];
-        let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
+        let crem = lv.crem;
         // The children the box overlaps as a bit set: on a split axis the low ones when
         // the box starts below the middle, the high ones when it ends above it (the box
-        // overlaps this node, so at least one of them). Child `i`'s bit for a split axis
-        // is that of the axis's stride in `i` (x before y before z among the split ones).
+        // overlaps this node, so at least one of them).
         let mut overlap = u8::MAX;
-        let mut stride = 1u32;
-        let mut bit_of = [0u32; 3];
         for a in 0..3 {
-            if mask[a] {
+            if lv.low[a] != 0 {
                 let mid = node_lo[a] + (1 << crem[a]);
-                let low = LOW_HALF[stride.trailing_zeros() as usize];
                 if lo[a] >= mid {
-                    overlap &= !low;
+                    overlap &= !lv.low[a];
                 }
                 if hi[a] <= mid {
-                    overlap &= low;
+                    overlap &= lv.low[a];
                 }
-                bit_of[a] = stride;
-                stride *= 2;
             }
         }
         let n = &occ.nodes[num as usize];
@@ -148,8 +136,8 @@ impl Query<'_> {
                 Tight::Inside => return false,
                 Tight::Cut => {}
             }
-            let clo = [0, 1, 2].map(|a| node_lo[a] + (((i & bit_of[a] != 0) as u32) << crem[a]));
-            if !self.node_is_empty(child, clo, crem, level + 1) {
+            let clo = [0, 1, 2].map(|a| node_lo[a] + (((i & lv.bit[a] != 0) as u32) << crem[a]));
+            if !self.node_is_empty(child, clo, level + 1) {
                 return false;
             }
         }
@@ -159,6 +147,56 @@ impl Query<'_> {
 
 /// Per stride 1, 2, 4 of a child block: the children on the low side of that axis.
 const LOW_HALF: [u8; 3] = [0x55, 0x33, 0x0F];
+
+/// What the queries need of one level of the split schedule, worked out once.
+#[derive(Clone, Copy, Debug, Default)]
+struct Level {
+    /// A node's size in bits of virtual cells per axis (`1 << rem`).
+    rem: [u32; 3],
+    /// Its children's.
+    crem: [u32; 3],
+    /// Per split axis: the bit of a child's number that says it is the upper one (the
+    /// axis's stride in the block: x before y before z among the split ones); 0 unsplit.
+    bit: [u32; 3],
+    /// Per split axis: the children on its low side; 0 unsplit.
+    low: [u8; 3],
+}
+
+impl Level {
+    /// The schedule's levels, from the top cells' size `shift` down.
+    fn all(levels: &[[bool; 3]], shift: [u32; 3]) -> Vec<Level> {
+        let mut rem = shift;
+        levels
+            .iter()
+            .map(|mask| {
+                let mut lv = Level {
+                    rem,
+                    ..Level::default()
+                };
+                let mut stride = 1u32;
+                for a in 0..3 {
+                    if mask[a] {
+                        rem[a] -= 1;
+                        lv.bit[a] = stride;
+                        lv.low[a] = LOW_HALF[stride.trailing_zeros() as usize];
+                        stride *= 2;
+                    }
+                }
+                lv.crem = rem;
+                lv
+            })
+            .collect()
+    }
+
+    /// The number of the child of a node at this level holding virtual cell `p`.
+    #[inline]
+    fn child_of(&self, p: [u32; 3]) -> u32 {
+        (0..3)
+            .filter(|&a| self.bit[a] != 0)
+            .map(|a| ((p[a] >> self.crem[a]) & 1) * self.bit[a])
+            .sum()
+    }
+}
 
 /// How a query box meets a node's [`Occupancy::tight`] box.
 enum Tight {
@@ -211,6 +249,8 @@ pub(super) struct Occupancy {
     /// of axis `a` (`1 << rem >= 1 << d`), 0 when not even a top cell does: where a growth
     /// query starts, from how many low bits its box differs in from its cell.
     holding: [[u8; 33]; 3],
+    /// The split schedule's levels as the queries use them.
+    level: Vec<Level>,
     /// Whether the node records were built tree by tree in parallel (the build's layout
     /// was recognised); false means the serial pass ran, the same tables more slowly.
     /// Read by the tests only: a silent fall back to the serial pass is a slowdown that
@@ -367,6 +407,7 @@ impl Occupancy {
             top: slot,
             nodes,
             holding,
+            level: Level::all(&g.levels, g.shift),
             by_tree: laid_out,
         }
     }
@@ -522,8 +563,9 @@ pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3]
 /// when it equals the box, which both ask first); most slabs a cell's growth sweeps lie in
 /// a node a few levels up, so the query skips the ten or more levels above it.
 struct Ancestors {
-    /// `(node number, node_lo, rem, level)`, top cell first.
-    nodes: [(u32, [u32; 3], [u32; 3], usize); MAX_LEVELS],
+    /// Node numbers, top cell first (the node at level `l` is the aligned block of
+    /// [`Level::rem`] bits around the cell).
+    nums: [u32; MAX_LEVELS],
     len: usize,
     /// The cell's lower corner.
     cell: [u32; 3],
@@ -531,54 +573,32 @@ struct Ancestors {
 
 impl Ancestors {
     fn of(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> Ancestors {
-        let t = [0, 1, 2].map(|a| c.lo[a] >> g.shift[a]);
-        let mut node_lo = [0, 1, 2].map(|a| t[a] << g.shift[a]);
-        let mut rem = g.shift;
-        let mut nodes = [(0, node_lo, rem, 0); MAX_LEVELS];
-        let s = occ.top[g.top_index(t)];
+        let mut anc = Ancestors {
+            nums: [0; MAX_LEVELS],
+            len: 0,
+            cell: c.lo,
+        };
+        let s = occ.top[g.top_index([0, 1, 2].map(|a| c.lo[a] >> g.shift[a]))];
         if s < 2 {
-            return Ancestors {
-                nodes,
-                len: 0,
-                cell: c.lo,
-            };
+            return anc;
         }
         let mut num = s - 2;
-        let mut level = 0;
         loop {
-            nodes[level] = (num, node_lo, rem, level);
-            let mask = g.levels[level];
-            let mut i = 0;
-            let mut stride = 1;
-            for a in 0..3 {
-                if mask[a] {
-                    rem[a] -= 1;
-                    let bit = (c.lo[a] >> rem[a]) & 1;
-                    node_lo[a] += bit << rem[a];
-                    i += bit * stride;
-                    stride *= 2;
-                }
-            }
+            anc.nums[anc.len] = num;
+            let lv = &occ.level[anc.len];
+            let i = lv.child_of(c.lo);
             let n = &occ.nodes[num as usize];
-            level += 1;
+            anc.len += 1;
             if n.kids & (1 << i) == 0 {
-                break;
+                return anc;
             }
             num = n.first + (n.kids & ((1u8 << i) - 1)).count_ones();
-        }
-        Ancestors {
-            nodes,
-            len: level,
-            cell: c.lo,
         }
     }
 
     /// [`IrregularGrid::box_is_empty_with`], starting at the deepest ancestor holding
     /// `lo .. hi`.
     fn box_is_empty(&self, g: &IrregularGrid, occ: &Occupancy, lo: [u32; 3], hi: [u32; 3]) -> bool {
-        let holds = |n: &(u32, [u32; 3], [u32; 3], usize)| {
-            (0..3).all(|a| n.1[a] <= lo[a] && hi[a] <= n.1[a] + (1 << n.2[a]))
-        };
         // The node at level `l` holds the box when the box's corners agree with the cell's
         // above its `rem` bits on every axis (nodes are aligned blocks of `1 << rem`).
         let mut l = u8::MAX;
@@ -589,10 +609,18 @@ impl Ancestors {
         if self.len == 0 || l == 0 {
             return g.box_is_empty_with(occ, lo, hi);
         }
-        let (num, node_lo, rem, level) = self.nodes[(l as usize).min(self.len) - 1];
-        debug_assert!(holds(&self.nodes[level]));
-        debug_assert!(level + 1 == self.len || !holds(&self.nodes[level + 1]));
-        Query { g, occ, lo, hi }.node_is_empty(num, node_lo, rem, level)
+        let level = (l as usize).min(self.len) - 1;
+        let rem = occ.level[level].rem;
+        let node_lo = [0, 1, 2].map(|a| self.cell[a] >> rem[a] << rem[a]);
+        debug_assert!((0..3).all(|a| node_lo[a] <= lo[a] && hi[a] <= node_lo[a] + (1 << rem[a])));
+        debug_assert!(
+            level + 1 == self.len
+                || (0..3).any(|a| {
+                    let r = occ.level[level + 1].rem[a];
+                    lo[a] >> r != self.cell[a] >> r || (hi[a] - 1) >> r != self.cell[a] >> r
+                })
+        );
+        Query { occ, lo, hi }.node_is_empty(self.nums[level], node_lo, level)
     }
 }
 
