@@ -7,6 +7,7 @@ use glam::DVec3;
 
 use crate::numeric::floor_i64;
 
+use super::axes;
 use super::grid::CellRange;
 use super::tribox::{tri_box_overlap, tri_box_overlap_in_slab};
 
@@ -130,10 +131,10 @@ impl Frame {
             return;
         }
         let clamp = |c: i64, i: usize| c.clamp(0, self.res[i] as i64 - 1) as u32;
-        let lo = [0, 1, 2].map(|i| clamp(raw_lo[i], i));
-        let hi = [0, 1, 2].map(|i| clamp(raw_hi[i], i));
+        let lo = axes(|i| clamp(raw_lo[i], i));
+        let hi = axes(|i| clamp(raw_hi[i], i));
         // Per axis: the padded bounding box inside one cell of the frame's slabs.
-        let flat = [0, 1, 2].map(in_one);
+        let flat = axes(in_one);
         let n_flat = flat.iter().filter(|&&f| f).count();
         // Inside one cell's slab on two axes, crossing cells only along the third (within
         // the frame or past its end, but meeting it): the triangle lies inside those
@@ -297,7 +298,7 @@ mod tests {
         let mut rng = Rng::new(test_seed("binning steps", 0x57E95));
         let mut near = 0;
         for _ in 0..20_000 {
-            let res = [0, 1, 2].map(|_| 1 + (rng.next_u64() % 2) as u32);
+            let res = axes(|_| 1 + (rng.next_u64() % 2) as u32);
             let lo = rng.dvec3(-1e3, 1e3);
             let cs = rng.dvec3(1e-3, 10.0);
             let ext = DVec3::new(res[0] as f64, res[1] as f64, res[2] as f64) * cs;
@@ -345,7 +346,7 @@ mod tests {
         let mut rng = Rng::new(test_seed("binning run shortcut", 0xB1_4411));
         let (mut runs, mut differ) = (0, 0);
         for case in 0..200_000 {
-            let res = [0, 1, 2].map(|_| 1 + (rng.next_u64() % 4) as u32);
+            let res = axes(|_| 1 + (rng.next_u64() % 4) as u32);
             let lo = rng.dvec3(-10.0, 10.0);
             let cs = rng.dvec3(0.1, 3.0);
             let ext = DVec3::new(res[0] as f64, res[1] as f64, res[2] as f64) * cs;

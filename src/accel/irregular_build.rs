@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
+use super::axes;
 use super::binning::{counting_sort, Frame};
 use super::grid::{check_vertices, padded_bounds, CellRange, Grid};
 use super::irregular::{
@@ -167,7 +168,7 @@ impl Ctx<'_> {
         out: &mut Flat,
         sc: &mut Scratch,
     ) -> u32 {
-        let hi = [0, 1, 2].map(|a| lo[a] + (1 << rem[a]));
+        let hi = axes(|a| lo[a] + (1 << rem[a]));
         let leaf = |out: &mut Flat, sc: &Scratch| {
             let id = out.cells.len() as u32;
             out.cells.push(IrrCell {
@@ -188,7 +189,7 @@ impl Ctx<'_> {
             return leaf(out, sc);
         }
         let mask = self.levels[level];
-        let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
+        let crem = axes(|a| rem[a] - mask[a] as u32);
         let n = mask.map(|m| if m { 2u32 } else { 1 });
         let v = |k: [u32; 3]| DVec3::new(k[0] as f64, k[1] as f64, k[2] as f64);
         let lo64 = self.min + v(lo) * self.cs;
@@ -257,7 +258,7 @@ impl Ctx<'_> {
         let child_lo = |i: usize| {
             let i = i as u32;
             let b = [i % n[0], (i / n[0]) % n[1], i / (n[0] * n[1])];
-            [0, 1, 2].map(|a| lo[a] + (b[a] << crem[a]))
+            axes(|a| lo[a] + (b[a] << crem[a]))
         };
         let block = out.vmap.len();
         out.vmap.resize(block + n_children, 0);
@@ -395,7 +396,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         / DVec3::new(top_res[0] as f64, top_res[1] as f64, top_res[2] as f64);
     let finest = finest_side(min, max);
     let (levels, shift) = schedule(top_cs, top_res, finest);
-    let fine_res = [0, 1, 2].map(|a| top_res[a] << shift[a]);
+    let fine_res = axes(|a| top_res[a] << shift[a]);
     let fine_cs =
         (max - min) / Vec3::new(fine_res[0] as f32, fine_res[1] as f32, fine_res[2] as f32);
     let min64 = min.as_dvec3();
@@ -467,7 +468,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
                     (i / top_res[0]) % top_res[1],
                     i / (top_res[0] * top_res[1]),
                 ];
-                let lo = [0, 1, 2].map(|a| t[a] << shift[a]);
+                let lo = axes(|a| t[a] << shift[a]);
                 sc.lists.clear();
                 sc.lists.extend(
                     top_list[r.offset as usize..(r.offset + r.count) as usize]
@@ -497,8 +498,8 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     let deepest = runs.iter().map(|f| f.depth).max().unwrap_or(0);
     let mut levels = levels;
     levels.truncate(deepest);
-    let used = [0, 1, 2].map(|a| levels.iter().filter(|m| m[a]).count() as u32);
-    let dropped = [0, 1, 2].map(|a| shift[a] - used[a]);
+    let used = axes(|a| levels.iter().filter(|m| m[a]).count() as u32);
+    let dropped = axes(|a| shift[a] - used[a]);
     // Each run's stretch of the tables, in run order; filled in parallel.
     let vmap_at = offsets(runs.iter().map(|f| f.vmap.len()), n_top);
     let cell_at = offsets(runs.iter().map(|f| f.cells.len()), 0);
@@ -527,7 +528,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     let belows = split_lens(below, runs.iter().map(|f| f.vmap.len()));
     let cell_runs = split_lens(&mut cells, runs.iter().map(|f| f.cells.len()));
     let list_runs = split_lens(&mut list, runs.iter().map(|f| f.refs.len()));
-    let drop_box = |b: [u32; 3]| [0, 1, 2].map(|a| b[a] >> dropped[a]);
+    let drop_box = |b: [u32; 3]| axes(|a| b[a] >> dropped[a]);
     runs.par_iter()
         .zip(tops)
         .zip(belows)
@@ -560,7 +561,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     phase(&mut phases.flatten_ms);
 
     let shift = used;
-    let res = [0, 1, 2].map(|a| top_res[a] << shift[a]);
+    let res = axes(|a| top_res[a] << shift[a]);
     let cell_size = (max - min) / Vec3::new(res[0] as f32, res[1] as f32, res[2] as f32);
     let mut g = IrregularGrid {
         min,

@@ -5,6 +5,7 @@
 
 use rayon::prelude::*;
 
+use super::axes;
 use super::irregular::{IrrCell, IrregularGrid, MAX_LEVELS, NODE};
 
 /// [`Occupancy::slot`] of a cell without triangles.
@@ -24,11 +25,11 @@ impl IrregularGrid {
     /// [`IrregularGrid::box_is_empty`] with the top cells the box covers whole counted in
     /// `occ` at once; only the top cells it cuts are descended.
     pub(super) fn box_is_empty_with(&self, occ: &Occupancy, lo: [u32; 3], hi: [u32; 3]) -> bool {
-        let tlo = [0, 1, 2].map(|a| lo[a] >> self.shift[a]);
-        let thi = [0, 1, 2].map(|a| (hi[a] - 1) >> self.shift[a]);
+        let tlo = axes(|a| lo[a] >> self.shift[a]);
+        let thi = axes(|a| (hi[a] - 1) >> self.shift[a]);
         // Top cells covered whole: [flo, fhi) per axis.
-        let flo = [0, 1, 2].map(|a| (lo[a] + (1 << self.shift[a]) - 1) >> self.shift[a]);
-        let fhi = [0, 1, 2].map(|a| hi[a] >> self.shift[a]);
+        let flo = axes(|a| (lo[a] + (1 << self.shift[a]) - 1) >> self.shift[a]);
+        let fhi = axes(|a| hi[a] >> self.shift[a]);
         // No node and no cell with triangles among the top cells it touches: empty, at the
         // price of one lookup in the summed-volume table (most boxes that reach past a top
         // cell lie in empty space: inside a closed mesh, beside a floor).
@@ -136,7 +137,7 @@ impl Query<'_> {
                 Tight::Inside => return false,
                 Tight::Cut => {}
             }
-            let clo = [0, 1, 2].map(|a| node_lo[a] + (((i & lv.bit[a] != 0) as u32) << crem[a]));
+            let clo = axes(|a| node_lo[a] + (((i & lv.bit[a] != 0) as u32) << crem[a]));
             if !self.node_is_empty(child, clo, level + 1) {
                 return false;
             }
@@ -320,7 +321,7 @@ impl Occupancy {
                 (i as u32 / r[0]) % r[1],
                 i as u32 / (r[0] * r[1]),
             ];
-            [0, 1, 2].map(|a| t[a] << g.shift[a])
+            axes(|a| t[a] << g.shift[a])
         };
         let laid_out = by_tree && starts[0] >= n_top && starts.windows(2).all(|w| w[0] < w[1]);
         // The map in pieces numbered in parallel: the top cells, then every tree's stretch
@@ -460,7 +461,7 @@ fn node_rec(
     out: &mut Stretch,
 ) -> NodeRec {
     let mask = g.levels[level];
-    let crem = [0, 1, 2].map(|a| rem[a] - mask[a] as u32);
+    let crem = axes(|a| rem[a] - mask[a] as u32);
     let n = mask.map(|m| if m { 2u32 } else { 1 });
     let (mut lo, mut hi) = ([u32::MAX; 3], [0u32; 3]);
     let mut rec = NodeRec::default();
@@ -485,7 +486,7 @@ fn node_rec(
                     (r.tight_lo, r.tight_hi)
                 } else if slot[idx] == FULL {
                     rec.full |= 1 << i;
-                    (clo, [0, 1, 2].map(|a| clo[a] + (1 << crem[a])))
+                    (clo, axes(|a| clo[a] + (1 << crem[a])))
                 } else {
                     continue;
                 };
@@ -498,7 +499,7 @@ fn node_rec(
     }
     (rec.tight_lo, rec.tight_hi) = if lo[0] == u32::MAX {
         // No cell with triangles below: the node itself blocks a box covering it whole.
-        (node_lo, [0, 1, 2].map(|a| node_lo[a] + (1 << rem[a])))
+        (node_lo, axes(|a| node_lo[a] + (1 << rem[a])))
     } else {
         (lo, hi)
     };
@@ -511,7 +512,7 @@ fn node_rec(
 pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3], [u32; 3]) {
     let path = Ancestors::of(g, occ, c);
     let (mut lo, mut hi) = (c.lo, c.hi);
-    let own = [0, 1, 2].map(|a| c.hi[a] - c.lo[a]);
+    let own = axes(|a| c.hi[a] - c.lo[a]);
     // Per face (axis, upward): current step, or 0 once the face is done.
     let mut step = [[own[0]; 2], [own[1]; 2], [own[2]; 2]];
     for _ in 0..GROW_ROUNDS {
@@ -578,7 +579,7 @@ impl Ancestors {
             len: 0,
             cell: c.lo,
         };
-        let s = occ.top[g.top_index([0, 1, 2].map(|a| c.lo[a] >> g.shift[a]))];
+        let s = occ.top[g.top_index(axes(|a| c.lo[a] >> g.shift[a]))];
         if s < 2 {
             return anc;
         }
@@ -611,7 +612,7 @@ impl Ancestors {
         }
         let level = (l as usize).min(self.len) - 1;
         let rem = occ.level[level].rem;
-        let node_lo = [0, 1, 2].map(|a| self.cell[a] >> rem[a] << rem[a]);
+        let node_lo = axes(|a| self.cell[a] >> rem[a] << rem[a]);
         debug_assert!((0..3).all(|a| node_lo[a] <= lo[a] && hi[a] <= node_lo[a] + (1 << rem[a])));
         debug_assert!(
             level + 1 == self.len
