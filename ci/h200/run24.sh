@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# H200 host, stop 44 (issue 27): this stop's build (S44A = 3db7e8f-era code: node records for
+# H200 host, stop 44 (issue 27): this stop's build (S44A = 8b4d64d: node records for
 # the growth's queries, comparisons for a node frame's cells, the holding ancestor by bits,
 # the one-cell check without a store-forwarding stall; the same structure) against stop 43's
 # (FINAL = 003f31a) and the issue's start (START = e763231); ENV = S44A with the growth's
