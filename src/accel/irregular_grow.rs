@@ -532,9 +532,10 @@ pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3]
                     step[a][up as usize] = 0;
                     continue;
                 }
-                let (mut blo, mut bhi) = (lo, hi);
-                blo[a] = slo;
-                bhi[a] = shi;
+                // Built by selection, not by a store at index `a` into a copy: read back
+                // whole straight after such a store, the box waited on the store buffer.
+                let blo = axes(|k| if k == a { slo } else { lo[k] });
+                let bhi = axes(|k| if k == a { shi } else { hi[k] });
                 any = true;
                 if path.box_is_empty(g, occ, blo, bhi) {
                     if up {
