@@ -1,5 +1,6 @@
 //! Tests of the exit-box growth's occupancy tables (`accel/irregular_grow.rs`): the
-//! summed-volume table against a brute-force count, the tight boxes built tree by tree in
+//! summed-volume table against a brute-force count, the node records (children's kinds,
+//! first child node, tight box) against the map and built tree by tree in
 //! parallel against the serial pass. The growth itself is checked by the build's tests
 //! (`irregular_tests.rs`: no exit box holds a foreign triangle) and the fingerprints of
 //! `tests/irregular_build.rs`.
