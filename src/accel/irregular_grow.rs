@@ -394,12 +394,12 @@ impl Occupancy {
             nodes[(slot[i] - 2) as usize] = r;
         }
         slot.truncate(n_top);
+        let level = Level::all(&g.levels, g.shift);
+        // Deeper levels overwrite: each entry ends as the deepest level wide enough.
         let mut holding = [[0u8; 33]; 3];
-        let mut rem = g.shift;
-        for (level, mask) in g.levels.iter().enumerate() {
+        for (l, lv) in level.iter().enumerate() {
             for a in 0..3 {
-                holding[a][..=rem[a] as usize].fill(level as u8 + 1);
-                rem[a] -= mask[a] as u32;
+                holding[a][..=lv.rem[a] as usize].fill(l as u8 + 1);
             }
         }
         Occupancy {
@@ -408,7 +408,7 @@ impl Occupancy {
             top: slot,
             nodes,
             holding,
-            level: Level::all(&g.levels, g.shift),
+            level,
             by_tree: laid_out,
         }
     }
