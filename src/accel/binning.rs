@@ -9,7 +9,7 @@ use crate::numeric::floor_i64;
 
 use super::axes;
 use super::grid::CellRange;
-use super::tribox::{tri_box_overlap, tri_box_overlap_in_slab};
+use super::tribox::tri_boxes_overlap;
 
 /// Growth of each cell's half-size, relative to the cell size (as in [`super::Grid`]).
 const CELL_PAD_FRACTION: f64 = 1e-5;
@@ -162,6 +162,8 @@ impl Frame {
         } else {
             None
         };
+        // The candidates four at a time (a node frame has at most eight).
+        let mut batch = Batch::default();
         for z in lo[2]..=hi[2] {
             let sz = self.span(2, z);
             for y in lo[1]..=hi[1] {
@@ -171,17 +173,43 @@ impl Frame {
                     let sx = self.span(0, x);
                     let a = DVec3::new(sx.0, sy.0, sz.0);
                     let b = DVec3::new(sx.1, sy.1, sz.1);
-                    let (c, h) = (0.5 * (a + b), 0.5 * (b - a) + self.pad);
-                    let overlaps = match slab {
-                        Some(k) => tri_box_overlap_in_slab(c, h, tri, k),
-                        None => tri_box_overlap(c, h, tri),
-                    };
-                    if overlaps {
-                        out.push((row + x as usize) as u32);
+                    let l = batch.n;
+                    batch.cell[l] = (row + x as usize) as u32;
+                    (batch.center[l], batch.half[l]) = (0.5 * (a + b), 0.5 * (b - a) + self.pad);
+                    batch.n += 1;
+                    if batch.n == 4 {
+                        batch.test(tri, slab, out);
                     }
                 }
             }
         }
+        batch.test(tri, slab, out);
+    }
+}
+
+/// Up to four candidate cells of one triangle, tested together.
+#[derive(Default)]
+struct Batch {
+    cell: [u32; 4],
+    center: [DVec3; 4],
+    half: [DVec3; 4],
+    n: usize,
+}
+
+impl Batch {
+    /// Appends the cells the triangle overlaps, in order, and empties the batch.
+    #[inline]
+    fn test(&mut self, tri: [DVec3; 3], slab: Option<usize>, out: &mut Vec<u32>) {
+        if self.n == 0 {
+            return;
+        }
+        let bits = tri_boxes_overlap(&self.center, &self.half, self.n, tri, slab);
+        for l in 0..self.n {
+            if bits >> l & 1 != 0 {
+                out.push(self.cell[l]);
+            }
+        }
+        self.n = 0;
     }
 }
 
@@ -258,6 +286,7 @@ pub(crate) fn counting_sort(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::tribox::tri_box_overlap;
     use crate::numeric::Floor;
     use crate::testing::{test_seed, Rng};
 
