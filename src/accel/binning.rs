@@ -35,6 +35,9 @@ pub(crate) struct Frame {
     /// last cell), so that a coordinate's cell is three comparisons instead of a
     /// division, the same integer clamped to `-1 ..= res` (all the binning asks of it).
     steps: Option<[[f64; 3]; 3]>,
+    /// For frames of at most two cells an axis: per axis and cell, the centre and the
+    /// padded half side of the cell's box, as the binning's exact tests take them.
+    boxes: Option<[[(f64, f64); 2]; 3]>,
 }
 
 impl Frame {
@@ -60,7 +63,7 @@ impl Frame {
         } else {
             None
         };
-        Frame {
+        let mut f = Frame {
             lo,
             cs,
             res,
@@ -68,7 +71,25 @@ impl Frame {
             outer_hi,
             pad: CELL_PAD_FRACTION * cs + DVec3::new(ulps(mag.x), ulps(mag.y), ulps(mag.z)),
             steps,
+            boxes: None,
+        };
+        if res.iter().all(|&r| r <= 2) {
+            f.boxes = Some(axes(|i| {
+                let mut b = [(0.0, 0.0); 2];
+                for (j, b) in b.iter_mut().enumerate().take(res[i] as usize) {
+                    *b = f.centre_half(i, j as u32);
+                }
+                b
+            }));
         }
+        f
+    }
+
+    /// Centre and padded half side of cell `j`'s box on `axis`.
+    #[inline]
+    fn centre_half(&self, axis: usize, j: u32) -> (f64, f64) {
+        let (a, b) = self.span(axis, j);
+        (0.5 * (a + b), 0.5 * (b - a) + self.pad[axis])
     }
 
     /// `floor((p - lo) / cs)` on `axis`, clamped to `-1 ..= res` where the frame has its
@@ -164,18 +185,21 @@ impl Frame {
         };
         // The candidates four at a time (a node frame has at most eight).
         let mut batch = Batch::default();
+        let ch = |axis: usize, j: u32| match &self.boxes {
+            Some(b) => b[axis][j as usize],
+            None => self.centre_half(axis, j),
+        };
         for z in lo[2]..=hi[2] {
-            let sz = self.span(2, z);
+            let cz = ch(2, z);
             for y in lo[1]..=hi[1] {
-                let sy = self.span(1, y);
+                let cy = ch(1, y);
                 let row = self.res[0] as usize * (y as usize + self.res[1] as usize * z as usize);
                 for x in lo[0]..=hi[0] {
-                    let sx = self.span(0, x);
-                    let a = DVec3::new(sx.0, sy.0, sz.0);
-                    let b = DVec3::new(sx.1, sy.1, sz.1);
+                    let cx = ch(0, x);
                     let l = batch.n;
                     batch.cell[l] = (row + x as usize) as u32;
-                    (batch.center[l], batch.half[l]) = (0.5 * (a + b), 0.5 * (b - a) + self.pad);
+                    batch.center[l] = DVec3::new(cx.0, cy.0, cz.0);
+                    batch.half[l] = DVec3::new(cx.1, cy.1, cz.1);
                     batch.n += 1;
                     if batch.n == 4 {
                         batch.test(tri, slab, out);
