@@ -92,8 +92,9 @@ struct Flat {
 impl Flat {
     /// Appends `parts` (built on their own, in parallel), one after the other, moving
     /// their indices past what `self` holds; returns each part's `entry` moved likewise.
-    /// Copied in parallel: the parts of a node split in parallel hold all of its subtree
-    /// (the bunny's whole voxel map at its top levels), which the levels above copy again.
+    /// Copied part by part in parallel into tables grown once: the parts of a node split
+    /// in parallel hold all of its subtree (the bunny's whole voxel map at its top
+    /// levels), which the levels above copy again.
     fn append(&mut self, parts: Vec<(Flat, u32)>) -> Vec<u32> {
         let vb = offsets(parts.iter().map(|p| p.0.vmap.len()), self.vmap.len());
         let cb = offsets(parts.iter().map(|p| p.0.cells.len()), self.cells.len());
@@ -105,27 +106,31 @@ impl Flat {
                 e + cb[k] as u32
             }
         };
-        // Element `j` of the appended stretch: part `k` (the last base at or below it).
-        let part = |bases: &[usize], j: usize| bases.partition_point(|&b| b <= j) - 1;
         let (v0, c0, r0) = (self.vmap.len(), self.cells.len(), self.refs.len());
         let n = |f: fn(&Flat) -> usize| parts.iter().map(|p| f(&p.0)).sum::<usize>();
-        self.vmap
-            .par_extend((v0..v0 + n(|f| f.vmap.len())).into_par_iter().map(|j| {
-                let k = part(&vb, j);
-                shift(parts[k].0.vmap[j - vb[k]], k)
-            }));
+        self.vmap.resize(v0 + n(|f| f.vmap.len()), 0);
         self.cells
-            .par_extend((c0..c0 + n(|f| f.cells.len())).into_par_iter().map(|j| {
-                let k = part(&cb, j);
-                let mut c = parts[k].0.cells[j - cb[k]];
-                c.range.offset += rb[k] as u32;
-                c
-            }));
-        self.refs
-            .par_extend((r0..r0 + n(|f| f.refs.len())).into_par_iter().map(|j| {
-                let k = part(&rb, j);
-                parts[k].0.refs[j - rb[k]]
-            }));
+            .resize(c0 + n(|f| f.cells.len()), LeafCell::default());
+        self.refs.resize(r0 + n(|f| f.refs.len()), 0);
+        let vmaps = split_lens(&mut self.vmap[v0..], parts.iter().map(|p| p.0.vmap.len()));
+        let cells = split_lens(&mut self.cells[c0..], parts.iter().map(|p| p.0.cells.len()));
+        let refs = split_lens(&mut self.refs[r0..], parts.iter().map(|p| p.0.refs.len()));
+        parts
+            .par_iter()
+            .zip(vmaps)
+            .zip(cells)
+            .zip(refs)
+            .enumerate()
+            .for_each(|(k, (((p, vmap), cells), refs))| {
+                for (d, &e) in vmap.iter_mut().zip(&p.0.vmap) {
+                    *d = shift(e, k);
+                }
+                for (d, c) in cells.iter_mut().zip(&p.0.cells) {
+                    *d = *c;
+                    d.range.offset += rb[k] as u32;
+                }
+                refs.copy_from_slice(&p.0.refs);
+            });
         self.depth = parts.iter().map(|p| p.0.depth).fold(self.depth, usize::max);
         parts
             .iter()
@@ -139,7 +144,7 @@ impl Flat {
 /// box an [`IrrCell`] carries (its own box until the growth, written when the tables are
 /// assembled): 32 bytes a cell rather than 56 in tables that are written, grown and
 /// copied once more (6 M cells on the 3.3 M-triangle icosphere).
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct LeafCell {
     lo: [u32; 3],
     hi: [u32; 3],
