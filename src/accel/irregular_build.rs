@@ -532,21 +532,18 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         }
     };
     let mut vmap = vec![0u32; n_vmap];
-    // Filled in parallel: `vec!` writes a struct's copies on one thread (zeros it gets
-    // from the allocator untouched, as for the integer tables).
-    let blank = IrrCell {
-        lo: [0; 3],
-        hi: [0; 3],
-        exit_lo: [0; 3],
-        exit_hi: [0; 3],
-        range: CellRange::default(),
-    };
-    let mut cells: Vec<IrrCell> = (0..n_cells).into_par_iter().map(|_| blank).collect();
+    // Written once, in parallel, straight into the table's room: `vec!` would write a
+    // blank struct's copies on one thread first (zeros it gets from the allocator
+    // untouched, as for the integer tables), a parallel blank fill one pass more.
+    let mut cells: Vec<IrrCell> = Vec::with_capacity(n_cells);
     let mut list = vec![0u32; n_refs];
     let (top, below) = vmap.split_at_mut(n_top);
     let tops = split_lens(top, runs.iter().map(|f| f.top.len()));
     let belows = split_lens(below, runs.iter().map(|f| f.vmap.len()));
-    let cell_runs = split_lens(&mut cells, runs.iter().map(|f| f.cells.len()));
+    let cell_runs = split_lens(
+        &mut cells.spare_capacity_mut()[..n_cells],
+        runs.iter().map(|f| f.cells.len()),
+    );
     let list_runs = split_lens(&mut list, runs.iter().map(|f| f.refs.len()));
     let drop_box = |b: [u32; 3]| axes(|a| b[a] >> dropped[a]);
     runs.par_iter()
@@ -564,7 +561,7 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
             }
             for (d, c) in cells.iter_mut().zip(&f.cells) {
                 let (lo, hi) = (drop_box(c.lo), drop_box(c.hi));
-                *d = IrrCell {
+                d.write(IrrCell {
                     lo,
                     hi,
                     exit_lo: lo,
@@ -573,10 +570,13 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
                         offset: c.range.offset + ref_at[k] as u32,
                         count: c.range.count,
                     },
-                };
+                });
             }
             list.copy_from_slice(&f.refs);
         });
+    // SAFETY: the runs' stretches tile the first `n_cells` places (their lengths sum to
+    // it), and each run wrote every place of its stretch (one a cell of its table).
+    unsafe { cells.set_len(n_cells) };
     drop(runs);
     phase(&mut phases.flatten_ms);
 
