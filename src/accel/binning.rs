@@ -123,6 +123,13 @@ impl Frame {
 
     /// Appends the index (x fastest) of every cell the triangle overlaps, ascending.
     pub(crate) fn bin(&self, tri: [DVec3; 3], out: &mut Vec<u32>) {
+        self.bin_each(tri, |c| out.push(c));
+    }
+
+    /// [`Frame::bin`], handing each cell to `emit` in ascending order (the voxel-map
+    /// nodes gather them as a bit set, with no list in between).
+    #[inline(always)]
+    pub(crate) fn bin_each(&self, tri: [DVec3; 3], mut emit: impl FnMut(u32)) {
         let bb_lo = tri[0].min(tri[1]).min(tri[2]) - self.pad;
         let bb_hi = tri[0].max(tri[1]).max(tri[2]) + self.pad;
         // `as i64` saturates; the clamp below absorbs anything outside the frame.
@@ -148,7 +155,7 @@ impl Frame {
             |i: usize| raw_lo[i] == raw_hi[i] && (0..self.res[i] as i64).contains(&raw_lo[i]);
         if in_one(0) && in_one(1) && in_one(2) {
             let [x, y, z] = raw_lo.map(|c| c as usize);
-            out.push((x + self.res[0] as usize * (y + self.res[1] as usize * z)) as u32);
+            emit((x + self.res[0] as usize * (y + self.res[1] as usize * z)) as u32);
             return;
         }
         let clamp = |c: i64, i: usize| c.clamp(0, self.res[i] as i64 - 1) as u32;
@@ -170,7 +177,9 @@ impl Frame {
                 for y in lo[1]..=hi[1] {
                     let row =
                         self.res[0] as usize * (y as usize + self.res[1] as usize * z as usize);
-                    out.extend((lo[0]..=hi[0]).map(|x| (row + x as usize) as u32));
+                    for x in lo[0]..=hi[0] {
+                        emit((row + x as usize) as u32);
+                    }
                 }
             }
             return;
@@ -202,12 +211,12 @@ impl Frame {
                     batch.half[l] = DVec3::new(cx.1, cy.1, cz.1);
                     batch.n += 1;
                     if batch.n == 4 {
-                        batch.test(tri, slab, out);
+                        batch.test(tri, slab, &mut emit);
                     }
                 }
             }
         }
-        batch.test(tri, slab, out);
+        batch.test(tri, slab, &mut emit);
     }
 }
 
@@ -223,14 +232,14 @@ struct Batch {
 impl Batch {
     /// Appends the cells the triangle overlaps, in order, and empties the batch.
     #[inline]
-    fn test(&mut self, tri: [DVec3; 3], slab: Option<usize>, out: &mut Vec<u32>) {
+    fn test(&mut self, tri: [DVec3; 3], slab: Option<usize>, emit: &mut impl FnMut(u32)) {
         if self.n == 0 {
             return;
         }
         let bits = tri_boxes_overlap(&self.center, &self.half, self.n, tri, slab);
         for l in 0..self.n {
             if bits >> l & 1 != 0 {
-                out.push(self.cell[l]);
+                emit(self.cell[l]);
             }
         }
         self.n = 0;

@@ -219,15 +219,12 @@ impl Ctx<'_> {
         // children's lists pushed after this node's, each ascending as this one is.
         let mask_base = sc.masks.len();
         let mut counts = [0usize; 8];
-        let mut cells = Vec::with_capacity(8);
         for k in start..start + len {
-            cells.clear();
-            frame.bin(self.tri(sc.lists[k]), &mut cells);
             let mut m = 0u8;
-            for &c in &cells {
+            frame.bin_each(self.tri(sc.lists[k]), |c| {
                 m |= 1 << c;
                 counts[c as usize] += 1;
-            }
+            });
             sc.masks.push(m);
         }
         // Split only when it is expected to pay (the surface-area heuristic of the grid
