@@ -32,6 +32,10 @@ const CHUNK: usize = 2048;
 /// sort's atomics and tasks cost more than they share (the bunny's 76 k pairs: 1.0 ms on
 /// two threads against 0.2 ms serially).
 const SERIAL_SORT: usize = 1 << 20;
+/// The voxel map's runs of top cells a thread, about: the bunny's map took 23.4-24.6 ms
+/// on two threads in runs of a 64th of a thread's share, 20.5-21.0 ms in runs of a 256th
+/// (its 76 k references: runs of about 150, its largest top cells 5-12 k alone).
+const RUNS_PER_THREAD: usize = 256;
 /// Nodes with at least this many triangles split their children in parallel.
 const PAR_SPLIT: usize = 4096;
 
@@ -459,8 +463,9 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
         leaf_max: cfg.leaf_max as usize,
     };
     // Runs cut by references, not top cells, so a top cell holding much of the mesh (the
-    // bunny beside a floor) is a run of its own that starts as soon as a thread is free.
-    let per_run = (top_list.len() / (rayon::current_num_threads() * 64)).max(1);
+    // bunny beside a floor) is a run of its own that starts as soon as a thread is free;
+    // and fine enough that the threads end together (RUNS_PER_THREAD).
+    let per_run = (top_list.len() / (rayon::current_num_threads() * RUNS_PER_THREAD)).max(1);
     let mut cuts = vec![0];
     let mut acc = 0;
     for (i, r) in top_ranges.iter().enumerate() {
