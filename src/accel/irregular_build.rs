@@ -16,7 +16,7 @@ use super::irregular::{
     IrrCell, IrregularConfig, IrregularGrid, IrregularPhases, IrregularStats, MAX_CELLS,
     MAX_ENTRIES, MAX_LEVELS, MAX_VIRTUAL_AXIS, NODE,
 };
-use super::irregular_grow::{grow, offsets, split_lens, Occupancy};
+use super::irregular_grow::{grow, offsets, split_lens, Occupancy, Recent};
 use crate::clock::Instant;
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -36,6 +36,9 @@ const SERIAL_SORT: usize = 1 << 20;
 /// on two threads in runs of a 64th of a thread's share, 20.5-21.0 ms in runs of a 256th
 /// (its 76 k references: runs of about 150, its largest top cells 5-12 k alone).
 const RUNS_PER_THREAD: usize = 256;
+/// Cells a parallel task of the growth takes, one after the other (so that each has the
+/// exit boxes of the cells before it at hand, [`Recent`]).
+const GROW_RUN: usize = 512;
 /// Nodes with at least this many triangles split their children in parallel.
 const PAR_SPLIT: usize = 4096;
 
@@ -622,9 +625,11 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     // never the cell table, so it is taken out of the grid while they ask (a table of exit
     // boxes beside it cost 24 bytes a cell of fresh memory, and a second pass, for nothing).
     let mut cells = std::mem::take(&mut g.cells);
-    cells.par_iter_mut().for_each(|c| {
-        if c.range.count == 0 {
-            (c.exit_lo, c.exit_hi) = grow(&g, &occ, c);
+    cells.par_chunks_mut(GROW_RUN).for_each(|run| {
+        let mut recent = Recent::new(&occ);
+        for c in run.iter_mut().filter(|c| c.range.count == 0) {
+            (c.exit_lo, c.exit_hi) = grow(&g, &occ, c, &recent);
+            recent.push(c.exit_lo, c.exit_hi);
         }
     });
     g.cells = cells;

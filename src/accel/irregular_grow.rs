@@ -231,6 +231,9 @@ pub(super) struct NodeRec {
     full: u8,
     /// Bit `i`: child `i` is a node.
     kids: u8,
+    /// Whether a cell with triangles lies below (a node's triangles may all only touch its
+    /// padding, which its children's smaller padding leaves out).
+    holds_full: bool,
 }
 
 /// Summed-volume table of the top cells that are not empty (a node, or a cell with
@@ -252,6 +255,10 @@ pub(super) struct Occupancy {
     holding: [[u8; 33]; 3],
     /// The split schedule's levels as the queries use them.
     level: Vec<Level>,
+    /// Every node holds a cell with triangles below. Then a box is empty exactly when it
+    /// overlaps no cell with triangles (a node it covers whole, or a tight box it holds,
+    /// contains one), so a box inside an exit box already grown is empty ([`Recent`]).
+    full_below_every_node: bool,
     /// Whether the node records were built tree by tree in parallel (the build's layout
     /// was recognised); false means the serial pass ran, the same tables more slowly.
     /// Read by the tests only: a silent fall back to the serial pass is a slowdown that
@@ -402,11 +409,13 @@ impl Occupancy {
                 holding[a][..=lv.rem[a] as usize].fill(l as u8 + 1);
             }
         }
+        let full_below_every_node = nodes.par_iter().all(|n| n.holds_full);
         Occupancy {
             sum,
             dim,
             top: slot,
             nodes,
+            full_below_every_node,
             holding,
             level,
             by_tree: laid_out,
@@ -483,9 +492,11 @@ fn node_rec(
                     rec.kids |= 1 << i;
                     let r = node_rec(g, slot, child, clo, crem, level + 1, out);
                     out.nodes[(slot[idx] - 2) as usize - out.off] = r;
+                    rec.holds_full |= r.holds_full;
                     (r.tight_lo, r.tight_hi)
                 } else if slot[idx] == FULL {
                     rec.full |= 1 << i;
+                    rec.holds_full = true;
                     (clo, axes(|a| clo[a] + (1 << crem[a])))
                 } else {
                     continue;
@@ -509,7 +520,12 @@ fn node_rec(
 /// Grows the exit box of cell `c` over empty neighbours: each face in turn moves out by a
 /// step (the cell's own size at first, doubled after each success and halved after each
 /// failure down to that size) while the slab it sweeps holds no triangle.
-pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3], [u32; 3]) {
+pub(super) fn grow(
+    g: &IrregularGrid,
+    occ: &Occupancy,
+    c: &IrrCell,
+    recent: &Recent,
+) -> ([u32; 3], [u32; 3]) {
     let path = Ancestors::of(g, occ, c);
     let (mut lo, mut hi) = (c.lo, c.hi);
     let own = axes(|a| c.hi[a] - c.lo[a]);
@@ -537,7 +553,7 @@ pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3]
                 let blo = axes(|k| if k == a { slo } else { lo[k] });
                 let bhi = axes(|k| if k == a { shi } else { hi[k] });
                 any = true;
-                if path.box_is_empty(g, occ, blo, bhi) {
+                if recent.holds(blo, bhi) || path.box_is_empty(g, occ, blo, bhi) {
                     if up {
                         hi[a] = shi;
                     } else {
@@ -556,6 +572,56 @@ pub(super) fn grow(g: &IrregularGrid, occ: &Occupancy, c: &IrrCell) -> ([u32; 3]
         }
     }
     (lo, hi)
+}
+
+/// The exit boxes of the two cells grown last (in map order, so mostly neighbours): where
+/// every node holds a cell with triangles ([`Occupancy`]), an exit box overlaps no such
+/// cell (it is its cell and slabs found empty), so neither does a box inside it, which is
+/// therefore empty: the answer the query would give, without it (the same exit boxes). A
+/// growth next to an empty sibling asks many such boxes. The bunny, one thread: 30% of its
+/// 902 k queries lie in the last exit box, 38% in one of the last four; growth 55.3 ms
+/// without, 50.2 / 48.8 / 49.9 / 51.3 ms keeping one to four (the check runs before every
+/// query).
+pub(super) struct Recent {
+    boxes: [([u32; 3], [u32; 3]); RECENT],
+    next: usize,
+    on: bool,
+}
+
+/// Exit boxes a [`Recent`] keeps.
+const RECENT: usize = 2;
+
+impl Recent {
+    /// None yet; answering only where `occ` allows it.
+    pub(super) fn new(occ: &Occupancy) -> Recent {
+        Recent {
+            boxes: [([u32::MAX; 3], [0; 3]); RECENT],
+            next: 0,
+            on: occ.full_below_every_node,
+        }
+    }
+
+    /// Keeps the exit box just grown.
+    pub(super) fn push(&mut self, lo: [u32; 3], hi: [u32; 3]) {
+        if self.on {
+            self.boxes[self.next] = (lo, hi);
+            self.next = (self.next + 1) % RECENT;
+        }
+    }
+
+    /// Whether a box kept holds `lo .. hi` (all comparisons, one branch).
+    #[inline]
+    fn holds(&self, lo: [u32; 3], hi: [u32; 3]) -> bool {
+        let mut any = false;
+        for (elo, ehi) in &self.boxes {
+            let mut inside = true;
+            for a in 0..3 {
+                inside &= (elo[a] <= lo[a]) & (hi[a] <= ehi[a]);
+            }
+            any |= inside;
+        }
+        any
+    }
 }
 
 /// The voxel-map nodes holding one cell, top cell first: an emptiness query about a box
