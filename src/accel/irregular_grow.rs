@@ -531,6 +531,13 @@ pub(super) fn grow(
     let own = axes(|a| c.hi[a] - c.lo[a]);
     // Per face (axis, upward): current step, or 0 once the face is done.
     let mut step = [[own[0]; 2], [own[1]; 2], [own[2]; 2]];
+    // Per face: how far its last slab found not empty reached, as a distance from the
+    // grid's side behind the face (`u32::MAX`: none yet). Where every node holds a cell
+    // with triangles, that slab overlaps one, outside what the face grew over since (found
+    // empty, with a cross-section that only grew), so a later slab of the face reaching as
+    // far overlaps it too: not empty, known without asking (the same answer, so the same
+    // box): the doubled step after a retry, and the first halving after it.
+    let mut wall = [[u32::MAX; 2]; 3];
     for _ in 0..GROW_ROUNDS {
         let mut any = false;
         for a in 0..3 {
@@ -553,17 +560,20 @@ pub(super) fn grow(
                 let blo = axes(|k| if k == a { slo } else { lo[k] });
                 let bhi = axes(|k| if k == a { shi } else { hi[k] });
                 any = true;
-                if recent.holds(blo, bhi) || path.box_is_empty(g, occ, blo, bhi) {
+                let reach = if up { shi } else { g.res[a] - slo };
+                let blocked = reach >= wall[a][up as usize];
+                if !blocked && (recent.holds(blo, bhi) || path.box_is_empty(g, occ, blo, bhi)) {
                     if up {
                         hi[a] = shi;
                     } else {
                         lo[a] = slo;
                     }
                     step[a][up as usize] = s.saturating_mul(2);
-                } else if s > own[a] {
-                    step[a][up as usize] = (s / 2).max(own[a]);
                 } else {
-                    step[a][up as usize] = 0;
+                    if recent.on {
+                        wall[a][up as usize] = reach;
+                    }
+                    step[a][up as usize] = if s > own[a] { (s / 2).max(own[a]) } else { 0 };
                 }
             }
         }
@@ -585,6 +595,8 @@ pub(super) fn grow(
 pub(super) struct Recent {
     boxes: [([u32; 3], [u32; 3]); RECENT],
     next: usize,
+    /// Every node holds a cell with triangles: answers from what is known are exact (these
+    /// boxes, and the faces' walls in [`grow`]).
     on: bool,
 }
 

@@ -353,10 +353,12 @@ fn box_is_empty_agrees_with_brute_force() {
     );
 }
 
-/// The exit boxes of the cells grown just before ([`Recent`]) change no growth: every
-/// empty cell of random soups and sparse scenes, grown in map order with them and with
-/// them off, gets the same exit box; and the growths ask boxes inside them often (counted
-/// here as a cell's first upward slab in x inside the exit box grown before it).
+/// The exit boxes of the cells grown just before ([`Recent`]) and the faces' walls (a
+/// failed slab's reach) change no growth: every empty cell of random soups and sparse
+/// scenes, grown in map order with them and with them off, gets the same exit box; and the
+/// growths ask boxes inside them often (counted here as a cell's first upward slab in x
+/// inside the exit box grown before it). Fails when a downward face's wall is measured
+/// from the wrong side.
 #[test]
 fn recent_exit_boxes_change_no_growth() {
     let seed = test_seed("irregular recent exit boxes", 0x1_77E6_0005);
