@@ -519,7 +519,9 @@ fn node_rec(
 
 /// Grows the exit box of cell `c` over empty neighbours: each face in turn moves out by a
 /// step (the cell's own size at first, doubled after each success and halved after each
-/// failure down to that size) while the slab it sweeps holds no triangle.
+/// failure down to that size) while the slab it sweeps holds no triangle. `recent` holds
+/// the exit boxes grown just before, whose insides it knows to be empty; with the faces'
+/// walls these answer some slabs without a query, the same answers as the queries'.
 pub(super) fn grow(
     g: &IrregularGrid,
     occ: &Occupancy,
@@ -571,7 +573,7 @@ pub(super) fn grow(
                     step[a][up as usize] = s.saturating_mul(2);
                 } else {
                     if recent.on {
-                        wall[a][up as usize] = reach;
+                        wall[a][up as usize] = wall[a][up as usize].min(reach);
                     }
                     step[a][up as usize] = if s > own[a] { (s / 2).max(own[a]) } else { 0 };
                 }
