@@ -176,15 +176,10 @@ mod avx {
             let r = dot(&h, &[abs(nv[0]), abs(nv[1]), abs(nv[2])]);
             cross = or(cross, or(gt(lo, r), lt(hi, neg(r))));
         }
-        // Not separated by a box normal, and a vertex well inside or no other axis.
-        let yes = _mm256_andnot_pd(
-            sep,
-            or(
-                inside,
-                _mm256_andnot_pd(cross, _mm256_castsi256_pd(_mm256_set1_epi64x(-1))),
-            ),
-        );
-        _mm256_movemask_pd(yes) as u8
+        // Not separated by a box normal, and a vertex well inside or no other axis (the
+        // scalar test's order of answers; the caller keeps the lanes it filled).
+        let bits = |m: __m256d| _mm256_movemask_pd(m) as u8;
+        !bits(sep) & (bits(inside) | !bits(cross)) & 0xF
     }
 }
 
