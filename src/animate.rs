@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::dist::template::OutputTemplate;
+use crate::farm::template::OutputTemplate;
 use crate::image_io::{self, Format, Image};
 use crate::options::{FrameRange, RenderOptions};
 use crate::output::Readback;

@@ -8,7 +8,7 @@
 //! [`accel`] (grid build), [`cpu`] (reference renderer), [`gpu`] (headless GL context,
 //! owning GL objects, the Rust/GLSL contract, texel layout, shaders, the scene uploaded once,
 //! the fragment and compute wings), [`output`] and [`image_io`] (what a render produces), [`options`]
-//! (render flags and options), [`render`] (backend-independent front door), [`dist`] (parts
+//! (render flags and options), [`render`] (backend-independent front door), [`farm`] (parts
 //! of images as tasks of a batch scheduler, and merging them), [`bench`](mod@bench)
 //! (speed against error) and [`cli`]; beside them [`region`] (the pixels a render
 //! computes), [`technique`] (switches for the robustness techniques), [`aov`] (AOV files)
@@ -33,9 +33,9 @@ pub mod clock;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod compare;
 pub mod cpu;
-#[cfg(not(target_arch = "wasm32"))]
-pub mod dist;
 pub mod error;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod farm;
 pub mod gpu;
 pub mod image_io;
 pub mod numeric;

@@ -383,7 +383,7 @@ pub struct RenderArgs {
     /// JOB_COMPLETION_INDEX) or I/N. The image is cut into --tiles parts (default: one per
     /// task); -o names each part with {tile} (docs/distributed.md).
     #[arg(long, value_name = "env|env:N|I/N")]
-    pub task_index: Option<crate::dist::task::TaskSource>,
+    pub task_index: Option<crate::farm::task::TaskSource>,
     /// With --task-index: the parts the image is cut into, N or CxR (default: as many as
     /// there are tasks).
     #[arg(long, value_name = "N|CxR", requires = "task_index")]

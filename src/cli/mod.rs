@@ -380,13 +380,13 @@ pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
     crate::bench::run_bench(&opts)
 }
 
-/// The `merge` command: checks the output path, then [`crate::dist::merge::merge`].
-pub fn run_merge(args: &MergeArgs) -> Result<crate::dist::merge::Merged> {
+/// The `merge` command: checks the output path, then [`crate::farm::merge::merge`].
+pub fn run_merge(args: &MergeArgs) -> Result<crate::farm::merge::Merged> {
     // A probe next to where frame 0 would go: the folder must exist and be writable.
-    let probe = crate::dist::template::OutputTemplate::new(&args.output).path(Some(0), None);
+    let probe = crate::farm::template::OutputTemplate::new(&args.output).path(Some(0), None);
     check_writable(&probe, "image")?;
     image_io::Format::from_path(&args.output)?;
-    let merged = crate::dist::merge::merge(&args.parts, &args.output)?;
+    let merged = crate::farm::merge::merge(&args.parts, &args.output)?;
     if !args.quiet {
         if !merged.devices.is_empty() {
             eprintln!(

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use super::{check_writable, load};
-use crate::dist::plan::Plan;
+use crate::farm::plan::Plan;
 use crate::image_io;
 use crate::options::RenderArgs;
 use crate::region::Region;
@@ -143,7 +143,7 @@ fn write_stats(path: &Path, stats: &render::RenderStats) -> Result<()> {
     })
 }
 
-/// `render` of parts: the units of work of `plan` ([`crate::dist`]), each rendered with
+/// `render` of parts: the units of work of `plan` ([`crate::farm`]), each rendered with
 /// its region and written as a part (or a crop).
 pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render::Rendered> {
     for p in &plan.outputs {
@@ -179,8 +179,8 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render:
             "fragtrace: {task}: {} part(s) of {} tiles",
             plan.units.len(),
             match plan.cut {
-                crate::dist::plan::Cut::Tiles(t) => t.count(),
-                crate::dist::plan::Cut::Region(_) => 1,
+                crate::farm::plan::Cut::Tiles(t) => t.count(),
+                crate::farm::plan::Cut::Region(_) => 1,
             }
         );
     }
@@ -202,7 +202,7 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render:
                 "the render produced a NaN or Inf pixel".into(),
             ));
         }
-        crate::dist::write_unit(
+        crate::farm::write_unit(
             &plan.outputs[k],
             &scene,
             &opts,
