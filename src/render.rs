@@ -13,6 +13,7 @@ use crate::cpu::simd::Isa;
 use crate::cpu::simd_walk::SimdWalker;
 use crate::cpu::traverse::Trace;
 use crate::cpu::traverse_bvh::BvhWalker;
+use crate::cpu::traverse_packet::PacketIsa;
 use crate::cpu::CpuRenderer;
 use crate::gpu::render::ImageRequest;
 use crate::gpu::{self, GlContext, GlInfo, GpuScene};
@@ -126,15 +127,27 @@ impl<'s> Prepared<'s> {
             (AccelRef::Bvh(b), Precision::F64, _) => {
                 let walker = BvhWalker::new(scene, b, tech);
                 let r = CpuRenderer::with_walker(scene, walker, depth, tech);
-                (Engine::Cpu64Bvh(r), "scalar")
+                (Engine::Cpu64Bvh(r), "scalar triangle tests".to_string())
             }
             (AccelRef::Bvh(b), Precision::F32, path) => {
-                let isa = match path {
-                    CpuPath::Scalar => Isa::Scalar,
-                    CpuPath::Simd => Isa::detect(),
+                let (isa, packets) = match path {
+                    CpuPath::Scalar => (Isa::Scalar, None),
+                    CpuPath::Simd => (Isa::detect(), None),
+                    CpuPath::Packet => (Isa::detect(), PacketIsa::detect()),
                 };
-                let walker = BvhWalker::vectorised(scene, b, tech, isa);
-                let kernel = walker.isa().name();
+                let walker = match packets {
+                    Some(p) => BvhWalker::with_packets(scene, b, tech, isa, p),
+                    None => BvhWalker::vectorised(scene, b, tech, isa),
+                };
+                let kernel = match walker.packets() {
+                    Some(p) => format!(
+                        "{} packets of {} rays, {} triangle tests",
+                        p.name(),
+                        p.lanes(),
+                        walker.isa().name()
+                    ),
+                    None => format!("{} triangle tests", walker.isa().name()),
+                };
                 let r = CpuRenderer::with_walker(scene, walker, depth, tech);
                 (Engine::Cpu32Bvh(r), kernel)
             }
@@ -149,10 +162,7 @@ impl<'s> Prepared<'s> {
             prepared: self,
             opts: opts.clone(),
             engine,
-            device: format!(
-                "cpu ({} threads, {kernel} triangle tests)",
-                rayon::current_num_threads()
-            ),
+            device: format!("cpu ({} threads, {kernel})", rayon::current_num_threads()),
             pending_ms: 0.0,
         }
     }
@@ -248,28 +258,29 @@ impl<'s> Prepared<'s> {
     }
 }
 
-/// The CPU engine over a grid in `precision` by `path`, and the name of its triangle
-/// kernel.
+/// The CPU engine over a grid in `precision` by `path` (the grids have no packet walk:
+/// `packet` walks them as `simd`), and what its triangle kernel is.
 fn grid_engine<'p>(
     scene: &'p Scene,
     grid: GridRef<'p>,
     opts: &RenderOptions,
     precision: Precision,
     path: CpuPath,
-) -> (Engine<'p>, &'static str) {
+) -> (Engine<'p>, String) {
     let (depth, tech) = (opts.max_depth, opts.techniques);
+    let tests = |isa: &str| format!("{isa} triangle tests");
     match (precision, path) {
         (Precision::F64, _) => (
             Engine::Cpu64(CpuRenderer::new(scene, grid, depth, tech)),
-            "scalar",
+            tests("scalar"),
         ),
         (Precision::F32, CpuPath::Scalar) => (
             Engine::Cpu32(CpuRenderer::new(scene, grid, depth, tech)),
-            "scalar",
+            tests("scalar"),
         ),
-        (Precision::F32, CpuPath::Simd) => {
+        (Precision::F32, CpuPath::Simd | CpuPath::Packet) => {
             let walker = SimdWalker::new(scene, grid, tech);
-            let kernel = walker.isa().name();
+            let kernel = tests(walker.isa().name());
             let r = CpuRenderer::with_walker(scene, walker, depth, tech);
             (Engine::Cpu32Simd(r), kernel)
         }

@@ -4,7 +4,9 @@
 //! ground truth or f32 to mirror the GPU's arithmetic; in f32 either the scalar walk (the
 //! GLSL's twin) or the vectorised one (`simd_walk.rs`, the same decisions, faster).
 
+pub mod closest;
 pub mod intersect;
+pub mod lanes;
 pub mod real;
 pub mod render;
 pub mod shade;
@@ -15,6 +17,7 @@ pub mod soa;
 pub mod traverse;
 pub mod traverse_bvh;
 pub mod traverse_irregular;
+pub mod traverse_packet;
 pub mod walker;
 
 pub use render::{CpuOutput, CpuRenderer};

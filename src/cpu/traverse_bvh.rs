@@ -11,7 +11,7 @@
 //! `2 gamma(3)` relative, so a ray that meets a triangle meets every box around it. Node
 //! visits count as the `cells` of [`Work`].
 //!
-//! The tie rule: hits closer than the held one by more than [`TIE_EPS`]
+//! The tie rule: hits closer than the held one by more than [`TIE_EPS`](crate::accel::TIE_EPS)
 //! replace it; within it, the lower triangle index wins whichever was met first. The
 //! grids' walk meets a cell's triangles in index order, so there the lower index wins
 //! within the margin by construction; the BVH meets triangles in its own order and decides
@@ -21,15 +21,16 @@
 //! piles), where the pairs met decide. Only hits within `2 TIE_EPS` of the closest one
 //! seen are tested at all.
 
+use super::closest::Closest;
 use super::intersect::{intersect_with, RayShear};
 use super::real::{Real, V3};
 use super::simd::{self, Isa, RayConsts};
 use super::soa::SoaTris;
-use super::traverse::{tie_limit, Hit, Ray, Trace, Work};
+use super::traverse::{Hit, Ray, Trace, Work};
+use super::traverse_packet::{self, PacketIsa, PacketScene};
 use crate::accel::bvh::{Bvh, Node4, WIDTH};
-use crate::accel::TIE_EPS;
 use crate::scene::Scene;
-use crate::technique::{IntersectMethod, Techniques};
+use crate::technique::{IntersectMethod, TBound, Techniques};
 
 /// Stack entries: three per level of the deepest tree the build makes, and a node's four.
 const STACK: usize = 3 * crate::accel::bvh::MAX_DEPTH + WIDTH + 1;
@@ -48,6 +49,13 @@ pub struct BvhWalker<'a, T> {
     closest: fn(&Self, &Ray<T>, &mut Work) -> Option<Hit<T>>,
     /// The any-hit walk, as `closest`.
     any: fn(&Self, &Ray<T>, &mut Work) -> bool,
+    /// The packet walks' vector unit, when batches of rays walk as packets
+    /// (`cpu/traverse_packet.rs`; f32 only).
+    packets: Option<PacketIsa>,
+    /// Batches of closest-hit queries: one by one, or (f32 only) in packets.
+    closest_many: fn(&Self, &[Ray<T>], &mut [Option<Hit<T>>], &mut [Work]),
+    /// Batches of any-hit queries, as `closest_many`.
+    any_many: fn(&Self, &[Ray<T>], &mut [bool], &mut Work),
 }
 
 /// An entry of the walk's stack: a child (node, or leaf range when `count > 0`) and the
@@ -91,53 +99,6 @@ impl<T: Copy> Stack<T> {
         self.len -= 1;
         // SAFETY: every slot below `len` was written by `push`.
         Some(unsafe { self.items[self.len].assume_init() })
-    }
-}
-
-/// The closest hit held, and the closest t of any hit seen: what bounds the tests.
-struct Closest<T> {
-    hit: Option<Hit<T>>,
-    /// The held hit's `t * |det|` and `|det|` (the vectorised walk's, for the tie rule).
-    tt_det: (T, T),
-    t_low: T,
-}
-
-impl<T: Real> Closest<T> {
-    fn new(t_max: T) -> Self {
-        Closest {
-            hit: None,
-            tt_det: (T::ZERO, T::ZERO),
-            t_low: t_max,
-        }
-    }
-
-    /// Upper bound on the t of any hit the rule could still take: `2 TIE_EPS` past the
-    /// closest seen (the ray's t_max before any). Never grows.
-    #[inline(always)]
-    fn bound(&self, t_max: T) -> T {
-        match self.hit {
-            None => t_max,
-            Some(_) => self.t_low + self.t_low.abs() * T::from_f64(2.0 * TIE_EPS),
-        }
-    }
-
-    /// Whether a hit at `t` on triangle `tri` replaces the one held; it is seen either
-    /// way. Brute force meets the pair in index order and keeps the earlier unless the
-    /// later passes its intersection test against the earlier's [`tie_limit`]; so does
-    /// this, in whichever order the walk met them: `later_passes(candidate_is_later, hi)`
-    /// answers that test (the test's own comparison `t * |det| < hi * |det|`, not one on
-    /// the divided t, which can differ by an ulp at the margin).
-    #[inline(always)]
-    fn takes(&mut self, t: T, tri: u32, later_passes: impl FnOnce(bool, T) -> bool) -> bool {
-        let take = match &self.hit {
-            None => true,
-            Some(h) if tri > h.tri => later_passes(true, tie_limit(h.t)),
-            Some(_) => !later_passes(false, tie_limit(t)),
-        };
-        if t < self.t_low {
-            self.t_low = t;
-        }
-        take
     }
 }
 
@@ -268,7 +229,29 @@ impl<'a, T: Real> BvhWalker<'a, T> {
             isa: Isa::Scalar,
             closest: Self::scalar_closest,
             any: Self::scalar_any,
+            packets: None,
+            closest_many: Self::each_closest,
+            any_many: Self::each_any,
         }
+    }
+
+    /// The closest hits of a batch, one ray at a time.
+    fn each_closest(&self, rays: &[Ray<T>], hits: &mut [Option<Hit<T>>], work: &mut [Work]) {
+        for ((ray, hit), w) in rays.iter().zip(hits.iter_mut()).zip(work.iter_mut()) {
+            *hit = (self.closest)(self, ray, w);
+        }
+    }
+
+    /// The any-hit answers of a batch, one ray at a time.
+    fn each_any(&self, rays: &[Ray<T>], hit: &mut [bool], work: &mut Work) {
+        for (ray, h) in rays.iter().zip(hit.iter_mut()) {
+            *h = (self.any)(self, ray, work);
+        }
+    }
+
+    /// The packet walks' vector unit, or `None` when batches go one ray at a time.
+    pub fn packets(&self) -> Option<PacketIsa> {
+        self.packets
     }
 
     /// The kernel the queries run.
@@ -445,6 +428,54 @@ impl<'a> BvhWalker<'a, f32> {
         w
     }
 
+    /// [`BvhWalker::vectorised`] whose batches of rays (primary rays, each light's shadow
+    /// rays, each depth's secondary rays) walk as packets of `packets`' width
+    /// (`cpu/traverse_packet.rs`): the same hits (see there), single queries as
+    /// `vectorised`. Packets need the vectorised triangle test: with `isa` scalar (or
+    /// Möller-Trumbore, or off x86-64) batches go one ray at a time. Panics when this CPU
+    /// cannot run `isa` or `packets`.
+    pub fn with_packets(
+        scene: &Scene,
+        bvh: &'a Bvh,
+        techniques: Techniques,
+        isa: Isa,
+        packets: PacketIsa,
+    ) -> Self {
+        assert!(
+            packets.available(),
+            "this CPU cannot run {} packets",
+            packets.name()
+        );
+        let mut w = BvhWalker::vectorised(scene, bvh, techniques, isa);
+        if w.isa != Isa::Scalar {
+            w.packets = Some(packets);
+            w.closest_many = Self::packet_closest;
+            w.any_many = Self::packet_any;
+        }
+        w
+    }
+
+    /// What the packet walks read.
+    fn packet_scene(&self) -> PacketScene<'_> {
+        PacketScene {
+            bvh: self.bvh,
+            soa: &self.soa,
+            t_bound: self.techniques.t_bound == TBound::On,
+        }
+    }
+
+    /// The closest hits of a batch, in packets.
+    fn packet_closest(&self, rays: &[Ray<f32>], hits: &mut [Option<Hit<f32>>], work: &mut [Work]) {
+        let isa = self.packets.expect("set with the packet walks");
+        traverse_packet::closest_hits(isa, &self.packet_scene(), rays, hits, work);
+    }
+
+    /// The any-hit answers of a batch, in packets.
+    fn packet_any(&self, rays: &[Ray<f32>], hit: &mut [bool], work: &mut Work) {
+        let isa = self.packets.expect("set with the packet walks");
+        traverse_packet::any_hits(isa, &self.packet_scene(), rays, hit, work);
+    }
+
     /// The vector kernels' constants for `ray`.
     #[inline(always)]
     fn consts(&self, ray: &Ray<f32>) -> RayConsts {
@@ -473,33 +504,7 @@ impl<'a> BvhWalker<'a, f32> {
                     (off, n),
                     best,
                     |best| best.bound(ray.t_max),
-                    |best, c| {
-                        // The scalar test's own comparison, against the bound of now.
-                        if c.tt >= best.bound(ray.t_max) * c.det_abs {
-                            return; // never NaN: the kernel passed it against a bound
-                        }
-                        let tri = list[c.r];
-                        let (tt_h, det_h) = best.tt_det;
-                        // The scalar test's comparison on the lanes' values (the scalar
-                        // walk reruns the test: the same operations, the same bits).
-                        let later = |cand: bool, hi: f32| {
-                            if cand {
-                                c.tt < hi * c.det_abs
-                            } else {
-                                tt_h < hi * det_h
-                            }
-                        };
-                        if best.takes(c.t, tri, later) {
-                            let [u, v, w, det] = c.uvwd;
-                            let inv = 1.0 / det;
-                            best.hit = Some(Hit {
-                                t: c.t,
-                                tri,
-                                b: [u * inv, v * inv, w * inv],
-                            });
-                            best.tt_det = (c.tt, c.det_abs);
-                        }
-                    },
+                    |best, c| best.offer(ray.t_max, &c, list[c.r]),
                 );
             },
             &mut best,
@@ -545,6 +550,14 @@ impl<T: Real> Trace<T> for BvhWalker<'_, T> {
     #[inline]
     fn any_hit(&self, ray: &Ray<T>, work: &mut Work) -> bool {
         (self.any)(self, ray, work)
+    }
+
+    fn closest_hits(&self, rays: &[Ray<T>], hits: &mut [Option<Hit<T>>], work: &mut [Work]) {
+        (self.closest_many)(self, rays, hits, work)
+    }
+
+    fn any_hits(&self, rays: &[Ray<T>], hit: &mut [bool], work: &mut Work) {
+        (self.any_many)(self, rays, hit, work)
     }
 }
 

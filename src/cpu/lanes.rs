@@ -1,0 +1,316 @@
+//! Lane operations of the ray-packet walk (`cpu/traverse_packet.rs`): one module per vector
+//! unit, each defining the same names over its own types, so that the walk is written once
+//! (a macro) and expanded in each with the unit's target feature. Not a GLSL twin.
+//!
+//! Every operation is one IEEE-754 f32 operation per lane (no fused multiply-add), and
+//! `max`/`min` keep the operand order of SSE's `maxps`/`minps` (`a > b ? a : b`, the second
+//! operand on NaN), so a lane computes the bits the scalar walk computes.
+//!
+//! Names: `W` (lanes), `V` (f32 lanes), `M` (a lane mask: a bit mask on AVX-512, a vector
+//! of all-ones lanes on AVX2), `splat`, `load`, `store`, `add`, `sub`, `mul`, `div`, `max`,
+//! `min`, `abs`, `neg`, `lt`, `gt`, `le`, `eq`, `mand`, `mor`, `mandnot` (`!a & b`),
+//! `select` (`m ? a : b`), `bits` (the mask as lane bits) and `from_bits`.
+
+#![cfg(target_arch = "x86_64")]
+
+/// Sixteen lanes: AVX-512F, its mask registers for the lane masks.
+pub mod avx512 {
+    use std::arch::x86_64::*;
+
+    /// Lanes of a vector.
+    pub const W: usize = 16;
+    /// f32 lanes.
+    pub type V = __m512;
+    /// Lane mask.
+    pub type M = __mmask16;
+
+    /// Every lane `x`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn splat(x: f32) -> V {
+        _mm512_set1_ps(x)
+    }
+    /// Sixteen lanes from `p`.
+    ///
+    /// # Safety
+    /// `p .. p + 16` must be readable.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn load(p: *const f32) -> V {
+        // SAFETY: the caller's contract.
+        unsafe { _mm512_loadu_ps(p) }
+    }
+    /// Sixteen lanes to `p`.
+    ///
+    /// # Safety
+    /// `p .. p + 16` must be writable.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn store(p: *mut f32, v: V) {
+        // SAFETY: the caller's contract.
+        unsafe { _mm512_storeu_ps(p, v) }
+    }
+    /// `a + b`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn add(a: V, b: V) -> V {
+        _mm512_add_ps(a, b)
+    }
+    /// `a - b`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn sub(a: V, b: V) -> V {
+        _mm512_sub_ps(a, b)
+    }
+    /// `a * b`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn mul(a: V, b: V) -> V {
+        _mm512_mul_ps(a, b)
+    }
+    /// `a / b`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn div(a: V, b: V) -> V {
+        _mm512_div_ps(a, b)
+    }
+    /// `a > b ? a : b`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn max(a: V, b: V) -> V {
+        _mm512_max_ps(a, b)
+    }
+    /// `a < b ? a : b`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn min(a: V, b: V) -> V {
+        _mm512_min_ps(a, b)
+    }
+    /// `|a|` (the sign bit cleared).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn abs(a: V) -> V {
+        _mm512_castsi512_ps(_mm512_and_si512(
+            _mm512_castps_si512(a),
+            _mm512_set1_epi32(i32::MAX),
+        ))
+    }
+    /// `-a` (the sign bit flipped).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn neg(a: V) -> V {
+        _mm512_castsi512_ps(_mm512_xor_si512(
+            _mm512_castps_si512(a),
+            _mm512_set1_epi32(i32::MIN),
+        ))
+    }
+    /// `a < b` (false on NaN).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn lt(a: V, b: V) -> M {
+        _mm512_cmp_ps_mask::<_CMP_LT_OQ>(a, b)
+    }
+    /// `a > b` (false on NaN).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn gt(a: V, b: V) -> M {
+        _mm512_cmp_ps_mask::<_CMP_GT_OQ>(a, b)
+    }
+    /// `a <= b` (false on NaN).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn le(a: V, b: V) -> M {
+        _mm512_cmp_ps_mask::<_CMP_LE_OQ>(a, b)
+    }
+    /// `a == b` (false on NaN).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn eq(a: V, b: V) -> M {
+        _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(a, b)
+    }
+    /// `a & b`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn mand(a: M, b: M) -> M {
+        a & b
+    }
+    /// `a | b`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn mor(a: M, b: M) -> M {
+        a | b
+    }
+    /// `!a & b`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn mandnot(a: M, b: M) -> M {
+        !a & b
+    }
+    /// `m ? a : b` lane by lane.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn select(m: M, a: V, b: V) -> V {
+        _mm512_mask_blend_ps(m, b, a)
+    }
+    /// The mask as lane bits.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn bits(m: M) -> u32 {
+        m as u32
+    }
+    /// The mask of lane bits `b`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub fn from_bits(b: u32) -> M {
+        b as M
+    }
+}
+
+/// Eight lanes: AVX2, lane masks as vectors of all-ones lanes.
+pub mod avx2 {
+    use std::arch::x86_64::*;
+
+    /// Lanes of a vector.
+    pub const W: usize = 8;
+    /// f32 lanes.
+    pub type V = __m256;
+    /// Lane mask.
+    pub type M = __m256;
+
+    /// Every lane `x`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn splat(x: f32) -> V {
+        _mm256_set1_ps(x)
+    }
+    /// Eight lanes from `p`.
+    ///
+    /// # Safety
+    /// `p .. p + 8` must be readable.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn load(p: *const f32) -> V {
+        // SAFETY: the caller's contract.
+        unsafe { _mm256_loadu_ps(p) }
+    }
+    /// Eight lanes to `p`.
+    ///
+    /// # Safety
+    /// `p .. p + 8` must be writable.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn store(p: *mut f32, v: V) {
+        // SAFETY: the caller's contract.
+        unsafe { _mm256_storeu_ps(p, v) }
+    }
+    /// `a + b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn add(a: V, b: V) -> V {
+        _mm256_add_ps(a, b)
+    }
+    /// `a - b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn sub(a: V, b: V) -> V {
+        _mm256_sub_ps(a, b)
+    }
+    /// `a * b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn mul(a: V, b: V) -> V {
+        _mm256_mul_ps(a, b)
+    }
+    /// `a / b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn div(a: V, b: V) -> V {
+        _mm256_div_ps(a, b)
+    }
+    /// `a > b ? a : b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn max(a: V, b: V) -> V {
+        _mm256_max_ps(a, b)
+    }
+    /// `a < b ? a : b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn min(a: V, b: V) -> V {
+        _mm256_min_ps(a, b)
+    }
+    /// `|a|` (the sign bit cleared).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn abs(a: V) -> V {
+        _mm256_andnot_ps(_mm256_set1_ps(-0.0), a)
+    }
+    /// `-a` (the sign bit flipped).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn neg(a: V) -> V {
+        _mm256_xor_ps(_mm256_set1_ps(-0.0), a)
+    }
+    /// `a < b` (false on NaN).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn lt(a: V, b: V) -> M {
+        _mm256_cmp_ps::<_CMP_LT_OQ>(a, b)
+    }
+    /// `a > b` (false on NaN).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn gt(a: V, b: V) -> M {
+        _mm256_cmp_ps::<_CMP_GT_OQ>(a, b)
+    }
+    /// `a <= b` (false on NaN).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn le(a: V, b: V) -> M {
+        _mm256_cmp_ps::<_CMP_LE_OQ>(a, b)
+    }
+    /// `a == b` (false on NaN).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn eq(a: V, b: V) -> M {
+        _mm256_cmp_ps::<_CMP_EQ_OQ>(a, b)
+    }
+    /// `a & b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn mand(a: M, b: M) -> M {
+        _mm256_and_ps(a, b)
+    }
+    /// `a | b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn mor(a: M, b: M) -> M {
+        _mm256_or_ps(a, b)
+    }
+    /// `!a & b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn mandnot(a: M, b: M) -> M {
+        _mm256_andnot_ps(a, b)
+    }
+    /// `m ? a : b` lane by lane.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn select(m: M, a: V, b: V) -> V {
+        _mm256_blendv_ps(b, a, m)
+    }
+    /// The mask as lane bits.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn bits(m: M) -> u32 {
+        _mm256_movemask_ps(m) as u32
+    }
+    /// The mask of lane bits `b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub fn from_bits(b: u32) -> M {
+        let lane = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let hit = _mm256_and_si256(_mm256_set1_epi32(b as i32), lane);
+        _mm256_castsi256_ps(_mm256_cmpeq_epi32(hit, lane))
+    }
+}

@@ -1,0 +1,713 @@
+//! Ray packets through the 4-wide BVH (`accel/bvh.rs`): 16 rays (AVX-512) or 8 (AVX2) walk
+//! the tree together, one vector operation testing a child's box or a triangle against
+//! every ray of the packet (Wald et al. 2001, "Interactive Rendering with Coherent Ray
+//! Tracing"; Embree's `rtcIntersect16`). The CPU's default walk for batches of rays
+//! (primary rays, shadow rays to a light, and each depth's reflected and refracted rays);
+//! the single-ray walks of `cpu/traverse_bvh.rs` stay for single queries and as the twin it
+//! is checked against. Not a GLSL twin (the GPU walks the grids).
+//!
+//! Why the same hits as the single-ray walk: each lane computes the single-ray walk's box
+//! test (`traverse_bvh::BoxRay::slabs`) and the scalar watertight test
+//! (`cpu/intersect.rs`) operation for operation, in f32 lanes (`cpu/lanes.rs`), against its
+//! own bound; its shear axes are picked lane by lane with blends, which move bits and
+//! compute nothing. A lane is masked off where its own box test fails, so it enters every
+//! box the single-ray walk enters while its bound is at least the single-ray walk's final
+//! one, and so tests every triangle whose hit the tie rule could take; and it offers each
+//! candidate to [`Closest::offer`], the single-ray walk's own rule. What differs is the
+//! order in which a lane meets triangles (the packet's order, nearest child first for the
+//! first ray entering it), which the tie rule makes irrelevant except for chains of three
+//! or more hits each within `TIE_EPS` of the next (coplanar piles), exactly as between the
+//! single-ray walk and brute force. Any-hit answers do not depend on order at all.
+//!
+//! Counters: a lane counts the nodes and the triangles it was active for (its `cells` and
+//! `tests`), so the `steps` AOV shows what the packet made each ray do.
+
+#[cfg(target_arch = "x86_64")]
+use super::closest::Closest;
+use super::soa::SoaTris;
+use super::traverse::{Hit, Ray, Work};
+use crate::accel::bvh::Bvh;
+
+/// Most rays of a packet (AVX-512's 16 f32 lanes).
+pub const MAX_W: usize = 16;
+
+/// The vector unit a packet walk runs on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PacketIsa {
+    /// 16 rays, AVX-512F.
+    Avx512,
+    /// 8 rays, AVX2.
+    Avx2,
+}
+
+impl PacketIsa {
+    /// The widest unit this CPU runs, or `None` (SSE-only or not x86-64: the single-ray
+    /// vectorised walk is the fastest there).
+    pub fn detect() -> Option<PacketIsa> {
+        [PacketIsa::Avx512, PacketIsa::Avx2]
+            .into_iter()
+            .find(|isa| isa.available())
+    }
+
+    /// Whether this CPU runs it.
+    pub fn available(self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            match self {
+                PacketIsa::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+                PacketIsa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = self;
+            false
+        }
+    }
+
+    /// Rays per packet.
+    pub fn lanes(self) -> usize {
+        match self {
+            PacketIsa::Avx512 => 16,
+            PacketIsa::Avx2 => 8,
+        }
+    }
+
+    /// Name for `--stats` and the summary ("avx512", "avx2").
+    pub fn name(self) -> &'static str {
+        match self {
+            PacketIsa::Avx512 => "avx512",
+            PacketIsa::Avx2 => "avx2",
+        }
+    }
+}
+
+/// What the packet walks read: the tree, its leaves' triangles in reference order and
+/// whether hits within their own t error are rejected (`TBound::On`).
+#[derive(Clone, Copy)]
+pub struct PacketScene<'a> {
+    /// The tree.
+    pub bvh: &'a Bvh,
+    /// Its leaves' triangles, reference `r` at index `r`.
+    pub soa: &'a SoaTris,
+    /// Reject hits within their own t error bound.
+    pub t_bound: bool,
+}
+
+/// The closest hit of each of `rays` into `hits` and its work into `work` (all three the
+/// same length), in packets of `isa`'s width. `isa` must be available.
+pub fn closest_hits(
+    isa: PacketIsa,
+    sc: &PacketScene<'_>,
+    rays: &[Ray<f32>],
+    hits: &mut [Option<Hit<f32>>],
+    work: &mut [Work],
+) {
+    assert!(
+        isa.available(),
+        "this CPU cannot run {} packets",
+        isa.name()
+    );
+    debug_assert!(rays.len() == hits.len() && rays.len() == work.len());
+    #[cfg(target_arch = "x86_64")]
+    {
+        let w = isa.lanes();
+        for ((rays, hits), work) in rays
+            .chunks(w)
+            .zip(hits.chunks_mut(w))
+            .zip(work.chunks_mut(w))
+        {
+            let p = Packet::new(rays);
+            let mut best: [Closest<f32>; MAX_W] = std::array::from_fn(|i| Closest::new(p.t_max[i]));
+            let mut cells = [0.0f32; MAX_W];
+            let mut tests = [0.0f32; MAX_W];
+            // SAFETY: `isa` is available (asserted above).
+            unsafe {
+                match isa {
+                    PacketIsa::Avx512 => k16::closest(sc, &p, &mut best, &mut cells, &mut tests),
+                    PacketIsa::Avx2 => k8::closest(sc, &p, &mut best, &mut cells, &mut tests),
+                }
+            }
+            for (i, (h, wk)) in hits.iter_mut().zip(work.iter_mut()).enumerate() {
+                *h = best[i].hit;
+                wk.cells += cells[i] as u64;
+                wk.tests += tests[i] as u64;
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (sc, rays, hits, work);
+}
+
+/// Whether each of `rays` hits anything in its interval, into `hit`, the work of all added
+/// to `work`, in packets of `isa`'s width. `isa` must be available.
+pub fn any_hits(
+    isa: PacketIsa,
+    sc: &PacketScene<'_>,
+    rays: &[Ray<f32>],
+    hit: &mut [bool],
+    work: &mut Work,
+) {
+    assert!(
+        isa.available(),
+        "this CPU cannot run {} packets",
+        isa.name()
+    );
+    debug_assert!(rays.len() == hit.len());
+    #[cfg(target_arch = "x86_64")]
+    {
+        let w = isa.lanes();
+        for (rays, hit) in rays.chunks(w).zip(hit.chunks_mut(w)) {
+            let p = Packet::new(rays);
+            // SAFETY: `isa` is available (asserted above).
+            let occluded = unsafe {
+                match isa {
+                    PacketIsa::Avx512 => k16::any(sc, &p, work),
+                    PacketIsa::Avx2 => k8::any(sc, &p, work),
+                }
+            };
+            for (i, h) in hit.iter_mut().enumerate() {
+                *h = occluded & (1 << i) != 0;
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (sc, rays, hit, work);
+}
+
+/// Up to [`MAX_W`] rays lane by lane: the single-ray walks' box constants
+/// (`traverse_bvh::BoxRay`) and triangle constants (`simd::RayConsts`). Lanes past the
+/// rays given repeat the last ray and are not live.
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+struct Packet {
+    /// Origin, per axis.
+    o: [[f32; MAX_W]; 3],
+    /// Reciprocal direction, per axis.
+    inv: [[f32; MAX_W]; 3],
+    /// Origin on the shear axes kx, ky, kz.
+    ok: [[f32; MAX_W]; 3],
+    /// Shear constants sx, sy, sz.
+    s: [[f32; MAX_W]; 3],
+    /// Interval start.
+    t_min: [f32; MAX_W],
+    /// Interval end.
+    t_max: [f32; MAX_W],
+    /// Per axis, the lanes whose reciprocal direction is negative (then a slab's near
+    /// plane is the box's upper bound).
+    neg: [u32; 3],
+    /// `axis[j][c]`: the lanes whose shear axis j (kx, ky, kz) is axis c.
+    axis: [[u32; 3]; 3],
+    /// The lanes holding rays.
+    live: u32,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Packet {
+    fn new(rays: &[Ray<f32>]) -> Packet {
+        use super::simd::RayConsts;
+        debug_assert!(!rays.is_empty() && rays.len() <= MAX_W);
+        let mut p = Packet {
+            o: [[0.0; MAX_W]; 3],
+            inv: [[0.0; MAX_W]; 3],
+            ok: [[0.0; MAX_W]; 3],
+            s: [[0.0; MAX_W]; 3],
+            t_min: [0.0; MAX_W],
+            t_max: [0.0; MAX_W],
+            neg: [0; 3],
+            axis: [[0; 3]; 3],
+            live: (1u32 << rays.len()) - 1,
+        };
+        for i in 0..MAX_W {
+            let ray = &rays[i.min(rays.len() - 1)];
+            // The t bound is the walk's switch, not the packet's: any value here.
+            let rc = RayConsts::of_ray(ray, &Default::default());
+            for a in 0..3 {
+                p.o[a][i] = ray.o[a];
+                // `BoxRay::new`: 1 / -0 is -inf, negative as the zero's sign says.
+                p.inv[a][i] = 1.0 / ray.d[a];
+                if p.inv[a][i] < 0.0 {
+                    p.neg[a] |= 1 << i;
+                }
+                p.ok[a][i] = rc.o[a];
+                p.s[a][i] = rc.s[a];
+                p.axis[a][rc.k[a]] |= 1 << i;
+            }
+            p.t_min[i] = ray.t_min;
+            p.t_max[i] = ray.t_max;
+        }
+        p
+    }
+}
+
+/// Stack entries: three per level of the deepest tree the build makes, and a node's four.
+const STACK: usize = 3 * crate::accel::bvh::MAX_DEPTH + crate::accel::bvh::WIDTH + 1;
+
+/// A child met by some lanes: node (or leaf range when `count > 0`), the lanes and each
+/// lane's entry distance.
+#[derive(Clone, Copy)]
+struct Entry {
+    child: u32,
+    count: u32,
+    mask: u32,
+    near: [f32; MAX_W],
+}
+
+/// The walk's stack, left uninitialised (14 KB: zeroing it per packet would cost more
+/// than the stack's use).
+struct Stack {
+    items: [std::mem::MaybeUninit<Entry>; STACK],
+    len: usize,
+}
+
+impl Stack {
+    #[inline(always)]
+    fn with(first: Entry) -> Self {
+        let mut s = Stack {
+            items: [const { std::mem::MaybeUninit::uninit() }; STACK],
+            len: 0,
+        };
+        s.push(first);
+        s
+    }
+
+    #[inline(always)]
+    fn push(&mut self, e: Entry) {
+        // Indexing checks the bound: the build's depth limit keeps it unreachable.
+        self.items[self.len].write(e);
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<Entry> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: every slot below `len` was written by `push`.
+        Some(unsafe { self.items[self.len].assume_init() })
+    }
+}
+
+/// A triangle test's lane values, for the candidates' acceptance.
+#[derive(Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct Lanes {
+    tt: [f32; MAX_W],
+    det_abs: [f32; MAX_W],
+    t: [f32; MAX_W],
+    u: [f32; MAX_W],
+    v: [f32; MAX_W],
+    w: [f32; MAX_W],
+    det: [f32; MAX_W],
+}
+
+/// The packet walks, written once over the lane operations of the module they expand in
+/// (`cpu/lanes.rs`).
+#[cfg(target_arch = "x86_64")]
+macro_rules! packet_walks {
+    ($feature:literal) => {
+        use super::{Entry, Lanes, Packet, PacketScene, Stack, MAX_W};
+        use crate::accel::bvh::{Node4, WIDTH};
+        use crate::cpu::closest::Closest;
+        use crate::cpu::real::Real;
+        use crate::cpu::simd::Candidate;
+
+        /// A packet's constants in lanes.
+        struct Lv {
+            o: [V; 3],
+            inv: [V; 3],
+            neg: [M; 3],
+            ok: [V; 3],
+            s: [V; 3],
+            axis: [[M; 3]; 3],
+            t_min: V,
+            /// The box test's far padding, `2 gamma(3)`.
+            pad: V,
+        }
+
+        impl Lv {
+            #[inline]
+            #[target_feature(enable = $feature)]
+            fn new(p: &Packet) -> Lv {
+                // SAFETY: each array holds MAX_W >= W f32.
+                unsafe {
+                    Lv {
+                        o: [
+                            load(p.o[0].as_ptr()),
+                            load(p.o[1].as_ptr()),
+                            load(p.o[2].as_ptr()),
+                        ],
+                        inv: [
+                            load(p.inv[0].as_ptr()),
+                            load(p.inv[1].as_ptr()),
+                            load(p.inv[2].as_ptr()),
+                        ],
+                        neg: [
+                            from_bits(p.neg[0]),
+                            from_bits(p.neg[1]),
+                            from_bits(p.neg[2]),
+                        ],
+                        ok: [
+                            load(p.ok[0].as_ptr()),
+                            load(p.ok[1].as_ptr()),
+                            load(p.ok[2].as_ptr()),
+                        ],
+                        s: [
+                            load(p.s[0].as_ptr()),
+                            load(p.s[1].as_ptr()),
+                            load(p.s[2].as_ptr()),
+                        ],
+                        axis: [axes(&p.axis[0]), axes(&p.axis[1]), axes(&p.axis[2])],
+                        t_min: load(p.t_min.as_ptr()),
+                        pad: splat(2.0 * <f32 as Real>::gamma(3)),
+                    }
+                }
+            }
+        }
+
+        /// The masks of one shear axis' three choices.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn axes(a: &[u32; 3]) -> [M; 3] {
+            [from_bits(a[0]), from_bits(a[1]), from_bits(a[2])]
+        }
+
+        /// Coordinate `c[k]` of each lane, for the lanes' axis `k` given as masks.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn pick(axis: &[M; 3], c: [f32; 3]) -> V {
+            select(
+                axis[1],
+                splat(c[1]),
+                select(axis[2], splat(c[2]), splat(c[0])),
+            )
+        }
+
+        /// The watertight test of reference `r` of `soa` in the lanes `live` against the
+        /// upper bounds `hi`: `intersect_watertight`'s operations, as `simd.rs`'s chunk
+        /// kernel orders them. Returns the candidate lanes as bits, their values in `out`
+        /// when `keep`. The triangle's zero-area rejection is the caller's.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn triangle(
+            lv: &Lv,
+            soa: &SoaTris,
+            r: usize,
+            live: M,
+            hi: V,
+            t_bound: bool,
+            keep: Option<&mut Lanes>,
+        ) -> u32 {
+            let v = &soa.v;
+            let q0 = [v[0][0][r], v[0][1][r], v[0][2][r]];
+            let q1 = [v[1][0][r], v[1][1][r], v[1][2][r]];
+            let q2 = [v[2][0][r], v[2][1][r], v[2][2][r]];
+            let [kx, ky, kz] = &lv.axis;
+            let [ox, oy, oz] = lv.ok;
+            let [sx, sy, sz] = lv.s;
+            let a_x = sub(pick(kx, q0), ox);
+            let a_y = sub(pick(ky, q0), oy);
+            let a_z = sub(pick(kz, q0), oz);
+            let b_x = sub(pick(kx, q1), ox);
+            let b_y = sub(pick(ky, q1), oy);
+            let b_z = sub(pick(kz, q1), oz);
+            let c_x = sub(pick(kx, q2), ox);
+            let c_y = sub(pick(ky, q2), oy);
+            let c_z = sub(pick(kz, q2), oz);
+            let ax = sub(a_x, mul(sx, a_z));
+            let ay = sub(a_y, mul(sy, a_z));
+            let bx = sub(b_x, mul(sx, b_z));
+            let by = sub(b_y, mul(sy, b_z));
+            let cx = sub(c_x, mul(sx, c_z));
+            let cy = sub(c_y, mul(sy, c_z));
+            let u = sub(mul(cx, by), mul(cy, bx));
+            let v = sub(mul(ax, cy), mul(ay, cx));
+            let w = sub(mul(bx, ay), mul(by, ax));
+            let z = splat(0.0);
+            let negs = mor(mor(lt(u, z), lt(v, z)), lt(w, z));
+            let poss = mor(mor(gt(u, z), gt(v, z)), gt(w, z));
+            let det = add(add(u, v), w);
+            let bad = mor(mand(negs, poss), eq(det, z));
+            let az = mul(sz, a_z);
+            let bz = mul(sz, b_z);
+            let cz = mul(sz, c_z);
+            let tt = add(add(mul(u, az), mul(v, bz)), mul(w, cz));
+            let dneg = lt(det, z);
+            let tt = select(dneg, neg(tt), tt);
+            let det_abs = select(dneg, neg(det), det);
+            let inside = mand(gt(tt, mul(lv.t_min, det_abs)), lt(tt, mul(hi, det_abs)));
+            let t = div(tt, det_abs);
+            let mut good = mandnot(bad, mand(inside, live));
+            if t_bound && bits(good) != 0 {
+                // `watertight_t_error`, term by term.
+                let max_zt = max(max(abs(az), abs(bz)), abs(cz));
+                let max_xt = max(max(abs(ax), abs(bx)), abs(cx));
+                let max_yt = max(max(abs(ay), abs(by)), abs(cy));
+                let (g2, g3, g5) = (
+                    splat(<f32 as Real>::gamma(2)),
+                    splat(<f32 as Real>::gamma(3)),
+                    splat(<f32 as Real>::gamma(5)),
+                );
+                let delta_z = mul(g3, max_zt);
+                let delta_x = mul(g5, add(max_xt, max_zt));
+                let delta_y = mul(g5, add(max_yt, max_zt));
+                let delta_e = mul(
+                    splat(2.0),
+                    add(
+                        add(mul(mul(g2, max_xt), max_yt), mul(delta_y, max_xt)),
+                        mul(delta_x, max_yt),
+                    ),
+                );
+                let max_e = max(max(abs(u), abs(v)), abs(w));
+                let err = div(
+                    mul(
+                        splat(3.0),
+                        add(
+                            add(mul(mul(g3, max_e), max_zt), mul(delta_e, max_zt)),
+                            mul(delta_z, max_e),
+                        ),
+                    ),
+                    det_abs,
+                );
+                good = mandnot(le(t, err), good);
+            }
+            let hits = bits(good);
+            if let Some(out) = keep {
+                if hits != 0 {
+                    // SAFETY: each array holds MAX_W >= W f32.
+                    unsafe {
+                        store(out.tt.as_mut_ptr(), tt);
+                        store(out.det_abs.as_mut_ptr(), det_abs);
+                        store(out.t.as_mut_ptr(), t);
+                        store(out.u.as_mut_ptr(), u);
+                        store(out.v.as_mut_ptr(), v);
+                        store(out.w.as_mut_ptr(), w);
+                        store(out.det.as_mut_ptr(), det);
+                    }
+                }
+            }
+            hits
+        }
+
+        /// The four children's box tests (`BoxRay::slabs` lane by lane) in the lanes `m`
+        /// against the upper bounds `hi`: the lanes meeting each child, and each lane's
+        /// entry distance into `near`.
+        #[inline]
+        #[target_feature(enable = $feature)]
+        fn children(
+            lv: &Lv,
+            node: &Node4,
+            m: M,
+            hi: V,
+            near_out: &mut [[f32; MAX_W]; WIDTH],
+        ) -> [u32; WIDTH] {
+            let mut out = [0u32; WIDTH];
+            for c in 0..WIDTH {
+                let mut near = lv.t_min;
+                let mut far = splat(f32::INFINITY);
+                for a in 0..3 {
+                    let (lo, up) = (splat(node.lo[a][c]), splat(node.hi[a][c]));
+                    let n = select(lv.neg[a], up, lo);
+                    let f = select(lv.neg[a], lo, up);
+                    near = max(mul(sub(n, lv.o[a]), lv.inv[a]), near);
+                    far = min(mul(sub(f, lv.o[a]), lv.inv[a]), far);
+                }
+                far = add(far, mul(abs(far), lv.pad));
+                far = min(hi, far);
+                out[c] = bits(mand(m, le(near, far)));
+                // SAFETY: the array holds MAX_W >= W f32.
+                unsafe { store(near_out[c].as_mut_ptr(), near) };
+            }
+            out
+        }
+
+        /// The closest-hit walk of packet `p`: each lane's hit into `best` (empty at the
+        /// start), its node visits and triangle tests added to `cells` and `tests`.
+        ///
+        /// # Safety
+        /// The CPU must have the module's feature.
+        #[target_feature(enable = $feature)]
+        pub(super) unsafe fn closest(
+            sc: &PacketScene<'_>,
+            p: &Packet,
+            best: &mut [Closest<f32>; MAX_W],
+            cells_out: &mut [f32; MAX_W],
+            tests_out: &mut [f32; MAX_W],
+        ) {
+            let lv = Lv::new(p);
+            let (soa, list) = (sc.soa, &sc.bvh.tri_indices);
+            // Each lane's bound (`Closest::bound`), kept beside `best` as lanes.
+            let mut hi = p.t_max;
+            let (zero, one) = (splat(0.0), splat(1.0));
+            let (mut cells, mut tests) = (zero, zero);
+            let mut lanes = Lanes::default();
+            let mut near = [[0.0f32; MAX_W]; WIDTH];
+            let mut stack = Stack::with(Entry {
+                child: 0,
+                count: 0,
+                mask: p.live,
+                near: p.t_min,
+            });
+            while let Some(e) = stack.pop() {
+                // SAFETY: the arrays hold MAX_W >= W f32.
+                let (hv, en) = unsafe { (load(hi.as_ptr()), load(e.near.as_ptr())) };
+                // The lanes still entering: as the single-ray walk's `e.near > hi` cull.
+                let m = mand(from_bits(e.mask), le(en, hv));
+                if bits(m) == 0 {
+                    continue;
+                }
+                if e.count > 0 {
+                    let (off, n) = (e.child as usize, e.count as usize);
+                    tests = add(tests, select(m, splat(n as f32), zero));
+                    for r in off..off + n {
+                        if soa.ok[r].to_bits() == 0 {
+                            continue; // zero area: never hit
+                        }
+                        // SAFETY: as above.
+                        let hv = unsafe { load(hi.as_ptr()) };
+                        let mut cand = triangle(&lv, soa, r, m, hv, sc.t_bound, Some(&mut lanes));
+                        while cand != 0 {
+                            let i = cand.trailing_zeros() as usize;
+                            cand &= cand - 1;
+                            let c = Candidate {
+                                r,
+                                tt: lanes.tt[i],
+                                det_abs: lanes.det_abs[i],
+                                t: lanes.t[i],
+                                uvwd: [lanes.u[i], lanes.v[i], lanes.w[i], lanes.det[i]],
+                            };
+                            best[i].offer(p.t_max[i], &c, list[r]);
+                            hi[i] = best[i].bound(p.t_max[i]);
+                        }
+                    }
+                    continue;
+                }
+                cells = add(cells, select(m, one, zero));
+                let node = &sc.bvh.nodes[e.child as usize];
+                let met = children(&lv, node, m, hv, &mut near);
+                // Nearest first for the first lane entering each child, ties in slot order.
+                let mut order = [0usize; WIDTH];
+                let mut key = [0.0f32; WIDTH];
+                let mut k = 0;
+                for c in 0..WIDTH {
+                    if met[c] == 0 {
+                        continue;
+                    }
+                    let d = near[c][met[c].trailing_zeros() as usize];
+                    let mut j = k;
+                    while j > 0 && key[j - 1] > d {
+                        order[j] = order[j - 1];
+                        key[j] = key[j - 1];
+                        j -= 1;
+                    }
+                    order[j] = c;
+                    key[j] = d;
+                    k += 1;
+                }
+                for &c in order[..k].iter().rev() {
+                    stack.push(Entry {
+                        child: node.child[c],
+                        count: node.count[c],
+                        mask: met[c],
+                        near: near[c],
+                    });
+                }
+            }
+            // SAFETY: as above.
+            unsafe {
+                store(cells_out.as_mut_ptr(), cells);
+                store(tests_out.as_mut_ptr(), tests);
+            }
+        }
+
+        /// The any-hit walk of packet `p`: the lanes that hit something, as bits; node
+        /// visits and triangle tests added to `work`.
+        ///
+        /// # Safety
+        /// The CPU must have the module's feature.
+        #[target_feature(enable = $feature)]
+        pub(super) unsafe fn any(
+            sc: &PacketScene<'_>,
+            p: &Packet,
+            work: &mut crate::cpu::traverse::Work,
+        ) -> u32 {
+            let lv = Lv::new(p);
+            let soa = sc.soa;
+            // SAFETY: the array holds MAX_W >= W f32.
+            let t_max = unsafe { load(p.t_max.as_ptr()) };
+            let mut open = p.live; // lanes not yet occluded
+            let (mut cells, mut tests) = (0u64, 0u64);
+            let mut near = [[0.0f32; MAX_W]; WIDTH];
+            let mut stack = Stack::with(Entry {
+                child: 0,
+                count: 0,
+                mask: p.live,
+                near: p.t_min,
+            });
+            while let Some(e) = stack.pop() {
+                let mut m = e.mask & open;
+                if m == 0 {
+                    continue;
+                }
+                if e.count > 0 {
+                    let (off, n) = (e.child as usize, e.count as usize);
+                    for r in off..off + n {
+                        tests += m.count_ones() as u64;
+                        if soa.ok[r].to_bits() == 0 {
+                            continue; // zero area: never hit
+                        }
+                        let hit = triangle(&lv, soa, r, from_bits(m), t_max, sc.t_bound, None);
+                        m &= !hit;
+                        open &= !hit;
+                        if m == 0 {
+                            break;
+                        }
+                    }
+                    if open == 0 {
+                        break;
+                    }
+                    continue;
+                }
+                cells += m.count_ones() as u64;
+                let node = &sc.bvh.nodes[e.child as usize];
+                let met = children(&lv, node, from_bits(m), t_max, &mut near);
+                // Slot order, as the single-ray any-hit walk (the answer does not depend
+                // on it).
+                for c in (0..WIDTH).rev() {
+                    if met[c] != 0 {
+                        stack.push(Entry {
+                            child: node.child[c],
+                            count: node.count[c],
+                            mask: met[c],
+                            near: p.t_min,
+                        });
+                    }
+                }
+            }
+            work.cells += cells;
+            work.tests += tests;
+            p.live & !open
+        }
+    };
+}
+
+/// The walks in 16 lanes (AVX-512F).
+#[cfg(target_arch = "x86_64")]
+mod k16 {
+    use super::SoaTris;
+    use crate::cpu::lanes::avx512::*;
+    packet_walks!("avx512f");
+}
+
+/// The walks in 8 lanes (AVX2).
+#[cfg(target_arch = "x86_64")]
+mod k8 {
+    use super::SoaTris;
+    use crate::cpu::lanes::avx2::*;
+    packet_walks!("avx2");
+}
+
+#[cfg(test)]
+#[path = "traverse_packet_tests.rs"]
+mod tests;

@@ -1,0 +1,1 @@
+//! Tests of the packet walks against the single-ray walks.
