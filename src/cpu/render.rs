@@ -18,11 +18,16 @@ use crate::image_io::Image;
 use crate::output::{Aov, AovPixel, RayCounts};
 use crate::progress::Progress;
 use crate::region::Region;
+use crate::scene::camera::Frame;
 use crate::scene::{camera, Light, Material, Scene};
 use crate::technique::Techniques;
 
 /// Most primary rays traced as one batch (whole pixels: all samples of a pixel are in one).
 const BATCH_RAYS: usize = 256;
+/// Side of the square of pixels whose rays go together: rows are rendered in bands of
+/// this many, and a batch orders its pixels in squares of this side (16 rays: one
+/// AVX-512 packet at one sample per pixel).
+const TILE: u32 = 4;
 
 /// A hit being shaded: its surface, material and albedo, the view direction and the
 /// colour summed so far.
@@ -104,43 +109,49 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         self.camera = camera;
     }
 
-    /// Radiance along a unit-direction ray at recursion depth `depth` (primary = 0).
-    fn radiance(&self, ray: &Ray<T>, depth: u32, tally: &mut Tally) -> V3<T> {
-        match self.walker.closest_hit(ray, &mut tally.work) {
-            None => self.background,
-            Some(hit) => self.shade(ray, &hit, depth, tally),
+    /// The radiance along each of `rays` (unit directions, all at recursion depth
+    /// `depth`) into `out`: the rays traced as one batch ([`Trace::closest_hits`]), then
+    /// shaded by [`CpuRenderer::shade_hits`].
+    fn radiance_batch(&self, rays: &[Ray<T>], depth: u32, tally: &mut Tally, out: &mut Vec<V3<T>>) {
+        let mut hits = vec![None; rays.len()];
+        let mut work = vec![Work::default(); rays.len()];
+        self.walker.closest_hits(rays, &mut hits, &mut work);
+        for wk in &work {
+            tally.work.cells += wk.cells;
+            tally.work.tests += wk.tests;
         }
+        self.shade_hits(rays, &hits, depth, tally, out, None);
     }
 
-    /// Whitted shading of a hit (see `cpu::shade` for the conventions).
-    fn shade(&self, ray: &Ray<T>, hit: &Hit<T>, depth: u32, tally: &mut Tally) -> V3<T> {
-        let mut s = self.begin(ray, hit);
-        for light in &self.scene.lights {
-            if let Some((shadow, l)) = self.shadow_ray(&s, light) {
-                tally.shadow += 1;
-                if !self.walker.any_hit(&shadow, &mut tally.work) {
-                    s.color = s.color + self.light(&s, light, l);
-                }
-            }
-        }
-        self.finish(&s, ray, depth, tally)
-    }
-
-    /// [`CpuRenderer::shade`] of a batch of primary hits (`None` for a miss, which gets the
-    /// background) into `out`: the same terms added in the same order for each ray, with
-    /// the shadow rays to each light traced as one batch ([`Trace::any_hits`]).
-    fn shade_batch(
+    /// Whitted shading of a batch of hits of `rays` at recursion depth `depth` (`None` for
+    /// a miss, which gets the background) into `out`, and each hit's geometric normal into
+    /// `normals` when given (zero for a miss). The whole ray tree is walked breadth first:
+    /// the shadow rays to each light as one batch ([`Trace::any_hits`]), then the
+    /// reflected and refracted rays of all hits as the next depth's batch. Each colour is
+    /// the depth-first recursion's bit for bit: the same terms added in the same order
+    /// (ambient, each light in turn, then the reflected child and the refracted one).
+    fn shade_hits(
         &self,
         rays: &[Ray<T>],
         hits: &[Option<Hit<T>>],
+        depth: u32,
         tally: &mut Tally,
         out: &mut Vec<V3<T>>,
+        normals: Option<&mut Vec<V3<T>>>,
     ) {
         let mut shading: Vec<Option<Shading<'_, T>>> = rays
             .iter()
             .zip(hits)
             .map(|(ray, hit)| hit.as_ref().map(|h| self.begin(ray, h)))
             .collect();
+        if let Some(normals) = normals {
+            normals.clear();
+            normals.extend(
+                shading
+                    .iter()
+                    .map(|s| s.as_ref().map_or(V3::splat(T::ZERO), |s| s.sp.ng)),
+            );
+        }
         let mut shadows = Vec::with_capacity(rays.len());
         let mut lit = Vec::with_capacity(rays.len());
         let mut occluded = Vec::new();
@@ -154,6 +165,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                 }
             }
             tally.shadow += shadows.len() as u64;
+            occluded.clear();
             occluded.resize(shadows.len(), false);
             self.walker
                 .any_hits(&shadows, &mut occluded, &mut tally.work);
@@ -164,12 +176,51 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                 }
             }
         }
+        // The children: for each hit in order, the reflected ray, then the refracted one
+        // (the order the GPU walks the tree in), each with its weight and parent.
+        let mut children = Vec::new();
+        let mut parents = Vec::new();
+        if depth < self.max_depth {
+            for (i, (ray, s)) in rays.iter().zip(&shading).enumerate() {
+                let Some(s) = s else { continue };
+                let (m, sp) = (s.m, &s.sp);
+                if !(m.reflects() || m.refracts()) {
+                    continue;
+                }
+                let sec = secondary(m, sp, ray.d);
+                for (k, dir, refracted) in [
+                    (sec.kr, sec.reflected, false),
+                    (sec.kt, sec.refracted, true),
+                ] {
+                    if k.max_elem() > T::ZERO {
+                        if refracted {
+                            tally.refracted += 1;
+                        } else {
+                            tally.reflected += 1;
+                        }
+                        children.push(Ray {
+                            o: offset_origin_with(sp, dir, self.techniques.offset),
+                            d: dir,
+                            t_min: T::ZERO,
+                            t_max: T::BIG,
+                        });
+                        parents.push((i, k));
+                    }
+                }
+            }
+        }
         out.clear();
-        for (ray, s) in rays.iter().zip(&shading) {
-            out.push(match s {
-                None => self.background,
-                Some(s) => self.finish(s, ray, 0, tally),
-            });
+        out.extend(
+            shading
+                .iter()
+                .map(|s| s.as_ref().map_or(self.background, |s| s.color)),
+        );
+        if !children.is_empty() {
+            let mut radiance = Vec::with_capacity(children.len());
+            self.radiance_batch(&children, depth + 1, tally, &mut radiance);
+            for (&(i, k), r) in parents.iter().zip(&radiance) {
+                out[i] = out[i] + r.mul_elem(k);
+            }
         }
     }
 
@@ -218,39 +269,17 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         light_term(s.m, s.alb, &s.sp, l, s.v, V3::from_vec3(light.radiance()))
     }
 
-    /// The shaded colour: the terms so far plus the reflected and refracted children.
-    fn finish(&self, s: &Shading<'_, T>, ray: &Ray<T>, depth: u32, tally: &mut Tally) -> V3<T> {
-        let (m, sp) = (s.m, &s.sp);
-        let mut color = s.color;
-        if depth < self.max_depth && (m.reflects() || m.refracts()) {
-            let s = secondary(m, sp, ray.d);
-            // Reflected child first, then refracted: the order the GPU walks the tree in.
-            for (k, dir, refracted) in [(s.kr, s.reflected, false), (s.kt, s.refracted, true)] {
-                if k.max_elem() > T::ZERO {
-                    if refracted {
-                        tally.refracted += 1;
-                    } else {
-                        tally.reflected += 1;
-                    }
-                    let r = Ray {
-                        o: offset_origin_with(sp, dir, self.techniques.offset),
-                        d: dir,
-                        t_min: T::ZERO,
-                        t_max: T::BIG,
-                    };
-                    color = color + self.radiance(&r, depth + 1, tally).mul_elem(k);
-                }
-            }
-        }
-        color
-    }
-
     /// Primary ray for sample position (px, py) in pixel units.
     pub fn primary_ray(&self, w: u32, h: u32, px: f64, py: f64) -> Ray<T> {
-        let cam = &self.camera;
+        self.primary_ray_in(&self.camera.frame(), w, h, px, py)
+    }
+
+    /// [`CpuRenderer::primary_ray`] with the camera's frame worked out once.
+    #[inline]
+    fn primary_ray_in(&self, frame: &Frame, w: u32, h: u32, px: f64, py: f64) -> Ray<T> {
         Ray {
-            o: V3::from_vec3(cam.eye),
-            d: V3::from_dvec3(cam.direction_at(w, h, px, py)),
+            o: V3::from_vec3(self.camera.eye),
+            d: V3::from_dvec3(frame.direction_at(w, h, px, py)),
             t_min: T::ZERO,
             t_max: T::BIG,
         }
@@ -281,25 +310,42 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         debug_assert!(region.x1 <= w && region.y1 <= h, "region inside the image");
         let offsets = camera::sample_offsets(spp);
         let inv = T::ONE / T::from_f32(offsets.len() as f32);
-        let rw = region.width();
+        let frame = self.camera.frame();
+        let rw = region.width() as usize;
         let n_off = offsets.len();
-        // Pixels per batch: their primary rays are traced, and their shadow rays to each
-        // light, as one batch each.
-        let batch = (BATCH_RAYS / n_off).max(1) as u32;
-        let rows: Vec<(Vec<f32>, Vec<AovPixel>, Tally)> = (region.y0..region.y1)
+        // Pixels per batch: their primary rays are traced, and then each depth's shadow and
+        // secondary rays, as one batch each. A band's batch takes whole columns of TILE
+        // pixels, TILE columns at a time, so that consecutive rays (a packet) cover a
+        // square of the image, not a line: a narrower cone, fewer boxes entered.
+        let batch = (BATCH_RAYS / n_off).max(1);
+        let bands: Vec<u32> = (region.y0..region.y1).step_by(TILE as usize).collect();
+        let bands: Vec<(Vec<f32>, Vec<AovPixel>, Tally)> = bands
             .into_par_iter()
-            .map(|j| {
+            .map(|j0| {
+                let j1 = (j0 + TILE).min(region.y1);
+                let rows = (j1 - j0) as usize;
                 let mut tally = Tally::default();
-                let mut rgb = Vec::with_capacity(rw as usize * 3);
-                let mut aov = Vec::with_capacity(rw as usize);
-                let (mut rays, mut hits, mut work, mut colors) =
+                let mut rgb = vec![0.0f32; rw * rows * 3];
+                let mut aov = vec![AovPixel::miss(0.0); rw * rows];
+                let (mut pixels, mut rays, mut hits, mut work) =
                     (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-                for i0 in (region.x0..region.x1).step_by(batch as usize) {
-                    let i1 = (i0 + batch).min(region.x1);
+                let (mut colors, mut normals) = (Vec::new(), Vec::new());
+                let cols = (batch / rows).max(1) as u32;
+                for i0 in (region.x0..region.x1).step_by(cols as usize) {
+                    let i1 = (i0 + cols).min(region.x1);
+                    pixels.clear();
+                    for t0 in (i0..i1).step_by(TILE as usize) {
+                        for j in j0..j1 {
+                            for i in t0..(t0 + TILE).min(i1) {
+                                pixels.push((i, j));
+                            }
+                        }
+                    }
                     rays.clear();
-                    for i in i0..i1 {
+                    for &(i, j) in &pixels {
                         for &(ox, oy) in &offsets {
-                            rays.push(self.primary_ray(w, h, i as f64 + ox, j as f64 + oy));
+                            let (px, py) = (i as f64 + ox, j as f64 + oy);
+                            rays.push(self.primary_ray_in(&frame, w, h, px, py));
                         }
                     }
                     tally.primary += rays.len() as u64;
@@ -312,29 +358,31 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                         tally.work.cells += wk.cells;
                         tally.work.tests += wk.tests;
                     }
-                    self.shade_batch(&rays, &hits, &mut tally, &mut colors);
-                    for p in 0..(i1 - i0) as usize {
+                    self.shade_hits(&rays, &hits, 0, &mut tally, &mut colors, Some(&mut normals));
+                    for (p, &(i, j)) in pixels.iter().enumerate() {
                         let first = p * n_off;
                         let steps = work[first].cells + work[first].tests;
-                        aov.push(self.aov_of(&rays[first], hits[first].as_ref(), steps));
+                        let at = (j - j0) as usize * rw + (i - region.x0) as usize;
+                        aov[at] = aov_of(hits[first].as_ref(), normals[first], steps);
                         let mut sum = V3::splat(T::ZERO);
                         for c in &colors[first..first + n_off] {
                             sum = sum + *c;
                         }
                         let c = sum * inv;
-                        rgb.extend([c.x, c.y, c.z].map(|v| v.to_f64() as f32));
+                        let px = [c.x, c.y, c.z].map(|v| v.to_f64() as f32);
+                        rgb[at * 3..at * 3 + 3].copy_from_slice(&px);
                     }
                 }
-                progress.inc(1);
+                progress.inc(rows as u64);
                 (rgb, aov, tally)
             })
             .collect();
         progress.finish();
-        let (w, h) = (rw, region.height());
+        let (w, h) = (region.width(), region.height());
         let mut data = Vec::with_capacity((w * h * 3) as usize);
         let mut pixels = Vec::with_capacity((w * h) as usize);
         let mut total = Tally::default();
-        for (rgb, aov, t) in rows {
+        for (rgb, aov, t) in bands {
             data.extend(rgb);
             pixels.extend(aov);
             total.primary += t.primary;
@@ -363,21 +411,17 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             nonfinite: None,
         }
     }
+}
 
-    /// AOV values (depth, primitive id, geometric normal, steps) of a primary ray.
-    fn aov_of(&self, ray: &Ray<T>, hit: Option<&Hit<T>>, steps: u64) -> AovPixel {
-        match hit {
-            None => AovPixel::miss(steps as f32),
-            Some(hit) => {
-                let verts = &self.walker.tris()[hit.tri as usize];
-                let sp = surface(self.scene, verts, hit, ray.d);
-                AovPixel {
-                    depth: hit.t.to_f64() as f32,
-                    primid: hit.tri as f32,
-                    normal: sp.ng.to_dvec3().as_vec3().to_array(),
-                    steps: steps as f32,
-                }
-            }
-        }
+/// AOV values (depth, primitive id, geometric normal `ng`, steps) of a primary ray.
+fn aov_of<T: Real>(hit: Option<&Hit<T>>, ng: V3<T>, steps: u64) -> AovPixel {
+    match hit {
+        None => AovPixel::miss(steps as f32),
+        Some(hit) => AovPixel {
+            depth: hit.t.to_f64() as f32,
+            primid: hit.tri as f32,
+            normal: ng.to_dvec3().as_vec3().to_array(),
+            steps: steps as f32,
+        },
     }
 }

@@ -37,6 +37,17 @@ pub struct Frame {
     pub s: f64,
 }
 
+impl Frame {
+    /// [`Camera::direction_at`] of the camera this frame is of: the same bits, without
+    /// working out the frame (a tangent and two normalisations) again for every ray.
+    pub fn direction_at(&self, w: u32, h: u32, px: f64, py: f64) -> DVec3 {
+        let aspect = w as f64 / h as f64;
+        let a = (2.0 * px / w as f64 - 1.0) * self.s * aspect;
+        let b = (1.0 - 2.0 * py / h as f64) * self.s;
+        (self.f + a * self.r + b * self.u).normalize()
+    }
+}
+
 impl Camera {
     /// Checks that the camera defines a frame (distinct eye and target, up not parallel).
     pub fn check(&self) -> Result<(), String> {
@@ -78,11 +89,7 @@ impl Camera {
     /// Primary ray direction (unit, f64) through image-plane position (px, py) in pixels,
     /// where (i + 0.5, j + 0.5) is the centre of pixel (i, j).
     pub fn direction_at(&self, w: u32, h: u32, px: f64, py: f64) -> DVec3 {
-        let fr = self.frame();
-        let aspect = w as f64 / h as f64;
-        let a = (2.0 * px / w as f64 - 1.0) * fr.s * aspect;
-        let b = (1.0 - 2.0 * py / h as f64) * fr.s;
-        (fr.f + a * fr.r + b * fr.u).normalize()
+        self.frame().direction_at(w, h, px, py)
     }
 
     /// Primary ray direction through the centre of pixel (i, j).
