@@ -318,15 +318,23 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         // pixels, TILE columns at a time, so that consecutive rays (a packet) cover a
         // square of the image, not a line: a narrower cone, fewer boxes entered.
         let batch = (BATCH_RAYS / n_off).max(1);
-        let bands: Vec<u32> = (region.y0..region.y1).step_by(TILE as usize).collect();
-        let bands: Vec<(Vec<f32>, Vec<AovPixel>, Tally)> = bands
-            .into_par_iter()
-            .map(|j0| {
+        // The outputs, written in place by the bands: the image zeroed by the allocator
+        // (pages first touched by the thread that renders them), the AOVs filled in
+        // parallel.
+        let n = rw * region.height() as usize;
+        let mut data = vec![0.0f32; n * 3];
+        let mut pixels = Vec::with_capacity(n);
+        pixels.par_extend((0..n).into_par_iter().map(|_| AovPixel::miss(0.0)));
+        let band = TILE as usize * rw;
+        let tallies: Vec<Tally> = data
+            .par_chunks_mut(band * 3)
+            .zip(pixels.par_chunks_mut(band))
+            .enumerate()
+            .map(|(b, (rgb, aov))| {
+                let j0 = region.y0 + b as u32 * TILE;
                 let j1 = (j0 + TILE).min(region.y1);
                 let rows = (j1 - j0) as usize;
                 let mut tally = Tally::default();
-                let mut rgb = vec![0.0f32; rw * rows * 3];
-                let mut aov = vec![AovPixel::miss(0.0); rw * rows];
                 let (mut pixels, mut rays, mut hits, mut work) =
                     (Vec::new(), Vec::new(), Vec::new(), Vec::new());
                 let (mut colors, mut normals) = (Vec::new(), Vec::new());
@@ -374,17 +382,13 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                     }
                 }
                 progress.inc(rows as u64);
-                (rgb, aov, tally)
+                tally
             })
             .collect();
         progress.finish();
         let (w, h) = (region.width(), region.height());
-        let mut data = Vec::with_capacity((w * h * 3) as usize);
-        let mut pixels = Vec::with_capacity((w * h) as usize);
         let mut total = Tally::default();
-        for (rgb, aov, t) in bands {
-            data.extend(rgb);
-            pixels.extend(aov);
+        for t in tallies {
             total.primary += t.primary;
             total.shadow += t.shadow;
             total.reflected += t.reflected;
@@ -394,7 +398,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         }
         CpuOutput {
             image: Image::from_rgb(w, h, data),
-            aov: Aov::from_pixels(w, h, &pixels),
+            aov: Aov::from_vec(w, h, pixels),
             rays: RayCounts::new(
                 total.primary,
                 total.shadow,
