@@ -117,15 +117,21 @@ pub fn closest_hits(
             .zip(hits.chunks_mut(w))
             .zip(work.chunks_mut(w))
         {
-            let p = Packet::new(rays);
-            let mut best: [Closest<f32>; MAX_W] = std::array::from_fn(|i| Closest::new(p.t_max[i]));
+            let mut best: [Closest<f32>; MAX_W] =
+                std::array::from_fn(|i| Closest::new(rays[i.min(rays.len() - 1)].t_max));
             let mut cells = [0.0f32; MAX_W];
             let mut tests = [0.0f32; MAX_W];
             // SAFETY: `isa` is available (asserted above).
             unsafe {
                 match isa {
-                    PacketIsa::Avx512 => k16::closest(sc, &p, &mut best, &mut cells, &mut tests),
-                    PacketIsa::Avx2 => k8::closest(sc, &p, &mut best, &mut cells, &mut tests),
+                    PacketIsa::Avx512 => {
+                        let p = k16::packet(rays);
+                        k16::closest(sc, &p, &mut best, &mut cells, &mut tests)
+                    }
+                    PacketIsa::Avx2 => {
+                        let p = k8::packet(rays);
+                        k8::closest(sc, &p, &mut best, &mut cells, &mut tests)
+                    }
                 }
             }
             for (i, (h, wk)) in hits.iter_mut().zip(work.iter_mut()).enumerate() {
@@ -158,12 +164,11 @@ pub fn any_hits(
     {
         let w = isa.lanes();
         for (rays, hit) in rays.chunks(w).zip(hit.chunks_mut(w)) {
-            let p = Packet::new(rays);
             // SAFETY: `isa` is available (asserted above).
             let occluded = unsafe {
                 match isa {
-                    PacketIsa::Avx512 => k16::any(sc, &p, work),
-                    PacketIsa::Avx2 => k8::any(sc, &p, work),
+                    PacketIsa::Avx512 => k16::any(sc, &k16::packet(rays), work),
+                    PacketIsa::Avx2 => k8::any(sc, &k8::packet(rays), work),
                 }
             };
             for (i, h) in hit.iter_mut().enumerate() {
@@ -202,8 +207,10 @@ struct Packet {
     live: u32,
 }
 
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(test, target_arch = "x86_64"))]
 impl Packet {
+    /// The packet of `rays` ray by ray, from the single-ray walks' own constructors: the
+    /// reference the vectorised `packet` of each unit is tested against.
     fn new(rays: &[Ray<f32>]) -> Packet {
         use super::simd::RayConsts;
         debug_assert!(!rays.is_empty() && rays.len() <= MAX_W);
@@ -312,6 +319,85 @@ macro_rules! packet_walks {
         use crate::cpu::closest::Closest;
         use crate::cpu::real::Real;
         use crate::cpu::simd::Candidate;
+        use crate::cpu::traverse::Ray;
+
+        /// The packet of `rays` (1 to W of them): the single-ray walks' constants
+        /// (`traverse_bvh::BoxRay::new`, `RayShear::new`, `RayConsts::new`) W rays at a
+        /// time, with the same operations; lanes past the rays repeat the last one and are
+        /// not live.
+        ///
+        /// # Safety
+        /// The CPU must have the module's feature.
+        #[target_feature(enable = $feature)]
+        pub(super) unsafe fn packet(rays: &[Ray<f32>]) -> Packet {
+            debug_assert!(!rays.is_empty() && rays.len() <= W);
+            let n = rays.len();
+            // Origin, direction and interval, lane by lane.
+            let mut f = [[0.0f32; MAX_W]; 8];
+            for i in 0..W {
+                let r = &rays[i.min(n - 1)];
+                let v = [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.t_min, r.t_max];
+                for (k, x) in v.into_iter().enumerate() {
+                    f[k][i] = x;
+                }
+            }
+            // SAFETY: each array holds MAX_W >= W f32.
+            let l = |k: usize| unsafe { load(f[k].as_ptr()) };
+            let (o, d) = ([l(0), l(1), l(2)], [l(3), l(4), l(5)]);
+            let (zero, one) = (splat(0.0), splat(1.0));
+            let all = from_bits(if W == 32 { u32::MAX } else { (1u32 << W) - 1 });
+            let inv = [div(one, d[0]), div(one, d[1]), div(one, d[2])];
+            // `RayShear::new`: kz the largest |d| (ties to the lower axis), kx and ky the
+            // next two, swapped when d[kz] < 0.
+            let a = [abs(d[0]), abs(d[1]), abs(d[2])];
+            let z0 = mand(le(a[1], a[0]), le(a[2], a[0]));
+            let z1 = mandnot(z0, le(a[2], a[1]));
+            let z2 = mandnot(mor(z0, z1), all);
+            let dz = select(z0, d[0], select(z1, d[1], d[2]));
+            let sw = lt(dz, zero);
+            let keep = mandnot(sw, all);
+            let either = |p: M, q: M| mor(mand(p, keep), mand(q, sw));
+            // axis[j][c]: shear axis j is axis c.
+            let axis = [
+                [either(z2, z1), either(z0, z2), either(z1, z0)],
+                [either(z1, z2), either(z2, z0), either(z0, z1)],
+                [z0, z1, z2],
+            ];
+            let pick3 = |m: &[M; 3], v: &[V; 3]| select(m[1], v[1], select(m[2], v[2], v[0]));
+            let (dx, dy) = (pick3(&axis[0], &d), pick3(&axis[1], &d));
+            let s = [div(dx, dz), div(dy, dz), div(one, dz)];
+            let ok = [
+                pick3(&axis[0], &o),
+                pick3(&axis[1], &o),
+                pick3(&axis[2], &o),
+            ];
+            let mut p = Packet {
+                o: [[0.0; MAX_W]; 3],
+                inv: [[0.0; MAX_W]; 3],
+                ok: [[0.0; MAX_W]; 3],
+                s: [[0.0; MAX_W]; 3],
+                t_min: f[6],
+                t_max: f[7],
+                neg: [0; 3],
+                axis: [[0; 3]; 3],
+                live: (1u32 << n) - 1,
+            };
+            for k in 0..3 {
+                // SAFETY: each array holds MAX_W >= W f32.
+                unsafe {
+                    store(p.o[k].as_mut_ptr(), o[k]);
+                    store(p.inv[k].as_mut_ptr(), inv[k]);
+                    store(p.ok[k].as_mut_ptr(), ok[k]);
+                    store(p.s[k].as_mut_ptr(), s[k]);
+                }
+                // 1 / -0 is -inf: negative, as the zero's sign says.
+                p.neg[k] = bits(lt(inv[k], zero));
+                for c in 0..3 {
+                    p.axis[k][c] = bits(axis[k][c]);
+                }
+            }
+            p
+        }
 
         /// A packet's constants in lanes.
         struct Lv {
@@ -711,3 +797,84 @@ mod k8 {
 #[cfg(test)]
 #[path = "traverse_packet_tests.rs"]
 mod tests;
+
+/// The vectorised packet set-up against the ray-by-ray one, bit for bit.
+#[cfg(all(test, target_arch = "x86_64"))]
+mod build_tests {
+    use super::*;
+    use crate::testing::{random_rays, ray_of, test_seed, Rng};
+    use glam::DVec3;
+
+    /// Every field of the packet, as bits, for comparison.
+    fn fields(p: &Packet) -> Vec<u32> {
+        let mut v = vec![p.live];
+        for a in [&p.o, &p.inv, &p.ok, &p.s] {
+            v.extend(a.iter().flatten().map(|x| x.to_bits()));
+        }
+        v.extend(p.t_min.iter().chain(&p.t_max).map(|x| x.to_bits()));
+        v.extend(p.neg);
+        v.extend(p.axis.iter().flatten());
+        v
+    }
+
+    #[test]
+    fn vector_setup_is_the_ray_by_ray_setup() {
+        let seed = test_seed("packet setup", 0x9ACE_0001);
+        let mut rng = Rng::new(seed);
+        let mut rays: Vec<Ray<f32>> = random_rays(&mut rng, 300, 2.0)
+            .into_iter()
+            .map(|(o, d, t)| ray_of(o, d, t))
+            .collect();
+        // Zero components of both signs, ties between |d| components, negative kz.
+        for d in [
+            [0.0, 0.0, 1.0],
+            [-0.0, 0.0, -1.0],
+            [1.0, 1.0, 0.0],
+            [-1.0, 1.0, 1.0],
+            [0.0, -1.0, -0.0],
+            [-2.0, 2.0, -2.0],
+            [0.5, -0.0, -0.5],
+        ] {
+            rays.push(ray_of(DVec3::new(0.1, 0.2, 0.3), DVec3::from_array(d), 5.0));
+        }
+        for isa in [PacketIsa::Avx512, PacketIsa::Avx2] {
+            if !isa.available() {
+                continue;
+            }
+            let w = isa.lanes();
+            for n in [1, 3, w - 1, w] {
+                for chunk in rays.chunks(n) {
+                    // SAFETY: `isa` is available.
+                    let p = unsafe {
+                        match isa {
+                            PacketIsa::Avx512 => k16::packet(chunk),
+                            PacketIsa::Avx2 => k8::packet(chunk),
+                        }
+                    };
+                    let mut want = Packet::new(chunk);
+                    // The reference fills all MAX_W lanes; the unit only its W.
+                    for i in w..MAX_W {
+                        for a in 0..3 {
+                            want.o[a][i] = 0.0;
+                            want.inv[a][i] = 0.0;
+                            want.ok[a][i] = 0.0;
+                            want.s[a][i] = 0.0;
+                            want.neg[a] &= (1 << w) - 1;
+                            for c in 0..3 {
+                                want.axis[a][c] &= (1 << w) - 1;
+                            }
+                        }
+                        want.t_min[i] = 0.0;
+                        want.t_max[i] = 0.0;
+                    }
+                    assert_eq!(
+                        fields(&p),
+                        fields(&want),
+                        "seed {seed} {}: {n} rays",
+                        isa.name()
+                    );
+                }
+            }
+        }
+    }
+}
