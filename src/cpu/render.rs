@@ -338,6 +338,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                 let (mut pixels, mut rays, mut hits, mut work) =
                     (Vec::new(), Vec::new(), Vec::new(), Vec::new());
                 let (mut colors, mut normals) = (Vec::new(), Vec::new());
+                let (mut pos, mut dirs) = ([Vec::new(), Vec::new()], Default::default());
                 let cols = (batch / rows).max(1) as u32;
                 for i0 in (region.x0..region.x1).step_by(cols as usize) {
                     let i1 = (i0 + cols).min(region.x1);
@@ -349,13 +350,26 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                             }
                         }
                     }
-                    rays.clear();
+                    pos.iter_mut().for_each(Vec::clear);
                     for &(i, j) in &pixels {
                         for &(ox, oy) in &offsets {
-                            let (px, py) = (i as f64 + ox, j as f64 + oy);
-                            rays.push(self.primary_ray_in(&frame, w, h, px, py));
+                            pos[0].push(i as f64 + ox);
+                            pos[1].push(j as f64 + oy);
                         }
                     }
+                    frame.directions(w, h, &pos[0], &pos[1], &mut dirs);
+                    let eye = V3::from_vec3(self.camera.eye);
+                    rays.clear();
+                    rays.extend((0..pos[0].len()).map(|k| Ray {
+                        o: eye,
+                        d: V3::new(
+                            T::from_f64(dirs[0][k]),
+                            T::from_f64(dirs[1][k]),
+                            T::from_f64(dirs[2][k]),
+                        ),
+                        t_min: T::ZERO,
+                        t_max: T::BIG,
+                    }));
                     tally.primary += rays.len() as u64;
                     hits.clear();
                     hits.resize(rays.len(), None);
