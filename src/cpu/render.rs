@@ -9,7 +9,8 @@ use rayon::prelude::*;
 
 use super::real::{Real, V3};
 use super::shade::{
-    albedo, light_term, offset_origin_with, secondary, shadow_origin, surface, SurfacePoint,
+    albedo, geometric_normal, light_term, offset_origin_with, secondary, shadow_origin,
+    surface_with, SurfacePoint,
 };
 use super::traverse::{Hit, Ray, Trace, Work};
 use super::walker::Walker;
@@ -62,6 +63,9 @@ pub struct CpuRenderer<'a, T, W = Walker<'a, T>> {
     background: V3<T>,
     ambient: V3<T>,
     techniques: Techniques,
+    /// Each triangle's unit geometric normal, worked out once (`shade::geometric_normal`)
+    /// rather than at every hit.
+    ng: Vec<V3<T>>,
 }
 
 /// Output of a CPU render: the one backend output type, with `work` always counted.
@@ -92,9 +96,11 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         max_depth: u32,
         techniques: Techniques,
     ) -> Self {
+        let ng = walker.tris().par_iter().map(geometric_normal).collect();
         CpuRenderer {
             scene,
             camera: scene.camera,
+            ng,
             walker,
             techniques,
             max_depth,
@@ -228,7 +234,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     #[inline]
     fn begin(&self, ray: &Ray<T>, hit: &Hit<T>) -> Shading<'a, T> {
         let verts = &self.walker.tris()[hit.tri as usize];
-        let sp = surface(self.scene, verts, hit, ray.d);
+        let sp = surface_with(self.scene, verts, self.ng[hit.tri as usize], hit, ray.d);
         let m = &self.scene.materials[sp.material as usize];
         let alb = albedo(m, sp.p);
         let color = alb.mul_elem(self.ambient) * T::from_f32(m.ka);

@@ -59,19 +59,37 @@ pub fn surface<T: Real>(
     hit: &Hit<T>,
     d: V3<T>,
 ) -> SurfacePoint<T> {
-    let [b0, b1, b2] = hit.b;
-    let p = verts[0] * b0 + verts[1] * b1 + verts[2] * b2;
-    let p_err =
-        ((verts[0] * b0).abs() + (verts[1] * b1).abs() + (verts[2] * b2).abs()) * T::gamma(7);
+    surface_with(scene, verts, geometric_normal(verts), hit, d)
+}
+
+/// The unit geometric normal of triangle `verts` (winding order): what [`surface`] uses,
+/// worked out once per triangle by a renderer that shades many hits.
+#[inline]
+pub fn geometric_normal<T: Real>(verts: &[V3<T>; 3]) -> V3<T> {
     let n_raw = (verts[1] - verts[0]).cross(verts[2] - verts[0]);
     let len = n_raw.length();
     // Hits on zero-area triangles are impossible (`intersect` rejects a zero normal), but
     // guard anyway so no NaN can ever reach a pixel.
-    let ng = if len > T::ZERO {
+    if len > T::ZERO {
         n_raw * (T::ONE / len)
     } else {
         V3::new(T::ZERO, T::ONE, T::ZERO)
-    };
+    }
+}
+
+/// [`surface`] with the triangle's [`geometric_normal`] `ng` given.
+#[inline]
+pub fn surface_with<T: Real>(
+    scene: &Scene,
+    verts: &[V3<T>; 3],
+    ng: V3<T>,
+    hit: &Hit<T>,
+    d: V3<T>,
+) -> SurfacePoint<T> {
+    let [b0, b1, b2] = hit.b;
+    let p = verts[0] * b0 + verts[1] * b1 + verts[2] * b2;
+    let p_err =
+        ((verts[0] * b0).abs() + (verts[1] * b1).abs() + (verts[2] * b2).abs()) * T::gamma(7);
     let entering = d.dot(ng) < T::ZERO;
     let nf = if entering { ng } else { -ng };
     let tri = &scene.triangles[hit.tri as usize];
