@@ -32,13 +32,14 @@ W=$(mktemp -d)
 trap 'rm -rf "$W"' EXIT
 status=0
 
-# Reads "LABEL KEY VALUE ..." lines on stdin (also echoed), prints per LABEL and KEY the
-# median over rounds; where LABEL starts with OLD/NEW, the NEW/OLD ratio of the medians.
+# Reads "OLD|NEW LABEL :: KEY VALUE ..." lines on stdin and echoes them as they come, then
+# prints per LABEL and KEY the median over rounds of NEW, of OLD and NEW/OLD.
 medians() {
-    tee /dev/stderr | python3 -c '
+    python3 -u -c '
 import collections, re, statistics as st, sys
 v = collections.defaultdict(list)
 for line in sys.stdin:
+    print(line, end="", flush=True)
     w = line.split()
     if len(w) < 3 or w[0] not in ("OLD", "NEW"):
         continue
@@ -53,7 +54,7 @@ for (label, k, who) in sorted(v):
     o = v.get((label, k, "OLD"))
     r = " (%.3f)" % (n / st.median(o)) if o and st.median(o) else ""
     print("%-48s %-14s OLD %10s  NEW %10.2f%s" % (label, k, "%.2f" % st.median(o) if o else "-", n, r))
-' 2>&1
+'
 }
 # `json FILE EXPR`: EXPR over the --stats JSON `d` (statistics as `st`).
 json() { python3 -c "import json, statistics as st, sys; d = json.load(open(sys.argv[1])); print($2)" "$1"; }
@@ -69,13 +70,14 @@ suite_gpu() {
                 echo "$v equal-work ${size}² steady frame :: $(json "$W/st.json" '"render_ms %.3f gpu_ms %.3f" % (st.median(f["render"]["render_ms"] for f in d["per_frame"][1:]), st.median(f["render"]["gpu"]["gpu_ms_total"] for f in d["per_frame"][1:]))' 2>/dev/null || echo failed)"
             done
             for s in scenes/bunny.toml ""; do
+                n=$(basename "${s:-builtin}" .toml)
                 # shellcheck disable=SC2086
-                "$b" render $s --width 4096 --height 4096 -q -o "$W/sc-$v-${s:+bunny}.png" --stats "$W/sc.json" 2>>"$W/stderr"
+                "$b" render $s --width 4096 --height 4096 -q -o "$W/sc-$v-$n.png" --stats "$W/sc.json" 2>>"$W/stderr"
                 echo "$v ${s:-built-in scene} 4096² :: $(json "$W/sc.json" '"gpu_ms %.3f render_ms %.1f" % (d["gpu"]["gpu_ms_total"], d["render_ms"])' 2>/dev/null || echo failed)"
             done
         done
     done | medians
-    for f in st-OLD-4096-0009 st-OLD-1024-0009 sc-OLD-bunny sc-OLD-; do
+    for f in st-OLD-4096-0009 st-OLD-1024-0009 sc-OLD-bunny sc-OLD-builtin; do
         echo "image ${f#*-OLD-}: $("$NEW" compare "$W/$f.png" "$W/${f/OLD/NEW}.png" 2>&1 | tail -1)"
     done
 }
