@@ -8,6 +8,8 @@
 #   ci/h200/compare.sh OLD NEW SUITE...     (env: ROUNDS, default 5)
 #
 # OLD, NEW: paths of the binaries (on the device, .devbin/NAME; OLD may be - for `tiles`).
+# SIZES (default "4096 1024"): the `gpu` suite's image sides, the first also the scenes' and
+# `tiles`'; FRAMES (default all): the turntable's frames in `frames`.
 # SUITE, one or more of:
 #   gpu     the compute kernel: the equal-work view's steady-state frame (frames 2..10 of
 #           `render --frames`, ci/h200/equal-work-still.toml) at 4096² and 1024², and the
@@ -27,6 +29,7 @@ cd "$(dirname "$0")/../.."
 OLD=$1 NEW=$2
 shift 2
 ROUNDS=${ROUNDS:-5}
+read -r -a SIZES <<< "${SIZES:-4096 1024}"
 . ci/h200/setup.sh
 W=$(mktemp -d)
 trap 'rm -rf "$W"' EXIT
@@ -56,28 +59,39 @@ for (label, k, who) in sorted(v):
     print("%-48s %-14s OLD %10s  NEW %10.2f%s" % (label, k, "%.2f" % st.median(o) if o else "-", n, r))
 '
 }
-# `json FILE EXPR`: EXPR over the --stats JSON `d` (statistics as `st`).
-json() { python3 -c "import json, statistics as st, sys; d = json.load(open(sys.argv[1])); print($2)" "$1"; }
+# `json FILE EXPR`: EXPR over the --stats JSON `d` (statistics as `st`, `nz` for a figure the
+# driver may not have: NaN, which the medians skip); the file is removed,
+# so that a render that fails cannot be read as the one before it.
+json() {
+    python3 -c "import json, statistics as st, sys; d = json.load(open(sys.argv[1]))
+nz = lambda x: float('nan') if x is None else x  # no timer queries (llvmpipe): not a figure
+print($2)" "$1"
+    local rc=$?
+    rm -f "$1"
+    return $rc
+}
 
 suite_gpu() {
-    for b in "$OLD" "$NEW"; do "$b" render ci/peers/equal-work.toml --width 256 --height 256 -q -o "$W/warm.png" 2>/dev/null; done
+    for b in "$OLD" "$NEW"; do "$b" render ci/peers/equal-work.toml --backend gl --width 256 --height 256 -q -o "$W/warm.png" 2>/dev/null; done
     for ((r = 1; r <= ROUNDS; r++)); do
         for v in OLD NEW; do
             b=${!v}
-            for size in 4096 1024; do
-                "$b" render ci/h200/equal-work-still.toml --frames 0..9 --width $size --height $size -q \
+            for size in "${SIZES[@]}"; do
+                "$b" render ci/h200/equal-work-still.toml --backend gl --frames 0..9 --width "$size" --height "$size" -q \
                     -o "$W/st-$v-$size-####.png" --stats "$W/st.json" 2>>"$W/stderr"
-                echo "$v equal-work ${size}² steady frame :: $(json "$W/st.json" '"render_ms %.3f gpu_ms %.3f" % (st.median(f["render"]["render_ms"] for f in d["per_frame"][1:]), st.median(f["render"]["gpu"]["gpu_ms_total"] for f in d["per_frame"][1:]))' 2>/dev/null || echo failed)"
+                echo "$v equal-work ${size}² steady frame :: $(json "$W/st.json" '"render_ms %.3f gpu_ms %.3f" % (st.median(f["render"]["render_ms"] for f in d["per_frame"][1:]), st.median(nz(f["render"]["gpu"]["gpu_ms_total"]) for f in d["per_frame"][1:]))' 2>/dev/null || echo failed)"
             done
             for s in scenes/bunny.toml ""; do
                 n=$(basename "${s:-builtin}" .toml)
                 # shellcheck disable=SC2086
-                "$b" render $s --width 4096 --height 4096 -q -o "$W/sc-$v-$n.png" --stats "$W/sc.json" 2>>"$W/stderr"
-                echo "$v ${s:-built-in scene} 4096² :: $(json "$W/sc.json" '"gpu_ms %.3f render_ms %.1f" % (d["gpu"]["gpu_ms_total"], d["render_ms"])' 2>/dev/null || echo failed)"
+                "$b" render $s --backend gl --width "${SIZES[0]}" --height "${SIZES[0]}" -q -o "$W/sc-$v-$n.png" \
+                    --stats "$W/sc.json" 2>>"$W/stderr"
+                echo "$v ${s:-built-in scene} ${SIZES[0]}² :: $(json "$W/sc.json" '"gpu_ms %.3f render_ms %.1f" % (nz(d["gpu"]["gpu_ms_total"]), d["render_ms"])' 2>/dev/null || echo failed)"
             done
         done
     done | medians
-    for f in st-OLD-4096-0009 st-OLD-1024-0009 sc-OLD-bunny sc-OLD-builtin; do
+    for f in "${SIZES[@]/#/st-OLD-}" sc-OLD-bunny sc-OLD-builtin; do
+        [[ $f == st-* ]] && f=$f-0009
         echo "image ${f#*-OLD-}: $("$NEW" compare "$W/$f.png" "$W/${f/OLD/NEW}.png" 2>&1 | tail -1)"
     done
 }
@@ -114,32 +128,32 @@ suite_frames() {
     for ((r = 1; r <= ROUNDS; r++)); do
         for v in OLD NEW; do
             t0=$(date +%s%N)
-            "${!v}" render scenes/turntable.toml --frames all --width 1024 --height 1024 -q -o "$W/tt-$v-####.png" \
+            "${!v}" render scenes/turntable.toml --frames "${FRAMES:-all}" --width 1024 --height 1024 -q -o "$W/tt-$v-####.png" \
                 --stats "$W/tt.json" 2>>"$W/stderr"
-            echo "$v turntable 120 x 1024² PNG :: wall_ms $(( ($(date +%s%N) - t0) / 1000000 ))"
+            echo "$v turntable frames ${FRAMES:-all} at 1024² to PNG :: wall_ms $(( ($(date +%s%N) - t0) / 1000000 ))"
             [ $r = "$ROUNDS" ] && frames_line "$W/tt.json" >&2
         done
     done | medians
 }
 
 suite_tiles() {
-    local S=scenes/bunny.toml
-    "$NEW" render $S --width 1024 --height 1024 -q -o "$W/warm.png"
+    local S=scenes/bunny.toml n=${SIZES[0]}
+    "$NEW" render $S --width 256 --height 256 -q -o "$W/warm.png"
     for ((r = 1; r <= ROUNDS; r++)); do
         t0=$(date +%s%N)
-        "$NEW" render $S --width 4096 --height 4096 -q -o "$W/one.png"
-        echo "NEW bunny 4096² one process :: wall_ms $(( ($(date +%s%N) - t0) / 1000000 ))"
-        for n in 2 4; do
+        "$NEW" render $S --width "$n" --height "$n" -q -o "$W/one.png"
+        echo "NEW bunny ${n}² one process :: wall_ms $(( ($(date +%s%N) - t0) / 1000000 ))"
+        for k in 2 4; do
             rm -rf "$W/p" && mkdir -p "$W/p"
             t0=$(date +%s%N)
-            for ((i = 0; i < n; i++)); do
-                "$NEW" render $S --width 4096 --height 4096 -q --tile $i/$n -o "$W/p/part-$i.exr" &
+            for ((i = 0; i < k; i++)); do
+                "$NEW" render $S --width "$n" --height "$n" -q --tile $i/$k -o "$W/p/part-$i.exr" &
             done
             wait
             t1=$(date +%s%N)
             "$NEW" merge "$W"/p/part-*.exr -o "$W/m.png"
-            echo "NEW bunny 4096² $n tile processes :: wall_ms $(( (t1 - t0) / 1000000 )) merge_ms $(( ($(date +%s%N) - t1) / 1000000 ))"
-            cmp -s "$W/one.png" "$W/m.png" || echo "merged PNG of $n tiles differs from the single render" >&2
+            echo "NEW bunny ${n}² $k tile processes :: wall_ms $(( (t1 - t0) / 1000000 )) merge_ms $(( ($(date +%s%N) - t1) / 1000000 ))"
+            cmp -s "$W/one.png" "$W/m.png" || echo "merged PNG of $k tiles differs from the single render" >&2
         done
     done | medians
 }
