@@ -25,8 +25,13 @@
 #           structure, OLD against NEW (exit 1 when any image differs)
 set -uo pipefail
 [ $# -ge 3 ] || { sed -n '2,25p' "$0" >&2; exit 2; }
+# The binaries by absolute path: the suites run from the repository's root.
+abs() { if [ "$1" = - ]; then echo -; else realpath "$1"; fi; }
+OLD=$(abs "$1") NEW=$(abs "$2")
+for b in "$OLD" "$NEW"; do
+    [ "$b" = - ] || [ -x "$b" ] || { echo "not an executable: $b" >&2; exit 2; }
+done
 cd "$(dirname "$0")/../.."
-OLD=$1 NEW=$2
 shift 2
 ROUNDS=${ROUNDS:-5}
 read -r -a SIZES <<< "${SIZES:-4096 1024}"
