@@ -29,7 +29,7 @@ const H: u32 = 48;
 /// Colour RMSE bound of GL against the f32 CPU, its twin (linear values clamped to [0, 1]),
 /// at 64x48. Since the local origin (positions relative to the eye) and GL's primary rays
 /// taken from the CPU's, measured at most 4.3e-7 on llvmpipe and 5.7e-6 on the H200 (dragon;
-/// docs/bench/h200/house/after-issue16-gpu_backend.log); about 3.5x. (Before, one grazing
+/// the run log, `git show b97da3f:docs/bench/h200/house/after-issue16-gpu_backend.log`); about 3.5x. (Before, one grazing
 /// primary ray on cornell gave 8.9e-3.)
 const RMSE_VS_F32: f64 = 2e-5;
 /// Colour RMSE bound of GL against the f64 CPU reference. Measured at most 4.5e-6 on

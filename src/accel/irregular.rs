@@ -9,8 +9,8 @@
 //! about what the mesh alone costs (the case a uniform or a two-level grid cannot fit).
 //!
 //! Why this and not the two-level grid of Kalojanov et al. 2011 (removed, recoverable with
-//! `git show 5d36e05:src/accel/two_level.rs`; docs/architecture.md): both were built and
-//! measured here (`docs/performance.md`). The two-level grid meets the bunny target, but a mesh on a floor
+//! `git show 5d36e05:src/accel/two_level.rs`): both were built and measured here
+//! (`docs/performance.md`, "Tried and not kept"). The two-level grid meets the bunny target, but a mesh on a floor
 //! 100x its size puts the whole mesh in one top cell whose uniform sub-grid is spread over
 //! the floor piece: 86.7 triangle tests per ray against 5.8 for `scenes/bunny.toml`. The
 //! voxel map subdivides only where the triangles are, and the exit boxes skip the floor's

@@ -246,7 +246,7 @@ pub(crate) fn v3(v: V3<f32>) -> [f32; 3] {
 /// Mesa's llvmpipe does (bit-exact where the twins promise it), so the strict bounds, which
 /// catch a one-ulp slip, apply there. NVIDIA's compiler contracts `a * b + c` into fused
 /// multiply-adds and reorders sums: on the H200 the same code differs by tens of f32
-/// epsilons (barycentrics 48.5, surface points 40.6; docs/bench/h200/house/twins-*.log), so
+/// epsilons (barycentrics 48.5, surface points 40.6; run logs in git, b97da3f:docs/bench/h200/house/), so
 /// other drivers get the `*_CONTRACTING` bounds, measured there.
 pub(crate) fn exact_driver(ctx: &GlContext) -> bool {
     ctx.info.renderer.contains("llvmpipe")
