@@ -26,6 +26,7 @@ use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::simd::Isa;
 use fragtrace::cpu::traverse::{CellWalk, GridWalker, Ray, Trace, Work};
 use fragtrace::cpu::traverse_bvh::BvhWalker;
+use fragtrace::cpu::traverse_packet::PacketIsa;
 use fragtrace::cpu::walker::Walker;
 use fragtrace::gpu::options::GpuOptions;
 use fragtrace::gpu::options::Kernel;
@@ -508,6 +509,30 @@ pub fn cpu_closest<'a, T: Real>(
                 .find(|&k| simd[k] != found[k])
                 .map(|k| (rays[k], found[k], simd[k]))
         );
+        // The packet walk (the renderer's default): the rays as one batch, in packets of
+        // each unit this CPU has; the same hits (its work is counted per packet).
+        for packets in [PacketIsa::Avx512, PacketIsa::Avx2] {
+            if !packets.available() {
+                continue;
+            }
+            let p =
+                BvhWalker::with_packets(scene, b, Techniques::default(), Isa::detect(), packets);
+            let batch: Vec<_> = rays.iter().map(|r| r.cpu::<f32>()).collect();
+            let mut hits = vec![None; batch.len()];
+            let mut work = vec![Work::default(); batch.len()];
+            p.closest_hits(&batch, &mut hits, &mut work);
+            let differ: Vec<usize> = (0..rays.len())
+                .filter(|&k| hits[k].map(|h| (h.t as f64, h.tri)) != found[k].hit)
+                .collect();
+            assert!(
+                differ.is_empty(),
+                "the BVH's {}-packet walk differs from the scalar one on {} of {} rays, e.g. ray {:?}",
+                packets.name(),
+                differ.len(),
+                rays.len(),
+                differ.first().map(|&k| (rays[k], found[k], hits[k]))
+            );
+        }
     }
     found
 }
@@ -536,6 +561,21 @@ pub fn cpu_any<'a, T: Real>(
             "the BVH's vectorised f32 any-hit ({}) differs from the scalar one",
             v.isa().name()
         );
+        for packets in [PacketIsa::Avx512, PacketIsa::Avx2] {
+            if !packets.available() {
+                continue;
+            }
+            let p =
+                BvhWalker::with_packets(scene, b, Techniques::default(), Isa::detect(), packets);
+            let batch: Vec<_> = rays.iter().map(|r| r.cpu::<f32>()).collect();
+            let mut hit = vec![false; batch.len()];
+            p.any_hits(&batch, &mut hit, &mut Work::default());
+            assert!(
+                hit == any,
+                "the BVH's {}-packet any-hit differs from the scalar one",
+                packets.name()
+            );
+        }
     }
     any
 }
@@ -716,10 +756,15 @@ pub fn render_all_with(ctx: &GlContext, scene: &Scene, techniques: Techniques) -
         if !is_gl(bi) {
             let r = render_cpu(scene, &o).unwrap();
             if o.precision == Precision::F32 {
-                // The vectorised path (the default) must take the scalar twin's decisions.
+                // The vectorised paths must take the scalar twin's decisions: the default
+                // (ray packets on the BVH, which count their work per packet) the same
+                // image and hits, the single-ray one the same work too.
                 o.cpu_path = CpuPath::Scalar;
                 let s = render_cpu(scene, &o).unwrap();
-                assert_same_cpu_paths(&r, &s, BACKENDS[bi]);
+                o.cpu_path = CpuPath::Simd;
+                let v = render_cpu(scene, &o).unwrap();
+                assert_same_cpu_paths(&r, &s, false, &format!("{} (packet)", BACKENDS[bi]));
+                assert_same_cpu_paths(&v, &s, true, &format!("{} (simd)", BACKENDS[bi]));
             }
             return r;
         }
@@ -758,13 +803,15 @@ pub fn dump(name: &str, img: &Image) {
     }
 }
 
-/// The f32 CPU's vectorised and scalar paths rendered the same image, AOVs and work, bit
-/// for bit (`--cpu-path`, src/cpu/simd_walk.rs).
-pub fn assert_same_cpu_paths(simd: &Rendered, scalar: &Rendered, who: &str) {
+/// The f32 CPU's vectorised and scalar paths rendered the same image and AOVs, bit for bit
+/// (`--cpu-path`, src/cpu/simd_walk.rs, src/cpu/traverse_packet.rs); with `work_too`, the
+/// same `steps` AOV and work counters as well (the single-ray paths; packets count the
+/// work their lanes did).
+pub fn assert_same_cpu_paths(simd: &Rendered, scalar: &Rendered, work_too: bool, who: &str) {
     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert!(
         bits(&simd.image.data) == bits(&scalar.image.data),
-        "{who}: --cpu-path simd and scalar images differ"
+        "{who}: the vectorised and scalar paths' images differ"
     );
     let px = |r: &Rendered| {
         r.aov
@@ -775,18 +822,21 @@ pub fn assert_same_cpu_paths(simd: &Rendered, scalar: &Rendered, who: &str) {
                     p.depth.to_bits(),
                     p.primid.to_bits(),
                     p.normal.map(f32::to_bits),
-                    p.steps.to_bits(),
+                    if work_too { p.steps.to_bits() } else { 0 },
                 )
             })
             .collect::<Vec<_>>()
     };
     assert!(
         px(simd) == px(scalar),
-        "{who}: --cpu-path simd and scalar AOVs differ"
+        "{who}: the vectorised and scalar paths' AOVs differ"
     );
+    if !work_too {
+        return;
+    }
     assert_eq!(
         (simd.stats.cells_visited, simd.stats.triangle_tests),
         (scalar.stats.cells_visited, scalar.stats.triangle_tests),
-        "{who}: --cpu-path simd and scalar work differs"
+        "{who}: the vectorised and scalar paths' work differs"
     );
 }
