@@ -90,7 +90,7 @@ fn exr_output_is_linear_float() {
     let img = fragtrace::image_io::read_image(&d.join("a.exr")).unwrap();
     assert_eq!((img.width, img.height), (8, 6));
     let scene = fragtrace::scene::builtin_scene();
-    let opts = fragtrace::options::RenderArgs::try_parse_from_args(&args)
+    let opts = fragtrace::choices::RenderArgs::try_parse_from_args(&args)
         .unwrap()
         .to_options(&scene)
         .unwrap();
