@@ -440,7 +440,7 @@ pub fn auto_declines(info: &GlInfo) -> Option<String> {
 /// The GL context the backend choice of `opts` renders in: None for the CPU. `Auto` uses
 /// the GPU when a suitable context can be made (on `--gpu N`'s device) and is not a
 /// software rasterizer ([`auto_declines`]), and otherwise the CPU, saying why in one line
-/// on stderr when `notices` (off with `-q`); `Gl` never falls back, and neither does a
+/// on stderr when `notices` (off with `-q`), with the GPU settings it leaves unused; `Gl` never falls back, and neither does a
 /// bad `--gpu N`. Returned with the options for that backend
 /// ([`RenderOptions::on_backend`]: `--accel auto` settled), which whoever prepares the
 /// render then uses.
@@ -461,8 +461,9 @@ fn choose_context(opts: &RenderOptions, notices: bool) -> Result<Option<GlContex
         Backend::Auto if !opts.accel_kind().on_gpu() => {
             if notices {
                 eprintln!(
-                    "fragtrace: notice: using the CPU backend: --accel {} is walked on the CPU only",
-                    opts.accel_kind().name()
+                    "fragtrace: notice: using the CPU backend: --accel {} is walked on the CPU only{}",
+                    opts.accel_kind().name(),
+                    unused_on_the_cpu(opts)
                 );
             }
             Ok(None)
@@ -478,10 +479,46 @@ fn choose_context(opts: &RenderOptions, notices: bool) -> Result<Option<GlContex
                 Err(e) => e.to_string(),
             };
             if notices {
-                eprintln!("fragtrace: notice: using the CPU backend: {why}");
+                eprintln!(
+                    "fragtrace: notice: using the CPU backend: {why}{}",
+                    unused_on_the_cpu(opts)
+                );
             }
             Ok(None)
         }
+    }
+}
+
+/// The GPU settings `opts` name that `--backend auto` leaves unused by taking the CPU, as
+/// the end of its notice (`; --kernel compute does not apply on the CPU`), or nothing:
+/// under `auto` they are accepted (either backend may run), so the notice says where they
+/// were overridden instead of a refusal.
+fn unused_on_the_cpu(opts: &RenderOptions) -> String {
+    use crate::gpu::options::{GpuOptions, Kernel, Mask, SceneFetch, Storage};
+    let (g, d) = (&opts.gpu, GpuOptions::default());
+    let mut named = Vec::new();
+    if g.kernel != Kernel::Auto {
+        named.push(format!("--kernel {}", g.kernel));
+    }
+    if g.mask != Mask::Auto {
+        named.push(format!("--mask {}", g.mask));
+    }
+    if g.storage != Storage::F32 {
+        named.push(format!("--storage {}", g.storage));
+    }
+    if g.scene_fetch != SceneFetch::Auto {
+        named.push(format!("--scene-fetch {}", g.scene_fetch));
+    }
+    if g.query_every != d.query_every {
+        named.push(format!("--query-every {}", g.query_every));
+    }
+    if g.no_specialize {
+        named.push("--no-specialize".into());
+    }
+    match named.len() {
+        0 => String::new(),
+        1 => format!("; {} does not apply on the CPU", named[0]),
+        _ => format!("; {} do not apply on the CPU", named.join(", ")),
     }
 }
 

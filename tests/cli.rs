@@ -945,6 +945,15 @@ fn auto_backend_takes_the_cpu_over_a_software_gl_and_says_so() {
         ] {
             assert!(n.contains(part), "`{part}` missing in: {n}");
         }
+        // A GPU setting under `auto` is accepted (either backend may run); where the CPU
+        // runs, the same one-line notice says it was not used (it used to be silent).
+        let (_, err) = render(&["--kernel", "looped", "--mask", "stencil"], "k.png");
+        let seen = notices(&err);
+        assert_eq!(seen.len(), 1, "{err}");
+        assert!(
+            seen[0].ends_with("; --kernel looped, --mask stencil do not apply on the CPU"),
+            "{err}"
+        );
         render(&["--backend", "cpu"], "cpu.png");
         assert!(
             std::fs::read(d.join("auto.png")).unwrap() == std::fs::read(d.join("cpu.png")).unwrap(),
