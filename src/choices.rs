@@ -16,7 +16,7 @@ use crate::accel::{AccelKind, GridConfig, GridRes};
 use crate::farm::plan::PartArgs;
 use crate::gpu::options::{Kernel, Mask, SceneFetch, Storage};
 use crate::options::{
-    AccelChoice, FrameRange, Backend, CpuPath, Precision, RenderOptions, MAX_DEPTH, MAX_IMAGE_SIDE,
+    AccelChoice, Backend, CpuPath, FrameRange, Precision, RenderOptions, MAX_DEPTH, MAX_IMAGE_SIDE,
     MAX_QUERY_EVERY, MAX_SPP,
 };
 use crate::scene::Scene;
@@ -33,6 +33,9 @@ pub enum Door {
     Bench,
     /// `fragtrace view`: always the GPU, in the window's own GL context.
     View,
+    /// `fragtrace dump-shaders`: the GPU's programs for the structure and techniques
+    /// chosen, every kernel's, written rather than run.
+    DumpShaders,
 }
 
 impl Door {
@@ -40,8 +43,18 @@ impl Door {
     /// accumulated while the window's camera stands still.
     pub fn default_spp(self) -> u32 {
         match self {
-            Door::Render | Door::Bench => 1,
+            Door::Render | Door::Bench | Door::DumpShaders => 1,
             Door::View => 16,
+        }
+    }
+
+    /// The command's name, where its refusals name it; None for `render`'s flags (a bench
+    /// configuration is `render`'s flags too).
+    fn command(self) -> Option<&'static str> {
+        match self {
+            Door::Render | Door::Bench => None,
+            Door::View => Some("view"),
+            Door::DumpShaders => Some("dump-shaders"),
         }
     }
 }
@@ -190,19 +203,30 @@ impl Choices {
     /// ([`crate::gpu::options::GpuOptions::resolve_kernel`]); under `--backend auto`,
     /// either backend's flags are accepted, since either may run.
     pub fn check(&self, door: Door) -> Result<()> {
-        let gpu_only = door == Door::View || self.backend == Backend::Gl;
-        if door == Door::View {
+        let command = door.command();
+        let gpu_only = command.is_some() || self.backend == Backend::Gl;
+        if let Some(cmd) = command {
             if self.backend == Backend::Cpu {
-                return Err(Error::Usage(
-                    "--backend cpu: `view` renders on the GPU, in its window; `fragtrace \
-                     render --backend cpu` renders on the CPU"
-                        .into(),
-                ));
+                return Err(Error::Usage(format!(
+                    "--backend cpu: `{cmd}` is for the GPU; `fragtrace render --backend cpu` \
+                     renders on the CPU"
+                )));
             }
             if let Some(n) = self.gpu {
                 return Err(Error::Usage(format!(
-                    "--gpu {n} picks the EGL device of a headless render; `view` renders in \
-                     its window's GL context: drop --gpu"
+                    "--gpu {n} picks the EGL device of a headless render; `{cmd}` opens \
+                     none: drop --gpu"
+                )));
+            }
+        }
+        if door == Door::DumpShaders {
+            // Every kernel's programs are written, whatever the kernel, mask or storage, and
+            // the size, samples, depth and query interval are uniforms, not source.
+            if let Some(flag) = self.dump_unused().first() {
+                let what = flag.split(' ').next().unwrap_or(flag);
+                return Err(Error::Usage(format!(
+                    "{flag} does not change the programs `dump-shaders` writes (every \
+                     kernel's, for the structure and techniques chosen): drop {what}"
                 )));
             }
         }
@@ -217,25 +241,25 @@ impl Choices {
         if gpu_only {
             if let Some(flag) = self.cpu_flags().first() {
                 let what = flag.split(' ').next().unwrap_or(flag);
-                return Err(Error::Usage(match door {
-                    Door::View => format!(
-                        "{flag} applies to the CPU backend; `view` renders on the GPU, in \
-                         f32: drop {what}"
+                return Err(Error::Usage(match command {
+                    Some(cmd) => format!(
+                        "{flag} applies to the CPU backend; `{cmd}` is for the GPU, in f32: \
+                         drop {what}"
                     ),
-                    Door::Render | Door::Bench => format!(
+                    None => format!(
                         "{flag} applies to the CPU backend; --backend gl renders on the GPU, \
                          in f32: drop {what}, or take --backend cpu"
                     ),
                 }));
             }
             if self.accel == AccelChoice::Bvh {
-                return Err(Error::Usage(match door {
-                    Door::View => "--accel bvh is walked on the CPU backend only; `view` \
-                                   renders on the GPU: take --accel irregular or uniform"
-                        .into(),
-                    Door::Render | Door::Bench => "--accel bvh is walked on the CPU backend \
-                                                   only: take --backend cpu, or --accel \
-                                                   irregular for the GPU"
+                return Err(Error::Usage(match command {
+                    Some(cmd) => format!(
+                        "--accel bvh is walked on the CPU backend only; `{cmd}` is for the \
+                         GPU: take --accel irregular or uniform"
+                    ),
+                    None => "--accel bvh is walked on the CPU backend only: take --backend \
+                             cpu, or --accel irregular for the GPU"
                         .into(),
                 }));
             }
@@ -244,6 +268,26 @@ impl Choices {
             self.gpu_options().refuse_inapplicable(self.kernel, true)?;
         }
         Ok(())
+    }
+
+    /// The flags given that do not change the programs `dump-shaders` writes.
+    fn dump_unused(&self) -> Vec<String> {
+        let mut given: Vec<String> = self
+            .gpu_flags()
+            .into_iter()
+            .filter(|f| f != "--no-specialize")
+            .collect();
+        for (flag, v) in [
+            ("--width", self.width),
+            ("--height", self.height),
+            ("--spp", self.spp),
+            ("--max-depth", self.max_depth),
+        ] {
+            if let Some(v) = v {
+                given.push(format!("{flag} {v}"));
+            }
+        }
+        given
     }
 
     /// The GPU backend's options these choices ask for (defaults filled in).
@@ -272,7 +316,7 @@ impl Choices {
         opts.precision = self.precision.unwrap_or(Precision::F64);
         opts.cpu_path = self.cpu_path.unwrap_or_default();
         opts.backend = match door {
-            Door::View => Backend::Gl,
+            Door::View | Door::DumpShaders => Backend::Gl,
             Door::Render | Door::Bench => self.backend,
         };
         // `auto` with a density asks for a grid: the irregular one, on either backend.
@@ -308,7 +352,10 @@ impl Choices {
             )));
         }
         opts.grid = grid;
-        if let Some(k) = self.query_every.filter(|k| !(1..=MAX_QUERY_EVERY).contains(k)) {
+        if let Some(k) = self
+            .query_every
+            .filter(|k| !(1..=MAX_QUERY_EVERY).contains(k))
+        {
             return Err(Error::Usage(format!(
                 "--query-every {k} is outside 1..={MAX_QUERY_EVERY}"
             )));
@@ -487,13 +534,34 @@ mod tests {
     fn flags_of_the_other_backend_are_refused() {
         for (flags, flag) in [
             (&["--backend", "cpu", "--gpu", "7"][..], "--gpu 7"),
-            (&["--backend", "cpu", "--kernel", "multipass"][..], "--kernel multipass"),
-            (&["--backend", "cpu", "--mask", "stencil"][..], "--mask stencil"),
-            (&["--backend", "cpu", "--storage", "f32"][..], "--storage f32"),
-            (&["--backend", "cpu", "--query-every", "8"][..], "--query-every 8"),
-            (&["--backend", "gl", "--precision", "f32"][..], "--precision f32"),
-            (&["--backend", "gl", "--precision", "f64"][..], "--precision f64"),
-            (&["--backend", "gl", "--cpu-path", "scalar"][..], "--cpu-path scalar"),
+            (
+                &["--backend", "cpu", "--kernel", "multipass"][..],
+                "--kernel multipass",
+            ),
+            (
+                &["--backend", "cpu", "--mask", "stencil"][..],
+                "--mask stencil",
+            ),
+            (
+                &["--backend", "cpu", "--storage", "f32"][..],
+                "--storage f32",
+            ),
+            (
+                &["--backend", "cpu", "--query-every", "8"][..],
+                "--query-every 8",
+            ),
+            (
+                &["--backend", "gl", "--precision", "f32"][..],
+                "--precision f32",
+            ),
+            (
+                &["--backend", "gl", "--precision", "f64"][..],
+                "--precision f64",
+            ),
+            (
+                &["--backend", "gl", "--cpu-path", "scalar"][..],
+                "--cpu-path scalar",
+            ),
         ] {
             let m = refusal(Door::Render, flags);
             assert!(m.starts_with(flag), "{flags:?}: {m}");
@@ -509,8 +577,14 @@ mod tests {
     #[test]
     fn flags_of_the_other_kernel_are_refused() {
         for (flags, flag) in [
-            (&["--kernel", "compute", "--mask", "stencil"][..], "--mask stencil"),
-            (&["--kernel", "compute", "--storage", "f16"][..], "--storage f16"),
+            (
+                &["--kernel", "compute", "--mask", "stencil"][..],
+                "--mask stencil",
+            ),
+            (
+                &["--kernel", "compute", "--storage", "f16"][..],
+                "--storage f16",
+            ),
             (
                 &["--kernel", "looped", "--scene-fetch", "storage-buffer"][..],
                 "--scene-fetch storage-buffer",
@@ -543,6 +617,37 @@ mod tests {
         assert_eq!(options(Door::Render, &[]).unwrap().spp, 1);
     }
 
+    /// `dump-shaders` takes the same flags: those that change its programs (structure,
+    /// techniques, `--no-specialize`) apply, the others are refused, naming the command.
+    #[test]
+    fn dump_shaders_takes_the_choices_that_change_programs() {
+        let d = Door::DumpShaders;
+        let o = options(
+            d,
+            &[
+                "--accel",
+                "uniform",
+                "--intersect",
+                "moller-trumbore",
+                "--no-specialize",
+            ],
+        )
+        .unwrap();
+        assert_eq!(o.on_backend(true).accel_kind(), AccelKind::Uniform);
+        assert_eq!(o.techniques.intersect, IntersectMethod::MollerTrumbore);
+        assert!(o.gpu.no_specialize);
+        for (flags, flag) in [
+            (&["--spp", "4"][..], "--spp 4"),
+            (&["--kernel", "looped"][..], "--kernel looped"),
+            (&["--accel", "bvh"][..], "--accel bvh"),
+            (&["--precision", "f32"][..], "--precision f32"),
+        ] {
+            let m = refusal(d, flags);
+            assert!(m.starts_with(flag) && m.contains("dump-shaders"), "{m}");
+            assert!(!m.contains("--backend"), "{m}");
+        }
+    }
+
     /// `--accel auto` (the default) stays `auto` until the backend is settled, when
     /// `on_backend` takes the BVH for the CPU and the irregular grid for the GPU; a density
     /// asks for the irregular grid on either; a named structure is never changed.
@@ -559,10 +664,19 @@ mod tests {
             assert_eq!(o.irregular.top_density, 0.5);
             for (name, k) in [("uniform", Uniform), ("irregular", Irregular)] {
                 let o = options(Door::Render, &["--backend", backend, "--accel", name]).unwrap();
-                assert_eq!((o.on_backend(false).accel_kind(), o.on_backend(true).accel_kind()), (k, k));
+                assert_eq!(
+                    (
+                        o.on_backend(false).accel_kind(),
+                        o.on_backend(true).accel_kind()
+                    ),
+                    (k, k)
+                );
             }
         }
-        assert_eq!(choice(&["--backend", "cpu", "--accel", "bvh"]), AccelChoice::Bvh);
+        assert_eq!(
+            choice(&["--backend", "cpu", "--accel", "bvh"]),
+            AccelChoice::Bvh
+        );
 
         let auto = options(Door::Render, &[]).unwrap();
         assert_eq!(auto.on_backend(false).accel_kind(), Bvh);
@@ -571,7 +685,12 @@ mod tests {
         assert_eq!(auto.on_backend(false).on_backend(true).accel_kind(), Bvh);
         // Unsettled, `auto` is the GPU's for `--backend auto` and `gl`, the CPU's for `cpu`.
         assert_eq!(auto.accel_kind(), Irregular);
-        assert_eq!(options(Door::Render, &["--backend", "cpu"]).unwrap().accel_kind(), Bvh);
+        assert_eq!(
+            options(Door::Render, &["--backend", "cpu"])
+                .unwrap()
+                .accel_kind(),
+            Bvh
+        );
         // The library's own defaults name the irregular grid.
         let lib = RenderOptions::for_scene(&crate::scene::builtin_scene());
         assert_eq!(lib.accel, AccelChoice::Irregular);
@@ -583,7 +702,10 @@ mod tests {
     #[test]
     fn quiet_and_verbose_are_refused_together() {
         let e = RenderArgs::try_parse_from_args(&["-q", "-v"]).unwrap_err();
-        assert!(matches!(e, Error::Usage(ref m) if m.contains("--verbose")), "{e}");
+        assert!(
+            matches!(e, Error::Usage(ref m) if m.contains("--verbose")),
+            "{e}"
+        );
         assert!(RenderArgs::try_parse_from_args(&["-v"]).is_ok());
     }
 
@@ -595,8 +717,15 @@ mod tests {
             &["--backend", "cpu", "--grid", "4x4x4"][..],
             &["--backend", "gl", "--grid", "4x4x4"][..],
         ] {
-            assert!(matches!(options(Door::Render, flags), Err(Error::Usage(_))), "{flags:?}");
+            assert!(
+                matches!(options(Door::Render, flags), Err(Error::Usage(_))),
+                "{flags:?}"
+            );
         }
-        assert!(options(Door::Render, &["--backend", "cpu", "--accel", "uniform", "--grid", "4x4x4"]).is_ok());
+        assert!(options(
+            Door::Render,
+            &["--backend", "cpu", "--accel", "uniform", "--grid", "4x4x4"]
+        )
+        .is_ok());
     }
 }

@@ -87,9 +87,9 @@ impl Plan {
     /// The structure walked.
     pub fn accel(&self) -> AccelKind {
         match *self {
-            Plan::Cpu { accel, .. } | Plan::Fragment { accel, .. } | Plan::Compute { accel, .. } => {
-                accel
-            }
+            Plan::Cpu { accel, .. }
+            | Plan::Fragment { accel, .. }
+            | Plan::Compute { accel, .. } => accel,
         }
     }
 
@@ -212,10 +212,7 @@ impl FromStr for Plan {
                 "compute" => Plan::Compute {
                     accel,
                     scene_fetch: word("scene-fetch", take("scene-fetch")?)?,
-                    fallback: pairs
-                        .remove("fallback")
-                        .map(fragment_kernel)
-                        .transpose()?,
+                    fallback: pairs.remove("fallback").map(fragment_kernel).transpose()?,
                 },
                 k => Plan::Fragment {
                     accel,

@@ -787,7 +787,10 @@ fn flags_that_do_not_apply_are_refused_on_every_front_door() {
         ),
         (
             &["--kernel", "looped", "--scene-fetch", "storage-buffer"],
-            &["--scene-fetch storage-buffer", "applies to the compute kernel"],
+            &[
+                "--scene-fetch storage-buffer",
+                "applies to the compute kernel",
+            ],
         ),
         (
             &["--kernel", "compute", "--storage", "f16"],
@@ -798,21 +801,47 @@ fn flags_that_do_not_apply_are_refused_on_every_front_door() {
         let line = fails(&d, &args, &[], said);
         assert!(!line.contains("limit exceeded"), "{line}");
     }
-    fails(&d, &[&["render", "-q", "-v"][..], &size].concat(), &[], &["--verbose"]);
+    fails(
+        &d,
+        &[&["render", "-q", "-v"][..], &size].concat(),
+        &[],
+        &["--verbose"],
+    );
     // `view` has no --backend cpu to advise: the structures it does have instead.
     for (flags, said) in [
-        (&["--accel", "bvh"][..], &["--accel bvh", "--accel irregular"][..]),
-        (&["--precision", "f32"], &["--precision f32", "applies to the CPU backend"]),
-        (&["--kernel", "compute", "--mask", "stencil"], &["--mask stencil"]),
+        (
+            &["--accel", "bvh"][..],
+            &["--accel bvh", "--accel irregular"][..],
+        ),
+        (
+            &["--precision", "f32"],
+            &["--precision f32", "applies to the CPU backend"],
+        ),
+        (
+            &["--kernel", "compute", "--mask", "stencil"],
+            &["--mask stencil"],
+        ),
     ] {
         let line = fails(&d, &[&["view"][..], flags].concat(), &[], said);
         assert!(!line.contains("--backend"), "{line}");
     }
     // A bench configuration goes through the same rule.
-    write(&d, "c.toml", "[configs]\nodd = \"--backend cpu --kernel looped\"\n");
+    write(
+        &d,
+        "c.toml",
+        "[configs]\nodd = \"--backend cpu --kernel looped\"\n",
+    );
     let line = fails(
         &d,
-        &["bench", "--configs", "c.toml", "--scenes", "whitted", "--out", "b"],
+        &[
+            "bench",
+            "--configs",
+            "c.toml",
+            "--scenes",
+            "whitted",
+            "--out",
+            "b",
+        ],
         &[],
         &["--kernel looped", "applies to the GPU backend"],
     );

@@ -556,7 +556,10 @@ mod tests {
             (two[0].name.as_str(), two[1].name.as_str()),
             ("gl-looped", "cpu-f32")
         );
-        assert_eq!(two[0].render.choices.kernel, crate::gpu::options::Kernel::Looped);
+        assert_eq!(
+            two[0].render.choices.kernel,
+            crate::gpu::options::Kernel::Looped
+        );
     }
 
     #[test]

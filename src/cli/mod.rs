@@ -5,9 +5,8 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::accel::GridConfig;
-use crate::image_io;
 use crate::choices::{clap_error_line, count_in, Choices, Door, RenderArgs};
+use crate::image_io;
 use crate::render;
 use crate::scene::{self, Scene};
 use crate::{Error, Result};
@@ -118,6 +117,12 @@ pub struct DumpArgs {
     /// `techniques-<setting>` per non-default robustness technique (what CI validates).
     #[arg(long)]
     pub all_variants: bool,
+    /// The render's choices, as `render` takes them: the programs are those of the
+    /// structure (`--accel`, `--grid`, `--grid-density`) and techniques chosen, with
+    /// `--no-specialize` every shading feature; the flags that change no program are
+    /// refused ([`crate::choices::Choices::check`]).
+    #[command(flatten)]
+    pub choices: Choices,
 }
 
 /// Arguments of `compare`.
@@ -427,7 +432,10 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
     let scene = load(args.scene.as_deref())?;
     // The render flags go through `render`'s own conversion and checks, at `view`'s door;
     // the window renders on the GPU, so `--accel auto` is the GPU's structure.
-    let render = args.choices.to_options(&scene, Door::View)?.on_backend(true);
+    let render = args
+        .choices
+        .to_options(&scene, Door::View)?
+        .on_backend(true);
     let opts = crate::view::ViewOptions {
         render,
         frames: args.frames,
@@ -482,15 +490,22 @@ pub fn run(cli: Cli) -> Result<bool> {
             } else {
                 load(Some(&args.scene))?
             };
-            // The default structure's shaders: what `render` compiles.
-            let accel = crate::accel::Accel::build(
+            // The structure and techniques the choices name, on the GPU: what `render`
+            // compiles for them.
+            let opts = args
+                .choices
+                .to_options(&scene, Door::DumpShaders)?
+                .on_backend(true);
+            let accel =
+                crate::accel::Accel::build(&scene, opts.accel_kind(), &opts.grid, &opts.irregular)?;
+            let files = crate::gpu::shader::dump_shaders_as(
                 &scene,
-                crate::accel::AccelKind::default(),
-                &GridConfig::default(),
-                &crate::accel::IrregularConfig::default(),
+                &accel,
+                &args.dir,
+                args.all_variants,
+                opts.techniques,
+                opts.gpu.no_specialize,
             )?;
-            let files =
-                crate::gpu::shader::dump_shaders(&scene, &accel, &args.dir, args.all_variants)?;
             println!("{} files written to {}", files.len(), args.dir.display());
             Ok(true)
         }

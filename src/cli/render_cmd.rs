@@ -5,9 +5,9 @@
 use std::path::Path;
 
 use super::{check_writable, load};
+use crate::choices::RenderArgs;
 use crate::farm::plan::PartPlan;
 use crate::image_io;
-use crate::choices::RenderArgs;
 use crate::region::Region;
 use crate::render;
 use crate::scene::Scene;
@@ -31,10 +31,18 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
             ))
         })?;
         let frames: Vec<u32> = frames.frames(&path.frames())?.collect();
-        let parts = PartPlan::new(&args.parts, &args.output, args.stats.as_deref(), Some(&frames), env)?.expect("parts wanted");
+        let parts = PartPlan::new(
+            &args.parts,
+            &args.output,
+            args.stats.as_deref(),
+            Some(&frames),
+            env,
+        )?
+        .expect("parts wanted");
         return run_parts(args, &parts, scene).map(Some);
     }
-    if let Some(parts) = PartPlan::new(&args.parts, &args.output, args.stats.as_deref(), None, env)? {
+    if let Some(parts) = PartPlan::new(&args.parts, &args.output, args.stats.as_deref(), None, env)?
+    {
         let scene = load(args.scene.as_deref())?;
         return run_parts(args, &parts, scene).map(Some);
     }
