@@ -184,7 +184,7 @@ impl FromStr for Plan {
     /// backend once, no other).
     fn from_str(s: &str) -> std::result::Result<Plan, String> {
         let words: Vec<&str> = s.split_whitespace().collect();
-        if words.len() % 2 != 0 {
+        if !words.len().is_multiple_of(2) {
             return Err(format!("`{s}`: a plan is pairs of --flag value"));
         }
         let mut pairs = std::collections::BTreeMap::new();

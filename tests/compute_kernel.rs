@@ -135,7 +135,7 @@ fn compute_equals_looped_and_cpu_on_every_shipped_scene() {
         {
             let label = format!("{name} {}", accel.name());
             let o = |backend, precision, kernel| RenderOptions {
-                accel,
+                accel: accel.into(),
                 ..opts(scene, backend, precision, kernel)
             };
             let gl = |k| render_gl_with(ctx, scene, &o(Backend::Gl, Precision::F32, k));

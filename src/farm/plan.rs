@@ -107,8 +107,8 @@ impl PartPlan {
                 (Cut::Tiles(tiling), Some(task), units)
             }
         };
-        let template = OutputTemplate::new(&output);
-        let format = Format::from_path(&output)?;
+        let template = OutputTemplate::new(output);
+        let format = Format::from_path(output)?;
         let tiles = match cut {
             Cut::Tiles(t) => t.count(),
             Cut::Region(_) => 1,
