@@ -48,8 +48,9 @@ impl GpuOptions {
         Ok(kernel)
     }
 
-    /// The one rule for the GPU options that apply to some kernels only: a mask and
-    /// 16-bit ray textures to the fragment kernels (the compute kernel draws no passes and
+    /// The one rule for the GPU options that apply to some kernels only: a mask (early-z or
+    /// stencil; `none` is what the compute kernel does anyway) and 16-bit ray textures to
+    /// the fragment kernels (the compute kernel draws no passes and
     /// keeps its rays in registers), a scene fetch to the compute kernel. Each is refused
     /// with one line naming the option and why, as [`crate::Error::Usage`]; `explicit`
     /// says whether the user named `kernel` or `auto` chose it. Checked before a context is
@@ -64,7 +65,7 @@ impl GpuOptions {
             }
         );
         let why = match kernel {
-            Kernel::Compute if self.mask != Mask::Auto => Some(format!(
+            Kernel::Compute if matches!(self.mask, Mask::EarlyZ | Mask::Stencil) => Some(format!(
                 "--mask {} applies to the fragment kernels' passes; {runs}, which draws none",
                 self.mask
             )),
