@@ -6,7 +6,7 @@
 //!
 //! The plan travels typed into the statistics ([`crate::render::RenderStats::plan`]), the
 //! summary line and the part headers (`crate::farm::options_line`), which all print it
-//! with the one [`Display`](std::fmt::Display); [`FromStr`](std::str::FromStr) reads that
+//! with the one [`Display`](std::fmt::Display); [`FromStr`] reads that
 //! text back (`fragtrace merge` compares parts by it).
 
 use std::fmt;
