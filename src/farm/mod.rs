@@ -110,3 +110,31 @@ pub fn write_unit(
         _ => write_image(path, &out.image),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::Plan;
+
+    /// The plan a part header carries reads back as the plan that was written, between the
+    /// size flags before it and the structure's parameters after it; a line without one
+    /// has none.
+    #[test]
+    fn the_plan_reads_back_from_a_part_header() {
+        let plan = Plan::Fragment {
+            accel: crate::accel::AccelKind::Uniform,
+            kernel: crate::gpu::options::FragmentKernel::Unrolled(4),
+            mask: crate::gpu::options::Mask::EarlyZ,
+            storage: crate::gpu::options::Storage::F32,
+        };
+        let line = format!(
+            "--width 8 --height 6 --spp 1 --max-depth 5 {plan} --grid auto --grid-density 8.0 \
+             --techniques default --specialize yes"
+        );
+        assert_eq!(plan_of(&line), Some(plan));
+        let cpu = "--width 8 --height 6 --spp 1 --max-depth 5 --backend cpu --accel bvh \
+                   --precision f64 --cpu-path simd --techniques default";
+        assert!(matches!(plan_of(cpu), Some(Plan::Cpu { .. })));
+        assert_eq!(plan_of("--width 8 --height 6 --spp 1"), None);
+    }
+}
