@@ -8,8 +8,10 @@
 //! [`accel`] (grid build), [`cpu`] (reference renderer), [`gpu`] (headless GL context,
 //! owning GL objects, the Rust/GLSL contract, texel layout, shaders, the scene uploaded once,
 //! the fragment and compute wings), [`output`] and [`image_io`] (what a render produces), [`options`]
-//! (render flags and options), [`render`] (backend-independent front door), [`farm`] (parts
-//! of images as tasks of a batch scheduler, and merging them), [`bench`](mod@bench)
+//! (render options), [`plan`] (what a render runs, resolved once), [`render`]
+//! (backend-independent front door), [`farm`] (parts of images as tasks of a batch
+//! scheduler, and merging them), [`choices`] (the render flags every front door shares),
+//! [`bench`](mod@bench)
 //! (speed against error) and [`cli`]; beside them [`region`] (the pixels a render
 //! computes), [`technique`] (switches for the robustness techniques), [`aov`] (AOV files)
 //! and [`compare`] (error figures).
@@ -28,6 +30,8 @@ pub mod aov;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod bench;
 #[cfg(not(target_arch = "wasm32"))]
+pub mod choices;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod cli;
 pub mod clock;
 #[cfg(not(target_arch = "wasm32"))]
@@ -42,6 +46,8 @@ pub mod numeric;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod options;
 pub mod output;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod plan;
 pub mod progress;
 pub mod region;
 #[cfg(not(target_arch = "wasm32"))]

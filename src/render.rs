@@ -23,15 +23,18 @@ use crate::scene::{Camera, Scene};
 use crate::Result;
 
 use crate::options::{Backend, CpuPath, Precision, RenderOptions};
+use crate::plan::Plan;
 
 /// Statistics of one render (written by `--stats FILE.json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderStats {
-    /// "cpu" or "gl".
+    /// What ran, every `auto` resolved ([`Plan`]; written as its flags).
+    pub plan: Plan,
+    /// "cpu" or "gl" (the plan's backend).
     pub backend: String,
     /// CPU precision or GPU device name.
     pub device: String,
-    /// "f32" or "f64" arithmetic.
+    /// "f32" or "f64" arithmetic (the plan's).
     pub precision: String,
     /// Scene source.
     pub scene: String,
@@ -110,7 +113,7 @@ pub struct Prepared<'s> {
 /// Checks `opts` and builds the acceleration structure they name for `scene`.
 pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s>> {
     opts.validate()?;
-    let accel = Accel::build(scene, opts.accel, &opts.grid, &opts.irregular)?;
+    let accel = Accel::build(scene, opts.accel_kind(), &opts.grid, &opts.irregular)?;
     let summary = accel.as_ref().summary(scene.triangles.len());
     Ok(Prepared {
         scene,
@@ -123,7 +126,14 @@ impl<'s> Prepared<'s> {
     /// A renderer of this scene on the CPU.
     pub fn cpu_renderer(&self, opts: &RenderOptions) -> Renderer<'_> {
         let (scene, depth, tech) = (self.scene, opts.max_depth, opts.techniques);
-        let (engine, kernel) = match (self.accel.as_ref(), opts.precision, opts.cpu_path) {
+        let plan = Plan::Cpu {
+            accel: self.summary.kind,
+            precision: opts.precision,
+            path: opts.cpu_path,
+        };
+        // The one switch from the CPU choices to an engine.
+        let (precision, path) = (plan.precision(), opts.cpu_path);
+        let (engine, kernel) = match (self.accel.as_ref(), precision, path) {
             (AccelRef::Bvh(b), Precision::F64, _) => {
                 let walker = BvhWalker::new(scene, b, tech);
                 let r = CpuRenderer::with_walker(scene, walker, depth, tech);
@@ -161,6 +171,7 @@ impl<'s> Prepared<'s> {
         Renderer {
             prepared: self,
             opts: opts.clone(),
+            plan,
             engine,
             device: format!("cpu ({} threads, {kernel})", rayon::current_num_threads()),
             pending_ms: 0.0,
@@ -176,11 +187,15 @@ impl<'s> Prepared<'s> {
     ) -> Result<Renderer<'r>> {
         let px = opts.pixels();
         ctx.info.check_image_size(px.width(), px.height())?;
+        // Resolved before anything is uploaded: a kernel the context lacks, or an option
+        // that does not apply to it, is refused now.
+        let plan = Plan::resolve(opts, self.summary.kind, Some(&ctx.info))?;
         let t0 = Instant::now();
         let gs = GpuScene::new(ctx, self.scene, &self.accel, opts.gpu.no_specialize)?;
         Ok(Renderer {
             prepared: self,
             opts: opts.clone(),
+            plan,
             engine: Engine::Gl(Box::new(gs)),
             device: ctx.info.renderer.clone(),
             pending_ms: t0.elapsed().as_secs_f64() * 1e3,
@@ -218,17 +233,17 @@ impl<'s> Prepared<'s> {
     fn rendered(
         &self,
         opts: &RenderOptions,
+        plan: Plan,
         out: BackendOutput,
-        backend: &str,
         device: String,
-        precision: &str,
         render_ms: f64,
     ) -> Rendered {
         let summary = self.summary.clone();
         let stats = RenderStats {
-            backend: backend.into(),
+            plan,
+            backend: plan.backend().into(),
             device,
-            precision: precision.into(),
+            precision: plan.precision().name().into(),
             scene: self.scene.source.clone(),
             width: opts.width,
             height: opts.height,
@@ -306,6 +321,8 @@ enum Engine<'p> {
 pub struct Renderer<'p> {
     prepared: &'p Prepared<'p>,
     opts: RenderOptions,
+    /// What runs, resolved once when the renderer was made.
+    plan: Plan,
     engine: Engine<'p>,
     device: String,
     /// Set-up time not yet charged to a frame (the GPU scene's packing).
@@ -334,41 +351,41 @@ impl Renderer<'_> {
     pub fn render(&mut self, camera: &Camera) -> Result<Rendered> {
         let opts = &self.opts;
         let t0 = Instant::now();
-        let (out, backend, precision) = match &mut self.engine {
+        let out = match &mut self.engine {
             Engine::Cpu64(r) => {
                 r.set_camera(*camera);
-                (cpu_frame(r, opts), "cpu", "f64")
+                cpu_frame(r, opts)
             }
             Engine::Cpu32(r) => {
                 r.set_camera(*camera);
-                (cpu_frame(r, opts), "cpu", "f32")
+                cpu_frame(r, opts)
             }
             Engine::Cpu32Simd(r) => {
                 r.set_camera(*camera);
-                (cpu_frame(r, opts), "cpu", "f32")
+                cpu_frame(r, opts)
             }
             Engine::Cpu64Bvh(r) => {
                 r.set_camera(*camera);
-                (cpu_frame(r, opts), "cpu", "f64")
+                cpu_frame(r, opts)
             }
             Engine::Cpu32Bvh(r) => {
                 r.set_camera(*camera);
-                (cpu_frame(r, opts), "cpu", "f32")
+                cpu_frame(r, opts)
             }
             Engine::Gl(gs) => {
                 let req = self.prepared.request(opts, camera);
-                (gpu::render::render(gs, &req, None)?, "gl", "f32")
+                gpu::render::render(gs, &req, None)?
             }
         };
         let render_ms = t0.elapsed().as_secs_f64() * 1e3 + std::mem::take(&mut self.pending_ms);
-        Ok(self.prepared.rendered(
-            opts,
-            out,
-            backend,
-            self.device.clone(),
-            precision,
-            render_ms,
-        ))
+        Ok(self
+            .prepared
+            .rendered(opts, self.plan, out, self.device.clone(), render_ms))
+    }
+
+    /// What this renderer runs.
+    pub fn plan(&self) -> Plan {
+        self.plan
     }
 
     /// The GPU scene, for a GPU renderer.
@@ -434,7 +451,7 @@ pub fn auto_declines(info: &GlInfo) -> Option<String> {
 /// The GL context the backend choice of `opts` renders in: None for the CPU. `Auto` uses
 /// the GPU when a suitable context can be made (on `--gpu N`'s device) and is not a
 /// software rasterizer ([`auto_declines`]), and otherwise the CPU, saying why in one line
-/// on stderr when `notices` (off with `-q`); `Gl` never falls back, and neither does a
+/// on stderr when `notices` (off with `-q`), with the GPU settings it leaves unused; `Gl` never falls back, and neither does a
 /// bad `--gpu N`. Returned with the options for that backend
 /// ([`RenderOptions::on_backend`]: `--accel auto` settled), which whoever prepares the
 /// render then uses.
@@ -452,11 +469,12 @@ fn choose_context(opts: &RenderOptions, notices: bool) -> Result<Option<GlContex
     match opts.backend {
         Backend::Cpu => Ok(None),
         Backend::Gl => GlContext::on_device(opts.device).map(Some),
-        Backend::Auto if !opts.accel.on_gpu() => {
+        Backend::Auto if !opts.accel_kind().on_gpu() => {
             if notices {
                 eprintln!(
-                    "fragtrace: notice: using the CPU backend: --accel {} is walked on the CPU only",
-                    opts.accel.name()
+                    "fragtrace: notice: using the CPU backend: --accel {} is walked on the CPU only{}",
+                    opts.accel_kind().name(),
+                    unused_on_the_cpu(opts)
                 );
             }
             Ok(None)
@@ -472,10 +490,46 @@ fn choose_context(opts: &RenderOptions, notices: bool) -> Result<Option<GlContex
                 Err(e) => e.to_string(),
             };
             if notices {
-                eprintln!("fragtrace: notice: using the CPU backend: {why}");
+                eprintln!(
+                    "fragtrace: notice: using the CPU backend: {why}{}",
+                    unused_on_the_cpu(opts)
+                );
             }
             Ok(None)
         }
+    }
+}
+
+/// The GPU settings `opts` name that `--backend auto` leaves unused by taking the CPU, as
+/// the end of its notice (`; --kernel compute does not apply on the CPU`), or nothing:
+/// under `auto` they are accepted (either backend may run), so the notice says where they
+/// were overridden instead of a refusal.
+fn unused_on_the_cpu(opts: &RenderOptions) -> String {
+    use crate::gpu::options::{GpuOptions, Kernel, Mask, SceneFetch, Storage};
+    let (g, d) = (&opts.gpu, GpuOptions::default());
+    let mut named = Vec::new();
+    if g.kernel != Kernel::Auto {
+        named.push(format!("--kernel {}", g.kernel));
+    }
+    if g.mask != Mask::Auto {
+        named.push(format!("--mask {}", g.mask));
+    }
+    if g.storage != Storage::F32 {
+        named.push(format!("--storage {}", g.storage));
+    }
+    if g.scene_fetch != SceneFetch::Auto {
+        named.push(format!("--scene-fetch {}", g.scene_fetch));
+    }
+    if g.query_every != d.query_every {
+        named.push(format!("--query-every {}", g.query_every));
+    }
+    if g.no_specialize {
+        named.push("--no-specialize".into());
+    }
+    match named.len() {
+        0 => String::new(),
+        1 => format!("; {} does not apply on the CPU", named[0]),
+        _ => format!("; {} do not apply on the CPU", named.join(", ")),
     }
 }
 

@@ -755,3 +755,96 @@ fn grid_without_accel_uniform_and_bad_accel_flags_are_usage_errors() {
     // Nothing was rendered by any of them.
     only_inputs(&d, &[]);
 }
+
+/// The one rule for flags that do not apply to the backend or kernel chosen (issue 51):
+/// on every front door (render, view, a bench configuration) each is refused in one line
+/// naming the flag and why, exit code 2, before anything renders, and the advice names
+/// only flags that door has. Before, `--backend cpu --gpu 7`, `--backend cpu --kernel
+/// multipass`, `--backend gl --precision f32` and `--kernel compute --mask stencil`
+/// rendered and ignored the flag, `--kernel compute --storage f16` was refused as a
+/// limit, `-q -v` printed the verbose tables, and `view --accel bvh` advised
+/// `--backend cpu`, which `view` does not take.
+#[test]
+fn flags_that_do_not_apply_are_refused_on_every_front_door() {
+    let d = tmpdir("apply");
+    let size = ["--width", "8", "--height", "6", "-o", "out.png"];
+    for (flags, said) in [
+        (
+            &["--backend", "cpu", "--gpu", "7"][..],
+            &["--gpu 7", "applies to the GPU backend"][..],
+        ),
+        (
+            &["--backend", "cpu", "--kernel", "multipass"],
+            &["--kernel multipass", "applies to the GPU backend"],
+        ),
+        (
+            &["--backend", "gl", "--precision", "f32"],
+            &["--precision f32", "applies to the CPU backend"],
+        ),
+        (
+            &["--kernel", "compute", "--mask", "stencil"],
+            &["--mask stencil", "applies to the fragment kernels"],
+        ),
+        (
+            &["--kernel", "looped", "--scene-fetch", "storage-buffer"],
+            &[
+                "--scene-fetch storage-buffer",
+                "applies to the compute kernel",
+            ],
+        ),
+        (
+            &["--kernel", "compute", "--storage", "f16"],
+            &["--storage f16", "applies to the fragment kernels"],
+        ),
+    ] {
+        let args = [&["render"][..], flags, &size].concat();
+        let line = fails(&d, &args, &[], said);
+        assert!(!line.contains("limit exceeded"), "{line}");
+    }
+    fails(
+        &d,
+        &[&["render", "-q", "-v"][..], &size].concat(),
+        &[],
+        &["--verbose"],
+    );
+    // `view` has no --backend cpu to advise: the structures it does have instead.
+    for (flags, said) in [
+        (
+            &["--accel", "bvh"][..],
+            &["--accel bvh", "--accel irregular"][..],
+        ),
+        (
+            &["--precision", "f32"],
+            &["--precision f32", "applies to the CPU backend"],
+        ),
+        (
+            &["--kernel", "compute", "--mask", "stencil"],
+            &["--mask stencil"],
+        ),
+    ] {
+        let line = fails(&d, &[&["view"][..], flags].concat(), &[], said);
+        assert!(!line.contains("--backend"), "{line}");
+    }
+    // A bench configuration goes through the same rule.
+    write(
+        &d,
+        "c.toml",
+        "[configs]\nodd = \"--backend cpu --kernel looped\"\n",
+    );
+    let line = fails(
+        &d,
+        &[
+            "bench",
+            "--configs",
+            "c.toml",
+            "--scenes",
+            "whitted",
+            "--out",
+            "b",
+        ],
+        &[],
+        &["--kernel looped", "applies to the GPU backend"],
+    );
+    assert!(line.contains("odd"), "{line}");
+    only_inputs(&d, &["c.toml"]);
+}

@@ -90,7 +90,7 @@ fn exr_output_is_linear_float() {
     let img = fragtrace::image_io::read_image(&d.join("a.exr")).unwrap();
     assert_eq!((img.width, img.height), (8, 6));
     let scene = fragtrace::scene::builtin_scene();
-    let opts = fragtrace::options::RenderArgs::try_parse_from_args(&args)
+    let opts = fragtrace::choices::RenderArgs::try_parse_from_args(&args)
         .unwrap()
         .to_options(&scene)
         .unwrap();
@@ -836,10 +836,14 @@ fn gl21_irregular_multipass_equals_cpu_f32() {
             let mut cmd = bin();
             cmd.current_dir(&d)
                 .env("FRAGTRACE_MODEL_PATH", &models)
-                .args(["render", "--backend", backend, "--precision", "f32"])
-                .args(["--accel", "irregular", "--kernel", "multipass"])
+                .args(["render", "--backend", backend, "--accel", "irregular"])
                 .args(["--width", "48", "--height", "36", "--stats", "s.json", "-q"])
                 .args(["-o", out]);
+            // Each backend's own flags: the other's are refused.
+            match backend {
+                "gl" => cmd.args(["--kernel", "multipass"]),
+                _ => cmd.args(["--precision", "f32"]),
+            };
             if backend == "gl" {
                 cmd.env("MESA_GL_VERSION_OVERRIDE", "2.1")
                     .env("MESA_GLSL_VERSION_OVERRIDE", "120");
@@ -941,6 +945,15 @@ fn auto_backend_takes_the_cpu_over_a_software_gl_and_says_so() {
         ] {
             assert!(n.contains(part), "`{part}` missing in: {n}");
         }
+        // A GPU setting under `auto` is accepted (either backend may run); where the CPU
+        // runs, the same one-line notice says it was not used (it used to be silent).
+        let (_, err) = render(&["--kernel", "looped", "--mask", "stencil"], "k.png");
+        let seen = notices(&err);
+        assert_eq!(seen.len(), 1, "{err}");
+        assert!(
+            seen[0].ends_with("; --kernel looped, --mask stencil do not apply on the CPU"),
+            "{err}"
+        );
         render(&["--backend", "cpu"], "cpu.png");
         assert!(
             std::fs::read(d.join("auto.png")).unwrap() == std::fs::read(d.join("cpu.png")).unwrap(),

@@ -20,7 +20,7 @@ fn render_f32(scene: &fragtrace::scene::Scene, accel: AccelKind, path: CpuPath) 
     let mut o = RenderOptions::for_scene(scene);
     (o.width, o.height) = (160, 120);
     o.precision = Precision::F32;
-    o.accel = accel;
+    o.accel = accel.into();
     o.cpu_path = path;
     render_cpu(scene, &o).unwrap()
 }

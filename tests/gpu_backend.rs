@@ -76,7 +76,7 @@ fn opts(scene: &Scene, precision: Precision, accel: AccelKind) -> RenderOptions 
     o.width = W;
     o.height = H;
     o.precision = precision;
-    o.accel = accel;
+    o.accel = accel.into();
     o.backend = Backend::Gl;
     // The thesis's faithful kernel is what every scene is checked with; the faster kernels
     // run the same step chunk and are compared against it below.

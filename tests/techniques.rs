@@ -597,7 +597,7 @@ fn t_bound_and_offset_prevent_shadow_acne() {
 /// The command-line flags reach the render options; omitted, they are the defaults.
 #[test]
 fn command_line_flags_select_techniques() {
-    use fragtrace::options::RenderArgs;
+    use fragtrace::choices::RenderArgs;
     let scene = builtin_scene();
     let o = RenderArgs::try_parse_from_args::<&str>(&[])
         .unwrap()

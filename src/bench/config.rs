@@ -4,7 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::options::{RenderArgs, MAX_IMAGE_SIDE};
+use crate::choices::{Door, RenderArgs};
+use crate::options::MAX_IMAGE_SIDE;
 use crate::scene;
 use crate::{Error, Result};
 
@@ -264,9 +265,11 @@ impl BenchConfig {
                 s.display()
             )));
         }
-        // Value checks that the parser leaves to `RenderArgs::to_options` (ranges, grid density).
+        // Value checks that the parser leaves to `Choices::to_options` (ranges, grid
+        // density), and the flags that do not apply, at the bench's door.
         render
-            .to_options(&scene::builtin_scene())
+            .choices
+            .to_options(&scene::builtin_scene(), Door::Bench)
             .map_err(|e| bad(e.to_string()))?;
         let mut args = words.join(" ");
         if steady {
@@ -553,7 +556,10 @@ mod tests {
             (two[0].name.as_str(), two[1].name.as_str()),
             ("gl-looped", "cpu-f32")
         );
-        assert_eq!(two[0].render.kernel, crate::gpu::options::Kernel::Looped);
+        assert_eq!(
+            two[0].render.choices.kernel,
+            crate::gpu::options::Kernel::Looped
+        );
     }
 
     #[test]
@@ -587,7 +593,7 @@ mod tests {
         let c = parse_config_file(text, "c.toml").unwrap();
         let names: Vec<&str> = c.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(names, ["zeta", "gl-k4", "alpha"]);
-        assert_eq!(c[1].render.query_every, 4);
+        assert_eq!(c[1].render.choices.query_every, Some(4));
         for bad in [
             "[configs]\na = 3\n",
             "x = 1\n",

@@ -4,7 +4,7 @@
 //!
 //! A *configuration* is a name plus `render` arguments (`gl-multipass = "--backend gl
 //! --kernel multipass"`), parsed by the same parser as `fragtrace render`
-//! ([`RenderArgs`](crate::options::RenderArgs), from the options module below the CLI and
+//! ([`RenderArgs`](crate::choices::RenderArgs), from the choices module below the CLI and
 //! the bench). The shipped ones live in [`CONFIG_TABLE`], grouped into the presets
 //! `default`, `quick` and `all`; a TOML file can name others.
 //!

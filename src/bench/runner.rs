@@ -90,7 +90,7 @@ fn fit_to_machine<'a>(
     gl: &GlCache,
 ) -> (Vec<&'a BenchConfig>, Vec<String>, Option<String>) {
     let all: Vec<&BenchConfig> = opts.configs.iter().collect();
-    let uses_gl = |c: &BenchConfig| c.render.backend != Backend::Cpu;
+    let uses_gl = |c: &BenchConfig| c.render.choices.backend != Backend::Cpu;
     if !opts.fit_to_machine || !all.iter().any(|c| uses_gl(c)) {
         return (all, Vec::new(), None);
     }
@@ -101,7 +101,7 @@ fn fit_to_machine<'a>(
     let slow = |c: &BenchConfig| {
         uses_gl(c)
             && matches!(
-                c.render.kernel,
+                c.render.choices.kernel,
                 crate::gpu::options::Kernel::Multipass | crate::gpu::options::Kernel::Unrolled(_)
             )
     };
@@ -213,12 +213,10 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
         let reference = reference(spec, scene, opts.size, &refs_dir)?;
         let first_row = rows.len();
         for cfg in configs.iter().copied() {
-            let mut args = cfg.render.clone();
+            let mut args = cfg.render.choices.clone();
             args.width = Some(opts.size.width);
             args.height = Some(opts.size.height);
-            args.quiet = true;
-            args.verbose = false;
-            let row = match args.to_options(scene) {
+            let row = match args.to_options(scene, crate::choices::Door::Bench) {
                 Err(e) => BenchRow::failed(&spec.name, cfg, opts.size, e.to_string()),
                 Ok(ropts) => bench_one(&gl, spec, scene, cfg, &ropts, opts, &reference, &progress),
             };

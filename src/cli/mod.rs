@@ -5,11 +5,8 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::accel::GridConfig;
+use crate::choices::{clap_error_line, count_in, Choices, Door, RenderArgs};
 use crate::image_io;
-use crate::options::{
-    clap_error_line, count_in, RenderArgs, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_QUERY_EVERY, MAX_SPP,
-};
 use crate::render;
 use crate::scene::{self, Scene};
 use crate::{Error, Result};
@@ -56,50 +53,15 @@ pub enum Command {
     View(ViewArgs),
 }
 
-/// Arguments of `view`: the render flags that make sense interactively, and automation.
+/// Arguments of `view`: the render flags (the same as `render`'s), and automation.
 #[derive(Args, Debug, Clone)]
 pub struct ViewArgs {
     /// Scene file (TOML); the built-in default scene when omitted.
     pub scene: Option<PathBuf>,
-    /// Initial window width (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
-    pub width: Option<u32>,
-    /// Initial window height (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
-    pub height: Option<u32>,
-    /// Traversal kernel: auto (the fastest the context runs), compute (GL 4.3: the whole
-    /// ray tree per pixel in one dispatch), looped, multipass or unrolled:K (key `k`
-    /// switches).
-    #[arg(long, default_value = "auto")]
-    pub kernel: crate::gpu::options::Kernel,
-    /// Maximum reflection/refraction depth (default: the scene's, else 5; keys `+`/`-`).
-    #[arg(long, allow_negative_numbers = true, value_parser = count_in(0, MAX_DEPTH))]
-    pub max_depth: Option<u32>,
-    /// Samples per pixel accumulated while the camera stands still (stratified, the
-    /// pattern of `render --spp`); the picture is refined after each.
-    #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = count_in(1, MAX_SPP))]
-    pub spp: u32,
-    /// Acceleration structure: irregular (the default) or uniform (the thesis's grid); the
-    /// window renders on the GPU, which refuses the CPU's bvh.
-    #[arg(long, value_enum, default_value_t = crate::accel::AccelKind::default())]
-    pub accel: crate::accel::AccelKind,
-    /// Uniform grid resolution: auto or AxBxC (with --accel uniform).
-    #[arg(long, default_value = "auto")]
-    pub grid: crate::accel::GridRes,
-    /// Cells per triangle of the auto uniform grid, or top cells per triangle of the
-    /// irregular grid.
-    #[arg(long, allow_negative_numbers = true)]
-    pub grid_density: Option<f32>,
-    /// Traversal iterations between termination queries (K).
-    #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = count_in(1, MAX_QUERY_EVERY))]
-    pub query_every: u32,
-    /// Keep finished rays out of traversal passes: auto (early-z for multipass, none for
-    /// the others), none, early-z or stencil (key `z`).
-    #[arg(long, default_value = "auto")]
-    pub mask: crate::gpu::options::Mask,
-    /// Ray textures in 32- or 16-bit floats.
-    #[arg(long, default_value = "f32")]
-    pub storage: crate::gpu::options::Storage,
+    /// The render's choices, as `render` takes them; `view` renders on the GPU, and
+    /// refuses the CPU's flags ([`crate::choices::Choices::check`]).
+    #[command(flatten)]
+    pub choices: Choices,
     /// Present the render in progress at most every this many milliseconds.
     #[arg(long, default_value_t = 50.0)]
     pub frame_ms: f64,
@@ -155,6 +117,12 @@ pub struct DumpArgs {
     /// `techniques-<setting>` per non-default robustness technique (what CI validates).
     #[arg(long)]
     pub all_variants: bool,
+    /// The render's choices, as `render` takes them: the programs are those of the
+    /// structure (`--accel`, `--grid`, `--grid-density`) and techniques chosen, with
+    /// `--no-specialize` every shading feature; the flags that change no program are
+    /// refused ([`crate::choices::Choices::check`]).
+    #[command(flatten)]
+    pub choices: Choices,
 }
 
 /// Arguments of `compare`.
@@ -462,43 +430,14 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         )));
     }
     let scene = load(args.scene.as_deref())?;
-    // The render flags go through `render`'s own conversion and checks.
-    let render_args = RenderArgs {
-        scene: args.scene.clone(),
-        output: PathBuf::from("render.png"),
-        width: args.width,
-        height: args.height,
-        backend: crate::options::Backend::Gl,
-        precision: crate::options::Precision::F32,
-        cpu_path: crate::options::CpuPath::default(),
-        max_depth: args.max_depth,
-        spp: args.spp,
-        accel: args.accel.into(),
-        grid: args.grid,
-        grid_density: args.grid_density,
-        query_every: args.query_every,
-        kernel: args.kernel,
-        no_specialize: false,
-        mask: args.mask,
-        storage: args.storage,
-        scene_fetch: Default::default(),
-        intersect: Default::default(),
-        t_bound: Default::default(),
-        offset: Default::default(),
-        terminator: Default::default(),
-        aov: None,
-        stats: None,
-        tile: None,
-        region: None,
-        task_index: None,
-        tiles: None,
-        gpu: None,
-        frames: None,
-        quiet: true,
-        verbose: false,
-    };
+    // The render flags go through `render`'s own conversion and checks, at `view`'s door;
+    // the window renders on the GPU, so `--accel auto` is the GPU's structure.
+    let render = args
+        .choices
+        .to_options(&scene, Door::View)?
+        .on_backend(true);
     let opts = crate::view::ViewOptions {
-        render: render_args.to_options(&scene)?,
+        render,
         frames: args.frames,
         screenshot: args.screenshot.clone(),
         passes_per_frame: args.passes_per_frame,
@@ -551,15 +490,22 @@ pub fn run(cli: Cli) -> Result<bool> {
             } else {
                 load(Some(&args.scene))?
             };
-            // The default structure's shaders: what `render` compiles.
-            let accel = crate::accel::Accel::build(
+            // The structure and techniques the choices name, on the GPU: what `render`
+            // compiles for them.
+            let opts = args
+                .choices
+                .to_options(&scene, Door::DumpShaders)?
+                .on_backend(true);
+            let accel =
+                crate::accel::Accel::build(&scene, opts.accel_kind(), &opts.grid, &opts.irregular)?;
+            let files = crate::gpu::shader::dump_shaders_as(
                 &scene,
-                crate::accel::AccelKind::default(),
-                &GridConfig::default(),
-                &crate::accel::IrregularConfig::default(),
+                &accel,
+                &args.dir,
+                args.all_variants,
+                opts.techniques,
+                opts.gpu.no_specialize,
             )?;
-            let files =
-                crate::gpu::shader::dump_shaders(&scene, &accel, &args.dir, args.all_variants)?;
             println!("{} files written to {}", files.len(), args.dir.display());
             Ok(true)
         }

@@ -5,9 +5,9 @@
 use std::path::Path;
 
 use super::{check_writable, load};
-use crate::farm::plan::Plan;
+use crate::choices::RenderArgs;
+use crate::farm::plan::PartPlan;
 use crate::image_io;
-use crate::options::RenderArgs;
 use crate::region::Region;
 use crate::render;
 use crate::scene::Scene;
@@ -18,7 +18,7 @@ use crate::{Error, Result};
 pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
     let env = |k: &str| std::env::var(k).ok();
     if let Some(frames) = &args.frames {
-        if !Plan::wanted(args) {
+        if !args.parts.wanted() {
             run_frames(args, frames)?;
             return Ok(None);
         }
@@ -31,12 +31,20 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
             ))
         })?;
         let frames: Vec<u32> = frames.frames(&path.frames())?.collect();
-        let plan = Plan::new(args, Some(&frames), env)?.expect("parts wanted");
-        return run_parts(args, &plan, scene).map(Some);
+        let parts = PartPlan::new(
+            &args.parts,
+            &args.output,
+            args.stats.as_deref(),
+            Some(&frames),
+            env,
+        )?
+        .expect("parts wanted");
+        return run_parts(args, &parts, scene).map(Some);
     }
-    if let Some(plan) = Plan::new(args, None, env)? {
+    if let Some(parts) = PartPlan::new(&args.parts, &args.output, args.stats.as_deref(), None, env)?
+    {
         let scene = load(args.scene.as_deref())?;
-        return run_parts(args, &plan, scene).map(Some);
+        return run_parts(args, &parts, scene).map(Some);
     }
     // Fail on an unusable output path or AOV list before loading or rendering anything;
     // a folder is reported as one, not as a file with an unknown extension.
@@ -145,11 +153,11 @@ fn write_stats(path: &Path, stats: &render::RenderStats) -> Result<()> {
 
 /// `render` of parts: the units of work of `plan` ([`crate::farm`]), each rendered with
 /// its region and written as a part (or a crop).
-pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render::Rendered> {
-    for p in &plan.outputs {
+pub fn run_parts(args: &RenderArgs, parts: &PartPlan, scene: Scene) -> Result<render::Rendered> {
+    for p in &parts.outputs {
         check_writable(p, "image")?;
     }
-    for p in &plan.stats {
+    for p in &parts.stats {
         check_writable(p, "statistics")?;
     }
     if args.aov.is_some() {
@@ -174,19 +182,19 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render:
         Some(ctx) => prepared.gl_renderer(ctx, &base)?,
         None => prepared.cpu_renderer(&base),
     };
-    if let (Some(task), false) = (&plan.task, args.quiet) {
+    if let (Some(task), false) = (&parts.task, args.quiet) {
         eprintln!(
             "fragtrace: {task}: {} part(s) of {} tiles",
-            plan.units.len(),
-            match plan.cut {
+            parts.units.len(),
+            match parts.cut {
                 crate::farm::plan::Cut::Tiles(t) => t.count(),
                 crate::farm::plan::Cut::Region(_) => 1,
             }
         );
     }
     let mut last = None;
-    for (k, unit) in plan.units.iter().enumerate() {
-        let region = plan.region(k, base.width, base.height)?;
+    for (k, unit) in parts.units.iter().enumerate() {
+        let region = parts.region(k, base.width, base.height)?;
         let opts = crate::options::RenderOptions {
             region: Some(region),
             ..base.clone()
@@ -203,20 +211,20 @@ pub fn run_parts(args: &RenderArgs, plan: &Plan, scene: Scene) -> Result<render:
             ));
         }
         crate::farm::write_unit(
-            &plan.outputs[k],
+            &parts.outputs[k],
             &scene,
             &opts,
             &out,
             unit.frame,
-            plan.tile_label(k),
+            parts.tile_label(k),
         )?;
-        if let Some(path) = plan.stats.get(k) {
+        if let Some(path) = parts.stats.get(k) {
             write_stats(path, &out.stats)?;
         }
         if !args.quiet {
             eprintln!(
                 "{}",
-                summary_line(&plan.outputs[k], &out.stats, Some(region))
+                summary_line(&parts.outputs[k], &out.stats, Some(region))
             );
         }
         if args.verbose {

@@ -59,6 +59,13 @@ fn mismatch(a: &PartHeader, b: &PartHeader) -> Option<String> {
             a.scene, a.scene_hash, b.scene, b.scene_hash
         ));
     }
+    // The plans compared as plans: what ran, read back from the same text it was written
+    // as, so a part from the CPU and one from the GPU say so in one phrase.
+    if let (Some(pa), Some(pb)) = (super::plan_of(&a.options), super::plan_of(&b.options)) {
+        if pa != pb {
+            return Some(format!("the render plans differ ({pb} against {pa})"));
+        }
+    }
     if a.options != b.options {
         return Some(format!(
             "the options differ ({})",

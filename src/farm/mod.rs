@@ -24,23 +24,19 @@ pub mod template;
 use crate::options::RenderOptions;
 use crate::render::RenderStats;
 
-/// The options that decide a render's pixels, as canonical flags with every `auto`
-/// resolved to what ran (`--backend auto` may be the GPU on one node and the CPU on
-/// another; their parts must not be merged as one image). Flags that only change how fast
-/// or how visibly a render runs (`--query-every`, `--gpu`, `-q`, `--stats`) are left
-/// out, and GPU settings are left out of CPU renders.
+/// The options that decide a render's pixels, as canonical flags: the size, samples and
+/// depth, the render's [`Plan`](crate::plan::Plan) (every `auto` resolved to what ran:
+/// `--backend auto` may be the GPU on one node and the CPU on another; their parts must
+/// not be merged as one image), the structure's parameters and the techniques. Flags that
+/// only change how fast or how visibly a render runs (`--query-every`, `--gpu`, `-q`,
+/// `--stats`) are left out.
 pub fn options_line(opts: &RenderOptions, stats: &RenderStats) -> String {
+    let plan = stats.plan;
     let mut s = format!(
-        "--width {} --height {} --spp {} --max-depth {} --backend {} --precision {} --accel {}",
-        opts.width,
-        opts.height,
-        opts.spp,
-        opts.max_depth,
-        stats.backend,
-        stats.precision,
-        opts.accel.name()
+        "--width {} --height {} --spp {} --max-depth {} {plan}",
+        opts.width, opts.height, opts.spp, opts.max_depth,
     );
-    match opts.accel {
+    match plan.accel() {
         crate::accel::AccelKind::Uniform => {
             s += &format!(
                 " --grid {} --grid-density {:?}",
@@ -56,27 +52,26 @@ pub fn options_line(opts: &RenderOptions, stats: &RenderStats) -> String {
         crate::accel::AccelKind::Bvh => {}
     }
     s += &format!(" --techniques {}", opts.techniques.tag());
-    if let Some(g) = &stats.gpu {
-        use crate::gpu::options::{FragmentKernel, Kernel};
-        // The mask a fragment kernel ran with (`auto` resolved as Mask::resolve does);
-        // the compute kernel has none.
-        let fragment = match g.kernel.parse::<Kernel>() {
-            Ok(Kernel::Multipass) => Some(FragmentKernel::Multipass),
-            Ok(Kernel::Looped) => Some(FragmentKernel::Looped),
-            Ok(Kernel::Unrolled(k)) => Some(FragmentKernel::Unrolled(k)),
-            _ => None,
-        };
-        s += &format!(" --kernel {} --scene-fetch {}", g.kernel, g.scene_fetch);
-        if let Some(k) = fragment {
-            s += &format!(" --mask {}", opts.gpu.mask.resolve(k));
-        }
+    if plan.kernel().is_some() {
         s += &format!(
-            " --storage {} --specialize {}",
-            opts.gpu.storage,
+            " --specialize {}",
             if opts.gpu.no_specialize { "no" } else { "yes" }
         );
     }
     s
+}
+
+/// The plan in a part's options line ([`options_line`]): the words after the size, samples
+/// and depth, up to the structure's parameters, read by [`Plan`](crate::plan::Plan)'s
+/// `FromStr`. None where the line holds no plan (a part from another version).
+pub fn plan_of(options: &str) -> Option<crate::plan::Plan> {
+    let words: Vec<&str> = options.split_whitespace().collect();
+    let start = words.iter().position(|w| *w == "--backend")?;
+    let end = words[start..]
+        .chunks(2)
+        .position(|p| matches!(p[0], "--grid" | "--grid-density" | "--techniques"))
+        .map_or(words.len(), |k| start + 2 * k);
+    words[start..end].join(" ").parse().ok()
 }
 
 /// Writes one rendered unit: as a part (OpenEXR with its data window and header) to a
@@ -113,5 +108,33 @@ pub fn write_unit(
         }
         // PNG, and the other formats the output's extension can name.
         _ => write_image(path, &out.image),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::Plan;
+
+    /// The plan a part header carries reads back as the plan that was written, between the
+    /// size flags before it and the structure's parameters after it; a line without one
+    /// has none.
+    #[test]
+    fn the_plan_reads_back_from_a_part_header() {
+        let plan = Plan::Fragment {
+            accel: crate::accel::AccelKind::Uniform,
+            kernel: crate::gpu::options::FragmentKernel::Unrolled(4),
+            mask: crate::gpu::options::Mask::EarlyZ,
+            storage: crate::gpu::options::Storage::F32,
+        };
+        let line = format!(
+            "--width 8 --height 6 --spp 1 --max-depth 5 {plan} --grid auto --grid-density 8.0 \
+             --techniques default --specialize yes"
+        );
+        assert_eq!(plan_of(&line), Some(plan));
+        let cpu = "--width 8 --height 6 --spp 1 --max-depth 5 --backend cpu --accel bvh \
+                   --precision f64 --cpu-path simd --techniques default";
+        assert!(matches!(plan_of(cpu), Some(Plan::Cpu { .. })));
+        assert_eq!(plan_of("--width 8 --height 6 --spp 1"), None);
     }
 }

@@ -4,12 +4,44 @@
 
 use std::path::PathBuf;
 
-use super::task::{resolve, units_of, TaskIndex, Unit};
+use super::task::{resolve, units_of, TaskIndex, TaskSource, Unit};
 use super::template::OutputTemplate;
 use crate::image_io::Format;
-use crate::options::RenderArgs;
-use crate::region::{Region, Tiling};
+use crate::region::{Region, TileSpec, Tiling};
 use crate::{Error, Result};
+
+/// The flags that cut the render into parts, as `render` takes them (flattened into its
+/// arguments).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct PartArgs {
+    /// Render part I of the image cut into N parts (a grid chosen for the image; I/CxR
+    /// for C columns by R rows), 0-based from the top left, as an OpenEXR part for
+    /// `fragtrace merge` (-o PART.exr). Each pixel is bit-identical to the whole render's.
+    #[arg(long, conflicts_with_all = ["region", "task_index"])]
+    pub tile: Option<TileSpec>,
+    /// Render only the pixels x0..x1, y0..y1 (x1, y1 exclusive; origin top left) of the
+    /// image: a part for `fragtrace merge` as .exr, a crop as .png.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", conflicts_with = "task_index")]
+    pub region: Option<Region>,
+    /// Take this task's share of the work from the scheduler: env (a Slurm job array,
+    /// SLURM_ARRAY_TASK_ID), env:N (a Kubernetes Indexed Job of N completions,
+    /// JOB_COMPLETION_INDEX) or I/N. The image is cut into --tiles parts (default: one per
+    /// task); -o names each part with {tile} (docs/distributed.md).
+    #[arg(long, value_name = "env|env:N|I/N")]
+    pub task_index: Option<TaskSource>,
+    /// With --task-index: the parts the image is cut into, N or CxR (default: as many as
+    /// there are tasks).
+    #[arg(long, value_name = "N|CxR", requires = "task_index")]
+    pub tiles: Option<Tiling>,
+}
+
+impl PartArgs {
+    /// True when these flags ask for parts (or a share of an animation's frames) rather
+    /// than whole images in one process.
+    pub fn wanted(&self) -> bool {
+        self.tile.is_some() || self.region.is_some() || self.task_index.is_some()
+    }
+}
 
 /// How the image is cut.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -22,7 +54,7 @@ pub enum Cut {
 
 /// The parts one process renders.
 #[derive(Clone, Debug)]
-pub struct Plan {
+pub struct PartPlan {
     /// How the image is cut.
     pub cut: Cut,
     /// This task, when the work came from `--task-index`.
@@ -35,21 +67,18 @@ pub struct Plan {
     pub stats: Vec<PathBuf>,
 }
 
-impl Plan {
-    /// True when `args` ask for parts (or a share of an animation's frames) rather than
-    /// whole images in one process.
-    pub fn wanted(args: &RenderArgs) -> bool {
-        args.tile.is_some() || args.region.is_some() || args.task_index.is_some()
-    }
-
-    /// The plan for `args`, or None when they ask for the whole image in one process.
-    /// `frames` are the animation's frames (`--frames`, resolved against the scene's
-    /// camera path), None for a still; `var` reads the environment (`--task-index env`).
+impl PartPlan {
+    /// The plan for `args` writing to `output` (and statistics to `stats`), or None when
+    /// they ask for the whole image in one process. `frames` are the animation's frames
+    /// (`--frames`, resolved against the scene's camera path), None for a still; `var`
+    /// reads the environment (`--task-index env`).
     pub fn new(
-        args: &RenderArgs,
+        args: &PartArgs,
+        output: &std::path::Path,
+        stats: Option<&std::path::Path>,
         frames: Option<&[u32]>,
         var: impl Fn(&str) -> Option<String>,
-    ) -> Result<Option<Plan>> {
+    ) -> Result<Option<PartPlan>> {
         // Every frame of the range, for the one part --tile or --region names.
         let each_frame = |tile: u32| -> Vec<Unit> {
             match frames {
@@ -78,8 +107,8 @@ impl Plan {
                 (Cut::Tiles(tiling), Some(task), units)
             }
         };
-        let template = OutputTemplate::new(&args.output);
-        let format = Format::from_path(&args.output)?;
+        let template = OutputTemplate::new(output);
+        let format = Format::from_path(output)?;
         let tiles = match cut {
             Cut::Tiles(t) => t.count(),
             Cut::Region(_) => 1,
@@ -94,19 +123,19 @@ impl Plan {
         if format != Format::Exr && (tiles > 1 || args.tile.is_some()) {
             return Err(Error::Usage(format!(
                 "{}: {flag} writes parts for `fragtrace merge`, which are OpenEXR: name the output .exr (e.g. parts/part-{{tile}}.exr)",
-                args.output.display()
+                output.display()
             )));
         }
         if tiles > 1 && args.tile.is_none() && !template.has_tile() {
             return Err(Error::Usage(format!(
                 "{}: the image is cut into {tiles} parts, so each needs its own file: put {{tile}} in the output name (e.g. parts/part-{{tile}}.exr)",
-                args.output.display()
+                output.display()
             )));
         }
         if frames.is_some_and(|f| f.len() > 1) && !template.has_frame() {
             return Err(Error::Usage(format!(
                 "{}: the frames need a file each: put a run of # for the frame number in the output's file name (e.g. frames/frame_####.png, parts/f####-{{tile}}.exr)",
-                args.output.display()
+                output.display()
             )));
         }
         let tile_of = |u: &Unit| match cut {
@@ -117,7 +146,7 @@ impl Plan {
             .iter()
             .map(|u| template.path(u.frame, tile_of(u)))
             .collect();
-        let stats = match &args.stats {
+        let stats = match stats {
             None => Vec::new(),
             Some(p) => {
                 let t = OutputTemplate::new(p);
@@ -136,7 +165,7 @@ impl Plan {
                 paths
             }
         };
-        Ok(Some(Plan {
+        Ok(Some(PartPlan {
             cut,
             task,
             units,

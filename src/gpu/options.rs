@@ -38,21 +38,54 @@ pub struct GpuOptions {
 impl GpuOptions {
     /// The kernel these options run in a context described by `info` (see
     /// [`Kernel::resolve`]: an explicit mask or `--storage f16` keeps `auto` on the
-    /// fragment kernels, which are the ones that have them).
-    ///
-    /// An explicit `scene_fetch` is an error with any other kernel than compute, which is
-    /// the only one it changes.
+    /// fragment kernels, which are the ones that have them), with the options that do not
+    /// apply to it refused ([`GpuOptions::refuse_inapplicable`]).
     pub fn resolve_kernel(&self, info: &super::info::GlInfo) -> crate::Result<Kernel> {
         let fragment_only =
             matches!(self.mask, Mask::EarlyZ | Mask::Stencil) || self.storage == Storage::F16;
         let kernel = self.kernel.resolve(info, fragment_only)?;
-        if self.scene_fetch != SceneFetch::Auto && kernel != Kernel::Compute {
-            return Err(crate::Error::Usage(format!(
-                "--scene-fetch {} applies to the compute kernel; this render runs {kernel}",
-                self.scene_fetch
-            )));
-        }
+        self.refuse_inapplicable(kernel, self.kernel != Kernel::Auto)?;
         Ok(kernel)
+    }
+
+    /// The one rule for the GPU options that apply to some kernels only: a mask (early-z or
+    /// stencil; `none` is what the compute kernel does anyway) and 16-bit ray textures to
+    /// the fragment kernels (the compute kernel draws no passes and
+    /// keeps its rays in registers), a scene fetch to the compute kernel. Each is refused
+    /// with one line naming the option and why, as [`crate::Error::Usage`]; `explicit`
+    /// says whether the user named `kernel` or `auto` chose it. Checked before a context is
+    /// made where the kernel is named, and again once `auto` is resolved.
+    pub fn refuse_inapplicable(&self, kernel: Kernel, explicit: bool) -> crate::Result<()> {
+        let runs = format!(
+            "this render runs {kernel} ({})",
+            if explicit {
+                format!("--kernel {kernel}")
+            } else {
+                "--kernel auto chose it".into()
+            }
+        );
+        let why = match kernel {
+            Kernel::Compute if matches!(self.mask, Mask::EarlyZ | Mask::Stencil) => Some(format!(
+                "--mask {} applies to the fragment kernels' passes; {runs}, which draws none",
+                self.mask
+            )),
+            Kernel::Compute if self.storage != Storage::F32 => Some(format!(
+                "--storage {} applies to the fragment kernels' ray textures; {runs}, which \
+                 keeps its rays in registers",
+                self.storage
+            )),
+            Kernel::Multipass | Kernel::Looped | Kernel::Unrolled(_)
+                if self.scene_fetch != SceneFetch::Auto =>
+            {
+                Some(format!(
+                    "--scene-fetch {} applies to the compute kernel; {runs}, which reads the \
+                     scene with texture2D",
+                    self.scene_fetch
+                ))
+            }
+            _ => None,
+        };
+        why.map_or(Ok(()), |m| Err(crate::Error::Usage(m)))
     }
 
     /// The kernel these options run, resolved once into the wing that runs it: a fragment

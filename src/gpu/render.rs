@@ -1,5 +1,5 @@
 //! The GPU backend's one entry: a render or a wave of rays goes to the wing its resolved
-//! kernel names ([`KernelChoice`]), in one place, with the one fallback there is (`auto`
+//! kernel names ([`KernelChoice`]), in one place (`wing`), with the one fallback there is (`auto`
 //! chose compute and the driver cut its loops short: the fragment kernels finish the work).
 //!
 //! [`render`] and [`trace_rays_on`] take a [`GpuScene`], uploaded once and rendered from as
@@ -9,7 +9,7 @@
 use super::compute;
 use super::context::GlContext;
 use super::fragment;
-use super::options::{GpuOptions, KernelChoice};
+use super::options::{FragmentKernel, GpuOptions, KernelChoice};
 use super::pause::Stepped;
 use super::scene::GpuScene;
 use super::shader::Query;
@@ -21,6 +21,40 @@ use crate::{Error, Result};
 pub use super::request::{Flow, GpuOutput, ImageRequest, Observer, Snapshot, Work};
 pub use super::wave::{GpuRay, GpuTrace};
 
+/// What the kernel's wing leaves to do: the compute kernel's result, or the fragment
+/// kernel that renders (the one resolved, or `auto`'s fallback).
+enum Wing<T> {
+    /// The compute kernel ran to the end.
+    Done(T),
+    /// A fragment kernel renders.
+    Fragment(FragmentKernel),
+}
+
+/// The one switch from the kernel `gpu` resolves to in the context `info` describes
+/// ([`GpuOptions::choose_kernel`]) to the wing that runs it: `compute` runs the compute
+/// kernel, and where `auto` chose it and the driver cut its loops short, the fragment
+/// kernel `auto` falls back to takes over, with a notice on stderr.
+fn wing<T>(
+    gpu: &GpuOptions,
+    info: &super::info::GlInfo,
+    compute: impl FnOnce() -> Result<T>,
+) -> Result<Wing<T>> {
+    match gpu.choose_kernel(info)? {
+        KernelChoice::Fragment(k) => Ok(Wing::Fragment(k)),
+        KernelChoice::Compute { fallback } => match compute() {
+            Err(Error::Unfinished(why)) if fallback.is_some() => {
+                let k = fallback.expect("checked");
+                eprintln!(
+                    "fragtrace: notice: the compute kernel did not finish ({why}); \
+                     rendering with the {k} kernel"
+                );
+                Ok(Wing::Fragment(k))
+            }
+            r => r.map(Wing::Done),
+        },
+    }
+}
+
 /// Renders `req` from the scene on the GPU; `observer`, if any, is called between passes
 /// and may cancel the render ([`Error::Cancelled`]).
 pub fn render<'a>(
@@ -31,26 +65,14 @@ pub fn render<'a>(
     // Only the compute wing, absent from the wasm32 build, borrows it before the fragment one.
     #[cfg_attr(target_arch = "wasm32", allow(unused_mut))]
     let mut observer = observer;
-    let kernel = match req.gpu.choose_kernel(&gs.ctx().info)? {
-        KernelChoice::Fragment(k) => k,
-        #[cfg(target_arch = "wasm32")]
-        KernelChoice::Compute { .. } => return Err(no_compute()),
-        #[cfg(not(target_arch = "wasm32"))]
-        KernelChoice::Compute { fallback } => {
-            match compute::render(gs, req, observer.as_deref_mut()) {
-                Err(Error::Unfinished(why)) if fallback.is_some() => {
-                    let k = fallback.expect("checked");
-                    eprintln!(
-                        "fragtrace: notice: the compute kernel did not finish ({why}); \
-                         rendering with the {k} kernel"
-                    );
-                    k
-                }
-                r => return r,
-            }
-        }
-    };
-    fragment::render(gs, req, kernel, observer)
+    #[cfg(not(target_arch = "wasm32"))]
+    let compute = || compute::render(gs, req, observer.as_deref_mut());
+    #[cfg(target_arch = "wasm32")]
+    let compute = || Err(no_compute());
+    match wing(&req.gpu, &gs.ctx().info, compute)? {
+        Wing::Done(out) => Ok(out),
+        Wing::Fragment(k) => fragment::render(gs, req, k, observer),
+    }
 }
 
 /// [`render`] one stretch at a time: the render runs on each [`Stepped::resume`] until
@@ -67,12 +89,13 @@ pub fn render_stepped<'a>(
 ) -> Stepped<'a, Result<GpuOutput>> {
     Stepped::new(async move {
         let gs: &GpuScene = &gs;
-        let kernel = match req.gpu.choose_kernel(&gs.ctx().info)? {
-            KernelChoice::Fragment(k) => k,
-            #[cfg(target_arch = "wasm32")]
-            KernelChoice::Compute { .. } => return Err(no_compute()),
-            #[cfg(not(target_arch = "wasm32"))]
-            KernelChoice::Compute { .. } => return render(gs, &req, Some(&mut *observer)),
+        #[cfg(not(target_arch = "wasm32"))]
+        let compute = || compute::render(gs, &req, Some(&mut *observer));
+        #[cfg(target_arch = "wasm32")]
+        let compute = || Err(no_compute());
+        let kernel = match wing(&req.gpu, &gs.ctx().info, compute)? {
+            Wing::Done(out) => return Ok(out),
+            Wing::Fragment(k) => k,
         };
         fragment::walk(gs, req, kernel, Some(&mut *observer)).await
     })
@@ -109,20 +132,13 @@ pub fn trace_rays_on(
     if rays.is_empty() {
         return Ok(Vec::new());
     }
-    let kernel = match opts.choose_kernel(&gs.ctx().info)? {
-        KernelChoice::Fragment(k) => k,
-        #[cfg(target_arch = "wasm32")]
-        KernelChoice::Compute { .. } => return Err(no_compute()),
-        #[cfg(not(target_arch = "wasm32"))]
-        KernelChoice::Compute { fallback } => {
-            let size = wave_size(rays.len() as u32);
-            match compute::trace_wave(gs, rays, query, size, &opts) {
-                // As in `render`: `auto` falls back to a fragment kernel where the driver
-                // cut the compute kernel's loops short.
-                Err(Error::Unfinished(_)) if fallback.is_some() => fallback.expect("checked"),
-                r => return r,
-            }
-        }
+    #[cfg(not(target_arch = "wasm32"))]
+    let compute = || compute::trace_wave(gs, rays, query, wave_size(rays.len() as u32), &opts);
+    #[cfg(target_arch = "wasm32")]
+    let compute = || Err(no_compute());
+    let kernel = match wing(&opts, &gs.ctx().info, compute)? {
+        Wing::Done(traces) => return Ok(traces),
+        Wing::Fragment(k) => k,
     };
     fragment::trace_wave(gs, rays, query, kernel, &opts)
 }

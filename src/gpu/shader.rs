@@ -16,7 +16,7 @@ use crate::technique::Techniques;
 use crate::{Error, Result};
 
 mod dump;
-pub use dump::{all_feature_sets, all_passes, dump_shaders};
+pub use dump::{all_feature_sets, all_passes, dump_shaders, dump_shaders_as};
 
 /// The GLSL sources, embedded in the binary.
 const SOURCES: &[(&str, &str)] = &[

@@ -397,7 +397,12 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
             progress: false,
             gpu: crate::gpu::options::GpuOptions {
                 kernel: h.settings.kernel,
-                mask: h.settings.mask,
+                // Key `z` masks the fragment kernels' passes; the compute kernel (key `k`)
+                // draws none, and would refuse a mask it cannot use.
+                mask: match h.settings.kernel {
+                    Kernel::Compute => Mask::Auto,
+                    _ => h.settings.mask,
+                },
                 ..ro.gpu
             },
             readback: crate::output::Readback::default(),

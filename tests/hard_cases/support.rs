@@ -735,7 +735,7 @@ pub fn opts_on(scene: &Scene, precision: Precision, accel: AccelKind) -> RenderO
     o.width = W;
     o.height = H;
     o.precision = precision;
-    o.accel = accel;
+    o.accel = accel.into();
     o.backend = Backend::Cpu;
     o
 }

@@ -110,16 +110,20 @@ impl Params {
             }
             None => None,
         };
-        let kernel = match q.get("kernel").as_deref() {
-            None | Some("multipass") => Kernel::Multipass,
-            Some("looped") => Kernel::Looped,
-            Some(k) => match k.strip_prefix("unrolled:").map(str::parse::<u32>) {
-                Some(Ok(n)) if n > 0 => Kernel::Unrolled(n),
-                _ => {
-                    return Err(format!(
-                        "kernel={k}: expected multipass, unrolled:K or looped"
-                    ))
+        // The kernel's one parser (`Kernel`'s `FromStr`, as `--kernel` takes it: the same
+        // names and the same unrolled:K range); WebGL has no compute shaders.
+        let kernel = match q.get("kernel") {
+            None => Kernel::Multipass,
+            Some(k) => match k.parse::<Kernel>() {
+                Ok(Kernel::Compute) => {
+                    return Err(
+                        "kernel=compute: WebGL has no compute shaders (expected auto, looped, \
+                         multipass or unrolled:K)"
+                            .into(),
+                    )
                 }
+                Ok(kernel) => kernel,
+                Err(e) => return Err(format!("kernel={k}: {e}")),
             },
         };
         let webgl = match q.get("webgl").as_deref() {

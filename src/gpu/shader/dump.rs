@@ -156,6 +156,27 @@ pub fn dump_shaders<'a>(
     dir: &std::path::Path,
     all_variants: bool,
 ) -> Result<Vec<std::path::PathBuf>> {
+    dump_shaders_as(
+        scene,
+        accel,
+        dir,
+        all_variants,
+        Techniques::default(),
+        false,
+    )
+}
+
+/// [`dump_shaders`] with the techniques a render would compile in (the set without
+/// `all_variants`), and every scene feature where `no_specialize` asks for them: what
+/// `fragtrace dump-shaders` writes for the choices it is given.
+pub fn dump_shaders_as<'a>(
+    scene: &Scene,
+    accel: impl Into<AccelRef<'a>>,
+    dir: &std::path::Path,
+    all_variants: bool,
+    techniques: Techniques,
+    no_specialize: bool,
+) -> Result<Vec<std::path::PathBuf>> {
     let accel = accel.into().grid()?;
     // Variants with smooth normals on fetch from the normal texture, so it is declared.
     let layout = SceneTextures::pack_with(scene, accel, layout::MAX_ROW, all_variants)?;
@@ -172,8 +193,10 @@ pub fn dump_shaders<'a>(
                     .map(|t| (Features::all(), t, Some(format!("techniques-{}", t.tag())))),
             )
             .collect()
+    } else if no_specialize {
+        vec![(Features::all(), techniques, None)]
     } else {
-        vec![(Features::of(scene), d, None)]
+        vec![(Features::of(scene), techniques, None)]
     };
     let io = |path: &std::path::Path, e: std::io::Error| Error::Io {
         path: path.to_path_buf(),

@@ -1,0 +1,731 @@
+//! The user's choices for one render, as every front door takes them: [`Choices`] is the
+//! one set of render flags (one help text and one range each) that `render`, `bench`'s
+//! configurations and `view` flatten into their arguments, and [`Choices::to_options`] the
+//! one conversion into [`RenderOptions`], through the one rule for flags that do not apply
+//! ([`Choices::check`]).
+//!
+//! Flags whose default is a value rather than `auto` (`--precision`, `--cpu-path`,
+//! `--storage`, `--query-every`, `--spp`) are `Option`s here, so that the rule can tell a
+//! flag the user gave from its default; the defaults are filled in by `to_options`.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser};
+
+use crate::accel::{AccelKind, GridConfig, GridRes};
+use crate::farm::plan::PartArgs;
+use crate::gpu::options::{Kernel, Mask, SceneFetch, Storage};
+use crate::options::{
+    AccelChoice, Backend, CpuPath, FrameRange, Precision, RenderOptions, MAX_DEPTH, MAX_IMAGE_SIDE,
+    MAX_QUERY_EVERY, MAX_SPP,
+};
+use crate::scene::Scene;
+use crate::technique::{IntersectMethod, OffsetMethod, TBound, Techniques, Terminator};
+use crate::{Error, Result};
+
+/// The front door a render's choices came through: what it renders on and which flags it
+/// has, so that a refusal's advice names only flags that door takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Door {
+    /// `fragtrace render` (and the default command).
+    Render,
+    /// A `fragtrace bench` configuration (`render`'s flags in a string).
+    Bench,
+    /// `fragtrace view`: always the GPU, in the window's own GL context.
+    View,
+    /// `fragtrace dump-shaders`: the GPU's programs for the structure and techniques
+    /// chosen, every kernel's, written rather than run.
+    DumpShaders,
+}
+
+impl Door {
+    /// The samples per pixel when `--spp` is not given: one for an image, sixteen
+    /// accumulated while the window's camera stands still.
+    pub fn default_spp(self) -> u32 {
+        match self {
+            Door::Render | Door::Bench | Door::DumpShaders => 1,
+            Door::View => 16,
+        }
+    }
+
+    /// The command's name, where its refusals name it; None for `render`'s flags (a bench
+    /// configuration is `render`'s flags too).
+    fn command(self) -> Option<&'static str> {
+        match self {
+            Door::Render | Door::Bench => None,
+            Door::View => Some("view"),
+            Door::DumpShaders => Some("dump-shaders"),
+        }
+    }
+}
+
+/// Traversal iterations between termination queries when `--query-every` is not given.
+pub const DEFAULT_QUERY_EVERY: u32 = 8;
+
+/// The render flags every front door shares (`#[command(flatten)]`).
+#[derive(Args, Debug, Clone)]
+pub struct Choices {
+    /// Image width (default: the scene's; `view`: the window's initial width).
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
+    pub width: Option<u32>,
+    /// Image height (default: the scene's; `view`: the window's initial height).
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_IMAGE_SIDE))]
+    pub height: Option<u32>,
+    /// Renderer: auto, cpu or gl (`view` renders on the GPU: auto or gl).
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    pub backend: Backend,
+    /// CPU arithmetic: f64 (ground truth, the default) or f32 (mirrors the GPU).
+    #[arg(long, value_enum)]
+    pub precision: Option<Precision>,
+    /// CPU triangle tests with --precision f32: simd (the default: 8 or 4 at a time, AVX2
+    /// or SSE2 as the CPU has; same hits and images as scalar) or scalar (the GLSL's twin).
+    /// f64 is always scalar.
+    #[arg(long, value_enum)]
+    pub cpu_path: Option<CpuPath>,
+    /// Maximum reflection/refraction depth (default: the scene's, else 5; `view`: keys
+    /// `+`/`-`).
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(0, MAX_DEPTH))]
+    pub max_depth: Option<u32>,
+    /// Samples per pixel (stratified, fixed seed; default 1; `view`: 16, accumulated while
+    /// the camera stands still).
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_SPP))]
+    pub spp: Option<u32>,
+    /// Acceleration structure: auto (the default: the irregular grid on the GPU, the BVH
+    /// on the CPU, each the fastest there, with the same images; the irregular grid on both
+    /// when a grid density is given), irregular (adaptive cells with exit boxes grown over empty
+    /// space, after Perard-Gayot et al. 2017), uniform (the thesis's grid over the scene
+    /// box) or bvh (CPU backend only: a 4-wide BVH).
+    #[arg(long, value_enum, default_value_t = AccelChoice::default())]
+    pub accel: AccelChoice,
+    /// Uniform grid resolution: auto or AxBxC (with --accel uniform).
+    #[arg(long, default_value = "auto")]
+    pub grid: GridRes,
+    /// Cells per triangle of the auto uniform grid (lambda, default 8; with --accel
+    /// uniform), or top cells per triangle of the irregular grid (default 0.125).
+    #[arg(long, allow_negative_numbers = true)]
+    pub grid_density: Option<f32>,
+    /// GPU: traversal iterations between termination queries (K; default 8).
+    #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_QUERY_EVERY))]
+    pub query_every: Option<u32>,
+    /// GPU: kernel: auto (the fastest the context runs: compute on GL 4.3, looped on GL 3.x,
+    /// multipass on GL 2.x), compute (GLSL 4.30: the whole ray tree per pixel in one
+    /// dispatch), looped (bounded loop per pass), multipass (the thesis: one step per pass,
+    /// no loops) or unrolled:K (K steps per pass, straight-line code, no loops). All render
+    /// the same image (`view`: key `k` switches).
+    #[arg(long, default_value = "auto")]
+    pub kernel: Kernel,
+    /// GPU: compile every shading feature in instead of only what the scene needs.
+    #[arg(long)]
+    pub no_specialize: bool,
+    /// GPU, fragment kernels: keep finished rays out of traversal passes with the depth
+    /// test (early-z) or the stencil test, refreshed at each termination query; none relies
+    /// on the in-shader early-out alone; auto is early-z for the multipass kernel and none
+    /// for the others (`view`: key `z`).
+    #[arg(long, default_value = "auto")]
+    pub mask: Mask,
+    /// GPU, fragment kernels: ray textures in 32- (the default) or 16-bit floats (f16: ray
+    /// directions and the colour sum; origins and every index stay in 32-bit textures).
+    #[arg(long)]
+    pub storage: Option<Storage>,
+    /// GPU, compute kernel: how it reads the scene, through texelFetch or storage buffers;
+    /// auto is the faster where measured (storage buffers on NVIDIA, texelFetch on
+    /// llvmpipe), storage buffers elsewhere. Both render the same image.
+    #[arg(long, value_enum, default_value_t = SceneFetch::Auto)]
+    pub scene_fetch: SceneFetch,
+    /// Ray-triangle test: watertight (Woop et al. 2013, the default) or moller-trumbore
+    /// (1997; rays can slip through shared edges). For measuring the technique's cost.
+    #[arg(long, value_enum, default_value_t = IntersectMethod::Watertight)]
+    pub intersect: IntersectMethod,
+    /// pbrt's t error bound on hits (on, the default) or off (spawned rays may re-hit
+    /// their own surface). For measuring the technique's cost.
+    #[arg(long, value_enum, default_value_t = TBound::On)]
+    pub t_bound: TBound,
+    /// Origin offset of spawned rays: error-bound (scale-independent, the default) or
+    /// epsilon (a fixed 1e-4 along the normal). For measuring the technique's cost.
+    #[arg(long, value_enum, default_value_t = OffsetMethod::ErrorBound)]
+    pub offset: OffsetMethod,
+    /// Shadow rays of smooth-shaded meshes: smooth (start on the surface the vertex normals
+    /// describe, Hanika 2021; the default: no dark speckles near the terminator) or exact
+    /// (start on the triangle). For measuring the technique's cost and value.
+    #[arg(long, value_enum, default_value_t = Terminator::Smooth)]
+    pub terminator: Terminator,
+    /// GPU: render on EGL device N (`fragtrace info` lists them; on a Slurm GPU node, the
+    /// one the task was given: docs/distributed.md); default: the first display that
+    /// works.
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count_in(0, u32::MAX))]
+    pub gpu: Option<u32>,
+}
+
+impl Choices {
+    /// The GPU-only flags given, as they were spelled: what a CPU render refuses.
+    fn gpu_flags(&self) -> Vec<String> {
+        let mut given = Vec::new();
+        if let Some(n) = self.gpu {
+            given.push(format!("--gpu {n}"));
+        }
+        if self.kernel != Kernel::Auto {
+            given.push(format!("--kernel {}", self.kernel));
+        }
+        if self.mask != Mask::Auto {
+            given.push(format!("--mask {}", self.mask));
+        }
+        if let Some(s) = self.storage {
+            given.push(format!("--storage {s}"));
+        }
+        if self.scene_fetch != SceneFetch::Auto {
+            given.push(format!("--scene-fetch {}", self.scene_fetch));
+        }
+        if let Some(k) = self.query_every {
+            given.push(format!("--query-every {k}"));
+        }
+        if self.no_specialize {
+            given.push("--no-specialize".into());
+        }
+        given
+    }
+
+    /// The CPU-only flags given: what a GPU render refuses.
+    fn cpu_flags(&self) -> Vec<String> {
+        let mut given = Vec::new();
+        if let Some(p) = self.precision {
+            given.push(format!("--precision {}", p.name()));
+        }
+        if let Some(p) = self.cpu_path {
+            given.push(format!("--cpu-path {}", p.name()));
+        }
+        given
+    }
+
+    /// The one rule for flags that do not apply to the backend or kernel chosen: each is
+    /// refused with one line saying why, and advice that names only flags `door` has.
+    /// Flags whose use is only known once the GL context is made (a mask or a scene fetch
+    /// under `--kernel auto`) are refused by the same words when the kernel is resolved
+    /// ([`crate::gpu::options::GpuOptions::resolve_kernel`]); under `--backend auto`,
+    /// either backend's flags are accepted, since either may run.
+    pub fn check(&self, door: Door) -> Result<()> {
+        let command = door.command();
+        let gpu_only = command.is_some() || self.backend == Backend::Gl;
+        if let Some(cmd) = command {
+            if self.backend == Backend::Cpu {
+                return Err(Error::Usage(format!(
+                    "--backend cpu: `{cmd}` is for the GPU; `fragtrace render --backend cpu` \
+                     renders on the CPU"
+                )));
+            }
+            if let Some(n) = self.gpu {
+                return Err(Error::Usage(format!(
+                    "--gpu {n} picks the EGL device of a headless render; `{cmd}` opens \
+                     none: drop --gpu"
+                )));
+            }
+        }
+        if door == Door::DumpShaders {
+            // Every kernel's programs are written, whatever the kernel, mask or storage, and
+            // the size, samples, depth and query interval are uniforms, not source.
+            if let Some(flag) = self.dump_unused().first() {
+                let what = flag.split(' ').next().unwrap_or(flag);
+                return Err(Error::Usage(format!(
+                    "{flag} does not change the programs `dump-shaders` writes (every \
+                     kernel's, for the structure and techniques chosen): drop {what}"
+                )));
+            }
+        }
+        if self.backend == Backend::Cpu {
+            if let Some(flag) = self.gpu_flags().first() {
+                return Err(Error::Usage(format!(
+                    "{flag} applies to the GPU backend; --backend cpu renders on the CPU: \
+                     drop it, or take --backend gl"
+                )));
+            }
+        }
+        if gpu_only {
+            if let Some(flag) = self.cpu_flags().first() {
+                let what = flag.split(' ').next().unwrap_or(flag);
+                return Err(Error::Usage(match command {
+                    Some(cmd) => format!(
+                        "{flag} applies to the CPU backend; `{cmd}` is for the GPU, in f32: \
+                         drop {what}"
+                    ),
+                    None => format!(
+                        "{flag} applies to the CPU backend; --backend gl renders on the GPU, \
+                         in f32: drop {what}, or take --backend cpu"
+                    ),
+                }));
+            }
+            if self.accel == AccelChoice::Bvh {
+                return Err(Error::Usage(match command {
+                    Some(cmd) => format!(
+                        "--accel bvh is walked on the CPU backend only; `{cmd}` is for the \
+                         GPU: take --accel irregular or uniform"
+                    ),
+                    None => "--accel bvh is walked on the CPU backend only: take --backend \
+                             cpu, or --accel irregular for the GPU"
+                        .into(),
+                }));
+            }
+        }
+        if self.kernel != Kernel::Auto {
+            self.gpu_options().refuse_inapplicable(self.kernel, true)?;
+        }
+        Ok(())
+    }
+
+    /// The flags given that do not change the programs `dump-shaders` writes.
+    fn dump_unused(&self) -> Vec<String> {
+        let mut given: Vec<String> = self
+            .gpu_flags()
+            .into_iter()
+            .filter(|f| f != "--no-specialize")
+            .collect();
+        for (flag, v) in [
+            ("--width", self.width),
+            ("--height", self.height),
+            ("--spp", self.spp),
+            ("--max-depth", self.max_depth),
+        ] {
+            if let Some(v) = v {
+                given.push(format!("{flag} {v}"));
+            }
+        }
+        given
+    }
+
+    /// The GPU backend's options these choices ask for (defaults filled in).
+    fn gpu_options(&self) -> crate::gpu::options::GpuOptions {
+        crate::gpu::options::GpuOptions {
+            query_every: self.query_every.unwrap_or(DEFAULT_QUERY_EVERY),
+            no_specialize: self.no_specialize,
+            kernel: self.kernel,
+            mask: self.mask,
+            storage: self.storage.unwrap_or_default(),
+            scene_fetch: self.scene_fetch,
+            ..Default::default()
+        }
+    }
+
+    /// Turns the choices made at `door` into render options for `scene`: the flags that do
+    /// not apply refused ([`Choices::check`]), the ranges the parser leaves open (grid
+    /// density, sizes and counts) checked, and each default filled in.
+    pub fn to_options(&self, scene: &Scene, door: Door) -> Result<RenderOptions> {
+        self.check(door)?;
+        let mut opts = RenderOptions::for_scene(scene);
+        opts.width = self.width.unwrap_or(scene.width);
+        opts.height = self.height.unwrap_or(scene.height);
+        opts.spp = self.spp.unwrap_or(door.default_spp());
+        opts.max_depth = self.max_depth.unwrap_or(scene.max_depth);
+        opts.precision = self.precision.unwrap_or(Precision::F64);
+        opts.cpu_path = self.cpu_path.unwrap_or_default();
+        opts.backend = match door {
+            Door::View | Door::DumpShaders => Backend::Gl,
+            Door::Render | Door::Bench => self.backend,
+        };
+        // `auto` with a density asks for a grid: the irregular one, on either backend.
+        // Otherwise `auto` stays `auto` until the backend is settled (`crate::plan`).
+        opts.accel = match (self.accel, self.grid_density) {
+            (AccelChoice::Auto, Some(_)) => AccelChoice::Irregular,
+            (choice, _) => choice,
+        };
+        let mut grid = GridConfig {
+            res: self.grid,
+            ..GridConfig::default()
+        };
+        if let Some(d) = self.grid_density {
+            if !(d.is_finite() && d > 0.0 && d <= 1024.0) {
+                return Err(Error::Usage(format!(
+                    "--grid-density {d} is outside (0, 1024]"
+                )));
+            }
+            match opts.accel.named() {
+                Some(AccelKind::Uniform) => grid.density = d,
+                Some(AccelKind::Irregular) => opts.irregular.top_density = d,
+                Some(AccelKind::Bvh) | None => {
+                    return Err(Error::Usage(
+                        "--grid-density sets a grid's cells; the BVH has none".into(),
+                    ))
+                }
+            }
+        }
+        if opts.accel != AccelChoice::Uniform && self.grid != GridRes::Auto {
+            return Err(Error::Usage(format!(
+                "--grid {} sets the uniform grid; add --accel uniform",
+                self.grid
+            )));
+        }
+        opts.grid = grid;
+        if let Some(k) = self
+            .query_every
+            .filter(|k| !(1..=MAX_QUERY_EVERY).contains(k))
+        {
+            return Err(Error::Usage(format!(
+                "--query-every {k} is outside 1..={MAX_QUERY_EVERY}"
+            )));
+        }
+        opts.gpu = self.gpu_options();
+        opts.device = self.gpu;
+        opts.techniques = Techniques {
+            intersect: self.intersect,
+            t_bound: self.t_bound,
+            offset: self.offset,
+            terminator: self.terminator,
+        };
+        opts.validate()?;
+        Ok(opts)
+    }
+}
+
+/// Arguments of `render`.
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// Scene file (TOML); the built-in default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Output image, by extension: .png or .ppm (sRGB 8-bit), .exr or .tif/.tiff (linear
+    /// 32-bit float), .hdr (Radiance RGBE, linear).
+    #[arg(short, long, default_value = "render.png")]
+    pub output: PathBuf,
+    /// The render's choices, shared with `view` and the bench's configurations.
+    #[command(flatten)]
+    pub choices: Choices,
+    /// Write primary-ray AOVs next to the image: any of depth,normal,primid,steps
+    /// (`<stem>.aov.exr`, and a PNG preview of each, `<stem>.<aov>.png`: depth as grey,
+    /// normals as colour, primid in false colour, steps as a heat map).
+    #[arg(long)]
+    pub aov: Option<String>,
+    /// Write render statistics as JSON to this file.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// Which parts of the image this process renders (`--tile`, `--region`,
+    /// `--task-index`, `--tiles`).
+    #[command(flatten)]
+    pub parts: PartArgs,
+    /// Render the frames A..B (both included), or all, of the scene's camera path
+    /// (the scene file's `[animation]` table), uploading the scene once; -o names each frame with
+    /// a run of # (out/frame_####.png) or {frame}.
+    #[arg(long, value_name = "A..B|all")]
+    pub frames: Option<FrameRange>,
+    /// Print nothing but errors (no progress display, no summary); not with -v.
+    #[arg(short, long, conflicts_with = "verbose")]
+    pub quiet: bool,
+    /// After the render, log each pass kind's count and GPU time (or the CPU's work).
+    #[arg(short, long)]
+    pub verbose: bool,
+}
+
+/// `render`'s arguments as a command of their own, for parsing lists of them.
+#[derive(Parser)]
+#[command(name = "render")]
+struct RenderArgsParser {
+    #[command(flatten)]
+    inner: RenderArgs,
+}
+
+impl RenderArgs {
+    /// Parses `render` arguments from a list (a bench configuration's, for one), returning
+    /// [`Error::Usage`] with clap's one-line message instead of exiting.
+    pub fn try_parse_from_args<S: AsRef<str>>(args: &[S]) -> Result<Self> {
+        let all = std::iter::once("render").chain(args.iter().map(|a| a.as_ref()));
+        RenderArgsParser::try_parse_from(all)
+            .map(|p| p.inner)
+            .map_err(|e| {
+                // The first line and the accepted values; clap's tips are about typing a
+                // command line, not a configuration string.
+                let lines = clap_error_lines(&e)
+                    .into_iter()
+                    .enumerate()
+                    .filter(|(i, l)| *i == 0 || l.starts_with("[possible values"))
+                    .map(|(_, l)| l)
+                    .collect();
+                Error::Usage(join_clap_lines(lines))
+            })
+    }
+
+    /// Turns the flags into render options for `scene` ([`Choices::to_options`] at
+    /// `render`'s door), with the progress display unless `-q`.
+    pub fn to_options(&self, scene: &Scene) -> Result<RenderOptions> {
+        let mut opts = self.choices.to_options(scene, Door::Render)?;
+        opts.progress = !self.quiet;
+        Ok(opts)
+    }
+}
+
+/// The parser of a count flag whose valid values are `lo..=hi`. Negative numbers reach it
+/// (the flags allow them) so that `--width -5` says what is wrong with -5 instead of clap's
+/// "unexpected argument" and its tip to write `-- -5`. It refuses negative numbers
+/// and non-numbers, naming that range (so `--width -5` does not suggest that 0 would do);
+/// the range itself is checked with the other options ([`RenderOptions::validate`]), whose
+/// message names the flag and the same range.
+pub fn count_in(
+    lo: u32,
+    hi: u32,
+) -> impl Fn(&str) -> std::result::Result<u32, String> + Clone + Send + Sync + 'static {
+    move |s: &str| {
+        s.parse::<u32>()
+            .map_err(|_| match s.trim().parse::<i128>() {
+                Ok(v) if v < 0 => {
+                    format!("{v} is negative; a whole number in {lo}..={hi} is expected")
+                }
+                _ => format!("`{s}` is not a whole number in {lo}..={hi}"),
+            })
+    }
+}
+
+/// A clap error as one line: clap's own first line without its `error:` prefix and any
+/// further lines of explanation (possible values, a tip), not the usage block.
+pub fn clap_error_line(e: &clap::Error) -> String {
+    join_clap_lines(clap_error_lines(e))
+}
+
+/// The lines of a clap error before its usage block, trimmed, without the `error:` prefix;
+/// the error kind when clap gave no text.
+fn clap_error_lines(e: &clap::Error) -> Vec<String> {
+    let rendered = e.render().to_string();
+    let mut parts: Vec<String> = Vec::new();
+    for line in rendered.lines().map(str::trim) {
+        if line.starts_with("Usage:") || line.starts_with("For more information") {
+            break;
+        }
+        if line.is_empty() {
+            continue;
+        }
+        // clap suggests `-- -5` for a value that looks like a flag; after `--` it would be
+        // read as the scene file, so the tip misleads.
+        if line.starts_with("tip: to pass '") && line.contains("use '-- ") {
+            continue;
+        }
+        parts.push(line.strip_prefix("error: ").unwrap_or(line).to_owned());
+    }
+    if parts.is_empty() {
+        parts.push(format!("{}", e.kind()));
+    }
+    parts
+}
+
+/// Joins message lines with `: ` (one space after a line that already ends in a colon).
+fn join_clap_lines(parts: Vec<String>) -> String {
+    let mut out = String::new();
+    for p in parts {
+        if !out.is_empty() {
+            out += if out.ends_with(':') { " " } else { ": " };
+        }
+        out += &p;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn options(door: Door, flags: &[&str]) -> Result<RenderOptions> {
+        RenderArgs::try_parse_from_args(flags)?
+            .choices
+            .to_options(&crate::scene::builtin_scene(), door)
+    }
+
+    fn refusal(door: Door, flags: &[&str]) -> String {
+        match options(door, flags) {
+            Err(Error::Usage(m)) => m,
+            other => panic!("{flags:?} at {door:?}: expected a usage error, got {other:?}"),
+        }
+    }
+
+    /// GPU flags on a CPU render and CPU flags on a GPU render are refused (they used to
+    /// be ignored, with exit 0), each in one line naming the flag.
+    #[test]
+    fn flags_of_the_other_backend_are_refused() {
+        for (flags, flag) in [
+            (&["--backend", "cpu", "--gpu", "7"][..], "--gpu 7"),
+            (
+                &["--backend", "cpu", "--kernel", "multipass"][..],
+                "--kernel multipass",
+            ),
+            (
+                &["--backend", "cpu", "--mask", "stencil"][..],
+                "--mask stencil",
+            ),
+            (
+                &["--backend", "cpu", "--storage", "f32"][..],
+                "--storage f32",
+            ),
+            (
+                &["--backend", "cpu", "--query-every", "8"][..],
+                "--query-every 8",
+            ),
+            (
+                &["--backend", "gl", "--precision", "f32"][..],
+                "--precision f32",
+            ),
+            (
+                &["--backend", "gl", "--precision", "f64"][..],
+                "--precision f64",
+            ),
+            (
+                &["--backend", "gl", "--cpu-path", "scalar"][..],
+                "--cpu-path scalar",
+            ),
+        ] {
+            let m = refusal(Door::Render, flags);
+            assert!(m.starts_with(flag), "{flags:?}: {m}");
+            assert!(!m.contains('\n'), "{m}");
+        }
+        // `auto` may run either backend: both kinds of flags stand.
+        assert!(options(Door::Render, &["--precision", "f32", "--kernel", "looped"]).is_ok());
+        assert!(options(Door::Render, &["--backend", "cpu", "--precision", "f32"]).is_ok());
+    }
+
+    /// A mask or 16-bit ray textures with the compute kernel, and a scene fetch with a
+    /// fragment kernel, are refused as not applying (usage), not as a limit.
+    #[test]
+    fn flags_of_the_other_kernel_are_refused() {
+        for (flags, flag) in [
+            (
+                &["--kernel", "compute", "--mask", "stencil"][..],
+                "--mask stencil",
+            ),
+            (
+                &["--kernel", "compute", "--storage", "f16"][..],
+                "--storage f16",
+            ),
+            (
+                &["--kernel", "looped", "--scene-fetch", "storage-buffer"][..],
+                "--scene-fetch storage-buffer",
+            ),
+        ] {
+            for door in [Door::Render, Door::View] {
+                let m = refusal(door, flags);
+                assert!(m.starts_with(flag) && m.contains("applies to"), "{m}");
+            }
+        }
+        assert!(options(Door::Render, &["--kernel", "looped", "--mask", "stencil"]).is_ok());
+        assert!(options(Door::Render, &["--kernel", "compute", "--storage", "f32"]).is_ok());
+    }
+
+    /// `view` renders on the GPU: its refusals advise only flags `view` has (never
+    /// `--backend cpu`), and its defaults are its own.
+    #[test]
+    fn view_advice_names_its_own_flags() {
+        let m = refusal(Door::View, &["--accel", "bvh"]);
+        assert!(m.contains("--accel irregular"), "{m}");
+        assert!(!m.contains("--backend"), "{m}");
+        let m = refusal(Door::View, &["--precision", "f32"]);
+        assert!(!m.contains("--backend"), "{m}");
+        assert!(refusal(Door::View, &["--gpu", "0"]).starts_with("--gpu 0"));
+        assert!(refusal(Door::View, &["--backend", "cpu"]).starts_with("--backend cpu"));
+        let render = refusal(Door::Render, &["--backend", "gl", "--accel", "bvh"]);
+        assert!(render.contains("--backend cpu"), "{render}");
+        let v = options(Door::View, &[]).unwrap();
+        assert_eq!((v.spp, v.backend), (16, Backend::Gl));
+        assert_eq!(options(Door::Render, &[]).unwrap().spp, 1);
+    }
+
+    /// `dump-shaders` takes the same flags: those that change its programs (structure,
+    /// techniques, `--no-specialize`) apply, the others are refused, naming the command.
+    #[test]
+    fn dump_shaders_takes_the_choices_that_change_programs() {
+        let d = Door::DumpShaders;
+        let o = options(
+            d,
+            &[
+                "--accel",
+                "uniform",
+                "--intersect",
+                "moller-trumbore",
+                "--no-specialize",
+            ],
+        )
+        .unwrap();
+        assert_eq!(o.on_backend(true).accel_kind(), AccelKind::Uniform);
+        assert_eq!(o.techniques.intersect, IntersectMethod::MollerTrumbore);
+        assert!(o.gpu.no_specialize);
+        for (flags, flag) in [
+            (&["--spp", "4"][..], "--spp 4"),
+            (&["--kernel", "looped"][..], "--kernel looped"),
+            (&["--accel", "bvh"][..], "--accel bvh"),
+            (&["--precision", "f32"][..], "--precision f32"),
+        ] {
+            let m = refusal(d, flags);
+            assert!(m.starts_with(flag) && m.contains("dump-shaders"), "{m}");
+            assert!(!m.contains("--backend"), "{m}");
+        }
+    }
+
+    /// `--accel auto` (the default) stays `auto` until the backend is settled, when
+    /// `on_backend` takes the BVH for the CPU and the irregular grid for the GPU; a density
+    /// asks for the irregular grid on either; a named structure is never changed.
+    #[test]
+    fn accel_auto_follows_the_backend() {
+        let choice = |flags: &[&str]| options(Door::Render, flags).unwrap().accel;
+        use AccelKind::*;
+        assert_eq!(choice(&["--backend", "cpu"]), AccelChoice::Auto);
+        assert_eq!(choice(&[]), AccelChoice::Auto);
+        for backend in ["cpu", "gl", "auto"] {
+            let flags = ["--backend", backend, "--grid-density", "0.5"];
+            assert_eq!(choice(&flags), AccelChoice::Irregular, "{backend}");
+            let o = options(Door::Render, &flags).unwrap();
+            assert_eq!(o.irregular.top_density, 0.5);
+            for (name, k) in [("uniform", Uniform), ("irregular", Irregular)] {
+                let o = options(Door::Render, &["--backend", backend, "--accel", name]).unwrap();
+                assert_eq!(
+                    (
+                        o.on_backend(false).accel_kind(),
+                        o.on_backend(true).accel_kind()
+                    ),
+                    (k, k)
+                );
+            }
+        }
+        assert_eq!(
+            choice(&["--backend", "cpu", "--accel", "bvh"]),
+            AccelChoice::Bvh
+        );
+
+        let auto = options(Door::Render, &[]).unwrap();
+        assert_eq!(auto.on_backend(false).accel_kind(), Bvh);
+        assert_eq!(auto.on_backend(true).accel_kind(), Irregular);
+        // Resolved once: a second call for the other backend changes nothing.
+        assert_eq!(auto.on_backend(false).on_backend(true).accel_kind(), Bvh);
+        // Unsettled, `auto` is the GPU's for `--backend auto` and `gl`, the CPU's for `cpu`.
+        assert_eq!(auto.accel_kind(), Irregular);
+        assert_eq!(
+            options(Door::Render, &["--backend", "cpu"])
+                .unwrap()
+                .accel_kind(),
+            Bvh
+        );
+        // The library's own defaults name the irregular grid.
+        let lib = RenderOptions::for_scene(&crate::scene::builtin_scene());
+        assert_eq!(lib.accel, AccelChoice::Irregular);
+        assert_eq!(lib.on_backend(false).accel_kind(), Irregular);
+    }
+
+    /// `-q` and `-v` contradict each other: refused, instead of `-v` printing its tables
+    /// under `-q`.
+    #[test]
+    fn quiet_and_verbose_are_refused_together() {
+        let e = RenderArgs::try_parse_from_args(&["-q", "-v"]).unwrap_err();
+        assert!(
+            matches!(e, Error::Usage(ref m) if m.contains("--verbose")),
+            "{e}"
+        );
+        assert!(RenderArgs::try_parse_from_args(&["-v"]).is_ok());
+    }
+
+    /// What `auto` cannot mean: the BVH's density, and `--grid` without the uniform grid.
+    #[test]
+    fn accel_auto_keeps_the_refusals() {
+        for flags in [
+            &["--backend", "cpu", "--accel", "bvh", "--grid-density", "2"][..],
+            &["--backend", "cpu", "--grid", "4x4x4"][..],
+            &["--backend", "gl", "--grid", "4x4x4"][..],
+        ] {
+            assert!(
+                matches!(options(Door::Render, flags), Err(Error::Usage(_))),
+                "{flags:?}"
+            );
+        }
+        assert!(options(
+            Door::Render,
+            &["--backend", "cpu", "--accel", "uniform", "--grid", "4x4x4"]
+        )
+        .is_ok());
+    }
+}
