@@ -299,6 +299,42 @@ impl RenderTarget {
     }
 }
 
+/// Makes the default framebuffer (the window's back buffer, where there is a window) the
+/// render destination, with a `width` x `height` viewport.
+pub fn bind_window(gl: &glow::Context, width: u32, height: u32) {
+    // SAFETY: the context is current; binding framebuffer 0 and any viewport size are
+    // always valid (a size past the limit is clamped by GL).
+    unsafe {
+        gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+        gl.viewport(0, 0, width as i32, height as i32);
+    }
+}
+
+/// Reads the window's back buffer (`width` x `height`) as RGBA8, bottom row first, and
+/// leaves the default framebuffer bound.
+pub fn read_window(gl: &glow::Context, width: u32, height: u32) -> Result<Vec<u8>> {
+    let mut rgba = vec![0u8; rgba_len(width, height)];
+    // SAFETY: the context is current and `rgba` holds exactly width*height RGBA bytes at
+    // the pack alignment of 1 set for the read (put back to GL's default 4 after).
+    unsafe {
+        gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+        gl.read_buffer(glow::BACK);
+        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 1);
+        gl.read_pixels(
+            0,
+            0,
+            width as i32,
+            height as i32,
+            glow::RGBA,
+            glow::UNSIGNED_BYTE,
+            glow::PixelPackData::Slice(Some(&mut rgba)),
+        );
+        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
+    }
+    check_gl_error(gl, "reading the window back")?;
+    Ok(rgba)
+}
+
 /// Reads at least this many floats through a pixel pack buffer (smaller reads, such as a
 /// reduction's few texels, are not worth a buffer).
 const PACK_BUFFER_MIN_FLOATS: usize = 1 << 18;
