@@ -77,7 +77,8 @@ impl StorageBuffer {
     pub fn new(ctx: &GlContext, data: &[u8]) -> Result<Self> {
         let mut padded = data.to_vec();
         padded.resize(data.len().max(16), 0);
-        // SAFETY: the slice is valid for the call.
+        // SAFETY: `create` calls this with the context current and the new buffer bound;
+        // GL copies `padded`, which outlives the call, and reads no more than its length.
         Self::create(ctx, padded.len(), |gl| unsafe {
             gl.buffer_data_u8_slice(glow::SHADER_STORAGE_BUFFER, &padded, glow::DYNAMIC_COPY)
         })
@@ -96,7 +97,8 @@ impl StorageBuffer {
                 "a storage buffer of {bytes} bytes exceeds GL's 2 GiB size argument"
             ))
         })?;
-        // SAFETY: allocation only.
+        // SAFETY: `create` calls this with the context current and the new buffer bound;
+        // GL allocates `size` bytes and reads no host memory.
         Self::create(ctx, bytes, |gl| unsafe {
             gl.buffer_data_size(glow::SHADER_STORAGE_BUFFER, size, glow::DYNAMIC_COPY)
         })

@@ -105,7 +105,8 @@ impl Program {
     /// Makes the program current and binds each of its samplers to its unit (the
     /// contract's [`SAMPLERS`]; those the program lacks are skipped).
     pub fn bind_samplers(&self, gl: &glow::Context) {
-        // SAFETY: as in `set`.
+        // SAFETY: as in `set`: the context is current, the program a linked program of it,
+        // and each location is used with the program it came from.
         unsafe {
             gl.use_program(Some(self.name()));
             for s in &SAMPLERS {

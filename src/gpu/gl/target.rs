@@ -45,7 +45,8 @@ impl RenderTarget {
     ) -> Result<Self> {
         let gl = ctx.gl();
         let attachments = formats.len();
-        // SAFETY: plain state queries.
+        // SAFETY: the context is current; both limits are one integer each, the one that
+        // GetIntegerv writes.
         let (max_draw, max_color) = unsafe {
             (
                 gl.get_parameter_i32(glow::MAX_DRAW_BUFFERS),
