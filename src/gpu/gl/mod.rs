@@ -81,6 +81,15 @@ impl<K: GlKind> Owned<K> {
     pub fn name(&self) -> K::Name {
         self.name
     }
+
+    /// Takes ownership of `name`, just created in the context `self` belongs to: for a
+    /// helper that has an object of the context at hand but not the `GlContext`.
+    pub(crate) fn beside<J: GlKind>(&self, name: J::Name) -> Owned<J> {
+        Owned {
+            shared: Rc::clone(&self.shared),
+            name,
+        }
+    }
 }
 
 impl<K: GlKind> std::fmt::Debug for Owned<K> {

@@ -5,8 +5,8 @@ use glow::HasContext;
 
 use super::texture::check_texture_size;
 use super::{
-    check_gl_error, f32_bytes_mut, rgba_len, FramebufferKind, Owned, Renderbuffer, TexFormat,
-    Texture,
+    check_gl_error, f32_bytes_mut, rgba_len, BufferKind, FramebufferKind, Owned, Renderbuffer,
+    TexFormat, Texture,
 };
 use crate::error::{Error, Result};
 use crate::gpu::context::GlContext;
@@ -281,7 +281,7 @@ impl RenderTarget {
                 && out.len() >= PACK_BUFFER_MIN_FLOATS
                 && gl.version().major >= 3
             {
-                read_through_pack_buffer(gl, (x, y, width, height), &mut out)?;
+                read_through_pack_buffer(gl, &self.framebuffer, (x, y, width, height), &mut out)?;
                 check_gl_error(gl, "reading a render target attachment")?;
                 return Ok(out);
             }
@@ -344,13 +344,15 @@ const PACK_BUFFER_MIN_FLOATS: usize = 1 << 18;
 /// `GL_STREAM_READ` pixel pack buffer, then a parallel copy out of the mapped buffer: on the
 /// H200 a 4096x4096 RGBA32F read went from 0.7 GB/s straight into client memory to several
 /// GB/s this way (the compute kernel's read-back, docs/performance.md). GL 3.0 (mapping a
-/// range); the pack buffer is deleted before returning, also on failure.
+/// range); the pack buffer is owned (in `fb`'s context) and deleted on return, also on
+/// failure.
 ///
 /// # Safety
-/// The context must be current with the framebuffer and read buffer to read from bound,
-/// and `out` must hold exactly `w * h * 4` floats.
+/// The context must be current with the framebuffer `fb` and the read buffer to read from
+/// bound, and `out` must hold exactly `w * h * 4` floats.
 unsafe fn read_through_pack_buffer(
     gl: &glow::Context,
+    fb: &Owned<FramebufferKind>,
     (x, y, w, h): (u32, u32, u32, u32),
     out: &mut [f32],
 ) -> Result<()> {
@@ -358,10 +360,11 @@ unsafe fn read_through_pack_buffer(
     let bytes = out.len() * 4;
     let size = i32::try_from(bytes)
         .map_err(|_| Error::Limit(format!("a read of {bytes} bytes exceeds GL's 2 GiB size")))?;
-    let pbo = gl
-        .create_buffer()
-        .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?;
-    gl.bind_buffer(glow::PIXEL_PACK_BUFFER, Some(pbo));
+    let pbo = fb.beside::<BufferKind>(
+        gl.create_buffer()
+            .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
+    );
+    gl.bind_buffer(glow::PIXEL_PACK_BUFFER, Some(pbo.name()));
     gl.buffer_data_size(glow::PIXEL_PACK_BUFFER, size, glow::STREAM_READ);
     gl.read_pixels(
         x as i32,
@@ -386,7 +389,6 @@ unsafe fn read_through_pack_buffer(
         Ok(())
     };
     gl.bind_buffer(glow::PIXEL_PACK_BUFFER, None);
-    gl.delete_buffer(pbo);
     r
 }
 
