@@ -1,4 +1,4 @@
-//! Probing a new desktop context: the few GL entry points loaded directly ([`RawGl`])
+//! Probing a new desktop context: the few GL entry points loaded directly (`RawGl`)
 //! because glow's wrappers break on real GL 2.1 drivers, and the queries that fill its
 //! [`GlInfo`] report (version strings, limits, extensions, timer queries).
 //!

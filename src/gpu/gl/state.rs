@@ -79,7 +79,7 @@ pub fn begin_mask_write(gl: &glow::Context, mask: MaskBuffer) {
     }
 }
 
-/// Ends the mask write that [`begin_mask_write`] started: the depth range back to [0, 1],
+/// Ends the mask write that [`begin_mask_write`] started: the depth range back to `[0, 1]`,
 /// depth and stencil writes off, both tests off.
 pub fn end_mask_write(gl: &glow::Context) {
     // SAFETY: the context is current; plain state setters with valid enums.
