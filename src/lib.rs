@@ -16,6 +16,8 @@
 //! computes), [`technique`] (switches for the robustness techniques), [`aov`] (AOV files)
 //! and [`compare`] (error figures).
 
+// Every `unsafe` block says, in a `// SAFETY:` comment, the invariant that makes it sound.
+#![deny(clippy::undocumented_unsafe_blocks)]
 // The wasm32 build (the web page, docs/web.md) leaves out the native-only modules, so
 // helpers only they use (and the x86 SIMD kernels) are unused there.
 #![cfg_attr(

@@ -403,6 +403,8 @@ macro_rules! chunk_kernel {
             }
             let bits = mask(good);
             if bits != 0 {
+                // SAFETY: each field of `Lanes` holds 8 f32 (W is 8 or 4), so a W-lane store at
+                // its start stays inside it; the caller's CPU has the module's feature.
                 unsafe {
                     store(out.tt.as_mut_ptr(), tt);
                     store(out.det_abs.as_mut_ptr(), det_abs);
@@ -435,11 +437,15 @@ mod avx2 {
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn load(p: *const f32) -> __m256 {
+        // SAFETY: the caller (the chunk kernel) passes a pointer with 8 readable f32
+        // (the padded arrays); unaligned loads, and AVX2 is enabled by this function.
         unsafe { _mm256_loadu_ps(p) }
     }
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn store(p: *mut f32, v: __m256) {
+        // SAFETY: the caller passes a pointer with room for 8 f32 (a `Lanes` field);
+        // unaligned stores, and AVX2 is enabled by this function.
         unsafe { _mm256_storeu_ps(p, v) }
     }
     #[inline]
@@ -551,11 +557,15 @@ mod sse2 {
     #[inline]
     #[target_feature(enable = "sse2")]
     unsafe fn load(p: *const f32) -> __m128 {
+        // SAFETY: the caller (the chunk kernel) passes a pointer with 4 readable f32
+        // (the padded arrays); unaligned loads, and SSE2 is enabled by this function.
         unsafe { _mm_loadu_ps(p) }
     }
     #[inline]
     #[target_feature(enable = "sse2")]
     unsafe fn store(p: *mut f32, v: __m128) {
+        // SAFETY: the caller passes a pointer with room for 4 f32 (a `Lanes` field);
+        // unaligned stores, and SSE2 is enabled by this function.
         unsafe { _mm_storeu_ps(p, v) }
     }
     #[inline]

@@ -31,9 +31,11 @@ use std::rc::Rc;
 
 #[cfg(not(target_arch = "wasm32"))]
 use super::egl::{egl_instance, open_session_on, EglSession};
-use super::info::GlInfo;
 #[cfg(not(target_arch = "wasm32"))]
-use super::info::{gather_info, limit_profile, load_raw_gl, parse_major_minor, RawGl};
+use super::gl::probe::{load, RawGl};
+#[cfg(not(target_arch = "wasm32"))]
+use super::info::limit_profile;
+use super::info::GlInfo;
 use crate::error::{Error, Result};
 
 /// A GL context created and owned outside fragtrace (a window's), for
@@ -259,30 +261,6 @@ pub(crate) fn web_context(gl: glow::Context, info: GlInfo) -> GlContext {
     }
 }
 
-/// Loads the function tables of the current context through `loader`, vets its
-/// GL_VERSION and gathers the report; `names` are the display API's platform, vendor and
-/// version, as reported.
-#[cfg(not(target_arch = "wasm32"))]
-fn load(
-    loader: &dyn Fn(&str) -> *const c_void,
-    names: &[String; 3],
-) -> Result<(glow::Context, RawGl, GlInfo)> {
-    let mut raw = load_raw_gl(loader)?;
-    // glow panics on a NULL or unparsable GL_VERSION, so vet it first.
-    let gl_version = raw.string(glow::VERSION).ok_or_else(|| {
-        Error::GlUnavailable(format!(
-            "glGetString(GL_VERSION) returned NULL on {} although the context is current",
-            names[0]
-        ))
-    })?;
-    let gl_major_minor = parse_major_minor(&gl_version)
-        .ok_or_else(|| Error::GlUnavailable(format!("cannot parse GL_VERSION `{gl_version}`")))?;
-    // SAFETY: the context is current on this thread and `loader` resolves its functions.
-    let gl = unsafe { glow::Context::from_loader_function(loader) };
-    let info = gather_info(&gl, &mut raw, names, gl_version, gl_major_minor, loader);
-    Ok((gl, raw, info))
-}
-
 /// Serialises GL use across threads of one process and hands `f` a fresh, checked context.
 ///
 /// Mesa's EGL/llvmpipe is not robust against many contexts being created and destroyed
@@ -361,7 +339,6 @@ mod tests {
     use super::test_support::{mesa_or_acknowledged_skip, run_ignored_test_in_child};
     use super::*;
     use crate::gpu::egl::PLATFORM_ENV;
-    use glow::HasContext;
 
     #[test]
     fn context_reports_gl21_and_all_required_features() {
@@ -389,7 +366,7 @@ mod tests {
                 assert!(report.contains(needle), "{needle} missing in\n{report}");
             }
             // The context really is current and usable.
-            assert_eq!(unsafe { ctx.gl().get_error() }, glow::NO_ERROR);
+            crate::gpu::gl::check_gl_error(ctx.gl(), "a new context").unwrap();
         });
     }
 

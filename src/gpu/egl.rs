@@ -451,6 +451,8 @@ fn device_string(egl: &EglInstance, device: *mut c_void, name: egl::Int) -> Opti
         unsafe { std::mem::transmute::<extern "system" fn(), PfnQueryDeviceStringExt>(f) };
     // SAFETY: valid device; EGL returns NULL or a static NUL-terminated string.
     let p = unsafe { f(device, name) };
+    // SAFETY: `p` is checked non-NULL first, and EGL's device strings are NUL-terminated
+    // and live as long as the display.
     (!p.is_null()).then(|| unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned())
 }
 

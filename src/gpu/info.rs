@@ -1,14 +1,10 @@
 //! What a GL context is and whether fragtrace can use it: the [`GlInfo`] capability report
 //! (version, limits, required features and the verdict), the [`LimitProfile`]s that shrink
-//! a modern driver's limits to period hardware's, and the few GL entry points loaded
-//! directly (`RawGl`) because glow's wrappers break on real GL 2.1 drivers.
+//! a modern driver's limits to period hardware's. Probing a context to fill the report is
+//! GL's business, in `gpu::gl::probe`.
 
-#[cfg(not(target_arch = "wasm32"))]
-use std::ffi::{c_void, CStr};
 use std::fmt;
 use std::sync::OnceLock;
-
-use glow::HasContext;
 
 use super::contract::REQUIRED_TEXTURE_UNITS;
 use super::dialect::Dialect;
@@ -44,85 +40,6 @@ impl Check {
 
     pub(crate) fn flag(name: impl Into<String>, ok: bool) -> Self {
         Check::new(name, if ok { "yes" } else { "no" }, ok)
-    }
-}
-
-#[cfg(not(target_arch = "wasm32"))]
-type PfnGetString = unsafe extern "system" fn(u32) -> *const u8;
-#[cfg(not(target_arch = "wasm32"))]
-type PfnGetQueryObjectuiv = unsafe extern "system" fn(u32, u32, *mut u32);
-#[cfg(not(target_arch = "wasm32"))]
-type PfnGetQueryObjectui64v = unsafe extern "system" fn(u32, u32, *mut u64);
-#[cfg(not(target_arch = "wasm32"))]
-type PfnGetQueryiv = unsafe extern "system" fn(u32, u32, *mut i32);
-#[cfg(all(test, not(target_arch = "wasm32")))]
-type PfnIsName = unsafe extern "system" fn(u32) -> u8;
-
-/// GL entry points called directly instead of through glow.
-///
-/// glow 0.16 panics when `glGetString` returns NULL (e.g. `GL_EXTENSIONS` in a core profile),
-/// and its `get_query_parameter_u32` only calls `glGetQueryObjectuiv` when the GL 4.5
-/// `glGetQueryBufferObjectiv` is present, otherwise the GLES-only `...EXT` name, which a real
-/// GL 2.1 driver does not export. Loading these few ourselves keeps 2.1 drivers working.
-#[cfg(not(target_arch = "wasm32"))]
-pub(crate) struct RawGl {
-    get_string: PfnGetString,
-    get_query_objectuiv: PfnGetQueryObjectuiv,
-    get_queryiv: PfnGetQueryiv,
-    /// `glGetQueryObjectui64v` (GL 3.3 / ARB_timer_query) or its EXT_timer_query alias; only
-    /// present when timer queries are.
-    get_query_objectui64v: Option<PfnGetQueryObjectui64v>,
-    /// `glIsQuery` and `glIsVertexArray` (GL 3.0; `None` below), only for the tests' count
-    /// of live GL objects, which glow does not wrap.
-    #[cfg(test)]
-    is_query: Option<PfnIsName>,
-    #[cfg(test)]
-    is_vertex_array: Option<PfnIsName>,
-}
-
-#[cfg(not(target_arch = "wasm32"))]
-impl RawGl {
-    /// `glGetString`, `None` where the driver returns NULL.
-    pub(crate) fn string(&self, name: u32) -> Option<String> {
-        // SAFETY: the pointer came from the current context's loader; GL returns either NULL
-        // or a NUL-terminated static string.
-        unsafe {
-            let p = (self.get_string)(name);
-            (!p.is_null()).then(|| CStr::from_ptr(p.cast()).to_string_lossy().into_owned())
-        }
-    }
-
-    /// `glGetQueryObjectuiv(query, GL_QUERY_RESULT)`; blocks until the result is available.
-    pub(crate) fn query_result_u32(&self, query: glow::Query) -> u32 {
-        let mut value = 0u32;
-        // SAFETY: valid query name from this context, one-element out pointer.
-        unsafe { (self.get_query_objectuiv)(query.0.get(), glow::QUERY_RESULT, &mut value) };
-        value
-    }
-
-    /// `glGetQueryObjectui64v(query, GL_QUERY_RESULT)`, `None` without timer-query support.
-    pub(crate) fn query_result_u64(&self, query: glow::Query) -> Option<u64> {
-        let f = self.get_query_objectui64v?;
-        let mut value = 0u64;
-        // SAFETY: as above; the function exists because timer queries were detected.
-        unsafe { f(query.0.get(), glow::QUERY_RESULT, &mut value) };
-        Some(value)
-    }
-
-    /// `glIsQuery(name)` and `glIsVertexArray(name)` (false where the driver lacks it).
-    #[cfg(test)]
-    pub(crate) fn is_query_and_vertex_array(&self, name: u32) -> (bool, bool) {
-        // SAFETY: both take any name and only read state.
-        let is = |f: Option<PfnIsName>| f.is_some_and(|f| unsafe { f(name) } != 0);
-        (is(self.is_query), is(self.is_vertex_array))
-    }
-
-    /// `glGetQueryiv(target, pname)`.
-    fn query_iv(&self, target: u32, pname: u32) -> i32 {
-        let mut value = 0;
-        // SAFETY: one-element out pointer; an unsupported target only raises a GL error.
-        unsafe { (self.get_queryiv)(target, pname, &mut value) };
-        value
     }
 }
 
@@ -300,7 +217,7 @@ impl GlInfo {
     }
 
     /// Evaluates the requirements from the raw facts already stored in `self`.
-    fn compute_features(&mut self, fbo_entry_points: bool) {
+    pub(crate) fn compute_features(&mut self, fbo_entry_points: bool) {
         let gl = self.gl_major_minor;
         let ext = |n: &str| self.has_extension(n);
         let glsl_ok = parse_major_minor(&self.glsl_version).is_some_and(|v| v >= (1, 20));
@@ -441,123 +358,6 @@ impl fmt::Display for GlInfo {
             Err(reason) => write!(f, "Verdict: UNUSABLE, {reason}"),
         }
     }
-}
-
-/// Resolves the [`RawGl`] entry points; only the always-present GL 1.x/1.5 ones are mandatory.
-#[cfg(not(target_arch = "wasm32"))]
-pub(super) fn load_raw_gl(loader: &dyn Fn(&str) -> *const c_void) -> Result<RawGl> {
-    let get = |name: &str| -> Result<*const c_void> {
-        let p = loader(name);
-        if p.is_null() {
-            Err(Error::GlUnavailable(format!(
-                "the driver does not export {name}"
-            )))
-        } else {
-            Ok(p)
-        }
-    };
-    // SAFETY: each pointer is the named GL function, whose C signature the type spells out.
-    unsafe {
-        Ok(RawGl {
-            get_string: std::mem::transmute::<*const c_void, PfnGetString>(get("glGetString")?),
-            get_query_objectuiv: std::mem::transmute::<*const c_void, PfnGetQueryObjectuiv>(get(
-                "glGetQueryObjectuiv",
-            )?),
-            get_queryiv: std::mem::transmute::<*const c_void, PfnGetQueryiv>(get("glGetQueryiv")?),
-            get_query_objectui64v: None,
-            #[cfg(test)]
-            is_query: (!loader("glIsQuery").is_null())
-                .then(|| std::mem::transmute::<*const c_void, PfnIsName>(loader("glIsQuery"))),
-            #[cfg(test)]
-            is_vertex_array: (!loader("glIsVertexArray").is_null()).then(|| {
-                std::mem::transmute::<*const c_void, PfnIsName>(loader("glIsVertexArray"))
-            }),
-        })
-    }
-}
-
-/// Reads version strings, limits and extensions, and evaluates the requirements.
-/// `session` is the display API's platform, vendor and version, as reported.
-#[cfg(not(target_arch = "wasm32"))]
-pub(super) fn gather_info(
-    gl: &glow::Context,
-    raw: &mut RawGl,
-    session: &[String; 3],
-    gl_version: String,
-    gl_major_minor: (u32, u32),
-    loader: &dyn Fn(&str) -> *const c_void,
-) -> GlInfo {
-    let string = |name| raw.string(name).unwrap_or_default();
-    // SAFETY (all `gl` calls below): the context is current; plain state queries.
-    let int = |name| unsafe { gl.get_parameter_i32(name) };
-
-    // GL_EXTENSIONS through glGetString is the only way in a 2.1 context and still works in
-    // 3.x compatibility profiles; a core profile returns NULL (+ GL_INVALID_ENUM) and needs
-    // glGetStringi.
-    let extensions: Vec<String> = match raw.string(glow::EXTENSIONS) {
-        Some(s) => s.split_ascii_whitespace().map(str::to_owned).collect(),
-        None => unsafe {
-            while gl.get_error() != glow::NO_ERROR {}
-            let n = gl.get_parameter_i32(glow::NUM_EXTENSIONS).max(0) as u32;
-            (0..n)
-                .map(|i| gl.get_parameter_indexed_string(glow::EXTENSIONS, i))
-                .collect()
-        },
-    };
-    let mut info = GlInfo {
-        egl_platform: session[0].clone(),
-        egl_vendor: session[1].clone(),
-        egl_version: session[2].clone(),
-        gl_version,
-        gl_major_minor,
-        renderer: string(glow::RENDERER),
-        vendor: string(glow::VENDOR),
-        glsl_version: string(glow::SHADING_LANGUAGE_VERSION),
-        max_texture_size: effective_limit(int(glow::MAX_TEXTURE_SIZE), |p| p.max_texture_size),
-        max_viewport_dims: {
-            let mut dims = [0i32; 2];
-            // SAFETY: the context is current; GL_MAX_VIEWPORT_DIMS writes two integers.
-            unsafe { gl.get_parameter_i32_slice(glow::MAX_VIEWPORT_DIMS, &mut dims) };
-            let lim = |v: i32| effective_limit(v, |p| p.max_texture_size);
-            (lim(dims[0]), lim(dims[1]))
-        },
-        max_draw_buffers: effective_limit(int(glow::MAX_DRAW_BUFFERS), |p| p.max_draw_buffers),
-        max_texture_units: effective_limit(int(glow::MAX_TEXTURE_IMAGE_UNITS), |p| {
-            p.max_texture_units
-        }),
-        limit_profile: limit_profile().ok().flatten().map(|p| p.name.to_string()),
-        occlusion_query_bits: raw.query_iv(glow::SAMPLES_PASSED, glow::QUERY_COUNTER_BITS),
-        timer_query: false,
-        compute: false,
-        extensions,
-        dialect: Dialect::Glsl120,
-        features: Vec::new(),
-        optional: Vec::new(),
-    };
-
-    // Mesa's eglGetProcAddress returns a dispatch stub for *any* gl* name, so whether a
-    // function resolves says nothing on Mesa; decide by version/extension first.
-    let core_timer = gl_major_minor >= (3, 3) || info.has_extension("GL_ARB_timer_query");
-    let timer_fn = if core_timer {
-        Some("glGetQueryObjectui64v")
-    } else if info.has_extension("GL_EXT_timer_query") {
-        Some("glGetQueryObjectui64vEXT")
-    } else {
-        None
-    };
-    raw.get_query_objectui64v = timer_fn.and_then(|name| {
-        let p = loader(name);
-        // SAFETY: the named function has exactly this C signature.
-        (!p.is_null())
-            .then(|| unsafe { std::mem::transmute::<*const c_void, PfnGetQueryObjectui64v>(p) })
-    });
-    info.timer_query = raw.get_query_objectui64v.is_some();
-
-    let fbo_entry_points = !loader("glGenFramebuffers").is_null();
-    info.compute_features(fbo_entry_points);
-    // Leave no error from the probing above for the first real GL call to trip over.
-    unsafe { while gl.get_error() != glow::NO_ERROR {} }
-    info
 }
 
 /// Parses the leading `major.minor` of a GL/GLSL version string (`4.5 (Compat...) Mesa`,

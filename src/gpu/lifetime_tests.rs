@@ -6,10 +6,7 @@
 //! `glIsBuffer`, `glIsQuery`, `glIsVertexArray`) about every name up to well past the
 //! largest name the driver handed out during the run.
 
-use std::num::NonZeroU32;
 use std::path::{Path, PathBuf};
-
-use glow::HasContext;
 
 use super::options::GpuOptions;
 use super::render::{render, render_gl, render_stepped, trace_rays, Flow, ImageRequest, Snapshot};
@@ -18,7 +15,7 @@ use super::scene::BREAK_PASS;
 use crate::accel::{Grid, GridConfig};
 use crate::gpu::context::{with_test_context, GlContext};
 use crate::gpu::gl::texture::TEST_MAX_TEXTURE_SIZE;
-use crate::gpu::gl::{OcclusionQuery, Program, RenderTarget, Texture};
+use crate::gpu::gl::{check_gl_error, probe, OcclusionQuery, Program, RenderTarget, Texture};
 use crate::gpu::options::{Kernel, Mask, Storage};
 use crate::gpu::shader::{Pass, Query};
 use crate::scene::{builtin_scene, load_scene_with_search_path, Scene};
@@ -26,38 +23,7 @@ use crate::Error;
 
 /// Live names by kind, as the driver reports them, for names `1..=upto`.
 fn live_objects(ctx: &GlContext, upto: u32) -> Vec<(&'static str, u32)> {
-    let gl = ctx.gl();
-    let mut live = Vec::new();
-    for n in 1..=upto {
-        let id = NonZeroU32::new(n).expect("names start at 1");
-        // SAFETY: glIs* accept any name and only read state.
-        let kinds = unsafe {
-            [
-                ("texture", gl.is_texture(glow::NativeTexture(id))),
-                ("program", gl.is_program(glow::NativeProgram(id))),
-                ("shader", gl.is_shader(glow::NativeShader(id))),
-                (
-                    "framebuffer",
-                    gl.is_framebuffer(glow::NativeFramebuffer(id)),
-                ),
-                (
-                    "renderbuffer",
-                    gl.is_renderbuffer(glow::NativeRenderbuffer(id)),
-                ),
-                ("buffer", gl.is_buffer(glow::NativeBuffer(id))),
-            ]
-        };
-        let (query, vao) = ctx.raw().is_query_and_vertex_array(n);
-        for (kind, is) in kinds
-            .into_iter()
-            .chain([("query", query), ("vertex array", vao)])
-        {
-            if is {
-                live.push((kind, n));
-            }
-        }
-    }
-    live
+    probe::live_objects(ctx.gl(), ctx.raw(), upto)
 }
 
 /// The largest name a fresh object of each kind gets now (a driver that never reuses names
@@ -260,8 +226,7 @@ fn renders_in_one_context_free_every_gl_object() {
             "GL objects alive after {} renders differ from before (largest name probed {largest})",
             scenes.len() * configs.len()
         );
-        // SAFETY: plain error query.
-        assert_eq!(unsafe { ctx.gl().get_error() }, glow::NO_ERROR);
+        check_gl_error(ctx.gl(), "after the renders").unwrap();
     });
 }
 
@@ -277,9 +242,7 @@ fn objects_are_freed_in_their_own_context() {
         drop(second); // the texture keeps the second context alive
         first.make_current().unwrap();
         drop(tex); // deleted in the second context, the first stays current
-                   // SAFETY: plain query in the first context.
-        let current = unsafe { first.gl().get_error() };
-        assert_eq!(current, glow::NO_ERROR);
+        check_gl_error(first.gl(), "the first context after the drop").unwrap();
         let after = live_objects(first, probe_names(first) + 256);
         assert_eq!(after, before, "the first context's objects changed");
         let _ = name;

@@ -17,12 +17,10 @@ use std::cell::{Cell, OnceCell, RefCell, RefMut};
 use std::collections::HashMap;
 use std::rc::Rc;
 
-use glow::HasContext;
-
 use super::context::GlContext;
 use super::contract::STORAGE_BINDING_BASE;
 use super::contract::{uniform, Unit};
-use super::gl::{compile_compute, compile_program, Program, StorageBuffer, Texture};
+use super::gl::{compile_compute, compile_program, state, Program, StorageBuffer, Texture};
 use super::layout::SceneTextures;
 use super::shader::{assemble_compute, assemble_in, ComputePass, ComputeSpec, Features, Pass};
 use crate::accel::{AccelRef, GridRef};
@@ -197,9 +195,9 @@ impl<'s> GpuScene<'s> {
                 ))
             })
             .collect::<Result<Vec<_>>>()?;
-        // SAFETY: the context is current. Waiting here charges the upload to set-up
-        // instead of to the first pass that reads it.
-        unsafe { self.ctx.gl().finish() };
+        // Waiting here charges the upload to set-up instead of to the first pass that
+        // reads it.
+        state::finish(self.ctx.gl());
         self.charge(|c| {
             c.upload_ms += ms_since(t0);
             c.upload_bytes += self.layout.bytes();
@@ -227,8 +225,7 @@ impl<'s> GpuScene<'s> {
                 ))
             })
             .collect::<Result<Vec<_>>>()?;
-        // SAFETY: the context is current.
-        unsafe { self.ctx.gl().finish() };
+        state::finish(self.ctx.gl());
         self.charge(|c| {
             c.upload_ms += ms_since(t0);
             c.upload_bytes += self.layout.bytes();
@@ -396,11 +393,7 @@ pub fn max_iterations(accel: GridRef<'_>) -> u64 {
 
 /// Binds `tex` to `unit`.
 pub fn bind_texture(gl: &glow::Context, unit: Unit, tex: &Texture) {
-    // SAFETY: the context is current; `tex` is a live texture of this context.
-    unsafe {
-        gl.active_texture(glow::TEXTURE0 + unit.index());
-        gl.bind_texture(glow::TEXTURE_2D, Some(tex.name()));
-    }
+    state::bind_texture(gl, unit.index(), Some(tex));
 }
 
 /// Milliseconds since `t`.

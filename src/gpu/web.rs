@@ -71,8 +71,10 @@ impl GlContext {
 /// Version strings, limits and extensions of a WebGL 1 or 2 context, and its verdict.
 fn gather_web_info(gl: &glow::Context, dialect: Dialect) -> GlInfo {
     let webgl2 = dialect == Dialect::Essl300;
-    // SAFETY (all calls): plain state queries on the page's context.
+    // SAFETY: the page's context is the one WebGL context of this thread, and `int` is only
+    // asked for single-valued limits (glow reads the WebGL value, no pointer is written).
     let int = |name| unsafe { gl.get_parameter_i32(name) };
+    // SAFETY: as above; WebGL returns the string by value.
     let string = |name| unsafe { gl.get_parameter_string(name) };
     let mut extensions: Vec<String> = gl.supported_extensions().iter().cloned().collect();
     extensions.sort();

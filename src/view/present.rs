@@ -5,14 +5,13 @@
 //! wave is seen advancing pass by pass. Also reads the window back for screenshots.
 //!
 //! The presenter draws in the render's own context between two of its passes, so it
-//! saves and restores every piece of GL state it touches ([`SavedState`]): the renderer
-//! never learns that it was watched.
-
-use glow::HasContext;
+//! saves and restores every piece of GL state it touches (`gpu::gl::SavedState`): the
+//! renderer never learns that it was watched.
 
 use crate::gpu::contract::{self, ray, view, Unit};
 use crate::gpu::gl::{
-    compile_program, single_file_line_map, FullscreenQuad, Program, RenderTarget, Texture,
+    bind_window, compile_program, read_window as read_back_buffer, single_file_line_map, state,
+    FullscreenQuad, Program, RenderTarget, SavedState, Texture,
 };
 use crate::gpu::render::Snapshot;
 use crate::gpu::shader::RayState;
@@ -69,66 +68,6 @@ pub(super) struct Presenter {
     still: Option<RenderTarget>,
     /// Samples in `still`.
     still_samples: u32,
-}
-
-/// The GL state the presenter changes, saved before and put back after it draws.
-struct SavedState {
-    framebuffer: Option<glow::Framebuffer>,
-    viewport: [i32; 4],
-    program: Option<glow::Program>,
-    active_unit: u32,
-    units: [(u32, Option<glow::Texture>); 2],
-    depth_test: bool,
-    stencil_test: bool,
-}
-
-impl SavedState {
-    fn save(gl: &glow::Context) -> SavedState {
-        // SAFETY (here and in `restore`): the context is current; plain state queries.
-        unsafe {
-            let mut viewport = [0; 4];
-            gl.get_parameter_i32_slice(glow::VIEWPORT, &mut viewport);
-            let active_unit = gl.get_parameter_i32(glow::ACTIVE_TEXTURE) as u32;
-            let units = [0, 1].map(|k| {
-                gl.active_texture(glow::TEXTURE0 + k);
-                (k, gl.get_parameter_texture(glow::TEXTURE_BINDING_2D))
-            });
-            gl.active_texture(active_unit);
-            SavedState {
-                framebuffer: gl.get_parameter_framebuffer(glow::FRAMEBUFFER_BINDING),
-                viewport,
-                program: gl.get_parameter_program(glow::CURRENT_PROGRAM),
-                active_unit,
-                units,
-                depth_test: gl.is_enabled(glow::DEPTH_TEST),
-                stencil_test: gl.is_enabled(glow::STENCIL_TEST),
-            }
-        }
-    }
-
-    fn restore(&self, gl: &glow::Context) {
-        unsafe {
-            for (k, t) in self.units {
-                gl.active_texture(glow::TEXTURE0 + k);
-                gl.bind_texture(glow::TEXTURE_2D, t);
-            }
-            gl.active_texture(self.active_unit);
-            gl.bind_framebuffer(glow::FRAMEBUFFER, self.framebuffer);
-            let [x, y, w, h] = self.viewport;
-            gl.viewport(x, y, w, h);
-            gl.use_program(self.program);
-            for (cap, on) in [
-                (glow::DEPTH_TEST, self.depth_test),
-                (glow::STENCIL_TEST, self.stencil_test),
-            ] {
-                if on {
-                    gl.enable(cap)
-                } else {
-                    gl.disable(cap)
-                }
-            }
-        }
-    }
 }
 
 /// How one draw samples its inputs.
@@ -271,22 +210,13 @@ impl Presenter {
         call: &DrawCall,
     ) -> Result<()> {
         let gl = ctx.gl();
-        // SAFETY: the context is current; every name is a live object of it.
-        unsafe {
-            match target {
-                Some(t) => t.bind(gl),
-                None => {
-                    gl.bind_framebuffer(glow::FRAMEBUFFER, None);
-                    gl.viewport(0, 0, size.0 as i32, size.1 as i32);
-                }
-            }
-            gl.disable(glow::DEPTH_TEST);
-            gl.disable(glow::STENCIL_TEST);
-            gl.active_texture(glow::TEXTURE0 + VIEW_IMG.index());
-            gl.bind_texture(glow::TEXTURE_2D, Some(call.img.name()));
-            gl.active_texture(glow::TEXTURE0 + VIEW_STATE.index());
-            gl.bind_texture(glow::TEXTURE_2D, call.state.map(|t| t.name()));
+        match target {
+            Some(t) => t.bind(gl),
+            None => bind_window(gl, size.0, size.1),
         }
+        state::mask_test(gl, None);
+        state::bind_texture(gl, VIEW_IMG.index(), Some(call.img));
+        state::bind_texture(gl, VIEW_STATE.index(), call.state);
         let wave = if call.state.is_some() { 1.0 } else { 0.0 };
         self.program.set(gl, view::MODE, call.mode)?;
         self.program.set(gl, view::SCALE, call.scale)?;
@@ -298,26 +228,7 @@ impl Presenter {
 
 /// Reads the window's back buffer (`w` x `h`) as 8-bit RGB, top row first.
 pub(super) fn read_window(ctx: &GlContext, w: u32, h: u32) -> Result<Vec<u8>> {
-    let gl = ctx.gl();
-    let mut rgba = vec![0u8; w as usize * h as usize * 4];
-    // SAFETY: the context is current and the buffer holds w*h RGBA bytes.
-    unsafe {
-        gl.bind_framebuffer(glow::FRAMEBUFFER, None);
-        gl.read_buffer(glow::BACK);
-        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 1);
-        gl.read_pixels(
-            0,
-            0,
-            w as i32,
-            h as i32,
-            glow::RGBA,
-            glow::UNSIGNED_BYTE,
-            glow::PixelPackData::Slice(Some(&mut rgba)),
-        );
-        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
-    }
-    crate::gpu::gl::check_gl_error(gl, "reading the window back")
-        .map_err(|e| Error::Internal(e.to_string()))?;
+    let rgba = read_back_buffer(ctx.gl(), w, h).map_err(|e| Error::Internal(e.to_string()))?;
     let mut rgb = Vec::with_capacity(w as usize * h as usize * 3);
     for row in (0..h as usize).rev() {
         for px in rgba[row * w as usize * 4..(row + 1) * w as usize * 4].chunks_exact(4) {
@@ -348,19 +259,13 @@ mod tests {
             let other = Texture::new_f32(ctx, 2, 2, None).unwrap();
             // A renderer's state in the middle of an early-z traversal.
             target.bind(gl);
-            // SAFETY: the context is current; every name is live.
-            unsafe {
-                gl.enable(glow::DEPTH_TEST);
-                gl.active_texture(glow::TEXTURE1);
-                gl.bind_texture(glow::TEXTURE_2D, Some(other.name()));
-                gl.active_texture(glow::TEXTURE0 + 5);
-            }
+            state::bind_texture(gl, 1, Some(&other));
+            state::depth_test_on_with_active_unit(gl, 5);
             let before = SavedState::save(gl);
             for samples_done in [0, 1] {
                 // Without a window the default framebuffer is incomplete: drawing into it
                 // is an error the driver records (cleared here), not a presenter failure.
-                // SAFETY: plain error query.
-                unsafe { while gl.get_error() != glow::NO_ERROR {} }
+                state::clear_errors(gl);
                 let snap = Snapshot {
                     radiance: &radiance,
                     state: &state,
@@ -379,8 +284,7 @@ mod tests {
                 assert_eq!(after.units, before.units);
                 assert!(after.depth_test && !after.stencil_test);
             }
-            // SAFETY: plain error query.
-            unsafe { while gl.get_error() != glow::NO_ERROR {} }
+            state::clear_errors(gl);
         });
     }
 }

@@ -180,12 +180,13 @@ pub(super) fn open(
         .with_context_api(ContextApi::OpenGl(Some(Version::new(2, 1))))
         .with_profile(GlProfile::Compatibility)
         .build(Some(handle));
-    // SAFETY (both): the handle belongs to `window`, which outlives the context (see
-    // WindowGl).
+    // SAFETY: the raw handle belongs to `window`, which outlives the context: WindowGl
+    // holds both, and its fields drop in order, surface and context before the window.
     let not_current = unsafe { display.create_context(&config, &attrs) }.or_else(|e| {
         // A driver below 2.1 refuses the request; take what it has, so that the verdict
         // names what is missing.
         let any = ContextAttributesBuilder::new().build(Some(handle));
+        // SAFETY: as above: the same handle, the same window.
         unsafe { display.create_context(&config, &any) }.map_err(|_| {
             unavailable(
                 "cannot create an OpenGL 2.1 context (fragtrace needs OpenGL >= 2.1 \

@@ -18,6 +18,10 @@
 //! passes, time and WebGL limits in the `X-Fragtrace-Report` header (JSON); an error is
 //! POSTed there as `X-Fragtrace-Error`.
 
+// Every `unsafe` block says, in a `// SAFETY:` comment, the invariant that makes it sound
+// (as in the library).
+#![deny(clippy::undocumented_unsafe_blocks)]
+
 mod job;
 mod params;
 
@@ -92,7 +96,8 @@ impl Loaded {
     }
 
     fn scene(&self) -> &Scene {
-        // SAFETY: see the type's documentation.
+        // SAFETY: `scene` came from Box::into_raw in `new` and is freed only in `drop`, so
+        // it is valid for as long as `&self` is.
         unsafe { &*self.scene }
     }
 }

@@ -8,11 +8,9 @@
 
 use std::time::Duration;
 
-use glow::HasContext;
-
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::compute::COUNTERS;
-use crate::gpu::gl::{ReadbackRing, StorageBuffer};
+use crate::gpu::gl::{storage_limits, ReadbackRing, StorageBuffer};
 use crate::{Error, Result};
 
 /// The context's storage-buffer limits that shape a compute render.
@@ -33,17 +31,10 @@ impl Limits {
                 block_bytes,
             };
         }
-        // SAFETY: the context is current; plain state queries.
-        unsafe {
-            Limits {
-                blocks: gl
-                    .get_parameter_i32(glow::MAX_COMPUTE_SHADER_STORAGE_BLOCKS)
-                    .max(0) as u32,
-                block_bytes: (gl
-                    .get_parameter_i64(glow::MAX_SHADER_STORAGE_BLOCK_SIZE)
-                    .max(0) as u64)
-                    .min(i32::MAX as u64),
-            }
+        let (blocks, block_bytes) = storage_limits(gl);
+        Limits {
+            blocks,
+            block_bytes,
         }
     }
 

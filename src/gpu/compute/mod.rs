@@ -17,14 +17,13 @@ mod bands;
 use std::rc::Rc;
 use std::time::{Duration, Instant};
 
-use glow::HasContext;
 use rayon::prelude::*;
 
 use self::bands::{BandPlan, Limits, Outputs, Shape, BAND_TIME};
 use super::context::GlContext;
 use super::contract::compute::{aov, camera_buffer, sum_words, Counter};
 use super::contract::{uniform, Buffer, Image, StateTexels, STORAGE_BINDING_BASE};
-use super::gl::{bind_image, Program, ReadbackRing, StorageBuffer, Texture, TimerQuery};
+use super::gl::{bind_image, dispatch, Program, ReadbackRing, StorageBuffer, Texture, TimerQuery};
 use super::info::GlInfo;
 use super::options::{GpuOptions, SceneFetch, Storage};
 use super::request::{aov_pixel, Flow, GpuOutput, ImageRequest, Observer, Snapshot};
@@ -124,17 +123,16 @@ impl<'g> Setup<'g> {
         if let Some(t) = &timer {
             t.begin(ctx);
         }
-        // SAFETY: the context is current; the program, textures, images and buffers the
-        // program reads are bound.
-        unsafe {
-            gl.use_program(Some(self.program.name()));
-            gl.dispatch_compute(
+        // The program's textures, images and buffers are bound.
+        dispatch(
+            gl,
+            &self.program,
+            [
                 width.div_ceil(LOCAL_SIZE.0),
                 height.div_ceil(LOCAL_SIZE.1),
                 1,
-            );
-            gl.memory_barrier(glow::ALL_BARRIER_BITS);
-        }
+            ],
+        );
         if let Some(t) = timer {
             t.end(ctx);
             let ns = t.result_ns(ctx)?;
@@ -303,12 +301,7 @@ pub(crate) fn render(
                 thresholds.bind(gl, Buffer::SrgbThresholds.binding());
                 dst.bind(gl, Buffer::Srgb8.binding());
                 p.set(gl, uniform::PIXELS, band as i32)?;
-                // SAFETY: the context is current; the program's buffers are bound.
-                unsafe {
-                    gl.use_program(Some(p.name()));
-                    gl.dispatch_compute(((band * 3).div_ceil(4)).div_ceil(64) as u32, 1, 1);
-                    gl.memory_barrier(glow::ALL_BARRIER_BITS);
-                }
+                dispatch(gl, p, [((band * 3).div_ceil(4)).div_ceil(64) as u32, 1, 1]);
                 *setup.stats.passes.entry("srgb8".into()).or_default() += 1;
                 setup.stats.passes_total += 1;
                 dst

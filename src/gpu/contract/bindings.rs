@@ -15,8 +15,6 @@
 
 use std::marker::PhantomData;
 
-use glow::HasContext;
-
 use super::Unit;
 
 /// Which programs a declaration may appear in.
@@ -37,42 +35,54 @@ impl Stage {
     }
 }
 
-/// A value type a uniform can have: its GLSL spelling and how GL sets it.
+/// A value type a uniform can have: its GLSL spelling and the value GL sets it to.
 pub trait GlslType: Copy {
     /// The GLSL type.
     const GLSL: &'static str;
-    /// Sets the uniform at `loc` of the current program.
-    ///
-    /// # Safety
-    /// The context must be current and `loc` a location of its current program.
-    unsafe fn set(self, gl: &glow::Context, loc: &glow::UniformLocation);
+    /// The value, in the form of the `glUniform*` call that sets a uniform of this type
+    /// (made by [`Program::set`](crate::gpu::gl::Program::set), the one place that does).
+    fn value(self) -> UniformValue;
+}
+
+/// A uniform's value by the `glUniform*` call that sets it: the contract says what a value
+/// is, `gpu::gl` alone calls GL.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum UniformValue {
+    /// `float` (`glUniform1f`).
+    Float(f32),
+    /// `int` (`glUniform1i`).
+    Int(i32),
+    /// `vec3` (`glUniform3f`).
+    Vec3([f32; 3]),
+    /// `ivec2` (`glUniform2i`).
+    IVec2([i32; 2]),
 }
 
 impl GlslType for f32 {
     const GLSL: &'static str = "float";
-    unsafe fn set(self, gl: &glow::Context, loc: &glow::UniformLocation) {
-        gl.uniform_1_f32(Some(loc), self)
+    fn value(self) -> UniformValue {
+        UniformValue::Float(self)
     }
 }
 
 impl GlslType for i32 {
     const GLSL: &'static str = "int";
-    unsafe fn set(self, gl: &glow::Context, loc: &glow::UniformLocation) {
-        gl.uniform_1_i32(Some(loc), self)
+    fn value(self) -> UniformValue {
+        UniformValue::Int(self)
     }
 }
 
 impl GlslType for glam::Vec3 {
     const GLSL: &'static str = "vec3";
-    unsafe fn set(self, gl: &glow::Context, loc: &glow::UniformLocation) {
-        gl.uniform_3_f32(Some(loc), self.x, self.y, self.z)
+    fn value(self) -> UniformValue {
+        UniformValue::Vec3(self.to_array())
     }
 }
 
 impl GlslType for glam::IVec2 {
     const GLSL: &'static str = "ivec2";
-    unsafe fn set(self, gl: &glow::Context, loc: &glow::UniformLocation) {
-        gl.uniform_2_i32(Some(loc), self.x, self.y)
+    fn value(self) -> UniformValue {
+        UniformValue::IVec2(self.to_array())
     }
 }
 
@@ -590,8 +600,6 @@ mod tests {
 
     use std::collections::HashMap;
 
-    use glow::HasContext;
-
     use super::*;
     use crate::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
     use crate::gpu::context::with_test_context;
@@ -635,14 +643,8 @@ mod tests {
             .unwrap();
             let layout = SceneTextures::pack_with(&scene, accel.as_ref(), 4096, true).unwrap();
             let mut add = |p: Program| {
-                let gl = ctx.gl();
-                // SAFETY: the context is current; plain program queries.
-                unsafe {
-                    for i in 0..gl.get_active_uniforms(p.name()) {
-                        if let Some(u) = gl.get_active_uniform(p.name(), i) {
-                            active.entry(u.name).or_default().push(u.utype);
-                        }
-                    }
+                for (name, utype) in p.active_uniforms(ctx.gl()) {
+                    active.entry(name).or_default().push(utype);
                 }
                 programs.push(p);
             };
@@ -768,15 +770,10 @@ mod tests {
             );
             let v = glam::Vec3::new(0.25, 0.5, 0.75);
             ambient.set(gl, uniform::AMBIENT, v).unwrap();
-            let mut back = [0f32; 3];
-            // SAFETY: the context is current; the location is the program's own.
-            unsafe {
-                let loc = gl
-                    .get_uniform_location(ambient.name(), uniform::AMBIENT.name)
-                    .unwrap();
-                gl.get_uniform_f32(ambient.name(), &loc, &mut back);
-            }
-            assert_eq!(back, v.to_array());
+            assert_eq!(
+                ambient.uniform_vec3(gl, uniform::AMBIENT),
+                Some(v.to_array())
+            );
         });
     }
 

@@ -20,7 +20,7 @@ pub mod compute;
 
 pub use bindings::{
     declarations_for, uniform, view, Buffer, Decl, GlslType, Image, Sampler, Stage, Uniform,
-    LAYOUT, SAMPLERS, STORAGE_BINDING_BASE, VIEW,
+    UniformValue, LAYOUT, SAMPLERS, STORAGE_BINDING_BASE, VIEW,
 };
 
 /// Ray states, stored in the 4th component of the ray-origin texture (the thesis's

@@ -9,13 +9,11 @@
 use std::collections::HashMap;
 use std::rc::Rc;
 
-use glow::HasContext;
-
 use super::passes::passes_for;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::{uniform, GlslType, Uniform, Unit, REQUIRED_TEXTURE_UNITS};
 use crate::gpu::gl::{
-    FullscreenQuad, OcclusionQuery, Program, RenderTarget, Renderbuffer, TexFormat, Texture,
+    state, FullscreenQuad, OcclusionQuery, Program, RenderTarget, Renderbuffer, TexFormat, Texture,
     TimerQuery,
 };
 use crate::gpu::layout::Fetch;
@@ -386,11 +384,7 @@ impl<'a> Frame<'a> {
         self.stats.termination_queries += (what == Count::Rays) as u64;
         if let Counter::Bytes(target) = &self.counter {
             target.bind(self.gl());
-            // SAFETY: the context is current.
-            unsafe {
-                self.gl().clear_color(1.0, 1.0, 1.0, 1.0);
-                self.gl().clear(glow::COLOR_BUFFER_BIT);
-            }
+            state::clear_colour(self.gl(), [1.0; 4]);
             self.draw(pass, Slot::Count)?;
             let Counter::Bytes(target) = &self.counter else {
                 unreachable!()
@@ -402,16 +396,14 @@ impl<'a> Frame<'a> {
         let Counter::Query(query) = &self.counter else {
             unreachable!()
         };
-        // SAFETY: the context is current.
-        unsafe { self.gl().color_mask(false, false, false, false) };
+        state::colour_writes(self.gl(), false);
         query.begin(self.ctx);
         let r = self.draw(pass, slot);
         let Counter::Query(query) = &self.counter else {
             unreachable!()
         };
         query.end(self.ctx);
-        // SAFETY: as above.
-        unsafe { self.gl().color_mask(true, true, true, true) };
+        state::colour_writes(self.gl(), true);
         r?;
         Ok(query.result(self.ctx)? as u64)
     }

@@ -2,12 +2,11 @@
 //! states of a traced wave, all through the field declarations of
 //! [`contract`](crate::gpu::contract).
 
-use glow::HasContext;
 use rayon::prelude::*;
 
 use super::frame::Frame;
 use crate::gpu::contract::{ray, RayState, StateTexels, Unit};
-use crate::gpu::gl::{check_gl_error, ReadbackRing, RenderTarget, TexFormat};
+use crate::gpu::gl::{state, ReadbackRing, RenderTarget, TexFormat};
 use crate::gpu::options::{FragmentKernel, GpuOptions};
 use crate::gpu::request::aov_pixel;
 use crate::gpu::scene::bind_texture;
@@ -62,8 +61,7 @@ pub(super) fn read_srgb8(f: &mut Frame, w: u32, h: u32) -> Result<(Vec<u8>, u64)
     f.draw_into(Pass::Srgb8, target)?;
     // The conversion pass timed apart from the transfer (the transfer waits for it anyway).
     let t = crate::clock::Instant::now();
-    // SAFETY: the context is current.
-    unsafe { f.gl().finish() };
+    state::finish(f.gl());
     f.stats
         .phases_ms
         .insert("srgb8".into(), t.elapsed().as_secs_f64() * 1e3);
@@ -74,23 +72,8 @@ pub(super) fn read_srgb8(f: &mut Frame, w: u32, h: u32) -> Result<(Vec<u8>, u64)
         let nonfinite = ring.take(f.ctx, k, |rgba| rgba_to_rgb(rgba, &mut rgb))?;
         return Ok((rgb, nonfinite));
     }
-    let mut rgba = vec![0u8; w as usize * h as usize * 4];
-    let gl = f.gl();
-    // SAFETY: the context is current, the target bound; `rgba` holds exactly w x h RGBA
-    // bytes (rows of 4-byte pixels meet any pack alignment).
-    unsafe {
-        gl.read_buffer(glow::COLOR_ATTACHMENT0);
-        gl.read_pixels(
-            0,
-            0,
-            w as i32,
-            h as i32,
-            glow::RGBA,
-            glow::UNSIGNED_BYTE,
-            glow::PixelPackData::Slice(Some(&mut rgba)),
-        );
-    }
-    check_gl_error(gl, "reading the 8-bit image")?;
+    // Attachment 0, the only one, is the framebuffer's read buffer from its creation.
+    let rgba = target.read_bytes(f.gl())?;
     let nonfinite = rgba_to_rgb(&rgba, &mut rgb);
     Ok((rgb, nonfinite))
 }

@@ -5,9 +5,8 @@
 //! the `count` pass every `query_every` iterations' worth of passes; the wave is done when it
 //! finds no active ray. With `--mask`, that count pass also writes the mask.
 
-use glow::HasContext;
-
 use super::frame::{Frame, Slot};
+use crate::gpu::gl::{state, MaskBuffer};
 use crate::gpu::options::Mask;
 use crate::gpu::shader::{Count, Pass, Query};
 use crate::{Error, Result};
@@ -83,65 +82,25 @@ impl Frame<'_> {
         }
         let slot = Slot::State(1 - self.cur);
         self.target(slot).bind(self.gl());
-        let gl = self.gl();
-        // SAFETY: the context is current; the bound FBO has the mask buffer attached.
-        unsafe {
-            match self.opts.mask {
-                Mask::EarlyZ => {
-                    gl.depth_mask(true);
-                    gl.clear_depth_f64(1.0);
-                    gl.clear(glow::DEPTH_BUFFER_BIT);
-                    gl.enable(glow::DEPTH_TEST);
-                    gl.depth_func(glow::ALWAYS);
-                    // The quad lies at window depth 0.5; a [0, 0] range stores 0 instead.
-                    gl.depth_range_f64(0.0, 0.0);
-                }
-                Mask::Stencil => {
-                    gl.stencil_mask(0xff);
-                    gl.clear_stencil(0);
-                    gl.clear(glow::STENCIL_BUFFER_BIT);
-                    gl.enable(glow::STENCIL_TEST);
-                    gl.stencil_func(glow::ALWAYS, 1, 0xff);
-                    gl.stencil_op(glow::KEEP, glow::KEEP, glow::REPLACE);
-                }
-                Mask::None | Mask::Auto => unreachable!("no mask buffer without a mask"),
-            }
-        }
+        let buffer = self.mask_kind().expect("no mask buffer without a mask");
+        // The bound target has the mask buffer attached.
+        state::begin_mask_write(self.gl(), buffer);
         let n = self.count_into(Count::Rays, None, slot);
-        let gl = self.gl();
-        // SAFETY: as above.
-        unsafe {
-            gl.depth_range_f64(0.0, 1.0);
-            gl.depth_mask(false);
-            gl.stencil_mask(0);
-            gl.disable(glow::DEPTH_TEST);
-            gl.disable(glow::STENCIL_TEST);
-        }
+        state::end_mask_write(self.gl());
         n
     }
 
     /// Turns the mask test on or off for the draws that follow.
     fn set_mask_test(&self, on: bool) {
-        let gl = self.gl();
-        // SAFETY: the context is current.
-        unsafe {
-            match (self.opts.mask, on) {
-                (Mask::EarlyZ, true) => {
-                    gl.enable(glow::DEPTH_TEST);
-                    gl.depth_func(glow::GREATER);
-                    gl.depth_mask(false);
-                }
-                (Mask::Stencil, true) => {
-                    gl.enable(glow::STENCIL_TEST);
-                    gl.stencil_func(glow::EQUAL, 1, 0xff);
-                    gl.stencil_op(glow::KEEP, glow::KEEP, glow::KEEP);
-                    gl.stencil_mask(0);
-                }
-                _ => {
-                    gl.disable(glow::DEPTH_TEST);
-                    gl.disable(glow::STENCIL_TEST);
-                }
-            }
+        state::mask_test(self.gl(), self.mask_kind().filter(|_| on));
+    }
+
+    /// The buffer `--mask` writes, `None` without a mask.
+    fn mask_kind(&self) -> Option<MaskBuffer> {
+        match self.opts.mask {
+            Mask::EarlyZ => Some(MaskBuffer::Depth),
+            Mask::Stencil => Some(MaskBuffer::Stencil),
+            Mask::None | Mask::Auto => None,
         }
     }
 }

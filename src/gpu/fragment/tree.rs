@@ -9,13 +9,12 @@
 
 use crate::clock::Instant;
 
-use glow::HasContext;
 use rayon::prelude::*;
 
 use super::frame::{Frame, Slot, Watch};
 use super::readback::{flip_rgba_to_rgb, read_aov, read_srgb8};
 use crate::gpu::contract::{uniform, Unit};
-use crate::gpu::gl::Texture;
+use crate::gpu::gl::{state, Texture};
 use crate::gpu::options::FragmentKernel;
 use crate::gpu::pause::block_on;
 use crate::gpu::request::{GpuOutput, ImageRequest, Observer};
@@ -107,11 +106,7 @@ pub(crate) async fn walk<'a>(
     let t_trace = Instant::now();
     // Clear the colour accumulator.
     f.acc[0].bind(f.gl());
-    // SAFETY: the context is current.
-    unsafe {
-        f.gl().clear_color(0.0, 0.0, 0.0, 0.0);
-        f.gl().clear(glow::COLOR_BUFFER_BIT);
-    }
+    state::clear_colour(f.gl(), [0.0; 4]);
     let offsets = camera::sample_offsets(spp);
     let mut rays = RayCounts::default();
     f.set(Pass::RayGen, uniform::EYE, req.camera.eye)?;
@@ -122,11 +117,7 @@ pub(crate) async fn walk<'a>(
         // Level-0 weight: 1/spp everywhere, and every pixel has a primary ray.
         let w = 1.0 / offsets.len() as f32;
         f.target(Slot::Rec2(0)).bind(f.gl());
-        // SAFETY: the context is current.
-        unsafe {
-            f.gl().clear_color(w, w, w, 1.0);
-            f.gl().clear(glow::COLOR_BUFFER_BIT);
-        }
+        state::clear_colour(f.gl(), [w, w, w, 1.0]);
         // The primary directions, computed on the host in f64 by the camera's formula and
         // rounded to f32: bit for bit the directions the f32 CPU traces. Interpolating
         // window corners in f32 on the GPU instead picks the other side of an exact tie (a
@@ -168,8 +159,7 @@ pub(crate) async fn walk<'a>(
     // The passes are queued, not done: wait for them here, so that `read_back` times the
     // copy and not the GPU's last passes (measured apart: docs/performance.md, run 4).
     let t = crate::clock::Instant::now();
-    // SAFETY: the context is current.
-    unsafe { f.gl().finish() };
+    state::finish(f.gl());
     f.stats
         .phases_ms
         .insert("drain".into(), t.elapsed().as_secs_f64() * 1e3);

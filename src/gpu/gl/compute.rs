@@ -77,7 +77,8 @@ impl StorageBuffer {
     pub fn new(ctx: &GlContext, data: &[u8]) -> Result<Self> {
         let mut padded = data.to_vec();
         padded.resize(data.len().max(16), 0);
-        // SAFETY: the slice is valid for the call.
+        // SAFETY: `create` calls this with the context current and the new buffer bound;
+        // GL copies `padded`, which outlives the call, and reads no more than its length.
         Self::create(ctx, padded.len(), |gl| unsafe {
             gl.buffer_data_u8_slice(glow::SHADER_STORAGE_BUFFER, &padded, glow::DYNAMIC_COPY)
         })
@@ -96,7 +97,8 @@ impl StorageBuffer {
                 "a storage buffer of {bytes} bytes exceeds GL's 2 GiB size argument"
             ))
         })?;
-        // SAFETY: allocation only.
+        // SAFETY: `create` calls this with the context current and the new buffer bound;
+        // GL allocates `size` bytes and reads no host memory.
         Self::create(ctx, bytes, |gl| unsafe {
             gl.buffer_data_size(glow::SHADER_STORAGE_BUFFER, size, glow::DYNAMIC_COPY)
         })
@@ -227,4 +229,36 @@ pub fn bind_image(gl: &glow::Context, unit: u32, tex: &Texture) {
             glow::RGBA32F,
         )
     };
+}
+
+/// Runs `program` over `groups` work groups (x, y, z) and makes its writes visible to
+/// every later command (`glMemoryBarrier(GL_ALL_BARRIER_BITS)`); leaves it the current
+/// program. The buffers, images and textures it reads must be bound.
+pub fn dispatch(gl: &glow::Context, program: &Program, groups: [u32; 3]) {
+    let [x, y, z] = groups;
+    // SAFETY: the context is current and `program` a linked program of it; the call hands
+    // GL no host memory, and the shader reaches only the objects bound to it, which the
+    // caller sized by the contract's layouts (gpu::contract::compute).
+    unsafe {
+        gl.use_program(Some(program.name()));
+        gl.dispatch_compute(x, y, z);
+        gl.memory_barrier(glow::ALL_BARRIER_BITS);
+    }
+}
+
+/// The current context's storage-block limits for compute shaders:
+/// `GL_MAX_COMPUTE_SHADER_STORAGE_BLOCKS` and `GL_MAX_SHADER_STORAGE_BLOCK_SIZE` (capped
+/// at what GL's 32-bit sizes express); 0 where the context has no compute shaders.
+pub fn storage_limits(gl: &glow::Context) -> (u32, u64) {
+    // SAFETY: the context is current; both names are single-valued queries (an unknown
+    // name in an older context is a GL error and leaves the zero).
+    unsafe {
+        (
+            gl.get_parameter_i32(glow::MAX_COMPUTE_SHADER_STORAGE_BLOCKS)
+                .max(0) as u32,
+            (gl.get_parameter_i64(glow::MAX_SHADER_STORAGE_BLOCK_SIZE)
+                .max(0) as u64)
+                .min(i32::MAX as u64),
+        )
+    }
 }

@@ -1,8 +1,13 @@
 //! Owning GL objects and the low-level helpers the render passes are built from: float
 //! textures and mask renderbuffers ([`texture`]), multi-target FBOs ([`target`]), programs
 //! compiled with source-mapped errors and the full-screen quad ([`program`]), and
-//! occlusion/timer queries ([`query`]), and for the compute kernel (GL 4.3) compute programs,
-//! storage buffers and image bindings ([`compute`]).
+//! occlusion/timer queries ([`query`]), the fixed-function state between draws ([`state`]),
+//! and for the compute kernel (GL 4.3) compute programs, storage buffers, image bindings and
+//! dispatches ([`compute`]).
+//!
+//! This is the only module that calls GL (`tests/gl_sealed.rs` checks it): the rest of the
+//! crate draws, reads and binds through the safe functions and owning types here, so each
+//! `unsafe` GL call and the invariant it relies on are stated once, in this module.
 //!
 //! Every object here owns its GL name and deletes it in `Drop`, in its own context: the rule
 //! is stated once in [`super::context`]. Constructors take the [`GlContext`] (which must be
@@ -26,20 +31,24 @@ use super::context::{GlContext, GlShared};
 use crate::error::{Error, Result};
 
 pub mod compute;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod probe;
 pub mod program;
 pub mod query;
 pub mod readback;
+pub mod state;
 pub mod target;
 pub mod texture;
 
-pub use compute::{bind_image, compile_compute, StorageBuffer};
+pub use compute::{bind_image, compile_compute, dispatch, storage_limits, StorageBuffer};
 pub use program::{
     compile_program, single_file_line_map, FullscreenQuad, Program, ATTRIB_POS, ATTRIB_UV,
     QUAD_VERTEX_SHADER,
 };
 pub use query::{OcclusionQuery, TimerQuery};
 pub use readback::{has_buffer_storage, ReadbackRing};
-pub use target::RenderTarget;
+pub use state::{MaskBuffer, SavedState};
+pub use target::{bind_window, read_window, RenderTarget};
 pub use texture::{Renderbuffer, TexFormat, Texture};
 
 /// A kind of GL object: how its name is typed and how it is deleted.
@@ -71,6 +80,15 @@ impl<K: GlKind> Owned<K> {
     /// The raw name, for GL calls (valid while `self` lives).
     pub fn name(&self) -> K::Name {
         self.name
+    }
+
+    /// Takes ownership of `name`, just created in the context `self` belongs to: for a
+    /// helper that has an object of the context at hand but not the `GlContext`.
+    pub(crate) fn beside<J: GlKind>(&self, name: J::Name) -> Owned<J> {
+        Owned {
+            shared: Rc::clone(&self.shared),
+            name,
+        }
     }
 }
 

@@ -8,7 +8,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::gpu::context::GlContext;
-use crate::gpu::contract::{GlslType, Uniform, SAMPLERS};
+use crate::gpu::contract::{GlslType, Uniform, UniformValue, SAMPLERS};
 use crate::gpu::dialect::Dialect;
 
 /// Generic attribute index of the quad's position (`a_pos`). Index 0 on purpose: in a
@@ -85,7 +85,13 @@ impl Program {
         unsafe {
             gl.use_program(Some(self.name()));
             if let Some(loc) = gl.get_uniform_location(self.name(), u.name) {
-                value.set(gl, &loc);
+                let loc = Some(&loc);
+                match value.value() {
+                    UniformValue::Float(v) => gl.uniform_1_f32(loc, v),
+                    UniformValue::Int(v) => gl.uniform_1_i32(loc, v),
+                    UniformValue::Vec3([x, y, z]) => gl.uniform_3_f32(loc, x, y, z),
+                    UniformValue::IVec2([x, y]) => gl.uniform_2_i32(loc, x, y),
+                }
             }
         }
         Ok(())
@@ -99,7 +105,8 @@ impl Program {
     /// Makes the program current and binds each of its samplers to its unit (the
     /// contract's [`SAMPLERS`]; those the program lacks are skipped).
     pub fn bind_samplers(&self, gl: &glow::Context) {
-        // SAFETY: as in `set`.
+        // SAFETY: as in `set`: the context is current, the program a linked program of it,
+        // and each location is used with the program it came from.
         unsafe {
             gl.use_program(Some(self.name()));
             for s in &SAMPLERS {
@@ -108,6 +115,39 @@ impl Program {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+impl Program {
+    /// Every active uniform's name and GL type, as the driver reports them (what the
+    /// contract's tests check the declarations against).
+    pub(crate) fn active_uniforms(&self, gl: &glow::Context) -> Vec<(String, u32)> {
+        // SAFETY: the context is current and the program a linked program of it; each
+        // index is below the count GL reported.
+        unsafe {
+            (0..gl.get_active_uniforms(self.name()))
+                .filter_map(|i| gl.get_active_uniform(self.name(), i))
+                .map(|u| (u.name, u.utype))
+                .collect()
+        }
+    }
+
+    /// The value of `vec3` uniform `u` read back from the program (`None` where the
+    /// compiler dropped it).
+    pub(crate) fn uniform_vec3(
+        &self,
+        gl: &glow::Context,
+        u: Uniform<glam::Vec3>,
+    ) -> Option<[f32; 3]> {
+        let mut back = [0f32; 3];
+        // SAFETY: the context is current; the location is the program's own, and a vec3
+        // uniform writes exactly the three floats `back` holds.
+        unsafe {
+            let loc = gl.get_uniform_location(self.name(), u.name)?;
+            gl.get_uniform_f32(self.name(), &loc, &mut back);
+        }
+        Some(back)
     }
 }
 

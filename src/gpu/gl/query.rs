@@ -18,7 +18,8 @@ pub struct OcclusionQuery {
 impl OcclusionQuery {
     /// Creates the query object.
     pub fn new(ctx: &GlContext) -> Result<Self> {
-        // SAFETY: the context is current.
+        // SAFETY: the context is current (the rule of gpu::context); the new name is
+        // owned at once below.
         let query = unsafe { ctx.gl().create_query() }
             .map_err(|e| Error::Internal(format!("glGenQueries: {e}")))?;
         Ok(OcclusionQuery {
@@ -28,7 +29,8 @@ impl OcclusionQuery {
 
     /// Starts counting. Only one `GL_SAMPLES_PASSED` query may be active at a time.
     pub fn begin(&self, ctx: &GlContext) {
-        // SAFETY: valid query name of this context.
+        // SAFETY: the context is current and the name is this context's (`Owned` keeps it
+        // alive); a second active query is a GL error, not undefined behaviour.
         unsafe {
             ctx.gl()
                 .begin_query(glow::SAMPLES_PASSED, self.query.name())
@@ -37,7 +39,8 @@ impl OcclusionQuery {
 
     /// Stops counting.
     pub fn end(&self, ctx: &GlContext) {
-        // SAFETY: ends the query started by `begin`.
+        // SAFETY: the context is current; ending a query takes no name, and without an
+        // active one it is a GL error.
         unsafe { ctx.gl().end_query(glow::SAMPLES_PASSED) };
     }
 
@@ -73,7 +76,8 @@ impl TimerQuery {
                 "timer queries need OpenGL 3.3, GL_ARB_timer_query or GL_EXT_timer_query".into(),
             ));
         }
-        // SAFETY: the context is current.
+        // SAFETY: the context is current (the rule of gpu::context); the new name is
+        // owned at once below.
         let query = unsafe { ctx.gl().create_query() }
             .map_err(|e| Error::Internal(format!("glGenQueries: {e}")))?;
         Ok(TimerQuery {
@@ -90,7 +94,8 @@ impl TimerQuery {
 
     /// Stops timing.
     pub fn end(&self, ctx: &GlContext) {
-        // SAFETY: ends the query started by `begin`.
+        // SAFETY: the context is current; ending a query takes no name, and without an
+        // active one it is a GL error.
         unsafe { ctx.gl().end_query(glow::TIME_ELAPSED) };
     }
 

@@ -120,7 +120,8 @@ impl ReadbackRing {
     /// the other slot; returns `k`.
     fn fence(&mut self, ctx: &GlContext, k: usize, len: usize) -> Result<usize> {
         let gl = ctx.gl();
-        // SAFETY: the context is current.
+        // SAFETY: the context is current (GL 3.2 fences: `new` refused the ring without
+        // buffer storage); the fence is owned at once, so it is deleted with its slot.
         let fence = unsafe {
             let f = gl
                 .fence_sync(glow::SYNC_GPU_COMMANDS_COMPLETE, 0)
@@ -180,7 +181,8 @@ impl ReadbackRing {
             .pending
             .take()
             .ok_or_else(|| Error::Internal(format!("staging slot {k} has no copy")))?;
-        // SAFETY: the context is current; the fence is alive.
+        // SAFETY: the context is current and the fence, taken out of its slot, lives until
+        // the end of this function; waiting reads no host memory.
         let status = unsafe {
             let mut s = gl.client_wait_sync(fence.name(), glow::SYNC_FLUSH_COMMANDS_BIT, 0);
             while s == glow::TIMEOUT_EXPIRED {

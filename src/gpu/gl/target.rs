@@ -5,8 +5,8 @@ use glow::HasContext;
 
 use super::texture::check_texture_size;
 use super::{
-    check_gl_error, f32_bytes_mut, rgba_len, FramebufferKind, Owned, Renderbuffer, TexFormat,
-    Texture,
+    check_gl_error, f32_bytes_mut, rgba_len, BufferKind, FramebufferKind, Owned, Renderbuffer,
+    TexFormat, Texture,
 };
 use crate::error::{Error, Result};
 use crate::gpu::context::GlContext;
@@ -45,7 +45,8 @@ impl RenderTarget {
     ) -> Result<Self> {
         let gl = ctx.gl();
         let attachments = formats.len();
-        // SAFETY: plain state queries.
+        // SAFETY: the context is current; both limits are one integer each, the one that
+        // GetIntegerv writes.
         let (max_draw, max_color) = unsafe {
             (
                 gl.get_parameter_i32(glow::MAX_DRAW_BUFFERS),
@@ -280,7 +281,7 @@ impl RenderTarget {
                 && out.len() >= PACK_BUFFER_MIN_FLOATS
                 && gl.version().major >= 3
             {
-                read_through_pack_buffer(gl, (x, y, width, height), &mut out)?;
+                read_through_pack_buffer(gl, &self.framebuffer, (x, y, width, height), &mut out)?;
                 check_gl_error(gl, "reading a render target attachment")?;
                 return Ok(out);
             }
@@ -299,6 +300,42 @@ impl RenderTarget {
     }
 }
 
+/// Makes the default framebuffer (the window's back buffer, where there is a window) the
+/// render destination, with a `width` x `height` viewport.
+pub fn bind_window(gl: &glow::Context, width: u32, height: u32) {
+    // SAFETY: the context is current; binding framebuffer 0 and any viewport size are
+    // always valid (a size past the limit is clamped by GL).
+    unsafe {
+        gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+        gl.viewport(0, 0, width as i32, height as i32);
+    }
+}
+
+/// Reads the window's back buffer (`width` x `height`) as RGBA8, bottom row first, and
+/// leaves the default framebuffer bound.
+pub fn read_window(gl: &glow::Context, width: u32, height: u32) -> Result<Vec<u8>> {
+    let mut rgba = vec![0u8; rgba_len(width, height)];
+    // SAFETY: the context is current and `rgba` holds exactly width*height RGBA bytes at
+    // the pack alignment of 1 set for the read (put back to GL's default 4 after).
+    unsafe {
+        gl.bind_framebuffer(glow::FRAMEBUFFER, None);
+        gl.read_buffer(glow::BACK);
+        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 1);
+        gl.read_pixels(
+            0,
+            0,
+            width as i32,
+            height as i32,
+            glow::RGBA,
+            glow::UNSIGNED_BYTE,
+            glow::PixelPackData::Slice(Some(&mut rgba)),
+        );
+        gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
+    }
+    check_gl_error(gl, "reading the window back")?;
+    Ok(rgba)
+}
+
 /// Reads at least this many floats through a pixel pack buffer (smaller reads, such as a
 /// reduction's few texels, are not worth a buffer).
 const PACK_BUFFER_MIN_FLOATS: usize = 1 << 18;
@@ -307,13 +344,15 @@ const PACK_BUFFER_MIN_FLOATS: usize = 1 << 18;
 /// `GL_STREAM_READ` pixel pack buffer, then a parallel copy out of the mapped buffer: on the
 /// H200 a 4096x4096 RGBA32F read went from 0.7 GB/s straight into client memory to several
 /// GB/s this way (the compute kernel's read-back, docs/performance.md). GL 3.0 (mapping a
-/// range); the pack buffer is deleted before returning, also on failure.
+/// range); the pack buffer is owned (in `fb`'s context) and deleted on return, also on
+/// failure.
 ///
 /// # Safety
-/// The context must be current with the framebuffer and read buffer to read from bound,
-/// and `out` must hold exactly `w * h * 4` floats.
+/// The context must be current with the framebuffer `fb` and the read buffer to read from
+/// bound, and `out` must hold exactly `w * h * 4` floats.
 unsafe fn read_through_pack_buffer(
     gl: &glow::Context,
+    fb: &Owned<FramebufferKind>,
     (x, y, w, h): (u32, u32, u32, u32),
     out: &mut [f32],
 ) -> Result<()> {
@@ -321,10 +360,11 @@ unsafe fn read_through_pack_buffer(
     let bytes = out.len() * 4;
     let size = i32::try_from(bytes)
         .map_err(|_| Error::Limit(format!("a read of {bytes} bytes exceeds GL's 2 GiB size")))?;
-    let pbo = gl
-        .create_buffer()
-        .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?;
-    gl.bind_buffer(glow::PIXEL_PACK_BUFFER, Some(pbo));
+    let pbo = fb.beside::<BufferKind>(
+        gl.create_buffer()
+            .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
+    );
+    gl.bind_buffer(glow::PIXEL_PACK_BUFFER, Some(pbo.name()));
     gl.buffer_data_size(glow::PIXEL_PACK_BUFFER, size, glow::STREAM_READ);
     gl.read_pixels(
         x as i32,
@@ -349,7 +389,6 @@ unsafe fn read_through_pack_buffer(
         Ok(())
     };
     gl.bind_buffer(glow::PIXEL_PACK_BUFFER, None);
-    gl.delete_buffer(pbo);
     r
 }
 

@@ -39,6 +39,8 @@ fn render(
     let target = RenderTarget::new(ctx, w, h, attachments).unwrap();
     let quad = FullscreenQuad::new(ctx).unwrap();
     target.bind(gl);
+    // SAFETY: the test context is current, `program` and `tex` are live objects of it, and
+    // the location is looked up in the program it is set on.
     unsafe {
         gl.use_program(Some(program.name()));
         if let Some(tex) = input {
@@ -51,6 +53,7 @@ fn render(
     }
     quad.draw(gl, &program);
     check_gl_error(gl, "test draw").unwrap();
+    // SAFETY: the test context is current; unbinding takes no object.
     unsafe { gl.bind_texture(glow::TEXTURE_2D, None) };
     target
 }
@@ -125,6 +128,7 @@ gl_FragData[0] = vec4(1.0);
     let quad = FullscreenQuad::new(ctx).unwrap();
     let query = OcclusionQuery::new(ctx).unwrap();
     target.bind(gl);
+    // SAFETY: the test context is current; clearing the bound target takes no pointer.
     unsafe {
         gl.clear_color(0.0, 0.0, 0.0, 0.0);
         gl.clear(glow::COLOR_BUFFER_BIT);

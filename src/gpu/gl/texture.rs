@@ -64,7 +64,8 @@ thread_local! {
 /// Checks a requested texture size against `GL_MAX_TEXTURE_SIZE` (a user-controlled value:
 /// image resolution or scene size decides it, hence [`Error::Limit`]).
 pub(super) fn check_texture_size(gl: &glow::Context, width: u32, height: u32) -> Result<()> {
-    // SAFETY: plain state query.
+    // SAFETY: the context is current; GL_MAX_TEXTURE_SIZE is one integer, the one that
+    // GetIntegerv writes.
     let max = effective_limit(
         unsafe { gl.get_parameter_i32(glow::MAX_TEXTURE_SIZE) },
         |p| p.max_texture_size,
@@ -292,7 +293,9 @@ impl Renderbuffer {
     pub fn new_mask(ctx: &GlContext, width: u32, height: u32, stencil: bool) -> Result<Self> {
         let gl = ctx.gl();
         check_texture_size(gl, width, height)?;
-        // SAFETY: the context is current.
+        // SAFETY: the context is current; the renderbuffer is created here and owned
+        // (`Owned`) before the first call that can fail, and its storage is specified
+        // without host data.
         unsafe {
             let name = gl
                 .create_renderbuffer()
