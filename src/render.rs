@@ -126,18 +126,16 @@ impl<'s> Prepared<'s> {
     /// A renderer of this scene on the CPU.
     pub fn cpu_renderer(&self, opts: &RenderOptions) -> Renderer<'_> {
         let (scene, depth, tech) = (self.scene, opts.max_depth, opts.techniques);
-        let plan = Plan::Cpu {
-            accel: self.summary.kind,
-            precision: opts.precision,
-            path: opts.cpu_path,
-        };
-        // The one switch from the CPU choices to an engine.
-        let (precision, path) = (plan.precision(), opts.cpu_path);
-        let (engine, kernel) = match (self.accel.as_ref(), precision, path) {
+        // The one switch from the CPU choices to an engine; the plan records the path that
+        // runs (packets need the BVH and AVX2, the vector paths the watertight test and
+        // x86-64; f64 is always scalar).
+        let (precision, path) = (opts.precision, opts.cpu_path);
+        let (engine, kernel, ran) = match (self.accel.as_ref(), precision, path) {
             (AccelRef::Bvh(b), Precision::F64, _) => {
                 let walker = BvhWalker::new(scene, b, tech);
                 let r = CpuRenderer::with_walker(scene, walker, depth, tech);
-                (Engine::Cpu64Bvh(r), "scalar triangle tests".to_string())
+                let kernel = "scalar triangle tests".to_string();
+                (Engine::Cpu64Bvh(r), kernel, CpuPath::Scalar)
             }
             (AccelRef::Bvh(b), Precision::F32, path) => {
                 let (isa, packets) = match path {
@@ -149,17 +147,21 @@ impl<'s> Prepared<'s> {
                     Some(p) => BvhWalker::with_packets(scene, b, tech, isa, p),
                     None => BvhWalker::vectorised(scene, b, tech, isa),
                 };
-                let kernel = match walker.packets() {
-                    Some(p) => format!(
-                        "{} packets of {} rays, {} triangle tests",
-                        p.name(),
-                        p.lanes(),
-                        walker.isa().name()
+                let (kernel, ran) = match (walker.packets(), walker.isa()) {
+                    (Some(p), isa) => (
+                        format!(
+                            "{} packets of {} rays, {} triangle tests",
+                            p.name(),
+                            p.lanes(),
+                            isa.name()
+                        ),
+                        CpuPath::Packet,
                     ),
-                    None => format!("{} triangle tests", walker.isa().name()),
+                    (None, Isa::Scalar) => ("scalar triangle tests".into(), CpuPath::Scalar),
+                    (None, isa) => (format!("{} triangle tests", isa.name()), CpuPath::Simd),
                 };
                 let r = CpuRenderer::with_walker(scene, walker, depth, tech);
-                (Engine::Cpu32Bvh(r), kernel)
+                (Engine::Cpu32Bvh(r), kernel, ran)
             }
             (AccelRef::Uniform(g), precision, path) => {
                 grid_engine(scene, g.into(), opts, precision, path)
@@ -167,6 +169,11 @@ impl<'s> Prepared<'s> {
             (AccelRef::Irregular(g), precision, path) => {
                 grid_engine(scene, g.into(), opts, precision, path)
             }
+        };
+        let plan = Plan::Cpu {
+            accel: self.summary.kind,
+            precision,
+            path: ran,
         };
         Renderer {
             prepared: self,
@@ -274,30 +281,37 @@ impl<'s> Prepared<'s> {
 }
 
 /// The CPU engine over a grid in `precision` by `path` (the grids have no packet walk:
-/// `packet` walks them as `simd`), and what its triangle kernel is.
+/// `packet` walks them as `simd`), what its triangle kernel is, and the path that runs.
 fn grid_engine<'p>(
     scene: &'p Scene,
     grid: GridRef<'p>,
     opts: &RenderOptions,
     precision: Precision,
     path: CpuPath,
-) -> (Engine<'p>, String) {
+) -> (Engine<'p>, String, CpuPath) {
     let (depth, tech) = (opts.max_depth, opts.techniques);
     let tests = |isa: &str| format!("{isa} triangle tests");
     match (precision, path) {
         (Precision::F64, _) => (
             Engine::Cpu64(CpuRenderer::new(scene, grid, depth, tech)),
             tests("scalar"),
+            CpuPath::Scalar,
         ),
         (Precision::F32, CpuPath::Scalar) => (
             Engine::Cpu32(CpuRenderer::new(scene, grid, depth, tech)),
             tests("scalar"),
+            CpuPath::Scalar,
         ),
         (Precision::F32, CpuPath::Simd | CpuPath::Packet) => {
             let walker = SimdWalker::new(scene, grid, tech);
-            let kernel = tests(walker.isa().name());
+            let isa = walker.isa();
+            let ran = if isa == Isa::Scalar {
+                CpuPath::Scalar
+            } else {
+                CpuPath::Simd
+            };
             let r = CpuRenderer::with_walker(scene, walker, depth, tech);
-            (Engine::Cpu32Simd(r), kernel)
+            (Engine::Cpu32Simd(r), tests(isa.name()), ran)
         }
     }
 }
