@@ -9,10 +9,10 @@
 //! Möller-Trumbore (no packets: one ray at a time) and `TBound::Off`.
 //!
 //! Work is compared where the module's doc defines it: a lane counts the nodes and
-//! triangles it was active for, so a packet of one ray (the walk's order is then the
-//! single-ray walk's, nearest child first) counts what the single ray counts, any-hit
-//! lanes (slot order, as the single-ray walk) count what their rays count alone, and every
-//! lane counts at least the root.
+//! triangles it was active for, so each packet's lane 0 (the walk takes children nearest
+//! first for the lowest lane entering them: lane 0's own order, as the single-ray walk's)
+//! counts what its ray counts alone, any-hit lanes (slot order, as the single-ray walk)
+//! count what their rays count alone, and every lane counts at least the root.
 
 use glam::{DVec3, Vec3};
 
@@ -91,9 +91,11 @@ fn packet_walker<'a>(
 
 /// `rays` through `p`'s batch queries (batches of [`LENGTHS`] in turn) against `single`'s
 /// one-ray queries: the same closest hits bit for bit, the same any-hit answers, the
-/// any-hit work of each batch the sum of its rays' (added to what `work` held), a batch of
-/// one ray the single ray's closest-hit work, and every lane at least the root counted
-/// (and a test, where it hit).
+/// any-hit work of each batch the sum of its rays' (added to what `work` held), the
+/// closest-hit work of each packet's lane 0 its ray's alone (the walk takes children
+/// nearest first for the lowest lane entering them, so lane 0 walks its own ray's order
+/// and bound; other lanes may count more or less), and every lane at least the root
+/// counted (and a test, where it hit).
 fn batches_are_single_rays(
     p: &BvhWalker<'_, f32>,
     single: &BvhWalker<'_, f32>,
@@ -101,6 +103,8 @@ fn batches_are_single_rays(
     what: &str,
 ) -> Seen {
     let unit = p.packets().map_or("none", PacketIsa::name);
+    // One ray at a time when there are no packets.
+    let lanes = p.packets().map_or(1, PacketIsa::lanes);
     let mut seen = Seen::default();
     let (mut at, mut k) = (0, 0);
     while at < rays.len() {
@@ -122,12 +126,15 @@ fn batches_are_single_rays(
                 bits(hits[j]),
                 bits(want),
                 "{what} {unit}: closest hit of ray {i} (lane {} of a batch of {n}) {r:?}",
-                j % p.packets().map_or(1, PacketIsa::lanes)
+                j % lanes
             );
             let want_any = single.any_hit(r, &mut want_any_work);
             assert_eq!(any[j], want_any, "{what} {unit}: any hit of ray {i} {r:?}");
-            if n == 1 {
-                assert_eq!(work[0], w1, "{what} {unit}: work of the lone ray {i} {r:?}");
+            if j % lanes == 0 {
+                assert_eq!(
+                    work[j], w1,
+                    "{what} {unit}: work of ray {i}, lane 0 of its packet, {r:?}"
+                );
             }
             if r.t_min <= r.t_max {
                 assert!(
@@ -244,7 +251,7 @@ fn incoherent_packets_are_single_rays() {
             true,
             &format!("seed {seed} scene {si}"),
         );
-        // Measured at the default seed: FIXME hits a scene.
+        // Measured at the default seed: 4389, 2351 and 306 hits (of 4700, 3140 and 2300 rays).
         assert!(
             seen.hits > 150 && seen.occluded >= seen.hits,
             "scene {si}: {seen:?}"
@@ -281,7 +288,8 @@ fn coherent_packets_are_single_rays() {
     let tech = Techniques::default();
     let outside = coherent(&s, s.camera.eye.as_dvec3());
     let seen = packets_are_single_rays(&s, tech, &outside, true, "eye outside");
-    // Measured at the default seed: FIXME.
+    // Measured at the default seed: all 1200 rays hit (the soup fills the view), from
+    // outside and from inside.
     assert!(seen.hits > 600, "{seen:?}");
     let inside = coherent(&s, DVec3::new(0.1, 0.2, 0.3));
     let seen = packets_are_single_rays(&s, tech, &inside, true, "eye inside");
@@ -295,7 +303,7 @@ fn coherent_packets_are_single_rays() {
         })
         .collect();
     let seen = packets_are_single_rays(&s, tech, &shadows, false, "shadow rays");
-    // Occluded and lit rays both (measured: FIXME).
+    // Occluded and lit rays both (measured: 1860 of 2000 occluded).
     assert!(
         seen.occluded > 100 && seen.occluded + 100 < seen.rays,
         "{seen:?}"
@@ -365,7 +373,7 @@ fn zero_direction_components_are_single_rays() {
         false,
         &format!("seed {seed}"),
     );
-    // Measured at the default seed: FIXME.
+    // Measured at the default seed: 3203 hits of 3344 rays.
     assert!(seen.hits > rays.len() / 4, "{seen:?}");
 }
 
@@ -394,7 +402,7 @@ fn rays_from_inside_boxes_at_edges_and_vertices_are_single_rays() {
         false,
         &format!("seed {seed}"),
     );
-    // Measured at the default seed: FIXME.
+    // Measured at the default seed: 2855 hits of 3114 rays.
     assert!(seen.hits > rays.len() / 2, "{seen:?}");
 }
 
@@ -432,7 +440,7 @@ fn intervals_ending_inside_boxes_are_single_rays() {
         false,
         &format!("seed {seed}"),
     );
-    // Measured at the default seed: FIXME.
+    // Measured at the default seed: 13976 hits of 25053 rays (hit and missed variants).
     assert!(
         seen.hits > rays.len() / 4 && seen.hits + rays.len() / 4 < rays.len(),
         "{seen:?}"
@@ -644,13 +652,19 @@ fn coplanar_piles_go_to_the_lowest_index() {
 }
 
 /// The interval variants of `intervals_ending_inside_boxes_are_single_rays` against brute
-/// force, for the scalar single-ray walk and the packets: a hit just short of t_max (t_max
-/// one ulp past it) is missed by both walks on some rays, where the computed entry
-/// distance of the hit's box rounds past t_max (the box test pads the far distance, not
-/// the near one). A finding about the BVH walk, not about packets (which match the single
-/// ray there); reported to the lead, ignored until the walk is fixed.
+/// force, for the scalar single-ray walk (the packets match it there, tested above): a hit
+/// just short of t_max is missed where the computed entry distance of the hit's box rounds
+/// past t_max (the box test pads the far distance, not the near one). Found at the default
+/// seed: one ray of 3579 with t_max one ulp past its hit (`t_max = t + 1 ulp`), o (2.8368738,
+/// 4.12502, -3.2389798), d (-5.3416476, -6.744644, 5.7069793), t_max 0.18542255
+/// (0x3e3ddf69): brute force hits triangle 1267 (in the plane z = -2.180777, the leaf box's
+/// lower z face) at t 0.18542254 (0x3e3ddf68); the box's entry distance computes to
+/// 0.18542257 (0x3e3ddf6a) > t_max, so the walk (single ray and packets) culls the box and
+/// misses. A finding about the BVH's box test, not about packets; ignored until the walk
+/// is fixed (the renderer's shadow rays end at a light, so only a triangle through a
+/// light could be missed).
 #[test]
-#[ignore = "the BVH walk (single ray and packets alike) misses some hits one ulp short of t_max: reported to the lead"]
+#[ignore = "the BVH box test (single ray and packets alike) culls a hit's box whose entry rounds past a t_max just past the hit: reported to the lead"]
 fn intervals_ending_just_past_a_hit_are_brute_force() {
     let seed = test_seed("packet intervals", 0x9AC4_0005);
     let mut rng = Rng::new(seed);
