@@ -163,7 +163,7 @@ fn the_default_cpu_path_walks_packets() {
         let mut o = RenderOptions::for_scene(&scene);
         (o.width, o.height) = (W, H);
         o.precision = Precision::F32;
-        o.accel = AccelKind::Bvh;
+        o.accel = AccelKind::Bvh.into();
         o.cpu_path = path;
         render_cpu(&scene, &o).unwrap()
     };

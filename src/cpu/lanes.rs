@@ -12,6 +12,10 @@
 //! `select` (`m ? a : b`), `bits` (the mask as lane bits) and `from_bits`.
 
 #![cfg(target_arch = "x86_64")]
+// Every function here needs its module's target feature, which its callers (the walks
+// compiled with that feature) have: that is the one safety contract, stated per module;
+// `load` and `store` say theirs in `# Safety`.
+#![allow(clippy::missing_safety_doc)]
 
 /// Sixteen lanes: AVX-512F, its mask registers for the lane masks.
 pub mod avx512 {

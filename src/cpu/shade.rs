@@ -159,6 +159,7 @@ pub fn offset_origin<T: Real>(sp: &SurfacePoint<T>, w: V3<T>) -> V3<T> {
 /// [`offset_origin`] by `method`: `Epsilon` moves the hit point by the fixed
 /// [`OFFSET_EPSILON`] along the geometric normal, on the side `w` points to.
 #[inline]
+#[allow(clippy::double_comparisons)]
 pub fn offset_origin_with<T: Real>(sp: &SurfacePoint<T>, w: V3<T>, method: OffsetMethod) -> V3<T> {
     if method == OffsetMethod::Epsilon {
         let eps = T::from_f64(OFFSET_EPSILON);
@@ -173,7 +174,8 @@ pub fn offset_origin_with<T: Real>(sp: &SurfacePoint<T>, w: V3<T>, method: Offse
     let po = sp.p + off;
     // Written as selects, not branches: the offset's signs follow the normal's, which
     // change from pixel to pixel, and mispredicted branches here cost more than the sum.
-    // The same values: `x - step` is `x + (-step)`, and a zero (or NaN) offset keeps `x`.
+    // The same values: `x - step` is `x + (-step)`, and a zero (or NaN) offset keeps `x`
+    // (hence `o > 0 || o < 0`, not `o != 0`, which a NaN passes).
     let nudge = |x: T, o: T| {
         let step = x.abs() * (T::UNIT_ROUNDOFF + T::UNIT_ROUNDOFF) + T::from_f32(1e-30);
         let moved = x + if o > T::ZERO { step } else { -step };

@@ -53,10 +53,13 @@ pub struct BvhWalker<'a, T> {
     /// (`cpu/traverse_packet.rs`; f32 only).
     packets: Option<PacketIsa>,
     /// Batches of closest-hit queries: one by one, or (f32 only) in packets.
-    closest_many: fn(&Self, &[Ray<T>], &mut [Option<Hit<T>>], &mut [Work]),
+    closest_many: ClosestMany<Self, T>,
     /// Batches of any-hit queries, as `closest_many`.
     any_many: fn(&Self, &[Ray<T>], &mut [bool], &mut Work),
 }
+
+/// A walk of a batch of closest-hit queries (rays, their hits, their work).
+type ClosestMany<W, T> = fn(&W, &[Ray<T>], &mut [Option<Hit<T>>], &mut [Work]);
 
 /// An entry of the walk's stack: a child (node, or leaf range when `count > 0`) and the
 /// distance at which the ray enters its box.
