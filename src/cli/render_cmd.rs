@@ -246,9 +246,11 @@ fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) 
             s.spp,
             s.backend,
             s.precision,
-            match &s.gpu {
-                Some(g) => format!(", {} kernel", g.kernel),
-                None => String::new(),
+            match (&s.gpu, &s.plan) {
+                (Some(g), _) => format!(", {} kernel", g.kernel),
+                // The CPU path that ran (the plan records it: packets need the BVH and AVX2).
+                (None, crate::plan::Plan::Cpu { path, .. }) => format!(", {} path", path.name()),
+                (None, _) => String::new(),
             },
             if s.techniques == "default" {
                 String::new()
