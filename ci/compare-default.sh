@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Whole-process wall time of the default CPU renders, two binaries interleaved round-robin
 # (so a load change hits both alike), medians of RUNS: the built-in scene as `fragtrace
-# render` renders it (the auto backend: the CPU where GL is a software rasterizer),
-# `scenes/bunny.toml --backend cpu` (f64) and the equal-work view in f32 at 1024x1024, each
-# with the binary's default `--accel`; then whether the two binaries' images are equal.
+# render` renders it on a machine without a GPU (`--backend cpu`: what auto takes where GL
+# is a software rasterizer), `scenes/bunny.toml --backend cpu` and the equal-work view in
+# f32 at 1024x1024, each with the binary's defaults (`--accel`, `--precision`, `--cpu-path`);
+# then whether the two binaries' images are equal.
 # Usage: ci/compare-default.sh OLD_BINARY NEW_BINARY (env: RUNS=5, THREADS=2,
 #        FRAGTRACE_MODEL_PATH=../shared/models)
 set -euo pipefail
@@ -15,8 +16,8 @@ export FRAGTRACE_MODEL_PATH=${FRAGTRACE_MODEL_PATH:-$HERE/../../shared/models}
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 cases=(
-    "builtin|"
-    "bunny-f64|$HERE/../scenes/bunny.toml --backend cpu"
+    "builtin|--backend cpu"
+    "bunny|$HERE/../scenes/bunny.toml --backend cpu"
     "equal-work-f32|$HERE/peers/equal-work.toml --backend cpu --precision f32 --width 1024 --height 1024"
 )
 echo "== default CPU renders, $RAYON_NUM_THREADS threads, $RUNS rounds; $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg), $(date -u +%FT%TZ)"
