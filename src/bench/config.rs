@@ -53,6 +53,11 @@ pub const CONFIG_TABLE: &[ConfigRow] = &[
         presets: DQ,
     },
     ConfigRow {
+        name: "cpu-f32-bvh-packet",
+        args: "--backend cpu --precision f32 --accel bvh --cpu-path packet",
+        presets: DQ,
+    },
+    ConfigRow {
         name: "cpu-f32-bvh-scalar",
         args: "--backend cpu --precision f32 --accel bvh --cpu-path scalar",
         presets: D,
@@ -543,9 +548,9 @@ mod tests {
             .into_iter()
             .map(|c| c.name)
             .collect();
-        assert_eq!(default.len(), 17);
+        assert_eq!(default.len(), 18);
         assert!(default.iter().any(|c| c == "gl-compute"), "{default:?}");
-        for bvh in ["cpu-f32-bvh", "cpu-f32-bvh-scalar"] {
+        for bvh in ["cpu-f32-bvh", "cpu-f32-bvh-packet", "cpu-f32-bvh-scalar"] {
             assert!(default.iter().any(|c| c == bvh), "{bvh}: {default:?}");
         }
         assert_eq!(default[0], "cpu-f64");

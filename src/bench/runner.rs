@@ -12,7 +12,7 @@ use super::{
 };
 use crate::gpu::GlContext;
 use crate::image_io::{self, Image};
-use crate::options::{Backend, RenderOptions};
+use crate::options::{Backend, Precision, RenderOptions};
 use crate::output::RayCounts;
 use crate::progress::Progress;
 use crate::render;
@@ -143,6 +143,8 @@ fn reference(spec: &SceneSpec, scene: &Scene, size: Size, dir: &Path) -> Result<
     let mut opts = RenderOptions::for_scene(scene);
     opts.width = size.width;
     opts.height = size.height;
+    // The reference is f64 whatever the default precision is (f32, the fast path).
+    opts.precision = Precision::F64;
     let out = render::render_cpu(scene, &opts)?;
     std::fs::create_dir_all(dir).map_err(|source| Error::Io {
         path: dir.to_path_buf(),
