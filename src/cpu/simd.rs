@@ -298,6 +298,47 @@ pub fn first_hit(isa: Isa, rc: &RayConsts, soa: &SoaTris, off: usize, n: usize) 
     None
 }
 
+/// `intersect::watertight_t_error` term by term in lanes, over the lane operations of the
+/// module it expands in (`add`, `mul`, `div`, `max`, `abs`, `splat`): the bound below which a
+/// hit is rejected. Shared by the triangle-lane kernel here and the ray-lane kernel of
+/// `cpu/traverse_packet.rs`, so that both compute the scalar test's bits.
+macro_rules! t_error_lanes {
+    ($ax:expr, $ay:expr, $bx:expr, $by:expr, $cx:expr, $cy:expr, $az:expr, $bz:expr, $cz:expr,
+     $u:expr, $v:expr, $w:expr, $det_abs:expr) => {{
+        let max_zt = max(max(abs($az), abs($bz)), abs($cz));
+        let max_xt = max(max(abs($ax), abs($bx)), abs($cx));
+        let max_yt = max(max(abs($ay), abs($by)), abs($cy));
+        let (g2, g3, g5) = (
+            splat(<f32 as Real>::gamma(2)),
+            splat(<f32 as Real>::gamma(3)),
+            splat(<f32 as Real>::gamma(5)),
+        );
+        let delta_z = mul(g3, max_zt);
+        let delta_x = mul(g5, add(max_xt, max_zt));
+        let delta_y = mul(g5, add(max_yt, max_zt));
+        let delta_e = mul(
+            splat(2.0),
+            add(
+                add(mul(mul(g2, max_xt), max_yt), mul(delta_y, max_xt)),
+                mul(delta_x, max_yt),
+            ),
+        );
+        let max_e = max(max(abs($u), abs($v)), abs($w));
+        div(
+            mul(
+                splat(3.0),
+                add(
+                    add(mul(mul(g3, max_e), max_zt), mul(delta_e, max_zt)),
+                    mul(delta_z, max_e),
+                ),
+            ),
+            $det_abs,
+        )
+    }};
+}
+#[cfg(target_arch = "x86_64")]
+pub(crate) use t_error_lanes;
+
 /// The chunk kernel, written once over the lane operations of the module it expands in
 /// (`avx2` or `sse2`), which define `W`, `V`, `splat`, `load`, `add`, `sub`, `mul`, `div`,
 /// `max`, `abs`, `neg`, `lt`, `gt`, `le`, `eq`, `and`, `or`, `andnot`, `select`, `mask`,
@@ -369,36 +410,7 @@ macro_rules! chunk_kernel {
             let live = lt(lane_ids(), splat(left.min(W) as f32));
             let mut good = andnot(bad, and(and(inside, live), ok));
             if rc.t_bound {
-                // `watertight_t_error`, term by term.
-                let max_zt = max(max(abs(az), abs(bz)), abs(cz));
-                let max_xt = max(max(abs(ax), abs(bx)), abs(cx));
-                let max_yt = max(max(abs(ay), abs(by)), abs(cy));
-                let (g2, g3, g5) = (
-                    splat(<f32 as Real>::gamma(2)),
-                    splat(<f32 as Real>::gamma(3)),
-                    splat(<f32 as Real>::gamma(5)),
-                );
-                let delta_z = mul(g3, max_zt);
-                let delta_x = mul(g5, add(max_xt, max_zt));
-                let delta_y = mul(g5, add(max_yt, max_zt));
-                let delta_e = mul(
-                    splat(2.0),
-                    add(
-                        add(mul(mul(g2, max_xt), max_yt), mul(delta_y, max_xt)),
-                        mul(delta_x, max_yt),
-                    ),
-                );
-                let max_e = max(max(abs(u), abs(v)), abs(w));
-                let err = div(
-                    mul(
-                        splat(3.0),
-                        add(
-                            add(mul(mul(g3, max_e), max_zt), mul(delta_e, max_zt)),
-                            mul(delta_z, max_e),
-                        ),
-                    ),
-                    det_abs,
-                );
+                let err = t_error_lanes!(ax, ay, bx, by, cx, cy, az, bz, cz, u, v, w, det_abs);
                 good = andnot(le(t, err), good);
             }
             let bits = mask(good);

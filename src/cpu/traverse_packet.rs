@@ -526,35 +526,8 @@ macro_rules! packet_walks {
             let t = div(tt, det_abs);
             let mut good = mandnot(bad, mand(inside, live));
             if t_bound && bits(good) != 0 {
-                // `watertight_t_error`, term by term.
-                let max_zt = max(max(abs(az), abs(bz)), abs(cz));
-                let max_xt = max(max(abs(ax), abs(bx)), abs(cx));
-                let max_yt = max(max(abs(ay), abs(by)), abs(cy));
-                let (g2, g3, g5) = (
-                    splat(<f32 as Real>::gamma(2)),
-                    splat(<f32 as Real>::gamma(3)),
-                    splat(<f32 as Real>::gamma(5)),
-                );
-                let delta_z = mul(g3, max_zt);
-                let delta_x = mul(g5, add(max_xt, max_zt));
-                let delta_y = mul(g5, add(max_yt, max_zt));
-                let delta_e = mul(
-                    splat(2.0),
-                    add(
-                        add(mul(mul(g2, max_xt), max_yt), mul(delta_y, max_xt)),
-                        mul(delta_x, max_yt),
-                    ),
-                );
-                let max_e = max(max(abs(u), abs(v)), abs(w));
-                let err = div(
-                    mul(
-                        splat(3.0),
-                        add(
-                            add(mul(mul(g3, max_e), max_zt), mul(delta_e, max_zt)),
-                            mul(delta_z, max_e),
-                        ),
-                    ),
-                    det_abs,
+                let err = crate::cpu::simd::t_error_lanes!(
+                    ax, ay, bx, by, cx, cy, az, bz, cz, u, v, w, det_abs
                 );
                 good = mandnot(le(t, err), good);
             }
