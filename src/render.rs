@@ -423,7 +423,14 @@ fn cpu_frame<T: crate::cpu::real::Real, W: Trace<T>>(
 ) -> BackendOutput {
     let px = opts.pixels();
     let progress = crate::progress::Progress::bar(opts.progress, px.height() as u64, "rows");
-    r.render_region(opts.width, opts.height, px, opts.spp, &progress)
+    r.render_region(
+        opts.width,
+        opts.height,
+        px,
+        opts.spp,
+        opts.readback,
+        &progress,
+    )
 }
 
 /// Builds the acceleration structure and renders `scene` on the CPU.

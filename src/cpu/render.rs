@@ -15,8 +15,8 @@ use super::shade::{
 use super::traverse::{Hit, Ray, Trace, Work};
 use super::walker::Walker;
 use crate::accel::GridRef;
-use crate::image_io::Image;
-use crate::output::{Aov, AovPixel, RayCounts};
+use crate::image_io::{self, Image};
+use crate::output::{Aov, AovPixel, RayCounts, Readback};
 use crate::progress::Progress;
 use crate::region::Region;
 use crate::scene::camera::Frame;
@@ -48,6 +48,11 @@ struct Tally {
     reflected: u64,
     refracted: u64,
     work: Work,
+    /// Cells plus tests of each pixel's first primary ray, summed (when the AOVs, which
+    /// hold them per pixel, are not kept).
+    primary_steps: u64,
+    /// Pixels with a NaN or infinite colour (counted when only 8-bit sRGB is kept).
+    nonfinite: u64,
 }
 
 /// A scene prepared for CPU rendering in precision `T`, its structure walked by `W` (the
@@ -298,12 +303,18 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
 
     /// [`CpuRenderer::render`], advancing `progress` by one per finished row.
     pub fn render_with_progress(&self, w: u32, h: u32, spp: u32, progress: &Progress) -> CpuOutput {
-        self.render_region(w, h, Region::full(w, h), spp, progress)
+        let all = Readback::default();
+        self.render_region(w, h, Region::full(w, h), spp, all, progress)
     }
 
     /// The pixels of `region` of a W x H image, as an image (and AOVs) of the region's
     /// size. Each pixel's rays are those of the full image (the camera maps pixel (i, j)
     /// of W x H), so every pixel is bit-identical to the same pixel of a full render.
+    /// `readback` says what to keep besides the colours, as on the GPU: the AOVs only when
+    /// asked (else the primary steps are summed), and with `srgb8` the image as 8-bit sRGB
+    /// only, converted by the bands ([`image_io::srgb8`], the bytes the host conversion of
+    /// the linear image gives) with the non-finite pixels counted. Output not asked for is
+    /// never allocated: at 1024x1024 the AOVs alone are 24 MB of pages to fault in.
     /// `progress` advances by one per finished row of the region.
     pub fn render_region(
         &self,
@@ -311,6 +322,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         h: u32,
         region: Region,
         spp: u32,
+        readback: Readback,
         progress: &Progress,
     ) -> CpuOutput {
         debug_assert!(region.x1 <= w && region.y1 <= h, "region inside the image");
@@ -328,15 +340,31 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         // (pages first touched by the thread that renders them), the AOVs filled in
         // parallel.
         let n = rw * region.height() as usize;
-        let mut data = vec![0.0f32; n * 3];
-        let mut pixels = Vec::with_capacity(n);
-        pixels.par_extend((0..n).into_par_iter().map(|_| AovPixel::miss(0.0)));
         let band = TILE as usize * rw;
-        let tallies: Vec<Tally> = data
-            .par_chunks_mut(band * 3)
-            .zip(pixels.par_chunks_mut(band))
+        let mut pixels = Vec::new();
+        if readback.aov {
+            pixels.reserve_exact(n);
+            pixels.par_extend((0..n).into_par_iter().map(|_| AovPixel::miss(0.0)));
+        }
+        let (mut data, mut bytes) = (Vec::new(), Vec::new());
+        let colours = if readback.srgb8 {
+            bytes = vec![0u8; n * 3];
+            Colours::Srgb8(bytes.par_chunks_mut(band * 3))
+        } else {
+            data = vec![0.0f32; n * 3];
+            Colours::Linear(data.par_chunks_mut(band * 3))
+        };
+        // A band without AOVs gets an empty slice; the zip needs one per band.
+        let aov_bands = pixels.par_chunks_mut(band).map(Some).chain(
+            (0..if readback.aov { 0 } else { n.div_ceil(band) })
+                .into_par_iter()
+                .map(|_| None),
+        );
+        let tallies: Vec<Tally> = colours
+            .into_bands()
+            .zip(aov_bands)
             .enumerate()
-            .map(|(b, (rgb, aov))| {
+            .map(|(b, (mut out, mut aov))| {
                 let j0 = region.y0 + b as u32 * TILE;
                 let j1 = (j0 + TILE).min(region.y1);
                 let rows = (j1 - j0) as usize;
@@ -391,14 +419,27 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                         let first = p * n_off;
                         let steps = work[first].cells + work[first].tests;
                         let at = (j - j0) as usize * rw + (i - region.x0) as usize;
-                        aov[at] = aov_of(hits[first].as_ref(), normals[first], steps);
+                        match aov.as_deref_mut() {
+                            Some(aov) => {
+                                aov[at] = aov_of(hits[first].as_ref(), normals[first], steps)
+                            }
+                            None => tally.primary_steps += steps,
+                        }
                         let mut sum = V3::splat(T::ZERO);
                         for c in &colors[first..first + n_off] {
                             sum = sum + *c;
                         }
                         let c = sum * inv;
                         let px = [c.x, c.y, c.z].map(|v| v.to_f64() as f32);
-                        rgb[at * 3..at * 3 + 3].copy_from_slice(&px);
+                        match &mut out {
+                            Band::Linear(rgb) => rgb[at * 3..at * 3 + 3].copy_from_slice(&px),
+                            Band::Srgb8(rgb) => {
+                                tally.nonfinite += px.iter().any(|v| !v.is_finite()) as u64;
+                                for (o, v) in rgb[at * 3..at * 3 + 3].iter_mut().zip(px) {
+                                    *o = image_io::srgb8(v);
+                                }
+                            }
+                        }
                     }
                 }
                 progress.inc(rows as u64);
@@ -415,10 +456,20 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             total.refracted += t.refracted;
             total.work.cells += t.work.cells;
             total.work.tests += t.work.tests;
+            total.primary_steps += t.primary_steps;
+            total.nonfinite += t.nonfinite;
         }
+        let (image, srgb8, nonfinite) = match readback.srgb8 {
+            true => (Image::size_only(w, h), Some(bytes), Some(total.nonfinite)),
+            false => (Image::from_rgb(w, h, data), None, None),
+        };
+        let (aov, primary_steps) = match readback.aov {
+            true => (Aov::from_vec(w, h, pixels), None),
+            false => (Aov::from_vec(0, 0, Vec::new()), Some(total.primary_steps)),
+        };
         CpuOutput {
-            image: Image::from_rgb(w, h, data),
-            aov: Aov::from_vec(w, h, pixels),
+            image,
+            aov,
             rays: RayCounts::new(
                 total.primary,
                 total.shadow,
@@ -430,9 +481,36 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                 tests: total.work.tests,
             }),
             gpu: None,
-            srgb8: None,
-            primary_steps: None,
-            nonfinite: None,
+            srgb8,
+            primary_steps,
+            nonfinite,
+        }
+    }
+}
+
+/// The colour output of a render, split into bands of rows: linear f32 RGB, or 8-bit sRGB
+/// only.
+enum Colours<L, S> {
+    Linear(L),
+    Srgb8(S),
+}
+
+/// One band's part of [`Colours`].
+enum Band<'b> {
+    Linear(&'b mut [f32]),
+    Srgb8(&'b mut [u8]),
+}
+
+impl<'b, L, S> Colours<L, S>
+where
+    L: IndexedParallelIterator<Item = &'b mut [f32]>,
+    S: IndexedParallelIterator<Item = &'b mut [u8]>,
+{
+    /// The bands, one item each, whichever the output.
+    fn into_bands(self) -> impl IndexedParallelIterator<Item = Band<'b>> {
+        match self {
+            Colours::Linear(l) => rayon::iter::Either::Left(l.map(Band::Linear)),
+            Colours::Srgb8(s) => rayon::iter::Either::Right(s.map(Band::Srgb8)),
         }
     }
 }
