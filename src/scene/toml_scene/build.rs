@@ -444,6 +444,7 @@ impl Builder<'_> {
                 None => 1.0,
             },
             fresnel: m.fresnel.unwrap_or(false),
+            diffuse_map: None,
         })
     }
 
