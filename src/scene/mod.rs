@@ -7,6 +7,7 @@
 pub mod camera;
 pub mod camera_path;
 pub mod obj;
+mod obj_textures;
 pub mod shapes;
 pub mod texture;
 pub mod toml_scene;

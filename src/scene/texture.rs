@@ -11,7 +11,7 @@
 use std::path::Path;
 
 /// How texture coordinates outside [0, 1] map into the image, per axis.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum Wrap {
     /// The image tiles the plane (OBJ's default; glTF's REPEAT).
     #[default]
