@@ -186,6 +186,83 @@ fn downsample(l: &TexLevel) -> TexLevel {
     }
 }
 
+/// `lod_bias` of a triangle without texture coordinates: so large that every lookup takes
+/// the last level, the texture's mean.
+pub const NO_UV_BIAS: f32 = 1.0e6;
+
+/// What shading needs of a triangle for textures and ray cones, worked out once per
+/// triangle in f64 and rounded to f32 (the CPU renderer and the GPU's `tex` records read
+/// the same numbers): corner texture coordinates, the level-of-detail bias
+/// `0.5 log2(texel area / world area)` of its material's texture (Akenine-Moeller et al.
+/// 2021, eq. 34: Δ0), and the mean curvature of its vertex normals along its edges.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriTex {
+    /// Texture coordinates of the three corners (zero without).
+    pub uv: [[f32; 2]; 3],
+    /// Δ0 (0 for an untextured material, [`NO_UV_BIAS`] without texture coordinates).
+    pub lod_bias: f32,
+    /// Mean over the three edges of `(n_j - n_i)·(p_j - p_i) / |p_j - p_i|^2`: positive
+    /// where the surface bulges towards its vertex normals (1/r on a sphere of radius r,
+    /// normals outwards); 0 without vertex normals.
+    pub curvature: f32,
+}
+
+impl TriTex {
+    /// The record of triangle `i` of `scene`.
+    pub fn of(scene: &super::Scene, i: usize) -> TriTex {
+        let t = &scene.triangles[i];
+        let p = scene.triangle_vertices(i).map(|v| v.as_dvec3());
+        let uvi = scene.triangle_uv_indices(i);
+        let has_uv = uvi[0] != super::NO_UV;
+        let uv = if has_uv {
+            uvi.map(|k| scene.uvs[k as usize].to_array())
+        } else {
+            [[0.0; 2]; 3]
+        };
+        let map = scene.materials[t.material as usize].diffuse_map;
+        let lod_bias = match (map, has_uv) {
+            (None, _) => 0.0,
+            (Some(_), false) => NO_UV_BIAS,
+            (Some(k), true) => {
+                let l0 = &scene.textures[k as usize].levels[0];
+                let d = |a: [f32; 2], b: [f32; 2]| {
+                    glam::DVec2::new((b[0] - a[0]) as f64, (b[1] - a[1]) as f64)
+                };
+                let (e1, e2) = (d(uv[0], uv[1]), d(uv[0], uv[2]));
+                let ta = l0.width as f64 * l0.height as f64 * (e1.perp_dot(e2)).abs();
+                let pa = (p[1] - p[0]).cross(p[2] - p[0]).length();
+                if ta > 0.0 && pa > 0.0 {
+                    (0.5 * (ta / pa).log2()) as f32
+                } else if pa > 0.0 {
+                    // One texel stretched over the triangle: the finest level.
+                    -NO_UV_BIAS
+                } else {
+                    0.0
+                }
+            }
+        };
+        let curvature = if t.has_normals() {
+            let n = t.n.map(|k| scene.normals[k as usize].as_dvec3());
+            let mut sum = 0.0;
+            for (a, b) in [(0, 1), (1, 2), (2, 0)] {
+                let dp = p[b] - p[a];
+                let l2 = dp.length_squared();
+                if l2 > 0.0 {
+                    sum += (n[b] - n[a]).dot(dp) / l2;
+                }
+            }
+            (sum / 3.0) as f32
+        } else {
+            0.0
+        };
+        TriTex {
+            uv,
+            lod_bias,
+            curvature,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
