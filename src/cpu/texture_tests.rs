@@ -38,7 +38,7 @@ fn wrap_modes_fold_indices_as_defined() {
     // Mirrored: 0 1 2 3 3 2 1 0, repeating; index -1 mirrors onto 0.
     assert_eq!(
         got(Wrap::Mirror),
-        [1, 2, 3, 3, 2, 1, 0, 0, 1, 2, 3, 3, 2, 1, 0, 0]
+        [2, 3, 3, 2, 1, 0, 0, 1, 2, 3, 3, 2, 1, 0, 0, 1]
     );
 }
 
@@ -96,5 +96,7 @@ fn a_pixel_spread_is_the_angle_of_one_pixel_at_the_centre() {
     // 90 degrees over 2 pixels: each pixel spans atan(1) at the image centre.
     assert!((pixel_spread(90.0, 2) - std::f64::consts::FRAC_PI_4).abs() < 1e-15);
     let s = pixel_spread(45.0, 480);
-    assert!((s - 2.0 * (22.5f64.to_radians()).tan() / 480.0).abs() < 1e-9);
+    // atan(x) = x - x^3/3 + ...: within x^3/3 of the small-angle value.
+    let x = 2.0 * (22.5f64.to_radians()).tan() / 480.0;
+    assert!((s - x).abs() < x * x * x / 3.0 * 1.01 && s < x);
 }
