@@ -31,14 +31,9 @@ pub struct Cone<T> {
     pub spread: T,
 }
 
-/// Smallest |width| and |n·d| the logarithms see (a zero would give -inf).
-pub const LOD_TINY: f32 = 1.0e-30;
+pub use crate::scene::texture::LOD_TINY;
 
-/// The spread angle of a primary ray: one pixel of an image `height` pixels high under a
-/// vertical field of view of `vfov_deg`, in f64 (the GPU takes it rounded to f32).
-pub fn pixel_spread(vfov_deg: f32, height: u32) -> f64 {
-    (2.0 * ((vfov_deg as f64).to_radians() * 0.5).tan() / height as f64).atan()
-}
+pub use crate::scene::texture::pixel_spread;
 
 /// The primary ray's cone.
 pub fn primary_cone<T: Real>(vfov_deg: f32, height: u32) -> Cone<T> {

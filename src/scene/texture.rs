@@ -186,6 +186,17 @@ fn downsample(l: &TexLevel) -> TexLevel {
     }
 }
 
+/// Smallest |width| and |n·d| the level of detail's logarithms see (a zero would give
+/// -inf), on every backend.
+pub const LOD_TINY: f32 = 1.0e-30;
+
+/// The spread angle of a primary ray's cone: one pixel of an image `height` pixels high
+/// under a vertical field of view of `vfov_deg`, `atan(2 tan(fov/2) / H)`, in f64 (the f32
+/// CPU and the GPU take it rounded to f32).
+pub fn pixel_spread(vfov_deg: f32, height: u32) -> f64 {
+    (2.0 * ((vfov_deg as f64).to_radians() * 0.5).tan() / height as f64).atan()
+}
+
 /// `lod_bias` of a triangle without texture coordinates: so large that every lookup takes
 /// the last level, the texture's mean.
 pub const NO_UV_BIAS: f32 = 1.0e6;
