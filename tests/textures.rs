@@ -239,9 +239,9 @@ fn the_level_of_detail_grows_with_distance_as_the_cone_predicts() {
 
 /// Through a mirror: the camera looks at a mirror quad 4 away whose vertex normals bend
 /// as a bowl of curvature k would; the reflection comes straight back onto a textured
-/// quad 4 behind the camera. The cone at the mirror is w1 = spread·4, leaves with spread
-/// + 2·k·w1 (k as the triangle's record estimates it) and is w1 + spread'·8 wide at the
-/// texture: the level shown is the cone's, flat mirror and curved alike, on every backend.
+/// quad 4 behind the camera. The cone at the mirror is w1 = spread·4, leaves with
+/// spread' = spread + 2·k·w1 (k as the triangle's record estimates it) and is
+/// w1 + spread'·8 wide at the texture: the level shown is the cone's, flat mirror and curved alike, on every backend.
 #[test]
 fn a_curved_mirror_widens_the_cone_as_predicted() {
     let n = 16u32;
