@@ -12,6 +12,7 @@ use super::shade::{
     albedo, geometric_normal, light_term, offset_origin_with, secondary, shadow_origin,
     surface_with, SurfacePoint,
 };
+use super::texture::{self, Cone};
 use super::traverse::{Hit, Ray, Trace, Work};
 use super::walker::Walker;
 use crate::accel::GridRef;
@@ -20,6 +21,7 @@ use crate::output::{Aov, AovPixel, RayCounts, Readback};
 use crate::progress::Progress;
 use crate::region::Region;
 use crate::scene::camera::Frame;
+use crate::scene::texture::TriTex;
 use crate::scene::{camera, Light, Material, Scene};
 use crate::technique::Techniques;
 
@@ -38,6 +40,11 @@ struct Shading<'s, T> {
     alb: V3<T>,
     v: V3<T>,
     color: V3<T>,
+    /// The ray's cone at the hit: its width there and its spread (zero when the scene
+    /// has no textures).
+    cone: Cone<T>,
+    /// The triangle hit.
+    tri: usize,
 }
 
 /// Per-row tallies, summed after the parallel loop so counting stays off shared state.
@@ -71,6 +78,11 @@ pub struct CpuRenderer<'a, T, W = Walker<'a, T>> {
     /// Each triangle's unit geometric normal, worked out once (`shade::geometric_normal`)
     /// rather than at every hit.
     ng: Vec<V3<T>>,
+    /// Each triangle's texture record when the scene has textures or vertex colours (else
+    /// empty: an untextured scene stores and runs nothing for them).
+    tex: Vec<TriTex>,
+    /// True when some material has a texture: rays then carry cones.
+    textured: bool,
 }
 
 /// Output of a CPU render: the one backend output type, with `work` always counted.
@@ -102,10 +114,21 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         techniques: Techniques,
     ) -> Self {
         let ng = walker.tris().par_iter().map(geometric_normal).collect();
+        let textured = scene.has_textures();
+        let tex = if textured || scene.has_vertex_colors() {
+            (0..scene.triangles.len())
+                .into_par_iter()
+                .map(|i| TriTex::of(scene, i))
+                .collect()
+        } else {
+            Vec::new()
+        };
         CpuRenderer {
             scene,
             camera: scene.camera,
             ng,
+            tex,
+            textured,
             walker,
             techniques,
             max_depth,
@@ -123,7 +146,14 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     /// The radiance along each of `rays` (unit directions, all at recursion depth
     /// `depth`) into `out`: the rays traced as one batch ([`Trace::closest_hits`]), then
     /// shaded by [`CpuRenderer::shade_hits`].
-    fn radiance_batch(&self, rays: &[Ray<T>], depth: u32, tally: &mut Tally, out: &mut Vec<V3<T>>) {
+    fn radiance_batch(
+        &self,
+        rays: &[Ray<T>],
+        cones: &[Cone<T>],
+        depth: u32,
+        tally: &mut Tally,
+        out: &mut Vec<V3<T>>,
+    ) {
         let mut hits = vec![None; rays.len()];
         let mut work = vec![Work::default(); rays.len()];
         self.walker.closest_hits(rays, &mut hits, &mut work);
@@ -131,7 +161,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             tally.work.cells += wk.cells;
             tally.work.tests += wk.tests;
         }
-        self.shade_hits(rays, &hits, depth, tally, out, None);
+        self.shade_hits(rays, cones, &hits, depth, tally, out, None);
     }
 
     /// Whitted shading of a batch of hits of `rays` at recursion depth `depth` (`None` for
@@ -141,19 +171,29 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     /// reflected and refracted rays of all hits as the next depth's batch. Each colour is
     /// the depth-first recursion's bit for bit: the same terms added in the same order
     /// (ambient, each light in turn, then the reflected child and the refracted one).
+    #[allow(clippy::too_many_arguments)]
     fn shade_hits(
         &self,
         rays: &[Ray<T>],
+        cones: &[Cone<T>],
         hits: &[Option<Hit<T>>],
         depth: u32,
         tally: &mut Tally,
         out: &mut Vec<V3<T>>,
         normals: Option<&mut Vec<V3<T>>>,
     ) {
+        let no_cone = Cone {
+            width: T::ZERO,
+            spread: T::ZERO,
+        };
         let mut shading: Vec<Option<Shading<'_, T>>> = rays
             .iter()
             .zip(hits)
-            .map(|(ray, hit)| hit.as_ref().map(|h| self.begin(ray, h)))
+            .enumerate()
+            .map(|(k, (ray, hit))| {
+                let cone = cones.get(k).copied().unwrap_or(no_cone);
+                hit.as_ref().map(|h| self.begin(ray, h, cone))
+            })
             .collect();
         if let Some(normals) = normals {
             normals.clear();
@@ -190,6 +230,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         // The children: for each hit in order, the reflected ray, then the refracted one
         // (the order the GPU walks the tree in), each with its weight and parent.
         let mut children = Vec::new();
+        let mut child_cones = Vec::new();
         let mut parents = Vec::new();
         if depth < self.max_depth {
             for (i, (ray, s)) in rays.iter().zip(&shading).enumerate() {
@@ -216,6 +257,9 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                             t_max: T::BIG,
                         });
                         parents.push((i, k));
+                        if self.textured {
+                            child_cones.push(self.child_cone(s, refracted));
+                        }
                     }
                 }
             }
@@ -228,20 +272,37 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         );
         if !children.is_empty() {
             let mut radiance = Vec::with_capacity(children.len());
-            self.radiance_batch(&children, depth + 1, tally, &mut radiance);
+            self.radiance_batch(&children, &child_cones, depth + 1, tally, &mut radiance);
             for (&(i, k), r) in parents.iter().zip(&radiance) {
                 out[i] = out[i] + r.mul_elem(k);
             }
         }
     }
 
-    /// The surface, material and albedo of a hit, and its ambient term.
+    /// The surface, material and albedo of a hit of a ray with cone `cone`, and its
+    /// ambient term.
     #[inline]
-    fn begin(&self, ray: &Ray<T>, hit: &Hit<T>) -> Shading<'a, T> {
+    fn begin(&self, ray: &Ray<T>, hit: &Hit<T>, cone: Cone<T>) -> Shading<'a, T> {
         let verts = &self.walker.tris()[hit.tri as usize];
         let sp = surface_with(self.scene, verts, self.ng[hit.tri as usize], hit, ray.d);
         let m = &self.scene.materials[sp.material as usize];
-        let alb = albedo(m, sp.p);
+        let mut alb = albedo(m, sp.p);
+        let mut at_hit = cone;
+        if !self.tex.is_empty() {
+            let tri = hit.tri as usize;
+            let rec = &self.tex[tri];
+            if self.textured {
+                at_hit.width = cone.width + cone.spread * hit.t;
+            }
+            if let Some(k) = m.diffuse_map {
+                let t = &self.scene.textures[k as usize];
+                let lod = texture::lod(T::from_f32(rec.lod_bias), at_hit.width, sp.nf.dot(ray.d));
+                let level = texture::level_of(lod, t.levels.len());
+                let (u, v) = texture::uv_at(rec, hit.b);
+                alb = alb.mul_elem(texture::bilinear(t, level, u, v));
+            }
+            alb = alb.mul_elem(texture::vertex_color(self.scene, tri, hit.b));
+        }
         let color = alb.mul_elem(self.ambient) * T::from_f32(m.ka);
         Shading {
             sp,
@@ -249,7 +310,25 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             alb,
             v: -ray.d,
             color,
+            cone: at_hit,
+            tri: hit.tri as usize,
         }
+    }
+
+    /// The cone of the reflected (or, with `refracted`, the refracted) child of a hit.
+    #[inline]
+    fn child_cone(&self, s: &Shading<'_, T>, refracted: bool) -> Cone<T> {
+        let k = T::from_f32(self.tex[s.tri].curvature);
+        let k = if s.sp.flipped { -k } else { k };
+        let eta = refracted.then(|| {
+            let ior = T::from_f32(s.m.ior);
+            if s.sp.entering {
+                T::ONE / ior
+            } else {
+                ior / T::ONE
+            }
+        });
+        texture::child_cone(s.cone.width, s.cone.spread, k, eta)
     }
 
     /// The shadow ray from the hit towards `light` and the unit direction to it, or `None`
@@ -329,6 +408,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         let offsets = camera::sample_offsets(spp);
         let inv = T::ONE / T::from_f32(offsets.len() as f32);
         let frame = self.camera.frame();
+        let primary = texture::primary_cone::<T>(self.camera.vfov_deg, h);
         let rw = region.width() as usize;
         let n_off = offsets.len();
         // Pixels per batch: their primary rays are traced, and then each depth's shadow and
@@ -414,7 +494,20 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                         tally.work.cells += wk.cells;
                         tally.work.tests += wk.tests;
                     }
-                    self.shade_hits(&rays, &hits, 0, &mut tally, &mut colors, Some(&mut normals));
+                    let cones = if self.textured {
+                        vec![primary; rays.len()]
+                    } else {
+                        Vec::new()
+                    };
+                    self.shade_hits(
+                        &rays,
+                        &cones,
+                        &hits,
+                        0,
+                        &mut tally,
+                        &mut colors,
+                        Some(&mut normals),
+                    );
                     for (p, &(i, j)) in pixels.iter().enumerate() {
                         let first = p * n_off;
                         let steps = work[first].cells + work[first].tests;

@@ -202,8 +202,18 @@ pub mod uniform {
         "child: 0 reflected, 1 refracted",
     );
 
+    /// Textured scenes only (declared by the layout, `gpu/layout.rs`): the cone of the
+    /// level being shaded or spawned from, when it is the root (x = 1: the primary rays,
+    /// whose cone is width 0 and spread y; else x = 0 and the level's cone record `u_r3` /
+    /// `u_p3` holds it).
+    pub const ROOT_CONE: Uniform<Vec3> = Uniform::new(
+        "u_root_cone",
+        &[super::LAYOUT],
+        "(1 at the root level, primary spread, 0)",
+    );
+
     /// Every uniform.
-    pub const ALL: [Decl; 14] = [
+    pub const ALL: [Decl; 15] = [
         GRID_MIN.decl(),
         GRID_MAX.decl(),
         CELL_SIZE.decl(),
@@ -218,6 +228,7 @@ pub mod uniform {
         LIGHT_RAD.decl(),
         BRANCH.decl(),
         PIXELS.decl(),
+        ROOT_CONE.decl(),
     ];
 }
 
@@ -263,13 +274,37 @@ const CHILD: &[&str] = &["weight.frag", "spawn.frag"];
 /// are read as `u_r*` by the shading passes and as the parent's `u_p*` by the child
 /// passes; the node weight `u_c2`, the primary directions `u_dir` and the 8-bit sRGB
 /// thresholds `u_srgb` likewise).
-pub const SAMPLERS: [Sampler; 22] = [
+pub const SAMPLERS: [Sampler; 25] = [
     sampler("u_tri", Unit::Tri, &[LAYOUT], Stage::Any, "triangles"),
     sampler("u_mat", Unit::Mat, &[LAYOUT], Stage::Any, "materials"),
     sampler("u_cell", Unit::Cell, &[LAYOUT], Stage::Any, "cell table"),
     sampler("u_list", Unit::List, &[LAYOUT], Stage::Any, "triangle list"),
     sampler("u_nrm", Unit::Nrm, &[LAYOUT], Stage::Any, "vertex normals"),
     sampler("u_vmap", Unit::Vmap, &[LAYOUT], Stage::Any, "voxel map"),
+    sampler(
+        "u_tex",
+        Unit::Tex,
+        &[LAYOUT],
+        Stage::Any,
+        "textured scenes: uv records, texture table, texels",
+    ),
+    // The cone records share the unit of the ray state's s2: no program that reads a
+    // record reads s2 (the shading and child passes read no traversal state but s0, s1,
+    // s3), and the host binds them after the state (`Frame::bind_records`).
+    sampler(
+        "u_r3",
+        Unit::S2,
+        &[LAYOUT],
+        Stage::Fragment,
+        "textured scenes: this level's cone (width at origin, spread)",
+    ),
+    sampler(
+        "u_p3",
+        Unit::S2,
+        &[LAYOUT],
+        Stage::Fragment,
+        "textured scenes: the parent's cone (width at origin, spread)",
+    ),
     sampler(
         "u_s0",
         Unit::S0,
