@@ -661,14 +661,47 @@ mod tests {
         }
     }
 
+    /// The built-in scene with a 2x2 image texture on its first material, every triangle
+    /// given texture coordinates and every vertex a colour.
+    fn textured_builtin() -> crate::scene::Scene {
+        use crate::scene::texture::{TexLevel, Texture, Wrap};
+        let mut s = builtin_scene();
+        let base = TexLevel {
+            width: 2,
+            height: 2,
+            texels: vec![
+                [0.2, 0.4, 0.6],
+                [0.8, 0.6, 0.4],
+                [0.1, 0.9, 0.5],
+                [0.7, 0.3, 0.2],
+            ],
+        };
+        s.textures.push(Texture::from_linear(
+            "<test>".into(),
+            [Wrap::Repeat; 2],
+            base,
+        ));
+        s.materials[0].diffuse_map = Some(0);
+        s.uvs = vec![glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y];
+        s.tri_uvs = vec![[0, 1, 2]; s.triangles.len()];
+        s.colors = vec![glam::Vec3::ONE; s.positions.len()];
+        s.validate().expect("a valid textured scene");
+        s
+    }
+
     /// Compiles every program (fragment passes for both structures with every feature on,
+    /// the irregular grid's for a textured scene,
     /// the compute programs with both fetch paths) and returns, per GLSL name, the types
     /// the driver reports for it where it is active, and the programs built.
     fn active_everywhere(ctx: &crate::gpu::GlContext) -> (HashMap<String, Vec<u32>>, Vec<Program>) {
-        let scene = builtin_scene();
         let mut active: HashMap<String, Vec<u32>> = HashMap::new();
         let mut programs = Vec::new();
-        for kind in [AccelKind::Uniform, AccelKind::Irregular] {
+        // The built-in scene on the uniform grid, and textured on the irregular one: the
+        // texture declarations are active in textured programs only.
+        for (kind, scene) in [
+            (AccelKind::Uniform, builtin_scene()),
+            (AccelKind::Irregular, textured_builtin()),
+        ] {
             let accel = Accel::build(
                 &scene,
                 kind,
