@@ -234,7 +234,8 @@ impl RenderOptions {
             .unwrap_or_else(|| Region::full(self.width, self.height))
     }
 
-    /// Rejects sizes and counts out of range before any allocation.
+    /// Rejects sizes and counts out of range before any allocation (which flags apply to
+    /// the backend is [`crate::choices::Choices::check`]'s).
     pub fn validate(&self) -> Result<()> {
         for (name, v) in [("width", self.width), ("height", self.height)] {
             if v == 0 || v > MAX_IMAGE_SIDE {
@@ -283,13 +284,10 @@ impl RenderOptions {
                 self.max_depth
             )));
         }
-        if self.backend == Backend::Gl && !self.accel_kind().on_gpu() {
-            return Err(Error::Usage(format!(
-                "--accel {} is walked on the CPU backend only: take --backend cpu, or \
-                 --accel irregular for the GPU",
-                self.accel_kind().name()
-            )));
-        }
+        // "No BVH on the GPU" is not checked here: the flags are refused at their front
+        // door ([`crate::choices::Choices::check`], with advice naming that door's flags),
+        // and a library caller handing the GPU a BVH meets `AccelRef::grid`, the one
+        // conversion from a structure to what the GPU walks.
         Ok(())
     }
 }
