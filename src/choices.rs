@@ -299,8 +299,7 @@ impl Choices {
         }
         if self.no_specialize {
             return Err(Error::Usage(
-                "--no-specialize: the web page compiles only what the scene needs: drop it"
-                    .into(),
+                "--no-specialize: the web page compiles only what the scene needs: drop it".into(),
             ));
         }
         Ok(())

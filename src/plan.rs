@@ -246,7 +246,10 @@ impl Plan {
                 "compute" => Plan::Compute {
                     accel,
                     scene_fetch: word("scene-fetch", pairs.take("scene-fetch")?)?,
-                    fallback: pairs.take_opt("fallback").map(fragment_kernel).transpose()?,
+                    fallback: pairs
+                        .take_opt("fallback")
+                        .map(fragment_kernel)
+                        .transpose()?,
                 },
                 k => Plan::Fragment {
                     accel,

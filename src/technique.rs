@@ -197,7 +197,10 @@ impl std::str::FromStr for Techniques {
         // One spelling per set of techniques: a default written out, or a setting twice,
         // is not a tag `tag` writes.
         if t.tag() != s {
-            return Err(format!("`{s}` is not how these techniques are written ({})", t.tag()));
+            return Err(format!(
+                "`{s}` is not how these techniques are written ({})",
+                t.tag()
+            ));
         }
         Ok(t)
     }

@@ -315,7 +315,12 @@ mod tests {
              --techniques t-bound-off+offset-epsilon --specialize no"
         );
         let irr = PartOptions::of(&opts, plans[1]).to_string();
-        assert!(irr.ends_with("--grid-density 0.1 --leaf-max 9 --techniques t-bound-off+offset-epsilon"), "{irr}");
+        assert!(
+            irr.ends_with(
+                "--grid-density 0.1 --leaf-max 9 --techniques t-bound-off+offset-epsilon"
+            ),
+            "{irr}"
+        );
         // Lines that are not one: a flag missing, one too many, a value misspelt.
         let good = o.to_string();
         for bad in [
