@@ -18,7 +18,13 @@ void main() {
         vec4 r2 = texture2D(u_r2, v_uv);
         Surface s = surface(r0.R0_ORIGIN, r1.R1_DIR, r0.R0_TRI);
         vec3 l = texture2D(u_s1, v_uv).S1_DIR;
-        vec3 c = light_term(s.mat, albedo_at(s.mat, s.p), s, l, -r1.R1_DIR, u_light_rad);
+#ifdef HAS_TEXTURES
+        vec2 cone = u_root_cone.x > 0.5 ? vec2(0.0, u_root_cone.y) : texture2D(u_r3, v_uv).xy;
+        vec3 alb = albedo_tex(s, cone_at(cone, r1.R1_T).x, r1.R1_DIR);
+#else
+        vec3 alb = albedo_at(s.mat, s.p);
+#endif
+        vec3 c = light_term(s.mat, alb, s, l, -r1.R1_DIR, u_light_rad);
         acc.xyz += r2.R2_WEIGHT * c;
     }
     gl_FragData[0] = acc;

@@ -54,15 +54,25 @@ struct Node {
     vec3 w;
     int level;
 };
+#ifdef HAS_TEXTURES
+// Beside the stack: each pending node's cone at its origin (width, spread).
+vec2 g_cones[STACK_SIZE];
+#endif
 
 // Adds the radiance of the ray tree rooted at the primary ray (eye, d0) with weight w0 to
 // `colour`; with `first`, stores the primary ray's AOV texel in `aov`.
 void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov) {
     Node stack[STACK_SIZE];
     stack[0] = Node(u_eye, d0, vec3(w0), 0);
+#ifdef HAS_TEXTURES
+    g_cones[0] = vec2(0.0, u_root_cone.y);
+#endif
     int top = 1;
     while (top > 0) {
         Node n = stack[--top];
+#ifdef HAS_TEXTURES
+        vec2 n_cone = g_cones[top];
+#endif
         vec4 s0;
         vec4 s1;
         vec4 s2;
@@ -79,7 +89,14 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
             continue;
         }
         Surface s = surface(n.o, n.d, s3.S3_TRI_BEST);
+#ifdef HAS_TEXTURES
+        vec2 hit_cone = cone_at(n_cone, s3.S3_T_BEST);
+        vec3 alb = albedo_tex(s, hit_cone.x, n.d);
+        colour += n.w * ambient_with(s, alb, u_ambient);
+#else
+        vec3 alb = albedo_at(s.mat, s.p);
         colour += n.w * ambient_term(s, u_ambient);
+#endif
         for (int k = 0; k < LIGHTS; k++) {
             vec3 o;
             vec3 l;
@@ -89,7 +106,7 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
             new_ray(o, l, dist, s0, s1, s2, s3);
             trace(s0, s1, s2, s3, true);
             if (!in_state(s0.S0_STATE, ST_SHADING)) {
-                vec3 c = light_term(s.mat, albedo_at(s.mat, s.p), s, l, -n.d, LIGHT_RAD(k));
+                vec3 c = light_term(s.mat, alb, s, l, -n.d, LIGHT_RAD(k));
                 colour += n.w * c;
             }
         }
@@ -103,10 +120,16 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
             // Refracted below reflected: the reflected subtree is walked first.
             if (child_exists(kt)) {
                 n_count[C_REFRACTED] += 1u;
+#ifdef HAS_TEXTURES
+                g_cones[top] = child_cone_at(s, hit_cone, true);
+#endif
                 stack[top++] = Node(offset_origin(s, refr), refr, n.w * kt, n.level + 1);
             }
             if (child_exists(kr)) {
                 n_count[C_REFLECTED] += 1u;
+#ifdef HAS_TEXTURES
+                g_cones[top] = child_cone_at(s, hit_cone, false);
+#endif
                 stack[top++] = Node(offset_origin(s, refl), refl, n.w * kr, n.level + 1);
             }
         }

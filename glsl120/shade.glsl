@@ -12,6 +12,11 @@ struct Surface {
     float mat;   // material index
     vec3 p_sh;   // where shadow rays start: p, lifted onto the smooth surface with
     vec3 p_sh_err; // TERMINATOR_SMOOTH (cpu/shade.rs: p_shadow, p_shadow_err)
+#ifdef HAS_TEXTURES
+    vec3 b;        // barycentrics of p (texture coordinates, vertex colours)
+    float tri;     // the triangle hit
+    bool flipped;  // the vertex normals face away from the ray (cpu/shade.rs: flipped)
+#endif
 };
 
 #ifdef TERMINATOR_SMOOTH
@@ -39,6 +44,11 @@ Surface surface(vec3 o, vec3 d, float tri) {
     s.ns = s.nf;
     s.p_sh = s.p;
     s.p_sh_err = s.p_err;
+#ifdef HAS_TEXTURES
+    s.b = b;
+    s.tri = tri;
+    s.flipped = false;
+#endif
 #ifdef HAS_SMOOTH_NORMALS
     if (t1.w > 0.5) {
         vec3 n0 = fetch_nrm(tri * TRI_TEXELS).xyz;
@@ -50,6 +60,9 @@ Surface surface(vec3 o, vec3 d, float tri) {
             sn = sn * (1.0 / l);
             bool flip = dot(sn, s.nf) < 0.0;
             s.ns = flip ? -sn : sn;
+#ifdef HAS_TEXTURES
+            s.flipped = flip;
+#endif
 #ifdef TERMINATOR_SMOOTH
             // Vertex normals on the side ns faces (CPU twin: surface's p_shadow).
             if (flip) {
@@ -184,6 +197,51 @@ vec3 light_term(float mat, vec3 albedo, Surface s, vec3 l, vec3 v, vec3 radiance
 #endif
     return c * radiance;
 }
+
+#ifdef HAS_TEXTURES
+// The cone (width, spread) at the hit at distance t of a ray whose cone at its origin is
+// `cone` (cpu/render.rs: Shading::cone).
+vec2 cone_at(vec2 cone, float t) {
+    return vec2(cone.x + cone.y * t, cone.y);
+}
+
+// Albedo at s for a ray of direction d whose cone is `width` wide there: the material's
+// colour, times its map_Kd texel, times the vertex colour (CPU twin: CpuRenderer::begin).
+vec3 albedo_tex(Surface s, float width, vec3 d) {
+    vec3 a = albedo_at(s.mat, s.p);
+    float map = mat_texel(s.mat, M6_SLOT).M6_MAP_KD;
+    if (map > 0.0) {
+        vec4 r0 = fetch_tex(s.tri * TEX_REC);
+        vec4 r1 = fetch_tex(s.tri * TEX_REC + 1.0);
+        float lod = tex_lod(r1.z, width, dot(s.nf, d));
+        vec2 uv = r0.xy * s.b.x + r0.zw * s.b.y + r1.xy * s.b.z;
+        a = a * tex_bilinear(map - 1.0, uv, lod);
+    }
+#ifdef HAS_VERTEX_COLORS
+    vec3 c0 = fetch_tex(TEX_COLORS + s.tri * 3.0).xyz;
+    vec3 c1 = fetch_tex(TEX_COLORS + s.tri * 3.0 + 1.0).xyz;
+    vec3 c2 = fetch_tex(TEX_COLORS + s.tri * 3.0 + 2.0).xyz;
+    a = a * (c0 * s.b.x + c1 * s.b.y + c2 * s.b.z);
+#endif
+    return a;
+}
+
+// The cone of the reflected (or refracted) child of s, whose cone there is `cone`
+// (CPU twin: CpuRenderer::child_cone).
+vec2 child_cone_at(Surface s, vec2 cone, bool refracted) {
+    float k = fetch_tex(s.tri * TEX_REC + 1.0).w;
+    if (s.flipped) k = -k;
+    float ior = mat_texel(s.mat, M3_SLOT).M3_IOR;
+    float eta = s.entering ? 1.0 / ior : ior / 1.0;
+    return child_cone(cone, k, refracted, eta);
+}
+
+// Ambient term ka A albedo at s with the albedo given.
+vec3 ambient_with(Surface s, vec3 albedo, vec3 ambient) {
+    float ka = mat_texel(s.mat, M0_SLOT).M0_KA;
+    return albedo * ambient * ka;
+}
+#endif
 
 // Ambient term ka A albedo at s (accum_ambient.frag; the compute kernel).
 vec3 ambient_term(Surface s, vec3 ambient) {

@@ -1,7 +1,9 @@
 // weight.frag: weight of a child node of the Whitted ray tree, from its parent's record.
 // Reads: u_p0, u_p1, u_p2 (the parent level's records), u_branch (0 = reflect,
 //        1 = refract), the triangle and material textures.
-// Writes: c2 = (parent weight * kr or kt, 1) when the child ray exists, else (0, 0).
+// Writes: c2 = (parent weight * kr or kt, 1) when the child ray exists, else (0, 0); with
+//         HAS_TEXTURES also c3 = the child's cone (width at its origin, spread), from the
+//         parent's (u_root_cone at the root, else u_p3).
 #include "intersect.glsl"
 #include "shade.glsl"
 
@@ -10,6 +12,9 @@ void main() {
     vec4 p0 = texture2D(u_p0, v_uv);
     vec4 p2 = texture2D(u_p2, v_uv);
     vec4 outw = R2_TEXEL(vec3(0.0), 0.0);
+#ifdef HAS_TEXTURES
+    vec4 outc = vec4(0.0);
+#endif
     if (p2.R2_EXISTS > 0.5 && p0.R0_TRI >= 0.0) {
         vec4 p1 = texture2D(u_p1, v_uv);
         Surface s = surface(p0.R0_ORIGIN, p1.R1_DIR, p0.R0_TRI);
@@ -21,7 +26,14 @@ void main() {
         vec3 k = u_branch < 0.5 ? kr : kt;
         if (child_exists(k)) {
             outw = R2_TEXEL(p2.R2_WEIGHT * k, 1.0);
+#ifdef HAS_TEXTURES
+            vec2 pc = u_root_cone.x > 0.5 ? vec2(0.0, u_root_cone.y) : texture2D(u_p3, v_uv).xy;
+            outc = vec4(child_cone_at(s, cone_at(pc, p1.R1_T), u_branch > 0.5), 0.0, 0.0);
+#endif
         }
     }
     gl_FragData[0] = outw;
+#ifdef HAS_TEXTURES
+    gl_FragData[1] = outc;
+#endif
 }

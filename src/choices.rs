@@ -15,7 +15,7 @@ use clap::{Args, Parser};
 use crate::accel::{AccelKind, GridConfig, GridRes};
 use crate::gpu::options::{Kernel, Mask, SceneFetch, Storage};
 use crate::options::{
-    check_range, AccelChoice, Backend, CpuPath, Precision, RenderOptions, MAX_DEPTH,
+    check_range, AccelChoice, Backend, CpuPath, Precision, RenderOptions, TextureMode, MAX_DEPTH,
     MAX_IMAGE_SIDE, MAX_QUERY_EVERY, MAX_SPP,
 };
 use crate::scene::Scene;
@@ -95,6 +95,12 @@ pub struct Choices {
     /// the camera stands still).
     #[arg(long, allow_negative_numbers = true, value_parser = count_in(1, MAX_SPP))]
     pub spp: Option<u32>,
+    /// Textures: on (the default: what the files say; a texture that cannot be read is one
+    /// warning line and its material renders with its colour), off (every material with
+    /// its colour alone: the untextured twin of a scene) or strict (an unreadable texture
+    /// is an error, for CI).
+    #[arg(long, value_enum, default_value_t = TextureMode::On)]
+    pub textures: TextureMode,
     /// Acceleration structure: auto (the default: the irregular grid on the GPU, the BVH
     /// on the CPU, each the fastest there, with the same images; the irregular grid on both
     /// when a grid density is given), irregular (adaptive cells with exit boxes grown over empty
@@ -223,6 +229,15 @@ impl Choices {
                      none: drop --gpu"
                 )));
             }
+        }
+        if door == Door::Bench && self.textures != TextureMode::On {
+            // The bench loads each scene once for all its configurations.
+            return Err(Error::Usage(format!(
+                "--textures {}: the bench loads each scene once, with its textures; time \
+                 `fragtrace render --textures off --stats FILE` for the untextured twin",
+                clap::ValueEnum::to_possible_value(&self.textures)
+                    .map_or_else(String::new, |v| v.get_name().to_owned())
+            )));
         }
         if door == Door::DumpShaders {
             // Every kernel's programs are written, whatever the kernel, mask or storage, and

@@ -334,6 +334,46 @@ impl FrameRange {
     }
 }
 
+/// Which textures a render uses: `--textures on|off|strict`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum TextureMode {
+    /// Textures, texture coordinates and vertex colours as the files say; a texture that
+    /// cannot be read is one warning line, and its material renders with its colour.
+    #[default]
+    On,
+    /// None of them: every material renders with its colour (the untextured twin of a
+    /// scene, for measuring what textures cost).
+    Off,
+    /// As `on`, but a texture that cannot be read is an error (for CI).
+    Strict,
+}
+
+impl TextureMode {
+    /// Applies the mode to a loaded scene: `off` strips its textures, texture coordinates
+    /// and vertex colours; `on` prints each texture problem as one warning line; `strict`
+    /// refuses a scene with any.
+    pub fn apply(self, scene: &mut crate::scene::Scene) -> crate::Result<()> {
+        match self {
+            TextureMode::Off => {
+                scene.strip_textures();
+                Ok(())
+            }
+            TextureMode::On => {
+                for w in &scene.texture_problems {
+                    eprintln!("fragtrace: warning: {w}");
+                }
+                Ok(())
+            }
+            TextureMode::Strict => match scene.texture_problems.first() {
+                None => Ok(()),
+                Some(p) => Err(crate::Error::Usage(format!(
+                    "{p} (--textures strict; `--textures on` renders it with the material's colour)"
+                ))),
+            },
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

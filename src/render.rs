@@ -423,7 +423,14 @@ fn cpu_frame<T: crate::cpu::real::Real, W: Trace<T>>(
 ) -> BackendOutput {
     let px = opts.pixels();
     let progress = crate::progress::Progress::bar(opts.progress, px.height() as u64, "rows");
-    r.render_region(opts.width, opts.height, px, opts.spp, &progress)
+    r.render_region(
+        opts.width,
+        opts.height,
+        px,
+        opts.spp,
+        opts.readback,
+        &progress,
+    )
 }
 
 /// Builds the acceleration structure and renders `scene` on the CPU.
@@ -462,6 +469,12 @@ pub fn auto_declines(info: &GlInfo) -> Option<String> {
     })
 }
 
+/// Why `--backend auto` takes the CPU where the only EGL device is Mesa's software one
+/// ([`crate::gpu::egl::software_only`]), in the words of [`auto_declines`].
+pub const SOFTWARE_DEVICE: &str = "the only EGL device is Mesa's software rasterizer \
+     (EGL_MESA_device_software: GL run on the CPU, slower than the CPU backend); \
+     --backend gl renders with it anyway";
+
 /// The GL context the backend choice of `opts` renders in: None for the CPU. `Auto` uses
 /// the GPU when a suitable context can be made (on `--gpu N`'s device) and is not a
 /// software rasterizer ([`auto_declines`]), and otherwise the CPU, saying why in one line
@@ -494,14 +507,20 @@ fn choose_context(opts: &RenderOptions, notices: bool) -> Result<Option<GlContex
             Ok(None)
         }
         Backend::Auto => {
-            let why = match GlContext::on_device(opts.device) {
-                Ok(ctx) => match auto_declines(&ctx.info) {
-                    None => return Ok(Some(ctx)),
-                    Some(why) => why,
-                },
-                // A bad `--gpu N` is the user's to fix, not a reason to fall back.
-                Err(e @ crate::Error::Usage(_)) => return Err(e),
-                Err(e) => e.to_string(),
+            // Only Mesa's software device to open: the answer `auto_declines` would give
+            // for its context, without starting a driver to hear it.
+            let why = if crate::gpu::egl::software_only(opts.device) {
+                SOFTWARE_DEVICE.to_string()
+            } else {
+                match GlContext::on_device(opts.device) {
+                    Ok(ctx) => match auto_declines(&ctx.info) {
+                        None => return Ok(Some(ctx)),
+                        Some(why) => why,
+                    },
+                    // A bad `--gpu N` is the user's to fix, not a reason to fall back.
+                    Err(e @ crate::Error::Usage(_)) => return Err(e),
+                    Err(e) => e.to_string(),
+                }
             };
             if notices {
                 eprintln!(

@@ -896,6 +896,13 @@ fn auto_backend_takes_the_cpu_over_a_software_gl_and_says_so() {
         }
     };
     let software = fragtrace::gpu::info::software_renderer(&renderer);
+    // The shortcut `auto` takes before making a context (every EGL device Mesa's software
+    // one) must agree with the context's own renderer string.
+    let shortcut = fragtrace::gpu::egl::software_only(None);
+    assert!(
+        !shortcut || software,
+        "software-only devices, yet {renderer}"
+    );
     let want = if software { "cpu" } else { "gl" };
     let (want_accel, accel_brief) = if software {
         ("bvh", "4-wide BVH")
@@ -937,9 +944,15 @@ fn auto_backend_takes_the_cpu_over_a_software_gl_and_says_so() {
     if software {
         assert_eq!(seen.len(), 1, "{err}");
         let n = &seen[0];
+        // Named by its renderer string, or, where no context was needed to know, as
+        // Mesa's software device.
+        let driver = match shortcut {
+            true => "Mesa's software rasterizer (EGL_MESA_device_software",
+            false => renderer.as_str(),
+        };
         for part in [
             "fragtrace: notice: using the CPU backend: ",
-            renderer.as_str(),
+            driver,
             "software rasterizer",
             "--backend gl",
         ] {

@@ -558,3 +558,41 @@ fn f32_default_is_within_its_bound_of_f64() {
         );
     }
 }
+
+/// What a CPU render keeps follows `Readback`, as on the GPU: without AOVs the mean primary
+/// steps still reach the stats (summed per band, equal to the AOV's mean), and with `srgb8`
+/// the 8-bit image is byte for byte the host conversion of the linear image, with a
+/// non-finite pixel count. On every shipped scene, every CPU precision.
+#[test]
+fn cpu_readback_keeps_only_what_is_asked_and_the_same_values() {
+    use fragtrace::image_io::to_srgb8;
+    use fragtrace::output::Readback;
+    for (name, scene) in common::shipped_scenes() {
+        for p in [Precision::F64, Precision::F32] {
+            let mut full = opts(&scene, 48, 36, p);
+            full.max_depth = full.max_depth.min(3);
+            let all = render_cpu(&scene, &full).unwrap();
+            let mut lean = full.clone();
+            lean.readback = Readback {
+                aov: false,
+                srgb8: true,
+            };
+            let lean = render_cpu(&scene, &lean).unwrap();
+            assert!(
+                lean.aov.pixels.is_empty() && lean.image.data.is_empty(),
+                "{name}"
+            );
+            assert_eq!(lean.image.width, 48, "{name}");
+            let bytes = lean.srgb8.as_ref().expect("8-bit image");
+            assert_eq!(*bytes, to_srgb8(&all.image), "{name} {p:?}: 8-bit image");
+            assert_eq!(lean.nonfinite, Some(0), "{name}");
+            let (a, b) = (
+                all.stats.primary_steps_per_ray,
+                lean.stats.primary_steps_per_ray,
+            );
+            assert_eq!(a, b, "{name} {p:?}: mean primary steps");
+            assert!(a.unwrap() > 0.0, "{name}: steps counted");
+            assert_eq!(all.stats.rays, lean.stats.rays, "{name}");
+        }
+    }
+}

@@ -12,7 +12,7 @@
 //! The boxes are exact: the minimum and maximum of f32 vertex coordinates, so a triangle
 //! lies inside every box above it; the walk pads only its own slab arithmetic.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use std::time::Instant;
 
 use crate::scene::Scene;
@@ -130,25 +130,25 @@ pub struct Bvh {
 /// A triangle's box and centroid.
 #[derive(Clone, Copy)]
 struct Prim {
-    lo: Vec3,
-    hi: Vec3,
-    c: Vec3,
+    lo: Vec3A,
+    hi: Vec3A,
+    c: Vec3A,
 }
 
 /// An axis-aligned box being grown.
 #[derive(Clone, Copy, Debug)]
 struct Aabb {
-    lo: Vec3,
-    hi: Vec3,
+    lo: Vec3A,
+    hi: Vec3A,
 }
 
 impl Aabb {
     const EMPTY: Aabb = Aabb {
-        lo: Vec3::splat(f32::INFINITY),
-        hi: Vec3::splat(f32::NEG_INFINITY),
+        lo: Vec3A::splat(f32::INFINITY),
+        hi: Vec3A::splat(f32::NEG_INFINITY),
     };
 
-    fn grow(&mut self, lo: Vec3, hi: Vec3) {
+    fn grow(&mut self, lo: Vec3A, hi: Vec3A) {
         self.lo = self.lo.min(lo);
         self.hi = self.hi.max(hi);
     }
@@ -162,7 +162,7 @@ impl Aabb {
 
     /// Half the surface area (the SAH needs only ratios); 0 for an empty box.
     fn half_area(&self) -> f32 {
-        let e = (self.hi - self.lo).max(Vec3::ZERO);
+        let e = (self.hi - self.lo).max(Vec3A::ZERO);
         e.x * e.y + e.y * e.z + e.z * e.x
     }
 }
@@ -205,7 +205,7 @@ impl Bvh {
         let prims: Vec<Prim> = (0..n)
             .into_par_iter()
             .map(|i| {
-                let [a, b, c] = scene.triangle_vertices(i);
+                let [a, b, c] = scene.triangle_vertices(i).map(Vec3A::from);
                 let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
                 Prim {
                     lo,
@@ -228,8 +228,8 @@ impl Bvh {
         } else {
             let root = build2(&prims, &mut refs, 0, 0);
             let b = root.bounds();
-            bvh.min = b.lo;
-            bvh.max = b.hi;
+            bvh.min = b.lo.into();
+            bvh.max = b.hi.into();
             bvh.stats.sah_cost = root.sah() / (b.half_area() as f64).max(f64::MIN_POSITIVE);
             match &root {
                 Bin2::Leaf { .. } => {
@@ -386,11 +386,15 @@ impl Bins {
     /// an axis it does not spread on, which the split search skips).
     fn of(prims: &[Prim], refs: &[u32], cb: &Aabb) -> Bins {
         let mut b = Bins::EMPTY;
-        let k = [0, 1, 2].map(|a| bin_of(cb, a));
+        let (lo, scale) = bin_scale(cb);
         for &r in refs {
             let p = &prims[r as usize];
-            for (a, bin) in k.iter().enumerate() {
-                let i = bin(p.c[a]);
+            // `bin_of` on the three axes at once: the same products, the same truncation.
+            let i = ((p.c - lo) * scale)
+                .as_uvec3()
+                .min(glam::UVec3::splat(BINS as u32 - 1));
+            for a in 0..3 {
+                let i = i[a] as usize;
                 b.boxes[a][i].grow(p.lo, p.hi);
                 b.counts[a][i] += 1;
             }
@@ -413,10 +417,21 @@ impl Bins {
 /// The bin of a centroid coordinate on `axis` over the centroid box `cb` (clamped into
 /// `0 .. BINS`).
 fn bin_of(cb: &Aabb, axis: usize) -> impl Fn(f32) -> usize {
-    let lo = cb.lo[axis];
-    let ext = cb.hi[axis] - lo;
-    let scale = if ext > 0.0 { BINS as f32 / ext } else { 0.0 };
+    let (lo, scale) = bin_scale(cb);
+    let (lo, scale) = (lo[axis], scale[axis]);
     move |c| (((c - lo) * scale) as usize).min(BINS - 1)
+}
+
+/// Per axis, the origin and scale [`bin_of`] maps a centroid coordinate with (a zero scale
+/// on an axis the centroids do not spread on: all in bin 0).
+fn bin_scale(cb: &Aabb) -> (Vec3A, Vec3A) {
+    let ext = cb.hi - cb.lo;
+    let scale = Vec3A::select(
+        ext.cmpgt(Vec3A::ZERO),
+        Vec3A::splat(BINS as f32) / ext,
+        Vec3A::ZERO,
+    );
+    (cb.lo, scale)
 }
 
 /// The cheapest SAH split of `refs` (whose box has half area `node_area`): (cost, axis,

@@ -4,7 +4,7 @@
 //! known, the degenerate piles the median split handles, and the build's independence of
 //! the thread count. The walk is tested in `cpu/traverse_bvh_tests.rs`.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use super::*;
 use crate::testing::{
@@ -36,11 +36,11 @@ fn check_tree(bvh: &Bvh, scene: &Scene) -> Walked {
         reached[k as usize] += 1;
         let node = &bvh.nodes[k as usize];
         for i in 0..WIDTH {
-            let slot_lo = Vec3::new(node.lo[0][i], node.lo[1][i], node.lo[2][i]);
-            let slot_hi = Vec3::new(node.hi[0][i], node.hi[1][i], node.hi[2][i]);
+            let slot_lo = Vec3A::new(node.lo[0][i], node.lo[1][i], node.lo[2][i]);
+            let slot_hi = Vec3A::new(node.hi[0][i], node.hi[1][i], node.hi[2][i]);
             if node.is_empty_slot(i) {
-                assert_eq!(slot_lo, Vec3::INFINITY, "node {k} slot {i}");
-                assert_eq!(slot_hi, Vec3::NEG_INFINITY, "node {k} slot {i}");
+                assert_eq!(slot_lo, Vec3A::INFINITY, "node {k} slot {i}");
+                assert_eq!(slot_hi, Vec3A::NEG_INFINITY, "node {k} slot {i}");
                 continue;
             }
             let (lo, hi) = if node.count[i] > 0 {
@@ -54,7 +54,7 @@ fn check_tree(bvh: &Bvh, scene: &Scene) -> Walked {
                 let mut b = Aabb::EMPTY;
                 for &t in leaf {
                     seen[t as usize] += 1;
-                    let [a, bb, c] = scene.triangle_vertices(t as usize);
+                    let [a, bb, c] = scene.triangle_vertices(t as usize).map(Vec3A::from);
                     b.grow(a.min(bb).min(c), a.max(bb).max(c));
                 }
                 out.leaves += 1;
@@ -68,8 +68,8 @@ fn check_tree(bvh: &Bvh, scene: &Scene) -> Walked {
                 for j in 0..WIDTH {
                     if !kid.is_empty_slot(j) {
                         b.grow(
-                            Vec3::new(kid.lo[0][j], kid.lo[1][j], kid.lo[2][j]),
-                            Vec3::new(kid.hi[0][j], kid.hi[1][j], kid.hi[2][j]),
+                            Vec3A::new(kid.lo[0][j], kid.lo[1][j], kid.lo[2][j]),
+                            Vec3A::new(kid.hi[0][j], kid.hi[1][j], kid.hi[2][j]),
                         );
                     }
                 }
@@ -118,9 +118,10 @@ fn tree_holds_every_triangle_once_in_exact_boxes() {
         // The scene box is the union of the triangles' boxes.
         let mut b = Aabb::EMPTY;
         for t in tris {
+            let t = t.map(Vec3A::from);
             b.grow(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
         }
-        assert_eq!((bvh.min, bvh.max), (b.lo, b.hi), "scene {si}");
+        assert_eq!((bvh.min, bvh.max), (b.lo.into(), b.hi.into()), "scene {si}");
         println!("scene {si}: {} triangles, {st}", tris.len());
     }
 }

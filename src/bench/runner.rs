@@ -179,6 +179,9 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
                 None => scene::builtin_scene(),
                 Some(p) => scene::load_scene(p)?,
             };
+            // Warned about once here; a configuration's `--textures` applies per run.
+            let mut scene = scene;
+            crate::options::TextureMode::On.apply(&mut scene)?;
             Ok((s.clone(), scene))
         })
         .collect::<Result<_>>()?;

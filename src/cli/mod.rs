@@ -7,6 +7,7 @@ use clap::{Args, Parser, Subcommand};
 
 use crate::choices::{clap_error_line, count_in, Choices, Door, RenderArgs};
 use crate::image_io;
+use crate::options::TextureMode;
 use crate::render;
 use crate::scene::{self, Scene};
 use crate::{Error, Result};
@@ -279,12 +280,15 @@ fn io_reason(e: &std::io::Error) -> String {
     }
 }
 
-/// Loads the scene named on the command line, or the built-in one.
-pub fn load(scene_path: Option<&Path>) -> Result<Scene> {
-    match scene_path {
-        Some(p) => scene::load_scene(p),
-        None => Ok(scene::builtin_scene()),
-    }
+/// Loads the scene named on the command line, or the built-in one, with its textures as
+/// `textures` asks (`--textures`: stripped, warned about, or refused when unreadable).
+pub fn load(scene_path: Option<&Path>, textures: TextureMode) -> Result<Scene> {
+    let mut scene = match scene_path {
+        Some(p) => scene::load_scene(p)?,
+        None => scene::builtin_scene(),
+    };
+    textures.apply(&mut scene)?;
+    Ok(scene)
 }
 
 /// The `compare` command: prints the figures; `Ok(false)` when a bound is exceeded, after
@@ -429,7 +433,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
             args.frame_ms
         )));
     }
-    let scene = load(args.scene.as_deref())?;
+    let scene = load(args.scene.as_deref(), args.choices.textures)?;
     // The render flags go through `render`'s own conversion and checks, at `view`'s door;
     // the window renders on the GPU, so `--accel auto` is the GPU's structure.
     let render = args
@@ -486,9 +490,9 @@ pub fn run(cli: Cli) -> Result<bool> {
         Some(Command::View(args)) => run_view(&args).map(|()| true),
         Some(Command::DumpShaders(args)) => {
             let scene = if args.scene.as_os_str() == "builtin" {
-                load(None)?
+                load(None, args.choices.textures)?
             } else {
-                load(Some(&args.scene))?
+                load(Some(&args.scene), args.choices.textures)?
             };
             // The structure and techniques the choices name, on the GPU: what `render`
             // compiles for them.

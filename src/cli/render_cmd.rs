@@ -23,7 +23,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
             return Ok(None);
         }
         // A share of an animation (frames x tiles): the frames come from the scene's path.
-        let scene = load(args.scene.as_deref())?;
+        let scene = load(args.scene.as_deref(), args.choices.textures)?;
         let path = scene.animation.as_ref().ok_or_else(|| {
             Error::Usage(format!(
                 "--frames needs a camera path: {} has no [animation] table (docs/scene-format.md)",
@@ -43,7 +43,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
     }
     if let Some(parts) = PartPlan::new(&args.parts, &args.output, args.stats.as_deref(), None, env)?
     {
-        let scene = load(args.scene.as_deref())?;
+        let scene = load(args.scene.as_deref(), args.choices.textures)?;
         return run_parts(args, &parts, scene).map(Some);
     }
     // Fail on an unusable output path or AOV list before loading or rendering anything;
@@ -58,7 +58,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         .as_deref()
         .map(crate::aov::AovKind::parse_list)
         .transpose()?;
-    let scene = load(args.scene.as_deref())?;
+    let scene = load(args.scene.as_deref(), args.choices.textures)?;
     let mut opts = args.to_options(&scene)?;
     // Read back only what the output needs: a PNG as 8-bit sRGB (converted on the GPU
     // where it can), the AOVs only with --aov.
@@ -107,7 +107,7 @@ fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<
     if let Some(stats) = &args.stats {
         check_writable(stats, "statistics")?;
     }
-    let scene = load(args.scene.as_deref())?;
+    let scene = load(args.scene.as_deref(), args.choices.textures)?;
     let opts = args.to_options(&scene)?;
     let stats = crate::animate::render_frames(&scene, &opts, frames, &args.output, !args.quiet)?;
     if let Some(path) = &args.stats {

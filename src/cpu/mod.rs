@@ -14,6 +14,7 @@ pub mod simd;
 pub mod simd_step;
 pub mod simd_walk;
 pub mod soa;
+pub mod texture;
 pub mod traverse;
 pub mod traverse_bvh;
 pub mod traverse_irregular;

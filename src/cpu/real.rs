@@ -44,6 +44,8 @@ pub trait Real:
     fn floor(self) -> Self;
     /// x^y.
     fn powf(self, y: Self) -> Self;
+    /// Base-2 logarithm.
+    fn log2(self) -> Self;
     /// Finite test.
     fn is_finite(self) -> bool;
     /// The larger value (NaN-free inputs assumed).
@@ -104,6 +106,10 @@ macro_rules! impl_real {
             #[inline(always)]
             fn powf(self, y: Self) -> Self {
                 <$t>::powf(self, y)
+            }
+            #[inline(always)]
+            fn log2(self) -> Self {
+                <$t>::log2(self)
             }
             #[inline(always)]
             fn is_finite(self) -> bool {

@@ -12,14 +12,16 @@ use super::shade::{
     albedo, geometric_normal, light_term, offset_origin_with, secondary, shadow_origin,
     surface_with, SurfacePoint,
 };
+use super::texture::{self, Cone};
 use super::traverse::{Hit, Ray, Trace, Work};
 use super::walker::Walker;
 use crate::accel::GridRef;
-use crate::image_io::Image;
-use crate::output::{Aov, AovPixel, RayCounts};
+use crate::image_io::{self, Image};
+use crate::output::{Aov, AovPixel, RayCounts, Readback};
 use crate::progress::Progress;
 use crate::region::Region;
 use crate::scene::camera::Frame;
+use crate::scene::texture::TriTex;
 use crate::scene::{camera, Light, Material, Scene};
 use crate::technique::Techniques;
 
@@ -38,6 +40,11 @@ struct Shading<'s, T> {
     alb: V3<T>,
     v: V3<T>,
     color: V3<T>,
+    /// The ray's cone at the hit: its width there and its spread (zero when the scene
+    /// has no textures).
+    cone: Cone<T>,
+    /// The triangle hit.
+    tri: usize,
 }
 
 /// Per-row tallies, summed after the parallel loop so counting stays off shared state.
@@ -48,6 +55,11 @@ struct Tally {
     reflected: u64,
     refracted: u64,
     work: Work,
+    /// Cells plus tests of each pixel's first primary ray, summed (when the AOVs, which
+    /// hold them per pixel, are not kept).
+    primary_steps: u64,
+    /// Pixels with a NaN or infinite colour (counted when only 8-bit sRGB is kept).
+    nonfinite: u64,
 }
 
 /// A scene prepared for CPU rendering in precision `T`, its structure walked by `W` (the
@@ -66,6 +78,11 @@ pub struct CpuRenderer<'a, T, W = Walker<'a, T>> {
     /// Each triangle's unit geometric normal, worked out once (`shade::geometric_normal`)
     /// rather than at every hit.
     ng: Vec<V3<T>>,
+    /// Each triangle's texture record when the scene has textures or vertex colours (else
+    /// empty: an untextured scene stores and runs nothing for them).
+    tex: Vec<TriTex>,
+    /// True when some material has a texture: rays then carry cones.
+    textured: bool,
 }
 
 /// Output of a CPU render: the one backend output type, with `work` always counted.
@@ -97,10 +114,21 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         techniques: Techniques,
     ) -> Self {
         let ng = walker.tris().par_iter().map(geometric_normal).collect();
+        let textured = scene.has_textures();
+        let tex = if textured || scene.has_vertex_colors() {
+            (0..scene.triangles.len())
+                .into_par_iter()
+                .map(|i| TriTex::of(scene, i))
+                .collect()
+        } else {
+            Vec::new()
+        };
         CpuRenderer {
             scene,
             camera: scene.camera,
             ng,
+            tex,
+            textured,
             walker,
             techniques,
             max_depth,
@@ -118,7 +146,14 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     /// The radiance along each of `rays` (unit directions, all at recursion depth
     /// `depth`) into `out`: the rays traced as one batch ([`Trace::closest_hits`]), then
     /// shaded by [`CpuRenderer::shade_hits`].
-    fn radiance_batch(&self, rays: &[Ray<T>], depth: u32, tally: &mut Tally, out: &mut Vec<V3<T>>) {
+    fn radiance_batch(
+        &self,
+        rays: &[Ray<T>],
+        cones: &[Cone<T>],
+        depth: u32,
+        tally: &mut Tally,
+        out: &mut Vec<V3<T>>,
+    ) {
         let mut hits = vec![None; rays.len()];
         let mut work = vec![Work::default(); rays.len()];
         self.walker.closest_hits(rays, &mut hits, &mut work);
@@ -126,7 +161,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             tally.work.cells += wk.cells;
             tally.work.tests += wk.tests;
         }
-        self.shade_hits(rays, &hits, depth, tally, out, None);
+        self.shade_hits(rays, cones, &hits, depth, tally, out, None);
     }
 
     /// Whitted shading of a batch of hits of `rays` at recursion depth `depth` (`None` for
@@ -136,19 +171,29 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     /// reflected and refracted rays of all hits as the next depth's batch. Each colour is
     /// the depth-first recursion's bit for bit: the same terms added in the same order
     /// (ambient, each light in turn, then the reflected child and the refracted one).
+    #[allow(clippy::too_many_arguments)]
     fn shade_hits(
         &self,
         rays: &[Ray<T>],
+        cones: &[Cone<T>],
         hits: &[Option<Hit<T>>],
         depth: u32,
         tally: &mut Tally,
         out: &mut Vec<V3<T>>,
         normals: Option<&mut Vec<V3<T>>>,
     ) {
+        let no_cone = Cone {
+            width: T::ZERO,
+            spread: T::ZERO,
+        };
         let mut shading: Vec<Option<Shading<'_, T>>> = rays
             .iter()
             .zip(hits)
-            .map(|(ray, hit)| hit.as_ref().map(|h| self.begin(ray, h)))
+            .enumerate()
+            .map(|(k, (ray, hit))| {
+                let cone = cones.get(k).copied().unwrap_or(no_cone);
+                hit.as_ref().map(|h| self.begin(ray, h, cone))
+            })
             .collect();
         if let Some(normals) = normals {
             normals.clear();
@@ -185,6 +230,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         // The children: for each hit in order, the reflected ray, then the refracted one
         // (the order the GPU walks the tree in), each with its weight and parent.
         let mut children = Vec::new();
+        let mut child_cones = Vec::new();
         let mut parents = Vec::new();
         if depth < self.max_depth {
             for (i, (ray, s)) in rays.iter().zip(&shading).enumerate() {
@@ -211,6 +257,9 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                             t_max: T::BIG,
                         });
                         parents.push((i, k));
+                        if self.textured {
+                            child_cones.push(self.child_cone(s, refracted));
+                        }
                     }
                 }
             }
@@ -223,20 +272,37 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         );
         if !children.is_empty() {
             let mut radiance = Vec::with_capacity(children.len());
-            self.radiance_batch(&children, depth + 1, tally, &mut radiance);
+            self.radiance_batch(&children, &child_cones, depth + 1, tally, &mut radiance);
             for (&(i, k), r) in parents.iter().zip(&radiance) {
                 out[i] = out[i] + r.mul_elem(k);
             }
         }
     }
 
-    /// The surface, material and albedo of a hit, and its ambient term.
+    /// The surface, material and albedo of a hit of a ray with cone `cone`, and its
+    /// ambient term.
     #[inline]
-    fn begin(&self, ray: &Ray<T>, hit: &Hit<T>) -> Shading<'a, T> {
+    fn begin(&self, ray: &Ray<T>, hit: &Hit<T>, cone: Cone<T>) -> Shading<'a, T> {
         let verts = &self.walker.tris()[hit.tri as usize];
         let sp = surface_with(self.scene, verts, self.ng[hit.tri as usize], hit, ray.d);
         let m = &self.scene.materials[sp.material as usize];
-        let alb = albedo(m, sp.p);
+        let mut alb = albedo(m, sp.p);
+        let mut at_hit = cone;
+        if !self.tex.is_empty() {
+            let tri = hit.tri as usize;
+            let rec = &self.tex[tri];
+            if self.textured {
+                at_hit.width = cone.width + cone.spread * hit.t;
+            }
+            if let Some(k) = m.diffuse_map {
+                let t = &self.scene.textures[k as usize];
+                let lod = texture::lod(T::from_f32(rec.lod_bias), at_hit.width, sp.nf.dot(ray.d));
+                let level = texture::level_of(lod, t.levels.len());
+                let (u, v) = texture::uv_at(rec, hit.b);
+                alb = alb.mul_elem(texture::bilinear(t, level, u, v));
+            }
+            alb = alb.mul_elem(texture::vertex_color(self.scene, tri, hit.b));
+        }
         let color = alb.mul_elem(self.ambient) * T::from_f32(m.ka);
         Shading {
             sp,
@@ -244,7 +310,25 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             alb,
             v: -ray.d,
             color,
+            cone: at_hit,
+            tri: hit.tri as usize,
         }
+    }
+
+    /// The cone of the reflected (or, with `refracted`, the refracted) child of a hit.
+    #[inline]
+    fn child_cone(&self, s: &Shading<'_, T>, refracted: bool) -> Cone<T> {
+        let k = T::from_f32(self.tex[s.tri].curvature);
+        let k = if s.sp.flipped { -k } else { k };
+        let eta = refracted.then(|| {
+            let ior = T::from_f32(s.m.ior);
+            if s.sp.entering {
+                T::ONE / ior
+            } else {
+                ior / T::ONE
+            }
+        });
+        texture::child_cone(s.cone.width, s.cone.spread, k, eta)
     }
 
     /// The shadow ray from the hit towards `light` and the unit direction to it, or `None`
@@ -298,12 +382,18 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
 
     /// [`CpuRenderer::render`], advancing `progress` by one per finished row.
     pub fn render_with_progress(&self, w: u32, h: u32, spp: u32, progress: &Progress) -> CpuOutput {
-        self.render_region(w, h, Region::full(w, h), spp, progress)
+        let all = Readback::default();
+        self.render_region(w, h, Region::full(w, h), spp, all, progress)
     }
 
     /// The pixels of `region` of a W x H image, as an image (and AOVs) of the region's
     /// size. Each pixel's rays are those of the full image (the camera maps pixel (i, j)
     /// of W x H), so every pixel is bit-identical to the same pixel of a full render.
+    /// `readback` says what to keep besides the colours, as on the GPU: the AOVs only when
+    /// asked (else the primary steps are summed), and with `srgb8` the image as 8-bit sRGB
+    /// only, converted by the bands ([`image_io::srgb8`], the bytes the host conversion of
+    /// the linear image gives) with the non-finite pixels counted. Output not asked for is
+    /// never allocated: at 1024x1024 the AOVs alone are 24 MB of pages to fault in.
     /// `progress` advances by one per finished row of the region.
     pub fn render_region(
         &self,
@@ -311,12 +401,14 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         h: u32,
         region: Region,
         spp: u32,
+        readback: Readback,
         progress: &Progress,
     ) -> CpuOutput {
         debug_assert!(region.x1 <= w && region.y1 <= h, "region inside the image");
         let offsets = camera::sample_offsets(spp);
         let inv = T::ONE / T::from_f32(offsets.len() as f32);
         let frame = self.camera.frame();
+        let primary = texture::primary_cone::<T>(self.camera.vfov_deg, h);
         let rw = region.width() as usize;
         let n_off = offsets.len();
         // Pixels per batch: their primary rays are traced, and then each depth's shadow and
@@ -328,15 +420,31 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         // (pages first touched by the thread that renders them), the AOVs filled in
         // parallel.
         let n = rw * region.height() as usize;
-        let mut data = vec![0.0f32; n * 3];
-        let mut pixels = Vec::with_capacity(n);
-        pixels.par_extend((0..n).into_par_iter().map(|_| AovPixel::miss(0.0)));
         let band = TILE as usize * rw;
-        let tallies: Vec<Tally> = data
-            .par_chunks_mut(band * 3)
-            .zip(pixels.par_chunks_mut(band))
+        let mut pixels = Vec::new();
+        if readback.aov {
+            pixels.reserve_exact(n);
+            pixels.par_extend((0..n).into_par_iter().map(|_| AovPixel::miss(0.0)));
+        }
+        let (mut data, mut bytes) = (Vec::new(), Vec::new());
+        let colours = if readback.srgb8 {
+            bytes = vec![0u8; n * 3];
+            Colours::Srgb8(bytes.par_chunks_mut(band * 3))
+        } else {
+            data = vec![0.0f32; n * 3];
+            Colours::Linear(data.par_chunks_mut(band * 3))
+        };
+        // A band without AOVs gets an empty slice; the zip needs one per band.
+        let aov_bands = pixels.par_chunks_mut(band).map(Some).chain(
+            (0..if readback.aov { 0 } else { n.div_ceil(band) })
+                .into_par_iter()
+                .map(|_| None),
+        );
+        let tallies: Vec<Tally> = colours
+            .into_bands()
+            .zip(aov_bands)
             .enumerate()
-            .map(|(b, (rgb, aov))| {
+            .map(|(b, (mut out, mut aov))| {
                 let j0 = region.y0 + b as u32 * TILE;
                 let j1 = (j0 + TILE).min(region.y1);
                 let rows = (j1 - j0) as usize;
@@ -386,19 +494,45 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                         tally.work.cells += wk.cells;
                         tally.work.tests += wk.tests;
                     }
-                    self.shade_hits(&rays, &hits, 0, &mut tally, &mut colors, Some(&mut normals));
+                    let cones = if self.textured {
+                        vec![primary; rays.len()]
+                    } else {
+                        Vec::new()
+                    };
+                    self.shade_hits(
+                        &rays,
+                        &cones,
+                        &hits,
+                        0,
+                        &mut tally,
+                        &mut colors,
+                        Some(&mut normals),
+                    );
                     for (p, &(i, j)) in pixels.iter().enumerate() {
                         let first = p * n_off;
                         let steps = work[first].cells + work[first].tests;
                         let at = (j - j0) as usize * rw + (i - region.x0) as usize;
-                        aov[at] = aov_of(hits[first].as_ref(), normals[first], steps);
+                        match aov.as_deref_mut() {
+                            Some(aov) => {
+                                aov[at] = aov_of(hits[first].as_ref(), normals[first], steps)
+                            }
+                            None => tally.primary_steps += steps,
+                        }
                         let mut sum = V3::splat(T::ZERO);
                         for c in &colors[first..first + n_off] {
                             sum = sum + *c;
                         }
                         let c = sum * inv;
                         let px = [c.x, c.y, c.z].map(|v| v.to_f64() as f32);
-                        rgb[at * 3..at * 3 + 3].copy_from_slice(&px);
+                        match &mut out {
+                            Band::Linear(rgb) => rgb[at * 3..at * 3 + 3].copy_from_slice(&px),
+                            Band::Srgb8(rgb) => {
+                                tally.nonfinite += px.iter().any(|v| !v.is_finite()) as u64;
+                                for (o, v) in rgb[at * 3..at * 3 + 3].iter_mut().zip(px) {
+                                    *o = image_io::srgb8(v);
+                                }
+                            }
+                        }
                     }
                 }
                 progress.inc(rows as u64);
@@ -415,10 +549,20 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             total.refracted += t.refracted;
             total.work.cells += t.work.cells;
             total.work.tests += t.work.tests;
+            total.primary_steps += t.primary_steps;
+            total.nonfinite += t.nonfinite;
         }
+        let (image, srgb8, nonfinite) = match readback.srgb8 {
+            true => (Image::size_only(w, h), Some(bytes), Some(total.nonfinite)),
+            false => (Image::from_rgb(w, h, data), None, None),
+        };
+        let (aov, primary_steps) = match readback.aov {
+            true => (Aov::from_vec(w, h, pixels), None),
+            false => (Aov::from_vec(0, 0, Vec::new()), Some(total.primary_steps)),
+        };
         CpuOutput {
-            image: Image::from_rgb(w, h, data),
-            aov: Aov::from_vec(w, h, pixels),
+            image,
+            aov,
             rays: RayCounts::new(
                 total.primary,
                 total.shadow,
@@ -430,9 +574,36 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                 tests: total.work.tests,
             }),
             gpu: None,
-            srgb8: None,
-            primary_steps: None,
-            nonfinite: None,
+            srgb8,
+            primary_steps,
+            nonfinite,
+        }
+    }
+}
+
+/// The colour output of a render, split into bands of rows: linear f32 RGB, or 8-bit sRGB
+/// only.
+enum Colours<L, S> {
+    Linear(L),
+    Srgb8(S),
+}
+
+/// One band's part of [`Colours`].
+enum Band<'b> {
+    Linear(&'b mut [f32]),
+    Srgb8(&'b mut [u8]),
+}
+
+impl<'b, L, S> Colours<L, S>
+where
+    L: IndexedParallelIterator<Item = &'b mut [f32]>,
+    S: IndexedParallelIterator<Item = &'b mut [u8]>,
+{
+    /// The bands, one item each, whichever the output.
+    fn into_bands(self) -> impl IndexedParallelIterator<Item = Band<'b>> {
+        match self {
+            Colours::Linear(l) => rayon::iter::Either::Left(l.map(Band::Linear)),
+            Colours::Srgb8(s) => rayon::iter::Either::Right(s.map(Band::Srgb8)),
         }
     }
 }

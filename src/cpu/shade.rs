@@ -50,6 +50,9 @@ pub struct SurfacePoint<T> {
     /// Absolute error bound of `p_shadow` per component, as a position on the side of the
     /// triangle it was lifted to (`p_err` plus the lift's own rounding).
     pub p_shadow_err: V3<T>,
+    /// True when the interpolated vertex normal faced away from the incoming ray (so `ns`
+    /// is its negation): the ray sees the surface's curvature with the opposite sign.
+    pub flipped: bool,
 }
 
 /// Builds the surface point of a hit of ray direction `d`.
@@ -95,6 +98,7 @@ pub fn surface_with<T: Real>(
     let tri = &scene.triangles[hit.tri as usize];
     let mut ns = nf;
     let (mut p_shadow, mut p_shadow_err) = (p, p_err);
+    let mut flipped = false;
     if tri.has_normals() {
         let n = |k: usize| V3::<T>::from_vec3(scene.normals[tri.n[k] as usize]);
         let s = n(0) * b0 + n(1) * b1 + n(2) * b2;
@@ -102,6 +106,7 @@ pub fn surface_with<T: Real>(
         if l > T::ZERO && l.is_finite() {
             let s = s * (T::ONE / l);
             let flip = s.dot(nf) < T::ZERO;
+            flipped = flip;
             ns = if flip { -s } else { s };
             // The vertex normals on the side the shading normal faces, as ns is.
             let nk = |k: usize| if flip { -n(k) } else { n(k) };
@@ -132,6 +137,7 @@ pub fn surface_with<T: Real>(
         material: tri.material,
         p_shadow,
         p_shadow_err,
+        flipped,
     }
 }
 

@@ -41,6 +41,7 @@ fn point(p: V3<f64>, ng: V3<f64>, d: V3<f64>, ns: Option<V3<f64>>) -> SurfacePoi
         material: 0,
         p_shadow: p,
         p_shadow_err: V3::splat(0.0),
+        flipped: false,
     }
 }
 

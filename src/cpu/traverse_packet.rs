@@ -407,6 +407,13 @@ macro_rules! packet_walks {
             ok: [V; 3],
             s: [V; 3],
             axis: [[M; 3]; 3],
+            /// The shear axes (kx, ky, kz) when every live lane has the same ones, as
+            /// coherent packets do: the triangle test then loads each vertex coordinate
+            /// straight into all lanes instead of picking it per lane.
+            uniform: Option<[usize; 3]>,
+            /// Per axis, whether the direction is negative, when every live lane agrees:
+            /// the box test then takes each slab's near and far plane once for all lanes.
+            signs: Option<[bool; 3]>,
             t_min: V,
             /// The box test's far padding, `2 gamma(3)`.
             pad: V,
@@ -445,11 +452,31 @@ macro_rules! packet_walks {
                             load(p.s[2].as_ptr()),
                         ],
                         axis: [axes(&p.axis[0]), axes(&p.axis[1]), axes(&p.axis[2])],
+                        uniform: uniform_axes(p),
+                        signs: uniform_signs(p),
                         t_min: load(p.t_min.as_ptr()),
                         pad: splat(2.0 * <f32 as Real>::gamma(3)),
                     }
                 }
             }
+        }
+
+        /// The shear axes every live lane of `p` shares, if they do ([`Lv::uniform`]).
+        #[inline]
+        fn uniform_axes(p: &Packet) -> Option<[usize; 3]> {
+            let shared = |j: usize| (0..3).find(|&c| p.axis[j][c] & p.live == p.live);
+            Some([shared(0)?, shared(1)?, shared(2)?])
+        }
+
+        /// The direction signs every live lane of `p` shares, if they do ([`Lv::signs`]).
+        #[inline]
+        fn uniform_signs(p: &Packet) -> Option<[bool; 3]> {
+            let shared = |a: usize| match p.neg[a] & p.live {
+                0 => Some(false),
+                n if n == p.live => Some(true),
+                _ => None,
+            };
+            Some([shared(0)?, shared(1)?, shared(2)?])
         }
 
         /// The masks of one shear axis' three choices.
@@ -486,21 +513,28 @@ macro_rules! packet_walks {
             keep: Option<&mut Lanes>,
         ) -> u32 {
             let v = &soa.v;
-            let q0 = [v[0][0][r], v[0][1][r], v[0][2][r]];
-            let q1 = [v[1][0][r], v[1][1][r], v[1][2][r]];
-            let q2 = [v[2][0][r], v[2][1][r], v[2][2][r]];
-            let [kx, ky, kz] = &lv.axis;
             let [ox, oy, oz] = lv.ok;
             let [sx, sy, sz] = lv.s;
-            let a_x = sub(pick(kx, q0), ox);
-            let a_y = sub(pick(ky, q0), oy);
-            let a_z = sub(pick(kz, q0), oz);
-            let b_x = sub(pick(kx, q1), ox);
-            let b_y = sub(pick(ky, q1), oy);
-            let b_z = sub(pick(kz, q1), oz);
-            let c_x = sub(pick(kx, q2), ox);
-            let c_y = sub(pick(ky, q2), oy);
-            let c_z = sub(pick(kz, q2), oz);
+            // Vertex k's coordinates on each lane's shear axes, minus the lane's origin.
+            let rel = |k: usize| match lv.uniform {
+                Some([x, y, z]) => [
+                    sub(splat(v[k][x][r]), ox),
+                    sub(splat(v[k][y][r]), oy),
+                    sub(splat(v[k][z][r]), oz),
+                ],
+                None => {
+                    let q = [v[k][0][r], v[k][1][r], v[k][2][r]];
+                    let [kx, ky, kz] = &lv.axis;
+                    [
+                        sub(pick(kx, q), ox),
+                        sub(pick(ky, q), oy),
+                        sub(pick(kz, q), oz),
+                    ]
+                }
+            };
+            let [a_x, a_y, a_z] = rel(0);
+            let [b_x, b_y, b_z] = rel(1);
+            let [c_x, c_y, c_z] = rel(2);
             let (ax, ay, bx, by, cx, cy, az, bz, cz, u, v, w, det, bad, tt, det_abs) =
                 crate::cpu::simd::edge_lanes!(mor, mand; a_x, a_y, a_z, b_x, b_y, b_z, c_x, c_y, c_z, sx, sy, sz);
             let inside = mand(gt(tt, mul(lv.t_min, det_abs)), lt(tt, mul(hi, det_abs)));
@@ -547,9 +581,15 @@ macro_rules! packet_walks {
                 let mut near = lv.t_min;
                 let mut far = splat(f32::INFINITY);
                 for a in 0..3 {
-                    let (lo, up) = (splat(node.lo[a][c]), splat(node.hi[a][c]));
-                    let n = select(lv.neg[a], up, lo);
-                    let f = select(lv.neg[a], lo, up);
+                    let (lo, up) = (node.lo[a][c], node.hi[a][c]);
+                    let (n, f) = match lv.signs {
+                        Some(neg) if neg[a] => (splat(up), splat(lo)),
+                        Some(_) => (splat(lo), splat(up)),
+                        None => {
+                            let (lo, up) = (splat(lo), splat(up));
+                            (select(lv.neg[a], up, lo), select(lv.neg[a], lo, up))
+                        }
+                    };
                     near = max(mul(sub(n, lv.o[a]), lv.inv[a]), near);
                     far = min(mul(sub(f, lv.o[a]), lv.inv[a]), far);
                 }

@@ -477,6 +477,13 @@ fn assemble_for(
     // The layout declares the scene textures' samplers (or buffers) with its fetch
     // functions, named after the contract's `SAMPLERS` (a test checks every one).
     a.push_text(contract::LAYOUT, &layout.glsl_with(target.fetch));
+    if layout.tex.is_some() {
+        // The layout declares the textured scene's cone uniforms (`TexLayout::glsl`).
+        a.declared.push(contract::uniform::ROOT_CONE.name);
+        if !compute {
+            a.declared.extend(["u_r3", "u_p3"]);
+        }
+    }
     a.push_file("common.glsl", source("common.glsl")?, compute);
     let mut included = Vec::new();
     // The file's own declarations go after its includes (which its header comment and

@@ -7,14 +7,17 @@
 pub mod camera;
 pub mod camera_path;
 pub mod obj;
+mod obj_textures;
 pub mod shapes;
+pub mod texture;
 pub mod toml_scene;
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 pub use camera::Camera;
 pub use camera_path::{CameraPath, Interpolation, Keyframe, Orbit, PathError, PathPlace, Pose};
 pub use obj::{load_obj, parse_obj_with_mtl, ObjMesh};
+pub use texture::{TexLevel, Texture, Wrap};
 pub use toml_scene::{
     builtin_scene, load_scene, load_scene_str, load_scene_str_with_search_path,
     load_scene_str_with_texts, load_scene_with_search_path, model_search_path, parse_scene_str,
@@ -23,6 +26,8 @@ pub use toml_scene::{
 
 /// Sentinel for "no vertex normal" in [`Triangle::n`].
 pub const NO_NORMAL: u32 = u32::MAX;
+/// Sentinel for "no texture coordinate" in [`Scene::tri_uvs`].
+pub const NO_UV: u32 = u32::MAX;
 
 /// Which pair of world axes a checker pattern varies over.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -90,6 +95,10 @@ pub struct Material {
     pub ior: f32,
     /// When true, kr = F and kt = 1 - F from the dielectric Fresnel equations.
     pub fresnel: bool,
+    /// Diffuse texture (MTL `map_Kd`): an index into [`Scene::textures`]. Where set, the
+    /// albedo is `albedo x texture(uv) x vertex colour` (docs/scene-format.md); a
+    /// triangle without texture coordinates sees the texture's mean (its last mip level).
+    pub diffuse_map: Option<u32>,
 }
 
 impl Default for Material {
@@ -106,6 +115,7 @@ impl Default for Material {
             kt: Vec3::ZERO,
             ior: 1.0,
             fresnel: false,
+            diffuse_map: None,
         }
     }
 }
@@ -240,6 +250,22 @@ pub struct Scene {
     pub triangles: Vec<Triangle>,
     /// Materials referenced by the triangles.
     pub materials: Vec<Material>,
+    /// Texture coordinates (OBJ `vt`), indexed by [`Scene::tri_uvs`].
+    pub uvs: Vec<Vec2>,
+    /// Per triangle (parallel to [`Scene::triangles`]) the uv index of each corner, or
+    /// `[NO_UV; 3]`; empty when no triangle has texture coordinates, so an untextured
+    /// scene stores nothing for them.
+    pub tri_uvs: Vec<[u32; 3]>,
+    /// Linear RGB vertex colours, one per position (OBJ `v x y z r g b`), multiplying the
+    /// albedo; empty when the scene has none.
+    pub colors: Vec<Vec3>,
+    /// Image textures the materials reference ([`Material::diffuse_map`]).
+    pub textures: Vec<Texture>,
+    /// Each texture a material names that could not be read, one line each (material,
+    /// file, where it was looked for); the material then renders with its colour.
+    /// `--textures` decides whether these are warnings or an error
+    /// ([`TextureMode`](crate::options::TextureMode)).
+    pub texture_problems: Vec<String>,
     /// World position of the local origin: every position above (vertices, lights, camera
     /// eye and target) is `world - origin`, subtracted in f64 before rounding to f32. Zero
     /// for scenes built in code; the TOML loader puts it at the camera eye (see
@@ -265,8 +291,41 @@ impl Scene {
             normals: Vec::new(),
             triangles: Vec::new(),
             materials: Vec::new(),
+            uvs: Vec::new(),
+            tri_uvs: Vec::new(),
+            colors: Vec::new(),
+            textures: Vec::new(),
+            texture_problems: Vec::new(),
             origin: DVec3::ZERO,
         }
+    }
+
+    /// True when some material has a texture (texture code is compiled and run only then).
+    pub fn has_textures(&self) -> bool {
+        self.materials.iter().any(|m| m.diffuse_map.is_some())
+    }
+
+    /// True when the scene has vertex colours.
+    pub fn has_vertex_colors(&self) -> bool {
+        !self.colors.is_empty()
+    }
+
+    /// The uv indices of triangle `i`'s corners (`[NO_UV; 3]` when it has none).
+    pub fn triangle_uv_indices(&self, i: usize) -> [u32; 3] {
+        self.tri_uvs.get(i).copied().unwrap_or([NO_UV; 3])
+    }
+
+    /// The scene without textures, texture coordinates and vertex colours: every material
+    /// with its colour alone (`--textures off`).
+    pub fn strip_textures(&mut self) {
+        for m in &mut self.materials {
+            m.diffuse_map = None;
+        }
+        self.textures.clear();
+        self.uvs.clear();
+        self.tri_uvs.clear();
+        self.colors.clear();
+        self.texture_problems.clear();
     }
 
     /// Appends a material and returns its index.
@@ -284,6 +343,12 @@ impl Scene {
             n: [NO_NORMAL; 3],
             material,
         });
+        if !self.tri_uvs.is_empty() {
+            self.tri_uvs.push([NO_UV; 3]);
+        }
+        if !self.colors.is_empty() {
+            self.colors.extend([Vec3::ONE; 3]);
+        }
         (self.triangles.len() - 1) as u32
     }
 
@@ -317,8 +382,69 @@ impl Scene {
         self.triangles.iter().any(|t| t.has_normals())
     }
 
+    /// Texture coordinates, vertex colours and textures: one uv index triple per triangle
+    /// (or none at all), indices in range, finite uvs, finite colours >= 0, one colour per
+    /// position (or none at all), textures as [`Texture::invalid`] requires.
+    fn validate_surface_data(&self) -> crate::Result<()> {
+        use crate::Error;
+        let bad =
+            |field: String, message: String| Error::scene(self.source.clone(), 0, field, message);
+        if !self.tri_uvs.is_empty() && self.tri_uvs.len() != self.triangles.len() {
+            return Err(bad(
+                "tri_uvs".into(),
+                format!(
+                    "{} uv index triples for {} triangles",
+                    self.tri_uvs.len(),
+                    self.triangles.len()
+                ),
+            ));
+        }
+        for (i, uv) in self.uvs.iter().enumerate() {
+            if !uv.is_finite() {
+                return Err(bad(
+                    format!("uvs[{i}]"),
+                    format!("non-finite texture coordinate {uv}"),
+                ));
+            }
+        }
+        for (i, t) in self.tri_uvs.iter().enumerate() {
+            let none = t.iter().all(|&k| k == NO_UV);
+            if !none && t.iter().any(|&k| k as usize >= self.uvs.len()) {
+                return Err(bad(
+                    format!("triangles[{i}]"),
+                    format!("uv index {t:?} out of range (0..{})", self.uvs.len()),
+                ));
+            }
+        }
+        if !self.colors.is_empty() && self.colors.len() != self.positions.len() {
+            return Err(bad(
+                "colors".into(),
+                format!(
+                    "{} vertex colours for {} positions",
+                    self.colors.len(),
+                    self.positions.len()
+                ),
+            ));
+        }
+        for (i, c) in self.colors.iter().enumerate() {
+            if !c.is_finite() || c.min_element() < 0.0 {
+                return Err(bad(
+                    format!("colors[{i}]"),
+                    format!("vertex colour {c} must be finite and >= 0"),
+                ));
+            }
+        }
+        for (i, t) in self.textures.iter().enumerate() {
+            if let Some(why) = t.invalid() {
+                return Err(bad(format!("textures[{i}] ({})", t.source), why));
+            }
+        }
+        Ok(())
+    }
+
     /// Checks invariants every renderer relies on: indices in range, finite numbers,
-    /// materials as [`Material::invalid`] requires.
+    /// materials as [`Material::invalid`] requires, texture coordinates, vertex colours and
+    /// textures as `validate_surface_data` does.
     pub fn validate(&self) -> crate::Result<()> {
         let bad =
             |field: String, message: String| Error::scene(self.source.clone(), 0, field, message);
@@ -361,7 +487,16 @@ impl Scene {
             if let Some(why) = m.invalid() {
                 return Err(bad(format!("materials[{i}] ({})", m.name), why));
             }
+            if let Some(t) = m.diffuse_map {
+                if t as usize >= self.textures.len() {
+                    return Err(bad(
+                        format!("materials[{i}] ({})", m.name),
+                        format!("texture index {t} out of range"),
+                    ));
+                }
+            }
         }
+        self.validate_surface_data()?;
         if !(1..=16).contains(&self.max_depth) && self.max_depth != 0 {
             return Err(bad(
                 "max_depth".into(),

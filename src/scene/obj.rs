@@ -13,9 +13,11 @@ use std::collections::BTreeSet;
 use std::io::Cursor;
 use std::path::Path;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
-use super::{Material, Triangle, NO_NORMAL};
+use super::obj_textures::{parse_map, MtlMaps, TexSource, TextureLoader};
+use super::texture::Texture;
+use super::{Material, Triangle, NO_NORMAL, NO_UV};
 use crate::{Error, Result};
 
 /// A loaded OBJ in its own object space.
@@ -31,7 +33,18 @@ pub struct ObjMesh {
     /// Materials from the MTL library, plus a trailing default grey one when some faces have
     /// no (known) material.
     pub materials: Vec<Material>,
-    /// Non-fatal problems (an unknown `usemtl` name), one line each.
+    /// Texture coordinates (`vt`) some triangle references.
+    pub uvs: Vec<Vec2>,
+    /// Per triangle, the uv index of each corner into [`ObjMesh::uvs`] (`[NO_UV; 3]` for a
+    /// face without `vt`); empty when no face has texture coordinates.
+    pub tri_uvs: Vec<[u32; 3]>,
+    /// Linear RGB vertex colours, one per position (`v x y z r g b`), or empty.
+    pub colors: Vec<Vec3>,
+    /// The images the materials' `map_Kd` name (`Material::diffuse_map` indexes this).
+    pub textures: Vec<Texture>,
+    /// One line per `map_Kd` that could not be read (the material keeps its colour).
+    pub texture_problems: Vec<String>,
+    /// Non-fatal problems (an unknown `usemtl` name, a texture map not used), one line each.
     pub warnings: Vec<String>,
     /// One line per `mtllib` that could not be read (missing, not a regular file, too
     /// large). The mesh then uses the default grey material; a scene rejects such a mesh
@@ -58,7 +71,8 @@ pub fn load_obj(path: &Path) -> Result<ObjMesh> {
 
 /// Parses OBJ text. `name` is used in messages; `mtllib` paths resolve against `base_dir`.
 pub fn parse_obj(text: &str, name: &str, base_dir: &Path) -> Result<ObjMesh> {
-    parse_obj_with(text, name, &|mtl: &Path| {
+    let textures = |path: &Path, wrap| Texture::load(path, wrap);
+    parse_obj_with(text, name, &textures, &|mtl: &Path| {
         let full = base_dir.join(mtl);
         let shown = full.display().to_string();
         match super::read_input_file(&full, MAX_MTL_BYTES, "MTL material library") {
@@ -72,17 +86,33 @@ pub fn parse_obj(text: &str, name: &str, base_dir: &Path) -> Result<ObjMesh> {
 /// without touching the file system; messages name the OBJ `<obj>` and the MTL `<mtl>`.
 /// The fuzz target `obj_load` drives this.
 pub fn parse_obj_with_mtl(obj_text: &str, mtl_text: Option<&str>) -> Result<ObjMesh> {
-    parse_obj_with(obj_text, "<obj>", &|_: &Path| match mtl_text {
-        Some(t) => Ok(("<mtl>".to_owned(), t.to_owned())),
-        None => Err("<mtl>: not found".to_owned()),
-    })
+    parse_obj_with(
+        obj_text,
+        "<obj>",
+        &no_textures,
+        &|_: &Path| match mtl_text {
+            Some(t) => Ok(("<mtl>".to_owned(), t.to_owned())),
+            None => Err("<mtl>: not found".to_owned()),
+        },
+    )
+}
+
+/// The texture source of meshes given as text (the fuzz target, the web page): none.
+pub(crate) fn no_textures(_: &Path, _: [super::Wrap; 2]) -> std::result::Result<Texture, String> {
+    Err("not given: only meshes read from files bring their textures".into())
 }
 
 /// What an `mtllib` resolves to: (name for messages, text), or why it cannot be read.
 pub(crate) type MtlSource<'a> = dyn Fn(&Path) -> std::result::Result<(String, String), String> + 'a;
 
-/// [`parse_obj`] with the MTL libraries supplied by `mtl`.
-pub(crate) fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Result<ObjMesh> {
+/// [`parse_obj`] with the MTL libraries supplied by `mtl` and the texture images by
+/// `textures` (given the path resolved against the MTL's folder).
+pub(crate) fn parse_obj_with(
+    text: &str,
+    name: &str,
+    textures: &TexSource<'_>,
+    mtl: &MtlSource<'_>,
+) -> Result<ObjMesh> {
     let scan = prescan(text, name)?;
     let filtered;
     let tobj_text: &str = if scan.polylines.is_empty() {
@@ -93,6 +123,8 @@ pub(crate) fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Res
     };
 
     let mtl_problem: RefCell<Option<Error>> = RefCell::new(None);
+    // Each MTL's texture statements, with the MTL's name (its folder resolves them).
+    let maps: RefCell<Vec<(String, MtlMaps)>> = RefCell::new(Vec::new());
     let missing: RefCell<Vec<String>> = RefCell::new(Vec::new());
     let options = tobj::LoadOptions {
         triangulate: true,
@@ -104,7 +136,10 @@ pub(crate) fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Res
         mtl_path,
     ) {
         Ok((file, text)) => match normalise_mtl(&text, &file) {
-            Ok(fixed) => tobj::load_mtl_buf(&mut Cursor::new(fixed)),
+            Ok((fixed, m)) => {
+                maps.borrow_mut().push((file, m));
+                tobj::load_mtl_buf(&mut Cursor::new(fixed))
+            }
             Err(e) => {
                 mtl_problem.borrow_mut().get_or_insert(e);
                 Err(tobj::LoadError::MaterialParseError)
@@ -136,10 +171,42 @@ pub(crate) fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Res
 
     let mut mesh = ObjMesh::default();
     let mut material_names = BTreeSet::new();
+    let maps = maps.into_inner();
+    let mut loader = TextureLoader::new(textures);
     for m in &tobj_materials {
         material_names.insert(m.name.as_str());
-        mesh.materials.push(material_from_mtl(m));
+        let mut material = material_from_mtl(m);
+        // The last library that defines the material wins, as in tobj.
+        for (mtl_name, lib) in maps.iter().rev() {
+            if let Some(stmt) = lib.kd.get(&m.name) {
+                match loader.load(name, &m.name, mtl_name, stmt) {
+                    Ok(t) => material.diffuse_map = Some(t),
+                    Err(problem) => mesh.texture_problems.push(problem),
+                }
+                if !stmt.ignored.is_empty() {
+                    warnings.push(format!(
+                        "{name}: material `{}`: map_Kd options {} ignored (not supported)",
+                        m.name,
+                        stmt.ignored.join(", ")
+                    ));
+                }
+                break;
+            }
+        }
+        if let Some(unused) = maps
+            .iter()
+            .rev()
+            .find_map(|(_, lib)| lib.unused.get(&m.name))
+        {
+            warnings.push(format!(
+                "{name}: material `{}`: {} ignored (fragtrace textures the diffuse colour only: map_Kd)",
+                m.name,
+                unused.join(", ")
+            ));
+        }
+        mesh.materials.push(material);
     }
+    mesh.textures = loader.textures;
     for used in &scan.usemtl {
         if !material_names.contains(used.as_str()) {
             warnings.push(format!(
@@ -153,6 +220,9 @@ pub(crate) fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Res
     // file order and triangulates each face into n-2 triangles; if that ever stops holding,
     // trusting tobj's normal indices is the safe degradation.
     let flags_match = scan.tri_has_normals.len() == total_tris;
+    let uv_flags_match = scan.tri_has_uvs.len() == total_tris;
+    let any_uvs = scan.tri_has_uvs.iter().any(|&b| b);
+    let coloured = scan.colours == Some(true);
     if total_tris > u32::MAX as usize / 3 {
         return Err(Error::Mesh {
             file: name.into(),
@@ -171,6 +241,23 @@ pub(crate) fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Res
                 .chunks_exact(3)
                 .map(|c| Vec3::new(c[0], c[1], c[2])),
         );
+        if coloured {
+            if m.vertex_color.len() != m.positions.len() {
+                return Err(Error::Mesh {
+                    file: name.into(),
+                    message: "vertex colours do not match the vertices".into(),
+                });
+            }
+            mesh.colors.extend(
+                m.vertex_color
+                    .chunks_exact(3)
+                    .map(|c| Vec3::new(c[0], c[1], c[2])),
+            );
+        }
+        let uv_base = mesh.uvs.len() as u32;
+        mesh.uvs
+            .extend(m.texcoords.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])));
+        let has_uv_data = !m.texcoord_indices.is_empty() && !m.texcoords.is_empty();
         // Model-local normal index -> slot in mesh.normals, filled on first use so that only
         // referenced, non-degenerate normals are kept.
         let mut normal_slot: Vec<u32> = vec![u32::MAX; m.normals.len() / 3];
@@ -191,8 +278,18 @@ pub(crate) fn parse_obj_with(text: &str, name: &str, mtl: &MtlSource<'_>) -> Res
             } else {
                 true
             };
+            let face_has_uvs = !uv_flags_match || scan.tri_has_uvs[tri_index];
             tri_index += 1;
             let v = [idx[0] + pos_base, idx[1] + pos_base, idx[2] + pos_base];
+            if any_uvs {
+                let uv = if face_has_uvs && has_uv_data {
+                    let local = &m.texcoord_indices[3 * t..3 * t + 3];
+                    [local[0], local[1], local[2]].map(|k| k + uv_base)
+                } else {
+                    [NO_UV; 3]
+                };
+                mesh.tri_uvs.push(uv);
+            }
             let mut n = [NO_NORMAL; 3];
             if face_has_normals && has_normal_data {
                 let local = &m.normal_indices[3 * t..3 * t + 3];
@@ -335,6 +432,11 @@ struct Scan {
     polylines: Vec<usize>,
     /// 0-based line number and text of every `mtllib` statement.
     mtllib: Vec<(usize, String)>,
+    /// Whether the vertices carry colours (`None`: no vertex at all).
+    colours: Option<bool>,
+    /// One entry per triangle tobj will emit, in order: does its face carry texture
+    /// coordinates?
+    tri_has_uvs: Vec<bool>,
 }
 
 /// Validates numbers and face indices line by line (tobj reports neither line numbers nor
@@ -345,6 +447,8 @@ fn prescan(text: &str, name: &str) -> Result<Scan> {
         usemtl: BTreeSet::new(),
         polylines: Vec::new(),
         mtllib: Vec::new(),
+        colours: None,
+        tri_has_uvs: Vec::new(),
     };
     let (mut nv, mut nt, mut nn) = (0usize, 0usize, 0usize);
     let err = |line: usize, message: String| Error::Mesh {
@@ -355,9 +459,9 @@ fn prescan(text: &str, name: &str) -> Result<Scan> {
         let mut words = line.split_whitespace();
         match words.next() {
             Some(kind @ ("v" | "vn")) => {
-                let mut c = [0f32; 4];
+                let mut c = [0f32; 6];
                 let mut k = 0;
-                for w in words.by_ref().take(4) {
+                for w in words.by_ref().take(if kind == "v" { 6 } else { 4 }) {
                     c[k] = w
                         .parse()
                         .map_err(|_| err(ln, format!("`{w}` is not a number")))?;
@@ -376,15 +480,59 @@ fn prescan(text: &str, name: &str) -> Result<Scan> {
                     ));
                 }
                 if kind == "v" {
+                    // `v x y z r g b` carries a colour; tobj needs it on every vertex or
+                    // on none, and says so without a line number.
+                    let coloured = k == 6;
+                    if k == 5 {
+                        return Err(err(
+                            ln,
+                            "`v` takes 3, 4 or 6 numbers (x y z [w | r g b])".into(),
+                        ));
+                    }
+                    if coloured && !c[3..].iter().all(|x| x.is_finite() && *x >= 0.0) {
+                        return Err(err(
+                            ln,
+                            format!("vertex colour must be finite and >= 0: {}", line.trim()),
+                        ));
+                    }
+                    match scan.colours {
+                        None => scan.colours = Some(coloured),
+                        Some(had) if had != coloured => {
+                            return Err(err(
+                                ln,
+                                "vertex colours (`v x y z r g b`) on some vertices only: give every vertex one or none".into(),
+                            ))
+                        }
+                        Some(_) => {}
+                    }
                     nv += 1;
                 } else {
                     nn += 1;
                 }
             }
-            Some("vt") => nt += 1,
+            Some("vt") => {
+                let mut k = 0;
+                for w in words.by_ref().take(3) {
+                    let x: f32 = w
+                        .parse()
+                        .map_err(|_| err(ln, format!("`{w}` is not a number")))?;
+                    if !x.is_finite() {
+                        return Err(err(
+                            ln,
+                            format!("non-finite texture coordinate: {}", line.trim()),
+                        ));
+                    }
+                    k += 1;
+                }
+                if k < 2 {
+                    return Err(err(ln, "`vt` needs two coordinates (u v)".into()));
+                }
+                nt += 1;
+            }
             Some(kind @ ("f" | "l")) => {
                 let mut count = 0usize;
                 let mut all_normals = true;
+                let mut all_uvs = true;
                 for w in words {
                     count += 1;
                     let mut parts = w.split('/');
@@ -400,6 +548,9 @@ fn prescan(text: &str, name: &str) -> Result<Scan> {
                                 }
                                 if slot == 2 {
                                     all_normals = false;
+                                }
+                                if slot == 1 {
+                                    all_uvs = false;
                                 }
                             }
                             Some(s) => {
@@ -435,6 +586,8 @@ fn prescan(text: &str, name: &str) -> Result<Scan> {
                     if kind == "f" {
                         scan.tri_has_normals
                             .extend(std::iter::repeat_n(all_normals, count - 2));
+                        scan.tri_has_uvs
+                            .extend(std::iter::repeat_n(all_uvs, count - 2));
                     } else {
                         scan.polylines.push(ln);
                     }
@@ -471,9 +624,11 @@ fn blank_lines(text: &str, lines: &[usize]) -> String {
 /// Checks every numeric MTL statement fragtrace uses for finiteness (with line numbers) and
 /// expands one-component colours (`Kd 0.5`, allowed by the MTL spec) to three, because tobj
 /// panics on them.
-fn normalise_mtl(text: &str, file: &str) -> Result<String> {
+fn normalise_mtl(text: &str, file: &str) -> Result<(String, MtlMaps)> {
     let file = file.to_owned();
     let mut out = String::with_capacity(text.len() + 64);
+    let mut maps = MtlMaps::default();
+    let mut current = String::new();
     for (ln, line) in text.lines().enumerate() {
         // Trailing comments (`Kd 0.63 0.065 0.05 # Red`, as in the Cornell box) are legal.
         let content = line.split_once('#').map_or(line, |(before, _)| before);
@@ -496,6 +651,34 @@ fn normalise_mtl(text: &str, file: &str) -> Result<String> {
                 .collect()
         };
         match key {
+            Some("newmtl") => {
+                current = content.trim_start()["newmtl".len()..].trim().to_owned();
+                out.push_str(line);
+                out.push('\n');
+            }
+            // The texture statements are read here (tobj would keep the options in the
+            // file name) and kept from tobj.
+            Some("map_Kd") => {
+                match parse_map(&vals) {
+                    Some(stmt) => {
+                        maps.kd.insert(current.clone(), stmt);
+                    }
+                    None => {
+                        return Err(Error::Mesh {
+                            file,
+                            message: format!("line {}: `map_Kd` needs a file name", ln + 1),
+                        })
+                    }
+                }
+                out.push('\n');
+            }
+            Some(k @ ("map_Ks" | "map_d")) => {
+                maps.unused
+                    .entry(current.clone())
+                    .or_default()
+                    .push(k.to_owned());
+                out.push('\n');
+            }
             Some(k @ ("Ka" | "Kd" | "Ks" | "Ke" | "Tf")) => {
                 // `Kd spectral file.rfl` / `Kd xyz ...` are not RGB; drop them (default used).
                 if matches!(vals.first(), Some(&"spectral") | Some(&"xyz")) {
@@ -546,7 +729,7 @@ fn normalise_mtl(text: &str, file: &str) -> Result<String> {
             }
         }
     }
-    Ok(out)
+    Ok((out, maps))
 }
 
 #[cfg(test)]
@@ -803,5 +986,92 @@ mod tests {
         for n in &m.normals {
             assert!((n.length() - 1.0).abs() < 1e-5);
         }
+    }
+
+    #[test]
+    fn duck_and_table_bring_their_uvs_and_textures() {
+        let duck = load_obj(&models_dir().join("duck/duck.obj")).unwrap();
+        assert_eq!(duck.tri_uvs.len(), duck.triangles.len());
+        assert!(duck.tri_uvs.iter().all(|t| t[0] != NO_UV));
+        assert!(
+            duck.texture_problems.is_empty(),
+            "{:?}",
+            duck.texture_problems
+        );
+        assert_eq!(duck.textures.len(), 1);
+        let t = &duck.textures[0];
+        assert!(t.source.ends_with("duck/duckCM.png"), "{}", t.source);
+        assert_eq!(
+            (t.levels[0].width, t.levels[0].height, t.levels.len()),
+            (512, 512, 10)
+        );
+        assert_eq!(duck.materials[0].diffuse_map, Some(0));
+        assert!(duck.colors.is_empty());
+        let table = load_obj(&models_dir().join("table/table.obj")).unwrap();
+        assert_eq!(table.uvs.len(), 4);
+        assert_eq!(table.tri_uvs[0], [0, 1, 2]);
+        assert_eq!(table.textures[0].levels[0].width, 1024);
+        // map_Ka is ignored without a word, as Ka is.
+        assert!(table.warnings.is_empty(), "{:?}", table.warnings);
+    }
+
+    #[test]
+    fn a_missing_texture_is_one_line_naming_material_file_and_place() {
+        let dir = tmpdir("notex");
+        std::fs::write(
+            dir.join("m.mtl"),
+            "newmtl wood\nKd 0.5 0.4 0.3\nmap_Kd -clamp on gone.png\nmap_Ks spec.png\n",
+        )
+        .unwrap();
+        let obj = "mtllib m.mtl\nusemtl wood\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+        let m = parse_obj(obj, "w.obj", &dir).unwrap();
+        assert_eq!(m.texture_problems.len(), 1, "{:?}", m.texture_problems);
+        let p = &m.texture_problems[0];
+        let at = dir.join("gone.png").display().to_string();
+        assert!(
+            p.contains("`wood`")
+                && p.contains("`gone.png`")
+                && p.contains(&at)
+                && !p.contains('\n'),
+            "{p}"
+        );
+        assert_eq!(m.materials[0].diffuse_map, None);
+        assert_eq!(m.materials[0].albedo, Vec3::new(0.5, 0.4, 0.3));
+        assert!(
+            m.warnings.len() == 1 && m.warnings[0].contains("map_Ks"),
+            "{:?}",
+            m.warnings
+        );
+    }
+
+    #[test]
+    fn bad_texture_coordinates_and_colours_are_errors_with_line_numbers() {
+        for (src, line, what) in [
+            ("v 0 0 0\nvt 0 nan\n", 2, "non-finite texture"),
+            ("v 0 0 0\nvt 0.5\n", 2, "two coordinates"),
+            (
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n",
+                5,
+                "texture index 2 out of range",
+            ),
+            ("v 0 0 0 1 0 0\nv 1 0 0\n", 2, "some vertices only"),
+            ("v 0 0 0 1 -1 0\n", 1, "colour"),
+        ] {
+            let e = mesh_err(parse_obj(src, "uv.obj", Path::new(".")));
+            assert!(
+                e.contains(&format!("line {line}:")) && e.contains(what),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn vertex_colours_and_partial_uvs_are_kept_per_vertex_and_face() {
+        let src = "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nv 1 1 0 1 1 1\nvt 0.25 0.75\n\
+                   f 1/1 2/1 3/1\nf 2 4 3\n";
+        let m = parse_obj(src, "c.obj", Path::new(".")).unwrap();
+        assert_eq!(m.colors, [Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE]);
+        assert_eq!(m.uvs, [Vec2::new(0.25, 0.75)]);
+        assert_eq!(m.tri_uvs, [[0, 0, 0], [NO_UV; 3]]);
     }
 }

@@ -219,6 +219,15 @@ pub(crate) fn render(
     let program = &setup.program;
     program.set(gl, uniform::EYE, req.camera.eye)?;
     program.set(gl, uniform::SAMPLE_WEIGHT, 1.0 / offsets.len() as f32)?;
+    if gs.layout().tex.is_some() {
+        // The primary rays' cone spread (the root of every pixel's tree).
+        let spread = crate::scene::texture::pixel_spread(req.camera.vfov_deg, req.height);
+        program.set(
+            gl,
+            uniform::ROOT_CONE,
+            glam::Vec3::new(1.0, spread as f32, 0.0),
+        )?;
+    }
     program.set(
         gl,
         uniform::SIZE,

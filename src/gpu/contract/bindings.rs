@@ -202,8 +202,18 @@ pub mod uniform {
         "child: 0 reflected, 1 refracted",
     );
 
+    /// Textured scenes only (declared by the layout, `gpu/layout.rs`): the cone of the
+    /// level being shaded or spawned from, when it is the root (x = 1: the primary rays,
+    /// whose cone is width 0 and spread y; else x = 0 and the level's cone record `u_r3` /
+    /// `u_p3` holds it).
+    pub const ROOT_CONE: Uniform<Vec3> = Uniform::new(
+        "u_root_cone",
+        &[super::LAYOUT],
+        "(1 at the root level, primary spread, 0)",
+    );
+
     /// Every uniform.
-    pub const ALL: [Decl; 14] = [
+    pub const ALL: [Decl; 15] = [
         GRID_MIN.decl(),
         GRID_MAX.decl(),
         CELL_SIZE.decl(),
@@ -218,6 +228,7 @@ pub mod uniform {
         LIGHT_RAD.decl(),
         BRANCH.decl(),
         PIXELS.decl(),
+        ROOT_CONE.decl(),
     ];
 }
 
@@ -263,13 +274,37 @@ const CHILD: &[&str] = &["weight.frag", "spawn.frag"];
 /// are read as `u_r*` by the shading passes and as the parent's `u_p*` by the child
 /// passes; the node weight `u_c2`, the primary directions `u_dir` and the 8-bit sRGB
 /// thresholds `u_srgb` likewise).
-pub const SAMPLERS: [Sampler; 22] = [
+pub const SAMPLERS: [Sampler; 25] = [
     sampler("u_tri", Unit::Tri, &[LAYOUT], Stage::Any, "triangles"),
     sampler("u_mat", Unit::Mat, &[LAYOUT], Stage::Any, "materials"),
     sampler("u_cell", Unit::Cell, &[LAYOUT], Stage::Any, "cell table"),
     sampler("u_list", Unit::List, &[LAYOUT], Stage::Any, "triangle list"),
     sampler("u_nrm", Unit::Nrm, &[LAYOUT], Stage::Any, "vertex normals"),
     sampler("u_vmap", Unit::Vmap, &[LAYOUT], Stage::Any, "voxel map"),
+    sampler(
+        "u_tex",
+        Unit::Tex,
+        &[LAYOUT],
+        Stage::Any,
+        "textured scenes: uv records, texture table, texels",
+    ),
+    // The cone records share the unit of the ray state's s2: no program that reads a
+    // record reads s2 (the shading and child passes read no traversal state but s0, s1,
+    // s3), and the host binds them after the state (`Frame::bind_records`).
+    sampler(
+        "u_r3",
+        Unit::S2,
+        &[LAYOUT],
+        Stage::Fragment,
+        "textured scenes: this level's cone (width at origin, spread)",
+    ),
+    sampler(
+        "u_p3",
+        Unit::S2,
+        &[LAYOUT],
+        Stage::Fragment,
+        "textured scenes: the parent's cone (width at origin, spread)",
+    ),
     sampler(
         "u_s0",
         Unit::S0,
@@ -626,14 +661,47 @@ mod tests {
         }
     }
 
+    /// The built-in scene with a 2x2 image texture on its first material, every triangle
+    /// given texture coordinates and every vertex a colour.
+    fn textured_builtin() -> crate::scene::Scene {
+        use crate::scene::texture::{TexLevel, Texture, Wrap};
+        let mut s = builtin_scene();
+        let base = TexLevel {
+            width: 2,
+            height: 2,
+            texels: vec![
+                [0.2, 0.4, 0.6],
+                [0.8, 0.6, 0.4],
+                [0.1, 0.9, 0.5],
+                [0.7, 0.3, 0.2],
+            ],
+        };
+        s.textures.push(Texture::from_linear(
+            "<test>".into(),
+            [Wrap::Repeat; 2],
+            base,
+        ));
+        s.materials[0].diffuse_map = Some(0);
+        s.uvs = vec![glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y];
+        s.tri_uvs = vec![[0, 1, 2]; s.triangles.len()];
+        s.colors = vec![glam::Vec3::ONE; s.positions.len()];
+        s.validate().expect("a valid textured scene");
+        s
+    }
+
     /// Compiles every program (fragment passes for both structures with every feature on,
+    /// the irregular grid's for a textured scene,
     /// the compute programs with both fetch paths) and returns, per GLSL name, the types
     /// the driver reports for it where it is active, and the programs built.
     fn active_everywhere(ctx: &crate::gpu::GlContext) -> (HashMap<String, Vec<u32>>, Vec<Program>) {
-        let scene = builtin_scene();
         let mut active: HashMap<String, Vec<u32>> = HashMap::new();
         let mut programs = Vec::new();
-        for kind in [AccelKind::Uniform, AccelKind::Irregular] {
+        // The built-in scene on the uniform grid, and textured on the irregular one: the
+        // texture declarations are active in textured programs only.
+        for (kind, scene) in [
+            (AccelKind::Uniform, builtin_scene()),
+            (AccelKind::Irregular, textured_builtin()),
+        ] {
             let accel = Accel::build(
                 &scene,
                 kind,

@@ -122,11 +122,14 @@ pub enum Unit {
     Acc,
     /// The irregular grid's voxel map (`u_vmap`; bound only with `--accel irregular`).
     Vmap,
+    /// Textured scenes only: texture coordinates, the texture table and every texture's
+    /// texels in one atlas (`u_tex`), the 16th unit of a GeForce 6/7.
+    Tex,
 }
 
 impl Unit {
     /// Every unit.
-    pub const ALL: [Unit; 15] = [
+    pub const ALL: [Unit; 16] = [
         Unit::Tri,
         Unit::Mat,
         Unit::Cell,
@@ -142,6 +145,7 @@ impl Unit {
         Unit::Node,
         Unit::Acc,
         Unit::Vmap,
+        Unit::Tex,
     ];
 
     /// The ray-state units, in attachment order s0..s3.
@@ -168,12 +172,16 @@ impl Unit {
             Unit::Node => 12,
             Unit::Acc => 13,
             Unit::Vmap => 14,
+            Unit::Tex => 15,
         }
     }
 }
 
-/// Texture units a render needs.
-pub const REQUIRED_TEXTURE_UNITS: i32 = Unit::ALL.len() as i32;
+/// Texture units a render of an untextured scene needs (all but [`Unit::Tex`]).
+pub const REQUIRED_TEXTURE_UNITS: i32 = Unit::ALL.len() as i32 - 1;
+/// Texture units a render of a textured scene needs: all 16 of a GeForce 6/7, none left
+/// (the cone records share s2's unit).
+pub const TEXTURED_TEXTURE_UNITS: i32 = Unit::ALL.len() as i32;
 
 /// Components of an RGBA texel, for swizzles.
 const COMPONENTS: [char; 4] = ['x', 'y', 'z', 'w'];

@@ -11,7 +11,9 @@ use std::rc::Rc;
 
 use super::passes::passes_for;
 use crate::gpu::context::GlContext;
-use crate::gpu::contract::{uniform, GlslType, Uniform, Unit, REQUIRED_TEXTURE_UNITS};
+use crate::gpu::contract::{
+    uniform, GlslType, Uniform, Unit, REQUIRED_TEXTURE_UNITS, TEXTURED_TEXTURE_UNITS,
+};
 use crate::gpu::gl::{
     state, FullscreenQuad, OcclusionQuery, Program, RenderTarget, Renderbuffer, TexFormat, Texture,
     TimerQuery,
@@ -63,6 +65,8 @@ pub(super) struct Frame<'a> {
     last_pass: &'static str,
     /// The primary-ray AOVs once read, shown to the observer and then returned.
     pub(super) aov: Option<Aov>,
+    /// The primary rays' cone spread (textured scenes: [`Frame::set_root_cone`]).
+    pub(super) root_spread: f32,
 }
 
 /// Timer queries in flight, resolved in batches so the pipeline is not stalled per pass.
@@ -146,10 +150,21 @@ impl<'a> Frame<'a> {
         };
         let info = &ctx.info;
         info.check_image_size(width, height)?;
-        if info.max_texture_units < REQUIRED_TEXTURE_UNITS {
+        let textured = gs.layout().tex.is_some();
+        let units = if textured {
+            TEXTURED_TEXTURE_UNITS
+        } else {
+            REQUIRED_TEXTURE_UNITS
+        };
+        if info.max_texture_units < units {
             return Err(Error::GlUnavailable(format!(
-                "{} texture image units, fragtrace needs {REQUIRED_TEXTURE_UNITS}",
-                info.max_texture_units
+                "{} texture image units, fragtrace needs {units}{}",
+                info.max_texture_units,
+                if textured {
+                    " for a textured scene"
+                } else {
+                    ""
+                }
             )));
         }
         // Check memory before allocating: ray state (8), records (3 per level), colour (2).
@@ -218,7 +233,11 @@ impl<'a> Frame<'a> {
             state,
             cur: 0,
             rec01: (0..levels).map(|_| targets(2)).collect::<Result<_>>()?,
-            rec2: (0..levels).map(|_| targets(1)).collect::<Result<_>>()?,
+            // With textures, r2's target also holds the level's cone record r3, which the
+            // weight pass writes beside the weight.
+            rec2: (0..levels)
+                .map(|_| targets(if textured { 2 } else { 1 }))
+                .collect::<Result<_>>()?,
             acc: [
                 RenderTarget::with_formats(ctx, width, height, &colour)?,
                 RenderTarget::with_formats(ctx, width, height, &colour)?,
@@ -247,6 +266,7 @@ impl<'a> Frame<'a> {
             watch: None,
             last_pass: "none",
             aov: None,
+            root_spread: 0.0,
         })
     }
 
@@ -286,11 +306,31 @@ impl<'a> Frame<'a> {
         }
     }
 
-    /// Binds level `level`'s records r0..r2 to their units (`u_r*` / `u_p*`).
+    /// Binds level `level`'s records r0..r2 to their units (`u_r*` / `u_p*`), and with
+    /// textures its cone record r3 to s2's unit, which no pass reading records reads
+    /// (so this comes after the ray state is bound).
     pub(super) fn bind_records(&self, level: usize) {
         for (k, unit) in Unit::RECORD.into_iter().enumerate() {
             bind_texture(self.gl(), unit, self.record_texture(level, k));
         }
+        if let Some(cone) = self.rec2[level].textures().get(1) {
+            bind_texture(self.gl(), Unit::S2, cone);
+        }
+    }
+
+    /// With textures, tells the passes that shade level `level` or spawn from it whether
+    /// it is the root, whose cone (width 0, spread `spread`) has no record.
+    pub(super) fn set_root_cone(&self, level: usize, spread: f32) -> Result<()> {
+        if self.gs.layout().tex.is_none() {
+            return Ok(());
+        }
+        let v = glam::Vec3::new(if level == 0 { 1.0 } else { 0.0 }, spread, 0.0);
+        for pass in [Pass::AccumAmbient, Pass::AccumLight, Pass::Weight] {
+            if self.programs.contains_key(&pass) {
+                self.set(pass, uniform::ROOT_CONE, v)?;
+            }
+        }
+        Ok(())
     }
 
     /// Binds level `level`'s weight record r2 as the node being spawned or counted (`u_c2`).

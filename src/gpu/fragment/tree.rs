@@ -94,6 +94,7 @@ pub(crate) async fn walk<'a>(
         req.techniques,
     )?;
     f.progress = Progress::tree_bar(req.progress);
+    f.root_spread = crate::scene::texture::pixel_spread(req.camera.vfov_deg, req.height) as f32;
     let secondary = max_depth > 0 && gs.has_secondary();
     let samples = camera::sample_offsets(spp).len();
     f.progress
@@ -207,6 +208,7 @@ async fn shade_node(
     secondary: bool,
     rays: &mut RayCounts,
 ) -> Result<()> {
+    f.set_root_cone(level, f.root_spread)?;
     f.accumulate(Pass::AccumAmbient, level).await?;
     shade_children(f, scene, level, max_depth, secondary, rays).await
 }
@@ -254,6 +256,7 @@ async fn shade_children(
         let child = level + 1;
         f.set(Pass::Weight, uniform::BRANCH, branch.uniform())?;
         f.set(Pass::Spawn, uniform::BRANCH, branch.uniform())?;
+        f.set_root_cone(level, f.root_spread)?;
         f.bind_records(level);
         f.draw(Pass::Weight, Slot::Rec2(child))?;
         let n = f.count(Count::Nodes, Some(child))?;

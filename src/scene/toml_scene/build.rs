@@ -21,7 +21,9 @@ use super::schema::{
 use super::{DEFAULT_SPHERE_SUBDIVISIONS, MAX_DEPTH_LIMIT, MAX_IMAGE_SIZE};
 use crate::scene::obj::ObjMesh;
 use crate::scene::shapes::{self, MAX_SPHERE_SUBDIVISIONS};
-use crate::scene::{Camera, Checker, CheckerAxes, Light, Material, Scene, Triangle, NO_NORMAL};
+use crate::scene::{
+    Camera, Checker, CheckerAxes, Light, Material, Scene, Triangle, NO_NORMAL, NO_UV,
+};
 use crate::{Error, Result};
 
 // Finding and loading the OBJ meshes objects name: a second `impl Builder`, split by job.
@@ -74,6 +76,12 @@ struct Geometry {
     positions: Vec<Vec3>,
     normals: Vec<Vec3>,
     triangles: Vec<Triangle>,
+    /// Texture coordinates and each triangle's uv indices (both empty without), which a
+    /// placement leaves as they are: texture coordinates live on the surface.
+    uvs: Vec<glam::Vec2>,
+    tri_uvs: Vec<[u32; 3]>,
+    /// One colour per position, or none.
+    colors: Vec<Vec3>,
 }
 
 impl Geometry {
@@ -90,6 +98,9 @@ impl Geometry {
             positions,
             normals: Vec::new(),
             triangles,
+            uvs: Vec::new(),
+            tri_uvs: Vec::new(),
+            colors: Vec::new(),
         }
     }
 
@@ -106,6 +117,9 @@ impl Geometry {
             positions,
             normals,
             triangles,
+            uvs: Vec::new(),
+            tri_uvs: Vec::new(),
+            colors: Vec::new(),
         }
     }
 }
@@ -157,6 +171,9 @@ impl Placement {
             for t in &mut g.triangles {
                 t.v.swap(1, 2);
                 t.n.swap(1, 2);
+            }
+            for uv in &mut g.tri_uvs {
+                uv.swap(1, 2);
             }
         }
         world
@@ -444,6 +461,7 @@ impl Builder<'_> {
                 None => 1.0,
             },
             fresnel: m.fresnel.unwrap_or(false),
+            diffuse_map: None,
         })
     }
 
@@ -600,7 +618,18 @@ impl Builder<'_> {
                     Some(b) => b,
                     None => {
                         let b = self.scene.materials.len() as u32;
-                        self.scene.materials.extend(mesh.materials.iter().cloned());
+                        // The mesh's textures come with its materials, once per file.
+                        let tbase = self.scene.textures.len() as u32;
+                        self.scene.textures.extend(mesh.textures.iter().cloned());
+                        self.scene
+                            .texture_problems
+                            .extend(mesh.texture_problems.iter().cloned());
+                        self.scene
+                            .materials
+                            .extend(mesh.materials.iter().map(|m| Material {
+                                diffuse_map: m.diffuse_map.map(|t| t + tbase),
+                                ..m.clone()
+                            }));
                         if let Some(e) = self.meshes.get_mut(&key) {
                             e.1 = Some(b);
                         }
@@ -695,6 +724,34 @@ impl Builder<'_> {
             ));
         }
         let (vbase, nbase) = (vbase as u32, nbase as u32);
+        // Texture coordinates and colours: stored only once some object has them, then
+        // for every triangle (NO_UV) and position (white) before and after.
+        if !g.tri_uvs.is_empty() || !s.tri_uvs.is_empty() {
+            let ubase = s.uvs.len() as u32;
+            s.tri_uvs.resize(s.triangles.len(), [NO_UV; 3]);
+            if g.tri_uvs.is_empty() {
+                s.tri_uvs
+                    .extend(std::iter::repeat_n([NO_UV; 3], g.triangles.len()));
+            } else {
+                s.tri_uvs.extend(g.tri_uvs.iter().map(|t| {
+                    if t[0] == NO_UV {
+                        *t
+                    } else {
+                        t.map(|k| k + ubase)
+                    }
+                }));
+            }
+            s.uvs.extend(g.uvs);
+        }
+        if !g.colors.is_empty() || !s.colors.is_empty() {
+            s.colors.resize(s.positions.len(), Vec3::ONE);
+            if g.colors.is_empty() {
+                s.colors
+                    .extend(std::iter::repeat_n(Vec3::ONE, g.positions.len()));
+            } else {
+                s.colors.extend(g.colors);
+            }
+        }
         s.positions.extend(g.positions);
         s.normals.extend(g.normals);
         s.triangles

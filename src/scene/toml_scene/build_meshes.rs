@@ -9,7 +9,7 @@ use std::rc::Rc;
 use super::super::schema::S;
 use super::super::MODEL_PATH_VAR;
 use super::{Builder, Geometry, LoadedMesh, Meshes};
-use crate::scene::obj::{load_obj, parse_obj_with, ObjMesh};
+use crate::scene::obj::{load_obj, no_textures, parse_obj_with, ObjMesh};
 use crate::{Error, Result};
 
 impl Builder<'_> {
@@ -24,6 +24,9 @@ impl Builder<'_> {
             positions: mesh.positions.clone(),
             normals: mesh.normals.clone(),
             triangles: mesh.triangles.clone(),
+            uvs: mesh.uvs.clone(),
+            tri_uvs: mesh.tri_uvs.clone(),
+            colors: mesh.colors.clone(),
         };
         Ok((g, Some((mesh, path_key))))
     }
@@ -67,12 +70,14 @@ impl Builder<'_> {
                 .map(|t| (shown.clone(), t.to_owned()))
                 .ok_or_else(|| format!("{shown}: not given"))
         };
-        let mesh = Rc::new(parse_obj_with(obj, written, &mtl).map_err(|e| match e {
-            Error::Mesh { .. } | Error::Io { .. } => {
-                self.ctx.err(path.span(), field, e.to_string())
-            }
-            other => other,
-        })?);
+        let mesh = Rc::new(parse_obj_with(obj, written, &no_textures, &mtl).map_err(
+            |e| match e {
+                Error::Mesh { .. } | Error::Io { .. } => {
+                    self.ctx.err(path.span(), field, e.to_string())
+                }
+                other => other,
+            },
+        )?);
         self.warnings.extend(mesh.warnings.iter().cloned());
         self.meshes.insert(key.clone(), (mesh.clone(), None));
         Ok((mesh, key))
