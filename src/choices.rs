@@ -13,10 +13,9 @@ use std::path::PathBuf;
 use clap::{Args, Parser};
 
 use crate::accel::{AccelKind, GridConfig, GridRes};
-use crate::farm::plan::PartArgs;
 use crate::gpu::options::{Kernel, Mask, SceneFetch, Storage};
 use crate::options::{
-    AccelChoice, Backend, CpuPath, FrameRange, Precision, RenderOptions, TextureMode, MAX_DEPTH,
+    check_range, AccelChoice, Backend, CpuPath, Precision, RenderOptions, TextureMode, MAX_DEPTH,
     MAX_IMAGE_SIDE, MAX_QUERY_EVERY, MAX_SPP,
 };
 use crate::scene::Scene;
@@ -36,6 +35,9 @@ pub enum Door {
     /// `fragtrace dump-shaders`: the GPU's programs for the structure and techniques
     /// chosen, every kernel's, written rather than run.
     DumpShaders,
+    /// The web page (docs/web.md): its query's `key=value` pairs are these flags
+    /// ([`crate::query`]); WebGL, so the fragment kernels only.
+    Web,
 }
 
 impl Door {
@@ -43,18 +45,19 @@ impl Door {
     /// accumulated while the window's camera stands still.
     pub fn default_spp(self) -> u32 {
         match self {
-            Door::Render | Door::Bench | Door::DumpShaders => 1,
+            Door::Render | Door::Bench | Door::DumpShaders | Door::Web => 1,
             Door::View => 16,
         }
     }
 
-    /// The command's name, where its refusals name it; None for `render`'s flags (a bench
-    /// configuration is `render`'s flags too).
+    /// The front door as its refusals name it (`` `view` ``, the web page); None for
+    /// `render`'s flags (a bench configuration is `render`'s flags too).
     fn command(self) -> Option<&'static str> {
         match self {
             Door::Render | Door::Bench => None,
-            Door::View => Some("view"),
-            Door::DumpShaders => Some("dump-shaders"),
+            Door::View => Some("`view`"),
+            Door::DumpShaders => Some("`dump-shaders`"),
+            Door::Web => Some("the web page"),
         }
     }
 }
@@ -216,13 +219,13 @@ impl Choices {
         if let Some(cmd) = command {
             if self.backend == Backend::Cpu {
                 return Err(Error::Usage(format!(
-                    "--backend cpu: `{cmd}` is for the GPU; `fragtrace render --backend cpu` \
+                    "--backend cpu: {cmd} is for the GPU; `fragtrace render --backend cpu` \
                      renders on the CPU"
                 )));
             }
             if let Some(n) = self.gpu {
                 return Err(Error::Usage(format!(
-                    "--gpu {n} picks the EGL device of a headless render; `{cmd}` opens \
+                    "--gpu {n} picks the EGL device of a headless render; {cmd} opens \
                      none: drop --gpu"
                 )));
             }
@@ -260,7 +263,7 @@ impl Choices {
                 let what = flag.split(' ').next().unwrap_or(flag);
                 return Err(Error::Usage(match command {
                     Some(cmd) => format!(
-                        "{flag} applies to the CPU backend; `{cmd}` is for the GPU, in f32: \
+                        "{flag} applies to the CPU backend; {cmd} is for the GPU, in f32: \
                          drop {what}"
                     ),
                     None => format!(
@@ -272,7 +275,7 @@ impl Choices {
             if self.accel == AccelChoice::Bvh {
                 return Err(Error::Usage(match command {
                     Some(cmd) => format!(
-                        "--accel bvh is walked on the CPU backend only; `{cmd}` is for the \
+                        "--accel bvh is walked on the CPU backend only; {cmd} is for the \
                          GPU: take --accel irregular or uniform"
                     ),
                     None => "--accel bvh is walked on the CPU backend only: take --backend \
@@ -281,8 +284,55 @@ impl Choices {
                 }));
             }
         }
+        if door == Door::Web {
+            self.check_web()?;
+        }
         if self.kernel != Kernel::Auto {
             self.gpu_options().refuse_inapplicable(self.kernel, true)?;
+        }
+        self.check_ranges()
+    }
+
+    /// What WebGL lacks: compute shaders (the compute kernel and its scene fetch), 16-bit
+    /// float render targets (`--storage`), and the page compiles only what the scene needs.
+    fn check_web(&self) -> Result<()> {
+        let lacks = |flag: String, what: &str| {
+            Err(Error::Usage(format!(
+                "{flag}: WebGL has no {what}; the web page runs the fragment kernels \
+                 (--kernel auto, looped, multipass or unrolled:K)"
+            )))
+        };
+        if self.kernel == Kernel::Compute {
+            return lacks("--kernel compute".into(), "compute shaders");
+        }
+        if self.scene_fetch != SceneFetch::Auto {
+            let flag = format!("--scene-fetch {}", self.scene_fetch);
+            return lacks(flag, "compute shaders, which the scene fetch is for");
+        }
+        if let Some(s) = self.storage {
+            return lacks(format!("--storage {s}"), "choice of ray texture precision");
+        }
+        if self.no_specialize {
+            return Err(Error::Usage(
+                "--no-specialize: the web page compiles only what the scene needs: drop it".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The ranges of the counts given, in [`check_range`]'s words (the parser only
+    /// refuses what is not a whole number, so `--width 0` says which range it left).
+    fn check_ranges(&self) -> Result<()> {
+        for (flag, v, lo, hi) in [
+            ("width", self.width, 1, MAX_IMAGE_SIDE),
+            ("height", self.height, 1, MAX_IMAGE_SIDE),
+            ("spp", self.spp, 1, MAX_SPP),
+            ("max-depth", self.max_depth, 0, MAX_DEPTH),
+            ("query-every", self.query_every, 1, MAX_QUERY_EVERY),
+        ] {
+            if let Some(v) = v {
+                check_range(flag, v, lo, hi)?;
+            }
         }
         Ok(())
     }
@@ -333,7 +383,7 @@ impl Choices {
         opts.precision = self.precision.unwrap_or_default();
         opts.cpu_path = self.cpu_path.unwrap_or_default();
         opts.backend = match door {
-            Door::View | Door::DumpShaders => Backend::Gl,
+            Door::View | Door::DumpShaders | Door::Web => Backend::Gl,
             Door::Render | Door::Bench => self.backend,
         };
         // `auto` with a density asks for a grid: the irregular one, on either backend.
@@ -369,14 +419,6 @@ impl Choices {
             )));
         }
         opts.grid = grid;
-        if let Some(k) = self
-            .query_every
-            .filter(|k| !(1..=MAX_QUERY_EVERY).contains(k))
-        {
-            return Err(Error::Usage(format!(
-                "--query-every {k} is outside 1..={MAX_QUERY_EVERY}"
-            )));
-        }
         opts.gpu = self.gpu_options();
         opts.device = self.gpu;
         opts.techniques = Techniques {
@@ -391,6 +433,7 @@ impl Choices {
 }
 
 /// Arguments of `render`.
+#[cfg(not(target_arch = "wasm32"))]
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     /// Scene file (TOML); the built-in default scene when omitted.
@@ -413,12 +456,12 @@ pub struct RenderArgs {
     /// Which parts of the image this process renders (`--tile`, `--region`,
     /// `--task-index`, `--tiles`).
     #[command(flatten)]
-    pub parts: PartArgs,
+    pub parts: crate::farm::plan::PartArgs,
     /// Render the frames A..B (both included), or all, of the scene's camera path
     /// (the scene file's `[animation]` table), uploading the scene once; -o names each frame with
     /// a run of # (out/frame_####.png) or {frame}.
     #[arg(long, value_name = "A..B|all")]
-    pub frames: Option<FrameRange>,
+    pub frames: Option<crate::options::FrameRange>,
     /// Print nothing but errors (no progress display, no summary); not with -v.
     #[arg(short, long, conflicts_with = "verbose")]
     pub quiet: bool,
@@ -428,6 +471,7 @@ pub struct RenderArgs {
 }
 
 /// `render`'s arguments as a command of their own, for parsing lists of them.
+#[cfg(not(target_arch = "wasm32"))]
 #[derive(Parser)]
 #[command(name = "render")]
 struct RenderArgsParser {
@@ -435,6 +479,7 @@ struct RenderArgsParser {
     inner: RenderArgs,
 }
 
+#[cfg(not(target_arch = "wasm32"))]
 impl RenderArgs {
     /// Parses `render` arguments from a list (a bench configuration's, for one), returning
     /// [`Error::Usage`] with clap's one-line message instead of exiting.

@@ -8,7 +8,7 @@
 //! [`accel`] (grid build), [`cpu`] (reference renderer), [`gpu`] (headless GL context,
 //! owning GL objects, the Rust/GLSL contract, texel layout, shaders, the scene uploaded once,
 //! the fragment and compute wings), [`output`] and [`image_io`] (what a render produces), [`options`]
-//! (render options), [`plan`] (what a render runs, resolved once), [`render`]
+//! (render options), [`query`] (the web page's query as the render flags), [`plan`] (what a render runs, resolved once), [`render`]
 //! (backend-independent front door), [`farm`] (parts of images as tasks of a batch
 //! scheduler, and merging them), [`choices`] (the render flags every front door shares),
 //! [`bench`](mod@bench)
@@ -31,7 +31,6 @@ pub mod animate;
 pub mod aov;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod bench;
-#[cfg(not(target_arch = "wasm32"))]
 pub mod choices;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod cli;
@@ -45,12 +44,12 @@ pub mod farm;
 pub mod gpu;
 pub mod image_io;
 pub mod numeric;
-#[cfg(not(target_arch = "wasm32"))]
 pub mod options;
 pub mod output;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod plan;
 pub mod progress;
+pub mod query;
 pub mod region;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod render;

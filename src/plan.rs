@@ -177,56 +177,102 @@ fn fragment_kernel(v: &str) -> std::result::Result<FragmentKernel, String> {
     }
 }
 
+/// The `--flag value` pairs of a line of canonical flags (a plan's text, a part header's
+/// options), each flag once: what [`Plan::from_pairs`] and the part header's reader take
+/// their values from.
+pub(crate) fn flag_pairs(s: &str) -> std::result::Result<FlagPairs<'_>, String> {
+    let words: Vec<&str> = s.split_whitespace().collect();
+    if !words.len().is_multiple_of(2) {
+        return Err(format!("`{s}`: expected pairs of --flag value"));
+    }
+    let mut pairs = std::collections::BTreeMap::new();
+    for p in words.chunks(2) {
+        let key = p[0]
+            .strip_prefix("--")
+            .ok_or_else(|| format!("`{}` is not a flag", p[0]))?;
+        if pairs.insert(key, p[1]).is_some() {
+            return Err(format!("--{key} given twice"));
+        }
+    }
+    Ok(FlagPairs { text: s, pairs })
+}
+
+/// A line's flags not yet taken ([`flag_pairs`]).
+pub(crate) struct FlagPairs<'a> {
+    text: &'a str,
+    pairs: std::collections::BTreeMap<&'a str, &'a str>,
+}
+
+impl<'a> FlagPairs<'a> {
+    /// Takes the value of `--key`, which must be there.
+    pub(crate) fn take(&mut self, key: &str) -> std::result::Result<&'a str, String> {
+        self.pairs
+            .remove(key)
+            .ok_or_else(|| format!("`{}`: --{key} is missing", self.text))
+    }
+
+    /// Takes the value of `--key` where it is there.
+    pub(crate) fn take_opt(&mut self, key: &str) -> Option<&'a str> {
+        self.pairs.remove(key)
+    }
+
+    /// Takes `--key`'s value, parsed by `T`'s `FromStr`.
+    pub(crate) fn parse<T: FromStr>(&mut self, key: &str) -> std::result::Result<T, String> {
+        let v = self.take(key)?;
+        v.parse()
+            .map_err(|_| format!("--{key} {v}: not a value it takes"))
+    }
+
+    /// Every flag taken, or the error naming the first left over.
+    pub(crate) fn finish(self) -> std::result::Result<(), String> {
+        match self.pairs.keys().next() {
+            Some(extra) => Err(format!("`{}`: --{extra} is not part of it", self.text)),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Plan {
+    /// Takes the plan's flags (those [`Display`](fmt::Display) writes) out of `pairs`.
+    pub(crate) fn from_pairs(pairs: &mut FlagPairs<'_>) -> std::result::Result<Plan, String> {
+        let accel: AccelKind = word("accel", pairs.take("accel")?)?;
+        Ok(match pairs.take("backend")? {
+            "cpu" => Plan::Cpu {
+                accel,
+                precision: word("precision", pairs.take("precision")?)?,
+                path: word("cpu-path", pairs.take("cpu-path")?)?,
+            },
+            "gl" => match pairs.take("kernel")? {
+                "compute" => Plan::Compute {
+                    accel,
+                    scene_fetch: word("scene-fetch", pairs.take("scene-fetch")?)?,
+                    fallback: pairs
+                        .take_opt("fallback")
+                        .map(fragment_kernel)
+                        .transpose()?,
+                },
+                k => Plan::Fragment {
+                    accel,
+                    kernel: fragment_kernel(k)?,
+                    mask: word("mask", pairs.take("mask")?)?,
+                    storage: word("storage", pairs.take("storage")?)?,
+                },
+            },
+            b => return Err(format!("--backend {b}: a plan runs on cpu or gl")),
+        })
+    }
+}
+
 impl FromStr for Plan {
     type Err = String;
 
     /// Reads what [`Display`](fmt::Display) writes (and nothing else: every flag of the
     /// backend once, no other).
     fn from_str(s: &str) -> std::result::Result<Plan, String> {
-        let words: Vec<&str> = s.split_whitespace().collect();
-        if !words.len().is_multiple_of(2) {
-            return Err(format!("`{s}`: a plan is pairs of --flag value"));
-        }
-        let mut pairs = std::collections::BTreeMap::new();
-        for p in words.chunks(2) {
-            let key = p[0]
-                .strip_prefix("--")
-                .ok_or_else(|| format!("`{}` is not a flag", p[0]))?;
-            if pairs.insert(key, p[1]).is_some() {
-                return Err(format!("--{key} given twice"));
-            }
-        }
-        let mut take = |key: &str| {
-            pairs
-                .remove(key)
-                .ok_or_else(|| format!("`{s}`: --{key} is missing"))
-        };
-        let accel: AccelKind = word("accel", take("accel")?)?;
-        let plan = match take("backend")? {
-            "cpu" => Plan::Cpu {
-                accel,
-                precision: word("precision", take("precision")?)?,
-                path: word("cpu-path", take("cpu-path")?)?,
-            },
-            "gl" => match take("kernel")? {
-                "compute" => Plan::Compute {
-                    accel,
-                    scene_fetch: word("scene-fetch", take("scene-fetch")?)?,
-                    fallback: pairs.remove("fallback").map(fragment_kernel).transpose()?,
-                },
-                k => Plan::Fragment {
-                    accel,
-                    kernel: fragment_kernel(k)?,
-                    mask: word("mask", take("mask")?)?,
-                    storage: word("storage", take("storage")?)?,
-                },
-            },
-            b => return Err(format!("--backend {b}: a plan runs on cpu or gl")),
-        };
-        match pairs.keys().next() {
-            Some(extra) => Err(format!("`{s}`: --{extra} is not part of this plan")),
-            None => Ok(plan),
-        }
+        let mut pairs = flag_pairs(s)?;
+        let plan = Plan::from_pairs(&mut pairs)?;
+        pairs.finish()?;
+        Ok(plan)
     }
 }
 

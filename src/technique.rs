@@ -166,6 +166,46 @@ impl Techniques {
     }
 }
 
+impl std::str::FromStr for Techniques {
+    type Err = String;
+
+    /// Reads what [`Techniques::tag`] writes: `default`, or the non-default settings joined
+    /// by `+`, each once.
+    fn from_str(s: &str) -> Result<Techniques, String> {
+        let mut t = Techniques::default();
+        if s == "default" {
+            return Ok(t);
+        }
+        let bad = |part: &str| format!("`{s}`: `{part}` is not a technique setting");
+        fn value<E: ValueEnum>(v: &str) -> Option<E> {
+            E::from_str(v, false).ok()
+        }
+        for part in s.split('+') {
+            let set = if let Some(v) = part.strip_prefix("intersect-") {
+                value(v).map(|v| t.intersect = v)
+            } else if let Some(v) = part.strip_prefix("t-bound-") {
+                value(v).map(|v| t.t_bound = v)
+            } else if let Some(v) = part.strip_prefix("offset-") {
+                value(v).map(|v| t.offset = v)
+            } else if let Some(v) = part.strip_prefix("terminator-") {
+                value(v).map(|v| t.terminator = v)
+            } else {
+                None
+            };
+            set.ok_or_else(|| bad(part))?;
+        }
+        // One spelling per set of techniques: a default written out, or a setting twice,
+        // is not a tag `tag` writes.
+        if t.tag() != s {
+            return Err(format!(
+                "`{s}` is not how these techniques are written ({})",
+                t.tag()
+            ));
+        }
+        Ok(t)
+    }
+}
+
 /// The command-line spelling of a value.
 fn name<E: ValueEnum>(v: E) -> String {
     v.to_possible_value()

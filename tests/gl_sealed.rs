@@ -1,4 +1,6 @@
-//! GL is sealed in `src/gpu/gl/`: no other file of `src/` makes a GL call. Every GL call
+//! GL is sealed in `src/gpu/gl/`: no other file of `src/`, of the tests or of the web
+//! page's crate (`web/src`) makes a GL call, and `GlContext::gl()` is crate-private, so
+//! code outside the crate cannot reach the raw context at all. Every GL call
 //! goes through glow's `HasContext` trait (or, for the few entry points glow gets wrong on
 //! GL 2.1 drivers, through pointers loaded in `gpu/gl/probe.rs`), so a file outside
 //! `gpu/gl` that names the trait, globs glow in, or opens an `unsafe` block that reaches a
@@ -9,13 +11,6 @@
 //! is sound.
 
 use std::path::Path;
-
-/// Files outside `gpu/gl` that still make GL calls, each with the reason.
-const EXCEPTIONS: &[(&str, &str)] = &[(
-    "gpu/web.rs",
-    "wasm32 only: wraps the page's WebGL context and probes it; built by ci/web-build.sh, \
-     not by this test's toolchain",
-)];
 
 /// The code of a file without `//` comments (test modules included: a test's GL call is a
 /// GL call too).
@@ -109,44 +104,69 @@ fn rust_files(dir: &Path, root: &Path, out: &mut Vec<String>) {
     }
 }
 
-fn src() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The GL uses the scan finds in every `.rs` file under `dir` (relative to the crate
+/// root), as `path:line: what`, and how many files it read.
+fn scan(dir: &str, skip: &[&str]) -> (Vec<String>, usize) {
+    let base = root().join(dir);
+    let mut files = Vec::new();
+    rust_files(&base, &base, &mut files);
+    files.retain(|f| !skip.contains(&f.as_str()));
+    let mut found = Vec::new();
+    for f in &files {
+        let text = std::fs::read_to_string(base.join(f)).unwrap();
+        found.extend(
+            violations(&text)
+                .into_iter()
+                .map(|v| format!("{dir}/{f}:{v}")),
+        );
+    }
+    (found, files.len())
 }
 
 #[test]
 fn no_gl_call_outside_gpu_gl() {
-    let root = src();
-    let mut files = Vec::new();
-    rust_files(&root, &root, &mut files);
-    files.sort();
-    let mut found = Vec::new();
-    let mut sealed_side = 0;
-    for f in &files {
-        let text = std::fs::read_to_string(root.join(f)).unwrap();
-        let v = violations(&text);
-        if f.starts_with("gpu/gl/") {
-            sealed_side += v.len();
-            continue;
-        }
-        let excepted = EXCEPTIONS.iter().any(|(e, _)| e == f);
-        if excepted {
-            assert!(
-                !v.is_empty(),
-                "src/{f} is listed as an exception but calls no GL: take it off the list"
-            );
-        } else {
-            found.extend(v.into_iter().map(|v| format!("src/{f}:{v}")));
-        }
-    }
+    let (in_src, _) = scan("src", &[]);
+    let (sealed, outside): (Vec<_>, Vec<_>) = in_src
+        .into_iter()
+        .partition(|v| v.starts_with("src/gpu/gl/"));
     // The scan sees GL where it is meant to be: gpu/gl is full of it.
     assert!(
-        sealed_side > 20,
-        "the scan found only {sealed_side} GL uses in src/gpu/gl"
+        sealed.len() > 20,
+        "the scan found only {} GL uses in src/gpu/gl",
+        sealed.len()
     );
+    // This file's own examples of raw calls are strings, not calls.
+    let (in_tests, n_tests) = scan("tests", &["gl_sealed.rs"]);
+    let (in_web, n_web) = scan("web/src", &[]);
+    assert!(
+        n_tests > 20 && n_web >= 3,
+        "{n_tests} test files, {n_web} web files"
+    );
+    let found: Vec<String> = outside.into_iter().chain(in_tests).chain(in_web).collect();
     assert!(
         found.is_empty(),
         "GL calls outside src/gpu/gl (add a safe function to gpu::gl and call that):\n{}",
         found.join("\n")
+    );
+}
+
+/// `GlContext::gl()`, the raw context, is not public: outside the crate, GL is reached
+/// only through `gpu::gl`'s safe functions.
+#[test]
+fn the_raw_context_is_crate_private() {
+    let text = std::fs::read_to_string(root().join("src/gpu/context.rs")).unwrap();
+    let code = code(&text);
+    assert!(
+        code.contains("pub(crate) fn gl(&self) -> &glow::Context"),
+        "GlContext::gl() must stay crate-private"
+    );
+    assert!(
+        !code.contains("pub fn gl(&self)"),
+        "GlContext::gl() is public again"
     );
 }
 

@@ -239,7 +239,7 @@ fn run_page(query: &str) -> Report {
     let t = std::time::Instant::now();
     let posted = open_page(
         &dir,
-        &format!("scene=whitted&size={W}x{H}&{query}"),
+        &format!("scene=whitted&width={W}&height={H}&{query}"),
         PAGE_TIMEOUT,
     );
     let wall = t.elapsed();
@@ -487,7 +487,8 @@ fn web_figures_512() {
         // FRAGTRACE_WEB_FIGURE_QUERY adds to the query (`webgl=2&kernel=looped`).
         let extra = std::env::var("FRAGTRACE_WEB_FIGURE_QUERY").unwrap_or_default();
         // First: where it sets `band` or `progress` too, its value is the one the page reads.
-        let query = format!("{extra}&scene={scene}&size={size}&band=full");
+        let (w, h) = size.split_once('x').expect("FRAGTRACE_WEB_FIGURE_SIZE=WxH");
+        let query = format!("{extra}&scene={scene}&width={w}&height={h}&band=full");
         match open_page(&dir, &query, Duration::from_secs(1800)) {
             Posted::Report { json, .. } => {
                 println!(

@@ -298,6 +298,45 @@ pub fn first_hit(isa: Isa, rc: &RayConsts, soa: &SoaTris, off: usize, n: usize) 
     None
 }
 
+/// The watertight test's shear, edge functions, determinant and scaled hit distance in
+/// lanes (`intersect_watertight`'s operations in its order), over the lane operations of
+/// the module it expands in; `$or` and `$and` combine its masks. From the vertices
+/// relative to the origin on the shear axes and the shear: `(ax, ay, bx, by, cx, cy, az,
+/// bz, cz, u, v, w, det, bad, tt, det_abs)`, `bad` the lanes whose edge functions differ in
+/// sign or whose determinant is zero. Shared, like [`t_error_lanes`], by the
+/// triangle-lane kernel here and the ray-lane kernel of `cpu/traverse_packet.rs`.
+macro_rules! edge_lanes {
+    ($or:ident, $and:ident; $a_x:ident, $a_y:ident, $a_z:ident, $b_x:ident, $b_y:ident,
+     $b_z:ident, $c_x:ident, $c_y:ident, $c_z:ident, $sx:ident, $sy:ident, $sz:ident) => {{
+        let ax = sub($a_x, mul($sx, $a_z));
+        let ay = sub($a_y, mul($sy, $a_z));
+        let bx = sub($b_x, mul($sx, $b_z));
+        let by = sub($b_y, mul($sy, $b_z));
+        let cx = sub($c_x, mul($sx, $c_z));
+        let cy = sub($c_y, mul($sy, $c_z));
+        let u = sub(mul(cx, by), mul(cy, bx));
+        let v = sub(mul(ax, cy), mul(ay, cx));
+        let w = sub(mul(bx, ay), mul(by, ax));
+        let z = splat(0.0);
+        let negs = $or($or(lt(u, z), lt(v, z)), lt(w, z));
+        let poss = $or($or(gt(u, z), gt(v, z)), gt(w, z));
+        let det = add(add(u, v), w);
+        let bad = $or($and(negs, poss), eq(det, z));
+        let az = mul($sz, $a_z);
+        let bz = mul($sz, $b_z);
+        let cz = mul($sz, $c_z);
+        let tt = add(add(mul(u, az), mul(v, bz)), mul(w, cz));
+        let dneg = lt(det, z);
+        let tt = select(dneg, neg(tt), tt);
+        let det_abs = select(dneg, neg(det), det);
+        (
+            ax, ay, bx, by, cx, cy, az, bz, cz, u, v, w, det, bad, tt, det_abs,
+        )
+    }};
+}
+#[cfg(target_arch = "x86_64")]
+pub(crate) use edge_lanes;
+
 /// `intersect::watertight_t_error` term by term in lanes, over the lane operations of the
 /// module it expands in (`add`, `mul`, `div`, `max`, `abs`, `splat`): the bound below which a
 /// hit is rejected. Shared by the triangle-lane kernel here and the ray-lane kernel of
@@ -381,27 +420,8 @@ macro_rules! chunk_kernel {
                     load(soa.ok.as_ptr().add(r)),
                 )
             };
-            let ax = sub(a_x, mul(sx, a_z));
-            let ay = sub(a_y, mul(sy, a_z));
-            let bx = sub(b_x, mul(sx, b_z));
-            let by = sub(b_y, mul(sy, b_z));
-            let cx = sub(c_x, mul(sx, c_z));
-            let cy = sub(c_y, mul(sy, c_z));
-            let u = sub(mul(cx, by), mul(cy, bx));
-            let v = sub(mul(ax, cy), mul(ay, cx));
-            let w = sub(mul(bx, ay), mul(by, ax));
-            let z = splat(0.0);
-            let negs = or(or(lt(u, z), lt(v, z)), lt(w, z));
-            let poss = or(or(gt(u, z), gt(v, z)), gt(w, z));
-            let det = add(add(u, v), w);
-            let bad = or(and(negs, poss), eq(det, z));
-            let az = mul(sz, a_z);
-            let bz = mul(sz, b_z);
-            let cz = mul(sz, c_z);
-            let tt = add(add(mul(u, az), mul(v, bz)), mul(w, cz));
-            let dneg = lt(det, z);
-            let tt = select(dneg, neg(tt), tt);
-            let det_abs = select(dneg, neg(det), det);
+            let (ax, ay, bx, by, cx, cy, az, bz, cz, u, v, w, det, bad, tt, det_abs) =
+                edge_lanes!(or, and; a_x, a_y, a_z, b_x, b_y, b_z, c_x, c_y, c_z, sx, sy, sz);
             let inside = and(
                 gt(tt, mul(splat(rc.t_min), det_abs)),
                 lt(tt, mul(splat(hi), det_abs)),

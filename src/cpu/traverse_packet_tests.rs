@@ -89,6 +89,21 @@ fn packet_walker<'a>(
     w
 }
 
+/// `batch` through `p`'s closest-hit query: each ray's hit and work.
+fn closest_batch(p: &BvhWalker<'_, f32>, batch: &[Ray<f32>]) -> (Vec<Option<Hit<f32>>>, Vec<Work>) {
+    let mut hits = vec![None; batch.len()];
+    let mut work = vec![Work::default(); batch.len()];
+    p.closest_hits(batch, &mut hits, &mut work);
+    (hits, work)
+}
+
+/// `batch` through `p`'s any-hit query, its work added to `work`.
+fn any_batch(p: &BvhWalker<'_, f32>, batch: &[Ray<f32>], work: &mut Work) -> Vec<bool> {
+    let mut any = vec![false; batch.len()];
+    p.any_hits(batch, &mut any, work);
+    any
+}
+
 /// `rays` through `p`'s batch queries (batches of [`LENGTHS`] in turn) against `single`'s
 /// one-ray queries: the same closest hits bit for bit, the same any-hit answers, the
 /// any-hit work of each batch the sum of its rays' (added to what `work` held), the
@@ -111,13 +126,10 @@ fn batches_are_single_rays(
         let n = LENGTHS[k % LENGTHS.len()].min(rays.len() - at);
         k += 1;
         let batch = &rays[at..at + n];
-        let mut hits = vec![None; n];
-        let mut work = vec![Work::default(); n];
-        p.closest_hits(batch, &mut hits, &mut work);
-        let mut any = vec![false; n];
+        let (hits, work) = closest_batch(p, batch);
         let held = Work { cells: 3, tests: 5 };
         let (mut any_work, mut want_any_work) = (held, held);
-        p.any_hits(batch, &mut any, &mut any_work);
+        let any = any_batch(p, batch, &mut any_work);
         for (j, r) in batch.iter().enumerate() {
             let i = at + j;
             let mut w1 = Work::default();
@@ -180,9 +192,7 @@ fn packets_are_single_rays(
         let p = packet_walker(s, &bvh, tech, unit);
         seen = batches_are_single_rays(&p, &single, rays, what);
         if brute {
-            let mut hits = vec![None; rays.len()];
-            let mut work = vec![Work::default(); rays.len()];
-            p.closest_hits(rays, &mut hits, &mut work);
+            let (hits, _) = closest_batch(&p, rays);
             for (i, (r, h)) in rays.iter().zip(&hits).enumerate() {
                 let want = brute_force(r, single.tris(), &tech);
                 assert_eq!(
@@ -471,11 +481,8 @@ fn every_batch_length_gives_the_same_answers() {
         for n in 1..=40 {
             for (c, batch) in rays.chunks(n).enumerate().take(60) {
                 let at = c * n;
-                let mut hits = vec![None; batch.len()];
-                let mut work = vec![Work::default(); batch.len()];
-                p.closest_hits(batch, &mut hits, &mut work);
-                let mut any = vec![false; batch.len()];
-                p.any_hits(batch, &mut any, &mut Work::default());
+                let (hits, _) = closest_batch(&p, batch);
+                let any = any_batch(&p, batch, &mut Work::default());
                 for j in 0..batch.len() {
                     assert_eq!(
                         bits(hits[j]),
@@ -595,8 +602,7 @@ fn empty_scene_is_missed_by_every_lane() {
     let bvh = Bvh::build(&s).unwrap();
     for unit in units() {
         let p = packet_walker(&s, &bvh, Techniques::default(), unit);
-        let mut work = vec![Work::default(); 21];
-        p.closest_hits(&rays[..21], &mut vec![None; 21], &mut work);
+        let (_, work) = closest_batch(&p, &rays[..21]);
         assert!(
             work.iter().all(|w| *w == Work { cells: 1, tests: 0 }),
             "{work:?}"
@@ -638,8 +644,7 @@ fn coplanar_piles_go_to_the_lowest_index() {
     packets_are_single_rays(&s, Techniques::default(), &rays, true, "pile");
     for unit in units() {
         let p = packet_walker(&s, &bvh, Techniques::default(), unit);
-        let mut hits = vec![None; rays.len()];
-        p.closest_hits(&rays, &mut hits, &mut vec![Work::default(); rays.len()]);
+        let (hits, _) = closest_batch(&p, &rays);
         let on_pile = hits
             .iter()
             .filter(|h| h.is_some_and(|h| h.t > 0.0 && h.b.iter().all(|&b| b > 0.0)))

@@ -232,8 +232,9 @@ impl GlContext {
         }
     }
 
-    /// The glow function table. Every call assumes this context is current.
-    pub fn gl(&self) -> &glow::Context {
+    /// The glow function table, for `gpu::gl`'s safe wrappers (crate-private: outside the
+    /// crate, GL is reached only through them). Every call assumes this context is current.
+    pub(crate) fn gl(&self) -> &glow::Context {
         &self.shared.gl
     }
 

@@ -7,11 +7,10 @@
 //! Both: the texture units and the image size; the termination test reads back a byte
 //! mask instead of an occlusion query, which WebGL 1 lacks and WebGL 2 has only as a yes/no.
 
-use glow::HasContext;
-
 use super::context::{web_context, GlContext};
 use super::contract::REQUIRED_TEXTURE_UNITS;
 use super::dialect::Dialect;
+use super::gl::webgl::{probe, wrap_webgl1, wrap_webgl2};
 use super::info::{Check, GlInfo};
 use crate::error::{Error, Result};
 
@@ -25,10 +24,6 @@ pub const REQUIRED_EXTENSIONS: [(&str, &str); 3] = [
 /// The extension the WebGL 2 path needs (float textures, draw buffers and loops are core).
 pub const REQUIRED_EXTENSIONS_WEBGL2: [(&str, &str); 1] =
     [("EXT_color_buffer_float", "float render targets")];
-
-/// `WEBGL_debug_renderer_info`'s names of the implementation's vendor and renderer.
-const UNMASKED_VENDOR_WEBGL: u32 = 0x9245;
-const UNMASKED_RENDERER_WEBGL: u32 = 0x9246;
 
 /// The passes write up to four streams at once.
 const MIN_DRAW_BUFFERS: i32 = 4;
@@ -47,48 +42,26 @@ impl GlContext {
     /// [`GlContext::from_webgl1`] without judging the context, for a page that prints the
     /// report (`info.verdict()` says whether it can render).
     pub fn from_webgl1_unchecked(webgl: web_sys::WebGlRenderingContext) -> GlContext {
-        let ext = webgl
-            .get_extension("WEBGL_draw_buffers")
-            .ok()
-            .flatten()
-            .map(wasm_bindgen::JsCast::unchecked_into::<web_sys::WebglDrawBuffers>);
-        DRAW_BUFFERS.with(|d| *d.borrow_mut() = ext);
-        let gl = glow::Context::from_webgl1_context(webgl);
-        let info = gather_web_info(&gl, Dialect::Essl100);
+        let gl = wrap_webgl1(webgl);
+        let info = web_info(&gl, Dialect::Essl100);
         web_context(gl, info)
     }
 
     /// A canvas's WebGL 2 context, unjudged like [`GlContext::from_webgl1_unchecked`]:
     /// programs in [`Dialect::Essl300`], so the `looped` kernel runs too.
     pub fn from_webgl2_unchecked(webgl: web_sys::WebGl2RenderingContext) -> GlContext {
-        DRAW_BUFFERS.with(|d| *d.borrow_mut() = None);
-        let gl = glow::Context::from_webgl2_context(webgl);
-        let info = gather_web_info(&gl, Dialect::Essl300);
+        let gl = wrap_webgl2(webgl);
+        let info = web_info(&gl, Dialect::Essl300);
         web_context(gl, info)
     }
 }
 
-/// Version strings, limits and extensions of a WebGL 1 or 2 context, and its verdict.
-fn gather_web_info(gl: &glow::Context, dialect: Dialect) -> GlInfo {
+/// Version strings, limits and extensions of a WebGL 1 or 2 context (read by
+/// `gpu::gl::webgl`), and its verdict.
+fn web_info(gl: &glow::Context, dialect: Dialect) -> GlInfo {
     let webgl2 = dialect == Dialect::Essl300;
-    // SAFETY: the page's context is the one WebGL context of this thread, and `int` is only
-    // asked for single-valued limits (glow reads the WebGL value, no pointer is written).
-    let int = |name| unsafe { gl.get_parameter_i32(name) };
-    // SAFETY: as above; WebGL returns the string by value.
-    let string = |name| unsafe { gl.get_parameter_string(name) };
-    let mut extensions: Vec<String> = gl.supported_extensions().iter().cloned().collect();
-    extensions.sort();
-    let has = |n: &str| extensions.iter().any(|e| e == n);
-    let mut dims = [0i32; 2];
-    // SAFETY: GL_MAX_VIEWPORT_DIMS writes two integers.
-    unsafe { gl.get_parameter_i32_slice(glow::MAX_VIEWPORT_DIMS, &mut dims) };
-    // WEBGL_draw_buffers' MAX_DRAW_BUFFERS_WEBGL has the value of GL_MAX_DRAW_BUFFERS;
-    // without the extension the query is an error, and one buffer is what there is.
-    let max_draw_buffers = if webgl2 || has("WEBGL_draw_buffers") {
-        int(glow::MAX_DRAW_BUFFERS)
-    } else {
-        1
-    };
+    let p = probe(gl, webgl2);
+    let has = |n: &str| p.extensions.iter().any(|e| e == n);
     let mut info = GlInfo {
         egl_platform: if webgl2 {
             "WebGL 2 (browser canvas)".into()
@@ -97,27 +70,17 @@ fn gather_web_info(gl: &glow::Context, dialect: Dialect) -> GlInfo {
         },
         egl_vendor: String::new(),
         egl_version: String::new(),
-        gl_version: string(glow::VERSION),
+        gl_version: p.gl_version.clone(),
         // The multipass design of GL 2.x is what `--kernel auto` picks here.
         // (WebGL 2 is ES 3.0; `auto` still picks multipass, the thesis's kernel.)
         gl_major_minor: (2, 0),
-        // WebGL's RENDERER is a fixed string ("WebKit WebGL"); the debug extension names
-        // the implementation underneath (SwiftShader, ANGLE on a GPU).
-        renderer: if has("WEBGL_debug_renderer_info") {
-            string(UNMASKED_RENDERER_WEBGL)
-        } else {
-            string(glow::RENDERER)
-        },
-        vendor: if has("WEBGL_debug_renderer_info") {
-            string(UNMASKED_VENDOR_WEBGL)
-        } else {
-            string(glow::VENDOR)
-        },
-        glsl_version: string(glow::SHADING_LANGUAGE_VERSION),
-        max_texture_size: int(glow::MAX_TEXTURE_SIZE),
-        max_viewport_dims: (dims[0], dims[1]),
-        max_draw_buffers,
-        max_texture_units: int(glow::MAX_TEXTURE_IMAGE_UNITS),
+        renderer: p.renderer.clone(),
+        vendor: p.vendor.clone(),
+        glsl_version: p.glsl_version.clone(),
+        max_texture_size: p.max_texture_size,
+        max_viewport_dims: p.max_viewport_dims,
+        max_draw_buffers: p.max_draw_buffers,
+        max_texture_units: p.max_texture_units,
         limit_profile: None,
         occlusion_query_bits: 0,
         timer_query: false,
@@ -127,6 +90,7 @@ fn gather_web_info(gl: &glow::Context, dialect: Dialect) -> GlInfo {
         optional: Vec::new(),
         extensions: Vec::new(),
     };
+    let max_draw_buffers = p.max_draw_buffers;
     let required: &[(&str, &str)] = if webgl2 {
         &REQUIRED_EXTENSIONS_WEBGL2
     } else {
@@ -147,34 +111,6 @@ fn gather_web_info(gl: &glow::Context, dialect: Dialect) -> GlInfo {
         info.max_texture_units >= REQUIRED_TEXTURE_UNITS,
     ));
     info.features = features;
-    info.extensions = extensions;
-    // Leave no error from the probing for the first real call to trip over.
-    // SAFETY: as above.
-    unsafe { while gl.get_error() != glow::NO_ERROR {} }
+    info.extensions = p.extensions;
     info
-}
-
-thread_local! {
-    /// The page's `WEBGL_draw_buffers` object (one WebGL context per page), for
-    /// [`draw_buffers`].
-    static DRAW_BUFFERS: std::cell::RefCell<Option<web_sys::WebglDrawBuffers>> =
-        const { std::cell::RefCell::new(None) };
-}
-
-/// `drawBuffersWEBGL(buffers)` on the page's context. glow 0.16 wraps the list in a second
-/// array, which WebGL reads as `[GL_NONE]`: every pass would draw nothing.
-/// On WebGL 2 (no extension object) glow's `drawBuffers` is right.
-pub(crate) fn draw_buffers(gl: &glow::Context, buffers: &[u32]) {
-    DRAW_BUFFERS.with(|d| {
-        if let Some(ext) = d.borrow().as_ref() {
-            let list = js_sys::Array::new();
-            for &b in buffers {
-                list.push(&wasm_bindgen::JsValue::from(b));
-            }
-            ext.draw_buffers_webgl(&list);
-        } else {
-            // SAFETY: every listed attachment exists (the caller's target's).
-            unsafe { gl.draw_buffers(buffers) };
-        }
-    });
 }

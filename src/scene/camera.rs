@@ -105,45 +105,33 @@ fn directions_soa(
     }
 }
 
-/// [`directions_soa`] compiled for AVX-512F.
-///
-/// # Safety
-/// The CPU must have AVX-512F.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn directions_avx512(
-    fr: &Frame,
-    w: u32,
-    h: u32,
-    px: &[f64],
-    py: &[f64],
-    dx: &mut [f64],
-    dy: &mut [f64],
-    dz: &mut [f64],
-) {
-    directions_soa(fr, w, h, px, py, dx, dy, dz)
+/// Defines `$name`, [`directions_soa`] compiled with the target feature `$feature`.
+macro_rules! directions_for {
+    ($name:ident, $feature:literal) => {
+        #[doc = concat!("[`directions_soa`] compiled for `", $feature, "`.")]
+        ///
+        /// # Safety
+        /// The CPU must have that feature.
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $feature)]
+        #[allow(clippy::too_many_arguments)]
+        unsafe fn $name(
+            fr: &Frame,
+            w: u32,
+            h: u32,
+            px: &[f64],
+            py: &[f64],
+            dx: &mut [f64],
+            dy: &mut [f64],
+            dz: &mut [f64],
+        ) {
+            directions_soa(fr, w, h, px, py, dx, dy, dz)
+        }
+    };
 }
 
-/// [`directions_soa`] compiled for AVX2.
-///
-/// # Safety
-/// The CPU must have AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
-unsafe fn directions_avx2(
-    fr: &Frame,
-    w: u32,
-    h: u32,
-    px: &[f64],
-    py: &[f64],
-    dx: &mut [f64],
-    dy: &mut [f64],
-    dz: &mut [f64],
-) {
-    directions_soa(fr, w, h, px, py, dx, dy, dz)
-}
+directions_for!(directions_avx512, "avx512f");
+directions_for!(directions_avx2, "avx2");
 
 impl Camera {
     /// Checks that the camera defines a frame (distinct eye and target, up not parallel).

@@ -12,7 +12,6 @@ use fragtrace::gpu::GlContext;
 use fragtrace::scene::{Camera, Material, Scene};
 use fragtrace::technique::Techniques;
 use glam::Vec3;
-use glow::HasContext;
 
 pub(crate) fn dummy_layout() -> SceneTextures {
     let mut s = Scene::empty(Camera {
@@ -36,7 +35,6 @@ pub(crate) fn run_cases_grid(
     grid: Option<&Grid>,
     techniques: Techniques,
 ) -> Vec<[f32; 4]> {
-    let gl = ctx.gl();
     let n = cases.len() as u32;
     let k = cases[0].len() as u32;
     let mut data = Vec::with_capacity((n * k * 4) as usize);
@@ -70,28 +68,22 @@ pub(crate) fn run_cases_grid(
     let tex = Texture::new_f32(ctx, n, k, Some(&data)).unwrap();
     let target = RenderTarget::new(ctx, n, 1, 1).unwrap();
     let quad = FullscreenQuad::new(ctx).unwrap();
-    target.bind(gl);
-    // SAFETY: the test context is current.
-    unsafe {
-        gl.use_program(Some(prog.name()));
-        gl.active_texture(glow::TEXTURE0);
-        gl.bind_texture(glow::TEXTURE_2D, Some(tex.name()));
-        gl.uniform_1_i32(gl.get_uniform_location(prog.name(), "u_in").as_ref(), 0);
-        if let Some(g) = grid {
-            use fragtrace::gpu::contract::uniform;
-            let res = glam::UVec3::from(g.res).as_vec3();
-            for (u, v) in [
-                (uniform::GRID_MIN, g.min),
-                (uniform::GRID_MAX, g.max),
-                (uniform::CELL_SIZE, g.cell_size),
-                (uniform::GRID_RES, res),
-            ] {
-                prog.set(gl, u, v).unwrap();
-            }
+    prog.set_by_name(ctx, "u_in", 0i32);
+    if let Some(g) = grid {
+        use fragtrace::gpu::contract::uniform;
+        let res = glam::UVec3::from(g.res).as_vec3();
+        for (u, v) in [
+            (uniform::GRID_MIN, g.min),
+            (uniform::GRID_MAX, g.max),
+            (uniform::CELL_SIZE, g.cell_size),
+            (uniform::GRID_RES, res),
+        ] {
+            assert!(prog.declares(u), "{}", u.name);
+            prog.set_by_name(ctx, u.name, v);
         }
     }
-    quad.draw(gl, &prog);
-    let out = target.read_attachment(gl, 0).unwrap();
+    quad.draw_into(ctx, &target, &prog, &[(0, &tex)]);
+    let out = target.texture(0).read_f32(ctx).unwrap();
     out.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
 }
 
@@ -148,7 +140,6 @@ pub(crate) fn run_program(
     outputs: usize,
 ) -> Vec<Vec<[f32; 4]>> {
     use fragtrace::gpu::contract::Unit;
-    let gl = ctx.gl();
     let n = inputs[0].1.len() as u32;
     // A shipped pass under its own name, so assembly declares what the contract says it
     // reads; a test's own text under `test.frag`, declaring its inputs itself.
@@ -184,37 +175,28 @@ pub(crate) fn run_program(
         .collect();
     let target = RenderTarget::new(ctx, n, 1, outputs).unwrap();
     let quad = FullscreenQuad::new(ctx).unwrap();
-    target.bind(gl);
-    // SAFETY: the test context is current.
-    unsafe {
-        gl.use_program(Some(prog.name()));
-        let loc = |name: &str| gl.get_uniform_location(prog.name(), name);
-        for (unit, t) in &scene_tex {
-            gl.active_texture(glow::TEXTURE0 + unit.index());
-            gl.bind_texture(glow::TEXTURE_2D, Some(t.name()));
-        }
-        for unit in Unit::ALL {
-            for s in unit.samplers() {
-                gl.uniform_1_i32(loc(s).as_ref(), unit.index() as i32);
-            }
-        }
-        for (k, ((name, _), t)) in inputs.iter().zip(&in_tex).enumerate() {
-            let unit = FIRST_INPUT_UNIT + k as u32;
-            gl.active_texture(glow::TEXTURE0 + unit);
-            gl.bind_texture(glow::TEXTURE_2D, Some(t.name()));
-            gl.uniform_1_i32(loc(name).as_ref(), unit as i32);
-        }
-        for (name, v) in u3 {
-            gl.uniform_3_f32(loc(name).as_ref(), v.x, v.y, v.z);
-        }
-        for (name, v) in u1 {
-            gl.uniform_1_f32(loc(name).as_ref(), *v);
+    let mut textures: Vec<(u32, &Texture)> =
+        scene_tex.iter().map(|(u, t)| (u.index(), t)).collect();
+    for unit in Unit::ALL {
+        for s in unit.samplers() {
+            prog.set_by_name(ctx, s, unit.index() as i32);
         }
     }
-    quad.draw(gl, &prog);
+    for (k, ((name, _), t)) in inputs.iter().zip(&in_tex).enumerate() {
+        let unit = FIRST_INPUT_UNIT + k as u32;
+        textures.push((unit, t));
+        prog.set_by_name(ctx, name, unit as i32);
+    }
+    for (name, v) in u3 {
+        prog.set_by_name(ctx, name, *v);
+    }
+    for (name, v) in u1 {
+        prog.set_by_name(ctx, name, *v);
+    }
+    quad.draw_into(ctx, &target, &prog, &textures);
     (0..outputs)
         .map(|k| {
-            let out = target.read_attachment(gl, k).unwrap();
+            let out = target.texture(k).read_f32(ctx).unwrap();
             out.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
         })
         .collect()

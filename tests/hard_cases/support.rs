@@ -509,18 +509,12 @@ pub fn cpu_closest<'a, T: Real>(
                 .find(|&k| simd[k] != found[k])
                 .map(|k| (rays[k], found[k], simd[k]))
         );
-        // The packet walk (the renderer's default): the rays as one batch, in packets of
-        // each unit this CPU has; the same hits (its work is counted per packet).
-        for packets in [PacketIsa::Avx512, PacketIsa::Avx2] {
-            if !packets.available() {
-                continue;
-            }
-            let p =
-                BvhWalker::with_packets(scene, b, Techniques::default(), Isa::detect(), packets);
-            let batch: Vec<_> = rays.iter().map(|r| r.cpu::<f32>()).collect();
+        // The packet walk (the renderer's default): the same hits (its work is counted per
+        // packet).
+        for_each_packet_walk(scene, b, rays, |packets, p, batch| {
             let mut hits = vec![None; batch.len()];
             let mut work = vec![Work::default(); batch.len()];
-            p.closest_hits(&batch, &mut hits, &mut work);
+            p.closest_hits(batch, &mut hits, &mut work);
             let differ: Vec<usize> = (0..rays.len())
                 .filter(|&k| hits[k].map(|h| (h.t as f64, h.tri)) != found[k].hit)
                 .collect();
@@ -532,9 +526,27 @@ pub fn cpu_closest<'a, T: Real>(
                 rays.len(),
                 differ.first().map(|&k| (rays[k], found[k], hits[k]))
             );
-        }
+        });
     }
     found
+}
+
+/// Runs `check` on the BVH's packet walk of each unit this CPU has (AVX-512, AVX2), with
+/// `rays` as one f32 batch.
+fn for_each_packet_walk(
+    scene: &Scene,
+    bvh: &fragtrace::accel::bvh::Bvh,
+    rays: &[TRay],
+    mut check: impl FnMut(PacketIsa, &BvhWalker<'_, f32>, &[Ray<f32>]),
+) {
+    let batch: Vec<_> = rays.iter().map(|r| r.cpu::<f32>()).collect();
+    for packets in [PacketIsa::Avx512, PacketIsa::Avx2] {
+        if packets.available() {
+            let p =
+                BvhWalker::with_packets(scene, bvh, Techniques::default(), Isa::detect(), packets);
+            check(packets, &p, &batch);
+        }
+    }
 }
 
 /// Any-hit answers on the CPU in precision `T`, through any of the three structures (on
@@ -561,21 +573,15 @@ pub fn cpu_any<'a, T: Real>(
             "the BVH's vectorised f32 any-hit ({}) differs from the scalar one",
             v.isa().name()
         );
-        for packets in [PacketIsa::Avx512, PacketIsa::Avx2] {
-            if !packets.available() {
-                continue;
-            }
-            let p =
-                BvhWalker::with_packets(scene, b, Techniques::default(), Isa::detect(), packets);
-            let batch: Vec<_> = rays.iter().map(|r| r.cpu::<f32>()).collect();
+        for_each_packet_walk(scene, b, rays, |packets, p, batch| {
             let mut hit = vec![false; batch.len()];
-            p.any_hits(&batch, &mut hit, &mut Work::default());
+            p.any_hits(batch, &mut hit, &mut Work::default());
             assert!(
                 hit == any,
                 "the BVH's {}-packet any-hit differs from the scalar one",
                 packets.name()
             );
-        }
+        });
     }
     any
 }

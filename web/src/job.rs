@@ -13,7 +13,7 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use fragtrace::clock::Instant;
-use fragtrace::gpu::options::{GpuOptions, Mask};
+use fragtrace::gpu::options::GpuOptions;
 use fragtrace::gpu::pause::Stepped;
 use fragtrace::gpu::render::{
     render, render_stepped, Flow, GpuOutput, ImageRequest, Observer, Snapshot,
@@ -22,7 +22,6 @@ use fragtrace::gpu::GlContext;
 use fragtrace::output::{AovPixel, Readback};
 use fragtrace::region::Region;
 use fragtrace::scene::Camera;
-use fragtrace::technique::Techniques;
 
 use crate::params::Progress;
 use crate::App;
@@ -164,19 +163,20 @@ impl App {
 
     /// The request for `camera` over `region` (None: the whole image).
     fn request(&self, camera: Camera, region: Option<Region>) -> ImageRequest {
-        let scene = self.loaded.as_ref().expect("a scene").scene();
+        // The scene's options (the query's render flags), with the control's samples and
+        // the kernel resolved for this context.
+        let opts = self.opts.as_ref().expect("a scene");
         ImageRequest {
             camera,
             width: self.width,
             height: self.height,
             spp: self.spp,
-            max_depth: scene.max_depth,
-            techniques: Techniques::default(),
+            max_depth: opts.max_depth,
+            techniques: opts.techniques,
             progress: false,
             gpu: GpuOptions {
                 kernel: self.params.kernel,
-                mask: Mask::Auto,
-                ..GpuOptions::default()
+                ..opts.gpu
             },
             readback: Readback {
                 aov: self.reads_aov(),

@@ -28,18 +28,20 @@ mod params;
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use fragtrace::accel::{Accel, AccelKind, GridConfig, IrregularConfig};
+use fragtrace::accel::Accel;
+use fragtrace::choices::Door;
 use fragtrace::aov::{heat_map, preview, AovKind};
 use fragtrace::clock::Instant;
 use fragtrace::gpu::options::Kernel;
 use fragtrace::gpu::{GlContext, GpuScene};
+use fragtrace::options::{RenderOptions, MAX_SPP};
 use fragtrace::output::{Aov, AovPixel};
 use fragtrace::scene::{load_scene_str_with_texts, Camera, MeshTexts, Scene};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 
 use job::{empty_aov, Job};
-use params::{parse_show, show_name, Params, Progress, Show, MAX_SPP};
+use params::{parse_show, show_name, Params, Progress, Show};
 
 /// The shipped scenes, embedded (their meshes are not).
 const SCENES: &[(&str, &str)] = &[
@@ -66,13 +68,14 @@ struct Loaded {
 }
 
 impl Loaded {
-    fn new(ctx: &'static GlContext, scene: Scene, kind: AccelKind) -> fragtrace::Result<Loaded> {
-        let accel = Accel::build(
-            &scene,
-            kind,
-            &GridConfig::default(),
-            &IrregularConfig::default(),
-        )?;
+    /// The scene with the structure `opts` name built and uploaded (the GPU's: `auto` is
+    /// the irregular grid).
+    fn new(
+        ctx: &'static GlContext,
+        scene: Scene,
+        opts: &RenderOptions,
+    ) -> fragtrace::Result<Loaded> {
+        let accel = Accel::build(&scene, opts.accel.resolve(true), &opts.grid, &opts.irregular)?;
         let scene = Box::into_raw(Box::new(scene));
         let accel = Box::into_raw(Box::new(accel));
         // SAFETY: both boxes live until `drop`, which drops the GPU scene before them.
@@ -82,7 +85,12 @@ impl Loaded {
             scene,
             accel,
         };
-        loaded.gs = Some(Rc::new(GpuScene::new(ctx, s, a.as_ref(), false)?));
+        loaded.gs = Some(Rc::new(GpuScene::new(
+            ctx,
+            s,
+            a.as_ref(),
+            opts.gpu.no_specialize,
+        )?));
         Ok(loaded)
     }
 
@@ -129,6 +137,8 @@ struct App {
     toml: String,
     texts: MeshTexts,
     loaded: Option<Loaded>,
+    /// The options of the scene loaded: the query's render flags over its defaults.
+    opts: Option<RenderOptions>,
     camera: Option<Camera>,
     job: Option<Job>,
     /// What the controls set: the display, samples per pixel, progress mode.
@@ -217,13 +227,19 @@ impl App {
                 Err(e) => return Err(e.to_string()),
             }
         };
-        let (w, h) = self.params.size.unwrap_or((scene.width, scene.height));
+        // The render flags of the query, as `fragtrace render` turns them into options.
+        let opts = self
+            .params
+            .choices
+            .to_options(&scene, Door::Web)
+            .map_err(|e| e.to_string())?;
+        let (w, h) = (opts.width, opts.height);
         self.width = w;
         self.height = h;
         self.camera = Some(scene.camera);
         let t = Instant::now();
-        self.loaded =
-            Some(Loaded::new(self.ctx, scene, self.params.accel).map_err(|e| e.to_string())?);
+        self.loaded = Some(Loaded::new(self.ctx, scene, &opts).map_err(|e| e.to_string())?);
+        self.opts = Some(opts);
         let canvas: web_sys::HtmlCanvasElement = element("view");
         canvas.set_width(w);
         canvas.set_height(h);
@@ -486,6 +502,12 @@ pub fn start() -> Result<(), JsValue> {
             GlContext::from_webgl1_unchecked(webgl)
         }
     };
+    // `auto` resolved for this context by the one resolver (`--kernel`'s).
+    let mut params = params;
+    params.kernel = params
+        .kernel
+        .resolve(&ctx.info, false)
+        .map_err(|e| JsValue::from_str(&e.to_string()))?;
     if params.kernel == Kernel::Looped && !ctx.info.dialect.has_loops() {
         return Err("kernel=looped needs WebGL 2 (GLSL ES 1.00 has no run-time loops)".into());
     }
@@ -508,6 +530,7 @@ pub fn start() -> Result<(), JsValue> {
         toml: toml.clone().unwrap_or_default(),
         texts: MeshTexts::new(),
         loaded: None,
+        opts: None,
         camera: None,
         job: None,
         // Set by the control's handler below (from the query's value).

@@ -1,8 +1,11 @@
 //! The page's query string: what a test, a measurement or a shared link asks for. The
-//! controls on the page start from these values (`aov=`, `progress=`, `spp=`).
+//! render flags are `fragtrace render`'s own, under their names, ranges and messages
+//! (`fragtrace::query`); the page's own arguments (scene, WebGL version, display, progress,
+//! bands, report) sit beside them. The controls on the page start from these values
+//! (`aov=`, `progress=`, `spp=`).
 
-use fragtrace::accel::AccelKind;
 use fragtrace::aov::AovKind;
+use fragtrace::choices::{Choices, Door};
 use fragtrace::gpu::options::Kernel;
 
 /// How a render shows its progress.
@@ -35,7 +38,7 @@ impl Progress {
             "passes" => Ok(Progress::Passes { every: None }),
             _ => match s.strip_prefix("passes:").map(str::parse::<u64>) {
                 Some(Ok(n)) if n > 0 => Ok(Progress::Passes { every: Some(n) }),
-                _ => Err(format!("progress={s}: expected bands, passes or passes:N")),
+                _ => Err(format!("`{s}`: expected bands, passes or passes:N")),
             },
         }
     }
@@ -69,16 +72,69 @@ pub fn parse_show(s: &str) -> Result<Show, String> {
     SHOWS
         .into_iter()
         .find(|&k| show_name(k) == s)
-        .ok_or_else(|| format!("aov={s}: expected colour, depth, normal, primid or steps"))
+        .ok_or_else(|| format!("`{s}`: expected colour, depth, normal, primid or steps"))
 }
 
-/// Most samples per pixel the page takes (the control's maximum).
-pub const MAX_SPP: u32 = 256;
+/// `webgl=1|2`: which WebGL the page asks the browser for.
+fn webgl_version(s: &str) -> Result<u32, String> {
+    match s {
+        "1" => Ok(1),
+        "2" => Ok(2),
+        _ => Err(format!("`{s}`: expected 1 or 2")),
+    }
+}
 
-/// What the query string asks.
+/// `band=ROWS|full|auto`: rows per band; `None`: adaptive.
+#[derive(Clone, Copy, Debug)]
+struct Band(Option<u32>);
+
+fn band_rows(s: &str) -> Result<Band, String> {
+    match s {
+        "auto" => Ok(Band(None)),
+        "full" => Ok(Band(Some(u32::MAX))),
+        _ => s
+            .parse()
+            .map(|n| Band(Some(n)))
+            .map_err(|_| format!("`{s}`: expected ROWS, full or auto")),
+    }
+}
+
+/// `aov=`: what the display starts on.
+#[derive(Clone, Copy, Debug)]
+struct ShowArg(Show);
+
+/// The page's own arguments, beside the render flags every front door shares.
+#[derive(clap::Args, Debug)]
+pub struct PageArgs {
+    /// The shipped scene the page opens.
+    #[arg(long, default_value = "whitted")]
+    scene: String,
+    /// The WebGL the page asks for: 1 or 2 (default: 2 where the browser has it).
+    #[arg(long, value_parser = webgl_version)]
+    webgl: Option<u32>,
+    /// What the display control starts on: colour, depth, normal, primid or steps.
+    #[arg(long, value_parser = |s: &str| parse_show(s).map(ShowArg))]
+    aov: Option<ShowArg>,
+    /// How a render shows its progress: bands, passes or passes:N (default passes, or
+    /// bands where band= is given).
+    #[arg(long, value_parser = Progress::parse)]
+    progress: Option<Progress>,
+    /// Rows per band: ROWS, full or auto.
+    #[arg(long, value_parser = band_rows)]
+    band: Option<Band>,
+    /// Where the page POSTs its finished render (tests and measurements).
+    #[arg(long)]
+    report: Option<String>,
+}
+
+/// What the query string asks: the render flags (`kernel=`, `spp=`, `width=`, `accel=`,
+/// ... as `fragtrace render` takes them, through [`fragtrace::query`]) and the page's own.
 pub struct Params {
+    /// The render flags, turned into the options of each scene loaded
+    /// ([`Choices::to_options`] at [`Door::Web`]).
+    pub choices: Choices,
     pub scene: String,
-    pub size: Option<(u32, u32)>,
+    /// The kernel, as asked until the context is made, then resolved for it.
     pub kernel: Kernel,
     /// `webgl=1|2`; `None`: 2 where the browser has it.
     pub webgl: Option<u32>,
@@ -90,7 +146,6 @@ pub struct Params {
     /// `progress=bands|passes|passes:N`; default `passes`, or `bands` where the query
     /// sets `band=`.
     pub progress: Progress,
-    pub accel: AccelKind,
     /// Rows per band; `None`: adaptive.
     pub band: Option<u32>,
     pub report: Option<String>,
@@ -98,80 +153,22 @@ pub struct Params {
 
 impl Params {
     pub fn from_query(search: &str) -> Result<Params, String> {
-        let q = web_sys::UrlSearchParams::new_with_str(search).map_err(|_| "bad query")?;
-        let size = match q.get("size") {
-            Some(s) => {
-                let (w, h) = s.split_once('x').ok_or(format!("size={s}: expected WxH"))?;
-                let n = |v: &str| {
-                    v.parse::<u32>()
-                        .map_err(|_| format!("size={s}: expected WxH"))
-                };
-                Some((n(w)?, n(h)?))
-            }
-            None => None,
-        };
-        // The kernel's one parser (`Kernel`'s `FromStr`, as `--kernel` takes it: the same
-        // names and the same unrolled:K range); WebGL has no compute shaders.
-        let kernel = match q.get("kernel") {
-            None => Kernel::Multipass,
-            Some(k) => match k.parse::<Kernel>() {
-                Ok(Kernel::Compute) => {
-                    return Err(
-                        "kernel=compute: WebGL has no compute shaders (expected auto, looped, \
-                         multipass or unrolled:K)"
-                            .into(),
-                    )
-                }
-                Ok(kernel) => kernel,
-                Err(e) => return Err(format!("kernel={k}: {e}")),
-            },
-        };
-        let webgl = match q.get("webgl").as_deref() {
-            None => None,
-            Some("1") => Some(1),
-            Some("2") => Some(2),
-            Some(v) => return Err(format!("webgl={v}: expected 1 or 2")),
-        };
-        let show = match q.get("aov") {
-            None => None,
-            Some(a) => parse_show(&a)?,
-        };
-        let spp = match q.get("spp") {
-            None => 1,
-            Some(s) => match s.parse::<u32>() {
-                Ok(n) if (1..=MAX_SPP).contains(&n) => n,
-                _ => return Err(format!("spp={s}: expected 1 to {MAX_SPP}")),
-            },
-        };
-        let progress = match (q.get("progress"), q.get("band")) {
-            (Some(p), _) => Progress::parse(&p)?,
-            (None, Some(_)) => Progress::Bands,
-            (None, None) => Progress::Passes { every: None },
-        };
-        let accel = match q.get("accel").as_deref() {
-            None | Some("irregular") => AccelKind::Irregular,
-            Some("uniform") => AccelKind::Uniform,
-            Some(a) => return Err(format!("accel={a}: expected irregular or uniform")),
-        };
-        let band = match q.get("band").as_deref() {
-            None | Some("auto") => None,
-            Some("full") => Some(u32::MAX),
-            Some(b) => Some(
-                b.parse()
-                    .map_err(|_| format!("band={b}: expected ROWS or full"))?,
-            ),
-        };
+        let (choices, page) =
+            fragtrace::query::parse_query::<PageArgs>(search).map_err(|e| e.to_string())?;
         Ok(Params {
-            scene: q.get("scene").unwrap_or_else(|| "whitted".into()),
-            size,
-            kernel,
-            webgl,
-            show,
-            spp,
-            progress,
-            accel,
-            band,
-            report: q.get("report"),
+            scene: page.scene,
+            kernel: choices.kernel,
+            webgl: page.webgl,
+            show: page.aov.and_then(|a| a.0),
+            spp: choices.spp.unwrap_or(Door::Web.default_spp()),
+            progress: match (page.progress, page.band) {
+                (Some(p), _) => p,
+                (None, Some(_)) => Progress::Bands,
+                (None, None) => Progress::Passes { every: None },
+            },
+            band: page.band.and_then(|b| b.0),
+            report: page.report,
+            choices,
         })
     }
 }

@@ -74,6 +74,9 @@ impl<'g> Setup<'g> {
         };
         // Storage buffers only where the context has blocks for every scene texture beside
         // the kernel's own: `auto` then falls back to texelFetch, an explicit request fails.
+        // Settled here, not in `Plan::resolve`: the blocks needed are the packed scene's
+        // (`layout().storage_blocks()`), known only once `GpuScene` has packed it, which
+        // comes after the plan so that a refused kernel costs no packing.
         let (blocks, needed) = (
             Limits::query(ctx.gl()).blocks,
             gs.layout().storage_blocks() + STORAGE_BINDING_BASE,

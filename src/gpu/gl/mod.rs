@@ -2,6 +2,7 @@
 //! textures and mask renderbuffers ([`texture`]), multi-target FBOs ([`target`]), programs
 //! compiled with source-mapped errors and the full-screen quad ([`program`]), and
 //! occlusion/timer queries ([`query`]), the fixed-function state between draws ([`state`]),
+//! the probing of a desktop context (`probe`) or of the page's WebGL one (`webgl`, wasm32),
 //! and for the compute kernel (GL 4.3) compute programs, storage buffers, image bindings and
 //! dispatches ([`compute`]).
 //!
@@ -39,6 +40,8 @@ pub mod readback;
 pub mod state;
 pub mod target;
 pub mod texture;
+#[cfg(target_arch = "wasm32")]
+pub(crate) mod webgl;
 
 pub use compute::{bind_image, compile_compute, dispatch, storage_limits, StorageBuffer};
 pub use program::{

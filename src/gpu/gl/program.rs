@@ -80,13 +80,26 @@ impl Program {
                 u.readers.join(", ")
             )));
         }
+        self.upload(gl, u.name, value.value());
+        Ok(())
+    }
+
+    /// Makes the program current and sets the uniform called `name` to `value`, skipping
+    /// one the compiler dropped: for a program assembled by hand (the GLSL twin tests'),
+    /// whose uniforms and samplers are its own rather than the contract's.
+    pub fn set_by_name<T: GlslType>(&self, ctx: &GlContext, name: &str, value: T) {
+        self.upload(ctx.gl(), name, value.value());
+    }
+
+    /// `glUseProgram` and `glUniform*` of `name`, where the program has it.
+    fn upload(&self, gl: &glow::Context, name: &str, value: UniformValue) {
         // SAFETY: the context is current (every caller renders on it) and the program is a
         // linked program of it; a location is used only with the program it came from.
         unsafe {
             gl.use_program(Some(self.name()));
-            if let Some(loc) = gl.get_uniform_location(self.name(), u.name) {
+            if let Some(loc) = gl.get_uniform_location(self.name(), name) {
                 let loc = Some(&loc);
-                match value.value() {
+                match value {
                     UniformValue::Float(v) => gl.uniform_1_f32(loc, v),
                     UniformValue::Int(v) => gl.uniform_1_i32(loc, v),
                     UniformValue::Vec3([x, y, z]) => gl.uniform_3_f32(loc, x, y, z),
@@ -94,7 +107,6 @@ impl Program {
                 }
             }
         }
-        Ok(())
     }
 
     /// Whether the program's source declares uniform `u`.
@@ -192,6 +204,24 @@ impl FullscreenQuad {
             check_gl_error(gl, "creating the full-screen quad")?;
             Ok(FullscreenQuad { vbo, vao })
         }
+    }
+
+    /// One pass run by hand (the GLSL twin tests'): binds `target` as the destination and
+    /// each texture of `textures` to its unit, then draws `program` over the whole target.
+    /// Uniforms are set before ([`Program::set_by_name`]).
+    pub fn draw_into(
+        &self,
+        ctx: &GlContext,
+        target: &super::RenderTarget,
+        program: &Program,
+        textures: &[(u32, &super::Texture)],
+    ) {
+        let gl = ctx.gl();
+        target.bind(gl);
+        for &(unit, tex) in textures {
+            super::state::bind_texture(gl, unit, Some(tex));
+        }
+        self.draw(gl, program);
     }
 
     /// Makes `program` current and draws the quad into the bound render target. Uniforms

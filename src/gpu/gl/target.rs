@@ -158,7 +158,7 @@ impl RenderTarget {
         // the page's context calls the extension itself.
         // WebGL 2 has drawBuffers itself (glow's call is right there).
         #[cfg(target_arch = "wasm32")]
-        crate::gpu::web::draw_buffers(gl, &buffers);
+        super::webgl::draw_buffers(gl, &buffers);
     }
 
     /// Makes this the render destination: binds the FBO, routes `gl_FragData[i]` to
