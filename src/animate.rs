@@ -94,7 +94,7 @@ pub fn render_frames(
     let mut opts = opts.clone();
     opts.readback = Readback {
         aov: false,
-        srgb8: format == Format::Png,
+        srgb8: format.is_srgb8(),
     };
     opts.progress = false;
     opts.validate()?;
@@ -131,7 +131,7 @@ pub fn render_frames(
                 let t = Instant::now();
                 let r = match &job.srgb8 {
                     Some(rgb) => {
-                        image_io::write_png_srgb8(&job.path, job.image.width, job.image.height, rgb)
+                        image_io::write_srgb8(&job.path, job.image.width, job.image.height, rgb)
                     }
                     None => image_io::write_image(&job.path, &job.image),
                 };

@@ -438,8 +438,9 @@ impl Choices {
 pub struct RenderArgs {
     /// Scene file (TOML); the built-in default scene when omitted.
     pub scene: Option<PathBuf>,
-    /// Output image, by extension: .png or .ppm (sRGB 8-bit), .exr or .tif/.tiff (linear
-    /// 32-bit float), .hdr (Radiance RGBE, linear).
+    /// Output image, by extension: .png or .ppm (sRGB 8-bit), .jpg/.jpeg (sRGB 8-bit,
+    /// lossy, quality 95), .exr or .tif/.tiff (linear 32-bit float), .hdr (Radiance RGBE,
+    /// linear).
     #[arg(short, long, default_value = "render.png")]
     pub output: PathBuf,
     /// The render's choices, shared with `view` and the bench's configurations.

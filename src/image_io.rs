@@ -65,10 +65,17 @@ pub enum Format {
     Tiff,
     /// 8-bit sRGB binary PPM (`.ppm`, netpbm P6).
     Ppm,
+    /// 8-bit sRGB baseline JPEG (`.jpg`, `.jpeg`), quality [`JPEG_QUALITY`]: lossy, for
+    /// sharing and previews (the tests and `compare` want PNG or EXR).
+    Jpeg,
 }
 
+/// The JPEG quality `-o x.jpg` writes (the image crate's scale, 1-100): visually lossless
+/// for renders, about a tenth of the PNG's size.
+pub const JPEG_QUALITY: u8 = 95;
+
 /// The extensions [`Format::from_path`] knows, as the error message lists them.
-pub const EXTENSIONS: &str = ".png, .exr, .hdr, .tif/.tiff or .ppm";
+pub const EXTENSIONS: &str = ".png, .exr, .hdr, .tif/.tiff, .ppm or .jpg/.jpeg";
 
 impl Format {
     /// Format from a path's extension (case-insensitive).
@@ -84,6 +91,7 @@ impl Format {
             Some("hdr") => Ok(Format::Hdr),
             Some("tif" | "tiff") => Ok(Format::Tiff),
             Some("ppm") => Ok(Format::Ppm),
+            Some("jpg" | "jpeg") => Ok(Format::Jpeg),
             _ => Err(Error::Usage(format!(
                 "{}: unknown image extension (use {EXTENSIONS})",
                 path.display()
@@ -93,7 +101,7 @@ impl Format {
 
     /// True for the 8-bit sRGB formats, whose values are quantised and clamped to 0..=1.
     pub fn is_srgb8(self) -> bool {
-        matches!(self, Format::Png | Format::Ppm)
+        matches!(self, Format::Png | Format::Ppm | Format::Jpeg)
     }
 }
 
@@ -155,6 +163,22 @@ pub fn srgb8_thresholds() -> &'static [f32; 255] {
     })
 }
 
+/// Makes the folder `dir` (and its parents) where output goes: a usage error naming it
+/// when a file of that name is in the way (the OS alone would say "File exists"), an I/O
+/// error naming it otherwise.
+pub fn create_folder(dir: &Path, what: &str) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::Usage(format!(
+            "{}: cannot make the {what} folder there: a file of that name exists",
+            dir.display()
+        )));
+    }
+    std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+        path: dir.to_path_buf(),
+        source,
+    })
+}
+
 fn temp_path(path: &Path) -> PathBuf {
     let name = path
         .file_name()
@@ -193,23 +217,10 @@ pub fn write_image(path: &Path, img: &Image) -> Result<()> {
         message: e.to_string(),
     };
     let size_err = || Error::Internal(format!("{format:?} buffer size"));
+    if format.is_srgb8() {
+        return write_srgb8(path, img.width, img.height, &to_srgb8(img));
+    }
     write_atomic(path, |tmp| {
-        if format.is_srgb8() {
-            if format == Format::Png {
-                return encode_png(tmp, path, img.width, img.height, &to_srgb8(img));
-            }
-            let buf = image::RgbImage::from_raw(img.width, img.height, to_srgb8(img))
-                .ok_or_else(size_err)?;
-            // The image crate's PNM default is PAM (P7); PPM readers want P6.
-            use image::codecs::pnm::{PnmEncoder, PnmSubtype, SampleEncoding};
-            let file = std::fs::File::create(tmp).map_err(|source| Error::Io {
-                path: path.to_path_buf(),
-                source,
-            })?;
-            let enc = PnmEncoder::new(std::io::BufWriter::new(file))
-                .with_subtype(PnmSubtype::Pixmap(SampleEncoding::Binary));
-            return buf.write_with_encoder(enc).map_err(img_err);
-        }
         let buf = image::Rgb32FImage::from_raw(img.width, img.height, img.data.clone())
             .ok_or_else(size_err)?;
         let f = match format {
@@ -221,13 +232,46 @@ pub fn write_image(path: &Path, img: &Image) -> Result<()> {
     })
 }
 
-/// Writes 8-bit sRGB RGB bytes (top row first) as a PNG, atomically: what a render that
-/// converted on the GPU hands over.
-pub fn write_png_srgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
-    if rgb.len() != width as usize * height as usize * 3 {
-        return Err(Error::Internal("png buffer size".into()));
+/// Writes 8-bit sRGB RGB bytes (top row first) in the 8-bit format of `path`'s extension
+/// (PNG, PPM or JPEG), atomically: what a render that converted to 8-bit (on the GPU, or
+/// in the CPU's bands) hands over, and [`write_image`]'s 8-bit path.
+pub fn write_srgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    let format = Format::from_path(path)?;
+    if rgb.len() != width as usize * height as usize * 3 || !format.is_srgb8() {
+        return Err(Error::Internal(format!("{format:?}: 8-bit buffer")));
     }
-    write_atomic(path, |tmp| encode_png(tmp, path, width, height, rgb))
+    let img_err = |e: image::ImageError| Error::Image {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    write_atomic(path, |tmp| {
+        let file = || {
+            std::fs::File::create(tmp)
+                .map(std::io::BufWriter::new)
+                .map_err(|source| Error::Io {
+                    path: path.to_path_buf(),
+                    source,
+                })
+        };
+        use image::ImageEncoder;
+        match format {
+            Format::Png => encode_png(tmp, path, width, height, rgb),
+            // The image crate's PNM default is PAM (P7); PPM readers want P6.
+            Format::Ppm => {
+                use image::codecs::pnm::{PnmEncoder, PnmSubtype, SampleEncoding};
+                PnmEncoder::new(file()?)
+                    .with_subtype(PnmSubtype::Pixmap(SampleEncoding::Binary))
+                    .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
+                    .map_err(img_err)
+            }
+            Format::Jpeg => {
+                image::codecs::jpeg::JpegEncoder::new_with_quality(file()?, JPEG_QUALITY)
+                    .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
+                    .map_err(img_err)
+            }
+            Format::Exr | Format::Hdr | Format::Tiff => unreachable!("checked 8-bit above"),
+        }
+    })
 }
 
 /// Encodes RGB8 as a PNG at `tmp` with the fast deflate setting (`fdeflate`, through the

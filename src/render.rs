@@ -180,7 +180,10 @@ impl<'s> Prepared<'s> {
             opts: opts.clone(),
             plan,
             engine,
-            device: format!("cpu ({} threads, {kernel})", rayon::current_num_threads()),
+            device: match rayon::current_num_threads() {
+                1 => format!("cpu (1 thread, {kernel})"),
+                n => format!("cpu ({n} threads, {kernel})"),
+            },
             pending_ms: 0.0,
         }
     }

@@ -848,3 +848,45 @@ fn flags_that_do_not_apply_are_refused_on_every_front_door() {
     assert!(line.contains("odd"), "{line}");
     only_inputs(&d, &["c.toml"]);
 }
+
+/// A folder that cannot be made because a file has its name (`dump-shaders builtin FILE`,
+/// `bench --out FILE`) is one line naming it, not the OS's "File exists"; a difference
+/// image `compare` cannot write is refused before any figure is printed; `--threads 0` is
+/// out of range. Each exits 2 and leaves the file as it was.
+#[test]
+fn output_folders_and_compare_diff_are_checked_first() {
+    let d = tmpdir("folders");
+    let file = write(&d, "afile", "keep me");
+    for args in [
+        &["dump-shaders", "builtin", "afile"][..],
+        &["bench", "--out", "afile", "--scenes", "builtin"][..],
+    ] {
+        let line = fails(&d, args, &[], &["afile", "a file of that name exists"]);
+        assert!(!line.contains("os error"), "{line}");
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
+    }
+    let ok = run_in(
+        &d,
+        &["render", "--width", "8", "--height", "6", "-o", "a.png"],
+        &[],
+    );
+    assert!(ok.status.success(), "{ok:?}");
+    let out = run_in(
+        &d,
+        &["compare", "a.png", "a.png", "--diff", "nodir/d.png"],
+        &[],
+    );
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    assert!(
+        out.stdout.is_empty(),
+        "figures printed before the refusal: {out:?}"
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("nodir") && err.lines().count() == 1, "{err}");
+    fails(
+        &d,
+        &["render", "--threads", "0"],
+        &[],
+        &["--threads", "1..=1024"],
+    );
+}

@@ -146,10 +146,7 @@ fn reference(spec: &SceneSpec, scene: &Scene, size: Size, dir: &Path) -> Result<
     // The reference is f64 whatever the default precision is (f32, the fast path).
     opts.precision = Precision::F64;
     let out = render::render_cpu(scene, &opts)?;
-    std::fs::create_dir_all(dir).map_err(|source| Error::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    image_io::create_folder(dir, "reference")?;
     image_io::write_image(&path, &out.image)?;
     Ok(out.image)
 }
@@ -185,10 +182,7 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
             Ok((s.clone(), scene))
         })
         .collect::<Result<_>>()?;
-    std::fs::create_dir_all(&opts.out).map_err(|source| Error::Io {
-        path: opts.out.clone(),
-        source,
-    })?;
+    image_io::create_folder(&opts.out, "bench output")?;
 
     let gl = GlCache(std::cell::OnceCell::new());
     let (configs, left_out, left_out_why) = fit_to_machine(opts, &gl);

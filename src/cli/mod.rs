@@ -26,6 +26,10 @@ pub struct Cli {
     /// Render arguments when no command is given.
     #[command(flatten)]
     pub render: RenderArgs,
+    /// CPU threads for rendering, building the structures and loading (default: one per
+    /// core, or `RAYON_NUM_THREADS`). Any command takes it.
+    #[arg(long, global = true, value_parser = clap::value_parser!(u16).range(1..=1024))]
+    pub threads: Option<u16>,
 }
 
 /// Subcommands.
@@ -308,6 +312,11 @@ pub fn run_compare(args: &CompareArgs) -> Result<bool> {
             )));
         }
     }
+    // A difference image that cannot be written is refused before anything is printed.
+    if let Some(path) = &args.diff {
+        check_writable(path, "image")?;
+        image_io::Format::from_path(path)?;
+    }
     let c =
         crate::compare::compare_files(&args.a, &args.b, args.channel.as_deref(), args.threshold)?;
     println!("{}", c.comparison);
@@ -472,6 +481,13 @@ fn mistyped_subcommand(scene: &Path) -> Option<String> {
 
 /// Runs a parsed command line; `Ok(false)` means "ran, but the answer is no" (exit 1).
 pub fn run(cli: Cli) -> Result<bool> {
+    if let Some(n) = cli.threads {
+        // The global pool, before anything uses it: every parallel loop takes this size.
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n.into())
+            .build_global()
+            .map_err(|e| Error::Internal(format!("--threads {n}: {e}")))?;
+    }
     if let (None, Some(scene)) = (&cli.command, &cli.render.scene) {
         if let Some(name) = mistyped_subcommand(scene) {
             return Err(Error::Usage(format!(

@@ -60,11 +60,11 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         .transpose()?;
     let scene = load(args.scene.as_deref(), args.choices.textures)?;
     let mut opts = args.to_options(&scene)?;
-    // Read back only what the output needs: a PNG as 8-bit sRGB (converted on the GPU
-    // where it can), the AOVs only with --aov.
+    // Read back only what the output needs: an 8-bit format (PNG, PPM, JPEG) as 8-bit sRGB
+    // (converted on the GPU, or in the CPU's bands), the AOVs only with --aov.
     opts.readback = crate::output::Readback {
         aov: aovs.is_some(),
-        srgb8: image_io::Format::from_path(&args.output)? == image_io::Format::Png,
+        srgb8: image_io::Format::from_path(&args.output)?.is_srgb8(),
     };
     let out = render::render(&scene, &opts)?;
     let finite = match out.nonfinite {
@@ -77,9 +77,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         ));
     }
     match &out.srgb8 {
-        Some(rgb) => {
-            image_io::write_png_srgb8(&args.output, out.image.width, out.image.height, rgb)?
-        }
+        Some(rgb) => image_io::write_srgb8(&args.output, out.image.width, out.image.height, rgb)?,
         None => image_io::write_image(&args.output, &out.image)?,
     }
     if let Some(kinds) = &aovs {

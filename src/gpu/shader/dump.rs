@@ -208,14 +208,14 @@ pub fn dump_shaders_as<'a>(
         written.push(path);
         Ok(())
     };
-    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+    crate::image_io::create_folder(dir, "shader")?;
     write(dir.join("quad.vert"), crate::gpu::gl::QUAD_VERTEX_SHADER)?;
     for (f, t, tag) in sets {
         let sub = match tag {
             Some(tag) => dir.join(tag),
             None => dir.to_path_buf(),
         };
-        std::fs::create_dir_all(&sub).map_err(|e| io(&sub, e))?;
+        crate::image_io::create_folder(&sub, "shader")?;
         for pass in all_passes() {
             let name = match pass {
                 Pass::Unrolled(_, k) => format!("{}{k}.frag", pass.name()),
