@@ -220,15 +220,45 @@ pub fn write_image(path: &Path, img: &Image) -> Result<()> {
     if format.is_srgb8() {
         return write_srgb8(path, img.width, img.height, &to_srgb8(img));
     }
+    if format == Format::Exr {
+        return write_exr_rgb(path, img);
+    }
     write_atomic(path, |tmp| {
         let buf = image::Rgb32FImage::from_raw(img.width, img.height, img.data.clone())
             .ok_or_else(size_err)?;
         let f = match format {
             Format::Hdr => image::ImageFormat::Hdr,
-            Format::Tiff => image::ImageFormat::Tiff,
-            _ => image::ImageFormat::OpenExr,
+            _ => image::ImageFormat::Tiff,
         };
         buf.save_with_format(tmp, f).map_err(img_err)
+    })
+}
+
+/// Writes a linear image as OpenEXR the way the farm's parts are written: R, G, B as
+/// 32-bit floats, ZIP-compressed scanlines (`exr`'s `SMALL_LOSSLESS`), so every EXR
+/// fragtrace writes has one layout (the image crate's encoder wrote uncompressed tiles).
+fn write_exr_rgb(path: &Path, img: &Image) -> Result<()> {
+    use exr::prelude::*;
+    if img.data.len() != img.width as usize * img.height as usize * 3 {
+        return Err(crate::Error::Internal("EXR buffer size".into()));
+    }
+    let w = img.width as usize;
+    let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+        let k = (p.y() * w + p.x()) * 3;
+        (img.data[k], img.data[k + 1], img.data[k + 2])
+    });
+    let layer = Layer::new(
+        (w, img.height as usize),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
+    let image = exr::image::Image::from_layer(layer);
+    write_atomic(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| crate::Error::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
     })
 }
 

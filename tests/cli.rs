@@ -1063,6 +1063,16 @@ fn jpeg_output_and_threads() {
     // Measured 1.0 on the built-in scene at 64x48; JPEG at quality 95 is far closer than a
     // wrong image (every other image differs by tens of codes).
     assert!(mean < 3.0, "mean absolute difference {mean} codes");
+    // EXR as the farm's parts are written: ZIP-compressed scanlines, not tiles.
+    run(&["-o", "a.exr"]);
+    let exr = std::fs::read(d.join("a.exr")).unwrap();
+    let has = |attr: &[u8]| exr.windows(attr.len()).any(|w| w == attr);
+    assert!(has(b"compression\0compression\0") && !has(b"tiles\0tiledesc"));
+    assert!(
+        exr.len() < 64 * 48 * 12,
+        "{} bytes: not compressed",
+        exr.len()
+    );
     run(&["-o", "b.png", "--threads", "2"]);
     assert_eq!(
         std::fs::read(d.join("a.png")).unwrap(),
