@@ -72,9 +72,29 @@ fn parse_gltf_with(bytes: &[u8], name: &str, files: Files<'_>) -> Result<ObjMesh
             ));
         }
     }
-    let g = gltf::Gltf::from_slice(bytes).map_err(|e| err(one_line(&e.to_string())))?;
-    let doc = &g.document;
-    let buffers = load_buffers(doc, g.blob.clone(), name, files)?;
+    let g = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| err(one_line(&e.to_string())))?;
+    // The crate's validation indexes the accessors by each primitive's POSITION before it
+    // checks that index (a panic on a bad one): check it first.
+    let json = g.document.into_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let pos = gltf::json::validation::Checked::Valid(Semantic::Positions);
+            if let Some(a) = prim.attributes.get(&pos) {
+                if a.value() >= json.accessors.len() {
+                    return Err(err(format!(
+                        "meshes[{m}].primitives[{p}].attributes.POSITION: accessor {} does not \
+                         exist ({} accessors)",
+                        a.value(),
+                        json.accessors.len()
+                    )));
+                }
+            }
+        }
+    }
+    let document = gltf::Document::from_json(json).map_err(|e| err(one_line(&e.to_string())))?;
+    let doc = &document;
+    let buffers = load_buffers(doc, g.blob, name, files)?;
     let mut b = Builder {
         name,
         doc,
@@ -719,8 +739,14 @@ impl Builder<'_> {
         if let Some(&r) = self.textures.get(&key) {
             return r;
         }
-        let (label, bytes) = match img.source() {
-            gltf::image::Source::View { view, .. } => (
+        // The image's JSON, not `Image::source`, which unwraps a missing mimeType.
+        let json = &self.doc.as_json().images[img.index()];
+        let view = json
+            .buffer_view
+            .as_ref()
+            .and_then(|v| self.doc.views().nth(v.value()));
+        let (label, bytes) = match (view, &json.uri) {
+            (Some(view), _) => (
                 format!("image {} (buffer view {})", img.index(), view.index()),
                 view_bytes(&view, self.buffers)
                     .map(<[u8]>::to_vec)
@@ -731,7 +757,7 @@ impl Builder<'_> {
                         )
                     }),
             ),
-            gltf::image::Source::Uri { uri, .. } => (
+            (None, Some(uri)) => (
                 format!("image {} `{}`", img.index(), short(uri)),
                 read_uri(
                     uri,
@@ -739,6 +765,13 @@ impl Builder<'_> {
                     super::texture::MAX_TEXTURE_BYTES,
                     "texture image",
                 ),
+            ),
+            (None, None) => (
+                format!("image {}", img.index()),
+                Err((
+                    "the document".to_owned(),
+                    "neither a bufferView nor a uri".to_owned(),
+                )),
             ),
         };
         let source = format!("{}: {label}", self.name);
