@@ -1,5 +1,5 @@
 //! glTF 2.0's metallic-roughness material mapped onto the Whitted material (split from
-//! `gltf.rs` by job); the table is in `docs/scene-format.md`.
+//! `gltf_mesh.rs` by job); the table is in `docs/scene-format.md`.
 //!
 //! A Whitted surface is a diffuse term, a Phong highlight, a perfect mirror and a perfect
 //! refraction. So: the base colour (factor times texture times `COLOR_0`) is the diffuse

@@ -40,7 +40,7 @@ impl MeshFormat {
 pub fn load_mesh(path: &Path) -> Result<ObjMesh> {
     match MeshFormat::of(path) {
         Some(MeshFormat::Ply) => super::ply::load_ply(path),
-        Some(MeshFormat::Gltf) => super::gltf::load_gltf(path),
+        Some(MeshFormat::Gltf) => super::gltf_mesh::load_gltf(path),
         Some(MeshFormat::Obj) | None => super::obj::load_obj(path),
     }
 }
