@@ -161,11 +161,11 @@ fn bunny_as_binary_ply_renders_bit_identical_to_the_obj() {
 /// A GLB: the JSON chunk (padded with spaces) and the BIN chunk (padded with zeros).
 fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
     let mut j = json.as_bytes().to_vec();
-    while j.len() % 4 != 0 {
+    while !j.len().is_multiple_of(4) {
         j.push(b' ');
     }
     let mut b = bin.to_vec();
-    while b.len() % 4 != 0 {
+    while !b.len().is_multiple_of(4) {
         b.push(0);
     }
     let total = 12 + 8 + j.len() + 8 + b.len();
@@ -332,7 +332,7 @@ fn node_transforms_and_several_primitives() {
     let tri = |z: f32| [[0.0, 0.0, z], [1.0, 0.0, z], [0.0, 1.0, z]];
     for p in tri(0.0).iter().chain(&tri(1.0)) {
         for c in p {
-            bin.extend((*c as f32).to_le_bytes());
+            bin.extend(c.to_le_bytes());
         }
     }
     for _ in 0..6 {

@@ -66,7 +66,7 @@ fn parse_gltf_with(bytes: &[u8], name: &str, files: Files<'_>) -> Result<ObjMesh
         let len = bytes
             .get(8..12)
             .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
-        if !len.is_some_and(|l| l >= 12) {
+        if len.is_none_or(|l| l < 12) {
             return Err(err(
                 "GLB header: length field shorter than the header".into()
             ));
@@ -585,7 +585,7 @@ impl Builder<'_> {
             }
             None => (0..nv as u32).collect(),
         };
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(self.err(format!(
                 "{}: {} indices, not a multiple of 3 (TRIANGLES)",
                 role("indices"),
