@@ -1,13 +1,17 @@
 //! Scene model: what the renderers see. Everything is triangles in f32 (the precision the
 //! GPU stores), with per-triangle material indices and optional vertex normals. Positions,
 //! lights and the camera are stored relative to a local origin ([`Scene::origin`], kept in
-//! f64), so that a scene far from the world origin keeps the f32 precision it has near it. Loaders (`toml_scene`, `obj`, `shapes`) produce a [`Scene`]; renderers never see
+//! f64), so that a scene far from the world origin keeps the f32 precision it has near it. Loaders (`toml_scene`, `obj`, `ply`, `gltf_mesh`, `model`, `shapes`) produce a [`Scene`]; renderers never see
 //! files, transforms or analytic shapes.
 
 pub mod camera;
 pub mod camera_path;
+mod gltf_material;
+pub mod gltf_mesh;
+pub mod model;
 pub mod obj;
 mod obj_textures;
+pub mod ply;
 pub mod shapes;
 pub mod texture;
 pub mod toml_scene;
@@ -16,7 +20,10 @@ use glam::{DVec3, Vec2, Vec3};
 
 pub use camera::Camera;
 pub use camera_path::{CameraPath, Interpolation, Keyframe, Orbit, PathError, PathPlace, Pose};
+pub use gltf_mesh::{load_gltf, parse_gltf};
+pub use model::{load_mesh, load_model_scene, MeshFormat};
 pub use obj::{load_obj, parse_obj_with_mtl, ObjMesh};
+pub use ply::{load_ply, parse_ply};
 pub use texture::{TexLevel, Texture, Wrap};
 pub use toml_scene::{
     builtin_scene, load_scene, load_scene_str, load_scene_str_with_search_path,

@@ -9,7 +9,8 @@ use std::rc::Rc;
 use super::super::schema::S;
 use super::super::MODEL_PATH_VAR;
 use super::{Builder, Geometry, LoadedMesh, Meshes};
-use crate::scene::obj::{load_obj, no_textures, parse_obj_with, ObjMesh};
+use crate::scene::model::{load_mesh, MeshFormat};
+use crate::scene::obj::{no_textures, parse_obj_with, ObjMesh};
 use crate::{Error, Result};
 
 impl Builder<'_> {
@@ -70,14 +71,17 @@ impl Builder<'_> {
                 .map(|t| (shown.clone(), t.to_owned()))
                 .ok_or_else(|| format!("{shown}: not given"))
         };
-        let mesh = Rc::new(parse_obj_with(obj, written, &no_textures, &mtl).map_err(
-            |e| match e {
-                Error::Mesh { .. } | Error::Io { .. } => {
-                    self.ctx.err(path.span(), field, e.to_string())
-                }
-                other => other,
-            },
-        )?);
+        let parsed = match MeshFormat::of(Path::new(written)) {
+            Some(MeshFormat::Ply) => crate::scene::parse_ply(obj.as_bytes(), written),
+            Some(MeshFormat::Gltf) => crate::scene::parse_gltf(obj.as_bytes(), written),
+            Some(MeshFormat::Obj) | None => parse_obj_with(obj, written, &no_textures, &mtl),
+        };
+        let mesh = Rc::new(parsed.map_err(|e| match e {
+            Error::Mesh { .. } | Error::Io { .. } => {
+                self.ctx.err(path.span(), field, e.to_string())
+            }
+            other => other,
+        })?);
         self.warnings.extend(mesh.warnings.iter().cloned());
         self.meshes.insert(key.clone(), (mesh.clone(), None));
         Ok((mesh, key))
@@ -121,9 +125,9 @@ impl Builder<'_> {
         if let Some((m, _)) = self.meshes.get(&found) {
             return Ok((m.clone(), found));
         }
-        // An error inside the OBJ names the OBJ and its line; prefix the scene file, line
+        // An error inside the mesh file names the file and its line or element; prefix the scene file, line
         // and object that loaded it, so a mesh shared by several scenes points at the right one.
-        let mesh = Rc::new(load_obj(&found).map_err(|e| match e {
+        let mesh = Rc::new(load_mesh(&found).map_err(|e| match e {
             Error::Mesh { .. } | Error::Io { .. } => {
                 self.ctx.err(path.span(), field, e.to_string())
             }

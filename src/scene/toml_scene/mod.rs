@@ -48,8 +48,13 @@ pub const MAX_SCENE_BYTES: u64 = 16 << 20;
 /// Default sphere subdivision level (1,280 triangles, smooth enough with vertex normals).
 pub const DEFAULT_SPHERE_SUBDIVISIONS: u32 = 3;
 
-/// Loads a scene file; meshes resolve against its folder, then [`model_search_path`].
+/// Loads a scene file; meshes resolve against its folder, then [`model_search_path`]. A
+/// model file (`.obj`, `.ply`, `.gltf`, `.glb`) is a scene of its own, framed by a default
+/// camera and light ([`load_model_scene`](crate::scene::load_model_scene)).
 pub fn load_scene(path: &Path) -> Result<Scene> {
+    if crate::scene::MeshFormat::of(path).is_some() {
+        return crate::scene::load_model_scene(path);
+    }
     load_scene_with_search_path(path, &model_search_path())
 }
 
