@@ -10,6 +10,7 @@ mod gltf_material;
 pub mod gltf_mesh;
 pub mod model;
 pub mod obj;
+mod obj_scan;
 mod obj_textures;
 pub mod ply;
 pub mod shapes;
