@@ -279,11 +279,18 @@ fn verbose_logs_pass_kinds_and_cpu_work() {
         );
         String::from_utf8_lossy(&out.stderr).into_owned()
     };
+    // The CPU's default structure is the BVH: its steps are nodes, a grid's are cells.
     let cpu = run("cpu", &[]);
     assert!(
-        cpu.contains("cells visited") && cpu.contains("triangle tests"),
+        cpu.contains("nodes visited") && cpu.contains("triangle tests"),
         "{cpu}"
     );
+    assert!(
+        cpu.contains("steps (nodes + triangle tests) per ray"),
+        "{cpu}"
+    );
+    let grid = run("cpu", &["--accel", "irregular"]);
+    assert!(grid.contains("cells visited"), "{grid}");
     // The fragment passes: the default kernel (`auto`) is the compute kernel on GL 4.3.
     let gl = run("gl", &["--kernel", "looped"]);
     for pass in [
@@ -300,6 +307,13 @@ fn verbose_logs_pass_kinds_and_cpu_work() {
         );
     }
     assert!(gl.contains("termination queries"), "{gl}");
+    // The looped kernel counts no steps without the AOV: said in one sentence.
+    assert!(
+        gl.lines()
+            .any(|l| l
+                == "primary rays: steps per ray not counted by this kernel (--aov reads them)"),
+        "{gl}"
+    );
     let compute = run("gl", &["--kernel", "compute"]);
     assert!(
         compute
@@ -1078,5 +1092,37 @@ fn jpeg_output_and_threads() {
         std::fs::read(d.join("a.png")).unwrap(),
         std::fs::read(d.join("b.png")).unwrap(),
         "--threads changed the image"
+    );
+}
+
+/// One frame is "1 frame", with no rate "after the first" (there is no second).
+#[test]
+fn one_frame_is_one_frame() {
+    let d = tmpdir("oneframe");
+    std::fs::write(
+        d.join("anim.toml"),
+        "[animation.orbit]\ncentre = [0, 0, 0]\nradius = 4\nheight = 1\nframes = 8\nfov = 40\n\
+         [[lights]]\nposition = [2, 4, 3]\n[[objects]]\nshape = \"sphere\"\n",
+    )
+    .unwrap();
+    let run = |frames: &str| {
+        let o = bin()
+            .current_dir(&d)
+            .args(["render", "anim.toml", "--backend", "cpu", "--width", "16"])
+            .args(["--height", "12", "--frames", frames, "-o", "f_#.png"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{o:?}");
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let one = run("3..3");
+    assert!(
+        one.contains(": 1 frame of 16x12") && !one.contains("frames/s"),
+        "{one}"
+    );
+    let two = run("0..1");
+    assert!(
+        two.contains(": 2 frames of 16x12") && two.contains("frames/s after the first"),
+        "{two}"
     );
 }

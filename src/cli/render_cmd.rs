@@ -120,10 +120,16 @@ fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<
     }
     if !args.quiet {
         let first = stats.per_frame.first();
+        // A rate after the first frame needs a second one.
+        let rate = match stats.frames {
+            0 | 1 => String::new(),
+            _ => format!(" ({:.1} frames/s after the first)", stats.steady_fps),
+        };
         eprintln!(
-            "{}: {} frames of {}x{} on {}{}, set-up {:.0} ms, frames {:.0} ms ({:.1} frames/s after the first)",
+            "{}: {} frame{} of {}x{} on {}{}, set-up {:.0} ms, frames {:.0} ms{rate}",
             args.output.display(),
             stats.frames,
+            if stats.frames == 1 { "" } else { "s" },
             opts.width,
             opts.height,
             first.map_or("-".into(), |f| f.render.backend.clone()),
@@ -132,7 +138,6 @@ fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<
                 .map_or(String::new(), |g| format!(", {} kernel", g.kernel)),
             stats.setup_ms,
             stats.frames_ms,
-            stats.steady_fps
         );
     }
     Ok(())
@@ -267,18 +272,21 @@ fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) 
 /// The `-v` log: per pass kind, how many passes and how much GPU time; where the backend
 /// counts it (CPU, compute kernel), the traversal work of all rays. One line per entry, most expensive first.
 pub fn verbose_report(s: &render::RenderStats) -> String {
-    let mut out = format!(
-        "{}: {}\nprimary rays: {} steps (cells + triangle tests) per ray\n",
-        s.accel.kind.name(),
-        s.accel.detail,
-        s.primary_steps_per_ray.map_or(
-            "n/a (--aov reads them with this kernel)".into(),
-            |v| format!("{v:.1}")
-        )
-    );
+    // What a step of the walk enters: a BVH's nodes, a grid's cells.
+    let unit = match s.accel.kind {
+        crate::accel::AccelKind::Bvh => "nodes",
+        crate::accel::AccelKind::Uniform | crate::accel::AccelKind::Irregular => "cells",
+    };
+    let mut out = format!("{}: {}\n", s.accel.kind.name(), s.accel.detail);
+    out += &match s.primary_steps_per_ray {
+        Some(v) => format!("primary rays: {v:.1} steps ({unit} + triangle tests) per ray\n"),
+        None => {
+            "primary rays: steps per ray not counted by this kernel (--aov reads them)\n".into()
+        }
+    };
     if let (Some(c), Some(t)) = (s.cells_visited, s.triangle_tests) {
         out += &format!(
-            "all rays: {c} cells visited, {t} triangle tests ({:.1} cells and {:.1} tests per ray)\n",
+            "all rays: {c} {unit} visited, {t} triangle tests ({:.1} {unit} and {:.1} tests per ray)\n",
             c as f64 / s.rays.total.max(1) as f64,
             t as f64 / s.rays.total.max(1) as f64
         );
