@@ -75,13 +75,16 @@ pub fn render_frames(
     })?;
     let frames = frames.frames(&path.frames())?;
     let template = OutputTemplate::new(output);
-    if !template.has_frame() && frames.start() != frames.end() {
+    if frames.is_empty() {
+        return Err(Error::Internal("an empty frame list".into()));
+    }
+    if !template.has_frame() && frames.len() > 1 {
         return Err(Error::Usage(format!(
             "-o {} has no frame number in it: name frames with a run of # (frame_####.png) or {{frame}}",
             output.display()
         )));
     }
-    let first_file = template.path(Some(*frames.start()), None);
+    let first_file = template.path(Some(frames[0]), None);
     let format = Format::from_path(&first_file)?;
     if let Some(dir) = first_file.parent() {
         if !dir.as_os_str().is_empty() && !dir.is_dir() {
@@ -106,7 +109,7 @@ pub fn render_frames(
         None => prepared.cpu_renderer(&opts),
     };
     let setup_ms = t_setup.elapsed().as_secs_f64() * 1e3;
-    let count = frames.end() - frames.start() + 1;
+    let count = frames.len() as u32;
     let bar = Progress::bar(progress, count as u64, "frames");
     let t_frames = Instant::now();
     let mut per_frame: Vec<Option<FrameStats>> = (0..count).map(|_| None).collect();
@@ -140,7 +143,7 @@ pub fn render_frames(
         }
         drop(done_tx);
         let mut render_err = None;
-        for (index, frame) in frames.clone().enumerate() {
+        for (index, &frame) in frames.iter().enumerate() {
             let camera = path.camera_at(frame);
             let out = match renderer.render(&camera) {
                 Ok(o) => o,

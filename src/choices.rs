@@ -385,7 +385,9 @@ impl Choices {
             offset: self.offset,
             terminator: self.terminator,
         };
-        opts.validate()?;
+        // The memory limit applies to the pixels a process renders, which a tile learns
+        // later (`RenderOptions::check_memory` then).
+        opts.check_flags()?;
         Ok(opts)
     }
 }

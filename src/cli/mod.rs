@@ -440,6 +440,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         .choices
         .to_options(&scene, Door::View)?
         .on_backend(true);
+    render.check_memory()?;
     let opts = crate::view::ViewOptions {
         render,
         frames: args.frames,

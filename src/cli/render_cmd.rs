@@ -17,6 +17,7 @@ use crate::{Error, Result};
 /// `--region` or `--task-index`, the parts this process owns ([`run_parts`]).
 pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
     let env = |k: &str| std::env::var(k).ok();
+    image_io::remove_partials_on_signal();
     if let Some(frames) = &args.frames {
         if !args.parts.wanted() {
             run_frames(args, frames)?;
@@ -30,7 +31,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
                 scene.source
             ))
         })?;
-        let frames: Vec<u32> = frames.frames(&path.frames())?.collect();
+        let frames: Vec<u32> = frames.frames(&path.frames())?;
         let parts = PartPlan::new(
             &args.parts,
             &args.output,
@@ -50,6 +51,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
     // a folder is reported as one, not as a file with an unknown extension.
     check_writable(&args.output, "image")?;
     image_io::Format::from_path(&args.output)?;
+    image_io::remove_stale_partials(&args.output);
     if let Some(stats) = &args.stats {
         check_writable(stats, "statistics")?;
     }
@@ -60,6 +62,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         .transpose()?;
     let scene = load(args.scene.as_deref(), args.choices.textures)?;
     let mut opts = args.to_options(&scene)?;
+    opts.check_memory()?;
     // Read back only what the output needs: a PNG as 8-bit sRGB (converted on the GPU
     // where it can), the AOVs only with --aov.
     opts.readback = crate::output::Readback {
@@ -140,6 +143,25 @@ fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<
     Ok(())
 }
 
+/// Creates the folder `path` goes in, when missing (the parts and frames of a farm land in
+/// folders no one made on a fresh shared volume); a whole render's `-o` in a folder that
+/// does not exist is refused instead ([`check_writable`]: a typo costs no render).
+pub(crate) fn make_folder(path: &Path) -> Result<()> {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() && !dir.exists() => {
+            std::fs::create_dir_all(dir).map_err(|e| {
+                Error::Usage(format!(
+                    "{}: cannot write the image: cannot create its folder {}: {}",
+                    path.display(),
+                    dir.display(),
+                    super::one_line(&e.to_string())
+                ))
+            })
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Writes render statistics as JSON (atomically).
 fn write_stats(path: &Path, stats: &render::RenderStats) -> Result<()> {
     let json = serde_json::to_string_pretty(stats).map_err(|e| Error::Internal(e.to_string()))?;
@@ -155,7 +177,10 @@ fn write_stats(path: &Path, stats: &render::RenderStats) -> Result<()> {
 /// its region and written as a part (or a crop).
 pub fn run_parts(args: &RenderArgs, parts: &PartPlan, scene: Scene) -> Result<render::Rendered> {
     for p in &parts.outputs {
+        // A fresh volume of a scheduler: the parts' folders are made here.
+        make_folder(p)?;
         check_writable(p, "image")?;
+        image_io::remove_stale_partials(p);
     }
     for p in &parts.stats {
         check_writable(p, "statistics")?;
@@ -172,6 +197,20 @@ pub fn run_parts(args: &RenderArgs, parts: &PartPlan, scene: Scene) -> Result<re
         aov: false,
         srgb8: false,
     };
+    // The limits (host memory, and GL's texture size when the renderer is made) apply to
+    // the part, not the whole image: every unit's region is checked before anything
+    // renders, and the renderer is made for the first one.
+    let regions = (0..parts.units.len())
+        .map(|k| parts.region(k, base.width, base.height))
+        .collect::<Result<Vec<Region>>>()?;
+    for r in &regions {
+        crate::options::RenderOptions {
+            region: Some(*r),
+            ..base.clone()
+        }
+        .validate()?;
+    }
+    base.region = regions.first().copied();
     // Once per process, whatever the number of parts: the context, the structure (`auto`
     // resolved for the backend the context settles) and the renderer (the GPU scene
     // uploaded once); each part sets its region and camera.
@@ -194,7 +233,7 @@ pub fn run_parts(args: &RenderArgs, parts: &PartPlan, scene: Scene) -> Result<re
     }
     let mut last = None;
     for (k, unit) in parts.units.iter().enumerate() {
-        let region = parts.region(k, base.width, base.height)?;
+        let region = regions[k];
         let opts = crate::options::RenderOptions {
             region: Some(region),
             ..base.clone()

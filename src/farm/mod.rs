@@ -98,13 +98,7 @@ pub fn write_unit(
                 device: out.stats.device.clone(),
                 tile,
             };
-            part::write_part(
-                path,
-                &part::Part {
-                    header,
-                    image: out.image.clone(),
-                },
-            )
+            part::write_pixels(path, &header, &out.image)
         }
         // PNG, and the other formats the output's extension can name.
         _ => write_image(path, &out.image),

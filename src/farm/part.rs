@@ -87,12 +87,19 @@ fn text(s: &str) -> AttributeValue {
 
 /// Writes `part` to `path` (atomically: a temporary name, then a rename).
 pub fn write_part(path: &Path, part: &Part) -> Result<()> {
-    let h = &part.header;
+    write_pixels(path, &part.header, &part.image)
+}
+
+/// Writes the pixels `image` of the region `header` names to `path` as a part, as
+/// [`write_part`] does, without making them a [`Part`] (a rendered tile is written
+/// where it lies: a copy would double the memory a task of a poster needs).
+pub fn write_pixels(path: &Path, header: &PartHeader, image: &Image) -> Result<()> {
+    let h = header;
     let r = h.region;
-    if part.image.width != r.width() || part.image.height != r.height() {
+    if image.width != r.width() || image.height != r.height() {
         return Err(Error::Internal(format!(
             "part image {}x{} does not match its region {r}",
-            part.image.width, part.image.height
+            image.width, image.height
         )));
     }
     let mut attrs = LayerAttributes {
@@ -117,7 +124,7 @@ pub fn write_part(path: &Path, part: &Part) -> Result<()> {
         attrs.other.insert(Text::from(k), text(&v));
     }
     let rw = r.width() as usize;
-    let data = &part.image.data;
+    let data = &image.data;
     let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
         let k = (p.y() * rw + p.x()) * 3;
         (data[k], data[k + 1], data[k + 2])
