@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::farm::template::OutputTemplate;
 use crate::image_io::{self, Format, Image};
-use crate::options::{FrameRange, RenderOptions};
+use crate::options::RenderOptions;
 use crate::output::Readback;
 use crate::progress::Progress;
 use crate::render::{self, RenderStats, Renderer};
@@ -62,7 +62,7 @@ struct Job {
 pub fn render_frames(
     scene: &Scene,
     opts: &RenderOptions,
-    frames: &FrameRange,
+    frames: &[u32],
     output: &Path,
     progress: bool,
 ) -> Result<AnimationStats> {
@@ -73,7 +73,6 @@ pub fn render_frames(
             scene.source
         ))
     })?;
-    let frames = frames.frames(&path.frames())?;
     let template = OutputTemplate::new(output);
     if frames.is_empty() {
         return Err(Error::Internal("an empty frame list".into()));
@@ -86,13 +85,19 @@ pub fn render_frames(
     }
     let first_file = template.path(Some(frames[0]), None);
     let format = Format::from_path(&first_file)?;
+    // The frames' folder is made when missing (a fresh volume of a farm), as the parts'.
     if let Some(dir) = first_file.parent() {
         if !dir.as_os_str().is_empty() && !dir.is_dir() {
-            return Err(Error::Usage(format!(
-                "{}: the folder does not exist",
-                dir.display()
-            )));
+            std::fs::create_dir_all(dir).map_err(|e| {
+                Error::Usage(format!(
+                    "{}: cannot create the frames' folder: {e}",
+                    dir.display()
+                ))
+            })?;
         }
+    }
+    for f in frames {
+        image_io::remove_stale_partials(&template.path(Some(*f), None));
     }
     let mut opts = opts.clone();
     opts.readback = Readback {

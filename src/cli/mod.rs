@@ -14,7 +14,7 @@ use crate::{Error, Result};
 
 mod render_cmd;
 
-pub use render_cmd::{run_parts, run_render, verbose_report};
+pub use render_cmd::{run_check, run_parts, run_render, verbose_report};
 
 /// fragtrace: a Whitted ray tracer on GLSL 1.20 fragment programs, with an f64 CPU reference.
 #[derive(Parser, Debug)]
@@ -482,7 +482,9 @@ pub fn run(cli: Cli) -> Result<bool> {
         }
     }
     match cli.command {
+        None if cli.render.parts.check => run_check(&cli.render),
         None => run_render(&cli.render).map(|_| true),
+        Some(Command::Render(args)) if args.parts.check => run_check(&args),
         Some(Command::Render(args)) => run_render(&args).map(|_| true),
         Some(Command::Compare(args)) => run_compare(&args),
         Some(Command::Bench(args)) => run_bench(&args).map(|_| true),
