@@ -40,8 +40,8 @@ pub struct PartArgs {
     pub resume: bool,
     /// Render nothing: say which of the files this command would write exist whole and
     /// which are missing (with --task-index 0/1 and --tiles N: every part of the job).
-    /// Exit 0 when all exist, 1 when some are missing.
-    #[arg(long, conflicts_with = "resume")]
+    /// Exit 0 when all exist, 1 when some are missing (--resume is then ignored).
+    #[arg(long)]
     pub check: bool,
 }
 
