@@ -416,10 +416,11 @@ pub struct RenderArgs {
     /// `--task-index`, `--tiles`).
     #[command(flatten)]
     pub parts: PartArgs,
-    /// Render the frames A..B (both included), or all, of the scene's camera path
-    /// (the scene file's `[animation]` table), uploading the scene once; -o names each frame with
-    /// a run of # (out/frame_####.png) or {frame}.
-    #[arg(long, value_name = "A..B|all")]
+    /// Render the frames A..B (both included), A..B:S (every S-th), A,B,C (a list of
+    /// these), or all, of the scene's camera path (the scene file's `[animation]` table),
+    /// uploading the scene once; -o names each frame with a run of # (out/frame_####.png)
+    /// or {frame}.
+    #[arg(long, value_name = "A..B[:S],...|all")]
     pub frames: Option<FrameRange>,
     /// Print nothing but errors (no progress display, no summary); not with -v.
     #[arg(short, long, conflicts_with = "verbose")]
