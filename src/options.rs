@@ -336,7 +336,9 @@ impl std::str::FromStr for FrameRange {
                         .parse::<u32>()
                         .ok()
                         .filter(|&n| n >= 1)
-                        .ok_or_else(|| format!("`{item}`: the step `{st}` is not a whole number >= 1"))?,
+                        .ok_or_else(|| {
+                            format!("`{item}`: the step `{st}` is not a whole number >= 1")
+                        })?,
                 ),
                 None => (item, 1),
             };

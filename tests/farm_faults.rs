@@ -122,7 +122,14 @@ fn parts_of_a_poster_larger_than_the_limit_render() {
             "t.exr",
         ),
         (
-            &["--backend", "cpu", "--region", "8000,8000,8100,8060", "-o", "r.exr"],
+            &[
+                "--backend",
+                "cpu",
+                "--region",
+                "8000,8000,8100,8060",
+                "-o",
+                "r.exr",
+            ],
             "r.exr",
         ),
         (
@@ -139,7 +146,14 @@ fn parts_of_a_poster_larger_than_the_limit_render() {
             "k-0005.exr",
         ),
         (
-            &["--backend", "gl", "--region", "8000,8000,8064,8048", "-o", "g.exr"],
+            &[
+                "--backend",
+                "gl",
+                "--region",
+                "8000,8000,8064,8048",
+                "-o",
+                "g.exr",
+            ],
             "g.exr",
         ),
     ] {
@@ -152,7 +166,11 @@ fn parts_of_a_poster_larger_than_the_limit_render() {
         "16384x16384 image needs about 32.0 GiB",
     );
     refused(
-        &run(&d, &with(&["--backend", "cpu", "--tile", "0/2", "-o", "half.exr"]), &[]),
+        &run(
+            &d,
+            &with(&["--backend", "cpu", "--tile", "0/2", "-o", "half.exr"]),
+            &[],
+        ),
         "a 16384x8192 part of 16384x16384",
     );
     assert!(!d.join("whole.png").exists() && !d.join("half.exr").exists());
@@ -179,7 +197,11 @@ fn a_rerun_of_one_index_renders_only_that_task() {
         ("SLURM_ARRAY_TASK_COUNT", "1"),
     ];
     refused(
-        &run(&d, &small(&["--task-index", "env", "-o", "p-{tile}.exr"]), &one),
+        &run(
+            &d,
+            &small(&["--task-index", "env", "-o", "p-{tile}.exr"]),
+            &one,
+        ),
         "--task-index env:N",
     );
     assert_eq!(std::fs::read(d.join("p-0.exr")).unwrap(), part0);
@@ -194,7 +216,9 @@ fn a_rerun_of_one_index_renders_only_that_task() {
     assert_eq!(p.header.tile.as_deref(), Some("3/4"));
     ok(run(
         &d,
-        &["merge", "p-0.exr", "p-1.exr", "p-2.exr", "p-3.exr", "-o", "m.png"],
+        &[
+            "merge", "p-0.exr", "p-1.exr", "p-2.exr", "p-3.exr", "-o", "m.png",
+        ],
         &[],
     ));
 }
@@ -225,7 +249,10 @@ fn start_child(dir: &Path) -> std::process::Child {
         .unwrap();
     let t0 = std::time::Instant::now();
     while !dir.join("ready").exists() {
-        assert!(t0.elapsed().as_secs() < 60, "the child never started writing");
+        assert!(
+            t0.elapsed().as_secs() < 60,
+            "the child never started writing"
+        );
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     child
@@ -297,7 +324,11 @@ fn merge_names_what_is_missing_and_refuses_other_builds() {
         ));
     }
     refused(
-        &run(&d, &["merge", "p-0.exr", "p-1.exr", "p-3.exr", "-o", "m.png"], &[]),
+        &run(
+            &d,
+            &["merge", "p-0.exr", "p-1.exr", "p-3.exr", "-o", "m.png"],
+            &[],
+        ),
         "missing tile 2 of 4 (pixels 0,18,24,36)",
     );
     // The same part as written by another version.
@@ -305,13 +336,29 @@ fn merge_names_what_is_missing_and_refuses_other_builds() {
     other.header.version = "0.0.0-another-build".into();
     fragtrace::farm::part::write_part(&d.join("v.exr"), &other).unwrap();
     refused(
-        &run(&d, &["merge", "p-0.exr", "v.exr", "p-2.exr", "p-3.exr", "-o", "m.png"], &[]),
+        &run(
+            &d,
+            &[
+                "merge", "p-0.exr", "v.exr", "p-2.exr", "p-3.exr", "-o", "m.png",
+            ],
+            &[],
+        ),
         "different fragtrace versions (0.0.0-another-build against",
     );
     // A whole image as tile 0 of 1 (what `sbatch --array=3` wrote before) with the rest.
-    ok(run(&d, &small(&["--task-index", "0/1", "--tiles", "1", "-o", "w-{tile}.exr"]), &[]));
+    ok(run(
+        &d,
+        &small(&["--task-index", "0/1", "--tiles", "1", "-o", "w-{tile}.exr"]),
+        &[],
+    ));
     refused(
-        &run(&d, &["merge", "p-0.exr", "p-1.exr", "p-2.exr", "w-0.exr", "-o", "m.png"], &[]),
+        &run(
+            &d,
+            &[
+                "merge", "p-0.exr", "p-1.exr", "p-2.exr", "w-0.exr", "-o", "m.png",
+            ],
+            &[],
+        ),
         "the image is cut differently",
     );
     assert!(!d.join("m.png").exists());
@@ -319,7 +366,15 @@ fn merge_names_what_is_missing_and_refuses_other_builds() {
     // Frames 3..5 x 2 tiles, frame 4's parts missing.
     let anim = |extra: &[&str]| -> Vec<String> {
         let mut v: Vec<String> = [
-            "render", TURNTABLE, "--backend", "cpu", "--width", "40", "--height", "30", "-q",
+            "render",
+            TURNTABLE,
+            "--backend",
+            "cpu",
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "-q",
         ]
         .iter()
         .map(|s| s.to_string())
@@ -337,16 +392,32 @@ fn merge_names_what_is_missing_and_refuses_other_builds() {
         "-o",
         "f####-{tile}.exr",
     ]);
-    ok(run(&d, &a.iter().map(String::as_str).collect::<Vec<_>>(), &[]));
+    ok(run(
+        &d,
+        &a.iter().map(String::as_str).collect::<Vec<_>>(),
+        &[],
+    ));
     refused(
         &run(
             &d,
-            &["merge", "f0003-0.exr", "f0003-1.exr", "f0005-0.exr", "f0005-1.exr", "-o", "m_##.png"],
+            &[
+                "merge",
+                "f0003-0.exr",
+                "f0003-1.exr",
+                "f0005-0.exr",
+                "f0005-1.exr",
+                "-o",
+                "m_##.png",
+            ],
             &[],
         ),
         "the parts are of the frames 3..5, but frame 4 has no parts (4 parts given)",
     );
-    assert!(!files(&d).iter().any(|f| f.starts_with("m_")), "{:?}", files(&d));
+    assert!(
+        !files(&d).iter().any(|f| f.starts_with("m_")),
+        "{:?}",
+        files(&d)
+    );
 }
 
 /// `render --task-index` into a folder that does not exist (a fresh volume: the
@@ -364,13 +435,27 @@ fn parts_and_frames_folders_are_made() {
     ok(run(
         &d,
         &[
-            "render", TURNTABLE, "--backend", "cpu", "--width", "16", "--height", "12", "-q",
-            "--frames", "0..1", "-o", "new/frames/f_##.png",
+            "render",
+            TURNTABLE,
+            "--backend",
+            "cpu",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "-q",
+            "--frames",
+            "0..1",
+            "-o",
+            "new/frames/f_##.png",
         ],
         &[],
     ));
     assert!(d.join("new/frames/f_01.png").is_file());
-    refused(&run(&d, &small(&["-o", "nope/x.png"]), &[]), "folder nope does not exist");
+    refused(
+        &run(&d, &small(&["-o", "nope/x.png"]), &[]),
+        "folder nope does not exist",
+    );
     assert!(!d.join("nope").exists());
 }
 
@@ -397,7 +482,19 @@ fn compare_takes_a_part_as_its_region() {
     );
     ok(run(
         &d,
-        &["render", WHITTED, "--backend", "cpu", "--width", "40", "--height", "30", "-q", "-o", "other.exr"],
+        &[
+            "render",
+            WHITTED,
+            "--backend",
+            "cpu",
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "-q",
+            "-o",
+            "other.exr",
+        ],
         &[],
     ));
     refused(
@@ -415,8 +512,19 @@ fn stepped_and_listed_frames() {
         run(
             &d,
             &[
-                "render", TURNTABLE, "--backend", "cpu", "--width", "24", "--height", "18", "-q",
-                "--frames", frames, "-o", out,
+                "render",
+                TURNTABLE,
+                "--backend",
+                "cpu",
+                "--width",
+                "24",
+                "--height",
+                "18",
+                "-q",
+                "--frames",
+                frames,
+                "-o",
+                out,
             ],
             &[],
         )
@@ -426,7 +534,13 @@ fn stepped_and_listed_frames() {
     ok(anim("1,4", "list/f_##.png"));
     assert_eq!(files(&d.join("step")), ["f_00.png", "f_03.png", "f_06.png"]);
     assert_eq!(files(&d.join("list")), ["f_01.png", "f_04.png"]);
-    for (dir, f) in [("step", 0), ("step", 3), ("step", 6), ("list", 1), ("list", 4)] {
+    for (dir, f) in [
+        ("step", 0),
+        ("step", 3),
+        ("step", 6),
+        ("list", 1),
+        ("list", 4),
+    ] {
         let name = format!("f_{f:02}.png");
         assert_eq!(
             std::fs::read(d.join(dir).join(&name)).unwrap(),
@@ -435,7 +549,10 @@ fn stepped_and_listed_frames() {
         );
     }
     refused(&anim("1,3,1", "dup/f_##.png"), "names frame 1 twice");
-    refused(&anim("0..6:0", "z/f_##.png"), "the step `0` is not a whole number >= 1");
+    refused(
+        &anim("0..6:0", "z/f_##.png"),
+        "the step `0` is not a whole number >= 1",
+    );
 }
 
 /// `--check` lists what a job has not written whole (missing, cut short) and exits 1;
@@ -455,7 +572,10 @@ fn check_and_resume_find_and_fill_the_holes() {
     std::fs::remove_file(d.join("p-2.exr")).unwrap();
     let p1 = std::fs::read(d.join("p-1.exr")).unwrap();
     std::fs::write(d.join("p-1.exr"), &p1[..p1.len() / 2]).unwrap();
-    let p0 = std::fs::metadata(d.join("p-0.exr")).unwrap().modified().unwrap();
+    let p0 = std::fs::metadata(d.join("p-0.exr"))
+        .unwrap()
+        .modified()
+        .unwrap();
     let o = job(&["--check"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let out = String::from_utf8_lossy(&o.stdout);
@@ -464,14 +584,19 @@ fn check_and_resume_find_and_fill_the_holes() {
     assert!(out.contains("2 of 4 files exist whole, 2 missing"), "{out}");
     ok(job(&["--resume"]));
     assert_eq!(
-        std::fs::metadata(d.join("p-0.exr")).unwrap().modified().unwrap(),
+        std::fs::metadata(d.join("p-0.exr"))
+            .unwrap()
+            .modified()
+            .unwrap(),
         p0,
         "--resume rewrote a whole part"
     );
     assert!(job(&["--check"]).status.success());
     ok(run(
         &d,
-        &["merge", "p-0.exr", "p-1.exr", "p-2.exr", "p-3.exr", "-o", "m.png"],
+        &[
+            "merge", "p-0.exr", "p-1.exr", "p-2.exr", "p-3.exr", "-o", "m.png",
+        ],
         &[],
     ));
     assert_eq!(

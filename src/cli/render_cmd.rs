@@ -53,7 +53,10 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         if let Some(e) = expected(args, &scene, &opts)?.first() {
             if crate::farm::resume::done(e, crate::farm::hash::scene_hash(&scene)).is_ok() {
                 if !args.quiet {
-                    eprintln!("{}: exists whole (--resume); nothing to render", e.path.display());
+                    eprintln!(
+                        "{}: exists whole (--resume); nothing to render",
+                        e.path.display()
+                    );
                 }
                 return Ok(None);
             }
@@ -186,16 +189,15 @@ fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<
 /// does not exist is refused instead ([`check_writable`]: a typo costs no render).
 pub(crate) fn make_folder(path: &Path) -> Result<()> {
     match path.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() && !dir.exists() => {
-            std::fs::create_dir_all(dir).map_err(|e| {
+        Some(dir) if !dir.as_os_str().is_empty() && !dir.exists() => std::fs::create_dir_all(dir)
+            .map_err(|e| {
                 Error::Usage(format!(
                     "{}: cannot write the image: cannot create its folder {}: {}",
                     path.display(),
                     dir.display(),
                     super::one_line(&e.to_string())
                 ))
-            })
-        }
+            }),
         _ => Ok(()),
     }
 }

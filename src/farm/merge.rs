@@ -132,7 +132,12 @@ fn missing_tiles(parts: &[(&Path, &Part)]) -> Vec<String> {
     };
     let mut have = std::collections::BTreeSet::new();
     for (_, p) in parts {
-        match p.header.tile.as_deref().and_then(|t| t.parse::<crate::region::TileSpec>().ok()) {
+        match p
+            .header
+            .tile
+            .as_deref()
+            .and_then(|t| t.parse::<crate::region::TileSpec>().ok())
+        {
             Some(t) => have.insert(t.index),
             None => return Vec::new(),
         };

@@ -52,19 +52,11 @@ pub fn done(e: &Expected, scene_hash: u64) -> std::result::Result<(), String> {
         }
         return Ok(());
     }
-    let img = image::open(&e.path).map_err(|err| {
-        format!(
-            "unreadable: {}",
-            one_line(&err.to_string())
-        )
-    })?;
+    let img = image::open(&e.path)
+        .map_err(|err| format!("unreadable: {}", one_line(&err.to_string())))?;
     let (w, h) = (e.region.width(), e.region.height());
     if (img.width(), img.height()) != (w, h) {
-        return Err(format!(
-            "{}x{}, not {w}x{h}",
-            img.width(),
-            img.height()
-        ));
+        return Err(format!("{}x{}, not {w}x{h}", img.width(), img.height()));
     }
     Ok(())
 }
