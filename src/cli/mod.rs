@@ -453,6 +453,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
 
 /// The `merge` command: checks the output path, then [`crate::farm::merge::merge`].
 pub fn run_merge(args: &MergeArgs) -> Result<crate::farm::merge::Merged> {
+    image_io::remove_partials_on_signal();
     // A probe next to where frame 0 would go: the folder must exist and be writable.
     let probe = crate::farm::template::OutputTemplate::new(&args.output).path(Some(0), None);
     check_writable(&probe, "image")?;
@@ -466,13 +467,12 @@ pub fn run_merge(args: &MergeArgs) -> Result<crate::farm::merge::Merged> {
                 merged.devices.join("; ")
             );
         }
-        for out in &merged.outputs {
+        for (out, n) in merged.outputs.iter().zip(&merged.parts_per_output) {
             eprintln!(
-                "{}: {}x{} merged from {} parts",
+                "{}: {}x{} merged from {n} parts",
                 out.display(),
                 merged.width,
                 merged.height,
-                merged.parts
             );
         }
     }

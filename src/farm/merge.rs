@@ -27,6 +27,8 @@ pub struct Merged {
     pub height: u32,
     /// Parts read.
     pub parts: usize,
+    /// Parts of each output, in the order of `outputs`.
+    pub parts_per_output: Vec<usize>,
     /// Devices the parts were rendered on, when more than one (a notice, not an error:
     /// the options match, so the pixels are the same computation; across GPU vendors they
     /// may differ in the last bits).
@@ -295,7 +297,7 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
                 frame_note(&group[0].1.header)
             )));
         }
-        images.push((*frame, image, group[0].1.header.clone()));
+        images.push((*frame, image, group[0].1.header.clone(), group.len()));
     }
     let mut devices: Vec<String> = parts.iter().map(|(_, p)| p.header.device.clone()).collect();
     devices.sort();
@@ -304,7 +306,9 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
         devices.clear();
     }
     let mut outputs = Vec::new();
-    for (frame, image, header) in images {
+    let mut parts_per_output = Vec::new();
+    for (frame, image, header, n) in images {
+        parts_per_output.push(n);
         let path = template.path(frame, None);
         match format {
             Format::Exr => {
@@ -336,6 +340,7 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
         width: first.width,
         height: first.height,
         parts: parts.len(),
+        parts_per_output,
         devices,
     })
 }

@@ -296,10 +296,14 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("gaps"), "{e}");
-        let e = run("env:5", &slurm(0, 0, 3, None, 4))
+        // More tasks than env:N says: an array written for another job.
+        let e = run("env:3", &slurm(0, 0, 3, None, 4))
             .unwrap_err()
             .to_string();
-        assert!(e.contains("env:5") && e.contains("has 4"), "{e}");
+        assert!(e.contains("env:3") && e.contains("has 4"), "{e}");
+        // Fewer: a re-run of some of the job's tasks, numbered by their IDs.
+        let t = run("env:5", &slurm(2, 0, 3, None, 4)).unwrap();
+        assert_eq!((t.index, t.count), (2, 5));
         let e = run("env", &slurm(3, 0, 6, Some(2), 4))
             .unwrap_err()
             .to_string();
