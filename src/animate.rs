@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::farm::template::OutputTemplate;
 use crate::image_io::{self, Format, Image};
-use crate::options::{FrameRange, RenderOptions};
+use crate::options::RenderOptions;
 use crate::output::Readback;
 use crate::progress::Progress;
 use crate::render::{self, RenderStats, Renderer};
@@ -62,7 +62,7 @@ struct Job {
 pub fn render_frames(
     scene: &Scene,
     opts: &RenderOptions,
-    frames: &FrameRange,
+    frames: &[u32],
     output: &Path,
     progress: bool,
 ) -> Result<AnimationStats> {
@@ -73,23 +73,31 @@ pub fn render_frames(
             scene.source
         ))
     })?;
-    let frames = frames.frames(&path.frames())?;
     let template = OutputTemplate::new(output);
-    if !template.has_frame() && frames.start() != frames.end() {
+    if frames.is_empty() {
+        return Err(Error::Internal("an empty frame list".into()));
+    }
+    if !template.has_frame() && frames.len() > 1 {
         return Err(Error::Usage(format!(
             "-o {} has no frame number in it: name frames with a run of # (frame_####.png) or {{frame}}",
             output.display()
         )));
     }
-    let first_file = template.path(Some(*frames.start()), None);
+    let first_file = template.path(Some(frames[0]), None);
     let format = Format::from_path(&first_file)?;
+    // The frames' folder is made when missing (a fresh volume of a farm), as the parts'.
     if let Some(dir) = first_file.parent() {
         if !dir.as_os_str().is_empty() && !dir.is_dir() {
-            return Err(Error::Usage(format!(
-                "{}: the folder does not exist",
-                dir.display()
-            )));
+            std::fs::create_dir_all(dir).map_err(|e| {
+                Error::Usage(format!(
+                    "{}: cannot create the frames' folder: {e}",
+                    dir.display()
+                ))
+            })?;
         }
+    }
+    for f in frames {
+        image_io::remove_stale_partials(&template.path(Some(*f), None));
     }
     let mut opts = opts.clone();
     opts.readback = Readback {
@@ -106,7 +114,7 @@ pub fn render_frames(
         None => prepared.cpu_renderer(&opts),
     };
     let setup_ms = t_setup.elapsed().as_secs_f64() * 1e3;
-    let count = frames.end() - frames.start() + 1;
+    let count = frames.len() as u32;
     let bar = Progress::bar(progress, count as u64, "frames");
     let t_frames = Instant::now();
     let mut per_frame: Vec<Option<FrameStats>> = (0..count).map(|_| None).collect();
@@ -140,7 +148,7 @@ pub fn render_frames(
         }
         drop(done_tx);
         let mut render_err = None;
-        for (index, frame) in frames.clone().enumerate() {
+        for (index, &frame) in frames.iter().enumerate() {
             let camera = path.camera_at(frame);
             let out = match renderer.render(&camera) {
                 Ok(o) => o,

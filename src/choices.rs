@@ -427,7 +427,9 @@ impl Choices {
             offset: self.offset,
             terminator: self.terminator,
         };
-        opts.validate()?;
+        // The memory limit applies to the pixels a process renders, which a tile learns
+        // later (`RenderOptions::check_memory` then).
+        opts.check_flags()?;
         Ok(opts)
     }
 }
@@ -458,10 +460,11 @@ pub struct RenderArgs {
     /// `--task-index`, `--tiles`).
     #[command(flatten)]
     pub parts: crate::farm::plan::PartArgs,
-    /// Render the frames A..B (both included), or all, of the scene's camera path
-    /// (the scene file's `[animation]` table), uploading the scene once; -o names each frame with
-    /// a run of # (out/frame_####.png) or {frame}.
-    #[arg(long, value_name = "A..B|all")]
+    /// Render the frames A..B (both included), A..B:S (every S-th), A,B,C (a list of
+    /// these), or all, of the scene's camera path (the scene file's `[animation]` table),
+    /// uploading the scene once; -o names each frame with a run of # (out/frame_####.png)
+    /// or {frame}.
+    #[arg(long, value_name = "A..B[:S],...|all")]
     pub frames: Option<crate::options::FrameRange>,
     /// Print nothing but errors (no progress display, no summary); not with -v.
     #[arg(short, long, conflicts_with = "verbose")]

@@ -193,9 +193,15 @@ fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.{}.partial.{ext}", std::process::id()))
 }
 
+/// The temporary files being written now, for [`remove_partials_on_signal`]'s handler.
+static WRITING: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
 /// Writes `bytes` atomically to `path` by way of a temporary file and a rename.
 pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let tmp = temp_path(path);
+    if let Ok(mut w) = WRITING.lock() {
+        w.push(tmp.clone());
+    }
     let res = write(&tmp).and_then(|_| {
         std::fs::rename(&tmp, path).map_err(|source| Error::Io {
             path: path.to_path_buf(),
@@ -205,7 +211,76 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
     if res.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
+    if let Ok(mut w) = WRITING.lock() {
+        w.retain(|p| p != &tmp);
+    }
     res
+}
+
+/// From now on, SIGTERM, SIGINT and SIGHUP (a scheduler's time limit, preemption,
+/// `scancel`, Ctrl-C) remove the temporary files of the writes in progress and end the
+/// process with exit code 143, so an interrupted task leaves no hidden
+/// `.NAME.<pid>.partial.EXT` behind. SIGKILL cannot be caught: [`remove_stale_partials`]
+/// clears what it leaves at the next write of the same file. Once per process; later calls
+/// do nothing.
+#[cfg(not(target_arch = "wasm32"))]
+pub fn remove_partials_on_signal() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // The handler runs on ctrlc's own thread, not in signal context: it may lock and
+        // touch the file system. A failure to install it leaves the default action.
+        let _ = ctrlc::set_handler(|| {
+            // A writer holding the lock is between two statements; wait for it.
+            let files = WRITING.lock().map(|w| w.clone()).unwrap_or_default();
+            for f in files {
+                let _ = std::fs::remove_file(f);
+            }
+            eprintln!("fragtrace: stopped by a signal; no partial file left");
+            std::process::exit(143);
+        });
+    });
+}
+
+/// Removes the temporary files ([`write_atomic`]'s `.NAME.<pid>.partial.EXT`) that earlier
+/// processes left next to `path` when they were killed (SIGKILL, a node lost) while
+/// writing it: those whose process is no longer running on this machine. Returns how
+/// many were removed. Called before a file is written anew and after a merge.
+pub fn remove_stale_partials(path: &Path) -> usize {
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        return 0;
+    };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    // Without /proc no process can be told alive: remove nothing.
+    let (Ok(entries), true) = (std::fs::read_dir(dir), Path::new("/proc/self").exists()) else {
+        return 0;
+    };
+    let prefix = format!(".{name}.");
+    let mut removed = 0;
+    for e in entries.flatten() {
+        let f = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = f.strip_prefix(&prefix) else {
+            continue;
+        };
+        let Some((pid, tail)) = rest.split_once('.') else {
+            continue;
+        };
+        let Ok(pid) = pid.parse::<u32>() else {
+            continue;
+        };
+        if !tail.starts_with("partial") || pid == std::process::id() {
+            continue;
+        }
+        if Path::new(&format!("/proc/{pid}")).exists() {
+            continue;
+        }
+        if std::fs::remove_file(e.path()).is_ok() {
+            removed += 1;
+        }
+    }
+    removed
 }
 
 /// Writes an image in the format of `path`'s extension ([`Format`]): 8-bit sRGB for PNG and

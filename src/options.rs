@@ -244,16 +244,36 @@ impl RenderOptions {
             .unwrap_or_else(|| Region::full(self.width, self.height))
     }
 
-    /// Rejects sizes and counts out of range ([`check_range`]) before any allocation (which flags apply to
-    /// the backend is [`crate::choices::Choices::check`]'s).
+    /// Rejects sizes and counts out of range ([`check_range`]) before any allocation, and
+    /// pixels rendered (the region's, else the whole image's) that need more memory than
+    /// the limit (which flags apply to the backend is [`crate::choices::Choices::check`]'s).
     pub fn validate(&self) -> Result<()> {
+        self.check_flags()?;
+        self.check_memory()
+    }
+
+    /// [`validate`](Self::validate) without the memory check: what the flags can be
+    /// checked for before the region a process renders is known (a tile of a poster is
+    /// told its region after the flags are read).
+    pub fn check_flags(&self) -> Result<()> {
         check_range("width", self.width, 1, MAX_IMAGE_SIDE)?;
         check_range("height", self.height, 1, MAX_IMAGE_SIDE)?;
         if let Some(r) = &self.region {
             r.check_inside(self.width, self.height, "the region")?;
         }
-        // Memory goes with the pixels rendered: a poster too large for one process
-        // renders as tiles that each fit.
+        check_range("spp", self.spp, 1, MAX_SPP)?;
+        check_range("max-depth", self.max_depth, 0, MAX_DEPTH)?;
+        check_range("query-every", self.gpu.query_every, 1, MAX_QUERY_EVERY)?;
+        // "No BVH on the GPU" is not checked here: the flags are refused at their front
+        // door ([`crate::choices::Choices::check`], with advice naming that door's flags),
+        // and a library caller handing the GPU a BVH meets `AccelRef::grid`, the one
+        // conversion from a structure to what the GPU walks.
+        Ok(())
+    }
+
+    /// The host-memory limit on the pixels rendered: memory goes with the pixels, so a
+    /// poster too large for one process renders as tiles that each fit.
+    pub fn check_memory(&self) -> Result<()> {
         let px = self.pixels();
         let bytes = px.area() * HOST_BYTES_PER_PIXEL;
         if bytes > MAX_HOST_BYTES {
@@ -277,60 +297,99 @@ impl RenderOptions {
                 if self.region.is_some() { "; cut it into more tiles" } else { "; render it in tiles (--tile I/N, docs/distributed.md)" }
             )));
         }
-        check_range("spp", self.spp, 1, MAX_SPP)?;
-        check_range("max-depth", self.max_depth, 0, MAX_DEPTH)?;
-        check_range("query-every", self.gpu.query_every, 1, MAX_QUERY_EVERY)?;
-        // "No BVH on the GPU" is not checked here: the flags are refused at their front
-        // door ([`crate::choices::Choices::check`], with advice naming that door's flags),
-        // and a library caller handing the GPU a BVH meets `AccelRef::grid`, the one
-        // conversion from a structure to what the GPU walks.
         Ok(())
     }
 }
 
-/// A frame range of `--frames`: `A..B` (both included), `A` alone, or `all` (the path's).
+/// The frames of `--frames`: `all` (the path's), or a comma-separated list of items, each
+/// a frame `A`, a range `A..B` (both included) or a stepped range `A..B:S` (A, A+S, ...
+/// up to B): `0..10:2`, `0,5,9`, `1..3,7..20:4` (Blender's `-f 1,3,5..10` and `-j`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum FrameRange {
     /// Every frame of the scene's path.
     All,
-    /// Frames `A..=B`.
-    Range(u32, u32),
+    /// Items `(A, B, S)`, in the order given: frames A, A+S, ... up to B.
+    List(Vec<(u32, u32, u32)>),
 }
 
 impl std::str::FromStr for FrameRange {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let bad = || format!("`{s}` is not a frame range (expected A..B, A or all)");
         if s == "all" {
             return Ok(FrameRange::All);
         }
-        let (a, b) = match s.split_once("..") {
-            Some((a, b)) => (a, b.strip_prefix('=').unwrap_or(b)),
-            None => (s, s),
-        };
-        let (a, b): (u32, u32) = (a.parse().map_err(|_| bad())?, b.parse().map_err(|_| bad())?);
-        if a > b {
-            return Err(format!("frame range {s} runs backwards"));
+        let mut items = Vec::new();
+        for item in s.split(',') {
+            let bad = || {
+                format!("`{item}` in `{s}` is not a frame, A..B or A..B:STEP (frames: A..B, A..B:S, A,B,C or all)")
+            };
+            let (range, step) = match item.split_once(':') {
+                Some((r, st)) => (
+                    r,
+                    st.trim()
+                        .parse::<u32>()
+                        .ok()
+                        .filter(|&n| n >= 1)
+                        .ok_or_else(|| {
+                            format!("`{item}`: the step `{st}` is not a whole number >= 1")
+                        })?,
+                ),
+                None => (item, 1),
+            };
+            let (a, b) = match range.split_once("..") {
+                Some((a, b)) => (a, b.strip_prefix('=').unwrap_or(b)),
+                None if step == 1 => (range, range),
+                None => return Err(bad()),
+            };
+            let (a, b): (u32, u32) = (
+                a.trim().parse().map_err(|_| bad())?,
+                b.trim().parse().map_err(|_| bad())?,
+            );
+            if a > b {
+                return Err(format!("frame range {item} runs backwards"));
+            }
+            items.push((a, b, step));
         }
-        Ok(FrameRange::Range(a, b))
+        Ok(FrameRange::List(items))
     }
 }
 
 impl FrameRange {
-    /// The frames this range takes of `path`'s frames, checked against them.
-    pub fn frames(
-        &self,
-        path: &std::ops::RangeInclusive<u32>,
-    ) -> Result<std::ops::RangeInclusive<u32>> {
-        match *self {
-            FrameRange::All => Ok(path.clone()),
-            FrameRange::Range(a, b) if path.contains(&a) && path.contains(&b) => Ok(a..=b),
-            FrameRange::Range(a, b) => Err(Error::Usage(format!(
-                "--frames {a}..{b} is outside the scene's camera path, frames {}..{}",
-                path.start(),
-                path.end()
-            ))),
+    /// Frames `A..=B`.
+    pub fn range(a: u32, b: u32) -> FrameRange {
+        FrameRange::List(vec![(a, b, 1)])
+    }
+
+    /// The frames this range takes of `path`'s frames, in order, checked against them: each
+    /// frame once (a list naming one twice is refused: two tasks would write one file).
+    pub fn frames(&self, path: &std::ops::RangeInclusive<u32>) -> Result<Vec<u32>> {
+        let items = match self {
+            FrameRange::All => return Ok(path.clone().collect()),
+            FrameRange::List(items) => items,
+        };
+        let mut out = Vec::new();
+        for &(a, b, step) in items {
+            if !(path.contains(&a) && path.contains(&b)) {
+                let item = if a == b {
+                    format!("{a}")
+                } else {
+                    format!("{a}..{b}")
+                };
+                return Err(Error::Usage(format!(
+                    "--frames {item} is outside the scene's camera path, frames {}..{}",
+                    path.start(),
+                    path.end()
+                )));
+            }
+            out.extend((a..=b).step_by(step as usize));
         }
+        let mut seen = std::collections::BTreeSet::new();
+        if let Some(f) = out.iter().find(|f| !seen.insert(**f)) {
+            return Err(Error::Usage(format!(
+                "--frames names frame {f} twice: each frame once"
+            )));
+        }
+        Ok(out)
     }
 }
 

@@ -258,10 +258,12 @@ fn tiles_merge_to_the_single_process_png_and_merge_refuses_bad_sets() {
         &merge(&d, &["t0.exr", "t1.exr", "t2.exr", "t1.exr"], "bad.png"),
         "t1.exr is given twice",
     );
-    // Half of the image (a tile of 2) with two thirds of it (tiles of 3): a real overlap.
+    // Half of the image (a region; parts of two tilings are refused before their pixels
+    // are looked at: tests/farm_faults.rs) with two thirds of it (tiles of 3): a real
+    // overlap.
     ok(run(
         &d,
-        &render_args(&["--tile", "0/2", "-o", "half.exr"]),
+        &render_args(&["--region", "0,0,24,36", "-o", "half.exr"]),
         &[],
     ));
     refused(

@@ -2,7 +2,11 @@
 //! single-node cluster from Debian's packages on this host, submits the job arrays of
 //! `ci/slurm/` with `sbatch --wait` (tiles of a still, frames of an animation, frames cut
 //! into tiles), merges, and compares the results with the single-process renders bit for
-//! bit; this test runs it with the binary under test.
+//! bit; then the faults of issue 48: a task cancelled (the submission exits 1 naming the
+//! part; the documented re-run of that index alone completes the set), a killed task's
+//! partial file (gone after the re-run and the merge), a frame range resumed, a frame
+//! without parts (the merge refuses naming it). This test runs it with the binary under
+//! test.
 //!
 //! It needs root and the packages `slurmd slurmctld slurm-client munge` (`ci/test.sh`
 //! installs them). Without them it fails, saying so, unless `FRAGTRACE_ALLOW_SKIP=1`
@@ -62,6 +66,11 @@ fn tiles_and_frames_on_a_real_slurm_cluster_equal_the_single_process_bits() {
         "bunny.exr (8 tiles on 4 tasks) has the single-process render's floats",
         "frame_0007.png is bit-identical",
         "frame_0004.png is bit-identical",
+        // Issue 48's faults: a cancelled task fails the submission naming its part; the
+        // re-run of that index alone completes the set; a resumed range; a missing frame.
+        "a cancelled task: submit-tiles.sh --wait exits 1 naming part-2.exr",
+        "cancelled.png is bit-identical",
+        "a frame without parts: the merge refuses, naming frame 4",
         "slurm test: passed",
     ] {
         assert!(text.contains(line), "missing `{line}` in:\n{text}");

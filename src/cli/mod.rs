@@ -8,13 +8,14 @@ use clap::{Args, Parser, Subcommand};
 use crate::choices::{clap_error_line, count_in, Choices, Door, RenderArgs};
 use crate::image_io;
 use crate::options::TextureMode;
+use crate::region::Region;
 use crate::render;
 use crate::scene::{self, Scene};
 use crate::{Error, Result};
 
 mod render_cmd;
 
-pub use render_cmd::{run_parts, run_render, verbose_report};
+pub use render_cmd::{run_check, run_parts, run_render, verbose_report};
 
 /// fragtrace: a Whitted ray tracer on GLSL 1.20 fragment programs, with an f64 CPU reference.
 #[derive(Parser, Debug)]
@@ -317,8 +318,15 @@ pub fn run_compare(args: &CompareArgs) -> Result<bool> {
         check_writable(path, "image")?;
         image_io::Format::from_path(path)?;
     }
-    let c =
-        crate::compare::compare_files(&args.a, &args.b, args.channel.as_deref(), args.threshold)?;
+    let c = match compare_parts(args)? {
+        Some(c) => c,
+        None => crate::compare::compare_files(
+            &args.a,
+            &args.b,
+            args.channel.as_deref(),
+            args.threshold,
+        )?,
+    };
     println!("{}", c.comparison);
     if let Some(path) = &args.diff {
         image_io::write_image(path, &crate::compare::diff_image(&c.a, &c.b, args.gain))?;
@@ -345,6 +353,97 @@ pub fn run_compare(args: &CompareArgs) -> Result<bool> {
     Ok(ok)
 }
 
+/// A part (`render --tile/--region/--task-index`'s OpenEXR, a region of an image) read as
+/// a part, or None for any other file.
+fn part_of(path: &Path) -> Option<crate::farm::part::Part> {
+    if image_io::Format::from_path(path).ok()? != image_io::Format::Exr {
+        return None;
+    }
+    crate::farm::part::read_part(path)
+        .ok()
+        .filter(|p| p.header.region != Region::full(p.header.width, p.header.height))
+}
+
+/// `compare` where either file is a part: the part against the same pixels of the other
+/// (a whole image of the part's full size, or a part of the same region); None when
+/// neither is a part. Anything else is refused in one line: a part is not an image.
+fn compare_parts(args: &CompareArgs) -> Result<Option<crate::compare::FileComparison>> {
+    let (pa, pb) = (part_of(&args.a), part_of(&args.b));
+    let (part, part_path, other_path, part_first) = match (&pa, &pb) {
+        (None, None) => return Ok(None),
+        (Some(p), _) => (p, &args.a, &args.b, true),
+        (None, Some(p)) => (p, &args.b, &args.a, false),
+    };
+    let h = &part.header;
+    let r = h.region;
+    if args.channel.is_some() {
+        return Err(Error::Usage(format!(
+            "compare: {} is a part (pixels {r} of {}x{}); --channel compares AOV files",
+            part_path.display(),
+            h.width,
+            h.height
+        )));
+    }
+    let other = match (&pa, &pb) {
+        (Some(a), Some(b)) => {
+            if (a.header.region, a.header.width, a.header.height)
+                != (b.header.region, b.header.width, b.header.height)
+            {
+                return Err(Error::Usage(format!(
+                    "compare: {} is pixels {} of {}x{} but {} is pixels {} of {}x{}: compare parts of the same region, or a part with the whole image",
+                    args.a.display(),
+                    a.header.region,
+                    a.header.width,
+                    a.header.height,
+                    args.b.display(),
+                    b.header.region,
+                    b.header.width,
+                    b.header.height
+                )));
+            }
+            b.image.clone()
+        }
+        _ => {
+            let whole = image_io::read_image(other_path)?;
+            if (whole.width, whole.height) != (h.width, h.height) {
+                return Err(Error::Usage(format!(
+                    "compare: {} is pixels {r} of a {}x{} image, but {} is {}x{}: compare a part with the whole image it is a part of (or merge the parts first)",
+                    part_path.display(),
+                    h.width,
+                    h.height,
+                    other_path.display(),
+                    whole.width,
+                    whole.height
+                )));
+            }
+            crop(&whole, r)
+        }
+    };
+    let (ia, ib) = if part_first {
+        (part.image.clone(), other)
+    } else {
+        (other, part.image.clone())
+    };
+    let clamp = [&args.a, &args.b]
+        .iter()
+        .any(|p| image_io::Format::from_path(p).is_ok_and(|f| f.is_srgb8()));
+    Ok(Some(crate::compare::FileComparison {
+        comparison: crate::compare::compare(&ia, &ib, args.threshold, clamp)?,
+        a: ia,
+        b: ib,
+    }))
+}
+
+/// The pixels `r` of `img`.
+fn crop(img: &image_io::Image, r: Region) -> image_io::Image {
+    let mut data = Vec::with_capacity(r.area() as usize * 3);
+    for y in r.y0..r.y1 {
+        let row = (y * img.width) as usize * 3;
+        data.extend_from_slice(&img.data[row + r.x0 as usize * 3..row + r.x1 as usize * 3]);
+    }
+    image_io::Image::from_rgb(r.width(), r.height(), data)
+}
+
 /// The `bench` command: resolves scenes and configurations (bad ones are usage errors,
 /// before anything renders), then runs [`crate::bench::run_bench`].
 pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
@@ -363,6 +462,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
 
 /// The `merge` command: checks the output path, then [`crate::farm::merge::merge`].
 pub fn run_merge(args: &MergeArgs) -> Result<crate::farm::merge::Merged> {
+    image_io::remove_partials_on_signal();
     // A probe next to where frame 0 would go: the folder must exist and be writable.
     let probe = crate::farm::template::OutputTemplate::new(&args.output).path(Some(0), None);
     check_writable(&probe, "image")?;
@@ -376,13 +476,12 @@ pub fn run_merge(args: &MergeArgs) -> Result<crate::farm::merge::Merged> {
                 merged.devices.join("; ")
             );
         }
-        for out in &merged.outputs {
+        for (out, n) in merged.outputs.iter().zip(&merged.parts_per_output) {
             eprintln!(
-                "{}: {}x{} merged from {} parts",
+                "{}: {}x{} merged from {n} parts",
                 out.display(),
                 merged.width,
                 merged.height,
-                merged.parts
             );
         }
     }
@@ -449,6 +548,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         .choices
         .to_options(&scene, Door::View)?
         .on_backend(true);
+    render.check_memory()?;
     let opts = crate::view::ViewOptions {
         render,
         frames: args.frames,
@@ -497,7 +597,9 @@ pub fn run(cli: Cli) -> Result<bool> {
         }
     }
     match cli.command {
+        None if cli.render.parts.check => run_check(&cli.render),
         None => run_render(&cli.render).map(|_| true),
+        Some(Command::Render(args)) if args.parts.check => run_check(&args),
         Some(Command::Render(args)) => run_render(&args).map(|_| true),
         Some(Command::Compare(args)) => run_compare(&args),
         Some(Command::Bench(args)) => run_bench(&args).map(|_| true),

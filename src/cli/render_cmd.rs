@@ -17,6 +17,7 @@ use crate::{Error, Result};
 /// `--region` or `--task-index`, the parts this process owns ([`run_parts`]).
 pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
     let env = |k: &str| std::env::var(k).ok();
+    image_io::remove_partials_on_signal();
     if let Some(frames) = &args.frames {
         if !args.parts.wanted() {
             run_frames(args, frames)?;
@@ -30,7 +31,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
                 scene.source
             ))
         })?;
-        let frames: Vec<u32> = frames.frames(&path.frames())?.collect();
+        let frames: Vec<u32> = frames.frames(&path.frames())?;
         let parts = PartPlan::new(
             &args.parts,
             &args.output,
@@ -39,17 +40,33 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
             env,
         )?
         .expect("parts wanted");
-        return run_parts(args, &parts, scene).map(Some);
+        return run_parts(args, &parts, scene);
     }
     if let Some(parts) = PartPlan::new(&args.parts, &args.output, args.stats.as_deref(), None, env)?
     {
         let scene = load(args.scene.as_deref(), args.choices.textures)?;
-        return run_parts(args, &parts, scene).map(Some);
+        return run_parts(args, &parts, scene);
+    }
+    if args.parts.resume && args.output.is_file() {
+        let scene = load(args.scene.as_deref(), args.choices.textures)?;
+        let opts = args.to_options(&scene)?;
+        if let Some(e) = expected(args, &scene, &opts)?.first() {
+            if crate::farm::resume::done(e, crate::farm::hash::scene_hash(&scene)).is_ok() {
+                if !args.quiet {
+                    eprintln!(
+                        "{}: exists whole (--resume); nothing to render",
+                        e.path.display()
+                    );
+                }
+                return Ok(None);
+            }
+        }
     }
     // Fail on an unusable output path or AOV list before loading or rendering anything;
     // a folder is reported as one, not as a file with an unknown extension.
     check_writable(&args.output, "image")?;
     image_io::Format::from_path(&args.output)?;
+    image_io::remove_stale_partials(&args.output);
     if let Some(stats) = &args.stats {
         check_writable(stats, "statistics")?;
     }
@@ -60,6 +77,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         .transpose()?;
     let scene = load(args.scene.as_deref(), args.choices.textures)?;
     let mut opts = args.to_options(&scene)?;
+    opts.check_memory()?;
     // Read back only what the output needs: an 8-bit format (PNG, PPM, JPEG) as 8-bit sRGB
     // (converted on the GPU, or in the CPU's bands), the AOVs only with --aov.
     opts.readback = crate::output::Readback {
@@ -107,7 +125,33 @@ fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<
     }
     let scene = load(args.scene.as_deref(), args.choices.textures)?;
     let opts = args.to_options(&scene)?;
-    let stats = crate::animate::render_frames(&scene, &opts, frames, &args.output, !args.quiet)?;
+    let path = scene.animation.as_ref().ok_or_else(|| {
+        Error::Usage(format!(
+            "--frames needs a camera path: {} has no [animation] table (docs/scene-format.md)",
+            scene.source
+        ))
+    })?;
+    let mut list = frames.frames(&path.frames())?;
+    if args.parts.resume {
+        let hash = crate::farm::hash::scene_hash(&scene);
+        let all = expected(args, &scene, &opts)?;
+        let before = list.len();
+        list.retain(|f| {
+            !all.iter()
+                .any(|e| e.frame == Some(*f) && crate::farm::resume::done(e, hash).is_ok())
+        });
+        if !args.quiet {
+            eprintln!(
+                "fragtrace: --resume: {} of {before} frames exist whole, {} to render",
+                before - list.len(),
+                list.len()
+            );
+        }
+        if list.is_empty() {
+            return Ok(());
+        }
+    }
+    let stats = crate::animate::render_frames(&scene, &opts, &list, &args.output, !args.quiet)?;
     if let Some(path) = &args.stats {
         let json =
             serde_json::to_string_pretty(&stats).map_err(|e| Error::Internal(e.to_string()))?;
@@ -143,6 +187,24 @@ fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<
     Ok(())
 }
 
+/// Creates the folder `path` goes in, when missing (the parts and frames of a farm land in
+/// folders no one made on a fresh shared volume); a whole render's `-o` in a folder that
+/// does not exist is refused instead ([`check_writable`]: a typo costs no render).
+pub(crate) fn make_folder(path: &Path) -> Result<()> {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() && !dir.exists() => std::fs::create_dir_all(dir)
+            .map_err(|e| {
+                Error::Usage(format!(
+                    "{}: cannot write the image: cannot create its folder {}: {}",
+                    path.display(),
+                    dir.display(),
+                    super::one_line(&e.to_string())
+                ))
+            }),
+        _ => Ok(()),
+    }
+}
+
 /// Writes render statistics as JSON (atomically).
 fn write_stats(path: &Path, stats: &render::RenderStats) -> Result<()> {
     let json = serde_json::to_string_pretty(stats).map_err(|e| Error::Internal(e.to_string()))?;
@@ -154,11 +216,128 @@ fn write_stats(path: &Path, stats: &render::RenderStats) -> Result<()> {
     })
 }
 
+/// The files this `render` command writes, with what each must hold ([`crate::farm::resume`]):
+/// the parts of its plan, the frames of `--frames`, or the one image.
+fn expected(
+    args: &RenderArgs,
+    scene: &Scene,
+    opts: &crate::options::RenderOptions,
+) -> Result<Vec<crate::farm::resume::Expected>> {
+    use crate::farm::resume::Expected;
+    let env = |k: &str| std::env::var(k).ok();
+    let (w, h) = (opts.width, opts.height);
+    let frames = match (&args.frames, &scene.animation) {
+        (None, _) => None,
+        (Some(f), Some(path)) => Some(f.frames(&path.frames())?),
+        (Some(_), None) => {
+            return Err(Error::Usage(format!(
+                "--frames needs a camera path: {} has no [animation] table (docs/scene-format.md)",
+                scene.source
+            )))
+        }
+    };
+    if let Some(plan) = PartPlan::new(
+        &args.parts,
+        &args.output,
+        args.stats.as_deref(),
+        frames.as_deref(),
+        env,
+    )? {
+        return (0..plan.units.len())
+            .map(|k| {
+                let path = plan.outputs[k].clone();
+                Ok(Expected {
+                    part: image_io::Format::from_path(&path)? == image_io::Format::Exr,
+                    path,
+                    frame: plan.units[k].frame,
+                    region: plan.region(k, w, h)?,
+                    width: w,
+                    height: h,
+                })
+            })
+            .collect();
+    }
+    let whole = |frame: Option<u32>, path: std::path::PathBuf| Expected {
+        path,
+        frame,
+        region: Region::full(w, h),
+        width: w,
+        height: h,
+        part: false,
+    };
+    let template = crate::farm::template::OutputTemplate::new(&args.output);
+    Ok(match frames {
+        Some(list) => list
+            .into_iter()
+            .map(|f| whole(Some(f), template.path(Some(f), None)))
+            .collect(),
+        None => vec![whole(None, args.output.clone())],
+    })
+}
+
+/// `render --check`: renders nothing; prints each file this command would write that is
+/// missing or not whole, then `N of M files exist whole`. True when all do.
+pub fn run_check(args: &RenderArgs) -> Result<bool> {
+    let scene = load(args.scene.as_deref(), args.choices.textures)?;
+    let opts = args.to_options(&scene)?;
+    let hash = crate::farm::hash::scene_hash(&scene);
+    let all = expected(args, &scene, &opts)?;
+    let mut missing = 0;
+    for e in &all {
+        if let Err(why) = crate::farm::resume::done(e, hash) {
+            missing += 1;
+            println!("{}: {why}", e.path.display());
+        }
+    }
+    println!(
+        "{} of {} files exist whole{}",
+        all.len() - missing,
+        all.len(),
+        if missing == 0 {
+            String::new()
+        } else {
+            format!(", {missing} missing")
+        }
+    );
+    Ok(missing == 0)
+}
+
 /// `render` of parts: the units of work of `plan` ([`crate::farm`]), each rendered with
-/// its region and written as a part (or a crop).
-pub fn run_parts(args: &RenderArgs, parts: &PartPlan, scene: Scene) -> Result<render::Rendered> {
+/// its region and written as a part (or a crop); None when `--resume` found every one
+/// whole.
+pub fn run_parts(
+    args: &RenderArgs,
+    parts: &PartPlan,
+    scene: Scene,
+) -> Result<Option<render::Rendered>> {
+    let mut parts = parts.clone();
+    if args.parts.resume {
+        let opts = args.to_options(&scene)?;
+        let hash = crate::farm::hash::scene_hash(&scene);
+        let all = expected(args, &scene, &opts)?;
+        let todo: Vec<bool> = all
+            .iter()
+            .map(|e| crate::farm::resume::done(e, hash).is_err())
+            .collect();
+        let n = todo.iter().filter(|t| **t).count();
+        if !args.quiet {
+            eprintln!(
+                "fragtrace: --resume: {} of {} parts exist whole, {n} to render",
+                todo.len() - n,
+                todo.len()
+            );
+        }
+        if n == 0 {
+            return Ok(None);
+        }
+        parts.retain(&todo);
+    }
+    let parts = &parts;
     for p in &parts.outputs {
+        // A fresh volume of a scheduler: the parts' folders are made here.
+        make_folder(p)?;
         check_writable(p, "image")?;
+        image_io::remove_stale_partials(p);
     }
     for p in &parts.stats {
         check_writable(p, "statistics")?;
@@ -175,6 +354,20 @@ pub fn run_parts(args: &RenderArgs, parts: &PartPlan, scene: Scene) -> Result<re
         aov: false,
         srgb8: false,
     };
+    // The limits (host memory, and GL's texture size when the renderer is made) apply to
+    // the part, not the whole image: every unit's region is checked before anything
+    // renders, and the renderer is made for the first one.
+    let regions = (0..parts.units.len())
+        .map(|k| parts.region(k, base.width, base.height))
+        .collect::<Result<Vec<Region>>>()?;
+    for r in &regions {
+        crate::options::RenderOptions {
+            region: Some(*r),
+            ..base.clone()
+        }
+        .validate()?;
+    }
+    base.region = regions.first().copied();
     // Once per process, whatever the number of parts: the context, the structure (`auto`
     // resolved for the backend the context settles) and the renderer (the GPU scene
     // uploaded once); each part sets its region and camera.
@@ -197,7 +390,7 @@ pub fn run_parts(args: &RenderArgs, parts: &PartPlan, scene: Scene) -> Result<re
     }
     let mut last = None;
     for (k, unit) in parts.units.iter().enumerate() {
-        let region = parts.region(k, base.width, base.height)?;
+        let region = regions[k];
         let opts = crate::options::RenderOptions {
             region: Some(region),
             ..base.clone()
@@ -220,6 +413,7 @@ pub fn run_parts(args: &RenderArgs, parts: &PartPlan, scene: Scene) -> Result<re
             &out,
             unit.frame,
             parts.tile_label(k),
+            parts.frames.as_deref(),
         )?;
         if let Some(path) = parts.stats.get(k) {
             write_stats(path, &out.stats)?;
@@ -236,6 +430,7 @@ pub fn run_parts(args: &RenderArgs, parts: &PartPlan, scene: Scene) -> Result<re
         last = Some(out);
     }
     last.ok_or_else(|| Error::Internal("a plan without units".into()))
+        .map(Some)
 }
 
 /// The one-line summary of a render on stderr (`-q` turns it off).

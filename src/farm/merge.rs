@@ -27,6 +27,8 @@ pub struct Merged {
     pub height: u32,
     /// Parts read.
     pub parts: usize,
+    /// Parts of each output, in the order of `outputs`.
+    pub parts_per_output: Vec<usize>,
     /// Devices the parts were rendered on, when more than one (a notice, not an error:
     /// the options match, so the pixels are the same computation; across GPU vendors they
     /// may differ in the last bits).
@@ -78,7 +80,77 @@ fn mismatch(a: &PartHeader, b: &PartHeader) -> Option<String> {
             b.width, b.height, a.width, a.height
         ));
     }
+    if a.version != b.version {
+        return Some(format!(
+            "they were written by different fragtrace versions ({} against {}): render every part with one build",
+            show(&b.version),
+            show(&a.version)
+        ));
+    }
+    // Parts of two tilings (a re-run that cut the image differently: `sbatch --array=3`
+    // rendering the whole image as tile 0 of 1) would only overlap.
+    if let (Some(ta), Some(tb)) = (tiling_of(a), tiling_of(b)) {
+        if ta != tb {
+            return Some(format!(
+                "the image is cut differently (tile {} against tile {}, of {tb} and {ta} tiles)",
+                b.tile.as_deref().unwrap_or_default(),
+                a.tile.as_deref().unwrap_or_default()
+            ));
+        }
+    }
+    if a.frames != b.frames {
+        return Some(format!(
+            "they belong to different frame ranges (--frames {} against {})",
+            b.frames.as_deref().unwrap_or("none"),
+            a.frames.as_deref().unwrap_or("none")
+        ));
+    }
     None
+}
+
+fn show(version: &str) -> &str {
+    if version.is_empty() {
+        "none"
+    } else {
+        version
+    }
+}
+
+/// The tiling a part's `I/N` label names.
+fn tiling_of(h: &PartHeader) -> Option<crate::region::Tiling> {
+    h.tile
+        .as_deref()?
+        .parse::<crate::region::TileSpec>()
+        .ok()
+        .map(|t| t.tiling)
+}
+
+/// The tiles of the parts' tiling that no part is (`tile 3 of 4 (pixels ...)`), when every
+/// part names its tile; empty otherwise.
+fn missing_tiles(parts: &[(&Path, &Part)]) -> Vec<String> {
+    let h = &parts[0].1.header;
+    let Some(tiling) = tiling_of(h) else {
+        return Vec::new();
+    };
+    let mut have = std::collections::BTreeSet::new();
+    for (_, p) in parts {
+        match p
+            .header
+            .tile
+            .as_deref()
+            .and_then(|t| t.parse::<crate::region::TileSpec>().ok())
+        {
+            Some(t) => have.insert(t.index),
+            None => return Vec::new(),
+        };
+    }
+    (0..tiling.count())
+        .filter(|i| !have.contains(i))
+        .map(|i| match tiling.tile(i, h.width, h.height) {
+            Ok(r) => format!("tile {i} of {tiling} (pixels {r})"),
+            Err(_) => format!("tile {i} of {tiling}"),
+        })
+        .collect()
 }
 
 /// Assembles one image from parts that share a header (checked by the caller); fails on
@@ -123,8 +195,14 @@ fn assemble(parts: &[(&Path, &Part)]) -> Result<Image> {
         // The run of missing pixels on that row, to say where the hole is.
         let row = &covered[(y * w) as usize..((y + 1) * w) as usize];
         let end = (x..w).find(|&i| row[i as usize]).unwrap_or(w);
+        let tiles = missing_tiles(parts);
+        let named = match tiles.len() {
+            0 => String::new(),
+            1..=8 => format!(": missing {}", tiles.join(", ")),
+            n => format!(": missing {n} tiles, {} ...", tiles[..4].join(", ")),
+        };
         return Err(Error::Usage(format!(
-            "merge: gap: {missing} of the {w}x{ht} pixels are in no part, the first at row {y}, columns {x}..{end} ({} parts given{})",
+            "merge: gap: {missing} of the {w}x{ht} pixels are in no part, the first at row {y}, columns {x}..{end} ({} parts given{}){named}",
             parts.len(),
             frame_note(h)
         )));
@@ -174,6 +252,36 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
             list.join(", ")
         )));
     }
+    // Every frame of the job has its parts: a frame whose every part is missing leaves no
+    // gap in the frames that are there.
+    if let Some(text) = &first.frames {
+        let all = text
+            .parse::<crate::options::FrameRange>()
+            .ok()
+            .and_then(|r| r.frames(&(0..=u32::MAX)).ok())
+            .ok_or_else(|| {
+                Error::Usage(format!(
+                    "merge: {}: `fragtrace.frames` {text} is not a frame list",
+                    first_path.display()
+                ))
+            })?;
+        let missing: Vec<u32> = all
+            .iter()
+            .copied()
+            .filter(|f| !frames.contains_key(&Some(*f)))
+            .collect();
+        if !missing.is_empty() {
+            let shown: Vec<String> = missing.iter().take(10).map(|f| f.to_string()).collect();
+            return Err(Error::Usage(format!(
+                "merge: the parts are of the frames {text}, but frame{} {}{} {} no parts ({} parts given)",
+                if missing.len() > 1 { "s" } else { "" },
+                shown.join(", "),
+                if missing.len() > 10 { ", ..." } else { "" },
+                if missing.len() > 1 { "have" } else { "has" },
+                parts.len()
+            )));
+        }
+    }
     if template.has_tile() {
         return Err(Error::Usage(format!(
             "merge: {}: {{tile}} has no meaning in a merged image's name",
@@ -189,7 +297,7 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
                 frame_note(&group[0].1.header)
             )));
         }
-        images.push((*frame, image, group[0].1.header.clone()));
+        images.push((*frame, image, group[0].1.header.clone(), group.len()));
     }
     let mut devices: Vec<String> = parts.iter().map(|(_, p)| p.header.device.clone()).collect();
     devices.sort();
@@ -198,7 +306,9 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
         devices.clear();
     }
     let mut outputs = Vec::new();
-    for (frame, image, header) in images {
+    let mut parts_per_output = Vec::new();
+    for (frame, image, header, n) in images {
+        parts_per_output.push(n);
         let path = template.path(frame, None);
         match format {
             Format::Exr => {
@@ -221,11 +331,16 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
         }
         outputs.push(path);
     }
+    // Every part merged is whole: what a killed task left half-written beside one is litter.
+    for p in inputs {
+        crate::image_io::remove_stale_partials(p);
+    }
     Ok(Merged {
         outputs,
         width: first.width,
         height: first.height,
         parts: parts.len(),
+        parts_per_output,
         devices,
     })
 }

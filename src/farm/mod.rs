@@ -10,6 +10,7 @@
 //! - [`merge`]: parts back into whole images, refusing gaps, overlaps and mismatches.
 //! - [`plan`]: what one process renders (its units and their files), from the flags.
 //! - [`template`]: `{tile}` and the frame's run of `#` in output names.
+//! - [`resume`]: whether a file a render would write exists whole (`--resume`, `--check`).
 //!
 //! Regions themselves ([`crate::region`]) sit at the bottom of the layers, for the
 //! renderers; this module sits above [`crate::render`] and below the CLI.
@@ -18,6 +19,7 @@ pub mod hash;
 pub mod merge;
 pub mod part;
 pub mod plan;
+pub mod resume;
 pub mod task;
 pub mod template;
 
@@ -192,7 +194,8 @@ pub fn plan_of(options: &str) -> Option<Plan> {
 }
 
 /// Writes one rendered unit: as a part (OpenEXR with its data window and header) to a
-/// `.exr` path, or as a plain crop of the region to a `.png` path (`--region`).
+/// `.exr` path, or as a plain crop of the region to a `.png` path (`--region`); `frames`
+/// are the job's frames, for a part of an animation.
 pub fn write_unit(
     path: &std::path::Path,
     scene: &crate::scene::Scene,
@@ -200,6 +203,7 @@ pub fn write_unit(
     out: &crate::render::Rendered,
     frame: Option<u32>,
     tile: Option<String>,
+    frames: Option<&[u32]>,
 ) -> crate::Result<()> {
     use crate::image_io::{write_image, Format};
     match Format::from_path(path)? {
@@ -214,14 +218,10 @@ pub fn write_unit(
                 region: opts.pixels(),
                 device: out.stats.device.clone(),
                 tile,
+                frames: frames.map(part::frames_text),
+                version: part::VERSION.to_string(),
             };
-            part::write_part(
-                path,
-                &part::Part {
-                    header,
-                    image: out.image.clone(),
-                },
-            )
+            part::write_pixels(path, &header, &out.image)
         }
         // PNG, and the other formats the output's extension can name.
         _ => write_image(path, &out.image),

@@ -14,7 +14,9 @@
 //! | `fragtrace.frame`     | the animation frame (absent for a still)                   |
 //! | `fragtrace.device`    | the device that rendered it (information only)             |
 //! | `fragtrace.tile`      | `I/N` when made with `--tile` (information only)           |
-//! | `fragtrace.version`   | the fragtrace version that wrote it                        |
+//! | `fragtrace.version`   | the fragtrace version that wrote it (`merge` compares it)  |
+//! | `fragtrace.frames`    | the frames of the job the part belongs to (`merge` checks  |
+//! |                       | each has its parts), as `--frames` writes them             |
 //!
 //! Pixels are linear RGB f32 (channels `R`, `G`, `B`), stored losslessly (ZIP), so a
 //! merged image has the rendered bits.
@@ -47,8 +49,48 @@ pub struct PartHeader {
     pub region: Region,
     /// The device that rendered it (not checked by `merge`).
     pub device: String,
-    /// `I/N` of `--tile`, when it was made that way (not checked by `merge`).
+    /// `I/N` of the tile, when the image was tiled: `merge` names a missing tile by it,
+    /// and refuses parts of two tilings.
     pub tile: Option<String>,
+    /// The frames of the whole job, for a part of an animation ([`frames_text`]): `merge`
+    /// refuses a set of parts with a frame of them missing.
+    pub frames: Option<String>,
+    /// The fragtrace version that wrote it (`merge` refuses parts of two versions).
+    pub version: String,
+}
+
+/// The version parts written by this build carry.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// Frames as `--frames` takes them, short: runs of three or more frames a constant step
+/// apart as `A..B` or `A..B:S`, the rest one by one (`0..10:2,13,17`).
+pub fn frames_text(frames: &[u32]) -> String {
+    let mut items = Vec::new();
+    let mut i = 0;
+    while i < frames.len() {
+        let a = frames[i];
+        let mut j = i + 1;
+        if let Some(&b) = frames.get(i + 1).filter(|&&b| b > a) {
+            let step = b - a;
+            while j + 1 < frames.len() + 1 && frames.get(j) == Some(&(frames[j - 1] + step)) {
+                j += 1;
+            }
+            if j - i >= 3 {
+                let last = frames[j - 1];
+                items.push(if step == 1 {
+                    format!("{a}..{last}")
+                } else {
+                    format!("{a}..{last}:{step}")
+                });
+                i = j;
+                continue;
+            }
+            j = i + 1;
+        }
+        items.push(a.to_string());
+        i = j;
+    }
+    items.join(",")
 }
 
 impl PartHeader {
@@ -79,6 +121,7 @@ const ATTR_FRAME: &str = "fragtrace.frame";
 const ATTR_DEVICE: &str = "fragtrace.device";
 const ATTR_TILE: &str = "fragtrace.tile";
 const ATTR_VERSION: &str = "fragtrace.version";
+const ATTR_FRAMES: &str = "fragtrace.frames";
 
 /// EXR text is bytes; fragtrace writes UTF-8 (a scene path may need more than Latin-1).
 fn text(s: &str) -> AttributeValue {
@@ -87,12 +130,19 @@ fn text(s: &str) -> AttributeValue {
 
 /// Writes `part` to `path` (atomically: a temporary name, then a rename).
 pub fn write_part(path: &Path, part: &Part) -> Result<()> {
-    let h = &part.header;
+    write_pixels(path, &part.header, &part.image)
+}
+
+/// Writes the pixels `image` of the region `header` names to `path` as a part, as
+/// [`write_part`] does, without making them a [`Part`] (a rendered tile is written
+/// where it lies: a copy would double the memory a task of a poster needs).
+pub fn write_pixels(path: &Path, header: &PartHeader, image: &Image) -> Result<()> {
+    let h = header;
     let r = h.region;
-    if part.image.width != r.width() || part.image.height != r.height() {
+    if image.width != r.width() || image.height != r.height() {
         return Err(Error::Internal(format!(
             "part image {}x{} does not match its region {r}",
-            part.image.width, part.image.height
+            image.width, image.height
         )));
     }
     let mut attrs = LayerAttributes {
@@ -105,8 +155,11 @@ pub fn write_part(path: &Path, part: &Part) -> Result<()> {
         (ATTR_OPTIONS, h.options.clone()),
         (ATTR_HASH, format!("{:016x}", h.hash())),
         (ATTR_DEVICE, h.device.clone()),
-        (ATTR_VERSION, env!("CARGO_PKG_VERSION").to_string()),
+        (ATTR_VERSION, h.version.clone()),
     ];
+    if let Some(f) = &h.frames {
+        other.push((ATTR_FRAMES, f.clone()));
+    }
     if let Some(f) = h.frame {
         other.push((ATTR_FRAME, f.to_string()));
     }
@@ -117,7 +170,7 @@ pub fn write_part(path: &Path, part: &Part) -> Result<()> {
         attrs.other.insert(Text::from(k), text(&v));
     }
     let rw = r.width() as usize;
-    let data = &part.image.data;
+    let data = &image.data;
     let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
         let k = (p.y() * rw + p.x()) * 3;
         (data[k], data[k + 1], data[k + 2])
@@ -241,6 +294,8 @@ fn read_part_inner(path: &Path) -> std::result::Result<Part, PartReadError> {
         region,
         device: get(ATTR_DEVICE).unwrap_or_default(),
         tile: get(ATTR_TILE),
+        frames: get(ATTR_FRAMES),
+        version: get(ATTR_VERSION).unwrap_or_default(),
     };
     if format!("{:016x}", header.hash()) != stored {
         return Err(header_err(format!(
@@ -252,4 +307,29 @@ fn read_part_inner(path: &Path) -> std::result::Result<Part, PartReadError> {
         image: Image::from_rgb(region.width(), region.height(), data.clone()),
         header,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::frames_text;
+    use crate::options::FrameRange;
+
+    /// The frames' text reads back as the same frames through `--frames`' parser.
+    #[test]
+    fn frames_text_reads_back() {
+        for frames in [
+            vec![0, 1, 2, 3],
+            vec![0, 2, 4, 6, 8, 10],
+            vec![0, 5, 9],
+            vec![7],
+            vec![1, 2, 3, 7, 20, 24, 28, 29],
+            vec![5, 6],
+        ] {
+            let t = frames_text(&frames);
+            let back: FrameRange = t.parse().unwrap();
+            assert_eq!(back.frames(&(0..=100)).unwrap(), frames, "{t}");
+        }
+        assert_eq!(frames_text(&[0, 2, 4, 6, 8, 10]), "0..10:2");
+        assert_eq!(frames_text(&[0, 5, 9]), "0,5,9");
+    }
 }

@@ -33,11 +33,21 @@ pub struct PartArgs {
     /// there are tasks).
     #[arg(long, value_name = "N|CxR", requires = "task_index")]
     pub tiles: Option<Tiling>,
+    /// Skip the images and parts this command would write that already exist whole (a part
+    /// of this scene, frame and region; an image that decodes to its size): an
+    /// interrupted range continues, a truncated file is rendered again.
+    #[arg(long)]
+    pub resume: bool,
+    /// Render nothing: say which of the files this command would write exist whole and
+    /// which are missing (with --task-index 0/1 and --tiles N: every part of the job).
+    /// Exit 0 when all exist, 1 when some are missing (--resume is then ignored).
+    #[arg(long)]
+    pub check: bool,
 }
 
 impl PartArgs {
     /// True when these flags ask for parts (or a share of an animation's frames) rather
-    /// than whole images in one process.
+    /// than whole images in one process (`--resume` and `--check` apply to either).
     pub fn wanted(&self) -> bool {
         self.tile.is_some() || self.region.is_some() || self.task_index.is_some()
     }
@@ -65,9 +75,26 @@ pub struct PartPlan {
     pub outputs: Vec<PathBuf>,
     /// One statistics file per unit, with `--stats`.
     pub stats: Vec<PathBuf>,
+    /// The frames of the whole job (every task's), for an animation: the parts say
+    /// which frames a complete set covers.
+    pub frames: Option<Vec<u32>>,
 }
 
 impl PartPlan {
+    /// Keeps only the units `keep` says yes to (with their files).
+    pub fn retain(&mut self, keep: &[bool]) {
+        let pick = |v: &mut Vec<PathBuf>| {
+            if !v.is_empty() {
+                let mut k = keep.iter();
+                v.retain(|_| *k.next().unwrap_or(&true));
+            }
+        };
+        pick(&mut self.outputs);
+        pick(&mut self.stats);
+        let mut k = keep.iter();
+        self.units.retain(|_| *k.next().unwrap_or(&true));
+    }
+
     /// The plan for `args` writing to `output` (and statistics to `stats`), or None when
     /// they ask for the whole image in one process. `frames` are the animation's frames
     /// (`--frames`, resolved against the scene's camera path), None for a still; `var`
@@ -171,6 +198,7 @@ impl PartPlan {
             units,
             outputs,
             stats,
+            frames: frames.map(<[u32]>::to_vec),
         }))
     }
 

@@ -170,6 +170,30 @@ pub fn resolve(source: TaskSource, var: impl Fn(&str) -> Option<String>) -> Resu
                     "{SLURM_ID}={id} is not a task of the array {array}"
                 )));
             }
+            // A re-run of some tasks of an array of N (`sbatch --array=3` after task 3
+            // failed): fewer tasks than env:N says, so the array's own numbering is not
+            // the job's, and the task is SLURM_ARRAY_TASK_ID itself, 0-based.
+            if let Some(n) = given.filter(|&n| count < n as u64) {
+                if id >= n as u64 {
+                    return Err(bad(format!(
+                        "{SLURM_ID}={id} re-runs a task of env:{n}, whose tasks are 0..{}: give the 0-based task (--array=0-{})",
+                        n - 1,
+                        n - 1
+                    )));
+                }
+                return Ok(TaskIndex {
+                    index: id as u32,
+                    count: n,
+                    origin: format!("{SLURM_ID}={id}, a re-run of task {id} of env:{n}"),
+                });
+            }
+            // `sbatch --array=3` without the task count: an array of one task, which would
+            // render the whole image as task 0 of 1 over part 0 of the real job.
+            if given.is_none() && count == 1 && id != 0 {
+                return Err(bad(format!(
+                    "{SLURM_ID}={id} in an array of one task (--array={id}): to re-run task {id} of a job of N tasks give --task-index env:N (docs/distributed.md)"
+                )));
+            }
             if count != span {
                 return Err(bad(format!(
                     "the array has {count} tasks but spans {array} ({span} slots): an array with gaps (--array=1,4,9) has no task numbering; use a range such as --array=0-{}",
@@ -272,14 +296,40 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("gaps"), "{e}");
-        let e = run("env:5", &slurm(0, 0, 3, None, 4))
+        // More tasks than env:N says: an array written for another job.
+        let e = run("env:3", &slurm(0, 0, 3, None, 4))
             .unwrap_err()
             .to_string();
-        assert!(e.contains("env:5") && e.contains("has 4"), "{e}");
+        assert!(e.contains("env:3") && e.contains("has 4"), "{e}");
+        // Fewer: a re-run of some of the job's tasks, numbered by their IDs.
+        let t = run("env:5", &slurm(2, 0, 3, None, 4)).unwrap();
+        assert_eq!((t.index, t.count), (2, 5));
         let e = run("env", &slurm(3, 0, 6, Some(2), 4))
             .unwrap_err()
             .to_string();
         assert!(e.contains("not a task"), "{e}");
+    }
+
+    /// `sbatch --array=3` re-running task 3 of a job of 4: with env:4, task 3 of 4 (and
+    /// `--array=1,3` likewise, gaps and all); without the count, refused rather than
+    /// rendered as task 0 of 1; a task beyond the count refused.
+    #[test]
+    fn a_rerun_of_one_index_is_that_task_of_the_job() {
+        let t = run("env:4", &slurm(3, 3, 3, None, 1)).unwrap();
+        assert_eq!((t.index, t.count), (3, 4));
+        let t = run("env:4", &slurm(3, 1, 3, None, 2)).unwrap();
+        assert_eq!((t.index, t.count), (3, 4));
+        let e = run("env", &slurm(3, 3, 3, None, 1))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("env:N") && e.contains("--array=3"), "{e}");
+        let e = run("env:4", &slurm(4, 4, 4, None, 1))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("0..3"), "{e}");
+        // The whole array of the count: its own numbering, as before (1-based here).
+        let t = run("env:4", &slurm(4, 1, 4, None, 4)).unwrap();
+        assert_eq!((t.index, t.count), (3, 4));
     }
 
     #[test]
