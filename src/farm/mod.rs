@@ -40,7 +40,7 @@ use crate::technique::Techniques;
 /// (`--query-every`, `--gpu`, `-q`, `--stats`) are left out.
 ///
 /// Written by one [`Display`](std::fmt::Display) and read back by one
-/// [`FromStr`](std::str::FromStr) over the same flag names (the plan's by the plan's own),
+/// [`FromStr`] over the same flag names (the plan's by the plan's own),
 /// so `merge` compares what `render` wrote with the code that wrote it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PartOptions {
