@@ -29,8 +29,8 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use fragtrace::accel::Accel;
-use fragtrace::choices::Door;
 use fragtrace::aov::{heat_map, preview, AovKind};
+use fragtrace::choices::Door;
 use fragtrace::clock::Instant;
 use fragtrace::gpu::options::Kernel;
 use fragtrace::gpu::{GlContext, GpuScene};
@@ -75,7 +75,12 @@ impl Loaded {
         scene: Scene,
         opts: &RenderOptions,
     ) -> fragtrace::Result<Loaded> {
-        let accel = Accel::build(&scene, opts.accel.resolve(true), &opts.grid, &opts.irregular)?;
+        let accel = Accel::build(
+            &scene,
+            opts.accel.resolve(true),
+            &opts.grid,
+            &opts.irregular,
+        )?;
         let scene = Box::into_raw(Box::new(scene));
         let accel = Box::into_raw(Box::new(accel));
         // SAFETY: both boxes live until `drop`, which drops the GPU scene before them.
