@@ -28,7 +28,8 @@ pub struct Cli {
     #[command(flatten)]
     pub render: RenderArgs,
     /// CPU threads for rendering, building the structures and loading (default: one per
-    /// core, or `RAYON_NUM_THREADS`). Any command takes it.
+    /// core, or `RAYON_NUM_THREADS`). Any command takes it, after its name (`fragtrace
+    /// render --threads 2`).
     #[arg(long, global = true, value_parser = clap::value_parser!(u16).range(1..=1024))]
     pub threads: Option<u16>,
 }

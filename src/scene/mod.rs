@@ -6,6 +6,7 @@
 
 pub mod camera;
 pub mod camera_path;
+mod gltf_data;
 mod gltf_material;
 pub mod gltf_mesh;
 pub mod model;
