@@ -9,9 +9,9 @@ use rayon::prelude::*;
 
 use super::real::{Real, V3};
 use super::shade::{
-    albedo, geometric_normal, light_term, offset_origin_with, secondary, shadow_origin,
-    surface_with, SurfacePoint,
+    albedo, geometric_normal, offset_origin_with, secondary, specular, SurfacePoint,
 };
+use super::shade_lanes::{Dispatch, Lane, Shadows, SurfaceIn, Surfaces, LANES, V3L};
 use super::texture::{self, Cone};
 use super::traverse::{Hit, Ray, Trace, Work};
 use super::walker::Walker;
@@ -22,7 +22,7 @@ use crate::progress::Progress;
 use crate::region::Region;
 use crate::scene::camera::Frame;
 use crate::scene::texture::TriTex;
-use crate::scene::{camera, Light, Material, Scene};
+use crate::scene::{camera, Material, Scene};
 use crate::technique::Techniques;
 
 /// Most primary rays traced as one batch (whole pixels: all samples of a pixel are in one).
@@ -32,19 +32,45 @@ const BATCH_RAYS: usize = 256;
 /// AVX-512 packet at one sample per pixel).
 const TILE: u32 = 4;
 
-/// A hit being shaded: its surface, material and albedo, the view direction and the
-/// colour summed so far.
-struct Shading<'s, T> {
-    sp: SurfacePoint<T>,
-    m: &'s Material,
-    alb: V3<T>,
-    v: V3<T>,
-    color: V3<T>,
-    /// The ray's cone at the hit: its width there and its spread (zero when the scene
-    /// has no textures).
-    cone: Cone<T>,
-    /// The triangle hit.
-    tri: usize,
+/// [`LANES`] hits of a batch being shaded (`base..base + LANES`): their surfaces,
+/// materials, albedos and the colours summed so far, one lane each.
+#[derive(Clone)]
+struct HitLanes<T> {
+    /// The batch index of lane 0.
+    base: usize,
+    s: Surfaces<T>,
+    /// True where the lane holds a hit (false for a miss and past the batch's end).
+    live: [bool; LANES],
+    /// Each lane's material index.
+    mat: [u32; LANES],
+    alb: V3L<T>,
+    color: V3L<T>,
+    /// Each lane's diffuse coefficient.
+    kd: Lane<T>,
+    /// True where the material has a specular highlight.
+    has_spec: [bool; LANES],
+}
+
+impl<T: Real> HitLanes<T> {
+    /// No hit in any lane.
+    fn zero() -> Self {
+        HitLanes {
+            base: 0,
+            s: Surfaces::zero(),
+            live: [false; LANES],
+            mat: [0; LANES],
+            alb: V3L::zero(),
+            color: V3L::zero(),
+            kd: [T::ZERO; LANES],
+            has_spec: [false; LANES],
+        }
+    }
+
+    /// Lane `k`'s material.
+    #[inline]
+    fn material<'s, W>(&self, r: &CpuRenderer<'s, T, W>, k: usize) -> &'s Material {
+        &r.scene.materials[self.mat[k] as usize]
+    }
 }
 
 /// Per-row tallies, summed after the parallel loop so counting stays off shared state.
@@ -83,6 +109,8 @@ pub struct CpuRenderer<'a, T, W = Walker<'a, T>> {
     tex: Vec<TriTex>,
     /// True when some material has a texture: rays then carry cones.
     textured: bool,
+    /// The compilation of the direct-lighting lanes that runs (the widest the CPU has).
+    dispatch: Dispatch,
 }
 
 /// Output of a CPU render: the one backend output type, with `work` always counted.
@@ -129,6 +157,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             ng,
             tex,
             textured,
+            dispatch: Dispatch::detect(),
             walker,
             techniques,
             max_depth,
@@ -168,9 +197,11 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     /// a miss, which gets the background) into `out`, and each hit's geometric normal into
     /// `normals` when given (zero for a miss). The whole ray tree is walked breadth first:
     /// the shadow rays to each light as one batch ([`Trace::any_hits`]), then the
-    /// reflected and refracted rays of all hits as the next depth's batch. Each colour is
-    /// the depth-first recursion's bit for bit: the same terms added in the same order
-    /// (ambient, each light in turn, then the reflected child and the refracted one).
+    /// reflected and refracted rays of all hits as the next depth's batch. The direct
+    /// lighting runs [`LANES`] hits at a time (`shade_lanes.rs`, every bit the scalar
+    /// functions'). Each colour is the depth-first recursion's bit for bit: the same terms
+    /// added in the same order (ambient, each light in turn, then the reflected child and
+    /// the refracted one).
     #[allow(clippy::too_many_arguments)]
     fn shade_hits(
         &self,
@@ -186,33 +217,62 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             width: T::ZERO,
             spread: T::ZERO,
         };
-        let mut shading: Vec<Option<Shading<'_, T>>> = rays
-            .iter()
-            .zip(hits)
-            .enumerate()
-            .map(|(k, (ray, hit))| {
-                let cone = cones.get(k).copied().unwrap_or(no_cone);
-                hit.as_ref().map(|h| self.begin(ray, h, cone))
-            })
-            .collect();
+        let n = rays.len();
+        let mut at_hit = vec![no_cone; if self.textured { n } else { 0 }];
+        let mut lanes = vec![HitLanes::zero(); n.div_ceil(LANES)];
+        for (c, h) in lanes.iter_mut().enumerate() {
+            self.begin_lanes(rays, hits, c * LANES, h);
+        }
+        // Albedo (checker, texture, vertex colour) and the ambient term, per hit.
+        for (c, h) in lanes.iter_mut().enumerate() {
+            for k in (0..LANES).filter(|&k| h.live[k]) {
+                let i = c * LANES + k;
+                let (hit, m) = (hits[i].as_ref().expect("a live lane"), h.material(self, k));
+                let cone = cones.get(i).copied().unwrap_or(no_cone);
+                let (alb, cone) = self.albedo_at(m, &h.s.point(k, h.mat[k]), &rays[i], hit, cone);
+                if self.textured {
+                    at_hit[i] = cone;
+                }
+                h.alb.set(k, alb);
+                h.color
+                    .set(k, alb.mul_elem(self.ambient) * T::from_f32(m.ka));
+                h.kd[k] = T::from_f32(m.kd);
+                h.has_spec[k] = m.ks.max_element() > 0.0;
+            }
+        }
         if let Some(normals) = normals {
             normals.clear();
-            normals.extend(
-                shading
-                    .iter()
-                    .map(|s| s.as_ref().map_or(V3::splat(T::ZERO), |s| s.sp.ng)),
-            );
+            normals.extend((0..n).map(|i| {
+                let h = &lanes[i / LANES];
+                let k = i % LANES;
+                if h.live[k] {
+                    h.s.ng.get(k)
+                } else {
+                    V3::splat(T::ZERO)
+                }
+            }));
         }
-        let mut shadows = Vec::with_capacity(rays.len());
-        let mut lit = Vec::with_capacity(rays.len());
+        let mut shadows = Vec::with_capacity(n);
+        let mut lit = Vec::with_capacity(n);
         let mut occluded = Vec::new();
+        let mut rays_of = vec![Shadows::zero(); lanes.len()];
         for light in &self.scene.lights {
+            let lp = V3::<T>::from_vec3(light.position);
+            for (h, out) in lanes.iter().zip(&mut rays_of) {
+                self.dispatch
+                    .shadows(&h.s, &h.live, lp, self.techniques, out);
+            }
             shadows.clear();
             lit.clear();
-            for (i, s) in shading.iter().enumerate() {
-                if let Some((shadow, l)) = s.as_ref().and_then(|s| self.shadow_ray(s, light)) {
-                    shadows.push(shadow);
-                    lit.push((i, l));
+            for (c, sh) in rays_of.iter().enumerate() {
+                for k in (0..LANES).filter(|&k| sh.cast[k]) {
+                    shadows.push(Ray {
+                        o: sh.o.get(k),
+                        d: sh.l.get(k),
+                        t_min: T::ZERO,
+                        t_max: sh.dist[k],
+                    });
+                    lit.push((c, k));
                 }
             }
             tally.shadow += shadows.len() as u64;
@@ -220,11 +280,33 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             occluded.resize(shadows.len(), false);
             self.walker
                 .any_hits(&shadows, &mut occluded, &mut tally.work);
-            for (&(i, l), &blocked) in lit.iter().zip(&occluded) {
-                if !blocked {
-                    let s = shading[i].as_mut().expect("a shadow ray comes from a hit");
-                    s.color = s.color + self.light(s, light, l);
+            let radiance = V3::from_vec3(light.radiance());
+            let mut add = vec![[false; LANES]; lanes.len()];
+            for (&(c, k), &blocked) in lit.iter().zip(&occluded) {
+                add[c][k] = !blocked;
+            }
+            for ((h, sh), add) in lanes.iter_mut().zip(&rays_of).zip(&add) {
+                if !add.contains(&true) {
+                    continue;
                 }
+                let mut spec = V3L::zero();
+                for k in (0..LANES).filter(|&k| add[k] && h.has_spec[k]) {
+                    let m = h.material(self, k);
+                    let v = -rays[h.base + k].d;
+                    spec.set(k, specular(m, h.s.ns.get(k), sh.l.get(k), v));
+                }
+                let (alb, kd, has_spec) = (h.alb, h.kd, h.has_spec);
+                self.dispatch.add_light(
+                    &mut h.color,
+                    &h.s,
+                    &sh.l,
+                    &alb,
+                    &kd,
+                    &spec,
+                    &has_spec,
+                    add,
+                    radiance,
+                );
             }
         }
         // The children: for each hit in order, the reflected ray, then the refracted one
@@ -233,59 +315,107 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         let mut child_cones = Vec::new();
         let mut parents = Vec::new();
         if depth < self.max_depth {
-            for (i, (ray, s)) in rays.iter().zip(&shading).enumerate() {
-                let Some(s) = s else { continue };
-                let (m, sp) = (s.m, &s.sp);
+            for (i, ray) in rays.iter().enumerate() {
+                let (h, k) = (&lanes[i / LANES], i % LANES);
+                if !h.live[k] {
+                    continue;
+                }
+                let m = h.material(self, k);
                 if !(m.reflects() || m.refracts()) {
                     continue;
                 }
-                let sec = secondary(m, sp, ray.d);
-                for (k, dir, refracted) in [
+                let sp = h.s.point(k, h.mat[k]);
+                let sec = secondary(m, &sp, ray.d);
+                for (kw, dir, refracted) in [
                     (sec.kr, sec.reflected, false),
                     (sec.kt, sec.refracted, true),
                 ] {
-                    if k.max_elem() > T::ZERO {
+                    if kw.max_elem() > T::ZERO {
                         if refracted {
                             tally.refracted += 1;
                         } else {
                             tally.reflected += 1;
                         }
                         children.push(Ray {
-                            o: offset_origin_with(sp, dir, self.techniques.offset),
+                            o: offset_origin_with(&sp, dir, self.techniques.offset),
                             d: dir,
                             t_min: T::ZERO,
                             t_max: T::BIG,
                         });
-                        parents.push((i, k));
+                        parents.push((i, kw));
                         if self.textured {
-                            child_cones.push(self.child_cone(s, refracted));
+                            let tri = hits[i].as_ref().expect("a live lane").tri as usize;
+                            child_cones.push(self.child_cone(&sp, m, tri, at_hit[i], refracted));
                         }
                     }
                 }
             }
         }
         out.clear();
-        out.extend(
-            shading
-                .iter()
-                .map(|s| s.as_ref().map_or(self.background, |s| s.color)),
-        );
+        out.extend((0..n).map(|i| {
+            let (h, k) = (&lanes[i / LANES], i % LANES);
+            if h.live[k] {
+                h.color.get(k)
+            } else {
+                self.background
+            }
+        }));
         if !children.is_empty() {
             let mut radiance = Vec::with_capacity(children.len());
             self.radiance_batch(&children, &child_cones, depth + 1, tally, &mut radiance);
-            for (&(i, k), r) in parents.iter().zip(&radiance) {
-                out[i] = out[i] + r.mul_elem(k);
+            for (&(i, kw), r) in parents.iter().zip(&radiance) {
+                out[i] = out[i] + r.mul_elem(kw);
             }
         }
     }
 
-    /// The surface, material and albedo of a hit of a ray with cone `cone`, and its
-    /// ambient term.
+    /// The surfaces of the hits `base..base + LANES` of a batch (fewer at its end) into
+    /// `out` (all zero before).
+    fn begin_lanes(
+        &self,
+        rays: &[Ray<T>],
+        hits: &[Option<Hit<T>>],
+        base: usize,
+        out: &mut HitLanes<T>,
+    ) {
+        let mut inp = SurfaceIn::zero();
+        let HitLanes { live, mat, .. } = out;
+        for k in 0..LANES.min(hits.len().saturating_sub(base)) {
+            let Some(h) = &hits[base + k] else { continue };
+            live[k] = true;
+            let tri = h.tri as usize;
+            for (a, v) in self.walker.tris()[tri].iter().enumerate() {
+                inp.v[a].set(k, *v);
+            }
+            inp.ng.set(k, self.ng[tri]);
+            let t = &self.scene.triangles[tri];
+            if t.has_normals() {
+                inp.has_normals[k] = true;
+                for a in 0..3 {
+                    inp.n[a].set(k, V3::from_vec3(self.scene.normals[t.n[a] as usize]));
+                }
+            }
+            for a in 0..3 {
+                inp.b[a][k] = h.b[a];
+            }
+            inp.d.set(k, rays[base + k].d);
+            mat[k] = t.material;
+        }
+        out.base = base;
+        self.dispatch.surfaces(&inp, &mut out.s);
+    }
+
+    /// The albedo of a hit of `ray` (with cone `cone`) at surface point `sp` of material
+    /// `m` (checker, texture and vertex colour applied), and the ray's cone at the hit.
     #[inline]
-    fn begin(&self, ray: &Ray<T>, hit: &Hit<T>, cone: Cone<T>) -> Shading<'a, T> {
-        let verts = &self.walker.tris()[hit.tri as usize];
-        let sp = surface_with(self.scene, verts, self.ng[hit.tri as usize], hit, ray.d);
-        let m = &self.scene.materials[sp.material as usize];
+    fn albedo_at(
+        &self,
+        m: &Material,
+        sp: &SurfacePoint<T>,
+        ray: &Ray<T>,
+        hit: &Hit<T>,
+        cone: Cone<T>,
+    ) -> (V3<T>, Cone<T>) {
         let mut alb = albedo(m, sp.p);
         let mut at_hit = cone;
         if !self.tex.is_empty() {
@@ -303,60 +433,31 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             }
             alb = alb.mul_elem(texture::vertex_color(self.scene, tri, hit.b));
         }
-        let color = alb.mul_elem(self.ambient) * T::from_f32(m.ka);
-        Shading {
-            sp,
-            m,
-            alb,
-            v: -ray.d,
-            color,
-            cone: at_hit,
-            tri: hit.tri as usize,
-        }
+        (alb, at_hit)
     }
 
-    /// The cone of the reflected (or, with `refracted`, the refracted) child of a hit.
+    /// The cone of the reflected (or, with `refracted`, the refracted) child of a hit on
+    /// triangle `tri` whose ray's cone there is `cone`.
     #[inline]
-    fn child_cone(&self, s: &Shading<'_, T>, refracted: bool) -> Cone<T> {
-        let k = T::from_f32(self.tex[s.tri].curvature);
-        let k = if s.sp.flipped { -k } else { k };
+    fn child_cone(
+        &self,
+        sp: &SurfacePoint<T>,
+        m: &Material,
+        tri: usize,
+        cone: Cone<T>,
+        refracted: bool,
+    ) -> Cone<T> {
+        let k = T::from_f32(self.tex[tri].curvature);
+        let k = if sp.flipped { -k } else { k };
         let eta = refracted.then(|| {
-            let ior = T::from_f32(s.m.ior);
-            if s.sp.entering {
+            let ior = T::from_f32(m.ior);
+            if sp.entering {
                 T::ONE / ior
             } else {
                 ior / T::ONE
             }
         });
-        texture::child_cone(s.cone.width, s.cone.spread, k, eta)
-    }
-
-    /// The shadow ray from the hit towards `light` and the unit direction to it, or `None`
-    /// when the light is below the geometric or shading horizon.
-    #[inline]
-    fn shadow_ray(&self, s: &Shading<'_, T>, light: &Light) -> Option<(Ray<T>, V3<T>)> {
-        let lp = V3::<T>::from_vec3(light.position);
-        let to_l = lp - s.sp.p;
-        if to_l.dot(s.sp.nf) <= T::ZERO || s.sp.ns.dot(to_l) <= T::ZERO {
-            return None; // below the geometric or shading horizon
-        }
-        let o = shadow_origin(&s.sp, to_l, self.techniques);
-        let dl = lp - o;
-        let dist = dl.length();
-        let l = dl * (T::ONE / dist);
-        let shadow = Ray {
-            o,
-            d: l,
-            t_min: T::ZERO,
-            t_max: dist,
-        };
-        Some((shadow, l))
-    }
-
-    /// The term of an unoccluded `light` in direction `l`.
-    #[inline]
-    fn light(&self, s: &Shading<'_, T>, light: &Light, l: V3<T>) -> V3<T> {
-        light_term(s.m, s.alb, &s.sp, l, s.v, V3::from_vec3(light.radiance()))
+        texture::child_cone(cone.width, cone.spread, k, eta)
     }
 
     /// Primary ray for sample position (px, py) in pixel units.
@@ -529,7 +630,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                             Band::Srgb8(rgb) => {
                                 tally.nonfinite += px.iter().any(|v| !v.is_finite()) as u64;
                                 for (o, v) in rgb[at * 3..at * 3 + 3].iter_mut().zip(px) {
-                                    *o = image_io::srgb8(v);
+                                    *o = image_io::srgb8_fast(v);
                                 }
                             }
                         }

@@ -211,6 +211,24 @@ pub fn shadow_origin<T: Real>(sp: &SurfacePoint<T>, to_l: V3<T>, tech: Technique
     }
 }
 
+/// The shadow ray from `sp` towards a point light at `lp`: its origin (offset off the
+/// surface by `tech`), unit direction and length, or `None` when the light is below the
+/// geometric or shading horizon. The scalar reference of `shade_lanes::shadows_generic`.
+pub fn shadow_ray<T: Real>(
+    sp: &SurfacePoint<T>,
+    lp: V3<T>,
+    tech: Techniques,
+) -> Option<(V3<T>, V3<T>, T)> {
+    let to_l = lp - sp.p;
+    if to_l.dot(sp.nf) <= T::ZERO || sp.ns.dot(to_l) <= T::ZERO {
+        return None; // below the geometric or shading horizon
+    }
+    let o = shadow_origin(sp, to_l, tech);
+    let dl = lp - o;
+    let dist = dl.length();
+    Some((o, dl * (T::ONE / dist), dist))
+}
+
 /// Albedo at point `p` (the checker replaces the flat colour when present).
 pub fn albedo<T: Real>(m: &Material, p: V3<T>) -> V3<T> {
     match &m.checker {
@@ -323,11 +341,18 @@ pub fn light_term<T: Real>(
     }
     let mut c = albedo * (T::from_f32(m.kd) * ndotl);
     if m.ks.max_element() > 0.0 {
-        let r = reflect(-l, sp.ns);
-        let rv = r.dot(v).max(T::ZERO);
-        c = c + V3::from_vec3(m.ks) * rv.powf(T::from_f32(m.ns));
+        c = c + specular(m, sp.ns, l, v);
     }
     c.mul_elem(radiance)
+}
+
+/// The specular highlight of [`light_term`] (Phong: `ks (r.v)^ns`, `r` the light's
+/// direction mirrored about the shading normal `ns`), before the light's radiance.
+#[inline]
+pub fn specular<T: Real>(m: &Material, ns: V3<T>, l: V3<T>, v: V3<T>) -> V3<T> {
+    let r = reflect(-l, ns);
+    let rv = r.dot(v).max(T::ZERO);
+    V3::from_vec3(m.ks) * rv.powf(T::from_f32(m.ns))
 }
 
 #[cfg(test)]
