@@ -26,7 +26,7 @@ use crate::scene::{camera, Material, Scene};
 use crate::technique::Techniques;
 
 /// Most primary rays traced as one batch (whole pixels: all samples of a pixel are in one).
-const BATCH_RAYS: usize = 256;
+const BATCH_RAYS: usize = 1024;
 /// Side of the square of pixels whose rays go together: rows are rendered in bands of
 /// this many, and a batch orders its pixels in squares of this side (16 rays: one
 /// AVX-512 packet at one sample per pixel).
@@ -607,7 +607,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                         0,
                         &mut tally,
                         &mut colors,
-                        Some(&mut normals),
+                        aov.is_some().then_some(&mut normals),
                     );
                     for (p, &(i, j)) in pixels.iter().enumerate() {
                         let first = p * n_off;
