@@ -32,6 +32,30 @@ const BATCH_RAYS: usize = 1024;
 /// AVX-512 packet at one sample per pixel).
 const TILE: u32 = 4;
 
+/// The buffers of one depth of the ray tree, kept from batch to batch by a band (the
+/// lanes are large: allocating and clearing them per batch cost a tenth of the shading).
+struct Scratch<T> {
+    lanes: Vec<HitLanes<T>>,
+    rays_of: Vec<Shadows<T>>,
+    add: Vec<[bool; LANES]>,
+    shadows: Vec<Ray<T>>,
+    lit: Vec<(usize, usize)>,
+    occluded: Vec<bool>,
+}
+
+impl<T> Default for Scratch<T> {
+    fn default() -> Self {
+        Scratch {
+            lanes: Vec::new(),
+            rays_of: Vec::new(),
+            add: Vec::new(),
+            shadows: Vec::new(),
+            lit: Vec::new(),
+            occluded: Vec::new(),
+        }
+    }
+}
+
 /// [`LANES`] hits of a batch being shaded (`base..base + LANES`): their surfaces,
 /// materials, albedos and the colours summed so far, one lane each.
 #[derive(Clone)]
@@ -181,6 +205,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         cones: &[Cone<T>],
         depth: u32,
         tally: &mut Tally,
+        scratch: &mut Vec<Scratch<T>>,
         out: &mut Vec<V3<T>>,
     ) {
         let mut hits = vec![None; rays.len()];
@@ -190,7 +215,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             tally.work.cells += wk.cells;
             tally.work.tests += wk.tests;
         }
-        self.shade_hits(rays, cones, &hits, depth, tally, out, None);
+        self.shade_hits(rays, cones, &hits, depth, tally, scratch, out, None);
     }
 
     /// Whitted shading of a batch of hits of `rays` at recursion depth `depth` (`None` for
@@ -210,16 +235,33 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         hits: &[Option<Hit<T>>],
         depth: u32,
         tally: &mut Tally,
+        scratch: &mut Vec<Scratch<T>>,
         out: &mut Vec<V3<T>>,
         normals: Option<&mut Vec<V3<T>>>,
     ) {
+        if scratch.len() <= depth as usize {
+            scratch.resize_with(depth as usize + 1, Scratch::default);
+        }
+        let mut sc = std::mem::take(&mut scratch[depth as usize]);
+        let Scratch {
+            lanes: lanes_buf,
+            shadows,
+            lit,
+            occluded,
+            rays_of,
+            add,
+        } = &mut sc;
         let no_cone = Cone {
             width: T::ZERO,
             spread: T::ZERO,
         };
         let n = rays.len();
         let mut at_hit = vec![no_cone; if self.textured { n } else { 0 }];
-        let mut lanes = vec![HitLanes::zero(); n.div_ceil(LANES)];
+        let chunks = n.div_ceil(LANES);
+        if lanes_buf.len() < chunks {
+            lanes_buf.resize_with(chunks, HitLanes::zero);
+        }
+        let lanes = &mut lanes_buf[..chunks];
         for (c, h) in lanes.iter_mut().enumerate() {
             self.begin_lanes(rays, hits, c * LANES, h);
         }
@@ -252,13 +294,13 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                 }
             }));
         }
-        let mut shadows = Vec::with_capacity(n);
-        let mut lit = Vec::with_capacity(n);
-        let mut occluded = Vec::new();
-        let mut rays_of = vec![Shadows::zero(); lanes.len()];
+        if rays_of.len() < chunks {
+            rays_of.resize_with(chunks, Shadows::zero);
+        }
+        let rays_of = &mut rays_of[..chunks];
         for light in &self.scene.lights {
             let lp = V3::<T>::from_vec3(light.position);
-            for (h, out) in lanes.iter().zip(&mut rays_of) {
+            for (h, out) in lanes.iter().zip(rays_of.iter_mut()) {
                 self.dispatch
                     .shadows(&h.s, &h.live, lp, self.techniques, out);
             }
@@ -278,14 +320,14 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             tally.shadow += shadows.len() as u64;
             occluded.clear();
             occluded.resize(shadows.len(), false);
-            self.walker
-                .any_hits(&shadows, &mut occluded, &mut tally.work);
+            self.walker.any_hits(shadows, occluded, &mut tally.work);
             let radiance = V3::from_vec3(light.radiance());
-            let mut add = vec![[false; LANES]; lanes.len()];
-            for (&(c, k), &blocked) in lit.iter().zip(&occluded) {
+            add.clear();
+            add.resize(chunks, [false; LANES]);
+            for (&(c, k), &blocked) in lit.iter().zip(occluded.iter()) {
                 add[c][k] = !blocked;
             }
-            for ((h, sh), add) in lanes.iter_mut().zip(&rays_of).zip(&add) {
+            for ((h, sh), add) in lanes.iter_mut().zip(rays_of.iter()).zip(add.iter()) {
                 if !add.contains(&true) {
                     continue;
                 }
@@ -362,10 +404,20 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         }));
         if !children.is_empty() {
             let mut radiance = Vec::with_capacity(children.len());
-            self.radiance_batch(&children, &child_cones, depth + 1, tally, &mut radiance);
+            scratch[depth as usize] = sc;
+            self.radiance_batch(
+                &children,
+                &child_cones,
+                depth + 1,
+                tally,
+                scratch,
+                &mut radiance,
+            );
             for (&(i, kw), r) in parents.iter().zip(&radiance) {
                 out[i] = out[i] + r.mul_elem(kw);
             }
+        } else {
+            scratch[depth as usize] = sc;
         }
     }
 
@@ -380,6 +432,9 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     ) {
         let mut inp = SurfaceIn::zero();
         let HitLanes { live, mat, .. } = out;
+        // The buffer is reused: only `live` and `mat` are read where no hit wrote them.
+        *live = [false; LANES];
+        *mat = [0; LANES];
         for k in 0..LANES.min(hits.len().saturating_sub(base)) {
             let Some(h) = &hits[base + k] else { continue };
             live[k] = true;
@@ -553,6 +608,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                 let (mut pixels, mut rays, mut hits, mut work) =
                     (Vec::new(), Vec::new(), Vec::new(), Vec::new());
                 let (mut colors, mut normals) = (Vec::new(), Vec::new());
+                let mut scratch = Vec::new();
                 let (mut pos, mut dirs) = ([Vec::new(), Vec::new()], Default::default());
                 let cols = (batch / rows).max(1) as u32;
                 for i0 in (region.x0..region.x1).step_by(cols as usize) {
@@ -606,6 +662,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                         &hits,
                         0,
                         &mut tally,
+                        &mut scratch,
                         &mut colors,
                         aov.is_some().then_some(&mut normals),
                     );
