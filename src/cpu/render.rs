@@ -26,7 +26,7 @@ use crate::scene::{camera, Material, Scene};
 use crate::technique::Techniques;
 
 /// Most primary rays traced as one batch (whole pixels: all samples of a pixel are in one).
-const BATCH_RAYS: usize = 1024;
+const BATCH_RAYS: usize = 256;
 /// Side of the square of pixels whose rays go together: rows are rendered in bands of
 /// this many, and a batch orders its pixels in squares of this side (16 rays: one
 /// AVX-512 packet at one sample per pixel).
