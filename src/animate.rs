@@ -73,7 +73,7 @@ pub fn render_frames(
             scene.source
         ))
     })?;
-    let template = OutputTemplate::new(output);
+    let template = OutputTemplate::new(output)?;
     if frames.is_empty() {
         return Err(Error::Internal("an empty frame list".into()));
     }

@@ -456,6 +456,11 @@ pub struct RenderArgs {
     /// Write render statistics as JSON to this file.
     #[arg(long)]
     pub stats: Option<PathBuf>,
+    /// Make the folders of -o and --stats when missing (parts and frames always make
+    /// theirs); without it a missing folder is refused before anything is rendered, so a
+    /// typo costs nothing.
+    #[arg(long)]
+    pub mkdir: bool,
     /// Which parts of the image this process renders (`--tile`, `--region`,
     /// `--task-index`, `--tiles`).
     #[command(flatten)]

@@ -85,8 +85,12 @@ fn output_paths_say_what_is_wrong_with_them() {
     fails(
         &d,
         &["render", "-o", "nope/x.png"],
-        &["folder nope does not exist"],
+        &["folder nope does not exist", "--mkdir makes it"],
     );
+    assert!(!d.join("nope").exists());
+    // --mkdir makes the folders asked for (image and statistics).
+    render(&d, "made/deep/x.png", &["--mkdir", "--stats", "made/s/x.json"]);
+    assert!(d.join("made/deep/x.png").is_file() && d.join("made/s/x.json").is_file());
     if Path::new("/proc").is_dir() {
         let line = fails(
             &d,

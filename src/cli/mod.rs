@@ -465,7 +465,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
 pub fn run_merge(args: &MergeArgs) -> Result<crate::farm::merge::Merged> {
     image_io::remove_partials_on_signal();
     // A probe next to where frame 0 would go: the folder must exist and be writable.
-    let probe = crate::farm::template::OutputTemplate::new(&args.output).path(Some(0), None);
+    let probe = crate::farm::template::OutputTemplate::new(&args.output)?.path(Some(0), None);
     check_writable(&probe, "image")?;
     image_io::Format::from_path(&args.output)?;
     let merged = crate::farm::merge::merge(&args.parts, &args.output)?;

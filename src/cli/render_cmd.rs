@@ -64,11 +64,23 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
     }
     // Fail on an unusable output path or AOV list before loading or rendering anything;
     // a folder is reported as one, not as a file with an unknown extension.
-    check_writable(&args.output, "image")?;
+    if args.mkdir {
+        make_folder(&args.output)?;
+        if let Some(stats) = &args.stats {
+            make_folder(stats)?;
+        }
+    }
+    let hint = |e: Error| match e {
+        Error::Usage(m) if m.ends_with("does not exist") => {
+            Error::Usage(format!("{m} (--mkdir makes it)"))
+        }
+        e => e,
+    };
+    check_writable(&args.output, "image").map_err(hint)?;
     image_io::Format::from_path(&args.output)?;
     image_io::remove_stale_partials(&args.output);
     if let Some(stats) = &args.stats {
-        check_writable(stats, "statistics")?;
+        check_writable(stats, "statistics").map_err(hint)?;
     }
     let aovs = args
         .aov
@@ -265,7 +277,7 @@ fn expected(
         height: h,
         part: false,
     };
-    let template = crate::farm::template::OutputTemplate::new(&args.output);
+    let template = crate::farm::template::OutputTemplate::new(&args.output)?;
     Ok(match frames {
         Some(list) => list
             .into_iter()

@@ -222,7 +222,7 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
         return Err(Error::Usage("merge: no parts given".into()));
     }
     let format = Format::from_path(output)?;
-    let template = OutputTemplate::new(output);
+    let template = OutputTemplate::new(output)?;
     let mut parts = Vec::with_capacity(inputs.len());
     for path in inputs {
         parts.push((path.as_path(), read_part(path)?));

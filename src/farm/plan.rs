@@ -134,7 +134,7 @@ impl PartPlan {
                 (Cut::Tiles(tiling), Some(task), units)
             }
         };
-        let template = OutputTemplate::new(output);
+        let template = OutputTemplate::new(output)?;
         let format = Format::from_path(output)?;
         let tiles = match cut {
             Cut::Tiles(t) => t.count(),
@@ -176,7 +176,7 @@ impl PartPlan {
         let stats = match stats {
             None => Vec::new(),
             Some(p) => {
-                let t = OutputTemplate::new(p);
+                let t = OutputTemplate::new(p)?;
                 let paths: Vec<PathBuf> =
                     units.iter().map(|u| t.path(u.frame, tile_of(u))).collect();
                 let mut sorted = paths.clone();

@@ -11,18 +11,32 @@ use std::path::{Path, PathBuf};
 pub const FRAME_DIGITS: usize = 4;
 
 /// An output path with an optional `{tile}` placeholder and an optional frame number
-/// placeholder: `{frame}`, or the last run of `#` in the file name.
+/// placeholder: `{frame}`, or the one run of `#` in the file name.
 #[derive(Clone, Debug)]
 pub struct OutputTemplate {
     raw: String,
 }
 
 impl OutputTemplate {
-    /// Wraps a `-o` path.
-    pub fn new(path: &Path) -> Self {
-        OutputTemplate {
+    /// Wraps a `-o` path; a usage error when its file name has more than one run of `#`
+    /// and no `{frame}` (which run would be the frame number is a guess: `f##_##.png`
+    /// once numbered only the last).
+    pub fn new(path: &Path) -> crate::error::Result<Self> {
+        let t = OutputTemplate {
             raw: path.to_string_lossy().into_owned(),
+        };
+        let name = &t.raw[t.raw.rfind('/').map_or(0, |i| i + 1)..];
+        let runs = name
+            .split(|c| c != '#')
+            .filter(|run| !run.is_empty())
+            .count();
+        if runs > 1 && !t.raw.contains("{frame}") {
+            return Err(crate::error::Error::Usage(format!(
+                "-o {}: the file name has {runs} runs of #; the frame number goes in one run (frame_####.png) or in {{frame}}",
+                path.display()
+            )));
         }
+        Ok(t)
     }
 
     /// True when the name has `{tile}`.
@@ -30,7 +44,7 @@ impl OutputTemplate {
         self.raw.contains("{tile}")
     }
 
-    /// Where the frame's run of `#` is: the last run in the file name.
+    /// Where the frame's run of `#` is in the file name.
     fn frame_run(&self) -> Option<(usize, usize)> {
         let name_start = self.raw.rfind('/').map_or(0, |i| i + 1);
         let end = self.raw[name_start..].rfind('#')? + name_start + 1;
@@ -70,8 +84,19 @@ mod tests {
     use super::*;
 
     #[test]
+    fn two_runs_of_hashes_are_refused_unless_frame_is_named() {
+        let e = OutputTemplate::new(Path::new("out/f##_##.png")).unwrap_err();
+        assert!(e.to_string().contains("2 runs of #"), "{e}");
+        // A # in a folder's name is no run of the file name; {frame} names the place.
+        let t = OutputTemplate::new(Path::new("a#b/f##.png")).unwrap();
+        assert_eq!(t.path(Some(3), None), PathBuf::from("a#b/f03.png"));
+        let t = OutputTemplate::new(Path::new("f#_{frame}.png")).unwrap();
+        assert_eq!(t.path(Some(3), None), PathBuf::from("f#_0003.png"));
+    }
+
+    #[test]
     fn placeholders() {
-        let t = OutputTemplate::new(Path::new("o#t/f####-t{tile}.exr"));
+        let t = OutputTemplate::new(Path::new("o#t/f####-t{tile}.exr")).unwrap();
         assert!(t.has_tile() && t.has_frame());
         assert_eq!(
             t.path(Some(7), Some((3, 16))),
@@ -85,16 +110,15 @@ mod tests {
             t.path(None, Some((9, 10))),
             PathBuf::from("o#t/f####-t9.exr")
         );
-        let two = OutputTemplate::new(Path::new("a##b#.png"));
-        assert_eq!(two.path(Some(42), None), PathBuf::from("a##b42.png"));
-        assert!(!OutputTemplate::new(Path::new("dir#/x.png")).has_frame());
-        let braces = OutputTemplate::new(Path::new("f{frame}-{tile}.exr"));
+        assert!(OutputTemplate::new(Path::new("a##b#.png")).is_err());
+        assert!(!OutputTemplate::new(Path::new("dir#/x.png")).unwrap().has_frame());
+        let braces = OutputTemplate::new(Path::new("f{frame}-{tile}.exr")).unwrap();
         assert!(braces.has_frame());
         assert_eq!(
             braces.path(Some(3), Some((1, 4))),
             PathBuf::from("f0003-1.exr")
         );
-        let plain = OutputTemplate::new(Path::new("a.png"));
+        let plain = OutputTemplate::new(Path::new("a.png")).unwrap();
         assert!(!plain.has_tile() && !plain.has_frame());
         assert_eq!(plain.path(Some(1), Some((1, 2))), PathBuf::from("a.png"));
     }
