@@ -89,7 +89,11 @@ fn output_paths_say_what_is_wrong_with_them() {
     );
     assert!(!d.join("nope").exists());
     // --mkdir makes the folders asked for (image and statistics).
-    render(&d, "made/deep/x.png", &["--mkdir", "--stats", "made/s/x.json"]);
+    render(
+        &d,
+        "made/deep/x.png",
+        &["--mkdir", "--stats", "made/s/x.json"],
+    );
     assert!(d.join("made/deep/x.png").is_file() && d.join("made/s/x.json").is_file());
     if Path::new("/proc").is_dir() {
         let line = fails(

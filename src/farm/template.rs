@@ -111,7 +111,9 @@ mod tests {
             PathBuf::from("o#t/f####-t9.exr")
         );
         assert!(OutputTemplate::new(Path::new("a##b#.png")).is_err());
-        assert!(!OutputTemplate::new(Path::new("dir#/x.png")).unwrap().has_frame());
+        assert!(!OutputTemplate::new(Path::new("dir#/x.png"))
+            .unwrap()
+            .has_frame());
         let braces = OutputTemplate::new(Path::new("f{frame}-{tile}.exr")).unwrap();
         assert!(braces.has_frame());
         assert_eq!(

@@ -133,6 +133,17 @@ macro_rules! directions_for {
 directions_for!(directions_avx512, "avx512f");
 directions_for!(directions_avx2, "avx2");
 
+/// The least sine of the angle between a scene file's viewing direction and its `up`
+/// (about 1e-6 rad): closer, f32 rounding can hide the degenerate frame from
+/// [`Camera::check`] and the image spins with the rounding.
+pub const MIN_UP_SINE: f64 = 1e-6;
+
+/// True when `up` is within [`MIN_UP_SINE`] of the viewing direction `view` (either way):
+/// the one rule of `[camera]`, keyframes and orbits.
+pub fn up_parallel(view: DVec3, up: DVec3) -> bool {
+    view.normalize().cross(up.normalize()).length() < MIN_UP_SINE
+}
+
 impl Camera {
     /// Checks that the camera defines a frame (distinct eye and target, up not parallel).
     pub fn check(&self) -> Result<(), String> {

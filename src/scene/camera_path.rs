@@ -271,7 +271,7 @@ impl CameraPath {
             // The still camera's rule (toml_scene's `[camera]`): refuse an up within about
             // 1e-6 rad of the view, which f32 rounding can hide from Camera::check.
             let view = k.pose.look_at - k.pose.eye;
-            if view.length() > 0.0 && view.normalize().cross(k.pose.up).length() < 1e-6 {
+            if view.length() > 0.0 && super::camera::up_parallel(view, k.pose.up) {
                 return Err(err(
                     at("up"),
                     format!(
@@ -337,6 +337,17 @@ impl CameraPath {
             ));
         }
         fov_ok(orbit.fov_deg, at("fov"))?;
+        // The eye looks at the centre from `radius` out and `height` up the axis: the same
+        // angle to up in every frame, refused by the still camera's rule.
+        if super::camera::up_parallel(DVec3::new(-orbit.radius, -orbit.height, 0.0), DVec3::Y) {
+            return Err(err(
+                at("radius"),
+                format!(
+                    "radius {} at height {} looks along the orbit's axis (up) from every frame; raise the radius or lower the height",
+                    orbit.radius, orbit.height
+                ),
+            ));
+        }
         let u = orbit.up.normalize();
         // World x for up = +y, so that the eye is exactly centre + (r cos a, h, r sin a).
         let reference = if u.x.abs() < 0.9 { DVec3::X } else { DVec3::Z };

@@ -290,6 +290,13 @@ fn animation_errors_name_file_line_and_field() {
             "must be > 0, got 0",
         ),
         (
+            // The [camera] rule: an eye 1e-6 out at height 5 looks along up.
+            ORBIT.replace("radius = 4", "radius = 1e-6").replace("height = 1.5", "height = 5"),
+            3,
+            "animation.orbit.radius",
+            "looks along the orbit's axis",
+        ),
+        (
             ORBIT.replace("radius = 4", "radius = -2.5"),
             3,
             "animation.orbit.radius",

@@ -393,7 +393,7 @@ impl Builder<'_> {
                 "up is [0, 0, 0], which has no direction; give the camera's up, e.g. [0, 1, 0]",
             ));
         }
-        if forward.normalize().cross(up.as_dvec3()).length() < 1e-6 {
+        if crate::scene::camera::up_parallel(forward, up.as_dvec3()) {
             let (span, field) = match &d.up {
                 Some(u) => (u.span(), "camera.up"),
                 None => (d.look_at.span(), "camera.look_at"),
