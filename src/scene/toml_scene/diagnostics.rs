@@ -83,10 +83,19 @@ impl Ctx<'_> {
         // Garbage before any key leaves no field to name: show the text the parser stopped
         // at instead of an empty field.
         let field = if field.is_empty() {
-            at_text(self.text, span.map_or(0, |s| s.start))
+            at_text(self.text, span.as_ref().map_or(0, |s| s.start))
         } else {
             field
         };
+        // `fov =` with nothing after it: toml says "invalid string: expected `"`, `'`".
+        if let Some(key) = span.and_then(|s| key_without_value(self.text, s.start)) {
+            return Error::scene(
+                self.name,
+                line,
+                field,
+                format!("`{key} =` has no value after it (e.g. `{key} = 40`, `{key} = [0, 1, 0]`)"),
+            );
+        }
         Error::scene(self.name, line, field, improve_message(inner.message()))
     }
 
@@ -220,6 +229,18 @@ fn path_field(path: &serde_path_to_error::Path) -> Option<String> {
 }
 
 /// Rewrites serde's "unknown field/variant" messages into "unknown key ...; did you mean".
+/// The key of the line holding `offset` when that line is `key =` with no value after
+/// it (only blanks or a comment).
+fn key_without_value(text: &str, offset: usize) -> Option<&str> {
+    let offset = offset.min(text.len());
+    let start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let end = text[start..].find('\n').map_or(text.len(), |i| start + i);
+    let (key, rest) = text[start..end].split_once('=')?;
+    let rest = rest.trim_start();
+    let key = key.trim();
+    (!key.is_empty() && (rest.is_empty() || rest.starts_with('#'))).then_some(key)
+}
+
 fn improve_message(msg: &str) -> String {
     // toml's messages can span lines ("invalid array\nexpected `]`"); errors are one line.
     let joined = msg

@@ -639,3 +639,13 @@ fn meshes_from_texts_load_like_files() {
         ),
     }
 }
+
+#[test]
+fn a_key_without_a_value_is_named_as_such() {
+    let (line, field, msg) = scene_err("[camera]\neye = [0, 1, 5]\nlook_at = [0, 1, 0]\nfov =\n");
+    assert_eq!((line, field.as_str()), (4, "camera.fov"), "{msg}");
+    assert!(msg.contains("`fov =` has no value after it"), "{msg}");
+    let (line, _, msg) = scene_err(&format!("{CAM}[[lights]]\nposition = # later\n"));
+    assert_eq!(line, 6, "{msg}");
+    assert!(msg.contains("`position =` has no value"), "{msg}");
+}
