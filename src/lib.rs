@@ -41,6 +41,7 @@ pub mod cpu;
 pub mod error;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod farm;
+pub mod fnv;
 pub mod gpu;
 pub mod image_io;
 pub mod numeric;

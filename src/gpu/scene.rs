@@ -20,11 +20,14 @@ use std::rc::Rc;
 use super::context::GlContext;
 use super::contract::STORAGE_BINDING_BASE;
 use super::contract::{uniform, Unit};
+use super::gl::program::link_binary;
 use super::gl::{compile_compute, compile_program, state, Program, StorageBuffer, Texture};
 use super::layout::SceneTextures;
+use super::program_cache::{ProgramCache, SourceKey};
 use super::shader::{assemble_compute, assemble_in, ComputePass, ComputeSpec, Features, Pass};
 use crate::accel::{AccelRef, GridRef};
 use crate::clock::Instant;
+use crate::output::GpuStats;
 use crate::scene::Scene;
 use crate::technique::Techniques;
 use crate::Result;
@@ -43,8 +46,21 @@ pub struct Costs {
     pub upload_ms: f64,
     /// Bytes uploaded.
     pub upload_bytes: usize,
-    /// Compiling and linking programs (ms).
+    /// Compiling and linking programs, or linking them from cached binaries (ms).
     pub compile_ms: f64,
+    /// Programs compiled from source.
+    pub programs_compiled: u32,
+    /// Programs linked from the program-binary cache.
+    pub programs_cached: u32,
+}
+
+impl Costs {
+    /// Adds the programs' share (time and counts) to a render's statistics.
+    pub fn charge_programs(&self, stats: &mut GpuStats) {
+        stats.compile_ms += self.compile_ms;
+        stats.programs_compiled += self.programs_compiled;
+        stats.programs_cached += self.programs_cached;
+    }
 }
 
 /// A program of the scene's cache.
@@ -64,6 +80,8 @@ pub struct GpuScene<'s> {
     textures: OnceCell<Vec<(Unit, Texture)>>,
     buffers: OnceCell<Vec<(u32, StorageBuffer)>>,
     programs: RefCell<HashMap<ProgramKey, Rc<Program>>>,
+    /// Where linked programs are looked up before compiling, and stored after.
+    cache: Option<ProgramCache>,
     /// The compute kernel's light buffer and 8-bit sRGB thresholds, made on first use.
     lights: OnceCell<StorageBuffer>,
     srgb_thresholds: OnceCell<StorageBuffer>,
@@ -106,6 +124,7 @@ impl<'s> GpuScene<'s> {
             textures: OnceCell::new(),
             buffers: OnceCell::new(),
             programs: RefCell::new(HashMap::new()),
+            cache: None,
             lights: OnceCell::new(),
             srgb_thresholds: OnceCell::new(),
             srgb_texture: OnceCell::new(),
@@ -125,6 +144,18 @@ impl<'s> GpuScene<'s> {
             i.skew_faces = true;
         }
         self
+    }
+
+    /// Programs are looked up in `cache` before they are compiled, and stored there after
+    /// (`--shader-cache`; None compiles every program).
+    pub fn with_program_cache(mut self, cache: Option<ProgramCache>) -> Self {
+        self.cache = cache;
+        self
+    }
+
+    /// The program-binary cache, where the scene has one.
+    pub fn program_cache(&self) -> Option<&ProgramCache> {
+        self.cache.as_ref()
     }
 
     /// The context the scene lives in.
@@ -306,7 +337,7 @@ impl<'s> GpuScene<'s> {
         Ok(())
     }
 
-    /// The fragment program of `pass`, compiled on first use.
+    /// The fragment program of `pass`, compiled (or linked from the cache) on first use.
     pub fn fragment_program(&self, pass: Pass, techniques: Techniques) -> Result<Rc<Program>> {
         self.program(ProgramKey::Fragment(pass, techniques), || {
             let dialect = self.ctx.info.dialect;
@@ -318,13 +349,16 @@ impl<'s> GpuScene<'s> {
                 a.lines.push(("<test hook>".into(), 1));
             }
             let vertex = dialect.quad_vertex_shader();
-            let program =
-                compile_program(self.ctx, pass.name(), vertex, &a.source, &|n| a.origin(n))?;
+            let key = SourceKey::of(pass.name(), &[vertex, &a.source]);
+            let program = self.cached_or(pass.name(), key, || {
+                compile_program(self.ctx, pass.name(), vertex, &a.source, &|n| a.origin(n))
+            })?;
             Ok(program.declaring(a.declared))
         })
     }
 
-    /// The compute program of `pass` specialised for `spec`, compiled on first use.
+    /// The compute program of `pass` specialised for `spec`, compiled (or linked from the
+    /// cache) on first use.
     pub fn compute_program(
         &self,
         pass: ComputePass,
@@ -333,9 +367,42 @@ impl<'s> GpuScene<'s> {
     ) -> Result<Rc<Program>> {
         self.program(ProgramKey::Compute(pass, *spec, techniques), || {
             let a = assemble_compute(pass, spec, self.features, techniques, &self.layout)?;
-            let program = compile_compute(self.ctx, pass.name(), &a.source, &|n| a.origin(n))?;
+            let key = SourceKey::of(pass.name(), &[&a.source]);
+            let program = self.cached_or(pass.name(), key, || {
+                compile_compute(self.ctx, pass.name(), &a.source, &|n| a.origin(n))
+            })?;
             Ok(program.declaring(a.declared))
         })
+    }
+
+    /// The program of `key` linked from its cached binary where the cache has one the
+    /// driver accepts, else compiled by `compile` and stored.
+    fn cached_or(
+        &self,
+        pass: &str,
+        key: SourceKey,
+        compile: impl FnOnce() -> Result<Program>,
+    ) -> Result<Program> {
+        if let Some(cache) = &self.cache {
+            if let Some(binary) = cache.load(key) {
+                match link_binary(self.ctx, pass, &binary) {
+                    Some(p) => {
+                        cache.hit();
+                        self.charge(|c| c.programs_cached += 1);
+                        return Ok(p);
+                    }
+                    None => cache.refused(),
+                }
+            }
+        }
+        let program = compile()?;
+        self.charge(|c| c.programs_compiled += 1);
+        if let Some(cache) = &self.cache {
+            if let Some(binary) = program.binary(self.ctx) {
+                cache.store(key, &binary);
+            }
+        }
+        Ok(program)
     }
 
     fn program(

@@ -102,7 +102,7 @@ impl<'g> Setup<'g> {
         let costs = gs.take_costs();
         stats.upload_ms = costs.upload_ms;
         stats.upload_bytes = costs.upload_bytes;
-        stats.compile_ms = costs.compile_ms;
+        costs.charge_programs(&mut stats);
         Ok(Setup {
             gs,
             program,
@@ -209,8 +209,7 @@ pub(crate) fn render(
     // The 8-bit conversion: its program (compiled once per scene) and the thresholds.
     let convert = if readback.srgb8 {
         let p = gs.compute_program(ComputePass::Srgb8, &ComputeSpec::CONVERT, req.techniques)?;
-        let c = gs.take_costs();
-        setup.stats.compile_ms += c.compile_ms;
+        gs.take_costs().charge_programs(&mut setup.stats);
         Some((p, gs.srgb_thresholds()?))
     } else {
         None

@@ -187,7 +187,7 @@ impl<'a> Frame<'a> {
             programs.insert(pass, program);
         }
         let costs = gs.take_costs();
-        let stats = GpuStats {
+        let mut stats = GpuStats {
             renderer: info.renderer.clone(),
             gl_version: info.gl_version.clone(),
             query_every: opts.query_every,
@@ -196,9 +196,9 @@ impl<'a> Frame<'a> {
             kernel: kernel.to_string(),
             upload_ms: costs.upload_ms,
             upload_bytes: costs.upload_bytes,
-            compile_ms: costs.compile_ms,
             ..GpuStats::default()
         };
+        costs.charge_programs(&mut stats);
 
         let targets = |n: usize| RenderTarget::new(ctx, width, height, n);
         let state_formats = opts.storage.state_formats();
@@ -349,7 +349,7 @@ impl<'a> Frame<'a> {
     pub(super) fn draw_into(&mut self, pass: Pass, target: &RenderTarget) -> Result<()> {
         if !self.programs.contains_key(&pass) {
             let program = self.gs.fragment_program(pass, self.opts.techniques)?;
-            self.stats.compile_ms += self.gs.take_costs().compile_ms;
+            self.gs.take_costs().charge_programs(&mut self.stats);
             self.programs.insert(pass, program);
         }
         target.bind(self.gl());

@@ -34,6 +34,16 @@ const QUAD_VERTICES: [f32; 20] = [
     -1.0, 1.0, -0.5, 0.0, 1.0, //
 ];
 
+/// A linked program's binary as GL hands it out (`glGetProgramBinary`): its format and
+/// bytes, for the program-binary cache (`gpu::program_cache`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Binary {
+    /// The driver's binary format enum.
+    pub format: u32,
+    /// The bytes.
+    pub bytes: Vec<u8>,
+}
+
 /// A linked program; deleted when dropped.
 #[derive(Debug)]
 pub struct Program {
@@ -107,6 +117,24 @@ impl Program {
                 }
             }
         }
+    }
+
+    /// The program's binary (`glGetProgramBinary`), or None where the driver gives none.
+    pub fn binary(&self, ctx: &GlContext) -> Option<Binary> {
+        if ctx.info.program_binary_formats < 1 {
+            return None;
+        }
+        let gl = ctx.gl();
+        // SAFETY: the context is current and the program a linked program of it; glow sizes
+        // the buffer by GL_PROGRAM_BINARY_LENGTH and reports a GL error as None.
+        let b = unsafe {
+            while gl.get_error() != glow::NO_ERROR {}
+            gl.get_program_binary(self.name())?
+        };
+        (!b.buffer.is_empty()).then_some(Binary {
+            format: b.format,
+            bytes: b.buffer,
+        })
     }
 
     /// Whether the program's source declares uniform `u`.
@@ -254,6 +282,42 @@ impl FullscreenQuad {
     }
 }
 
+/// The program `pass` linked from a cached `binary` (`glProgramBinary`), or None where the
+/// driver refuses it (another driver build, a damaged entry the header could not see): its
+/// link status is the driver's verdict, and a refused binary leaves no error behind.
+pub fn link_binary(ctx: &GlContext, pass: &str, binary: &Binary) -> Option<Program> {
+    if ctx.info.program_binary_formats < 1 {
+        return None;
+    }
+    let gl = ctx.gl();
+    // SAFETY: the context is current; the program is created and owned here, and GL reads
+    // exactly `binary.bytes.len()` bytes of the slice.
+    unsafe {
+        let program = Program::from_owned(Owned::new(ctx, gl.create_program().ok()?), pass);
+        gl.program_binary(
+            program.name(),
+            &glow::ProgramBinary {
+                buffer: binary.bytes.clone(),
+                format: binary.format,
+            },
+        );
+        let ok = gl.get_error() == glow::NO_ERROR && gl.get_program_link_status(program.name());
+        while gl.get_error() != glow::NO_ERROR {}
+        ok.then_some(program)
+    }
+}
+
+/// Asks the driver to keep program `p`'s binary retrievable (before linking), where the
+/// context can hand binaries out at all.
+///
+/// # Safety
+/// The context is current and `p` one of its programs.
+pub(super) unsafe fn keep_binary(ctx: &GlContext, p: glow::Program) {
+    if ctx.info.program_binary_formats > 0 {
+        ctx.gl().program_binary_retrievable_hint(p, true);
+    }
+}
+
 /// A line map for a shader made of one file: line `n` of the source is line `n` of `file`.
 pub fn single_file_line_map(file: &str) -> impl Fn(usize) -> (String, usize) + '_ {
     move |line| (file.to_string(), line)
@@ -307,6 +371,7 @@ pub fn compile_program(
         gl.attach_shader(p, fs.name());
         gl.bind_attrib_location(p, ATTRIB_POS, "a_pos");
         gl.bind_attrib_location(p, ATTRIB_UV, "a_uv");
+        keep_binary(ctx, p);
         gl.link_program(p);
         // Shaders are only needed until link; detaching (and dropping them) lets the driver
         // free them now.
