@@ -49,6 +49,7 @@ pub mod options;
 pub mod output;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod plan;
+pub mod pool;
 pub mod progress;
 pub mod query;
 pub mod region;
