@@ -20,11 +20,13 @@ use std::rc::Rc;
 use super::context::GlContext;
 use super::contract::STORAGE_BINDING_BASE;
 use super::contract::{uniform, Unit};
-use super::gl::program::link_binary;
+use super::gl::program::{allow_parallel_compile, link_binary, start_program, PendingProgram};
 use super::gl::{compile_compute, compile_program, state, Program, StorageBuffer, Texture};
 use super::layout::SceneTextures;
 use super::program_cache::{ProgramCache, SourceKey};
-use super::shader::{assemble_compute, assemble_in, ComputePass, ComputeSpec, Features, Pass};
+use super::shader::{
+    assemble_compute, assemble_in, Assembled, ComputePass, ComputeSpec, Features, Pass,
+};
 use crate::accel::{AccelRef, GridRef};
 use crate::clock::Instant;
 use crate::output::GpuStats;
@@ -103,6 +105,7 @@ impl<'s> GpuScene<'s> {
         no_specialize: bool,
     ) -> Result<Self> {
         let accel = accel.into().grid()?;
+        allow_parallel_compile(ctx);
         let t = Instant::now();
         let features = if no_specialize {
             Features::all()
@@ -340,21 +343,69 @@ impl<'s> GpuScene<'s> {
     /// The fragment program of `pass`, compiled (or linked from the cache) on first use.
     pub fn fragment_program(&self, pass: Pass, techniques: Techniques) -> Result<Rc<Program>> {
         self.program(ProgramKey::Fragment(pass, techniques), || {
-            let dialect = self.ctx.info.dialect;
-            #[allow(unused_mut)]
-            let mut a = assemble_in(dialect, pass, self.features, techniques, &self.layout)?;
-            #[cfg(test)]
-            if BREAK_PASS.get() == Some(pass) {
-                a.source.push_str("this line does not compile\n");
-                a.lines.push(("<test hook>".into(), 1));
-            }
-            let vertex = dialect.quad_vertex_shader();
+            let a = self.assemble_fragment(pass, techniques)?;
+            let vertex = self.ctx.info.dialect.quad_vertex_shader();
             let key = SourceKey::of(pass.name(), &[vertex, &a.source]);
             let program = self.cached_or(pass.name(), key, || {
                 compile_program(self.ctx, pass.name(), vertex, &a.source, &|n| a.origin(n))
             })?;
             Ok(program.declaring(a.declared))
         })
+    }
+
+    /// The fragment programs of `passes`, as [`GpuScene::fragment_program`] gives each, with
+    /// every one that is neither kept nor cached handed to the driver before any is waited
+    /// for: a driver that compiles on threads of its own (`GL_KHR_parallel_shader_compile`)
+    /// builds them at once.
+    pub fn fragment_programs(
+        &self,
+        passes: &[Pass],
+        techniques: Techniques,
+    ) -> Result<Vec<Rc<Program>>> {
+        let t0 = Instant::now();
+        let mut pending: Vec<(ProgramKey, SourceKey, Assembled, PendingProgram)> = Vec::new();
+        for &pass in passes {
+            let key = ProgramKey::Fragment(pass, techniques);
+            if self.programs.borrow().contains_key(&key) || pending.iter().any(|(k, ..)| *k == key)
+            {
+                continue;
+            }
+            let a = self.assemble_fragment(pass, techniques)?;
+            let vertex = self.ctx.info.dialect.quad_vertex_shader();
+            let source = SourceKey::of(pass.name(), &[vertex, &a.source]);
+            match self.cached(pass.name(), source) {
+                Some(p) => {
+                    self.keep(key, p.declaring(a.declared))?;
+                }
+                None => {
+                    let started = start_program(self.ctx, pass.name(), vertex, &a.source)?;
+                    pending.push((key, source, a, started));
+                }
+            }
+        }
+        for (key, source, a, started) in pending {
+            let program = started.finish(self.ctx, &|n| a.origin(n))?;
+            self.compiled(source, &program);
+            self.keep(key, program.declaring(a.declared))?;
+        }
+        self.charge(|c| c.compile_ms += ms_since(t0));
+        passes
+            .iter()
+            .map(|&pass| self.fragment_program(pass, techniques))
+            .collect()
+    }
+
+    /// The assembled source of fragment pass `pass`.
+    fn assemble_fragment(&self, pass: Pass, techniques: Techniques) -> Result<Assembled> {
+        let dialect = self.ctx.info.dialect;
+        #[allow(unused_mut)]
+        let mut a = assemble_in(dialect, pass, self.features, techniques, &self.layout)?;
+        #[cfg(test)]
+        if BREAK_PASS.get() == Some(pass) {
+            a.source.push_str("this line does not compile\n");
+            a.lines.push(("<test hook>".into(), 1));
+        }
+        Ok(a)
     }
 
     /// The compute program of `pass` specialised for `spec`, compiled (or linked from the
@@ -383,26 +434,40 @@ impl<'s> GpuScene<'s> {
         key: SourceKey,
         compile: impl FnOnce() -> Result<Program>,
     ) -> Result<Program> {
-        if let Some(cache) = &self.cache {
-            if let Some(binary) = cache.load(key) {
-                match link_binary(self.ctx, pass, &binary) {
-                    Some(p) => {
-                        cache.hit();
-                        self.charge(|c| c.programs_cached += 1);
-                        return Ok(p);
-                    }
-                    None => cache.refused(),
-                }
-            }
+        if let Some(p) = self.cached(pass, key) {
+            return Ok(p);
         }
         let program = compile()?;
+        self.compiled(key, &program);
+        Ok(program)
+    }
+
+    /// The program of `key` linked from its cached binary, where the cache has one the
+    /// driver accepts.
+    fn cached(&self, pass: &str, key: SourceKey) -> Option<Program> {
+        let cache = self.cache.as_ref()?;
+        let binary = cache.load(key)?;
+        match link_binary(self.ctx, pass, &binary) {
+            Some(p) => {
+                cache.hit();
+                self.charge(|c| c.programs_cached += 1);
+                Some(p)
+            }
+            None => {
+                cache.refused();
+                None
+            }
+        }
+    }
+
+    /// Counts a program compiled from source and stores its binary as entry `key`.
+    fn compiled(&self, key: SourceKey, program: &Program) {
         self.charge(|c| c.programs_compiled += 1);
         if let Some(cache) = &self.cache {
             if let Some(binary) = program.binary(self.ctx) {
                 cache.store(key, &binary);
             }
         }
-        Ok(program)
     }
 
     fn program(
@@ -414,9 +479,14 @@ impl<'s> GpuScene<'s> {
             return Ok(Rc::clone(p));
         }
         let t0 = Instant::now();
-        let program = build()?;
-        self.set_scene_uniforms(&program)?;
+        let program = self.keep(key, build()?)?;
         self.charge(|c| c.compile_ms += ms_since(t0));
+        Ok(program)
+    }
+
+    /// Sets the scene's uniforms in `program` and keeps it as the program of `key`.
+    fn keep(&self, key: ProgramKey, program: Program) -> Result<Rc<Program>> {
+        self.set_scene_uniforms(&program)?;
         let program = Rc::new(program);
         self.programs.borrow_mut().insert(key, Rc::clone(&program));
         Ok(program)

@@ -179,8 +179,9 @@ impl<'a> Frame<'a> {
         gs.textures()?;
         let size = glam::IVec2::new(width as i32, height as i32);
         let mut programs = HashMap::new();
-        for pass in passes_for(gs.scene(), levels, shading, kernel) {
-            let program = gs.fragment_program(pass, techniques)?;
+        let passes = passes_for(gs.scene(), levels, shading, kernel);
+        let built = gs.fragment_programs(&passes, techniques)?;
+        for (pass, program) in passes.into_iter().zip(built) {
             if pass == Pass::RayGen {
                 program.set(ctx.gl(), uniform::SIZE, size)?;
             }
