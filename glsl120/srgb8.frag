@@ -23,10 +23,18 @@ float srgb8(float v) {
     return n;
 }
 
+// Whether v is finite. GLSL 1.20 has no isnan/isinf: a NaN fails both comparisons of v
+// itself, an infinity one of them. Written per channel, without abs() or all(): llvmpipe's
+// compiler folds `abs(v) <= MAX`, and all() of vector comparisons, as if no value were NaN,
+// and counted NaN pixels as finite (found by the full-range test in
+// src/gpu/fragment/readback.rs).
+bool finite1(float v) {
+    return v >= -3.4028235e38 && v <= 3.4028235e38;
+}
+
 void main() {
     vec3 c = texture2D(u_acc, vec2(v_uv.x, 1.0 - v_uv.y)).rgb;
     vec3 code = vec3(srgb8(c.r), srgb8(c.g), srgb8(c.b));
-    // GLSL 1.20 has no isnan/isinf: a NaN fails every comparison, an infinity this one.
-    bool finite = all(lessThanEqual(abs(c), vec3(3.4028235e38)));
+    bool finite = finite1(c.r) && finite1(c.g) && finite1(c.b);
     gl_FragData[0] = vec4((code + 0.25) / 255.0, finite ? 1.0 : 0.0);
 }

@@ -137,9 +137,17 @@ pub fn render_frames(
                     Err(_) => return,
                 };
                 let t = Instant::now();
-                let r = match &job.srgb8 {
+                let r = match job.srgb8 {
                     Some(rgb) => {
-                        image_io::write_srgb8(&job.path, job.image.width, job.image.height, rgb)
+                        let r = image_io::write_srgb8(
+                            &job.path,
+                            job.image.width,
+                            job.image.height,
+                            &rgb,
+                        );
+                        // For the next frame's read-back (`pool`): its pages are touched.
+                        crate::pool::give_back(rgb);
+                        r
                     }
                     None => image_io::write_image(&job.path, &job.image),
                 };

@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser};
 
 use crate::accel::{AccelKind, GridConfig, GridRes};
-use crate::gpu::options::{Kernel, Mask, SceneFetch, Storage};
+use crate::gpu::options::{Kernel, Mask, SceneFetch, ShaderCache, Storage};
 use crate::options::{
     check_range, AccelChoice, Backend, CpuPath, Precision, RenderOptions, TextureMode, MAX_DEPTH,
     MAX_IMAGE_SIDE, MAX_QUERY_EVERY, MAX_SPP,
@@ -160,6 +160,11 @@ pub struct Choices {
     /// (start on the triangle). For measuring the technique's cost and value.
     #[arg(long, value_enum, default_value_t = Terminator::Smooth)]
     pub terminator: Terminator,
+    /// GPU: keep linked programs as binaries in the user's cache folder, so the next run
+    /// skips compiling them (on), or compile every program (off). Default: on, or
+    /// $FRAGTRACE_SHADER_CACHE (on|off).
+    #[arg(long, value_enum)]
+    pub shader_cache: Option<ShaderCache>,
     /// GPU: render on EGL device N (`fragtrace info` lists them; on a Slurm GPU node, the
     /// one the task was given: docs/distributed.md); default: the first display that
     /// works.
@@ -191,6 +196,9 @@ impl Choices {
         }
         if self.no_specialize {
             given.push("--no-specialize".into());
+        }
+        if let Some(c) = self.shader_cache {
+            given.push(format!("--shader-cache {c}"));
         }
         given
     }
@@ -366,6 +374,7 @@ impl Choices {
             mask: self.mask,
             storage: self.storage.unwrap_or_default(),
             scene_fetch: self.scene_fetch,
+            shader_cache: self.shader_cache.unwrap_or_else(shader_cache_default),
             ..Default::default()
         }
     }
@@ -580,6 +589,23 @@ fn join_clap_lines(parts: Vec<String>) -> String {
         out += &p;
     }
     out
+}
+
+/// `--shader-cache`'s default: `$FRAGTRACE_SHADER_CACHE` where it says `on` or `off`,
+/// else on (an unknown value is named on stderr and ignored, as a cache is never needed
+/// for a right image).
+fn shader_cache_default() -> ShaderCache {
+    match std::env::var(ShaderCache::ENV).as_deref() {
+        Ok("off") => ShaderCache::Off,
+        Ok("on") | Ok("") | Err(_) => ShaderCache::On,
+        Ok(v) => {
+            eprintln!(
+                "{}={v} is neither on nor off: the shader cache stays on",
+                ShaderCache::ENV
+            );
+            ShaderCache::On
+        }
+    }
 }
 
 #[cfg(test)]

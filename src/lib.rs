@@ -41,6 +41,7 @@ pub mod cpu;
 pub mod error;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod farm;
+pub mod fnv;
 pub mod gpu;
 pub mod image_io;
 pub mod numeric;
@@ -48,6 +49,7 @@ pub mod options;
 pub mod output;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod plan;
+pub mod pool;
 pub mod progress;
 pub mod query;
 pub mod region;

@@ -213,8 +213,13 @@ pub struct GpuStats {
     /// aov; the fragment kernels' drain (waiting for the walk's queued passes), srgb8 (the
     /// 8-bit conversion pass of a PNG) and read_back (their passes' GPU time is in `gpu_ms`).
     pub phases_ms: HashMap<String, f64>,
-    /// Shader compile and link time.
+    /// Shader compile and link time (programs linked from the program-binary cache
+    /// included).
     pub compile_ms: f64,
+    /// Programs compiled from source for this render.
+    pub programs_compiled: u32,
+    /// Programs linked from the program-binary cache for this render (`gpu::program_cache`).
+    pub programs_cached: u32,
     /// Scene texture upload time.
     pub upload_ms: f64,
     /// Scene texture bytes.

@@ -201,7 +201,8 @@ impl<'s> Prepared<'s> {
         // that does not apply to it, is refused now.
         let plan = Plan::resolve(opts, self.summary.kind, Some(&ctx.info))?;
         let t0 = Instant::now();
-        let gs = GpuScene::new(ctx, self.scene, &self.accel, opts.gpu.no_specialize)?;
+        let gs = GpuScene::new(ctx, self.scene, &self.accel, opts.gpu.no_specialize)?
+            .with_program_cache(opts.gpu.shader_cache.open(&ctx.info));
         Ok(Renderer {
             prepared: self,
             opts: opts.clone(),

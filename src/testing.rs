@@ -234,3 +234,50 @@ pub(crate) fn builtin_irregular() -> (Scene, crate::accel::Accel) {
     .unwrap();
     (scene, accel)
 }
+
+/// `n` linear values spanning everything the 8-bit conversion meets, in an order drawn
+/// from `seed` (printed): each code's threshold and the float just below it (so codes 0
+/// through 255 and every step between them), 0 and -0, subnormals, values above 1 up to
+/// the largest float, negative values, both infinities, NaNs of either sign and payload,
+/// and uniform values in [0, 1]; cycled to fill `n`.
+pub(crate) fn full_range_values(n: usize, seed: u64) -> Vec<f32> {
+    println!("full_range_values seed = {seed:#x}");
+    let t = crate::image_io::srgb8_thresholds();
+    let mut rng = Rng::new(seed);
+    let mut set: Vec<f32> = t
+        .iter()
+        .flat_map(|&v| [v, f32::from_bits(v.to_bits() - 1)])
+        .collect();
+    set.extend([
+        0.0,
+        -0.0,
+        f32::from_bits(1),
+        f32::MIN_POSITIVE,
+        1.0,
+        f32::from_bits(1f32.to_bits() + 1),
+        1.5,
+        1e30,
+        f32::MAX,
+        -1e-30,
+        -0.5,
+        -1.0,
+        f32::MIN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        -f32::NAN,
+        f32::from_bits(0x7fc0_1234),
+    ]);
+    set.extend((0..64).map(|_| rng.f64() as f32));
+    (0..n)
+        .map(|k| {
+            if k % set.len() == 0 {
+                // A fresh order for each round, so neighbours differ between rounds.
+                for i in (1..set.len()).rev() {
+                    set.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
+                }
+            }
+            set[k % set.len()]
+        })
+        .collect()
+}

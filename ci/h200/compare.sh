@@ -23,8 +23,15 @@
 #           sharing the GPU, then `fragtrace merge` (docs/distributed.md)
 #   images  ci/compare-binaries.sh OLD NEW: every shipped scene x backend, kernel and
 #           structure, OLD against NEW (exit 1 when any image differs)
+#   cold    the cold start (issue 52), whole process to PNG: the equal-work view at 1024²
+#           with no cache at all (the driver's off and ours empty, which that run fills:
+#           every CI run on a GPU runner), then with our program-binary cache warm (the
+#           driver's still off), with the
+#           driver's cache warm (ours off); the turntable (FRAMES) cold and with our cache
+#           warm; the equal-work view at SIZES[0]² warm (SIZES[1]: the others' side). An OLD without the cache ignores its
+#           variables, so its `ours` rows are cold ones
 set -uo pipefail
-[ $# -ge 3 ] || { sed -n '2,25p' "$0" >&2; exit 2; }
+[ $# -ge 3 ] || { sed -n '2,31p' "$0" >&2; exit 2; }
 # The binaries by absolute path: the suites run from the repository's root.
 abs() { if [ "$1" = - ]; then echo -; else realpath "$1"; fi; }
 OLD=$(abs "$1") NEW=$(abs "$2")
@@ -163,12 +170,57 @@ suite_tiles() {
     done | medians
 }
 
+# `cold_run LABEL V CACHE... -- ARGS`: one render by binary V (OLD or NEW) with the caches
+# named: `driver` (the driver's disk cache on, in $W/drv-V, else off; Mesa's is never off,
+# as Mesa offers program binaries only with it on, but empty), `ours` (our cache on, in
+# $W/ours-V, else off); wall time, compile time and the programs linked from our cache.
+cold_run() {
+    local label=$1 v=$2; shift 2
+    local drv=0 ours=off
+    while [ "$1" != -- ]; do case $1 in driver) drv=1 ;; ours) ours=on ;; esac; shift; done
+    shift
+    local t0; t0=$(date +%s%N)
+    __GL_SHADER_DISK_CACHE=$drv __GL_SHADER_DISK_CACHE_PATH="$W/drv-$v" \
+        MESA_SHADER_CACHE_DIR=$([ $drv = 1 ] && echo "$W/drv-$v" || mktemp -d -p "$W") \
+        FRAGTRACE_SHADER_CACHE=$ours FRAGTRACE_SHADER_CACHE_DIR="$W/ours-$v" \
+        "${!v}" render "$@" -q --stats "$W/cold.json" 2>>"$W/stderr"
+    local wall=$(( ($(date +%s%N) - t0) / 1000000 ))
+    echo "$v $label :: wall_ms $wall $(json "$W/cold.json" '"compile_ms %.1f cached %d" % (
+        d["gpu"]["compile_ms"] if "gpu" in d else sum(f["render"]["gpu"]["compile_ms"] for f in d["per_frame"]),
+        (d["gpu"] if "gpu" in d else d["per_frame"][0]["render"]["gpu"]).get("programs_cached", 0))' 2>/dev/null || echo failed)"
+}
+
+suite_cold() {
+    local n=${SIZES[1]:-1024} big=${SIZES[0]}
+    local ew=(ci/peers/equal-work.toml --backend gl --width "$n" --height "$n")
+    local tt=(scenes/turntable.toml --backend gl --frames "${FRAMES:-all}" --width "$n" --height "$n")
+    for ((r = 1; r <= ROUNDS; r++)); do
+        for v in OLD NEW; do
+            rm -rf "$W/drv-$v" "$W/ours-$v"
+            cold_run "equal-work ${n}² no cache" $v ours -- "${ew[@]}" -o "$W/cold-$v.png"
+            cold_run "equal-work ${n}² our cache warm" $v ours -- "${ew[@]}" -o "$W/ours-$v.png"
+            cold_run "equal-work ${big}² PNG our cache warm" $v ours -- ci/peers/equal-work.toml --backend gl \
+                --width "$big" --height "$big" -o "$W/big-$v.png"
+            rm -rf "$W/drv-$v"
+            cold_run "(warming the driver's cache)" $v driver -- "${ew[@]}" -o "$W/x.png" >/dev/null
+            cold_run "equal-work ${n}² driver cache warm" $v driver -- "${ew[@]}" -o "$W/drv-$v.png"
+            rm -rf "$W/drv-$v" "$W/ours-$v"
+            cold_run "turntable ${n}² PNG no cache" $v ours -- "${tt[@]}" -o "$W/tt-$v-####.png"
+            cold_run "turntable ${n}² PNG our cache warm" $v ours -- "${tt[@]}" -o "$W/tt-$v-####.png"
+        done
+    done | grep -v "^(warming" | medians
+    for f in cold ours drv big; do
+        echo "image $f: $("$NEW" compare "$W/$f-OLD.png" "$W/$f-NEW.png" 2>&1 | tail -1)"
+    done
+    cmp -s "$W/cold-NEW.png" "$W/ours-NEW.png" || { echo "NEW: the cached programs' image differs" >&2; status=1; }
+}
+
 suite_images() { bash ci/compare-binaries.sh "$OLD" "$NEW" || status=1; }
 
 for s in "$@"; do
     case $s in
-        gpu | cpu | build | frames | tiles | images) echo "=== $s ($(date -u +%T))"; "suite_$s" ;;
-        *) echo "unknown suite: $s (gpu, cpu, build, frames, tiles, images)" >&2; exit 2 ;;
+        gpu | cpu | build | frames | tiles | images | cold) echo "=== $s ($(date -u +%T))"; "suite_$s" ;;
+        *) echo "unknown suite: $s (gpu, cpu, build, frames, tiles, images, cold)" >&2; exit 2 ;;
     esac
 done
 [ -s "$W/stderr" ] && { echo "=== stderr (last lines)"; tail -5 "$W/stderr"; }

@@ -138,6 +138,10 @@ pub struct GlInfo {
     /// Whether the compute kernel can run: OpenGL 4.3 and GLSL 4.30 (compute shaders,
     /// storage buffers, image load/store, f64 arithmetic for the primary directions).
     pub compute: bool,
+    /// `GL_NUM_PROGRAM_BINARY_FORMATS` (GL 4.1 or `GL_ARB_get_program_binary`; 0 without
+    /// them): at least one, and programs can be cached as binaries
+    /// (`gpu::program_cache`). Mesa offers one only while its own disk cache is on.
+    pub program_binary_formats: i32,
     /// Every extension the context advertises.
     pub extensions: Vec<String>,
     /// The GL dialect the programs are generated in and the host speaks
@@ -341,6 +345,16 @@ impl fmt::Display for GlInfo {
             self.occlusion_query_bits
         )?;
         writeln!(f, "Extensions:       {} advertised", self.extensions.len())?;
+        writeln!(
+            f,
+            "Program binaries: {} formats (the shader cache: {})",
+            self.program_binary_formats,
+            if self.program_binary_formats > 0 {
+                "on"
+            } else {
+                "off, programs compiled every run"
+            }
+        )?;
         // Each check on one line: outcome, what is checked, the value found. A missing
         // optional capability reads "optional": it only refuses the option it names.
         writeln!(f, "Required:")?;
@@ -375,10 +389,10 @@ pub(crate) fn parse_major_minor(s: &str) -> Option<(u32, u32)> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn sample_info() -> GlInfo {
+    pub(crate) fn sample_info() -> GlInfo {
         let mut info = GlInfo {
             egl_platform: "test".into(),
             egl_vendor: "test".into(),
@@ -396,6 +410,7 @@ mod tests {
             occlusion_query_bits: 32,
             timer_query: false,
             compute: false,
+            program_binary_formats: 0,
             extensions: vec![
                 "GL_ARB_texture_float".into(),
                 "GL_ARB_framebuffer_object".into(),

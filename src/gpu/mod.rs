@@ -33,6 +33,7 @@ pub mod info;
 pub mod layout;
 pub mod options;
 pub mod pause;
+pub mod program_cache;
 pub mod render;
 pub mod request;
 pub mod scene;

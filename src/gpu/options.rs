@@ -8,6 +8,7 @@
 //! `Display`.
 
 use super::gl::TexFormat;
+use super::program_cache::ProgramCache;
 use crate::technique::Techniques;
 
 /// Options of the GPU backend.
@@ -29,6 +30,10 @@ pub struct GpuOptions {
     pub storage: Storage,
     /// How the compute kernel reads the scene textures.
     pub scene_fetch: SceneFetch,
+    /// Whether linked programs are cached as binaries between processes
+    /// (`gpu::program_cache`). Off by default for library callers; the CLI's
+    /// `--shader-cache` defaults to on.
+    pub shader_cache: ShaderCache,
     /// Robustness techniques compiled into the programs. `render_gl` takes them from
     /// [`ImageRequest::techniques`](super::render::ImageRequest::techniques) instead;
     /// `trace_rays` uses these.
@@ -169,6 +174,7 @@ impl Default for GpuOptions {
             mask: Mask::Auto,
             storage: Storage::F32,
             scene_fetch: SceneFetch::Auto,
+            shader_cache: ShaderCache::Off,
             techniques: Techniques::default(),
         }
     }
@@ -194,6 +200,41 @@ impl std::fmt::Display for SceneFetch {
             SceneFetch::Auto => "auto",
             SceneFetch::TexelFetch => "texel-fetch",
             SceneFetch::StorageBuffer => "storage-buffer",
+        })
+    }
+}
+
+/// Whether programs go through the program-binary cache ([`ProgramCache`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum ShaderCache {
+    /// link programs from their cached binaries where the driver accepts them, and store
+    /// the ones compiled (in $FRAGTRACE_SHADER_CACHE_DIR, $XDG_CACHE_HOME/fragtrace or
+    /// ~/.cache/fragtrace)
+    #[default]
+    On,
+    /// compile every program from source
+    Off,
+}
+
+impl ShaderCache {
+    /// Environment variable giving the default of `--shader-cache` (`on` or `off`).
+    pub const ENV: &'static str = "FRAGTRACE_SHADER_CACHE";
+
+    /// The cache this choice opens on a context described by `info`: None when off, when
+    /// the context offers no binary format, or when no cache folder is known.
+    pub fn open(self, info: &super::info::GlInfo) -> Option<ProgramCache> {
+        match self {
+            ShaderCache::On => ProgramCache::open(info),
+            ShaderCache::Off => None,
+        }
+    }
+}
+
+impl std::fmt::Display for ShaderCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ShaderCache::On => "on",
+            ShaderCache::Off => "off",
         })
     }
 }

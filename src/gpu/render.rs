@@ -117,7 +117,8 @@ pub fn render_gl<'a>(
     req: &ImageRequest,
 ) -> Result<GpuOutput> {
     let accel: AccelRef<'a> = accel.into();
-    let gs = GpuScene::new(ctx, scene, accel, req.gpu.no_specialize)?;
+    let gs = GpuScene::new(ctx, scene, accel, req.gpu.no_specialize)?
+        .with_program_cache(req.gpu.shader_cache.open(&ctx.info));
     render(&gs, req, None)
 }
 
@@ -153,6 +154,7 @@ pub fn trace_rays<'a>(
     opts: GpuOptions,
 ) -> Result<Vec<GpuTrace>> {
     let accel: AccelRef<'a> = accel.into();
-    let gs = GpuScene::new(ctx, scene, accel, opts.no_specialize)?;
+    let gs = GpuScene::new(ctx, scene, accel, opts.no_specialize)?
+        .with_program_cache(opts.shader_cache.open(&ctx.info));
     trace_rays_on(&gs, rays, query, opts)
 }

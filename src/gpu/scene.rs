@@ -20,11 +20,16 @@ use std::rc::Rc;
 use super::context::GlContext;
 use super::contract::STORAGE_BINDING_BASE;
 use super::contract::{uniform, Unit};
+use super::gl::program::{allow_parallel_compile, link_binary, start_program, PendingProgram};
 use super::gl::{compile_compute, compile_program, state, Program, StorageBuffer, Texture};
 use super::layout::SceneTextures;
-use super::shader::{assemble_compute, assemble_in, ComputePass, ComputeSpec, Features, Pass};
+use super::program_cache::{ProgramCache, SourceKey};
+use super::shader::{
+    assemble_compute, assemble_in, Assembled, ComputePass, ComputeSpec, Features, Pass,
+};
 use crate::accel::{AccelRef, GridRef};
 use crate::clock::Instant;
+use crate::output::GpuStats;
 use crate::scene::Scene;
 use crate::technique::Techniques;
 use crate::Result;
@@ -43,8 +48,21 @@ pub struct Costs {
     pub upload_ms: f64,
     /// Bytes uploaded.
     pub upload_bytes: usize,
-    /// Compiling and linking programs (ms).
+    /// Compiling and linking programs, or linking them from cached binaries (ms).
     pub compile_ms: f64,
+    /// Programs compiled from source.
+    pub programs_compiled: u32,
+    /// Programs linked from the program-binary cache.
+    pub programs_cached: u32,
+}
+
+impl Costs {
+    /// Adds the programs' share (time and counts) to a render's statistics.
+    pub fn charge_programs(&self, stats: &mut GpuStats) {
+        stats.compile_ms += self.compile_ms;
+        stats.programs_compiled += self.programs_compiled;
+        stats.programs_cached += self.programs_cached;
+    }
 }
 
 /// A program of the scene's cache.
@@ -64,6 +82,8 @@ pub struct GpuScene<'s> {
     textures: OnceCell<Vec<(Unit, Texture)>>,
     buffers: OnceCell<Vec<(u32, StorageBuffer)>>,
     programs: RefCell<HashMap<ProgramKey, Rc<Program>>>,
+    /// Where linked programs are looked up before compiling, and stored after.
+    cache: Option<ProgramCache>,
     /// The compute kernel's light buffer and 8-bit sRGB thresholds, made on first use.
     lights: OnceCell<StorageBuffer>,
     srgb_thresholds: OnceCell<StorageBuffer>,
@@ -85,6 +105,7 @@ impl<'s> GpuScene<'s> {
         no_specialize: bool,
     ) -> Result<Self> {
         let accel = accel.into().grid()?;
+        allow_parallel_compile(ctx);
         let t = Instant::now();
         let features = if no_specialize {
             Features::all()
@@ -106,6 +127,7 @@ impl<'s> GpuScene<'s> {
             textures: OnceCell::new(),
             buffers: OnceCell::new(),
             programs: RefCell::new(HashMap::new()),
+            cache: None,
             lights: OnceCell::new(),
             srgb_thresholds: OnceCell::new(),
             srgb_texture: OnceCell::new(),
@@ -125,6 +147,18 @@ impl<'s> GpuScene<'s> {
             i.skew_faces = true;
         }
         self
+    }
+
+    /// Programs are looked up in `cache` before they are compiled, and stored there after
+    /// (`--shader-cache`; None compiles every program).
+    pub fn with_program_cache(mut self, cache: Option<ProgramCache>) -> Self {
+        self.cache = cache;
+        self
+    }
+
+    /// The program-binary cache, where the scene has one.
+    pub fn program_cache(&self) -> Option<&ProgramCache> {
+        self.cache.as_ref()
     }
 
     /// The context the scene lives in.
@@ -306,25 +340,76 @@ impl<'s> GpuScene<'s> {
         Ok(())
     }
 
-    /// The fragment program of `pass`, compiled on first use.
+    /// The fragment program of `pass`, compiled (or linked from the cache) on first use.
     pub fn fragment_program(&self, pass: Pass, techniques: Techniques) -> Result<Rc<Program>> {
         self.program(ProgramKey::Fragment(pass, techniques), || {
-            let dialect = self.ctx.info.dialect;
-            #[allow(unused_mut)]
-            let mut a = assemble_in(dialect, pass, self.features, techniques, &self.layout)?;
-            #[cfg(test)]
-            if BREAK_PASS.get() == Some(pass) {
-                a.source.push_str("this line does not compile\n");
-                a.lines.push(("<test hook>".into(), 1));
-            }
-            let vertex = dialect.quad_vertex_shader();
-            let program =
-                compile_program(self.ctx, pass.name(), vertex, &a.source, &|n| a.origin(n))?;
+            let a = self.assemble_fragment(pass, techniques)?;
+            let vertex = self.ctx.info.dialect.quad_vertex_shader();
+            let key = SourceKey::of(pass.name(), &[vertex, &a.source]);
+            let program = self.cached_or(pass.name(), key, || {
+                compile_program(self.ctx, pass.name(), vertex, &a.source, &|n| a.origin(n))
+            })?;
             Ok(program.declaring(a.declared))
         })
     }
 
-    /// The compute program of `pass` specialised for `spec`, compiled on first use.
+    /// The fragment programs of `passes`, as [`GpuScene::fragment_program`] gives each, with
+    /// every one that is neither kept nor cached handed to the driver before any is waited
+    /// for: a driver that compiles on threads of its own (`GL_KHR_parallel_shader_compile`)
+    /// builds them at once.
+    pub fn fragment_programs(
+        &self,
+        passes: &[Pass],
+        techniques: Techniques,
+    ) -> Result<Vec<Rc<Program>>> {
+        let t0 = Instant::now();
+        let mut pending: Vec<(ProgramKey, SourceKey, Assembled, PendingProgram)> = Vec::new();
+        for &pass in passes {
+            let key = ProgramKey::Fragment(pass, techniques);
+            if self.programs.borrow().contains_key(&key) || pending.iter().any(|(k, ..)| *k == key)
+            {
+                continue;
+            }
+            let a = self.assemble_fragment(pass, techniques)?;
+            let vertex = self.ctx.info.dialect.quad_vertex_shader();
+            let source = SourceKey::of(pass.name(), &[vertex, &a.source]);
+            match self.cached(pass.name(), source) {
+                Some(p) => {
+                    self.keep(key, p.declaring(a.declared))?;
+                }
+                None => {
+                    let started = start_program(self.ctx, pass.name(), vertex, &a.source)?;
+                    pending.push((key, source, a, started));
+                }
+            }
+        }
+        for (key, source, a, started) in pending {
+            let program = started.finish(self.ctx, &|n| a.origin(n))?;
+            self.compiled(source, &program);
+            self.keep(key, program.declaring(a.declared))?;
+        }
+        self.charge(|c| c.compile_ms += ms_since(t0));
+        passes
+            .iter()
+            .map(|&pass| self.fragment_program(pass, techniques))
+            .collect()
+    }
+
+    /// The assembled source of fragment pass `pass`.
+    fn assemble_fragment(&self, pass: Pass, techniques: Techniques) -> Result<Assembled> {
+        let dialect = self.ctx.info.dialect;
+        #[allow(unused_mut)]
+        let mut a = assemble_in(dialect, pass, self.features, techniques, &self.layout)?;
+        #[cfg(test)]
+        if BREAK_PASS.get() == Some(pass) {
+            a.source.push_str("this line does not compile\n");
+            a.lines.push(("<test hook>".into(), 1));
+        }
+        Ok(a)
+    }
+
+    /// The compute program of `pass` specialised for `spec`, compiled (or linked from the
+    /// cache) on first use.
     pub fn compute_program(
         &self,
         pass: ComputePass,
@@ -333,9 +418,56 @@ impl<'s> GpuScene<'s> {
     ) -> Result<Rc<Program>> {
         self.program(ProgramKey::Compute(pass, *spec, techniques), || {
             let a = assemble_compute(pass, spec, self.features, techniques, &self.layout)?;
-            let program = compile_compute(self.ctx, pass.name(), &a.source, &|n| a.origin(n))?;
+            let key = SourceKey::of(pass.name(), &[&a.source]);
+            let program = self.cached_or(pass.name(), key, || {
+                compile_compute(self.ctx, pass.name(), &a.source, &|n| a.origin(n))
+            })?;
             Ok(program.declaring(a.declared))
         })
+    }
+
+    /// The program of `key` linked from its cached binary where the cache has one the
+    /// driver accepts, else compiled by `compile` and stored.
+    fn cached_or(
+        &self,
+        pass: &str,
+        key: SourceKey,
+        compile: impl FnOnce() -> Result<Program>,
+    ) -> Result<Program> {
+        if let Some(p) = self.cached(pass, key) {
+            return Ok(p);
+        }
+        let program = compile()?;
+        self.compiled(key, &program);
+        Ok(program)
+    }
+
+    /// The program of `key` linked from its cached binary, where the cache has one the
+    /// driver accepts.
+    fn cached(&self, pass: &str, key: SourceKey) -> Option<Program> {
+        let cache = self.cache.as_ref()?;
+        let binary = cache.load(key)?;
+        match link_binary(self.ctx, pass, &binary) {
+            Some(p) => {
+                cache.hit();
+                self.charge(|c| c.programs_cached += 1);
+                Some(p)
+            }
+            None => {
+                cache.refused();
+                None
+            }
+        }
+    }
+
+    /// Counts a program compiled from source and stores its binary as entry `key`.
+    fn compiled(&self, key: SourceKey, program: &Program) {
+        self.charge(|c| c.programs_compiled += 1);
+        if let Some(cache) = &self.cache {
+            if let Some(binary) = program.binary(self.ctx) {
+                cache.store(key, &binary);
+            }
+        }
     }
 
     fn program(
@@ -347,9 +479,14 @@ impl<'s> GpuScene<'s> {
             return Ok(Rc::clone(p));
         }
         let t0 = Instant::now();
-        let program = build()?;
-        self.set_scene_uniforms(&program)?;
+        let program = self.keep(key, build()?)?;
         self.charge(|c| c.compile_ms += ms_since(t0));
+        Ok(program)
+    }
+
+    /// Sets the scene's uniforms in `program` and keeps it as the program of `key`.
+    fn keep(&self, key: ProgramKey, program: Program) -> Result<Rc<Program>> {
+        self.set_scene_uniforms(&program)?;
         let program = Rc::new(program);
         self.programs.borrow_mut().insert(key, Rc::clone(&program));
         Ok(program)

@@ -85,6 +85,7 @@ fn web_info(gl: &glow::Context, dialect: Dialect) -> GlInfo {
         occlusion_query_bits: 0,
         timer_query: false,
         compute: false,
+        program_binary_formats: 0,
         dialect,
         features: Vec::new(),
         optional: Vec::new(),

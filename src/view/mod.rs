@@ -290,7 +290,8 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
     );
     // Uploaded once: every render of the view (each camera move, each key) reuses the
     // scene's textures and programs.
-    let gs = GpuScene::new(&ctx, &scene, &prepared.accel, ro.gpu.no_specialize)?;
+    let gs = GpuScene::new(&ctx, &scene, &prepared.accel, ro.gpu.no_specialize)?
+        .with_program_cache(ro.gpu.shader_cache.open(&ctx.info));
     let mut presenter = Presenter::new(&ctx)?;
     let inner = win.window.inner_size();
     let mut size = (inner.width, inner.height);

@@ -102,7 +102,7 @@ impl<'g> Setup<'g> {
         let costs = gs.take_costs();
         stats.upload_ms = costs.upload_ms;
         stats.upload_bytes = costs.upload_bytes;
-        stats.compile_ms = costs.compile_ms;
+        costs.charge_programs(&mut stats);
         Ok(Setup {
             gs,
             program,
@@ -209,8 +209,7 @@ pub(crate) fn render(
     // The 8-bit conversion: its program (compiled once per scene) and the thresholds.
     let convert = if readback.srgb8 {
         let p = gs.compute_program(ComputePass::Srgb8, &ComputeSpec::CONVERT, req.techniques)?;
-        let c = gs.take_costs();
-        setup.stats.compile_ms += c.compile_ms;
+        gs.take_costs().charge_programs(&mut setup.stats);
         Some((p, gs.srgb_thresholds()?))
     } else {
         None
@@ -269,7 +268,8 @@ pub(crate) fn render(
         b.bind(gl, Buffer::Aov.binding());
     }
     let pixels = width as usize * height as usize;
-    let mut out = vec![0u8; shape.out_bytes(pixels)];
+    // Pages an earlier frame touched (`pool`); the bands write every byte.
+    let mut out = crate::pool::take(shape.out_bytes(pixels));
     let mut aov_data = if readback.aov {
         vec![0f32; pixels * 4]
     } else {
@@ -310,10 +310,7 @@ pub(crate) fn render(
         setup.dispatch(width, n, req.gpu.timers)?;
         let src = match (&convert, &bufs.srgb8) {
             (Some((p, thresholds)), Some(dst)) => {
-                thresholds.bind(gl, Buffer::SrgbThresholds.binding());
-                dst.bind(gl, Buffer::Srgb8.binding());
-                p.set(gl, uniform::PIXELS, band as i32)?;
-                dispatch(gl, p, [((band * 3).div_ceil(4)).div_ceil(64) as u32, 1, 1]);
+                convert_srgb8(gl, p, thresholds, dst, band)?;
                 *setup.stats.passes.entry("srgb8".into()).or_default() += 1;
                 setup.stats.passes_total += 1;
                 dst
@@ -382,6 +379,7 @@ pub(crate) fn render(
             .chunks_exact(4)
             .map(|b| f32::from_ne_bytes([b[0], b[1], b[2], b[3]]))
             .collect();
+        crate::pool::give_back(out);
         (RgbImage::from_rgb(width, height, rgb), None)
     };
     let aov = if readback.aov {
@@ -441,6 +439,26 @@ pub(crate) fn render(
         primary_steps: Some(n(Counter::PrimarySteps)),
         nonfinite: Some(n(Counter::NonFinite)),
     })
+}
+
+/// Converts the first `pixels` pixels of the radiance buffer bound at its binding to 8-bit
+/// sRGB bytes in `dst` (`srgb8.comp` as `p`, with the `thresholds` buffer).
+fn convert_srgb8(
+    gl: &glow::Context,
+    p: &Program,
+    thresholds: &StorageBuffer,
+    dst: &StorageBuffer,
+    pixels: usize,
+) -> Result<()> {
+    thresholds.bind(gl, Buffer::SrgbThresholds.binding());
+    dst.bind(gl, Buffer::Srgb8.binding());
+    p.set(gl, uniform::PIXELS, pixels as i32)?;
+    dispatch(
+        gl,
+        p,
+        [((pixels * 3).div_ceil(4)).div_ceil(64) as u32, 1, 1],
+    );
+    Ok(())
 }
 
 /// Reads `out.len()` bytes of `src` through a staging copy (contexts without persistent
@@ -719,6 +737,104 @@ mod tests {
             assert_eq!(a.rays, b.rays);
             assert_eq!(a.work, b.work);
             assert!(steps > 0.0);
+        });
+    }
+
+    /// Every linear value `srgb8.comp` can meet (each code's threshold and the float below
+    /// it, so codes 0 through 255; values above 1; negative, infinite and NaN values)
+    /// converts to the host's byte, through the staging ring a render reads bands with,
+    /// into buffers the frame before handed back (`pool`), frames of different sizes in
+    /// one process (byte counts that are and are not whole words): no byte of an earlier
+    /// frame shows.
+    #[test]
+    fn srgb8_comp_converts_the_whole_range_as_the_host_does_at_every_size() {
+        use crate::image_io::srgb8;
+        with_test_context(|ctx| {
+            if !ctx.info.compute {
+                eprintln!("SKIPPED: no GL 4.3 compute in this context");
+                return;
+            }
+            let gl = ctx.gl();
+            let (scene, accel) = builtin_irregular();
+            let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
+            let p = gs
+                .compute_program(
+                    ComputePass::Srgb8,
+                    &ComputeSpec::CONVERT,
+                    Techniques::default(),
+                )
+                .unwrap();
+            let thresholds = gs.srgb_thresholds().unwrap();
+            let seed = crate::testing::test_seed("srgb8 comp", 0x5e9b_8a12);
+            for (k, px) in [60_000usize, 3015, 60_000, 1, 2, 3, 769, 3015]
+                .into_iter()
+                .enumerate()
+            {
+                let rgb = crate::testing::full_range_values(px * 3, seed + k as u64);
+                let floats: Vec<u8> = rgb.iter().flat_map(|v| v.to_ne_bytes()).collect();
+                let radiance = StorageBuffer::new(ctx, &floats).unwrap();
+                radiance.bind(gl, Buffer::Radiance.binding());
+                let len = px * 3;
+                let dst = StorageBuffer::uninit(ctx, len.div_ceil(4) * 4).unwrap();
+                convert_srgb8(gl, &p, thresholds, &dst, px).unwrap();
+                let mut out = crate::pool::take(len);
+                match ReadbackRing::new(ctx, len) {
+                    Ok(mut ring) => {
+                        let slot = ring.copy(ctx, &dst, len).unwrap();
+                        ring.take(ctx, slot, |b| out.copy_from_slice(&b[..len]))
+                            .unwrap();
+                    }
+                    Err(_) => read_bytes_staged(ctx, &dst, &mut out).unwrap(),
+                }
+                let host: Vec<u8> = rgb.iter().map(|&v| srgb8(v)).collect();
+                let diff: Vec<_> = (0..len).filter(|&b| out[b] != host[b]).collect();
+                assert!(
+                    diff.is_empty(),
+                    "{px} pixels: {} bytes differ, first at {:?}: value {:e}, gpu {}, host {}",
+                    diff.len(),
+                    diff.first(),
+                    rgb[diff[0]],
+                    out[diff[0]],
+                    host[diff[0]]
+                );
+                if len >= 2 * 256 + 64 {
+                    assert!((0..=255u8).all(|c| host.contains(&c)), "{px}: every code");
+                }
+                crate::pool::give_back(out);
+            }
+        });
+    }
+
+    /// Renders of different sizes in one process, each read back into a buffer an earlier
+    /// one handed back (`pool`), are each byte for byte the host's conversion of their
+    /// linear image: a reused buffer shows nothing of the frame before.
+    #[test]
+    fn renders_of_different_sizes_reuse_buffers_without_leaking_bytes() {
+        with_test_context(|ctx| {
+            if !ctx.info.compute {
+                eprintln!("SKIPPED: no GL 4.3 compute in this context");
+                return;
+            }
+            let (scene, accel) = builtin_irregular();
+            let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
+            let base = tall_request(&scene, 1, SceneFetch::TexelFetch);
+            for (w, h) in [(96, 600), (40, 30), (96, 600), (7, 5), (61, 47)] {
+                let full = ImageRequest {
+                    width: w,
+                    height: h,
+                    ..base
+                };
+                let a = render(&gs, &full, None).unwrap();
+                let b = render(&gs, &srgb8_only(full), None).unwrap();
+                let host = crate::image_io::to_srgb8(&a.image);
+                let gpu = b.srgb8.expect("8-bit image");
+                assert_eq!(gpu.len(), host.len(), "{w}x{h}");
+                assert!(
+                    gpu == host,
+                    "{w}x{h}: bytes differ from the host conversion"
+                );
+                crate::pool::give_back(gpu);
+            }
         });
     }
 }

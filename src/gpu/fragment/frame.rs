@@ -179,15 +179,16 @@ impl<'a> Frame<'a> {
         gs.textures()?;
         let size = glam::IVec2::new(width as i32, height as i32);
         let mut programs = HashMap::new();
-        for pass in passes_for(gs.scene(), levels, shading, kernel) {
-            let program = gs.fragment_program(pass, techniques)?;
+        let passes = passes_for(gs.scene(), levels, shading, kernel);
+        let built = gs.fragment_programs(&passes, techniques)?;
+        for (pass, program) in passes.into_iter().zip(built) {
             if pass == Pass::RayGen {
                 program.set(ctx.gl(), uniform::SIZE, size)?;
             }
             programs.insert(pass, program);
         }
         let costs = gs.take_costs();
-        let stats = GpuStats {
+        let mut stats = GpuStats {
             renderer: info.renderer.clone(),
             gl_version: info.gl_version.clone(),
             query_every: opts.query_every,
@@ -196,9 +197,9 @@ impl<'a> Frame<'a> {
             kernel: kernel.to_string(),
             upload_ms: costs.upload_ms,
             upload_bytes: costs.upload_bytes,
-            compile_ms: costs.compile_ms,
             ..GpuStats::default()
         };
+        costs.charge_programs(&mut stats);
 
         let targets = |n: usize| RenderTarget::new(ctx, width, height, n);
         let state_formats = opts.storage.state_formats();
@@ -349,7 +350,7 @@ impl<'a> Frame<'a> {
     pub(super) fn draw_into(&mut self, pass: Pass, target: &RenderTarget) -> Result<()> {
         if !self.programs.contains_key(&pass) {
             let program = self.gs.fragment_program(pass, self.opts.techniques)?;
-            self.stats.compile_ms += self.gs.take_costs().compile_ms;
+            self.gs.take_costs().charge_programs(&mut self.stats);
             self.programs.insert(pass, program);
         }
         target.bind(self.gl());

@@ -65,7 +65,8 @@ pub(super) fn read_srgb8(f: &mut Frame, w: u32, h: u32) -> Result<(Vec<u8>, u64)
     f.stats
         .phases_ms
         .insert("srgb8".into(), t.elapsed().as_secs_f64() * 1e3);
-    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    // Pages an earlier frame touched (`pool`); every byte is written below.
+    let mut rgb = crate::pool::take(w as usize * h as usize * 3);
     if let Some(ring) = ring {
         // Through a staging buffer (H200, 4096x4096: see docs/performance.md).
         let k = ring.read_pixels(f.ctx, glow::COLOR_ATTACHMENT0, w, h)?;
@@ -195,6 +196,79 @@ mod tests {
                 assert_eq!(b.gpu.as_ref().unwrap().passes.get("srgb8"), Some(&1));
                 // Not a blank image: the conversion has something to get wrong.
                 assert!(host.iter().any(|&v| v > 200) && host.iter().any(|&v| v < 50));
+            }
+        });
+    }
+
+    /// Every linear value `srgb8.frag` can meet (each code's threshold and the float below
+    /// it, so codes 0 through 255; values above 1; negative, infinite and NaN values)
+    /// converts to the host's byte, and its non-finite pixels are counted as the host
+    /// counts them, through the read-back a PNG takes, on every fragment kernel's frame;
+    /// frames of different sizes in one process, each read into a buffer the one before
+    /// handed back (`pool`), show none of an earlier frame's bytes.
+    #[test]
+    fn srgb8_pass_converts_the_whole_range_as_the_host_does_at_every_size() {
+        use super::Frame;
+        use crate::image_io::srgb8;
+        with_test_context(|ctx| {
+            let (scene, accel) = builtin_irregular();
+            let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
+            let opts = GpuOptions::default();
+            let seed = crate::testing::test_seed("srgb8 frag", 0x5e9b_8a11);
+            let sizes = [(300, 200), (67, 45), (300, 200), (1, 1), (256, 3), (67, 45)];
+            let kernels = [
+                FragmentKernel::Multipass,
+                FragmentKernel::Looped,
+                FragmentKernel::Unrolled(4),
+            ];
+            for (k, &(w, h)) in sizes.iter().enumerate() {
+                let kernel = kernels[k % kernels.len()];
+                let px = (w * h) as usize;
+                let rgb = crate::testing::full_range_values(px * 3, seed + k as u64);
+                // Texels as the accumulation target holds them: GL rows from the bottom.
+                let mut rgba = vec![1f32; px * 4];
+                for j in 0..h as usize {
+                    for i in 0..w as usize {
+                        let (at, from) = (
+                            ((h as usize - 1 - j) * w as usize + i) * 4,
+                            (j * w as usize + i) * 3,
+                        );
+                        rgba[at..at + 3].copy_from_slice(&rgb[from..from + 3]);
+                    }
+                }
+                let mut f =
+                    Frame::new(&gs, w, h, 1, false, kernel, &opts, opts.techniques).unwrap();
+                f.acc[f.acc_cur].texture(0).upload(f.gl(), &rgba).unwrap();
+                let (bytes, nonfinite) = super::read_srgb8(&mut f, w, h).unwrap();
+                let host: Vec<u8> = rgb.iter().map(|&v| srgb8(v)).collect();
+                assert_eq!(bytes.len(), host.len());
+                let diff: Vec<_> = (0..host.len()).filter(|&b| bytes[b] != host[b]).collect();
+                assert!(
+                    diff.is_empty(),
+                    "{kernel} {w}x{h}: {} bytes differ, first at {:?}: value {:e}, gpu {}, host {}",
+                    diff.len(),
+                    diff.first(),
+                    rgb[diff[0]],
+                    bytes[diff[0]],
+                    host[diff[0]]
+                );
+                let bad = rgb
+                    .chunks(3)
+                    .filter(|p| p.iter().any(|v| !v.is_finite()))
+                    .count();
+                assert_eq!(nonfinite, bad as u64, "{kernel} {w}x{h}");
+                assert!(
+                    bad > 0 || px < 100,
+                    "the image has non-finite pixels to count"
+                );
+                // Every code appears in the larger frames.
+                if px * 3 >= 2 * 256 + 64 {
+                    assert!(
+                        (0..=255u8).all(|c| host.contains(&c)),
+                        "{w}x{h}: every code"
+                    );
+                }
+                crate::pool::give_back(bytes);
             }
         });
     }

@@ -3,7 +3,7 @@
 
 use glow::HasContext;
 
-use super::program::{parse_error_line, Program};
+use super::program::{keep_binary, parse_error_line, Program};
 use super::{check_gl_error, BufferKind, Owned, ShaderKind, Texture};
 use crate::error::{Error, Result};
 use crate::gpu::context::GlContext;
@@ -51,6 +51,7 @@ pub fn compile_compute(
         );
         let p = program.name();
         gl.attach_shader(p, cs.name());
+        keep_binary(ctx, p);
         gl.link_program(p);
         gl.detach_shader(p, cs.name());
         drop(cs);

@@ -196,6 +196,7 @@ pub(crate) fn gather_info(
         occlusion_query_bits: raw.query_iv(glow::SAMPLES_PASSED, glow::QUERY_COUNTER_BITS),
         timer_query: false,
         compute: false,
+        program_binary_formats: 0,
         extensions,
         dialect: Dialect::Glsl120,
         features: Vec::new(),
@@ -219,6 +220,10 @@ pub(crate) fn gather_info(
             .then(|| unsafe { std::mem::transmute::<*const c_void, PfnGetQueryObjectui64v>(p) })
     });
     info.timer_query = raw.get_query_objectui64v.is_some();
+
+    if gl_major_minor >= (4, 1) || info.has_extension("GL_ARB_get_program_binary") {
+        info.program_binary_formats = int(glow::NUM_PROGRAM_BINARY_FORMATS).max(0);
+    }
 
     let fbo_entry_points = !loader("glGenFramebuffers").is_null();
     info.compute_features(fbo_entry_points);

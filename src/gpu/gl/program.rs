@@ -34,6 +34,16 @@ const QUAD_VERTICES: [f32; 20] = [
     -1.0, 1.0, -0.5, 0.0, 1.0, //
 ];
 
+/// A linked program's binary as GL hands it out (`glGetProgramBinary`): its format and
+/// bytes, for the program-binary cache (`gpu::program_cache`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Binary {
+    /// The driver's binary format enum.
+    pub format: u32,
+    /// The bytes.
+    pub bytes: Vec<u8>,
+}
+
 /// A linked program; deleted when dropped.
 #[derive(Debug)]
 pub struct Program {
@@ -107,6 +117,24 @@ impl Program {
                 }
             }
         }
+    }
+
+    /// The program's binary (`glGetProgramBinary`), or None where the driver gives none.
+    pub fn binary(&self, ctx: &GlContext) -> Option<Binary> {
+        if ctx.info.program_binary_formats < 1 {
+            return None;
+        }
+        let gl = ctx.gl();
+        // SAFETY: the context is current and the program a linked program of it; glow sizes
+        // the buffer by GL_PROGRAM_BINARY_LENGTH and reports a GL error as None.
+        let b = unsafe {
+            while gl.get_error() != glow::NO_ERROR {}
+            gl.get_program_binary(self.name())?
+        };
+        (!b.buffer.is_empty()).then_some(Binary {
+            format: b.format,
+            bytes: b.buffer,
+        })
     }
 
     /// Whether the program's source declares uniform `u`.
@@ -254,6 +282,42 @@ impl FullscreenQuad {
     }
 }
 
+/// The program `pass` linked from a cached `binary` (`glProgramBinary`), or None where the
+/// driver refuses it (another driver build, a damaged entry the header could not see): its
+/// link status is the driver's verdict, and a refused binary leaves no error behind.
+pub fn link_binary(ctx: &GlContext, pass: &str, binary: &Binary) -> Option<Program> {
+    if ctx.info.program_binary_formats < 1 {
+        return None;
+    }
+    let gl = ctx.gl();
+    // SAFETY: the context is current; the program is created and owned here, and GL reads
+    // exactly `binary.bytes.len()` bytes of the slice.
+    unsafe {
+        let program = Program::from_owned(Owned::new(ctx, gl.create_program().ok()?), pass);
+        gl.program_binary(
+            program.name(),
+            &glow::ProgramBinary {
+                buffer: binary.bytes.clone(),
+                format: binary.format,
+            },
+        );
+        let ok = gl.get_error() == glow::NO_ERROR && gl.get_program_link_status(program.name());
+        while gl.get_error() != glow::NO_ERROR {}
+        ok.then_some(program)
+    }
+}
+
+/// Asks the driver to keep program `p`'s binary retrievable (before linking), where the
+/// context can hand binaries out at all.
+///
+/// # Safety
+/// The context is current and `p` one of its programs.
+pub(super) unsafe fn keep_binary(ctx: &GlContext, p: glow::Program) {
+    if ctx.info.program_binary_formats > 0 {
+        ctx.gl().program_binary_retrievable_hint(p, true);
+    }
+}
+
 /// A line map for a shader made of one file: line `n` of the source is line `n` of `file`.
 pub fn single_file_line_map(file: &str) -> impl Fn(usize) -> (String, usize) + '_ {
     move |line| (file.to_string(), line)
@@ -274,26 +338,32 @@ pub fn compile_program(
     fragment_src: &str,
     line_map: &dyn Fn(usize) -> (String, usize),
 ) -> Result<Program> {
+    start_program(ctx, pass, vertex_src, fragment_src)?.finish(ctx, line_map)
+}
+
+/// A program whose shaders were handed to the driver to compile and link, and whose
+/// outcome nobody has asked for yet: a driver with `GL_KHR_parallel_shader_compile` works
+/// on several such at once, on its own threads, until [`PendingProgram::finish`] waits.
+#[derive(Debug)]
+pub struct PendingProgram {
+    program: Program,
+    vertex: Owned<ShaderKind>,
+    fragment: Owned<ShaderKind>,
+}
+
+/// Starts compiling and linking the program [`compile_program`] builds, without waiting
+/// for either (no status is queried until [`PendingProgram::finish`]).
+pub fn start_program(
+    ctx: &GlContext,
+    pass: &str,
+    vertex_src: &str,
+    fragment_src: &str,
+) -> Result<PendingProgram> {
     let gl = ctx.gl();
-    let shader_error = |file: String, line: usize, log: String| Error::Shader {
-        pass: pass.to_string(),
-        file,
-        line,
-        log: log.trim_end().to_string(),
-    };
     // SAFETY: the context is current; every name used is created and owned here.
     unsafe {
-        let vs = compile_shader(ctx, glow::VERTEX_SHADER, vertex_src).map_err(|log| {
-            let line = parse_error_line(&log).unwrap_or(0);
-            shader_error("<vertex shader>".into(), line, log)
-        })?;
-        let fs = compile_shader(ctx, glow::FRAGMENT_SHADER, fragment_src).map_err(|log| {
-            let (file, line) = match parse_error_line(&log) {
-                Some(n) => line_map(n),
-                None => ("<fragment shader>".to_string(), 0),
-            };
-            shader_error(file, line, log)
-        })?;
+        let vertex = start_shader(ctx, glow::VERTEX_SHADER, vertex_src)?;
+        let fragment = start_shader(ctx, glow::FRAGMENT_SHADER, fragment_src)?;
         let program = Program::from_owned(
             Owned::new(
                 ctx,
@@ -303,46 +373,104 @@ pub fn compile_program(
             pass,
         );
         let p = program.name();
-        gl.attach_shader(p, vs.name());
-        gl.attach_shader(p, fs.name());
+        gl.attach_shader(p, vertex.name());
+        gl.attach_shader(p, fragment.name());
         gl.bind_attrib_location(p, ATTRIB_POS, "a_pos");
         gl.bind_attrib_location(p, ATTRIB_UV, "a_uv");
+        keep_binary(ctx, p);
         gl.link_program(p);
-        // Shaders are only needed until link; detaching (and dropping them) lets the driver
-        // free them now.
-        gl.detach_shader(p, vs.name());
-        gl.detach_shader(p, fs.name());
-        drop((vs, fs));
-        if !gl.get_program_link_status(p) {
-            let log = gl.get_program_info_log(p);
-            let line = parse_error_line(&log).unwrap_or(0);
-            return Err(shader_error("<link>".into(), line, log));
-        }
-        check_gl_error(gl, &format!("building the `{pass}` program"))?;
-        Ok(program)
+        Ok(PendingProgram {
+            program,
+            vertex,
+            fragment,
+        })
     }
 }
 
-/// Compiles one shader; `Err` carries the info log.
-unsafe fn compile_shader(
-    ctx: &GlContext,
-    kind: u32,
-    src: &str,
-) -> std::result::Result<Owned<ShaderKind>, String> {
+impl PendingProgram {
+    /// Waits for the link and returns the program, or [`compile_program`]'s error: the
+    /// first shader that did not compile (its error line mapped by `line_map` for the
+    /// fragment shader), else the link's log.
+    pub fn finish(
+        self,
+        ctx: &GlContext,
+        line_map: &dyn Fn(usize) -> (String, usize),
+    ) -> Result<Program> {
+        let gl = ctx.gl();
+        let pass = self.program.pass.clone();
+        let shader_error = |file: String, line: usize, log: String| Error::Shader {
+            pass: pass.clone(),
+            file,
+            line,
+            log: log.trim_end().to_string(),
+        };
+        // SAFETY: the context is current; the shaders and the program are this value's.
+        unsafe {
+            let p = self.program.name();
+            if !gl.get_program_link_status(p) {
+                if let Err(log) = shader_outcome(gl, &self.vertex) {
+                    let line = parse_error_line(&log).unwrap_or(0);
+                    return Err(shader_error("<vertex shader>".into(), line, log));
+                }
+                if let Err(log) = shader_outcome(gl, &self.fragment) {
+                    let (file, line) = match parse_error_line(&log) {
+                        Some(n) => line_map(n),
+                        None => ("<fragment shader>".to_string(), 0),
+                    };
+                    return Err(shader_error(file, line, log));
+                }
+                let log = gl.get_program_info_log(p);
+                let line = parse_error_line(&log).unwrap_or(0);
+                return Err(shader_error("<link>".into(), line, log));
+            }
+            // Shaders are only needed until link; detaching (and dropping them) lets the
+            // driver free them now.
+            gl.detach_shader(p, self.vertex.name());
+            gl.detach_shader(p, self.fragment.name());
+            check_gl_error(gl, &format!("building the `{pass}` program"))?;
+        }
+        Ok(self.program)
+    }
+}
+
+/// Lets a driver with `GL_KHR_parallel_shader_compile` (or the ARB one) compile on as many
+/// threads as it likes, where the default may be fewer.
+pub fn allow_parallel_compile(ctx: &GlContext) {
+    if ctx.info.has_extension("GL_KHR_parallel_shader_compile")
+        || ctx.info.has_extension("GL_ARB_parallel_shader_compile")
+    {
+        // SAFETY: the context is current and offers the entry point (its extension).
+        unsafe { ctx.gl().max_shader_compiler_threads(0xFFFF_FFFF) };
+    }
+}
+
+/// Hands `src` to the driver to compile as a shader of `kind`, without waiting.
+unsafe fn start_shader(ctx: &GlContext, kind: u32, src: &str) -> Result<Owned<ShaderKind>> {
     let gl = ctx.gl();
-    let shader = Owned::<ShaderKind>::new(ctx, gl.create_shader(kind)?);
+    let shader = Owned::<ShaderKind>::new(
+        ctx,
+        gl.create_shader(kind)
+            .map_err(|e| Error::Internal(format!("glCreateShader: {e}")))?,
+    );
     gl.shader_source(shader.name(), src);
     gl.compile_shader(shader.name());
+    Ok(shader)
+}
+
+/// Whether `shader` compiled; `Err` carries the info log.
+unsafe fn shader_outcome(
+    gl: &glow::Context,
+    shader: &Owned<ShaderKind>,
+) -> std::result::Result<(), String> {
     if gl.get_shader_compile_status(shader.name()) {
-        Ok(shader)
-    } else {
-        let log = gl.get_shader_info_log(shader.name());
-        Err(if log.trim().is_empty() {
-            "compilation failed, the driver gave no log".to_string()
-        } else {
-            log
-        })
+        return Ok(());
     }
+    let log = gl.get_shader_info_log(shader.name());
+    Err(if log.trim().is_empty() {
+        "compilation failed, the driver gave no log".to_string()
+    } else {
+        log
+    })
 }
 
 /// The 1-based source line of the first error in a driver info log, or `None`. Prefers
