@@ -20,6 +20,7 @@
 mod frame;
 mod passes;
 mod readback;
+mod tiles;
 mod trace;
 mod tree;
 

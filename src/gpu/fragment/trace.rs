@@ -5,10 +5,10 @@
 //! the `count` pass every `query_every` iterations' worth of passes; the wave is done when it
 //! finds no active ray. With `--mask`, that count pass also writes the mask.
 
-use super::frame::{Frame, Slot};
+use super::frame::{Cover, Frame, Slot};
 use crate::gpu::gl::{state, MaskBuffer};
 use crate::gpu::options::Mask;
-use crate::gpu::shader::{Count, Pass, Query};
+use crate::gpu::shader::{Pass, Query};
 use crate::{Error, Result};
 
 impl Frame<'_> {
@@ -33,13 +33,25 @@ impl Frame<'_> {
         // Several iterations per pass: query every `query_every` iterations' worth.
         let per_pass = kernel.iterations_per_pass();
         let every = (self.opts.query_every as u64 / per_pass).max(1);
+        let grid = self.grid;
+        // The tiles the passes draw, and `live[drawn_at]` their rectangles. Outside them
+        // both ray-state sets hold the same final state, so a pass that leaves them out
+        // leaves the state whole. A query finds the tiles still active, a subset; the
+        // first pass after it still draws the old tiles, and its write-through copies the
+        // rays that finished there into the other set (as the mask's first pass does).
+        let mut drawn = vec![true; grid.len()];
+        let mut drawn_at = 0;
+        self.set_live(drawn_at, &grid.runs(&drawn));
+        let mut pending = None;
+        let mut active = 0;
         let mut synced = false;
         let mut passes = 0u64;
         loop {
             if passes.is_multiple_of(every) {
                 self.set_mask_test(false);
                 self.progress.passes(self.stats.passes_total);
-                let n = self.count_and_mask()?;
+                let counts = self.count_and_mask(&drawn)?;
+                let n = counts.iter().sum();
                 self.progress.active(n);
                 if n == 0 {
                     return Ok(());
@@ -57,15 +69,24 @@ impl Frame<'_> {
                         "traversal did not terminate after {iterations} iterations"
                     )));
                 }
+                if self.opts.tiles {
+                    drawn = counts.iter().map(|&c| c > 0).collect();
+                }
+                let at = 1 - drawn_at;
+                self.set_live(at, &grid.runs(&drawn));
+                pending = Some(at);
+                active = n;
                 synced = false;
             }
             self.set_mask_test(synced);
             match advance {
-                Some(pass) => self.state_pass(pass).await?,
+                Some(pass) => self.advance(pass, &mut drawn_at, &mut pending, active).await?,
                 None => {
-                    self.state_pass(Pass::TraverseStep).await?;
+                    self.advance(Pass::TraverseStep, &mut drawn_at, &mut pending, active)
+                        .await?;
                     self.set_mask_test(true);
-                    self.state_pass(Pass::Intersect(query)).await?;
+                    self.advance(Pass::Intersect(query), &mut drawn_at, &mut pending, active)
+                        .await?;
                 }
             }
             synced = true;
@@ -73,19 +94,44 @@ impl Frame<'_> {
         }
     }
 
-    /// Counts active rays and, with `--mask`, writes the mask of them: the count pass is
-    /// drawn (colour writes off) into the ray-state target that is not being read, whose
-    /// depth/stencil buffer both state targets share.
-    fn count_and_mask(&mut self) -> Result<u64> {
+    /// Draws advancing pass `pass` over `live[drawn_at]`, then moves `drawn_at` to the
+    /// tiles `pending` names (the last query's, which the passes after this one draw).
+    async fn advance(
+        &mut self,
+        pass: Pass,
+        drawn_at: &mut usize,
+        pending: &mut Option<usize>,
+        active: u64,
+    ) -> Result<()> {
+        let (cover, area) = if self.opts.tiles {
+            (Cover::Live(*drawn_at), self.live[*drawn_at].area())
+        } else {
+            let (w, h) = self.grid.size();
+            (Cover::Full, w as u64 * h as u64)
+        };
+        self.stats.advance_pixels += area;
+        self.stats.advance_active += active;
+        self.state_pass_over(pass, cover).await?;
+        if let Some(at) = pending.take() {
+            *drawn_at = at;
+        }
+        Ok(())
+    }
+
+    /// Counts active rays per tile (only the tiles `region` sets are drawn) and, with
+    /// `--mask`, writes the mask of them: the count pass is drawn (colour writes off) into
+    /// the ray-state target that is not being read, whose depth/stencil buffer both state
+    /// targets share.
+    fn count_and_mask(&mut self, region: &[bool]) -> Result<Vec<u64>> {
         if self.mask_buffer.is_none() {
-            return self.count(Count::Rays, None);
+            return self.count_tiles(region, Slot::Acc(1 - self.acc_cur));
         }
         let slot = Slot::State(1 - self.cur);
         self.target(slot).bind(self.gl());
         let buffer = self.mask_kind().expect("no mask buffer without a mask");
         // The bound target has the mask buffer attached.
         state::begin_mask_write(self.gl(), buffer);
-        let n = self.count_into(Count::Rays, None, slot);
+        let n = self.count_tiles(region, slot);
         state::end_mask_write(self.gl());
         n
     }
