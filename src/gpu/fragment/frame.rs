@@ -530,11 +530,13 @@ impl<'a> Frame<'a> {
         state::colour_writes(self.gl(), false);
         let timer = self.begin_timer()?;
         let tiles: Vec<usize> = (0..self.grid.len()).filter(|&k| region[k]).collect();
-        for &k in &tiles {
-            self.tile_queries[k].begin(self.ctx);
-            self.tile_rects
-                .draw(self.gl(), self.program(pass), k..k + 1);
-            self.tile_queries[k].end(self.ctx);
+        {
+            let bound = self.tile_rects.bind(self.ctx.gl(), &self.programs[&pass]);
+            for &k in &tiles {
+                self.tile_queries[k].begin(self.ctx);
+                bound.draw(k..k + 1);
+                self.tile_queries[k].end(self.ctx);
+            }
         }
         let r = self.end_timer(pass, timer);
         state::colour_writes(self.gl(), true);

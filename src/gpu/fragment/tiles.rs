@@ -9,7 +9,10 @@
 use crate::gpu::gl::PixelRect;
 
 /// Tiles per side at most: a termination query then issues up to 8 x 8 = 64 occlusion
-/// queries, one draw each, a cost that stays small beside the passes between queries.
+/// queries, one draw each. On llvmpipe (2 shared cores under load, 256x256, built-in
+/// scene, multipass) 4, 8 and 16 per side drew 21%, 12% and 7.9% of a full quad per
+/// advancing pass, and the render took 5.8-6.3, 5.3-5.9 and 7.4-9.0 s of GPU time: finer
+/// tiles cut more pixels than their counts cost only down to 8.
 const MAX_PER_SIDE: u32 = 8;
 /// The smallest tile side in pixels: smaller tiles cut little more and cost draws.
 const MIN_SIDE: u32 = 16;
@@ -108,7 +111,14 @@ mod tests {
     /// The tiles cover every pixel once, for sizes that divide and that do not.
     #[test]
     fn tiles_partition_the_target() {
-        for (w, h) in [(1, 1), (7, 300), (256, 256), (1000, 37), (1024, 1024), (33, 17)] {
+        for (w, h) in [
+            (1, 1),
+            (7, 300),
+            (256, 256),
+            (1000, 37),
+            (1024, 1024),
+            (33, 17),
+        ] {
             let g = TileGrid::new(w, h);
             let mut hits = vec![0u8; (w * h) as usize];
             for r in g.rects() {
@@ -157,10 +167,7 @@ mod tests {
             bytes[(y * 40 + x) * 4] = 0;
         }
         let counts = g.tally_bytes(&bytes);
-        assert_eq!(counts.iter().sum::<u64>(), 4);
-        assert_eq!(counts[0], 1);
-        assert_eq!(counts[1], 1);
-        assert_eq!(counts[g.len() - 1], 1);
-        assert_eq!(counts[g.len() - 3 + 1], 1);
+        // 16-pixel tiles: three across (16, 16, 8 wide), two down (16, 4 high).
+        assert_eq!(counts, [1, 1, 0, 0, 1, 1]);
     }
 }

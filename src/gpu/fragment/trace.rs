@@ -8,7 +8,7 @@
 use super::frame::{Cover, Frame, Slot};
 use crate::gpu::gl::{state, MaskBuffer};
 use crate::gpu::options::Mask;
-use crate::gpu::shader::{Pass, Query};
+use crate::gpu::shader::{Count, Pass, Query};
 use crate::{Error, Result};
 
 impl Frame<'_> {
@@ -33,24 +33,16 @@ impl Frame<'_> {
         // Several iterations per pass: query every `query_every` iterations' worth.
         let per_pass = kernel.iterations_per_pass();
         let every = (self.opts.query_every as u64 / per_pass).max(1);
-        let grid = self.grid;
-        // The tiles the passes draw, and `live[drawn_at]` their rectangles. Outside them
-        // both ray-state sets hold the same final state, so a pass that leaves them out
-        // leaves the state whole. A query finds the tiles still active, a subset; the
-        // first pass after it still draws the old tiles, and its write-through copies the
-        // rays that finished there into the other set (as the mask's first pass does).
-        let mut drawn = vec![true; grid.len()];
-        let mut drawn_at = 0;
-        self.set_live(drawn_at, &grid.runs(&drawn));
-        let mut pending = None;
-        let mut active = 0;
+        // With one pass between queries, that pass is the one after a query, which draws
+        // the old tiles: cutting would cost the per-tile counts and save nothing.
+        let mut cut = Cut::new(self, self.opts.tiles && every > 1);
         let mut synced = false;
         let mut passes = 0u64;
         loop {
             if passes.is_multiple_of(every) {
                 self.set_mask_test(false);
                 self.progress.passes(self.stats.passes_total);
-                let counts = self.count_and_mask(&drawn)?;
+                let counts = self.count_and_mask(cut.on.then_some(&cut.drawn[..]))?;
                 let n = counts.iter().sum();
                 self.progress.active(n);
                 if n == 0 {
@@ -69,24 +61,16 @@ impl Frame<'_> {
                         "traversal did not terminate after {iterations} iterations"
                     )));
                 }
-                if self.opts.tiles {
-                    drawn = counts.iter().map(|&c| c > 0).collect();
-                }
-                let at = 1 - drawn_at;
-                self.set_live(at, &grid.runs(&drawn));
-                pending = Some(at);
-                active = n;
+                cut.counted(self, &counts);
                 synced = false;
             }
             self.set_mask_test(synced);
             match advance {
-                Some(pass) => self.advance(pass, &mut drawn_at, &mut pending, active).await?,
+                Some(pass) => self.advance(pass, &mut cut).await?,
                 None => {
-                    self.advance(Pass::TraverseStep, &mut drawn_at, &mut pending, active)
-                        .await?;
+                    self.advance(Pass::TraverseStep, &mut cut).await?;
                     self.set_mask_test(true);
-                    self.advance(Pass::Intersect(query), &mut drawn_at, &mut pending, active)
-                        .await?;
+                    self.advance(Pass::Intersect(query), &mut cut).await?;
                 }
             }
             synced = true;
@@ -94,45 +78,45 @@ impl Frame<'_> {
         }
     }
 
-    /// Draws advancing pass `pass` over `live[drawn_at]`, then moves `drawn_at` to the
-    /// tiles `pending` names (the last query's, which the passes after this one draw).
-    async fn advance(
-        &mut self,
-        pass: Pass,
-        drawn_at: &mut usize,
-        pending: &mut Option<usize>,
-        active: u64,
-    ) -> Result<()> {
-        let (cover, area) = if self.opts.tiles {
-            (Cover::Live(*drawn_at), self.live[*drawn_at].area())
+    /// Draws advancing pass `pass` over what `cut` says, then moves it on.
+    async fn advance(&mut self, pass: Pass, cut: &mut Cut) -> Result<()> {
+        let (cover, area) = if cut.on {
+            (Cover::Live(cut.drawn_at), self.live[cut.drawn_at].area())
         } else {
             let (w, h) = self.grid.size();
             (Cover::Full, w as u64 * h as u64)
         };
         self.stats.advance_pixels += area;
-        self.stats.advance_active += active;
+        self.stats.advance_active += cut.active;
         self.state_pass_over(pass, cover).await?;
-        if let Some(at) = pending.take() {
-            *drawn_at = at;
+        if let Some(at) = cut.pending.take() {
+            cut.drawn_at = at;
         }
         Ok(())
     }
 
-    /// Counts active rays per tile (only the tiles `region` sets are drawn) and, with
-    /// `--mask`, writes the mask of them: the count pass is drawn (colour writes off) into
-    /// the ray-state target that is not being read, whose depth/stencil buffer both state
-    /// targets share.
-    fn count_and_mask(&mut self, region: &[bool]) -> Result<Vec<u64>> {
-        if self.mask_buffer.is_none() {
-            return self.count_tiles(region, Slot::Acc(1 - self.acc_cur));
+    /// Counts active rays and, with `--mask`, writes the mask of them: per tile when
+    /// `region` is given (only the tiles it sets are drawn), else one count over the
+    /// full-screen quad. The count pass is drawn (colour writes off) into the ray-state
+    /// target that is not being read, whose depth/stencil buffer both state targets share.
+    fn count_and_mask(&mut self, region: Option<&[bool]>) -> Result<Vec<u64>> {
+        let slot = match self.mask_buffer {
+            None => Slot::Acc(1 - self.acc_cur),
+            Some(_) => Slot::State(1 - self.cur),
+        };
+        let mask = self.mask_kind().filter(|_| self.mask_buffer.is_some());
+        if let Some(buffer) = mask {
+            self.target(slot).bind(self.gl());
+            // The bound target has the mask buffer attached.
+            state::begin_mask_write(self.gl(), buffer);
         }
-        let slot = Slot::State(1 - self.cur);
-        self.target(slot).bind(self.gl());
-        let buffer = self.mask_kind().expect("no mask buffer without a mask");
-        // The bound target has the mask buffer attached.
-        state::begin_mask_write(self.gl(), buffer);
-        let n = self.count_tiles(region, slot);
-        state::end_mask_write(self.gl());
+        let n = match region {
+            Some(region) => self.count_tiles(region, slot),
+            None => self.count_into(Count::Rays, None, slot).map(|n| vec![n]),
+        };
+        if mask.is_some() {
+            state::end_mask_write(self.gl());
+        }
         n
     }
 
@@ -147,6 +131,52 @@ impl Frame<'_> {
             Mask::EarlyZ => Some(MaskBuffer::Depth),
             Mask::Stencil => Some(MaskBuffer::Stencil),
             Mask::None | Mask::Auto => None,
+        }
+    }
+}
+
+/// Where a wave's advancing passes draw (`tiles.rs`): with `on`, the tiles in `drawn`,
+/// whose rectangles are `Frame::live[drawn_at]`; else the full-screen quad.
+///
+/// Outside the tiles drawn both ray-state sets hold the same final state, so a pass that
+/// leaves them out leaves the state whole. A query finds the tiles still active, a subset;
+/// the first pass after it still draws the old tiles (`pending` holds the new ones until
+/// then), and its write-through copies the rays that finished there into the other set, as
+/// the mask's first pass does.
+struct Cut {
+    on: bool,
+    drawn: Vec<bool>,
+    drawn_at: usize,
+    pending: Option<usize>,
+    /// Active rays at the last query.
+    active: u64,
+}
+
+impl Cut {
+    /// Every tile drawn, its rectangles uploaded when `on`.
+    fn new(f: &mut Frame<'_>, on: bool) -> Self {
+        let drawn = vec![true; f.grid.len()];
+        if on {
+            f.set_live(0, &f.grid.runs(&drawn));
+        }
+        Cut {
+            on,
+            drawn,
+            drawn_at: 0,
+            pending: None,
+            active: 0,
+        }
+    }
+
+    /// Takes a query's counts: the total, and with `on` the tiles still active, which the
+    /// passes after the next one draw.
+    fn counted(&mut self, f: &mut Frame<'_>, counts: &[u64]) {
+        self.active = counts.iter().sum();
+        if self.on {
+            self.drawn = counts.iter().map(|&c| c > 0).collect();
+            let at = 1 - self.drawn_at;
+            f.set_live(at, &f.grid.runs(&self.drawn));
+            self.pending = Some(at);
         }
     }
 }

@@ -87,9 +87,19 @@ impl Rects {
         for r in rects {
             // u = x / width exactly as the quad interpolates it, and x = 2u - 1, which is
             // exact for the quad's corners (0 -> -1, 1 -> 1).
-            let (u0, u1, t0, t1) = (r.x0 as f32 / w, r.x1 as f32 / w, r.y0 as f32 / h, r.y1 as f32 / h);
+            let (u0, u1, t0, t1) = (
+                r.x0 as f32 / w,
+                r.x1 as f32 / w,
+                r.y0 as f32 / h,
+                r.y1 as f32 / h,
+            );
             let corner = |u: f32, t: f32| [2.0 * u - 1.0, 2.0 * t - 1.0, -0.5, u, t];
-            let (a, b, c, d) = (corner(u0, t0), corner(u1, t0), corner(u1, t1), corner(u0, t1));
+            let (a, b, c, d) = (
+                corner(u0, t0),
+                corner(u1, t0),
+                corner(u1, t1),
+                corner(u0, t1),
+            );
             // The fan's triangles (0, 1, 2) and (0, 2, 3).
             for p in [a, b, c, a, c, d] {
                 v.extend_from_slice(&p);
@@ -123,13 +133,16 @@ impl Rects {
     /// Makes `program` current and draws rectangles `range` (indices into the last upload)
     /// into the bound render target, as [`super::FullscreenQuad::draw`] draws the quad.
     pub fn draw(&self, gl: &glow::Context, program: &Program, range: Range<usize>) {
-        assert!(range.end <= self.len, "rectangles {range:?} of {}", self.len);
-        if range.is_empty() {
-            return;
-        }
+        self.bind(gl, program).draw(range);
+    }
+
+    /// Makes `program` current and binds the rectangles as its vertices, for several draws
+    /// of parts of them ([`BoundRects::draw`]); unbound when the guard drops.
+    pub fn bind<'a>(&'a self, gl: &'a glow::Context, program: &Program) -> BoundRects<'a> {
         const STRIDE: i32 = (FLOATS * std::mem::size_of::<f32>()) as i32;
-        // SAFETY: the buffer holds `self.len` rectangles of `VERTICES` vertices of the
-        // declared layout, and `range` lies within them (asserted above).
+        // SAFETY: the context is current; the buffer holds `self.len` rectangles of
+        // `VERTICES` vertices of the declared layout, and the guard's draws stay within
+        // them (asserted there).
         unsafe {
             gl.use_program(Some(program.name()));
             if let Some(vao) = &self.vao {
@@ -140,15 +153,48 @@ impl Rects {
             gl.vertex_attrib_pointer_f32(ATTRIB_POS, 3, glow::FLOAT, false, STRIDE, 0);
             gl.enable_vertex_attrib_array(ATTRIB_UV);
             gl.vertex_attrib_pointer_f32(ATTRIB_UV, 2, glow::FLOAT, false, STRIDE, 12);
-            gl.draw_arrays(
+        }
+        BoundRects { rects: self, gl }
+    }
+}
+
+/// [`Rects`] bound for drawing ([`Rects::bind`]).
+pub struct BoundRects<'a> {
+    rects: &'a Rects,
+    gl: &'a glow::Context,
+}
+
+impl BoundRects<'_> {
+    /// Draws rectangles `range` into the bound render target.
+    pub fn draw(&self, range: Range<usize>) {
+        assert!(
+            range.end <= self.rects.len,
+            "rectangles {range:?} of {}",
+            self.rects.len
+        );
+        if range.is_empty() {
+            return;
+        }
+        // SAFETY: the vertices are bound ([`Rects::bind`]) and `range` lies within them.
+        unsafe {
+            self.gl.draw_arrays(
                 glow::TRIANGLES,
                 (range.start * VERTICES) as i32,
                 (range.len() * VERTICES) as i32,
             );
+        }
+    }
+}
+
+impl Drop for BoundRects<'_> {
+    fn drop(&mut self) {
+        let gl = self.gl;
+        // SAFETY: the context is current; plain unbinding.
+        unsafe {
             gl.disable_vertex_attrib_array(ATTRIB_POS);
             gl.disable_vertex_attrib_array(ATTRIB_UV);
             gl.bind_buffer(glow::ARRAY_BUFFER, None);
-            if self.vao.is_some() {
+            if self.rects.vao.is_some() {
                 gl.bind_vertex_array(None);
             }
         }
