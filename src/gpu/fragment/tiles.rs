@@ -148,10 +148,10 @@ mod tests {
         assert_eq!(area, want);
         assert!(runs.len() < live.iter().filter(|&&l| l).count());
         for r in &runs {
-            for k in 0..g.len() {
+            for (k, &l) in live.iter().enumerate() {
                 let t = g.rect(k);
                 let inside = t.x0 >= r.x0 && t.x1 <= r.x1 && t.y0 >= r.y0 && t.y1 <= r.y1;
-                assert!(!inside || live[k], "run {r:?} covers dead tile {k}");
+                assert!(!inside || l, "run {r:?} covers dead tile {k}");
             }
         }
         assert!(g.runs(&vec![false; g.len()]).is_empty());
