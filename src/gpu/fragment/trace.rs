@@ -3,7 +3,9 @@
 //! Traversal set-up, then advancing passes (multipass: a step pass and a test pass per
 //! iteration; unrolled/looped: one pass of several iterations), with an occlusion query over
 //! the `count` pass every `query_every` iterations' worth of passes; the wave is done when it
-//! finds no active ray. With `--mask`, that count pass also writes the mask.
+//! finds no active ray. With `--mask`, that count pass also writes the mask. The count is
+//! taken per tile (`tiles.rs`), and the advancing passes until the next one draw only the
+//! tiles that still hold active rays (`Cut`).
 
 use super::frame::{Cover, Frame, Slot};
 use crate::gpu::gl::{state, MaskBuffer};
