@@ -228,6 +228,13 @@ pub struct GpuStats {
     pub trace_ms: f64,
     /// Termination queries issued.
     pub termination_queries: u64,
+    /// Pixels the fragment kernels' advancing passes rasterised, summed over those passes:
+    /// each draws only the tiles that held active rays at the last termination query, so
+    /// this falls below passes x pixels as rays finish (0 for the compute kernel).
+    pub advance_pixels: u64,
+    /// Active rays at the last termination query, summed over the same passes: what a
+    /// pass over the compacted active rays alone would draw (the floor of stream reduction).
+    pub advance_active: u64,
     /// K.
     pub query_every: u32,
     /// Scene features compiled in.

@@ -528,9 +528,12 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
             out += &format!("{name:<24} {n:>10} {t:>12} {per:>12}\n");
         }
         out += &format!(
-            "total: {} passes, {} termination queries, gpu {}, compile {:.1} ms, upload {:.1} ms\n",
+            "total: {} passes, {} termination queries, {} pixels drawn by advancing passes \
+             ({} active), gpu {}, compile {:.1} ms, upload {:.1} ms\n",
             g.passes_total,
             g.termination_queries,
+            g.advance_pixels,
+            g.advance_active,
             g.gpu_ms_total
                 .map_or("n/a".into(), |t| format!("{t:.2} ms")),
             g.compile_ms,

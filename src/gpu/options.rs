@@ -20,6 +20,11 @@ pub struct GpuOptions {
     pub timers: bool,
     /// Compile every shading feature in, whatever the scene needs.
     pub no_specialize: bool,
+    /// Draw the fragment kernels' advancing passes over the tiles that held active rays at
+    /// the last termination query only (issue 49); off, every pass covers the full-screen
+    /// quad as the thesis's did. The image is the same either way; off is for the tests
+    /// that check so and for measuring what the cut saves.
+    pub tiles: bool,
     /// How traversal iterations map onto passes or dispatches. Default: `Auto`, the fastest
     /// kernel the context runs ([`Kernel::resolve`]); `Multipass` is the faithful GL 2.1
     /// design, and every kernel renders the same image from the same step chunk.
@@ -170,6 +175,7 @@ impl Default for GpuOptions {
             query_every: 8,
             timers: true,
             no_specialize: false,
+            tiles: true,
             kernel: Kernel::Auto,
             mask: Mask::Auto,
             storage: Storage::F32,

@@ -10,13 +10,14 @@ use std::collections::HashMap;
 use std::rc::Rc;
 
 use super::passes::passes_for;
+use super::tiles::TileGrid;
 use crate::gpu::context::GlContext;
 use crate::gpu::contract::{
     uniform, GlslType, Uniform, Unit, REQUIRED_TEXTURE_UNITS, TEXTURED_TEXTURE_UNITS,
 };
 use crate::gpu::gl::{
-    state, FullscreenQuad, OcclusionQuery, Program, RenderTarget, Renderbuffer, TexFormat, Texture,
-    TimerQuery,
+    state, FullscreenQuad, OcclusionQuery, PixelRect, Program, Rects, RenderTarget, Renderbuffer,
+    TexFormat, Texture, TimerQuery,
 };
 use crate::gpu::layout::Fetch;
 use crate::gpu::options::{FragmentKernel, GpuOptions, Mask, Storage};
@@ -48,6 +49,15 @@ pub(super) struct Frame<'a> {
     pub(super) acc: [RenderTarget; 2],
     pub(super) acc_cur: usize,
     counter: Counter,
+    /// The tiles the advancing passes are cut to (`tiles.rs`).
+    pub(super) grid: TileGrid,
+    /// Every tile's rectangle, tile `k` at index `k`: the per-tile counts draw them one by one.
+    tile_rects: Rects,
+    /// Per tile, its occlusion query (made on first use; only with [`Counter::Query`]).
+    tile_queries: Vec<OcclusionQuery>,
+    /// The rectangles of the active tiles at the last termination query and at the one
+    /// before it ([`Cover::Live`] names them; `trace.rs` swaps them).
+    pub(super) live: [Rects; 2],
     /// Depth or depth-stencil buffer shared by both ray-state targets (`--mask`).
     pub(super) mask_buffer: Option<Renderbuffer>,
     timers: Option<TimerPool>,
@@ -99,6 +109,15 @@ pub(super) enum Slot {
     Acc(usize),
     /// The byte mask of [`Counter::Bytes`].
     Count,
+}
+
+/// What a draw covers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Cover {
+    /// The full-screen quad.
+    Full,
+    /// The rectangles of `Frame::live[k]`.
+    Live(usize),
 }
 
 /// How the host counts the fragments that survive the `count` pass
@@ -254,6 +273,15 @@ impl<'a> Frame<'a> {
                     &[TexFormat::Rgba8],
                 )?)
             },
+            grid: TileGrid::new(width, height),
+            tile_rects: {
+                let mut r = Rects::new(ctx)?;
+                let grid = TileGrid::new(width, height);
+                r.upload(ctx.gl(), &grid.rects(), width, height);
+                r
+            },
+            tile_queries: Vec::new(),
+            live: [Rects::new(ctx)?, Rects::new(ctx)?],
             mask_buffer,
             progress: Progress::hidden(),
             timers: (opts.timers && info.timer_query).then(|| TimerPool {
@@ -341,8 +369,13 @@ impl<'a> Frame<'a> {
 
     /// Draws `pass` into the target in `slot`, timing it when timers are on.
     pub(super) fn draw(&mut self, pass: Pass, slot: Slot) -> Result<()> {
+        self.draw_over(pass, slot, Cover::Full)
+    }
+
+    /// [`Frame::draw`] over `cover` only.
+    pub(super) fn draw_over(&mut self, pass: Pass, slot: Slot, cover: Cover) -> Result<()> {
         self.target(slot).bind(self.gl());
-        self.draw_bound(pass)
+        self.draw_bound(pass, cover)
     }
 
     /// Draws `pass` into `target`, a target of no slot (the 8-bit image read back),
@@ -354,14 +387,27 @@ impl<'a> Frame<'a> {
             self.programs.insert(pass, program);
         }
         target.bind(self.gl());
-        self.draw_bound(pass)
+        self.draw_bound(pass, Cover::Full)
     }
 
-    /// Draws `pass` into the bound target, timing it when timers are on.
-    fn draw_bound(&mut self, pass: Pass) -> Result<()> {
+    /// Draws `pass` over `cover` into the bound target, timing it when timers are on.
+    fn draw_bound(&mut self, pass: Pass, cover: Cover) -> Result<()> {
         // Re-bound every pass: creating or reading textures elsewhere changes the binding
         // of whatever unit is active, and five binds cost nothing next to a pass.
         self.gs.bind_textures()?;
+        let timer = self.begin_timer()?;
+        match cover {
+            Cover::Full => self.quad.draw(self.gl(), self.program(pass)),
+            Cover::Live(k) => {
+                let rects = &self.live[k];
+                rects.draw(self.gl(), self.program(pass), 0..rects.len());
+            }
+        }
+        self.end_timer(pass, timer)
+    }
+
+    /// Starts a timer query for the draws of one pass, when timers are on.
+    fn begin_timer(&mut self) -> Result<Option<TimerQuery>> {
         let timer = match &mut self.timers {
             Some(pool) => Some(match pool.free.pop() {
                 Some(q) => q,
@@ -372,7 +418,11 @@ impl<'a> Frame<'a> {
         if let Some(t) = &timer {
             t.begin(self.ctx);
         }
-        self.quad.draw(self.gl(), self.program(pass));
+        Ok(timer)
+    }
+
+    /// Ends `pass`'s timer and counts the pass.
+    fn end_timer(&mut self, pass: Pass, timer: Option<TimerQuery>) -> Result<()> {
         if let Some(t) = timer {
             t.end(self.ctx);
             let pool = self.timers.as_mut().expect("timer pool");
@@ -401,9 +451,15 @@ impl<'a> Frame<'a> {
     /// Runs a ray-state pass: reads the current set, writes the other, swaps; then
     /// observes (and may pause there).
     pub(super) async fn state_pass(&mut self, pass: Pass) -> Result<()> {
+        self.state_pass_over(pass, Cover::Full).await
+    }
+
+    /// [`Frame::state_pass`] over `cover` only: outside it the set written keeps what it
+    /// held, which must be the current state there (`trace.rs` sees to it).
+    pub(super) async fn state_pass_over(&mut self, pass: Pass, cover: Cover) -> Result<()> {
         self.bind_state_input();
         let other = 1 - self.cur;
-        self.draw(pass, Slot::State(other))?;
+        self.draw_over(pass, Slot::State(other), cover)?;
         self.cur = other;
         self.observe().await
     }
@@ -447,6 +503,56 @@ impl<'a> Frame<'a> {
         state::colour_writes(self.gl(), true);
         r?;
         Ok(query.result(self.ctx)? as u64)
+    }
+
+    /// Counts active rays per tile of [`Frame::grid`] (the `count` pass drawn tile by tile
+    /// under one occlusion query each, colour writes off, into `slot`; WebGL 1: the byte
+    /// target read back once and tallied per tile). Only the tiles where `region` is set are
+    /// drawn (the others count 0): outside them no ray is active.
+    pub(super) fn count_tiles(&mut self, region: &[bool], slot: Slot) -> Result<Vec<u64>> {
+        let pass = Pass::Count(Count::Rays);
+        self.bind_state_input();
+        self.stats.termination_queries += 1;
+        if let Counter::Bytes(target) = &self.counter {
+            target.bind(self.gl());
+            state::clear_colour(self.gl(), [1.0; 4]);
+            self.draw(pass, Slot::Count)?;
+            let Counter::Bytes(target) = &self.counter else {
+                unreachable!()
+            };
+            let bytes = target.read_bytes(self.gl())?;
+            return Ok(self.grid.tally_bytes(&bytes));
+        }
+        while self.tile_queries.len() < self.grid.len() {
+            self.tile_queries.push(OcclusionQuery::new(self.ctx)?);
+        }
+        self.target(slot).bind(self.gl());
+        self.gs.bind_textures()?;
+        state::colour_writes(self.gl(), false);
+        let timer = self.begin_timer()?;
+        let tiles: Vec<usize> = (0..self.grid.len()).filter(|&k| region[k]).collect();
+        {
+            let bound = self.tile_rects.bind(self.ctx.gl(), &self.programs[&pass]);
+            for &k in &tiles {
+                self.tile_queries[k].begin(self.ctx);
+                bound.draw(k..k + 1);
+                self.tile_queries[k].end(self.ctx);
+            }
+        }
+        let r = self.end_timer(pass, timer);
+        state::colour_writes(self.gl(), true);
+        r?;
+        let mut counts = vec![0u64; self.grid.len()];
+        for k in tiles {
+            counts[k] = self.tile_queries[k].result(self.ctx)? as u64;
+        }
+        Ok(counts)
+    }
+
+    /// Uploads `rects` into `live[k]`.
+    pub(super) fn set_live(&mut self, k: usize, rects: &[PixelRect]) {
+        let (w, h) = self.grid.size();
+        self.live[k].upload(self.ctx.gl(), rects, w, h);
     }
 
     /// [`Frame::count_into`] the colour accumulator that is not being read.

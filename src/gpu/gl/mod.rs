@@ -37,6 +37,7 @@ pub mod probe;
 pub mod program;
 pub mod query;
 pub mod readback;
+pub mod rects;
 pub mod state;
 pub mod target;
 pub mod texture;
@@ -50,6 +51,7 @@ pub use program::{
 };
 pub use query::{OcclusionQuery, TimerQuery};
 pub use readback::{has_buffer_storage, ReadbackRing};
+pub use rects::{PixelRect, Rects};
 pub use state::{MaskBuffer, SavedState};
 pub use target::{bind_window, read_window, RenderTarget};
 pub use texture::{Renderbuffer, TexFormat, Texture};
