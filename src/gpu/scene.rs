@@ -21,7 +21,7 @@ use super::context::GlContext;
 use super::contract::STORAGE_BINDING_BASE;
 use super::contract::{uniform, Unit};
 use super::gl::{compile_compute, compile_program, state, Program, StorageBuffer, Texture};
-use super::layout::SceneTextures;
+use super::layout::{IndexFormat, SceneTextures};
 use super::shader::{assemble_compute, assemble_in, ComputePass, ComputeSpec, Features, Pass};
 use crate::accel::{AccelRef, GridRef};
 use crate::clock::Instant;
@@ -125,6 +125,21 @@ impl<'s> GpuScene<'s> {
             i.skew_faces = true;
         }
         self
+    }
+
+    /// Tests only: the scene repacked in `format` before anything is uploaded
+    /// ([`IndexFormat::Split`] takes a scene that fits in floats down the split path, which
+    /// must render the same image).
+    pub fn with_index_format(mut self, format: IndexFormat) -> Result<Self> {
+        let max_size = self.ctx.info.max_texture_size.max(0) as u32;
+        self.layout = SceneTextures::pack_format(
+            self.scene,
+            self.accel,
+            max_size,
+            self.features.smooth_normals,
+            format,
+        )?;
+        Ok(self)
     }
 
     /// The context the scene lives in.
