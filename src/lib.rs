@@ -43,6 +43,8 @@ pub mod error;
 pub mod farm;
 pub mod gpu;
 pub mod image_io;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod memory;
 pub mod numeric;
 pub mod options;
 pub mod output;

@@ -625,20 +625,28 @@ pub fn axes_code(a: CheckerAxes) -> f32 {
     }
 }
 
+/// Refuses a scene of more triangles than the GPU kernels index: the ray state and hit
+/// records carry a triangle's index in one float, exact below 2^24 (the split format splits
+/// offsets, not these). Checked before a structure is built for the GPU, and again as it is
+/// packed.
+pub fn check_triangles(n: usize) -> Result<()> {
+    if n as u64 > MAX_EXACT_INDEX {
+        return Err(Error::Limit(format!(
+            "{n} triangles; the GPU kernels carry a triangle's index in one float, exact up \
+             to {MAX_EXACT_INDEX} triangles; render it with --backend cpu (the BVH has no \
+             such limit)"
+        )));
+    }
+    Ok(())
+}
+
 /// Refuses, with one line naming what is needed, the limit and what to do instead, a scene
 /// whose triangle indices or cell ids do not fit the one float the ray state and hit records
 /// carry them in (exact below 2^24): the limits the split format leaves (the voxel map's is
 /// checked as it is packed).
 fn check_indices(scene: &Scene, accel: GridRef<'_>) -> Result<()> {
     let advice = "render it with --backend cpu (the BVH has no such limit)";
-    let n = scene.triangles.len() as u64;
-    // TRI_NONE and TRI_NO_RAY are negative; the largest index must stay exact.
-    if n > MAX_EXACT_INDEX {
-        return Err(Error::Limit(format!(
-            "{n} triangles; the GPU kernels carry a triangle's index in one float, exact up \
-             to {MAX_EXACT_INDEX} triangles; {advice}"
-        )));
-    }
+    check_triangles(scene.triangles.len())?;
     let cells = match accel {
         GridRef::Uniform(g) => g.cells.len() as u64,
         GridRef::Irregular(g) => g.cells.len() as u64,
