@@ -25,10 +25,16 @@ pub fn build_bytes_per_triangle(kind: AccelKind) -> u64 {
 /// its textures in host memory).
 pub const GPU_BYTES_PER_TRIANGLE: u64 = 300;
 
+/// Environment variable naming a file read instead of `/proc/meminfo` (tests: a machine
+/// with less memory than this one).
+pub const MEMINFO_ENV: &str = "FRAGTRACE_MEMINFO";
+
 /// Bytes the kernel says can be allocated without swapping (`MemAvailable` of
-/// `/proc/meminfo`), or `None` where there is no such file.
+/// `/proc/meminfo`, or of the file [`MEMINFO_ENV`] names), or `None` where there is no such
+/// file.
 pub fn available_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let path = std::env::var_os(MEMINFO_ENV).unwrap_or_else(|| "/proc/meminfo".into());
+    let text = std::fs::read_to_string(path).ok()?;
     let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)

@@ -540,7 +540,7 @@ impl IrregularLayout {
                 if e & crate::accel::irregular::NODE != 0 {
                     -((e & !crate::accel::irregular::NODE) as f32) - 1.0
                 } else {
-                    e as f32
+                    float_slot(e as u64) as f32
                 }
             })
             .collect();
@@ -647,21 +647,49 @@ pub fn check_triangles(n: usize) -> Result<()> {
 fn check_indices(scene: &Scene, accel: GridRef<'_>) -> Result<()> {
     let advice = "render it with --backend cpu (the BVH has no such limit)";
     check_triangles(scene.triangles.len())?;
-    let cells = match accel {
-        GridRef::Uniform(g) => g.cells.len() as u64,
-        GridRef::Irregular(g) => g.cells.len() as u64,
-    };
-    if cells > MAX_EXACT_INDEX {
-        let other = match accel {
-            GridRef::Uniform(_) => "--grid-res or --grid-density lower, or ",
-            GridRef::Irregular(_) => "--accel uniform, or ",
-        };
-        return Err(Error::Limit(format!(
-            "{cells} grid cells; the GPU kernels carry a cell's index in one float, exact up \
-             to {MAX_EXACT_INDEX} cells; {other}{advice}"
-        )));
+    match accel {
+        GridRef::Uniform(g) if g.cells.len() as u64 > MAX_EXACT_INDEX => {
+            Err(Error::Limit(format!(
+                "{} grid cells; the GPU's uniform grid indexes its cells with one float, exact \
+                 up to {MAX_EXACT_INDEX} cells; a coarser --grid or a lower --grid-density, \
+                 or {advice}",
+                g.cells.len()
+            )))
+        }
+        GridRef::Irregular(g) if !g.cells.is_empty() => {
+            let per = IndexFormat::Split.irregular_cell_texels() as u64;
+            let texels = (float_slot(g.cells.len() as u64 - 1) + 1) * per;
+            if texels > MAX_SLOT_TEXELS {
+                return Err(Error::Limit(format!(
+                    "{} grid cells; the GPU's irregular grid addresses them through {texels} \
+                     texels, more than its {MAX_SLOT_TEXELS}; a lower --grid-density, \
+                     --accel uniform, or {advice}",
+                    g.cells.len()
+                )));
+            }
+            Ok(())
+        }
+        _ => Ok(()),
     }
-    Ok(())
+}
+
+/// Most texels a record texture addressed by float slots may take: what the 32-bit
+/// integer arithmetic of the compute kernel's fetches reaches.
+pub const MAX_SLOT_TEXELS: u64 = 1 << 31;
+
+/// The float id of the k-th record when ids must be exact f32 values: k itself up to 2^24,
+/// then every integer an f32 holds exactly (2^24 + 2, + 4, ... to 2^25; then steps of 4 to
+/// 2^26, ...). Ids stay one float (the ray state and the voxel map carry a cell's in one
+/// channel) and ordered as the records are; the texture leaves the slots between them empty,
+/// and `rec_coord` addresses any exact integer.
+pub fn float_slot(k: u64) -> u64 {
+    if k <= MAX_EXACT_INDEX {
+        return k;
+    }
+    let m = k - MAX_EXACT_INDEX - 1;
+    let band = 1 + m / (1 << 23);
+    let i = m % (1 << 23);
+    (1u64 << (23 + band)) + ((i + 1) << band)
 }
 
 impl SceneTextures {
@@ -774,14 +802,17 @@ impl SceneTextures {
             ),
             GridRef::Irregular(g) => {
                 let f = |v: [u32; 3], w: f32| [v[0] as f32, v[1] as f32, v[2] as f32, w];
+                // Cell k at its float slot (k itself below 2^24: the Float format's only).
                 let per = format.irregular_cell_texels() as usize;
-                let mut cell = Vec::with_capacity(g.cells.len() * per);
-                for c in &g.cells {
+                let slots = g.cells.len().checked_sub(1).map_or(0, |k| float_slot(k as u64) + 1);
+                let mut cell = vec![[0f32; 4]; slots as usize * per];
+                for (k, c) in g.cells.iter().enumerate() {
                     let (lo, hi) = off(c.range.offset);
-                    cell.push(f(c.exit_lo, lo));
-                    cell.push(f(c.exit_hi, c.range.count as f32));
+                    let at = &mut cell[float_slot(k as u64) as usize * per..][..per];
+                    at[0] = f(c.exit_lo, lo);
+                    at[1] = f(c.exit_hi, c.range.count as f32);
                     if format == IndexFormat::Split {
-                        cell.push([hi, 0.0, 0.0, 0.0]);
+                        at[2] = [hi, 0.0, 0.0, 0.0];
                     }
                 }
                 (cell, &g.tri_indices, Some(IrregularLayout::pack(g, max_size)?))
@@ -932,6 +963,62 @@ mod tests {
         let n = g.tri_indices.len();
         let listed: Vec<u32> = l.list.data[..n].iter().map(|&x| x as u32).collect();
         assert_eq!(listed, g.tri_indices);
+    }
+
+    /// Float slots are exact f32 values, strictly increasing (so the lowest-index tie rule
+    /// keeps its order), the identity up to 2^24, and dense within each band.
+    #[test]
+    fn float_slots_are_exact_increasing_and_dense() {
+        let near = MAX_EXACT_INDEX;
+        let band = 1u64 << 23;
+        let ks = (0..8u64)
+            .chain(near - 4..near + 8)
+            .chain([near + band - 1, near + band, near + band + 1, near + 5 * band + 3]);
+        let mut last = None;
+        for k in ks {
+            let s = float_slot(k);
+            assert_eq!(s as f32 as u64, s, "slot {s} of {k} is not an exact f32");
+            if k <= near {
+                assert_eq!(s, k);
+            }
+            if let Some((lk, ls)) = last {
+                assert!(s > ls, "{k}: {s} after {lk}: {ls}");
+                if lk + 1 == k && k > near + 1 {
+                    // Consecutive records sit at consecutive exact floats.
+                    assert_eq!(s - ls, (ls as f32).next_up() as u64 - ls, "{k}");
+                }
+            }
+            last = Some((k, s));
+        }
+        assert_eq!(float_slot(near + band), 1 << 25);
+        assert_eq!(float_slot(near + band + 1), (1 << 25) + 4);
+    }
+
+    /// The CPU twins of the split address arithmetic against u64 for indices around 2^24
+    /// and far past it (the GLSL is held to these in `tests/glsl_twins/split_index.rs`).
+    #[test]
+    fn split_arithmetic_is_exact_past_2_pow_24() {
+        for e in [0u64, 1, (1 << 24) - 1, 1 << 24, (1 << 24) + 1, 1 << 31, (1 << 32) + 3] {
+            for w in [1u32, 4096, 16384] {
+                for j in [0u64, 1, 999] {
+                    if j > e || e / (4 * w as u64) >= 1 << 24 {
+                        continue;
+                    }
+                    let (hi, lo) = split(e - j);
+                    let t = e / 4;
+                    let want = ((t % w as u64) as f32, (t / w as u64) as f32, (e % 4) as f32);
+                    assert_eq!(split_coord(hi, lo, j as f32, w as f32), want, "{e} {j} {w}");
+                }
+            }
+        }
+        for item in [0u64, 5, (1 << 24) - 1, 1 << 24, 1 << 25, 3 << 26] {
+            for (per, k) in [(3u64, 2u64), (2, 1), (7, 6)] {
+                let w = 4096u64;
+                let t = item * per + k;
+                let want = ((t % w) as f32, (t / w) as f32);
+                assert_eq!(rec_coord(item as f32, per as f32, k as f32, w as f32), want);
+            }
+        }
     }
 
     #[test]
