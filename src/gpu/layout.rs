@@ -92,7 +92,7 @@ impl IndexFormat {
                  #define CURSOR_FIRST(offset) (offset)
                  #define CURSOR_END_OF(offset, count) ((offset) + (count))
 "
-                .into(),
+            .into(),
             IndexFormat::Split => format!(
                 "#define SPLIT_INDEX 1
                  #define SPLIT_BASE {base:.1}
@@ -713,7 +713,8 @@ impl SceneTextures {
             GridRef::Uniform(g) => (g.cells.len(), g.tri_indices.len(), 1),
             GridRef::Irregular(g) => (g.cells.len(), g.tri_indices.len(), 2),
         };
-        let texels = (scene.triangles.len() as u64 * TRI_TEXELS as u64).max(cells as u64 * per_cell);
+        let texels =
+            (scene.triangles.len() as u64 * TRI_TEXELS as u64).max(cells as u64 * per_cell);
         let format = IndexFormat::needed(texels, refs as u64);
         Self::pack_format(scene, accel, max_size, normals, format)
     }
@@ -804,7 +805,11 @@ impl SceneTextures {
                 let f = |v: [u32; 3], w: f32| [v[0] as f32, v[1] as f32, v[2] as f32, w];
                 // Cell k at its float slot (k itself below 2^24: the Float format's only).
                 let per = format.irregular_cell_texels() as usize;
-                let slots = g.cells.len().checked_sub(1).map_or(0, |k| float_slot(k as u64) + 1);
+                let slots = g
+                    .cells
+                    .len()
+                    .checked_sub(1)
+                    .map_or(0, |k| float_slot(k as u64) + 1);
                 let mut cell = vec![[0f32; 4]; slots as usize * per];
                 for (k, c) in g.cells.iter().enumerate() {
                     let (lo, hi) = off(c.range.offset);
@@ -815,7 +820,11 @@ impl SceneTextures {
                         at[2] = [hi, 0.0, 0.0, 0.0];
                     }
                 }
-                (cell, &g.tri_indices, Some(IrregularLayout::pack(g, max_size)?))
+                (
+                    cell,
+                    &g.tri_indices,
+                    Some(IrregularLayout::pack(g, max_size)?),
+                )
             }
         };
         let list: Vec<f32> = tri_indices.iter().map(|&i| i as f32).collect();
@@ -971,9 +980,12 @@ mod tests {
     fn float_slots_are_exact_increasing_and_dense() {
         let near = MAX_EXACT_INDEX;
         let band = 1u64 << 23;
-        let ks = (0..8u64)
-            .chain(near - 4..near + 8)
-            .chain([near + band - 1, near + band, near + band + 1, near + 5 * band + 3]);
+        let ks = (0..8u64).chain(near - 4..near + 8).chain([
+            near + band - 1,
+            near + band,
+            near + band + 1,
+            near + 5 * band + 3,
+        ]);
         let mut last = None;
         for k in ks {
             let s = float_slot(k);
@@ -998,7 +1010,15 @@ mod tests {
     /// and far past it (the GLSL is held to these in `tests/glsl_twins/split_index.rs`).
     #[test]
     fn split_arithmetic_is_exact_past_2_pow_24() {
-        for e in [0u64, 1, (1 << 24) - 1, 1 << 24, (1 << 24) + 1, 1 << 31, (1 << 32) + 3] {
+        for e in [
+            0u64,
+            1,
+            (1 << 24) - 1,
+            1 << 24,
+            (1 << 24) + 1,
+            1 << 31,
+            (1 << 32) + 3,
+        ] {
             for w in [1u32, 4096, 16384] {
                 for j in [0u64, 1, 999] {
                     if j > e || e / (4 * w as u64) >= 1 << 24 {

@@ -96,7 +96,11 @@ fn split_coordinates_match_the_cpu_twins_and_the_u64_truth() {
     for (k, (q, &(e, w, j))) in cases.iter().zip(&truth).enumerate() {
         let gpu = out[0][k];
         let cpu = split_coord(q[0], q[1], q[2], q[3]);
-        assert_eq!((gpu[0], gpu[1], gpu[2]), cpu, "split_coord of {e} (j {j}, w {w})");
+        assert_eq!(
+            (gpu[0], gpu[1], gpu[2]),
+            cpu,
+            "split_coord of {e} (j {j}, w {w})"
+        );
         let texel = e / 4;
         let want = (
             (texel % w as u64) as f32,
@@ -110,7 +114,11 @@ fn split_coordinates_match_the_cpu_twins_and_the_u64_truth() {
         if per * (item / w as u64 + 1) < 1 << 24 && per * w as u64 + kk < 1 << 24 {
             let gpu = out[1][k];
             let cpu = rec_coord(q[1], q[0] + 1.0, q[2], q[3]);
-            assert_eq!((gpu[0], gpu[1]), cpu, "rec_coord of {item} x {per} + {kk}, w {w}");
+            assert_eq!(
+                (gpu[0], gpu[1]),
+                cpu,
+                "rec_coord of {item} x {per} + {kk}, w {w}"
+            );
             assert_eq!(
                 cpu,
                 ((t % w as u64) as f32, (t / w as u64) as f32),
@@ -168,7 +176,11 @@ fn entry_list_split_reads_past_2_pow_24() {
         )
     });
     for (k, q) in cases.iter().enumerate() {
-        assert_eq!(out[0][k][0], want[k], "entry hi {} lo {} j {}", q[0], q[1], q[2]);
+        assert_eq!(
+            out[0][k][0], want[k],
+            "entry hi {} lo {} j {}",
+            q[0], q[1], q[2]
+        );
     }
     println!("entry_list_split: {} reads around 2^24 exact", cases.len());
 }
