@@ -8,8 +8,10 @@
 #   ci/measure-large.sh [OUT_DIR] [N...]     (defaults: target/large, 36 100)
 #
 # Env: FRAGTRACE (binary, default target/release/fragtrace), SIZE (image side, default 128),
-# KERNELS (default "cpu compute looped"). Runs one render at a time: the 100-sphere scene
-# takes several GB.
+# KERNELS (default "cpu compute looped"), GPU_ACCELS (the GPU's structures, default
+# "irregular uniform"), MAIN (a second binary, e.g. /work/bin/fragtrace-main, whose CPU render
+# is timed beside this one's). Runs one render at a time: the 100-sphere scene takes several
+# GB, and the GPU kernels refuse it (more than 2^24 triangles).
 set -euo pipefail
 out=${1:-target/large}
 shift || true
@@ -17,6 +19,8 @@ shift || true
 bin=${FRAGTRACE:-target/release/fragtrace}
 size=${SIZE:-128}
 kernels=${KERNELS:-cpu compute looped}
+accels=${GPU_ACCELS:-irregular uniform}
+main=${MAIN:-}
 mkdir -p "$out"
 
 scene() { # N -> spheres on a square lattice over a floor
@@ -90,8 +94,19 @@ for n in "${counts[@]}"; do
     scene "$n" >"$toml"
     for k in $kernels; do
         case $k in
-            cpu) run "spheres-$n-cpu" "$toml" --backend cpu --width "$size" --height "$size" -o "$out/spheres-$n-cpu.png" ;;
-            *) run "spheres-$n-$k" "$toml" --backend gl --kernel "$k" --width "$size" --height "$size" -o "$out/spheres-$n-$k.png" ;;
+            cpu)
+                run "spheres-$n-cpu" "$toml" --backend cpu --width "$size" --height "$size" -o "$out/spheres-$n-cpu.png"
+                if [ -n "$main" ]; then
+                    bin_was=$bin bin=$main
+                    run "spheres-$n-cpu-main" "$toml" --backend cpu --width "$size" --height "$size" -o "$out/spheres-$n-cpu-main.png"
+                    bin=$bin_was
+                fi ;;
+            *)
+                for a in $accels; do
+                    run "spheres-$n-$k-$a" "$toml" --backend gl --kernel "$k" --accel "$a" --width "$size" --height "$size" -o "$out/spheres-$n-$k-$a.png"
+                    [ -f "$out/spheres-$n-$k-$a.png" ] && [ -f "$out/spheres-$n-cpu.png" ] &&
+                        echo "    against the CPU: $("$bin" compare "$out/spheres-$n-$k-$a.png" "$out/spheres-$n-cpu.png")"
+                done ;;
         esac
     done
 done

@@ -134,8 +134,8 @@ fn split_coordinates_match_the_cpu_twins_and_the_u64_truth() {
     assert!(checked > 100 && cases.len() > 300);
 }
 
-/// `entry_list_split` (the generated fetch over `split_coord`) reads the entry hi 2^24 + lo
-/// + j of a list texture of 2^24 + 2^16 entries (64 MiB, 4096 x 1028 texels), each entry a
+/// `entry_list_split` (the generated fetch over `split_coord`) reads the entry
+/// hi 2^24 + lo + j of a list texture of 2^24 + 2^16 entries (64 MiB, 4096 x 1028 texels), each entry a
 /// distinct hash, for offsets and cursors around 2^24: the split path's reads on the driver.
 #[test]
 fn entry_list_split_reads_past_2_pow_24() {
