@@ -30,9 +30,9 @@ vec3 terminator_lift(vec3 p, vec3 v, vec3 n, float b) {
 
 Surface surface(vec3 o, vec3 d, float tri) {
     Surface s;
-    vec4 t0 = fetch_tri(tri * TRI_TEXELS);
-    vec4 t1 = fetch_tri(tri * TRI_TEXELS + 1.0);
-    vec4 t2 = fetch_tri(tri * TRI_TEXELS + 2.0);
+    vec4 t0 = fetch_tri_at(tri, TRI_TEXELS, 0.0);
+    vec4 t1 = fetch_tri_at(tri, TRI_TEXELS, 1.0);
+    vec4 t2 = fetch_tri_at(tri, TRI_TEXELS, 2.0);
     vec3 b = tri_bary(o, d, t0.xyz, t1.xyz, t2.xyz);
     s.p = t0.xyz * b.x + t1.xyz * b.y + t2.xyz * b.z;
     s.p_err = (abs(t0.xyz * b.x) + abs(t1.xyz * b.y) + abs(t2.xyz * b.z)) * gamma_n(7.0);
@@ -51,9 +51,9 @@ Surface surface(vec3 o, vec3 d, float tri) {
 #endif
 #ifdef HAS_SMOOTH_NORMALS
     if (t1.w > 0.5) {
-        vec3 n0 = fetch_nrm(tri * TRI_TEXELS).xyz;
-        vec3 n1 = fetch_nrm(tri * TRI_TEXELS + 1.0).xyz;
-        vec3 n2 = fetch_nrm(tri * TRI_TEXELS + 2.0).xyz;
+        vec3 n0 = fetch_nrm_at(tri, TRI_TEXELS, 0.0).xyz;
+        vec3 n1 = fetch_nrm_at(tri, TRI_TEXELS, 1.0).xyz;
+        vec3 n2 = fetch_nrm_at(tri, TRI_TEXELS, 2.0).xyz;
         vec3 sn = n0 * b.x + n1 * b.y + n2 * b.z;
         float l = length(sn);
         if (l > 0.0) {

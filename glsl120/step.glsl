@@ -59,8 +59,8 @@ void traverse_setup(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     vec3 c = start_cell(s0.S0_ORIGIN, s1.S1_DIR, span.x);
     vec4 cell = fetch_cell(cell_linear(c));
 #endif
-    s2 = S2_TEXEL(c, cell.x);
-    s3 = S3_TEXEL(s1.S1_T_MAX, TRI_NONE, cell.x + cell.y, s3.S3_STEPS + 1.0);
+    s2 = S2_TEXEL(c, CURSOR_FIRST(cell.x));
+    s3 = S3_TEXEL(s1.S1_T_MAX, TRI_NONE, CURSOR_END_OF(cell.x, cell.y), s3.S3_STEPS + 1.0);
     s0.S0_STATE = cell.y > 0.0 ? ST_TESTING : ST_TRAVERSING;
 }
 
@@ -84,8 +84,8 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     vec4 nlo = irr_lo(next);
     vec4 nhi = irr_hi(next);
     irr_enter(nlo, nhi);
-    s2 = S2_TEXEL(vec3(next, ex.x, t_leave), nlo.w);
-    s3.S3_CURSOR_END = nlo.w + nhi.w;
+    s2 = S2_TEXEL(vec3(next, ex.x, t_leave), CURSOR_FIRST(nlo.w));
+    s3.S3_CURSOR_END = CURSOR_END_OF(nlo.w, nhi.w);
     s3.S3_STEPS += 1.0;
     s0.S0_STATE = nhi.w > 0.0 ? ST_TESTING : ST_TRAVERSING;
 #else
@@ -108,8 +108,8 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
         return;
     }
     vec4 cell = fetch_cell(cell_linear(c));
-    s2 = S2_TEXEL(c, cell.x);
-    s3.S3_CURSOR_END = cell.x + cell.y;
+    s2 = S2_TEXEL(c, CURSOR_FIRST(cell.x));
+    s3.S3_CURSOR_END = CURSOR_END_OF(cell.x, cell.y);
     s3.S3_STEPS += 1.0;
     s0.S0_STATE = cell.y > 0.0 ? ST_TESTING : ST_TRAVERSING;
 #endif
@@ -122,10 +122,10 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
 void intersect_test(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3, const bool any_hit) {
     if (!in_state(s0.S0_STATE, ST_TESTING)) return;
     float k = s2.S2_CURSOR;
-    float tri = entry_list(k);
-    vec3 p0 = fetch_tri(tri * TRI_TEXELS).xyz;
-    vec3 p1 = fetch_tri(tri * TRI_TEXELS + 1.0).xyz;
-    vec3 p2 = fetch_tri(tri * TRI_TEXELS + 2.0).xyz;
+    float tri = cell_entry(s2, k);
+    vec3 p0 = fetch_tri_at(tri, TRI_TEXELS, 0.0).xyz;
+    vec3 p1 = fetch_tri_at(tri, TRI_TEXELS, 1.0).xyz;
+    vec3 p2 = fetch_tri_at(tri, TRI_TEXELS, 2.0).xyz;
     mat3 P = mat3(1.0);
     vec3 S = vec3(1.0);
 #ifdef INTERSECT_WATERTIGHT

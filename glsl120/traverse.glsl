@@ -69,9 +69,10 @@ float exit_limit(float t_exit) {
 // src/cpu/traverse_irregular.rs (`exit`, `lateral`, `walk`). u_cell_size and u_grid_res
 // are the virtual grid's; irr_lookup (the voxel-map descent) is generated with the layout.
 
-// Cell texels: (exit box lower corner, list offset) and (exit box upper corner, count).
-vec4 irr_lo(float id) { return fetch_cell(id * 2.0); }
-vec4 irr_hi(float id) { return fetch_cell(id * 2.0 + 1.0); }
+// Cell texels: (exit box lower corner, list offset) and (exit box upper corner, count);
+// with SPLIT_INDEX the offset is its lo part and a third texel holds (hi, 0, 0, 0).
+vec4 irr_lo(float id) { return fetch_cell_at(id, CELL_TEXELS, 0.0); }
+vec4 irr_hi(float id) { return fetch_cell_at(id, CELL_TEXELS, 1.0); }
 
 #ifdef KERNEL_COMPUTE
 // The compute kernels trace one ray to its end in a loop, so the texels of the cell a ray
@@ -170,6 +171,23 @@ float irr_next(vec3 o, vec3 d, vec2 ex, vec3 lo, vec3 hi) {
     return irr_lookup(k);
 }
 #endif
+
+// Entry k of the current cell's list (s2): the cursor counts from the list's start, or
+// with SPLIT_INDEX from the cell's first reference, whose offset hi * 2^24 + lo is fetched
+// again from the cell (the ray state has no channel left for it).
+float cell_entry(vec4 s2, float k) {
+#ifdef SPLIT_INDEX
+#ifdef ACCEL_IRREGULAR
+    float id = s2.S2_CELL.x;
+    return entry_list_split(fetch_cell_at(id, CELL_TEXELS, 2.0).x, irr_cur_lo(id).w, k);
+#else
+    vec4 cell = fetch_cell(cell_linear(s2.S2_CELL));
+    return entry_list_split(cell.z, cell.x, k);
+#endif
+#else
+    return entry_list(k);
+#endif
+}
 
 // Exit parameter of the ray's current cell (s2): the DDA cell's far faces, or the
 // irregular cell's exit box.

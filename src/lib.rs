@@ -44,6 +44,8 @@ pub mod farm;
 pub mod fnv;
 pub mod gpu;
 pub mod image_io;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod memory;
 pub mod numeric;
 pub mod options;
 pub mod output;

@@ -113,7 +113,20 @@ pub struct Prepared<'s> {
 /// Checks `opts` and builds the acceleration structure they name for `scene`.
 pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s>> {
     opts.validate()?;
-    let accel = Accel::build(scene, opts.accel_kind(), &opts.grid, &opts.irregular)?;
+    // What the machine cannot hold, refused before anything is allocated: the GPU's index
+    // limit (its layout's), then memory.
+    let kind = opts.accel_kind();
+    let gpu = opts.backend == Backend::Gl;
+    if gpu {
+        crate::gpu::layout::check_triangles(scene.triangles.len())?;
+    }
+    crate::memory::check_build(
+        kind,
+        scene.triangles.len(),
+        gpu,
+        crate::memory::available_bytes(),
+    )?;
+    let accel = Accel::build(scene, kind, &opts.grid, &opts.irregular)?;
     let summary = accel.as_ref().summary(scene.triangles.len());
     Ok(Prepared {
         scene,

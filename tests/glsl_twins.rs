@@ -1,7 +1,8 @@
 //! The GLSL twins run on hand-made inputs next to their CPU originals, so a difference in
 //! the shader code shows up as a failing case rather than as a blurry image difference.
 //! Covered: intersection (t and barycentrics, every technique), the DDA helpers, the
-//! shading functions of shade.glsl and the spawn and shadow-spawn passes. Each bound sits
+//! shading functions of shade.glsl, the spawn and shadow-spawn passes, and the split index
+//! format's address arithmetic past 2^24. Each bound sits
 //! at a small multiple of the measured difference (both in comments) and fails on NaN.
 
 mod common;
@@ -11,3 +12,5 @@ mod harness;
 mod intersect;
 #[path = "glsl_twins/shading.rs"]
 mod shading;
+#[path = "glsl_twins/split_index.rs"]
+mod split_index;

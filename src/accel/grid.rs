@@ -39,9 +39,9 @@ pub const MAX_AUTO_CELLS: u64 = 1 << 24;
 pub const MAX_FIXED_AXIS: u32 = 4096;
 /// Largest total cell count accepted for [`GridRes::Fixed`].
 pub const MAX_FIXED_CELLS: u64 = 1 << 26;
-/// Largest number of (cell, triangle) references. The GPU stores offsets and counts in
-/// f32 textures, which represent every integer up to 2^24 exactly.
-pub const MAX_REFERENCES: usize = 1 << 24;
+/// Largest number of (cell, triangle) references: what the `u32` offsets hold. (The GPU
+/// layout splits offsets past 2^24 over two floats, `gpu::layout::IndexFormat::Split`.)
+pub const MAX_REFERENCES: usize = u32::MAX as usize;
 
 /// Smallest extent of a grid axis relative to the largest one, so flat scenes still get
 /// a box of positive volume.
@@ -560,7 +560,7 @@ fn build_with_limit(scene: &Scene, cfg: &GridConfig, max_refs: usize) -> Result<
     let mut offset = 0u32;
     for c in &mut cells {
         c.offset = offset;
-        // Cannot overflow: the total is at most `max_refs` <= 2^24.
+        // Cannot overflow: the total is at most `max_refs` <= u32::MAX.
         offset += c.count;
     }
     let mut cursor: Vec<u32> = cells.iter().map(|c| c.offset).collect();

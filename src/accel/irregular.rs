@@ -54,9 +54,9 @@
 //!
 //! The build is parallel (triangles for the top level, top cells for the voxel map, cells
 //! for the expansion) and deterministic: every parallel result is collected in index order,
-//! so the output does not depend on the thread count. Cells, voxel-map entries and
-//! references are each limited to 2^23 or 2^24 (exact integers in f32 texels; a cell takes
-//! two texels).
+//! so the output does not depend on the thread count. Cells and voxel-map entries are each
+//! limited to 2^31 (an entry holds a cell id or a child block beside [`NODE`]), references
+//! to 2^32 (`u32` offsets); what the GPU can index is its layout's (`gpu::layout`).
 
 use std::fmt;
 
@@ -78,10 +78,13 @@ pub const MAX_LEVELS: usize = 20;
 /// Largest virtual resolution per axis: virtual coordinates and their sums stay exact in
 /// f32.
 pub const MAX_VIRTUAL_AXIS: u32 = 1 << 22;
-/// Largest number of cells (two f32 texels each).
-pub const MAX_CELLS: usize = 1 << 23;
-/// Largest number of voxel-map entries and of (cell, triangle) references.
-pub const MAX_ENTRIES: usize = 1 << 24;
+/// Largest number of cells: an id a voxel-map entry holds beside the [`NODE`] flag.
+pub const MAX_CELLS: usize = (NODE - 1) as usize;
+/// Largest number of voxel-map entries: a child block an entry holds beside [`NODE`].
+pub const MAX_ENTRIES: usize = (NODE - 1) as usize;
+/// Largest number of (cell, triangle) references and of triangles: `u32` offsets and
+/// indices.
+pub const MAX_REFERENCES: usize = u32::MAX as usize;
 /// Flag of a [`IrregularGrid::vmap`] entry that points to a child block.
 pub const NODE: u32 = 1 << 31;
 /// Build parameters of an [`IrregularGrid`].

@@ -14,7 +14,7 @@ use super::binning::{counting_sort, Frame};
 use super::grid::{check_vertices, padded_bounds, CellRange, Grid};
 use super::irregular::{
     IrrCell, IrregularConfig, IrregularGrid, IrregularPhases, IrregularStats, MAX_CELLS,
-    MAX_ENTRIES, MAX_LEVELS, MAX_VIRTUAL_AXIS, NODE,
+    MAX_ENTRIES, MAX_LEVELS, MAX_REFERENCES, MAX_VIRTUAL_AXIS, NODE,
 };
 use super::irregular_grow::{grow, offsets, split_lens, Occupancy, Recent};
 use crate::clock::Instant;
@@ -385,9 +385,10 @@ fn build(scene: &Scene, cfg: &IrregularConfig) -> Result<IrregularGrid> {
     }
     check_vertices(scene)?;
     let n_tris = scene.triangles.len();
-    if n_tris >= MAX_ENTRIES {
+    if n_tris >= MAX_REFERENCES {
         return Err(Error::Limit(format!(
-            "{n_tris} triangles: the irregular grid indexes fewer than {MAX_ENTRIES}"
+            "{n_tris} triangles: the irregular grid indexes fewer than {MAX_REFERENCES}; \
+             --accel bvh (CPU) has no such limit"
         )));
     }
     phase(&mut phases.setup_ms);
@@ -713,14 +714,15 @@ fn check_top(n_top: usize) -> Result<()> {
     Ok(())
 }
 
-/// Refuses a structure whose cells, voxel-map entries or references exceed what f32 texels
-/// index (`MAX_CELLS`, `MAX_ENTRIES`), before any table is allocated.
+/// Refuses a structure whose cells, voxel-map entries or references exceed what its
+/// entries and offsets hold (`MAX_CELLS`, `MAX_ENTRIES`, `MAX_REFERENCES`), before any
+/// table is allocated. (What the GPU indexes is checked where it is packed.)
 fn check_sizes(n_tris: usize, n_cells: usize, n_vmap: usize, n_refs: usize) -> Result<()> {
-    if n_cells > MAX_CELLS || n_vmap > MAX_ENTRIES || n_refs > MAX_ENTRIES {
+    if n_cells > MAX_CELLS || n_vmap > MAX_ENTRIES || n_refs > MAX_REFERENCES {
         return Err(Error::Limit(format!(
-            "the irregular grid needs more than {MAX_CELLS} cells, {MAX_ENTRIES} voxel-map \
-             entries or {MAX_ENTRIES} triangle references ({n_tris} triangles); raise its \
-             leaf size"
+            "the irregular grid of {n_tris} triangles needs {n_cells} cells, {n_vmap} \
+             voxel-map entries and {n_refs} triangle references, more than its {MAX_CELLS}, \
+             {MAX_ENTRIES} and {MAX_REFERENCES}; a lower --grid-density, or --accel bvh (CPU)"
         )));
     }
     Ok(())

@@ -215,15 +215,20 @@ fn finest_side_is_the_larger_floor() {
 fn limits_refuse_one_past_the_tables_reach() {
     assert!(check_top(MAX_ENTRIES).is_ok());
     assert!(matches!(check_top(MAX_ENTRIES + 1), Err(Error::Limit(_))));
-    assert!(check_sizes(9, MAX_CELLS, MAX_ENTRIES, MAX_ENTRIES).is_ok());
+    assert!(check_sizes(9, MAX_CELLS, MAX_ENTRIES, MAX_REFERENCES).is_ok());
     for (cells, vmap, refs) in [
         (MAX_CELLS + 1, 0, 0),
         (0, MAX_ENTRIES + 1, 0),
-        (0, 0, MAX_ENTRIES + 1),
+        (0, 0, MAX_REFERENCES + 1),
     ] {
         let e = check_sizes(9, cells, vmap, refs).unwrap_err();
+        // One line naming the need, the limits and options that exist.
+        let text = e.to_string();
         assert!(
-            matches!(e, Error::Limit(_)) && e.to_string().contains("(9 triangles)"),
+            matches!(e, Error::Limit(_))
+                && text.contains("of 9 triangles")
+                && text.contains("--grid-density")
+                && !text.contains("leaf size"),
             "{cells} {vmap} {refs}: {e}"
         );
     }

@@ -6,7 +6,13 @@
 //! of a power-of-two width W (so the row `floor(i / W)` is exact in f32: dividing by a power of
 //! two only changes the exponent; adding 0.5 first would round near 2^24), at most the GPU's
 //! GL_MAX_TEXTURE_SIZE wide and high. Indices and counts are stored as floats, exact below
-//! 2^24; larger scenes are refused with a clear error.
+//! 2^24. A scene whose texels or references pass 2^24 is packed in the [`IndexFormat::Split`]
+//! format instead (`SPLIT_INDEX` in the GLSL, compiled in only then, so smaller scenes keep
+//! their shaders and images): list offsets split over two channels (hi * 2^24 + lo, exact to
+//! 2^48), the ray's list cursor counted from its cell's first reference, and records fetched
+//! by (record, texel) without forming their product. What remains is one float per triangle
+//! index and per cell id (below 2^24 each) and the GPU's own limits, each refused with one
+//! line ([`SceneTextures::pack`]).
 //!
 //! | texture | texels per item | contents |
 //! |---|---|---|
@@ -15,6 +21,8 @@
 //! | `mat` | 7 per material | see [`contract::mat`](super::contract::mat) |
 //! | `cell` | 1 per uniform grid cell | (offset into `list`, count, 0, 0) |
 //! | `cell` | 2 per irregular cell | (exit box lower corner, offset), (exit box upper corner, count) |
+//! | `cell` | split: 1 per uniform cell | (offset lo, count, offset hi, 0) |
+//! | `cell` | split: 3 per irregular cell | as above with offset lo, then (offset hi, 0, 0, 0) |
 //! | `vmap` | 1 per 4 voxel-map entries | irregular grid only: cell id, or -(child block + 1) |
 //! | `list` | 1 per 4 references | four triangle indices |
 //! | `tex` | see [`TexLayout`] | textured scenes only: uv records, colours, texture table, texels |
@@ -26,6 +34,11 @@
 //! waits on fewer dependent reads; the cells are the built grid's.
 
 use super::contract::{mat as slot, Field, Unit};
+use super::split_index::check_indices;
+pub use super::split_index::{
+    check_triangles, float_slot, rec_coord, split, split_coord, IndexFormat, MAX_EXACT_INDEX,
+    MAX_SLOT_TEXELS, SPLIT_BASE, SPLIT_INDEX_ENV,
+};
 use crate::accel::irregular_wide::WideMap;
 use crate::accel::{AccelRef, GridRef, IrregularGrid};
 use crate::scene::{CheckerAxes, Scene};
@@ -38,8 +51,6 @@ pub const MAT_TEXELS: u32 = slot::TEXELS;
 /// Entries per texel of an entry texture ([`PackedTexture::pack_entries`]: triangle indices
 /// in `list`, voxel-map entries in `vmap`).
 pub const LIST_PER_TEXEL: u32 = 4;
-/// Largest index stored in a float that is still exact.
-pub const MAX_EXACT_INDEX: u64 = 1 << 24;
 /// Widest row used, even when the GPU allows wider: keeps textures compact for small
 /// scenes and matches the limits of 2005-era cards.
 pub const MAX_ROW: u32 = 4096;
@@ -88,27 +99,32 @@ pub struct PackedTexture {
 }
 
 impl PackedTexture {
-    /// Packs `texels` (RGBA each) into rows no wider than `max_size` (or [`MAX_ROW`]).
+    /// Packs `texels` (RGBA each) into rows no wider than [`MAX_ROW`], or than `max_size`
+    /// where rows of [`MAX_ROW`] would need more than `max_size` of them. Whether the
+    /// indices that address them are exact is the caller's ([`SceneTextures::pack`]).
     pub fn pack(name: &'static str, texels: Vec<[f32; 4]>, max_size: u32) -> Result<Self> {
         let n = texels.len().max(1) as u64;
-        if n > MAX_EXACT_INDEX {
+        let narrow = prev_pow2(max_size.min(MAX_ROW)).max(1);
+        let cap = if n > narrow as u64 * max_size as u64 {
+            prev_pow2(max_size).max(1)
+        } else {
+            narrow
+        };
+        let width = (n.next_power_of_two().min(cap as u64)) as u32;
+        let height = n.div_ceil(width as u64);
+        if height > max_size as u64 {
             return Err(Error::Limit(format!(
-                "texture `{name}` needs {n} texels; indices stay exact only below 2^24"
+                "texture `{name}` needs {n} texels, {width}x{height}, but GL_MAX_TEXTURE_SIZE \
+                 is {max_size}; render it with --backend cpu"
             )));
         }
-        let cap = prev_pow2(max_size.min(MAX_ROW)).max(1);
-        let width = (n.next_power_of_two() as u32).min(cap);
-        let height = n.div_ceil(width as u64) as u32;
-        if height > max_size {
-            return Err(Error::Limit(format!(
-                "texture `{name}` needs {width}x{height} texels but GL_MAX_TEXTURE_SIZE is {max_size}"
-            )));
-        }
-        let mut data = Vec::with_capacity((width * height * 4) as usize);
+        let height = height as u32;
+        let len = width as usize * height as usize * 4;
+        let mut data = Vec::with_capacity(len);
         for t in &texels {
             data.extend_from_slice(t);
         }
-        data.resize((width * height * 4) as usize, 0.0);
+        data.resize(len, 0.0);
         Ok(PackedTexture {
             name,
             width,
@@ -142,6 +158,53 @@ impl PackedTexture {
         let mut s = self.texel_glsl(fetch, binding);
         if self.entries {
             s += &self.entry_glsl(fetch, binding);
+        }
+        s
+    }
+
+    /// [`glsl_with`](Self::glsl_with), then the fetches of `format`: `fetch_<name>_at(item,
+    /// per, k)`, texel k of record `item` of `per` texels, and (split, entry textures)
+    /// `entry_<name>_split(hi, lo, j)`, entry hi * 2^24 + lo + j.
+    pub fn glsl_format(&self, fetch: Fetch, binding: u32, format: IndexFormat) -> String {
+        let mut s = self.glsl_with(fetch, binding);
+        let n = self.name;
+        let up = n.to_ascii_uppercase();
+        let (mask, shift) = (self.width - 1, self.width.trailing_zeros());
+        let body = match (format, fetch) {
+            (IndexFormat::Float, _) => format!("    return fetch_{n}(item * per + k);\n"),
+            (IndexFormat::Split, Fetch::Texture2D) => format!(
+                "    vec2 p = rec_coord(item, per, k, {up}_W, {up}_INV_W);\n\
+                 \x20   return texture2D(u_{n}, vec2((p.x + 0.5) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H));\n"
+            ),
+            (IndexFormat::Split, Fetch::TexelFetch) => format!(
+                "    int i = int(item) * int(per) + int(k);\n\
+                 \x20   return texelFetch(u_{n}, ivec2(i & {mask}, i >> {shift}), 0);\n"
+            ),
+            (IndexFormat::Split, Fetch::Storage) => {
+                format!("    return buf_{n}[uint(item) * uint(per) + uint(k)];\n")
+            }
+        };
+        s += &format!("vec4 fetch_{n}_at(float item, float per, float k) {{\n{body}}}\n");
+        if format == IndexFormat::Split && self.entries {
+            let body = match fetch {
+                Fetch::Texture2D => format!(
+                    "    vec3 p = split_coord(hi, lo, j, {up}_W, {up}_INV_W);\n\
+                     \x20   vec4 sel = vec4(equal(vec4(p.z), vec4(0.0, 1.0, 2.0, 3.0)));\n\
+                     \x20   return dot(texture2D(u_{n}, vec2((p.x + 0.5) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H)), sel);\n"
+                ),
+                Fetch::TexelFetch => format!(
+                    "    int e = int(hi) * {base} + int(lo) + int(j);\n\
+                     \x20   int i = e >> 2;\n\
+                     \x20   vec4 sel = vec4(equal(ivec4(e & 3), ivec4(0, 1, 2, 3)));\n\
+                     \x20   return dot(texelFetch(u_{n}, ivec2(i & {mask}, i >> {shift}), 0), sel);\n",
+                    base = SPLIT_BASE
+                ),
+                Fetch::Storage => format!(
+                    "    return entries_{n}[uint(hi) * {base}u + uint(lo) + uint(j)];\n",
+                    base = SPLIT_BASE
+                ),
+            };
+            s += &format!("float entry_{n}_split(float hi, float lo, float j) {{\n{body}}}\n");
         }
         s
     }
@@ -245,6 +308,8 @@ pub struct SceneTextures {
     /// Texture coordinates, vertex colours and textures (`None` for a scene without
     /// textures and vertex colours: then no texture code is compiled).
     pub tex: Option<TexLayout>,
+    /// How indices are written (and read by the GLSL).
+    pub format: IndexFormat,
 }
 
 /// Texels of `tex` per triangle record: (u0, v0, u1, v1), (u2, v2, lod_bias, curvature)
@@ -391,10 +456,17 @@ impl IrregularLayout {
                 if e & crate::accel::irregular::NODE != 0 {
                     -((e & !crate::accel::irregular::NODE) as f32) - 1.0
                 } else {
-                    e as f32
+                    float_slot(e as u64) as f32
                 }
             })
             .collect();
+        if entries.len() as u64 > MAX_EXACT_INDEX {
+            return Err(Error::Limit(format!(
+                "{} voxel-map entries; the GPU's descent indexes them with one float, exact \
+                 up to {MAX_EXACT_INDEX}; --accel uniform, or render it with --backend cpu",
+                entries.len()
+            )));
+        }
         Ok(IrregularLayout {
             vmap: PackedTexture::pack_entries("vmap", &entries, max_size)?,
             top_res: g.top_res,
@@ -486,9 +558,30 @@ impl SceneTextures {
         normals: bool,
     ) -> Result<Self> {
         let accel = accel.into().grid()?;
+        let (cells, refs, per_cell) = match accel {
+            GridRef::Uniform(g) => (g.cells.len(), g.tri_indices.len(), 1),
+            GridRef::Irregular(g) => (g.cells.len(), g.tri_indices.len(), 2),
+        };
+        let texels =
+            (scene.triangles.len() as u64 * TRI_TEXELS as u64).max(cells as u64 * per_cell);
+        let format = IndexFormat::needed(texels, refs as u64);
+        Self::pack_format(scene, accel, max_size, normals, format)
+    }
+
+    /// As [`SceneTextures::pack_with`], in the index format given.
+    pub fn pack_format<'a>(
+        scene: &Scene,
+        accel: impl Into<AccelRef<'a>>,
+        max_size: u32,
+        normals: bool,
+        format: IndexFormat,
+    ) -> Result<Self> {
+        let accel = accel.into().grid()?;
+        check_indices(scene, accel)?;
         let smooth = normals || scene.has_smooth_normals();
-        let mut tri = Vec::with_capacity(scene.triangles.len() * 3);
-        let mut nrm = Vec::new();
+        let n_tris = scene.triangles.len();
+        let mut tri = Vec::with_capacity(n_tris * 3);
+        let mut nrm = Vec::with_capacity(if smooth { n_tris * 3 } else { 0 });
         for (i, t) in scene.triangles.iter().enumerate() {
             let v = scene.triangle_vertices(i);
             let has_n = t.has_normals();
@@ -536,35 +629,66 @@ impl SceneTextures {
                 put(slot::PAD, &[t.headers[k as usize] as f32 + 1.0]);
             }
         }
+        // Offsets as written: one float (exact below 2^24, checked above for Float), or hi
+        // and lo.
+        let off = |o: u32| match format {
+            IndexFormat::Float => (o as f32, 0.0),
+            IndexFormat::Split => {
+                let (hi, lo) = split(o as u64);
+                (lo, hi)
+            }
+        };
         let (cell, tri_indices, irregular) = match accel {
             GridRef::Uniform(grid) => (
                 grid.cells
                     .iter()
-                    .map(|c| [c.offset as f32, c.count as f32, 0.0, 0.0])
-                    .collect(),
+                    .map(|c| {
+                        let (lo, hi) = off(c.offset);
+                        [lo, c.count as f32, hi, 0.0]
+                    })
+                    .collect::<Vec<_>>(),
                 &grid.tri_indices,
                 None,
             ),
-            GridRef::Irregular(g) => (
-                g.cells
-                    .iter()
-                    .flat_map(|c| {
-                        let f =
-                            |v: [u32; 3], w: u32| [v[0] as f32, v[1] as f32, v[2] as f32, w as f32];
-                        [f(c.exit_lo, c.range.offset), f(c.exit_hi, c.range.count)]
-                    })
-                    .collect(),
-                &g.tri_indices,
-                Some(IrregularLayout::pack(g, max_size)?),
-            ),
+            GridRef::Irregular(g) => {
+                let f = |v: [u32; 3], w: f32| [v[0] as f32, v[1] as f32, v[2] as f32, w];
+                // Cell k at its float slot (k itself below 2^24: the Float format's only).
+                let per = format.irregular_cell_texels() as usize;
+                let slots = g
+                    .cells
+                    .len()
+                    .checked_sub(1)
+                    .map_or(0, |k| float_slot(k as u64) + 1);
+                let mut cell = vec![[0f32; 4]; slots as usize * per];
+                for (k, c) in g.cells.iter().enumerate() {
+                    let (lo, hi) = off(c.range.offset);
+                    let at = &mut cell[float_slot(k as u64) as usize * per..][..per];
+                    at[0] = f(c.exit_lo, lo);
+                    at[1] = f(c.exit_hi, c.range.count as f32);
+                    if format == IndexFormat::Split {
+                        at[2] = [hi, 0.0, 0.0, 0.0];
+                    }
+                }
+                (
+                    cell,
+                    &g.tri_indices,
+                    Some(IrregularLayout::pack(g, max_size)?),
+                )
+            }
         };
         let list: Vec<f32> = tri_indices.iter().map(|&i| i as f32).collect();
-        if scene.triangles.len() as u64 * 3 >= MAX_EXACT_INDEX {
-            return Err(Error::Limit(format!(
-                "{} triangles: the GPU layout keeps indices exact only up to {}",
-                scene.triangles.len(),
-                MAX_EXACT_INDEX / 3
-            )));
+        let cell_texels = cell.len() as u64;
+        if format == IndexFormat::Float {
+            let need = [
+                ("triangle texels", n_tris as u64 * TRI_TEXELS as u64),
+                ("cell texels", cell_texels),
+                ("triangle references", list.len() as u64),
+            ];
+            if let Some((what, n)) = need.iter().find(|(_, n)| *n > MAX_EXACT_INDEX) {
+                return Err(Error::Internal(format!(
+                    "{n} {what} packed with one float per index (exact to 2^24)"
+                )));
+            }
         }
         Ok(SceneTextures {
             tri: PackedTexture::pack("tri", tri, max_size)?,
@@ -578,6 +702,7 @@ impl SceneTextures {
             list: PackedTexture::pack_entries("list", &list, max_size)?,
             irregular,
             tex,
+            format,
         })
     }
 
@@ -613,10 +738,14 @@ impl SceneTextures {
 
     /// GLSL declarations of every texture and the layout constants, fetching through `fetch`.
     pub fn glsl_with(&self, fetch: Fetch) -> String {
-        let mut s =
-            format!("#define TRI_TEXELS {TRI_TEXELS}.0\n#define MAT_TEXELS {MAT_TEXELS}.0\n");
+        let mut s = format!(
+            "#define TRI_TEXELS {TRI_TEXELS}.0\n#define MAT_TEXELS {MAT_TEXELS}.0\n\
+             #define CELL_TEXELS {}.0\n",
+            self.format.irregular_cell_texels()
+        );
+        s.push_str(&self.format.glsl());
         for (k, t) in self.all().into_iter().enumerate() {
-            s.push_str(&t.glsl_with(fetch, STORAGE_BINDING_BASE + k as u32));
+            s.push_str(&t.glsl_format(fetch, STORAGE_BINDING_BASE + k as u32, self.format));
         }
         if let Some(i) = &self.irregular {
             s.push_str(&i.glsl());

@@ -38,6 +38,7 @@ pub mod render;
 pub mod request;
 pub mod scene;
 pub mod shader;
+pub mod split_index;
 pub mod wave;
 #[cfg(target_arch = "wasm32")]
 pub mod web;

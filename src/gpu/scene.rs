@@ -22,7 +22,7 @@ use super::contract::STORAGE_BINDING_BASE;
 use super::contract::{uniform, Unit};
 use super::gl::program::{allow_parallel_compile, link_binary, start_program, PendingProgram};
 use super::gl::{compile_compute, compile_program, state, Program, StorageBuffer, Texture};
-use super::layout::SceneTextures;
+use super::layout::{IndexFormat, SceneTextures};
 use super::program_cache::{ProgramCache, SourceKey};
 use super::shader::{
     assemble_compute, assemble_in, Assembled, ComputePass, ComputeSpec, Features, Pass,
@@ -159,6 +159,21 @@ impl<'s> GpuScene<'s> {
     /// The program-binary cache, where the scene has one.
     pub fn program_cache(&self) -> Option<&ProgramCache> {
         self.cache.as_ref()
+    }
+
+    /// Tests only: the scene repacked in `format` before anything is uploaded
+    /// ([`IndexFormat::Split`] takes a scene that fits in floats down the split path, which
+    /// must render the same image).
+    pub fn with_index_format(mut self, format: IndexFormat) -> Result<Self> {
+        let max_size = self.ctx.info.max_texture_size.max(0) as u32;
+        self.layout = SceneTextures::pack_format(
+            self.scene,
+            self.accel,
+            max_size,
+            self.features.smooth_normals,
+            format,
+        )?;
+        Ok(self)
     }
 
     /// The context the scene lives in.

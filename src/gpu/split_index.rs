@@ -1,0 +1,238 @@
+//! The split index format: how the GPU layout writes indices once a scene's texels or
+//! references pass 2^24, what one f32 counts exactly ([`IndexFormat`], `SPLIT_INDEX` in the
+//! GLSL), the CPU twins of its address arithmetic (GLSL twin: `glsl120/split_index.glsl`,
+//! held to these on the driver by `tests/glsl_twins/split_index.rs`), the float slots that
+//! keep the irregular grid's cell ids one exact float, and the limits that remain, each
+//! refused in one line. `layout.rs` packs with it and re-exports it.
+
+use crate::accel::GridRef;
+use crate::scene::Scene;
+use crate::{Error, Result};
+
+/// Largest index stored in a float that is still exact.
+pub const MAX_EXACT_INDEX: u64 = 1 << 24;
+/// The base of a split index: hi * `SPLIT_BASE` + lo with lo below it.
+pub const SPLIT_BASE: u64 = 1 << 24;
+/// Environment variable that, set to `1`, packs every scene in [`IndexFormat::Split`]
+/// (tests, and measuring what the split path costs); other values are ignored.
+pub const SPLIT_INDEX_ENV: &str = "FRAGTRACE_SPLIT_INDICES";
+
+/// How the scene's textures write indices and offsets, and so how the GLSL reads them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum IndexFormat {
+    /// One float per index, exact below 2^24: what every scene that fits takes.
+    Float,
+    /// `SPLIT_INDEX`: list offsets as hi * 2^24 + lo over two channels, the cursor counted
+    /// from the cell's first reference, records fetched by (record, texel).
+    Split,
+}
+
+impl IndexFormat {
+    /// The format a scene of `texels` texels in its largest record texture and `refs`
+    /// references needs; [`IndexFormat::Split`] when [`SPLIT_INDEX_ENV`] asks for it.
+    pub fn needed(texels: u64, refs: u64) -> IndexFormat {
+        let forced = std::env::var(SPLIT_INDEX_ENV).is_ok_and(|v| v == "1");
+        if forced || texels > MAX_EXACT_INDEX || refs > MAX_EXACT_INDEX {
+            IndexFormat::Split
+        } else {
+            IndexFormat::Float
+        }
+    }
+
+    /// Texels per irregular cell.
+    pub fn irregular_cell_texels(self) -> u32 {
+        match self {
+            IndexFormat::Float => 2,
+            IndexFormat::Split => 3,
+        }
+    }
+
+    /// The GLSL of the format: its `#define`s and, split, the exact address arithmetic
+    /// every texture's fetches use.
+    pub(crate) fn glsl(self) -> String {
+        match self {
+            IndexFormat::Float => "// Cursor from the list's start (one float, exact below 2^24).
+                 #define CURSOR_FIRST(offset) (offset)
+                 #define CURSOR_END_OF(offset, count) ((offset) + (count))
+"
+            .into(),
+            IndexFormat::Split => format!(
+                "#define SPLIT_INDEX 1
+                 #define SPLIT_BASE {base:.1}
+                 // Cursor from the cell's first reference, whose offset is split (list_at).
+                 #define CURSOR_FIRST(offset) 0.0
+                 #define CURSOR_END_OF(offset, count) (count)
+                 {}",
+                include_str!("../../glsl120/split_index.glsl"),
+                base = SPLIT_BASE as f32,
+            ),
+        }
+    }
+}
+
+/// `(hi, lo)` of a split index: `e = hi * SPLIT_BASE + lo`, each exact in an f32.
+pub fn split(e: u64) -> (f32, f32) {
+    ((e / SPLIT_BASE) as f32, (e % SPLIT_BASE) as f32)
+}
+
+/// CPU twin of `rec_coord` (`glsl120/split_index.glsl`): the (column, row) of texel `k` of
+/// record `item` of `per` texels in rows `w` wide (a power of two), with the GLSL's f32
+/// operations in its order.
+pub fn rec_coord(item: f32, per: f32, k: f32, w: f32) -> (f32, f32) {
+    let inv_w = 1.0 / w;
+    let a = (item * inv_w).floor();
+    let c = per * (item - a * w) + k;
+    let r = (c * inv_w).floor();
+    (c - r * w, per * a + r)
+}
+
+/// CPU twin of `split_coord` (`glsl120/split_index.glsl`): (texel column, row, component)
+/// of list entry `hi * 2^24 + lo + j` in rows of `w` texels of four entries.
+pub fn split_coord(hi: f32, lo: f32, j: f32, w: f32) -> (f32, f32, f32) {
+    let inv_r = 0.25 / w;
+    let r = 4.0 * w;
+    let lr = (lo * inv_r).floor();
+    let c = lo - lr * r + j;
+    let cr = (c * inv_r).floor();
+    let e = c - cr * r;
+    let x = (e * 0.25).floor();
+    (x, hi * (SPLIT_BASE as f32 * inv_r) + lr + cr, e - x * 4.0)
+}
+/// Refuses a scene of more triangles than the GPU kernels index: the ray state and hit
+/// records carry a triangle's index in one float, exact below 2^24 (the split format splits
+/// offsets, not these). Checked before a structure is built for the GPU, and again as it is
+/// packed.
+pub fn check_triangles(n: usize) -> Result<()> {
+    if n as u64 > MAX_EXACT_INDEX {
+        return Err(Error::Limit(format!(
+            "{n} triangles; the GPU kernels carry a triangle's index in one float, exact up \
+             to {MAX_EXACT_INDEX} triangles; render it with --backend cpu (the BVH has no \
+             such limit)"
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses, with one line naming what is needed, the limit and what to do instead, a scene
+/// whose triangle indices or cell ids do not fit the one float the ray state and hit records
+/// carry them in (exact below 2^24): the limits the split format leaves (the voxel map's is
+/// checked as it is packed).
+pub(crate) fn check_indices(scene: &Scene, accel: GridRef<'_>) -> Result<()> {
+    let advice = "render it with --backend cpu (the BVH has no such limit)";
+    check_triangles(scene.triangles.len())?;
+    match accel {
+        GridRef::Uniform(g) if g.cells.len() as u64 > MAX_EXACT_INDEX => {
+            Err(Error::Limit(format!(
+                "{} grid cells; the GPU's uniform grid indexes its cells with one float, exact \
+                 up to {MAX_EXACT_INDEX} cells; a coarser --grid or a lower --grid-density, \
+                 or {advice}",
+                g.cells.len()
+            )))
+        }
+        GridRef::Irregular(g) if !g.cells.is_empty() => {
+            let per = IndexFormat::Split.irregular_cell_texels() as u64;
+            let texels = (float_slot(g.cells.len() as u64 - 1) + 1) * per;
+            if texels > MAX_SLOT_TEXELS {
+                return Err(Error::Limit(format!(
+                    "{} grid cells; the GPU's irregular grid addresses them through {texels} \
+                     texels, more than its {MAX_SLOT_TEXELS}; a lower --grid-density, \
+                     --accel uniform, or {advice}",
+                    g.cells.len()
+                )));
+            }
+            Ok(())
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Most texels a record texture addressed by float slots may take: what the 32-bit
+/// integer arithmetic of the compute kernel's fetches reaches.
+pub const MAX_SLOT_TEXELS: u64 = 1 << 31;
+
+/// The float id of the k-th record when ids must be exact f32 values: k itself up to 2^24,
+/// then every integer an f32 holds exactly (2^24 + 2, + 4, ... to 2^25; then steps of 4 to
+/// 2^26, ...). Ids stay one float (the ray state and the voxel map carry a cell's in one
+/// channel) and ordered as the records are; the texture leaves the slots between them empty,
+/// and `rec_coord` addresses any exact integer.
+pub fn float_slot(k: u64) -> u64 {
+    if k <= MAX_EXACT_INDEX {
+        return k;
+    }
+    let m = k - MAX_EXACT_INDEX - 1;
+    let band = 1 + m / (1 << 23);
+    let i = m % (1 << 23);
+    (1u64 << (23 + band)) + ((i + 1) << band)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Float slots are exact f32 values, strictly increasing (so the lowest-index tie rule
+    /// keeps its order), the identity up to 2^24, and dense within each band.
+    #[test]
+    fn float_slots_are_exact_increasing_and_dense() {
+        let near = MAX_EXACT_INDEX;
+        let band = 1u64 << 23;
+        let ks = (0..8u64).chain(near - 4..near + 8).chain([
+            near + band - 1,
+            near + band,
+            near + band + 1,
+            near + 5 * band + 3,
+        ]);
+        let mut last = None;
+        for k in ks {
+            let s = float_slot(k);
+            assert_eq!(s as f32 as u64, s, "slot {s} of {k} is not an exact f32");
+            if k <= near {
+                assert_eq!(s, k);
+            }
+            if let Some((lk, ls)) = last {
+                assert!(s > ls, "{k}: {s} after {lk}: {ls}");
+                if lk + 1 == k && k > near + 1 {
+                    // Consecutive records sit at consecutive exact floats.
+                    assert_eq!(s - ls, (ls as f32).next_up() as u64 - ls, "{k}");
+                }
+            }
+            last = Some((k, s));
+        }
+        assert_eq!(float_slot(near + band), 1 << 25);
+        assert_eq!(float_slot(near + band + 1), (1 << 25) + 4);
+    }
+
+    /// The CPU twins of the split address arithmetic against u64 for indices around 2^24
+    /// and far past it (the GLSL is held to these in `tests/glsl_twins/split_index.rs`).
+    #[test]
+    fn split_arithmetic_is_exact_past_2_pow_24() {
+        for e in [
+            0u64,
+            1,
+            (1 << 24) - 1,
+            1 << 24,
+            (1 << 24) + 1,
+            1 << 31,
+            (1 << 32) + 3,
+        ] {
+            for w in [1u32, 4096, 16384] {
+                for j in [0u64, 1, 999] {
+                    if j > e || e / (4 * w as u64) >= 1 << 24 {
+                        continue;
+                    }
+                    let (hi, lo) = split(e - j);
+                    let t = e / 4;
+                    let want = ((t % w as u64) as f32, (t / w as u64) as f32, (e % 4) as f32);
+                    assert_eq!(split_coord(hi, lo, j as f32, w as f32), want, "{e} {j} {w}");
+                }
+            }
+        }
+        for item in [0u64, 5, (1 << 24) - 1, 1 << 24, 1 << 25, 3 << 26] {
+            for (per, k) in [(3u64, 2u64), (2, 1), (7, 6)] {
+                let w = 4096u64;
+                let t = item * per + k;
+                let want = ((t % w) as f32, (t / w) as f32);
+                assert_eq!(rec_coord(item as f32, per as f32, k as f32, w as f32), want);
+            }
+        }
+    }
+}
