@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use super::real::{Real, V3};
 use super::shade::{
-    albedo, geometric_normal, light_term, offset_origin_with, secondary, shadow_origin,
+    albedo, geometric_normal, light_term, offset_origin_with, secondary, shadow_origin, surface_of,
     surface_with, SurfacePoint,
 };
 use super::texture::{self, Cone};
@@ -43,8 +43,9 @@ struct Shading<'s, T> {
     /// The ray's cone at the hit: its width there and its spread (zero when the scene
     /// has no textures).
     cone: Cone<T>,
-    /// The triangle hit.
-    tri: usize,
+    /// The hit triangle's curvature along its edges (`TriTex::curvature`; 0 when the
+    /// scene has no textures, which is all the cones serve).
+    curvature: f32,
 }
 
 /// Per-row tallies, summed after the parallel loop so counting stays off shared state.
@@ -283,12 +284,17 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     /// ambient term.
     #[inline]
     fn begin(&self, ray: &Ray<T>, hit: &Hit<T>, cone: Cone<T>) -> Shading<'a, T> {
+        if hit.tri as usize >= self.ng.len() {
+            return self.begin_instanced(ray, hit, cone);
+        }
         let verts = &self.walker.tris()[hit.tri as usize];
         let sp = surface_with(self.scene, verts, self.ng[hit.tri as usize], hit, ray.d);
         let m = &self.scene.materials[sp.material as usize];
         let mut alb = albedo(m, sp.p);
         let mut at_hit = cone;
+        let mut curvature = 0.0;
         if !self.tex.is_empty() {
+            curvature = self.tex[hit.tri as usize].curvature;
             let tri = hit.tri as usize;
             let rec = &self.tex[tri];
             if self.textured {
@@ -311,14 +317,69 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             v: -ray.d,
             color,
             cone: at_hit,
-            tri: hit.tri as usize,
+            curvature,
+        }
+    }
+
+    /// [`CpuRenderer::begin`] for a hit on an instance (an id past the walker's own
+    /// triangles): its triangle placed as `Scene::flattened` places it (in f32 the same
+    /// vertices and normals, in f64 the same before their rounding to f32; the winding
+    /// reversed under a mirroring placement, with the barycentrics to match), then shaded
+    /// as the flattened scene's. Instanced meshes
+    /// carry no texture coordinates or vertex colours (`scene/instance.rs`).
+    fn begin_instanced(&self, ray: &Ray<T>, hit: &Hit<T>, cone: Cone<T>) -> Shading<'a, T> {
+        let inst = &self.scene.instancing;
+        let (k, j) = inst.locate(hit.tri);
+        let place = &inst.instances[k];
+        let g = &inst.meshes[place.mesh as usize].geometry;
+        let t = &g.triangles[j];
+        // In f64: rounded to T once, so that f32 shades on the flattened scene's f32
+        // vertices, and f64 on the very triangle the object-space test met (rounding it
+        // to f32 first would move it off that triangle by far more than f64's offsets
+        // lift a secondary ray's origin: acne).
+        let p64 = t.v.map(|v| place.point_f64(g.positions[v as usize]));
+        let n64 = t
+            .has_normals()
+            .then(|| t.n.map(|n| place.normal_f64(g.normals[n as usize])));
+        let mut verts = p64.map(V3::from_dvec3);
+        let mut normals = n64.map(|n| n.map(V3::from_dvec3));
+        let mut b = hit.b;
+        if place.mirrors() {
+            verts.swap(1, 2);
+            if let Some(n) = &mut normals {
+                n.swap(1, 2);
+            }
+            b.swap(1, 2);
+        }
+        let hit = Hit { b, ..*hit };
+        let ng = geometric_normal(&verts);
+        let sp = surface_of(normals, t.material, &verts, ng, &hit, ray.d);
+        let m = &self.scene.materials[sp.material as usize];
+        let alb = albedo(m, sp.p);
+        let mut at_hit = cone;
+        let mut curvature = 0.0;
+        if self.textured {
+            at_hit.width = cone.width + cone.spread * hit.t;
+            let p = verts.map(|v| v.to_dvec3());
+            let n = normals.map(|n| n.map(|v| v.to_dvec3()));
+            curvature = crate::scene::texture::curvature(p, n);
+        }
+        let color = alb.mul_elem(self.ambient) * T::from_f32(m.ka);
+        Shading {
+            sp,
+            m,
+            alb,
+            v: -ray.d,
+            color,
+            cone: at_hit,
+            curvature,
         }
     }
 
     /// The cone of the reflected (or, with `refracted`, the refracted) child of a hit.
     #[inline]
     fn child_cone(&self, s: &Shading<'_, T>, refracted: bool) -> Cone<T> {
-        let k = T::from_f32(self.tex[s.tri].curvature);
+        let k = T::from_f32(s.curvature);
         let k = if s.sp.flipped { -k } else { k };
         let eta = refracted.then(|| {
             let ior = T::from_f32(s.m.ior);

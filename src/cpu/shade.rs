@@ -89,18 +89,35 @@ pub fn surface_with<T: Real>(
     hit: &Hit<T>,
     d: V3<T>,
 ) -> SurfacePoint<T> {
+    let tri = &scene.triangles[hit.tri as usize];
+    let normals = tri
+        .has_normals()
+        .then(|| tri.n.map(|k| V3::<T>::from_vec3(scene.normals[k as usize])));
+    surface_of(normals, tri.material, verts, ng, hit, d)
+}
+
+/// [`surface_with`] of a triangle given by its parts: its vertex normals (`None` for a
+/// flat one) and material, as an instanced triangle's hit has them (`cpu/render.rs`).
+#[inline]
+pub fn surface_of<T: Real>(
+    normals: Option<[V3<T>; 3]>,
+    material: u32,
+    verts: &[V3<T>; 3],
+    ng: V3<T>,
+    hit: &Hit<T>,
+    d: V3<T>,
+) -> SurfacePoint<T> {
     let [b0, b1, b2] = hit.b;
     let p = verts[0] * b0 + verts[1] * b1 + verts[2] * b2;
     let p_err =
         ((verts[0] * b0).abs() + (verts[1] * b1).abs() + (verts[2] * b2).abs()) * T::gamma(7);
     let entering = d.dot(ng) < T::ZERO;
     let nf = if entering { ng } else { -ng };
-    let tri = &scene.triangles[hit.tri as usize];
     let mut ns = nf;
     let (mut p_shadow, mut p_shadow_err) = (p, p_err);
     let mut flipped = false;
-    if tri.has_normals() {
-        let n = |k: usize| V3::<T>::from_vec3(scene.normals[tri.n[k] as usize]);
+    if let Some(vn) = normals {
+        let n = |k: usize| vn[k];
         let s = n(0) * b0 + n(1) * b1 + n(2) * b2;
         let l = s.length();
         if l > T::ZERO && l.is_finite() {
@@ -134,7 +151,7 @@ pub fn surface_with<T: Real>(
         nf,
         ns,
         entering,
-        material: tri.material,
+        material,
         p_shadow,
         p_shadow_err,
         flipped,
