@@ -726,6 +726,7 @@ impl Builder<'_> {
             })
             .collect();
         let m = self.scene.instancing.meshes.len() as u32;
+        let bounds = mesh.bounds();
         for (p, span, k) in placements {
             let inst = Instance::new(m, p.linear, p.translate).ok_or_else(|| {
                 ctx.err(
@@ -735,7 +736,7 @@ impl Builder<'_> {
                 )
             })?;
             // The placed box must be finite in f32, as a placed vertex must.
-            if let Some((lo, hi)) = mesh.bounds() {
+            if let Some((lo, hi)) = bounds {
                 let (a, b) = inst.bounds(lo, hi);
                 if !(a.is_finite() && b.is_finite()) {
                     return Err(ctx.err(
