@@ -361,3 +361,108 @@ fn a_scene_too_large_to_flatten_is_refused_and_the_bvh_takes_it() {
     let p = fragtrace::render::prepare(&s, &o).unwrap();
     assert!(p.summary.bytes < 100 << 20, "{} bytes", p.summary.bytes);
 }
+
+/// A glTF whose mesh 0 three nodes place (one under a scaled parent, one mirroring) and
+/// whose mesh 1 one node places: in a scene, mesh 0 is stored once and placed three times
+/// (then by the object's own placement), mesh 1 stored flat; flattened, the scene holds
+/// the very triangles the glTF loaded flat gives, placed by the object (within f32
+/// rounding). An object's `instances` place the shared mesh once per instance and node.
+#[test]
+fn gltf_nodes_sharing_a_mesh_become_instances() {
+    use base64::Engine as _;
+    let mut bin = Vec::new();
+    // Mesh 0: a triangle facing +z with normals; mesh 1: a larger one at z = -1.
+    for p in [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+        bin.extend(p.iter().flat_map(|c| c.to_le_bytes()));
+    }
+    for _ in 0..3 {
+        bin.extend([0f32, 0.0, 1.0].iter().flat_map(|c| c.to_le_bytes()));
+    }
+    for p in [[0f32, 0.0, -1.0], [3.0, 0.0, -1.0], [0.0, 3.0, -1.0]] {
+        bin.extend(p.iter().flat_map(|c| c.to_le_bytes()));
+    }
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&bin)
+    );
+    let doc = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,
+"scenes":[{{"nodes":[0,2,3,4]}}],
+"nodes":[{{"translation":[10,0,0],"scale":[2,2,2],"children":[1]}},
+ {{"rotation":[0,0.7071067811865476,0,0.7071067811865476],"mesh":0}},
+ {{"matrix":[-1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,-5,1],"mesh":0}},
+ {{"translation":[0,3,0],"mesh":0}},
+ {{"mesh":1}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"NORMAL":1}}}}]}},
+ {{"primitives":[{{"attributes":{{"POSITION":2}}}}]}}],
+"buffers":[{{"byteLength":{},"uri":"{uri}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":108}}],
+"accessors":[{{"bufferView":0,"byteOffset":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+ {{"bufferView":0,"byteOffset":36,"componentType":5126,"count":3,"type":"VEC3"}},
+ {{"bufferView":0,"byteOffset":72,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,-1],"max":[3,3,-1]}}]}}"#,
+        bin.len()
+    );
+    let dir = std::env::temp_dir().join(format!("fragtrace-inst-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("shared.gltf");
+    std::fs::write(&file, doc).unwrap();
+    let head = "[camera]\neye = [0, 2, 30]\nlook_at = [0, 0, 0]\nfov = 40\n[[objects]]\n";
+    let object = format!(
+        "mesh = \"{}\"\nscale = 2\ntranslate = [1, 2, 3]\n",
+        file.display()
+    );
+    let s = load_scene_str(&format!("{head}{object}"), "g.toml", &dir).unwrap();
+    assert_eq!(s.triangles.len(), 1, "mesh 1 stays flat");
+    assert_eq!(s.instancing.meshes.len(), 1);
+    assert_eq!(s.instancing.instances.len(), 3);
+    assert_eq!(
+        s.instancing
+            .instances
+            .iter()
+            .filter(|i| i.mirrors())
+            .count(),
+        1
+    );
+    let flat = s.flattened(u64::MAX, "the test").unwrap();
+    // The glTF loaded flat, placed as the object places it, in the scene's local space.
+    let m = fragtrace::scene::load_gltf(&file).unwrap();
+    assert_eq!(m.triangles.len(), 4);
+    assert!(m.shared.is_empty());
+    let corner = |p: glam::Vec3| -> [i64; 3] {
+        let w = (p.as_dvec3() * 2.0 + DVec3::new(1.0, 2.0, 3.0)) - s.origin;
+        w.to_array().map(|c| (c * 1e4).round() as i64)
+    };
+    let tris = |sc: &[[i64; 3]]| {
+        let mut v: Vec<[i64; 3]> = sc.to_vec();
+        v.sort();
+        v
+    };
+    let want: Vec<[i64; 3]> = m
+        .triangles
+        .iter()
+        .flat_map(|t| t.v.map(|k| corner(m.positions[k as usize])))
+        .collect();
+    let got: Vec<[i64; 3]> = (0..flat.triangles.len())
+        .flat_map(|i| {
+            flat.triangle_vertices(i)
+                .map(|p| p.as_dvec3().to_array().map(|c| (c * 1e4).round() as i64))
+        })
+        .collect();
+    assert_eq!(tris(&got), tris(&want));
+    // Every flattened triangle winds towards its vertex normal, the mirrored one too.
+    for t in flat.triangles.iter().filter(|t| t.has_normals()) {
+        let [a, b, c] = t.v.map(|i| flat.positions[i as usize]);
+        let n = flat.normals[t.n[0] as usize];
+        assert!((b - a).cross(c - a).normalize().dot(n) > 0.999);
+    }
+    // With two instances of the object: the shared mesh placed 2 x 3 times, mesh 1 twice
+    // (one instanced mesh of its own).
+    let object2 = format!(
+        "mesh = \"{}\"\ninstances = [{{ translate = [0, 0, 0] }}, {{ translate = [5, 0, 0] }}]\n",
+        file.display()
+    );
+    let s2 = load_scene_str(&format!("{head}{object2}"), "g2.toml", &dir).unwrap();
+    assert_eq!(s2.instancing.instances.len(), 6 + 2);
+    assert_eq!(s2.instanced_triangles(), 8);
+    std::fs::remove_dir_all(&dir).ok();
+}

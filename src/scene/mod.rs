@@ -23,7 +23,7 @@ use glam::{DVec3, Vec2, Vec3};
 
 pub use camera::Camera;
 pub use camera_path::{CameraPath, Interpolation, Keyframe, Orbit, PathError, PathPlace, Pose};
-pub use gltf_mesh::{load_gltf, parse_gltf};
+pub use gltf_mesh::{load_gltf, load_gltf_instanced, parse_gltf, parse_gltf_instanced};
 pub use instance::{Instance, Instancing, Mesh};
 pub use model::{load_mesh, load_model_scene, MeshFormat};
 pub use obj::{load_obj, parse_obj_with_mtl, ObjMesh};

@@ -145,6 +145,20 @@ impl Placement {
         }
     }
 
+    /// The placement that leaves everything where it is.
+    const IDENTITY: Placement = Placement {
+        linear: DMat3::IDENTITY,
+        translate: DVec3::ZERO,
+    };
+
+    /// This placement applied after `inner`.
+    fn then(&self, inner: Placement) -> Placement {
+        Placement {
+            linear: self.linear * inner.linear,
+            translate: self.linear * inner.translate + self.translate,
+        }
+    }
+
     #[cfg(test)]
     pub(super) fn point(&self, p: Vec3) -> Vec3 {
         self.point_f64(p).as_vec3()
@@ -547,7 +561,9 @@ impl Builder<'_> {
             &[ShapeKind::Quad, ShapeKind::Box],
         )?;
 
-        let (mut geometry, mesh_materials) = match (&d.mesh, &d.shape) {
+        let (mut geometry, mesh_materials): (Geometry, Option<LoadedMesh>) = match (
+            &d.mesh, &d.shape,
+        ) {
             (Some(path), None) if d.material.is_none() => {
                 let (mesh, _) = self.mesh(path, &f("mesh"))?;
                 // Without an override the MTL decides how the mesh looks: a missing one is
@@ -578,6 +594,8 @@ impl Builder<'_> {
             (None, Some(s)) => (self.shape(*s.get_ref(), d, &f)?, None),
         };
 
+        // A glTF's meshes that several nodes place, stored once (`ObjMesh::shared`).
+        let loaded = mesh_materials.as_ref().map(|(m, _)| m.clone());
         let placement = self.placement(&d.scale, &d.rotate, &d.translate, &f)?;
         let world = placement.apply(&mut geometry);
         self.check_finite(&geometry, o.span(), &format!("objects[{i}]"))?;
@@ -619,11 +637,106 @@ impl Builder<'_> {
                 Box::new(move |_| idx)
             }
         };
+        let outer = match &d.instances {
+            Some(list) => self.instance_placements(i, list)?,
+            None => vec![(Placement::IDENTITY, o.span(), 0)],
+        };
+        if let Some(mesh) = loaded.filter(|m| !m.shared.is_empty()) {
+            self.shared_meshes(i, o, &mesh, placement, &outer, &*material_map)?;
+        }
         if let Some(list) = &d.instances {
-            return self.instances(i, o, list, geometry, &*material_map);
+            return self.instances(i, o, list, outer, geometry, &*material_map);
         }
         self.append(geometry, &*material_map, o.span(), i)?;
         self.world.positions.extend(world);
+        Ok(())
+    }
+
+    /// The placements of an object's `instances`, each with its span and index.
+    fn instance_placements(
+        &self,
+        i: usize,
+        list: &[S<InstanceDef>],
+    ) -> Result<Vec<(Placement, Range<usize>, usize)>> {
+        let mut placements = Vec::with_capacity(list.len());
+        for (k, inst) in list.iter().enumerate() {
+            let f = |key: &str| format!("objects[{i}].instances[{k}].{key}");
+            let d = inst.get_ref();
+            let p = self.placement(&d.scale, &d.rotate, &d.translate, &f)?;
+            placements.push((p, inst.span(), k));
+        }
+        Ok(placements)
+    }
+
+    /// The meshes of `loaded` that several glTF nodes place (`ObjMesh::shared`), each
+    /// stored once as an instanced mesh and placed by every node's transform, then the
+    /// object's `placement`, then each of `outer` (the object's instances, or the
+    /// identity).
+    fn shared_meshes(
+        &mut self,
+        i: usize,
+        o: &S<ObjectDef>,
+        loaded: &ObjMesh,
+        placement: Placement,
+        outer: &[(Placement, Range<usize>, usize)],
+        material: &dyn Fn(u32) -> u32,
+    ) -> Result<()> {
+        for (s, shared) in loaded.shared.iter().enumerate() {
+            // The mesh's own vertices, renumbered from 0.
+            let mut vmap = HashMap::new();
+            let mut nmap = HashMap::new();
+            let mut mesh = Scene::empty(self.scene.camera);
+            mesh.source = format!("objects[{i}].mesh (shared mesh {s})");
+            for t in &shared.triangles {
+                let v = t.v.map(|k| {
+                    *vmap.entry(k).or_insert_with(|| {
+                        mesh.positions.push(loaded.positions[k as usize]);
+                        mesh.positions.len() as u32 - 1
+                    })
+                });
+                let n = if t.has_normals() {
+                    t.n.map(|k| {
+                        *nmap.entry(k).or_insert_with(|| {
+                            mesh.normals.push(loaded.normals[k as usize]);
+                            mesh.normals.len() as u32 - 1
+                        })
+                    })
+                } else {
+                    [NO_NORMAL; 3]
+                };
+                mesh.triangles.push(Triangle {
+                    v,
+                    n,
+                    material: material(t.material),
+                });
+            }
+            let m = self.scene.instancing.meshes.len() as u32;
+            for (outer, span, k) in outer {
+                for node in &shared.placements {
+                    let node = Placement {
+                        linear: DMat3::from_mat4(*node),
+                        translate: node.w_axis.truncate(),
+                    };
+                    let p = outer.then(placement.then(node));
+                    let inst = Instance::new(m, p.linear, p.translate).ok_or_else(|| {
+                        let field = match &o.get_ref().instances {
+                            Some(_) => format!("objects[{i}].instances[{k}]"),
+                            None => format!("objects[{i}].mesh"),
+                        };
+                        self.ctx.err(
+                            span.clone(),
+                            field,
+                            "a placement of a shared glTF mesh is not invertible or not finite",
+                        )
+                    })?;
+                    self.scene.instancing.instances.push(inst);
+                }
+            }
+            self.scene.instancing.meshes.push(Mesh {
+                name: mesh.source.clone(),
+                geometry: mesh,
+            });
+        }
         Ok(())
     }
 
@@ -672,22 +785,20 @@ impl Builder<'_> {
         i: usize,
         o: &S<ObjectDef>,
         list: &[S<InstanceDef>],
+        placements: Vec<(Placement, Range<usize>, usize)>,
         geometry: Geometry,
         material: &dyn Fn(u32) -> u32,
     ) -> Result<()> {
         let ctx = self.ctx;
-        let mut placements = Vec::with_capacity(list.len());
-        for (k, inst) in list.iter().enumerate() {
-            let f = |key: &str| format!("objects[{i}].instances[{k}].{key}");
-            let d = inst.get_ref();
-            let p = self.placement(&d.scale, &d.rotate, &d.translate, &f)?;
-            placements.push((p, inst.span(), k));
-        }
         if list.is_empty() {
             self.warnings.push(format!(
                 "{}: objects[{i}].instances is empty, so the object is not placed",
                 ctx.name
             ));
+            return Ok(());
+        }
+        if geometry.triangles.is_empty() {
+            // (A glTF whose meshes are all shared: placed by `shared_meshes`.)
             return Ok(());
         }
         let textured = !geometry.tri_uvs.is_empty()
