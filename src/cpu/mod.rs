@@ -10,6 +10,7 @@ pub mod lanes;
 pub mod real;
 pub mod render;
 pub mod shade;
+pub mod shade_lanes;
 pub mod simd;
 pub mod simd_step;
 pub mod simd_walk;

@@ -89,35 +89,18 @@ pub fn surface_with<T: Real>(
     hit: &Hit<T>,
     d: V3<T>,
 ) -> SurfacePoint<T> {
-    let tri = &scene.triangles[hit.tri as usize];
-    let normals = tri
-        .has_normals()
-        .then(|| tri.n.map(|k| V3::<T>::from_vec3(scene.normals[k as usize])));
-    surface_of(normals, tri.material, verts, ng, hit, d)
-}
-
-/// [`surface_with`] of a triangle given by its parts: its vertex normals (`None` for a
-/// flat one) and material, as an instanced triangle's hit has them (`cpu/render.rs`).
-#[inline]
-pub fn surface_of<T: Real>(
-    normals: Option<[V3<T>; 3]>,
-    material: u32,
-    verts: &[V3<T>; 3],
-    ng: V3<T>,
-    hit: &Hit<T>,
-    d: V3<T>,
-) -> SurfacePoint<T> {
     let [b0, b1, b2] = hit.b;
     let p = verts[0] * b0 + verts[1] * b1 + verts[2] * b2;
     let p_err =
         ((verts[0] * b0).abs() + (verts[1] * b1).abs() + (verts[2] * b2).abs()) * T::gamma(7);
     let entering = d.dot(ng) < T::ZERO;
     let nf = if entering { ng } else { -ng };
+    let tri = &scene.triangles[hit.tri as usize];
     let mut ns = nf;
     let (mut p_shadow, mut p_shadow_err) = (p, p_err);
     let mut flipped = false;
-    if let Some(vn) = normals {
-        let n = |k: usize| vn[k];
+    if tri.has_normals() {
+        let n = |k: usize| V3::<T>::from_vec3(scene.normals[tri.n[k] as usize]);
         let s = n(0) * b0 + n(1) * b1 + n(2) * b2;
         let l = s.length();
         if l > T::ZERO && l.is_finite() {
@@ -151,7 +134,7 @@ pub fn surface_of<T: Real>(
         nf,
         ns,
         entering,
-        material,
+        material: tri.material,
         p_shadow,
         p_shadow_err,
         flipped,
@@ -226,6 +209,24 @@ pub fn shadow_origin<T: Real>(sp: &SurfacePoint<T>, to_l: V3<T>, tech: Technique
             offset_origin_with(&lifted, to_l, tech.offset)
         }
     }
+}
+
+/// The shadow ray from `sp` towards a point light at `lp`: its origin (offset off the
+/// surface by `tech`), unit direction and length, or `None` when the light is below the
+/// geometric or shading horizon. The scalar reference of `shade_lanes::shadows_generic`.
+pub fn shadow_ray<T: Real>(
+    sp: &SurfacePoint<T>,
+    lp: V3<T>,
+    tech: Techniques,
+) -> Option<(V3<T>, V3<T>, T)> {
+    let to_l = lp - sp.p;
+    if to_l.dot(sp.nf) <= T::ZERO || sp.ns.dot(to_l) <= T::ZERO {
+        return None; // below the geometric or shading horizon
+    }
+    let o = shadow_origin(sp, to_l, tech);
+    let dl = lp - o;
+    let dist = dl.length();
+    Some((o, dl * (T::ONE / dist), dist))
 }
 
 /// Albedo at point `p` (the checker replaces the flat colour when present).
@@ -340,11 +341,18 @@ pub fn light_term<T: Real>(
     }
     let mut c = albedo * (T::from_f32(m.kd) * ndotl);
     if m.ks.max_element() > 0.0 {
-        let r = reflect(-l, sp.ns);
-        let rv = r.dot(v).max(T::ZERO);
-        c = c + V3::from_vec3(m.ks) * rv.powf(T::from_f32(m.ns));
+        c = c + specular(m, sp.ns, l, v);
     }
     c.mul_elem(radiance)
+}
+
+/// The specular highlight of [`light_term`] (Phong: `ks (r.v)^ns`, `r` the light's
+/// direction mirrored about the shading normal `ns`), before the light's radiance.
+#[inline]
+pub fn specular<T: Real>(m: &Material, ns: V3<T>, l: V3<T>, v: V3<T>) -> V3<T> {
+    let r = reflect(-l, ns);
+    let rv = r.dot(v).max(T::ZERO);
+    V3::from_vec3(m.ks) * rv.powf(T::from_f32(m.ns))
 }
 
 #[cfg(test)]

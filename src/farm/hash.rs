@@ -91,7 +91,12 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     }
     for i in &inst.instances {
         h.write(&i.mesh.to_le_bytes());
-        for c in i.linear.to_cols_array().iter().chain(&i.translate.to_array()) {
+        for c in i
+            .linear
+            .to_cols_array()
+            .iter()
+            .chain(&i.translate.to_array())
+        {
             h.write(&c.to_bits().to_le_bytes());
         }
     }
