@@ -456,14 +456,14 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             let mut b = h.b;
             if tri >= self.ng.len() {
                 let g = self.placed(h);
-                for a in 0..3 {
-                    inp.v[a].set(k, g.v[a]);
+                for (lane, v) in inp.v.iter_mut().zip(g.v) {
+                    lane.set(k, v);
                 }
                 inp.ng.set(k, g.ng);
                 if let Some(n) = g.n {
                     inp.has_normals[k] = true;
-                    for a in 0..3 {
-                        inp.n[a].set(k, n[a]);
+                    for (lane, n) in inp.n.iter_mut().zip(n) {
+                        lane.set(k, n);
                     }
                 }
                 b = g.b;
@@ -482,8 +482,8 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                 }
                 mat[k] = t.material;
             }
-            for a in 0..3 {
-                inp.b[a][k] = b[a];
+            for (lane, b) in inp.b.iter_mut().zip(b) {
+                lane[k] = b;
             }
             inp.d.set(k, rays[base + k].d);
         }
