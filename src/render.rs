@@ -4,6 +4,7 @@
 //! every backend from the one backend output type. The options live in [`crate::options`]
 //! (one layer down, so the CLI and the bench share them).
 
+use std::borrow::Cow;
 use std::time::Instant;
 
 use serde::Serialize;
@@ -13,6 +14,7 @@ use crate::cpu::simd::Isa;
 use crate::cpu::simd_walk::SimdWalker;
 use crate::cpu::traverse::Trace;
 use crate::cpu::traverse_bvh::BvhWalker;
+use crate::cpu::traverse_instances::InstanceWalker;
 use crate::cpu::traverse_packet::PacketIsa;
 use crate::cpu::CpuRenderer;
 use crate::gpu::render::ImageRequest;
@@ -102,8 +104,9 @@ pub struct Rendered {
 /// acceleration structure `--accel` names built. The one way in for `render`, `view` and
 /// `bench`, so all three render the same structure from the same flags.
 pub struct Prepared<'s> {
-    /// The scene.
-    pub scene: &'s Scene,
+    /// The scene: the one given, or, for a structure other than the BVH, the one given
+    /// with its instances stored flat ([`Scene::flattened`]).
+    pub scene: Cow<'s, Scene>,
     /// Its acceleration structure.
     pub accel: Accel,
     /// What was built (kind, size, build time): what `--stats` and the summary report.
@@ -113,9 +116,24 @@ pub struct Prepared<'s> {
 /// Checks `opts` and builds the acceleration structure they name for `scene`.
 pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s>> {
     opts.validate()?;
-    // What the machine cannot hold, refused before anything is allocated: the GPU's index
-    // limit (its layout's), then memory.
     let kind = opts.accel_kind();
+    // Only the CPU's BVH walks instances; the grids (and so the GPU) take them flat.
+    let scene = if scene.has_instances() && kind != crate::accel::AccelKind::Bvh {
+        let why = format!("the {} grid", kind.name());
+        let flat = scene.flattened(crate::options::MAX_HOST_BYTES, &why)?;
+        eprintln!(
+            "fragtrace: warning: {}: {why} stores the {} instances flat ({} triangles, about {:.1} MB more); --backend cpu --accel bvh walks them as placed",
+            scene.source,
+            scene.instancing.instances.len(),
+            flat.triangles.len(),
+            (flat.triangles.len() - scene.triangles.len()) as f64 * 100.0 / 1e6
+        );
+        Cow::Owned(flat)
+    } else {
+        Cow::Borrowed(scene)
+    };
+    // What the machine cannot hold, refused before the structure is allocated: the GPU's
+    // index limit (its layout's), then memory (of the triangles stored, instanced or not).
     let gpu = opts.backend == Backend::Gl;
     if gpu {
         crate::gpu::layout::check_triangles(scene.triangles.len())?;
@@ -126,8 +144,8 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
         gpu,
         crate::memory::available_bytes(),
     )?;
-    let accel = Accel::build(scene, kind, &opts.grid, &opts.irregular)?;
-    let summary = accel.as_ref().summary(scene.triangles.len());
+    let accel = Accel::build(&scene, kind, &opts.grid, &opts.irregular)?;
+    let summary = accel.as_ref().summary(scene.instanced_triangles() as usize);
     Ok(Prepared {
         scene,
         accel,
@@ -138,7 +156,7 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
 impl<'s> Prepared<'s> {
     /// A renderer of this scene on the CPU.
     pub fn cpu_renderer(&self, opts: &RenderOptions) -> Renderer<'_> {
-        let (scene, depth, tech) = (self.scene, opts.max_depth, opts.techniques);
+        let (scene, depth, tech) = (&*self.scene, opts.max_depth, opts.techniques);
         // The one switch from the CPU choices to an engine; the plan records the path that
         // runs (packets need the BVH and AVX2, the vector paths the watertight test and
         // x86-64; f64 is always scalar).
@@ -175,6 +193,50 @@ impl<'s> Prepared<'s> {
                 };
                 let r = CpuRenderer::with_walker(scene, walker, depth, tech);
                 (Engine::Cpu32Bvh(r), kernel, ran)
+            }
+            (AccelRef::Instanced(t), Precision::F64, _) => {
+                let own = BvhWalker::new(scene, &t.own, tech);
+                let walker =
+                    InstanceWalker::new(scene, t, tech, own, |g, b| BvhWalker::new(g, b, tech));
+                let r = CpuRenderer::with_walker(scene, walker, depth, tech);
+                let kernel = "two-level BVH, scalar triangle tests".to_string();
+                (Engine::Cpu64Inst(r), kernel, CpuPath::Scalar)
+            }
+            (AccelRef::Instanced(t), Precision::F32, path) => {
+                let (isa, packets) = match path {
+                    CpuPath::Scalar => (Isa::Scalar, None),
+                    CpuPath::Simd => (Isa::detect(), None),
+                    CpuPath::Packet => (Isa::detect(), PacketIsa::detect()),
+                };
+                let own = match packets {
+                    Some(p) => BvhWalker::with_packets(scene, &t.own, tech, isa, p),
+                    None => BvhWalker::vectorised(scene, &t.own, tech, isa),
+                };
+                let walker = InstanceWalker::new(scene, t, tech, own, |g, b| {
+                    BvhWalker::vectorised(g, b, tech, isa)
+                });
+                let (own, isa) = (walker.own().packets(), walker.own().isa());
+                let (kernel, ran) = match (own, isa) {
+                    (Some(p), isa) => (
+                        format!(
+                            "two-level BVH, {} packets of {} rays over the scene's own triangles, {} triangle tests",
+                            p.name(),
+                            p.lanes(),
+                            isa.name()
+                        ),
+                        CpuPath::Packet,
+                    ),
+                    (None, Isa::Scalar) => (
+                        "two-level BVH, scalar triangle tests".into(),
+                        CpuPath::Scalar,
+                    ),
+                    (None, isa) => (
+                        format!("two-level BVH, {} triangle tests", isa.name()),
+                        CpuPath::Simd,
+                    ),
+                };
+                let r = CpuRenderer::with_walker(scene, walker, depth, tech);
+                (Engine::Cpu32Inst(r), kernel, ran)
             }
             (AccelRef::Uniform(g), precision, path) => {
                 grid_engine(scene, g.into(), opts, precision, path)
@@ -214,7 +276,7 @@ impl<'s> Prepared<'s> {
         // that does not apply to it, is refused now.
         let plan = Plan::resolve(opts, self.summary.kind, Some(&ctx.info))?;
         let t0 = Instant::now();
-        let gs = GpuScene::new(ctx, self.scene, &self.accel, opts.gpu.no_specialize)?
+        let gs = GpuScene::new(ctx, &self.scene, &self.accel, opts.gpu.no_specialize)?
             .with_program_cache(opts.gpu.shader_cache.open(&ctx.info));
         Ok(Renderer {
             prepared: self,
@@ -274,7 +336,7 @@ impl<'s> Prepared<'s> {
             region: opts.region.map(|r| [r.x0, r.y0, r.x1, r.y1]),
             spp: opts.spp,
             max_depth: opts.max_depth,
-            triangles: self.scene.triangles.len(),
+            triangles: self.scene.instanced_triangles() as usize,
             grid: summary.resolution,
             grid_build_ms: summary.build_ms,
             accel: summary,
@@ -343,6 +405,10 @@ enum Engine<'p> {
     Cpu64Bvh(CpuRenderer<'p, f64, BvhWalker<'p, f64>>),
     /// The BVH's walk in f32 (scalar or vectorised, as `--cpu-path` says).
     Cpu32Bvh(CpuRenderer<'p, f32, BvhWalker<'p, f32>>),
+    /// The two-level BVH's walk (a scene with instances) in f64.
+    Cpu64Inst(CpuRenderer<'p, f64, InstanceWalker<'p, f64>>),
+    /// The two-level BVH's walk in f32.
+    Cpu32Inst(CpuRenderer<'p, f32, InstanceWalker<'p, f32>>),
     Gl(Box<GpuScene<'p>>),
 }
 
@@ -403,6 +469,14 @@ impl Renderer<'_> {
                 r.set_camera(*camera);
                 cpu_frame(r, opts)
             }
+            Engine::Cpu64Inst(r) => {
+                r.set_camera(*camera);
+                cpu_frame(r, opts)
+            }
+            Engine::Cpu32Inst(r) => {
+                r.set_camera(*camera);
+                cpu_frame(r, opts)
+            }
             Engine::Gl(gs) => {
                 let req = self.prepared.request(opts, camera);
                 gpu::render::render(gs, &req, None)?
@@ -427,7 +501,9 @@ impl Renderer<'_> {
             | Engine::Cpu32(_)
             | Engine::Cpu32Simd(_)
             | Engine::Cpu64Bvh(_)
-            | Engine::Cpu32Bvh(_) => None,
+            | Engine::Cpu32Bvh(_)
+            | Engine::Cpu64Inst(_)
+            | Engine::Cpu32Inst(_) => None,
         }
     }
 }

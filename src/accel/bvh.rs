@@ -214,6 +214,39 @@ impl Bvh {
                 }
             })
             .collect();
+        Ok(Self::over(&prims, TRAVERSAL_COST, t0))
+    }
+
+    /// A tree over boxes `lo..hi` (the leaves' "triangles" are the boxes' indices): the
+    /// top level of instancing (`accel/instances.rs`), whose leaves hold instances. A
+    /// node visit costs `node_cost` box contents in the SAH: small for instances, each of
+    /// which costs a walk of its own tree, so that leaves hold one or two.
+    pub fn over_boxes(boxes: &[(Vec3, Vec3)], node_cost: f32) -> Result<Bvh> {
+        let t0 = Instant::now();
+        if boxes.len() >= u32::MAX as usize {
+            return Err(Error::Limit(format!(
+                "{} boxes: the BVH indexes them with 32 bits",
+                boxes.len()
+            )));
+        }
+        let prims: Vec<Prim> = boxes
+            .iter()
+            .map(|&(lo, hi)| {
+                let (lo, hi) = (Vec3A::from(lo), Vec3A::from(hi));
+                Prim {
+                    lo,
+                    hi,
+                    c: (lo + hi) * 0.5,
+                }
+            })
+            .collect();
+        Ok(Self::over(&prims, node_cost, t0))
+    }
+
+    /// The tree over `prims`, `node_cost` the SAH's cost of a node visit; `t0` when the
+    /// build began.
+    fn over(prims: &[Prim], node_cost: f32, t0: Instant) -> Bvh {
+        let n = prims.len();
         let mut refs: Vec<u32> = (0..n as u32).collect();
         let mut nodes = Vec::new();
         let mut bvh = Bvh {
@@ -226,7 +259,7 @@ impl Bvh {
         if n == 0 {
             nodes.push(Node4::EMPTY);
         } else {
-            let root = build2(&prims, &mut refs, 0, 0);
+            let root = build2(prims, &mut refs, 0, 0, node_cost);
             let b = root.bounds();
             bvh.min = b.lo.into();
             bvh.max = b.hi.into();
@@ -249,7 +282,7 @@ impl Bvh {
             build_ms: t0.elapsed().as_secs_f64() * 1e3,
             ..bvh.finish_stats()
         };
-        Ok(bvh)
+        bvh
     }
 
     /// The figures recounted from the tables (the build time and SAH cost kept).
@@ -289,7 +322,7 @@ impl Bvh {
 /// The binary tree over `refs` (whose first index is `start` in the whole list): leaves of
 /// at most [`LEAF_MAX`] triangles, the SAH's cheapest split of the [`BINS`] per axis, or a
 /// leaf where the SAH says one is cheaper.
-fn build2(prims: &[Prim], refs: &mut [u32], start: u32, depth: usize) -> Bin2 {
+fn build2(prims: &[Prim], refs: &mut [u32], start: u32, depth: usize, cost: f32) -> Bin2 {
     let n = refs.len();
     let (bounds, cb) = over_chunks(
         refs,
@@ -308,7 +341,7 @@ fn build2(prims: &[Prim], refs: &mut [u32], start: u32, depth: usize) -> Bin2 {
     if n <= 2 || depth >= MAX_DEPTH {
         return leaf(refs);
     }
-    let split = best_split(prims, refs, &cb, bounds.half_area());
+    let split = best_split(prims, refs, &cb, bounds.half_area(), cost);
     let mid = match split {
         Some((cost, axis, bin)) => {
             let leaf_cost = n as f32 * bounds.half_area();
@@ -325,13 +358,13 @@ fn build2(prims: &[Prim], refs: &mut [u32], start: u32, depth: usize) -> Bin2 {
     let (l, r) = refs.split_at_mut(mid);
     let (a, b) = if n >= PAR_MIN {
         rayon::join(
-            || build2(prims, l, start, depth + 1),
-            || build2(prims, r, start + mid as u32, depth + 1),
+            || build2(prims, l, start, depth + 1, cost),
+            || build2(prims, r, start + mid as u32, depth + 1, cost),
         )
     } else {
         (
-            build2(prims, l, start, depth + 1),
-            build2(prims, r, start + mid as u32, depth + 1),
+            build2(prims, l, start, depth + 1, cost),
+            build2(prims, r, start + mid as u32, depth + 1, cost),
         )
     };
     Bin2::Inner {
@@ -438,11 +471,13 @@ fn bin_scale(cb: &Aabb) -> (Vec3A, Vec3A) {
 /// first bin on the right), or `None` when the centroids do not spread on any axis. The
 /// cost is in the leaf cost's units (`n * node_area` is the leaf's). A node of at least
 /// [`PAR_BIN`] triangles bins them in parallel chunks (the same bins: merging is exact).
+/// `node_cost` is the cost of a node visit in triangle tests.
 fn best_split(
     prims: &[Prim],
     refs: &[u32],
     cb: &Aabb,
     node_area: f32,
+    node_cost: f32,
 ) -> Option<(f32, usize, usize)> {
     let bins = over_chunks(refs, |c| Bins::of(prims, c, cb), Bins::EMPTY, Bins::merge);
     let mut best: Option<(f32, usize, usize)> = None;
@@ -468,7 +503,7 @@ fn best_split(
             if cnt == 0 || right_n[b] == 0 {
                 continue;
             }
-            let cost = TRAVERSAL_COST * node_area
+            let cost = node_cost * node_area
                 + acc.half_area() * cnt as f32
                 + right_area[b] * right_n[b] as f32;
             if best.is_none_or(|(c, _, _)| cost < c) {

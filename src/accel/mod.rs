@@ -11,6 +11,7 @@
 pub mod binning;
 pub mod bvh;
 pub mod grid;
+pub mod instances;
 pub mod irregular;
 mod irregular_build;
 mod irregular_grow;
@@ -84,6 +85,8 @@ pub enum Accel {
     Irregular(IrregularGrid),
     /// Bounding volume hierarchy (CPU only).
     Bvh(Bvh),
+    /// The BVH of a scene with instances: two levels (CPU only; `--accel bvh`).
+    Instanced(instances::TwoLevel),
 }
 
 /// A borrowed acceleration structure: what renderers take, so that a `&Grid` or a
@@ -96,6 +99,8 @@ pub enum AccelRef<'a> {
     Irregular(&'a IrregularGrid),
     /// Bounding volume hierarchy (CPU only).
     Bvh(&'a Bvh),
+    /// The two-level BVH of a scene with instances (CPU only).
+    Instanced(&'a instances::TwoLevel),
 }
 
 impl<'a> From<&'a Grid> for AccelRef<'a> {
@@ -122,6 +127,7 @@ impl<'a> From<&'a Accel> for AccelRef<'a> {
             Accel::Uniform(g) => AccelRef::Uniform(g),
             Accel::Irregular(g) => AccelRef::Irregular(g),
             Accel::Bvh(b) => AccelRef::Bvh(b),
+            Accel::Instanced(t) => AccelRef::Instanced(t),
         }
     }
 }
@@ -211,6 +217,9 @@ impl Accel {
         Ok(match kind {
             AccelKind::Uniform => Accel::Uniform(Grid::build(scene, grid)?),
             AccelKind::Irregular => Accel::Irregular(IrregularGrid::build(scene, irregular)?),
+            AccelKind::Bvh if scene.has_instances() => {
+                Accel::Instanced(instances::TwoLevel::build(scene)?)
+            }
             AccelKind::Bvh => Accel::Bvh(Bvh::build(scene)?),
         })
     }
@@ -245,7 +254,7 @@ impl<'a> AccelRef<'a> {
         match self {
             AccelRef::Uniform(g) => Ok(GridRef::Uniform(g)),
             AccelRef::Irregular(g) => Ok(GridRef::Irregular(g)),
-            AccelRef::Bvh(_) => Err(crate::Error::Usage(
+            AccelRef::Bvh(_) | AccelRef::Instanced(_) => Err(crate::Error::Usage(
                 "--accel bvh is walked on the CPU backend only: the GPU walks the grids \
                  (--accel irregular or uniform)"
                     .into(),
@@ -258,7 +267,7 @@ impl<'a> AccelRef<'a> {
         match self {
             AccelRef::Uniform(_) => AccelKind::Uniform,
             AccelRef::Irregular(_) => AccelKind::Irregular,
-            AccelRef::Bvh(_) => AccelKind::Bvh,
+            AccelRef::Bvh(_) | AccelRef::Instanced(_) => AccelKind::Bvh,
         }
     }
 
@@ -307,6 +316,18 @@ impl<'a> AccelRef<'a> {
                 empty_cells: 0,
                 references: b.stats.references,
                 detail: b.stats.to_string(),
+            },
+            AccelRef::Instanced(t) => AccelSummary {
+                kind: AccelKind::Bvh,
+                resolution: [0; 3],
+                top_resolution: None,
+                build_ms: t.stats.build_ms,
+                bytes: t.stats.bytes,
+                bytes_per_triangle: per_tri(t.stats.bytes),
+                cells: t.stats.nodes,
+                empty_cells: 0,
+                references: t.stats.references,
+                detail: t.detail(t.boxes.len()),
             },
         }
     }

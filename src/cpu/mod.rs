@@ -18,6 +18,7 @@ pub mod soa;
 pub mod texture;
 pub mod traverse;
 pub mod traverse_bvh;
+pub mod traverse_instances;
 pub mod traverse_irregular;
 pub mod traverse_packet;
 pub mod walker;

@@ -97,6 +97,20 @@ impl<T: Real> HitLanes<T> {
     }
 }
 
+/// A hit's triangle on an instance, placed (`CpuRenderer::placed`).
+struct Placed<T> {
+    /// Its vertices.
+    v: [V3<T>; 3],
+    /// Its unit geometric normal.
+    ng: V3<T>,
+    /// Its vertex normals, if it has them.
+    n: Option<[V3<T>; 3]>,
+    /// The hit's barycentric weights on it.
+    b: [T; 3],
+    /// Its material.
+    material: u32,
+}
+
 /// Per-row tallies, summed after the parallel loop so counting stays off shared state.
 #[derive(Default, Clone, Copy)]
 struct Tally {
@@ -439,25 +453,77 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             let Some(h) = &hits[base + k] else { continue };
             live[k] = true;
             let tri = h.tri as usize;
-            for (a, v) in self.walker.tris()[tri].iter().enumerate() {
-                inp.v[a].set(k, *v);
-            }
-            inp.ng.set(k, self.ng[tri]);
-            let t = &self.scene.triangles[tri];
-            if t.has_normals() {
-                inp.has_normals[k] = true;
-                for a in 0..3 {
-                    inp.n[a].set(k, V3::from_vec3(self.scene.normals[t.n[a] as usize]));
+            let mut b = h.b;
+            if tri >= self.ng.len() {
+                let g = self.placed(h);
+                for (lane, v) in inp.v.iter_mut().zip(g.v) {
+                    lane.set(k, v);
                 }
+                inp.ng.set(k, g.ng);
+                if let Some(n) = g.n {
+                    inp.has_normals[k] = true;
+                    for (lane, n) in inp.n.iter_mut().zip(n) {
+                        lane.set(k, n);
+                    }
+                }
+                b = g.b;
+                mat[k] = g.material;
+            } else {
+                for (a, v) in self.walker.tris()[tri].iter().enumerate() {
+                    inp.v[a].set(k, *v);
+                }
+                inp.ng.set(k, self.ng[tri]);
+                let t = &self.scene.triangles[tri];
+                if t.has_normals() {
+                    inp.has_normals[k] = true;
+                    for a in 0..3 {
+                        inp.n[a].set(k, V3::from_vec3(self.scene.normals[t.n[a] as usize]));
+                    }
+                }
+                mat[k] = t.material;
             }
-            for a in 0..3 {
-                inp.b[a][k] = h.b[a];
+            for (lane, b) in inp.b.iter_mut().zip(b) {
+                lane[k] = b;
             }
             inp.d.set(k, rays[base + k].d);
-            mat[k] = t.material;
         }
         out.base = base;
         self.dispatch.surfaces(&inp, &mut out.s);
+    }
+
+    /// The triangle of a hit on an instance (an id past the walker's own triangles),
+    /// placed as `Scene::flattened` places it, and the hit's barycentrics on it: in f64,
+    /// rounded to `T` once, so that f32 shades on the flattened scene's f32 vertices and
+    /// f64 on the very triangle the object-space test met (rounding it to f32 first would
+    /// move it off that triangle by far more than f64's offsets lift a secondary ray's
+    /// origin: acne); the winding reversed under a mirroring placement, the barycentrics
+    /// with it. Instanced meshes carry no texture coordinates or vertex colours.
+    fn placed(&self, hit: &Hit<T>) -> Placed<T> {
+        let inst = &self.scene.instancing;
+        let (k, j) = inst.locate(hit.tri);
+        let place = &inst.instances[k];
+        let g = &inst.meshes[place.mesh as usize].geometry;
+        let t = &g.triangles[j];
+        let mut v =
+            t.v.map(|i| V3::from_dvec3(place.point_f64(g.positions[i as usize])));
+        let mut n = t.has_normals().then(|| {
+            t.n.map(|i| V3::from_dvec3(place.normal_f64(g.normals[i as usize])))
+        });
+        let mut b = hit.b;
+        if place.mirrors() {
+            v.swap(1, 2);
+            if let Some(n) = &mut n {
+                n.swap(1, 2);
+            }
+            b.swap(1, 2);
+        }
+        Placed {
+            ng: geometric_normal(&v),
+            v,
+            n,
+            b,
+            material: t.material,
+        }
     }
 
     /// The albedo of a hit of `ray` (with cone `cone`) at surface point `sp` of material
@@ -473,7 +539,12 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     ) -> (V3<T>, Cone<T>) {
         let mut alb = albedo(m, sp.p);
         let mut at_hit = cone;
-        if !self.tex.is_empty() {
+        if hit.tri as usize >= self.ng.len() {
+            // An instance: no texture coordinates or vertex colours (`scene/instance.rs`).
+            if self.textured {
+                at_hit.width = cone.width + cone.spread * hit.t;
+            }
+        } else if !self.tex.is_empty() {
             let tri = hit.tri as usize;
             let rec = &self.tex[tri];
             if self.textured {
@@ -502,7 +573,21 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         cone: Cone<T>,
         refracted: bool,
     ) -> Cone<T> {
-        let k = T::from_f32(self.tex[tri].curvature);
+        let k = if tri >= self.ng.len() {
+            let hit = Hit {
+                t: T::ZERO,
+                tri: tri as u32,
+                b: [T::ZERO; 3],
+            };
+            let g = self.placed(&hit);
+            let p = g.v.map(|v| v.to_dvec3());
+            T::from_f32(crate::scene::texture::curvature(
+                p,
+                g.n.map(|n| n.map(|v| v.to_dvec3())),
+            ))
+        } else {
+            T::from_f32(self.tex[tri].curvature)
+        };
         let k = if sp.flipped { -k } else { k };
         let eta = refracted.then(|| {
             let ior = T::from_f32(m.ior);

@@ -477,7 +477,7 @@ pub(crate) fn any_of<T: Real>(
 }
 
 /// Brute-force closest hit over all of `tris` with the walkers' tie rule: the oracle.
-pub(crate) fn brute_force<T: Real>(
+pub fn brute_force<T: Real>(
     ray: &Ray<T>,
     tris: &[[V3<T>; 3]],
     techniques: &Techniques,

@@ -334,6 +334,32 @@ impl<'a, T: Real> BvhWalker<'a, T> {
         )
     }
 
+    /// The scalar closest-hit walk with the caller's leaf test: `leaf(offset, count,
+    /// best, tests)` tests the references `offset .. offset + count` of the tree's list
+    /// into `best` (the top level of instancing, whose leaves hold instances).
+    pub(super) fn closest_leaves(
+        &self,
+        ray: &Ray<T>,
+        work: &mut Work,
+        leaf: impl FnMut(usize, usize, &mut Closest<T>, &mut u64),
+        best: &mut Closest<T>,
+    ) {
+        let br = BoxRay::new(ray);
+        self.closest_walk(ray, work, |k, near, hi| br.slabs(k, near, hi), leaf, best);
+    }
+
+    /// The scalar any-hit walk with the caller's leaf test (as
+    /// [`BvhWalker::closest_leaves`]).
+    pub(super) fn any_leaves(
+        &self,
+        ray: &Ray<T>,
+        work: &mut Work,
+        leaf: impl FnMut(usize, usize, &mut u64) -> bool,
+    ) -> bool {
+        let br = BoxRay::new(ray);
+        self.any_walk(ray, work, |k| br.slabs(k, ray.t_min, ray.t_max), leaf)
+    }
+
     /// The closest-hit walk: `slabs(node, t_min, bound)` tests a node's children, `leaf`
     /// tests a leaf's references into the hit held.
     #[inline(always)]

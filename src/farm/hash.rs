@@ -9,7 +9,8 @@ use crate::scene::Scene;
 pub use crate::fnv::Fnv64;
 
 /// A hash of what a scene renders: camera and camera path, lights, materials, background,
-/// ambient, depth, local origin, and every vertex, normal and triangle, bit for bit. Not its source path
+/// ambient, depth, local origin, and every vertex, normal and triangle, bit for bit (the
+/// instanced meshes' too, and every instance's placement). Not its source path
 /// (nodes of a cluster may mount the scene at different places) nor its default size (the
 /// options carry the size rendered).
 pub fn scene_hash(scene: &Scene) -> u64 {
@@ -36,6 +37,33 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     for t in &scene.triangles {
         for i in t.v.iter().chain(&t.n).chain([&t.material]) {
             h.write(&i.to_le_bytes());
+        }
+    }
+    // Instances (nothing for a scene without: its hash is what it was before instancing).
+    let inst = &scene.instancing;
+    for m in &inst.meshes {
+        let g = &m.geometry;
+        for p in g.positions.iter().chain(&g.normals) {
+            for c in p.to_array() {
+                h.write(&c.to_bits().to_le_bytes());
+            }
+        }
+        h.write(&(g.triangles.len() as u64).to_le_bytes());
+        for t in &g.triangles {
+            for i in t.v.iter().chain(&t.n).chain([&t.material]) {
+                h.write(&i.to_le_bytes());
+            }
+        }
+    }
+    for i in &inst.instances {
+        h.write(&i.mesh.to_le_bytes());
+        for c in i
+            .linear
+            .to_cols_array()
+            .iter()
+            .chain(&i.translate.to_array())
+        {
+            h.write(&c.to_bits().to_le_bytes());
         }
     }
     h.finish()

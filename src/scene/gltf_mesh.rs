@@ -39,17 +39,31 @@ pub const MAX_GLTF_TRIANGLES: usize = 1 << 27;
 pub fn load_gltf(path: &Path) -> Result<ObjMesh> {
     let bytes = super::read_input_file(path, MAX_GLTF_BYTES, "glTF model")?;
     let base = path.parent().unwrap_or(Path::new("."));
-    parse_gltf_with(&bytes, &path.display().to_string(), Some(base))
+    parse_gltf_with(&bytes, &path.display().to_string(), Some(base), false)
+}
+
+/// [`load_gltf`] with each mesh that several nodes place (and that has no texture
+/// coordinates, vertex colours or textured material) stored once in
+/// [`ObjMesh::shared`] with the nodes' transforms: what a scene's instancing takes.
+pub fn load_gltf_instanced(path: &Path) -> Result<ObjMesh> {
+    let bytes = super::read_input_file(path, MAX_GLTF_BYTES, "glTF model")?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    parse_gltf_with(&bytes, &path.display().to_string(), Some(base), true)
+}
+
+/// [`parse_gltf`] with shared meshes stored once, as [`load_gltf_instanced`].
+pub fn parse_gltf_instanced(bytes: &[u8], name: &str) -> Result<ObjMesh> {
+    parse_gltf_with(bytes, name, None, true)
 }
 
 /// Parses glTF JSON or GLB bytes without touching the file system (external buffers are
 /// errors, external images texture problems); `name` is used in messages. The fuzz target
 /// `gltf_load` drives this.
 pub fn parse_gltf(bytes: &[u8], name: &str) -> Result<ObjMesh> {
-    parse_gltf_with(bytes, name, None)
+    parse_gltf_with(bytes, name, None, false)
 }
 
-fn parse_gltf_with(bytes: &[u8], name: &str, files: Files<'_>) -> Result<ObjMesh> {
+fn parse_gltf_with(bytes: &[u8], name: &str, files: Files<'_>, share: bool) -> Result<ObjMesh> {
     let err = |m: String| mesh_err(name, m);
     // The crate subtracts the header size from the GLB's length field unchecked.
     if bytes.starts_with(b"glTF") {
@@ -97,6 +111,8 @@ fn parse_gltf_with(bytes: &[u8], name: &str, files: Files<'_>) -> Result<ObjMesh
         any_uv: false,
         any_color: false,
         skipped_modes: BTreeSet::new(),
+        share,
+        first_shared: None,
     };
     b.walk()?;
     b.finish()
@@ -123,6 +139,23 @@ struct Builder<'a> {
     any_uv: bool,
     any_color: bool,
     skipped_modes: BTreeSet<String>,
+    /// Whether meshes several nodes place are stored once ([`ObjMesh::shared`]).
+    share: bool,
+    /// The first triangle of the shared meshes, emitted after every other.
+    first_shared: Option<usize>,
+}
+
+/// Whether instancing can store `mesh` once: no primitive has texture coordinates,
+/// vertex colours or a base colour texture (instanced meshes carry none of them).
+fn instanceable(mesh: &gltf::Mesh<'_>) -> bool {
+    mesh.primitives().all(|p| {
+        p.get(&Semantic::TexCoords(0)).is_none()
+            && p.get(&Semantic::Colors(0)).is_none()
+            && p.material()
+                .pbr_metallic_roughness()
+                .base_color_texture()
+                .is_none()
+    })
 }
 
 /// A node's local transform in f64.
@@ -172,6 +205,7 @@ impl Builder<'_> {
                     .collect()
             }
         };
+        let mut placed = Vec::new();
         let mut stack: Vec<(gltf::Node<'_>, DMat4, usize)> = roots
             .into_iter()
             .rev()
@@ -186,13 +220,42 @@ impl Builder<'_> {
             }
             let m = parent * node_matrix(&node);
             if let Some(mesh) = node.mesh() {
-                for prim in mesh.primitives() {
-                    self.primitive(&mesh, &prim, &m, node.index())?;
-                }
+                placed.push((mesh, m, node.index()));
             }
             for c in node.children().collect::<Vec<_>>().into_iter().rev() {
                 stack.push((c, m, depth + 1));
             }
+        }
+        // A mesh several nodes place is stored once when sharing (and the mesh has
+        // nothing instancing does not carry); every other placement is emitted placed.
+        let mut uses: HashMap<usize, usize> = HashMap::new();
+        for (mesh, _, _) in &placed {
+            *uses.entry(mesh.index()).or_default() += 1;
+        }
+        let mut shared: Vec<(gltf::Mesh<'_>, Vec<DMat4>, usize)> = Vec::new();
+        for (mesh, m, node) in placed {
+            if self.share && uses[&mesh.index()] > 1 && instanceable(&mesh) {
+                match shared.iter_mut().find(|s| s.0.index() == mesh.index()) {
+                    Some(s) => s.1.push(m),
+                    None => shared.push((mesh, vec![m], node)),
+                }
+                continue;
+            }
+            for prim in mesh.primitives() {
+                self.primitive(&mesh, &prim, &m, node)?;
+            }
+        }
+        for (mesh, placements, node) in shared {
+            let t0 = self.mesh.triangles.len();
+            self.first_shared.get_or_insert(t0);
+            for prim in mesh.primitives() {
+                self.primitive(&mesh, &prim, &DMat4::IDENTITY, node)?;
+            }
+            let t1 = self.mesh.triangles.len();
+            self.mesh.shared.push(super::obj::SharedMesh {
+                triangles: self.mesh.triangles[t0..t1].to_vec(),
+                placements,
+            });
         }
         for (what, present) in [
             ("cameras", doc.cameras().len() > 0),
@@ -540,6 +603,11 @@ impl Builder<'_> {
     }
 
     fn finish(mut self) -> Result<ObjMesh> {
+        // The shared meshes' triangles live in `shared` alone (they have no uvs).
+        if let Some(t0) = self.first_shared {
+            self.mesh.triangles.truncate(t0);
+            self.mesh.tri_uvs.truncate(t0);
+        }
         if !self.any_uv {
             self.mesh.tri_uvs.clear();
         }
@@ -557,7 +625,7 @@ impl Builder<'_> {
                 list.join(", ")
             ));
         }
-        if self.mesh.triangles.is_empty() {
+        if self.mesh.triangles.is_empty() && self.mesh.shared.is_empty() {
             self.mesh.warnings.push(format!(
                 "{}: no triangles in the scene's nodes; the object adds nothing to the scene",
                 self.name

@@ -9,6 +9,7 @@ pub mod camera_path;
 mod gltf_data;
 mod gltf_material;
 pub mod gltf_mesh;
+pub mod instance;
 pub mod model;
 pub mod obj;
 mod obj_scan;
@@ -22,7 +23,8 @@ use glam::{DVec3, Vec2, Vec3};
 
 pub use camera::Camera;
 pub use camera_path::{CameraPath, Interpolation, Keyframe, Orbit, PathError, PathPlace, Pose};
-pub use gltf_mesh::{load_gltf, parse_gltf};
+pub use gltf_mesh::{load_gltf, load_gltf_instanced, parse_gltf, parse_gltf_instanced};
+pub use instance::{Instance, Instancing, Mesh};
 pub use model::{load_mesh, load_model_scene, MeshFormat};
 pub use obj::{load_obj, parse_obj_with_mtl, ObjMesh};
 pub use ply::{load_ply, parse_ply};
@@ -281,6 +283,10 @@ pub struct Scene {
     /// `toml_scene::build`). Depths, normals and primitive ids do not depend on it; anything
     /// that reports a world position adds it back.
     pub origin: DVec3,
+    /// Meshes placed by instances (`instances = [...]` on an object; `scene/instance.rs`):
+    /// their triangles come after [`Scene::triangles`] in primitive ids and are stored
+    /// once per mesh, not per instance. Empty for most scenes.
+    pub instancing: Instancing,
 }
 
 impl Scene {
@@ -306,6 +312,7 @@ impl Scene {
             textures: Vec::new(),
             texture_problems: Vec::new(),
             origin: DVec3::ZERO,
+            instancing: Instancing::default(),
         }
     }
 
@@ -506,6 +513,7 @@ impl Scene {
             }
         }
         self.validate_surface_data()?;
+        self.validate_instances()?;
         if !(1..=16).contains(&self.max_depth) && self.max_depth != 0 {
             return Err(bad(
                 "max_depth".into(),

@@ -45,6 +45,16 @@ pub fn load_mesh(path: &Path) -> Result<ObjMesh> {
     }
 }
 
+/// [`load_mesh`] for a scene that instances: a glTF mesh several nodes place (without
+/// texture coordinates, vertex colours or a textured material) is stored once, in
+/// [`ObjMesh::shared`](super::obj::ObjMesh::shared), instead of once per node.
+pub fn load_mesh_instanced(path: &Path) -> Result<ObjMesh> {
+    match MeshFormat::of(path) {
+        Some(MeshFormat::Gltf) => super::gltf_mesh::load_gltf_instanced(path),
+        _ => load_mesh(path),
+    }
+}
+
 /// Vertical field of view of the default camera, degrees.
 pub const MODEL_FOV_DEG: f32 = 40.0;
 /// Share of the image's limiting side the model's bounding box spans.

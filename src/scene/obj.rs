@@ -51,6 +51,21 @@ pub struct ObjMesh {
     /// large). The mesh then uses the default grey material; a scene rejects such a mesh
     /// unless the object overrides its materials (`material = ...`).
     pub missing_mtl: Vec<String>,
+    /// Meshes several glTF nodes place, each stored once (only when loaded for instancing,
+    /// `model::load_mesh_instanced`; else every placement is in
+    /// [`ObjMesh::triangles`]): not part of [`ObjMesh::triangles`].
+    pub shared: Vec<SharedMesh>,
+}
+
+/// A mesh several nodes of a glTF place: its triangles in the mesh's own space (indexing
+/// the [`ObjMesh`]'s positions, normals and materials, without texture coordinates or
+/// vertex colours) and each node's transform.
+#[derive(Clone, Debug, Default)]
+pub struct SharedMesh {
+    /// The triangles, once.
+    pub triangles: Vec<Triangle>,
+    /// The nodes' transforms (their parents' composed), in walk order.
+    pub placements: Vec<glam::DMat4>,
 }
 
 /// Largest OBJ file read (checked before reading, so `/dev/zero` or a runaway file cannot

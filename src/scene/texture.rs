@@ -252,26 +252,31 @@ impl TriTex {
                 }
             }
         };
-        let curvature = if t.has_normals() {
-            let n = t.n.map(|k| scene.normals[k as usize].as_dvec3());
-            let mut sum = 0.0;
-            for (a, b) in [(0, 1), (1, 2), (2, 0)] {
-                let dp = p[b] - p[a];
-                let l2 = dp.length_squared();
-                if l2 > 0.0 {
-                    sum += (n[b] - n[a]).dot(dp) / l2;
-                }
-            }
-            (sum / 3.0) as f32
-        } else {
-            0.0
-        };
+        let normals = t
+            .has_normals()
+            .then(|| t.n.map(|k| scene.normals[k as usize].as_dvec3()));
+        let curvature = curvature(p, normals);
         TriTex {
             uv,
             lod_bias,
             curvature,
         }
     }
+}
+
+/// [`TriTex::curvature`] of a triangle of vertices `p` and vertex normals `n` (0 without):
+/// also what an instanced triangle's hit works out (`cpu/render.rs`).
+pub fn curvature(p: [glam::DVec3; 3], n: Option<[glam::DVec3; 3]>) -> f32 {
+    let Some(n) = n else { return 0.0 };
+    let mut sum = 0.0;
+    for (a, b) in [(0, 1), (1, 2), (2, 0)] {
+        let dp = p[b] - p[a];
+        let l2 = dp.length_squared();
+        if l2 > 0.0 {
+            sum += (n[b] - n[a]).dot(dp) / l2;
+        }
+    }
+    (sum / 3.0) as f32
 }
 
 #[cfg(test)]

@@ -16,13 +16,14 @@ use glam::{DMat3, DVec3, Vec2, Vec3};
 use super::animation;
 use super::diagnostics::{closest, Ctx};
 use super::schema::{
-    CameraDef, MaterialDef, MaterialRef, Numbers, ObjectDef, SceneDef, ShapeKind, S,
+    CameraDef, InstanceDef, MaterialDef, MaterialRef, Numbers, ObjectDef, SceneDef, ShapeKind, S,
 };
 use super::{DEFAULT_SPHERE_SUBDIVISIONS, MAX_DEPTH_LIMIT, MAX_IMAGE_SIZE};
 use crate::scene::obj::ObjMesh;
 use crate::scene::shapes::{self, MAX_SPHERE_SUBDIVISIONS};
 use crate::scene::{
-    Camera, Checker, CheckerAxes, Light, Material, Scene, Triangle, NO_NORMAL, NO_UV,
+    Camera, Checker, CheckerAxes, Instance, Light, Material, Mesh, Scene, Triangle, NO_NORMAL,
+    NO_UV,
 };
 use crate::{Error, Result};
 
@@ -72,6 +73,7 @@ pub(super) fn build_scene(text: &str, name: &str, files: Meshes<'_>) -> Result<S
 }
 
 /// Object-space geometry before placement; triangle materials are local indices.
+#[derive(Clone)]
 struct Geometry {
     positions: Vec<Vec3>,
     normals: Vec<Vec3>,
@@ -128,7 +130,7 @@ impl Geometry {
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Placement {
     pub(super) linear: DMat3,
-    translate: DVec3,
+    pub(super) translate: DVec3,
 }
 
 impl Placement {
@@ -140,6 +142,20 @@ impl Placement {
         Placement {
             linear: r * DMat3::from_diagonal(scale),
             translate,
+        }
+    }
+
+    /// The placement that leaves everything where it is.
+    const IDENTITY: Placement = Placement {
+        linear: DMat3::IDENTITY,
+        translate: DVec3::ZERO,
+    };
+
+    /// This placement applied after `inner`.
+    fn then(&self, inner: Placement) -> Placement {
+        Placement {
+            linear: self.linear * inner.linear,
+            translate: self.linear * inner.translate + self.translate,
         }
     }
 
@@ -318,6 +334,8 @@ impl Builder<'_> {
             ));
         }
         self.localise();
+        let own = self.scene.triangles.len();
+        self.scene.instancing.number(own, ctx.name)?;
         if let Some((path, a)) = path {
             // Relative to the local origin, which is the first frame's eye.
             let path = path
@@ -344,6 +362,9 @@ impl Builder<'_> {
         }
         for (p, &w) in s.positions.iter_mut().zip(&self.world.positions) {
             *p = local(w);
+        }
+        for inst in &mut s.instancing.instances {
+            inst.translate -= o;
         }
         for m in &mut s.materials {
             if let Some(c) = &mut m.checker {
@@ -540,7 +561,9 @@ impl Builder<'_> {
             &[ShapeKind::Quad, ShapeKind::Box],
         )?;
 
-        let (mut geometry, mesh_materials) = match (&d.mesh, &d.shape) {
+        let (mut geometry, mesh_materials): (Geometry, Option<LoadedMesh>) = match (
+            &d.mesh, &d.shape,
+        ) {
             (Some(path), None) if d.material.is_none() => {
                 let (mesh, _) = self.mesh(path, &f("mesh"))?;
                 // Without an override the MTL decides how the mesh looks: a missing one is
@@ -571,40 +594,11 @@ impl Builder<'_> {
             (None, Some(s)) => (self.shape(*s.get_ref(), d, &f)?, None),
         };
 
-        let scale = match &d.scale {
-            None => DVec3::ONE,
-            Some(s) => {
-                let v = numbers(ctx, s, &f("scale"), 3)?;
-                if v.contains(&0.0) {
-                    return Err(ctx.err(s.span(), f("scale"), "scale factors must be non-zero (a flat object has no inside and its normals are undefined)"));
-                }
-                DVec3::from_array([v[0], v[1], v[2]])
-            }
-        };
-        let rotate = match &d.rotate {
-            Some(r) => ctx.vec3(r, &f("rotate"))?.as_dvec3(),
-            None => DVec3::ZERO,
-        };
-        let translate = match &d.translate {
-            // f64 as written: a far translation keeps its digits until the local origin is
-            // subtracted.
-            Some(t) => {
-                ctx.vec3(t, &f("translate"))?;
-                triple_f64(t)
-            }
-            None => DVec3::ZERO,
-        };
-        let placement = Placement::new(scale, rotate, translate);
+        // A glTF's meshes that several nodes place, stored once (`ObjMesh::shared`).
+        let loaded = mesh_materials.as_ref().map(|(m, _)| m.clone());
+        let placement = self.placement(&d.scale, &d.rotate, &d.translate, &f)?;
         let world = placement.apply(&mut geometry);
-        if let Some(p) = geometry.positions.iter().find(|p| !p.is_finite()) {
-            return Err(ctx.err(
-                o.span(),
-                format!("objects[{i}]"),
-                format!(
-                    "a transformed vertex is not finite ({p}); scale or translate is too large"
-                ),
-            ));
-        }
+        self.check_finite(&geometry, o.span(), &format!("objects[{i}]"))?;
 
         // Material indices: an override replaces everything; a mesh otherwise brings its
         // MTL materials (added once per mesh file); a shape without one is default grey.
@@ -643,9 +637,247 @@ impl Builder<'_> {
                 Box::new(move |_| idx)
             }
         };
+        let outer = match &d.instances {
+            Some(list) => self.instance_placements(i, list)?,
+            None => vec![(Placement::IDENTITY, o.span(), 0)],
+        };
+        if let Some(mesh) = loaded.filter(|m| !m.shared.is_empty()) {
+            self.shared_meshes(i, o, &mesh, placement, &outer, &*material_map)?;
+        }
+        if let Some(list) = &d.instances {
+            return self.instances(i, o, list, outer, geometry, &*material_map);
+        }
         self.append(geometry, &*material_map, o.span(), i)?;
         self.world.positions.extend(world);
         Ok(())
+    }
+
+    /// The placements of an object's `instances`, each with its span and index.
+    fn instance_placements(
+        &self,
+        i: usize,
+        list: &[S<InstanceDef>],
+    ) -> Result<Vec<(Placement, Range<usize>, usize)>> {
+        let mut placements = Vec::with_capacity(list.len());
+        for (k, inst) in list.iter().enumerate() {
+            let f = |key: &str| format!("objects[{i}].instances[{k}].{key}");
+            let d = inst.get_ref();
+            let p = self.placement(&d.scale, &d.rotate, &d.translate, &f)?;
+            placements.push((p, inst.span(), k));
+        }
+        Ok(placements)
+    }
+
+    /// The meshes of `loaded` that several glTF nodes place (`ObjMesh::shared`), each
+    /// stored once as an instanced mesh and placed by every node's transform, then the
+    /// object's `placement`, then each of `outer` (the object's instances, or the
+    /// identity).
+    fn shared_meshes(
+        &mut self,
+        i: usize,
+        o: &S<ObjectDef>,
+        loaded: &ObjMesh,
+        placement: Placement,
+        outer: &[(Placement, Range<usize>, usize)],
+        material: &dyn Fn(u32) -> u32,
+    ) -> Result<()> {
+        for (s, shared) in loaded.shared.iter().enumerate() {
+            // The mesh's own vertices, renumbered from 0.
+            let mut vmap = HashMap::new();
+            let mut nmap = HashMap::new();
+            let mut mesh = Scene::empty(self.scene.camera);
+            mesh.source = format!("objects[{i}].mesh (shared mesh {s})");
+            for t in &shared.triangles {
+                let v = t.v.map(|k| {
+                    *vmap.entry(k).or_insert_with(|| {
+                        mesh.positions.push(loaded.positions[k as usize]);
+                        mesh.positions.len() as u32 - 1
+                    })
+                });
+                let n = if t.has_normals() {
+                    t.n.map(|k| {
+                        *nmap.entry(k).or_insert_with(|| {
+                            mesh.normals.push(loaded.normals[k as usize]);
+                            mesh.normals.len() as u32 - 1
+                        })
+                    })
+                } else {
+                    [NO_NORMAL; 3]
+                };
+                mesh.triangles.push(Triangle {
+                    v,
+                    n,
+                    material: material(t.material),
+                });
+            }
+            let m = self.scene.instancing.meshes.len() as u32;
+            for (outer, span, k) in outer {
+                for node in &shared.placements {
+                    let node = Placement {
+                        linear: DMat3::from_mat4(*node),
+                        translate: node.w_axis.truncate(),
+                    };
+                    let p = outer.then(placement.then(node));
+                    let inst = Instance::new(m, p.linear, p.translate).ok_or_else(|| {
+                        let field = match &o.get_ref().instances {
+                            Some(_) => format!("objects[{i}].instances[{k}]"),
+                            None => format!("objects[{i}].mesh"),
+                        };
+                        self.ctx.err(
+                            span.clone(),
+                            field,
+                            "a placement of a shared glTF mesh is not invertible or not finite",
+                        )
+                    })?;
+                    self.scene.instancing.instances.push(inst);
+                }
+            }
+            self.scene.instancing.meshes.push(Mesh {
+                name: mesh.source.clone(),
+                geometry: mesh,
+            });
+        }
+        Ok(())
+    }
+
+    /// A placement's `scale`, `rotate` and `translate` (the object's, or an instance's,
+    /// named by `f`).
+    fn placement(
+        &self,
+        scale: &Option<S<Numbers>>,
+        rotate: &Option<S<super::schema::Triple>>,
+        translate: &Option<S<super::schema::Triple>>,
+        f: &dyn Fn(&str) -> String,
+    ) -> Result<Placement> {
+        let ctx = self.ctx;
+        let scale = match scale {
+            None => DVec3::ONE,
+            Some(s) => {
+                let v = numbers(ctx, s, &f("scale"), 3)?;
+                if v.contains(&0.0) {
+                    return Err(ctx.err(s.span(), f("scale"), "scale factors must be non-zero (a flat object has no inside and its normals are undefined)"));
+                }
+                DVec3::from_array([v[0], v[1], v[2]])
+            }
+        };
+        let rotate = match rotate {
+            Some(r) => ctx.vec3(r, &f("rotate"))?.as_dvec3(),
+            None => DVec3::ZERO,
+        };
+        let translate = match translate {
+            // f64 as written: a far translation keeps its digits until the local origin is
+            // subtracted.
+            Some(t) => {
+                ctx.vec3(t, &f("translate"))?;
+                triple_f64(t)
+            }
+            None => DVec3::ZERO,
+        };
+        Ok(Placement::new(scale, rotate, translate))
+    }
+
+    /// Object `i`'s `geometry` (placed by its own placement) placed once per entry of
+    /// `list`: stored once as an instanced mesh, or, when it has texture coordinates,
+    /// vertex colours or a textured material (which instanced meshes do not carry), once
+    /// per instance with a warning.
+    fn instances(
+        &mut self,
+        i: usize,
+        o: &S<ObjectDef>,
+        list: &[S<InstanceDef>],
+        placements: Vec<(Placement, Range<usize>, usize)>,
+        geometry: Geometry,
+        material: &dyn Fn(u32) -> u32,
+    ) -> Result<()> {
+        let ctx = self.ctx;
+        if list.is_empty() {
+            self.warnings.push(format!(
+                "{}: objects[{i}].instances is empty, so the object is not placed",
+                ctx.name
+            ));
+            return Ok(());
+        }
+        if geometry.triangles.is_empty() {
+            // (A glTF whose meshes are all shared: placed by `shared_meshes`.)
+            return Ok(());
+        }
+        let textured = !geometry.tri_uvs.is_empty()
+            || !geometry.colors.is_empty()
+            || geometry.triangles.iter().any(|t| {
+                self.scene.materials[material(t.material) as usize]
+                    .diffuse_map
+                    .is_some()
+            });
+        if textured {
+            self.warnings.push(format!(
+                "{}: objects[{i}] has texture coordinates, vertex colours or a texture, which instanced meshes do not carry: its {} instances are stored flat, {} triangles each",
+                ctx.name,
+                list.len(),
+                geometry.triangles.len()
+            ));
+            for (p, span, k) in placements {
+                let mut g = geometry.clone();
+                let world = p.apply(&mut g);
+                self.check_finite(&g, span, &format!("objects[{i}].instances[{k}]"))?;
+                self.append(g, material, o.span(), i)?;
+                self.world.positions.extend(world);
+            }
+            return Ok(());
+        }
+        let mut mesh = Scene::empty(self.scene.camera);
+        mesh.source = format!("objects[{i}]");
+        mesh.positions = geometry.positions;
+        mesh.normals = geometry.normals;
+        mesh.triangles = geometry
+            .triangles
+            .into_iter()
+            .map(|t| Triangle {
+                material: material(t.material),
+                ..t
+            })
+            .collect();
+        let m = self.scene.instancing.meshes.len() as u32;
+        let bounds = mesh.bounds();
+        for (p, span, k) in placements {
+            let inst = Instance::new(m, p.linear, p.translate).ok_or_else(|| {
+                ctx.err(
+                    span.clone(),
+                    format!("objects[{i}].instances[{k}]"),
+                    "the placement is not invertible or not finite",
+                )
+            })?;
+            // The placed box must be finite in f32, as a placed vertex must.
+            if let Some((lo, hi)) = bounds {
+                let (a, b) = inst.bounds(lo, hi);
+                if !(a.is_finite() && b.is_finite()) {
+                    return Err(ctx.err(
+                        span,
+                        format!("objects[{i}].instances[{k}]"),
+                        "a placed vertex is not finite; scale or translate is too large",
+                    ));
+                }
+            }
+            self.scene.instancing.instances.push(inst);
+        }
+        self.scene.instancing.meshes.push(Mesh {
+            name: format!("objects[{i}]"),
+            geometry: mesh,
+        });
+        Ok(())
+    }
+
+    /// Refuses placed geometry with a vertex that is not finite in f32.
+    fn check_finite(&self, g: &Geometry, span: Range<usize>, field: &str) -> Result<()> {
+        match g.positions.iter().find(|p| !p.is_finite()) {
+            Some(p) => Err(self.ctx.err(
+                span,
+                field,
+                format!(
+                    "a transformed vertex is not finite ({p}); scale or translate is too large"
+                ),
+            )),
+            None => Ok(()),
+        }
     }
 
     fn shape(

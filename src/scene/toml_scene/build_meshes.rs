@@ -9,7 +9,7 @@ use std::rc::Rc;
 use super::super::schema::S;
 use super::super::MODEL_PATH_VAR;
 use super::{Builder, Geometry, LoadedMesh, Meshes};
-use crate::scene::model::{load_mesh, MeshFormat};
+use crate::scene::model::{load_mesh_instanced, MeshFormat};
 use crate::scene::obj::{no_textures, parse_obj_with, ObjMesh};
 use crate::{Error, Result};
 
@@ -73,7 +73,7 @@ impl Builder<'_> {
         };
         let parsed = match MeshFormat::of(Path::new(written)) {
             Some(MeshFormat::Ply) => crate::scene::parse_ply(obj.as_bytes(), written),
-            Some(MeshFormat::Gltf) => crate::scene::parse_gltf(obj.as_bytes(), written),
+            Some(MeshFormat::Gltf) => crate::scene::parse_gltf_instanced(obj.as_bytes(), written),
             Some(MeshFormat::Obj) | None => parse_obj_with(obj, written, &no_textures, &mtl),
         };
         let mesh = Rc::new(parsed.map_err(|e| match e {
@@ -127,7 +127,7 @@ impl Builder<'_> {
         }
         // An error inside the mesh file names the file and its line or element; prefix the scene file, line
         // and object that loaded it, so a mesh shared by several scenes points at the right one.
-        let mesh = Rc::new(load_mesh(&found).map_err(|e| match e {
+        let mesh = Rc::new(load_mesh_instanced(&found).map_err(|e| match e {
             Error::Mesh { .. } | Error::Io { .. } => {
                 self.ctx.err(path.span(), field, e.to_string())
             }

@@ -139,6 +139,18 @@ pub(super) struct ObjectDef {
     pub(super) translate: Option<S<Triple>>,
     pub(super) rotate: Option<S<Triple>>,
     pub(super) scale: Option<S<Numbers>>,
+    /// Placements of the object, each after its own `scale`, `rotate`, `translate`: the
+    /// object stored once and placed once per entry (`[[objects.instances]]`).
+    pub(super) instances: Option<Vec<S<InstanceDef>>>,
+}
+
+/// One entry of an object's `instances`: a placement, applied after the object's own.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct InstanceDef {
+    pub(super) translate: Option<S<Triple>>,
+    pub(super) rotate: Option<S<Triple>>,
+    pub(super) scale: Option<S<Numbers>>,
 }
 
 /// The analytic shapes `shape = "..."` names.
