@@ -60,7 +60,7 @@ impl<T: Real> V3L<T> {
     }
 }
 
-/// The inputs of [`surfaces`]: what a hit gathers from the scene, one lane per hit.
+/// The inputs of [`Dispatch::surfaces`]: what a hit gathers from the scene, one lane per hit.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceIn<T> {
     /// The triangle's vertices.
