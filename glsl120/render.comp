@@ -61,6 +61,11 @@ vec2 g_cones[STACK_SIZE];
 
 // Adds the radiance of the ray tree rooted at the primary ray (eye, d0) with weight w0 to
 // `colour`; with `first`, stores the primary ray's AOV texel in `aov`.
+// One loop traces one ray an iteration, a node's ray or one of its shadow rays, through the
+// one call of `trace`: the driver inlines that walk once, not once for the closest hit and
+// again for the shadow rays (on the H200 the second copy made the cold compile about
+// twice as long; issue 52). The operations and their order are the same as a loop over the
+// lights inside the node's iteration: ambient, the lights in order, then the children.
 void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov) {
     Node stack[STACK_SIZE];
     stack[0] = Node(u_eye, d0, vec3(w0), 0);
@@ -68,17 +73,71 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
     g_cones[0] = vec2(0.0, u_root_cone.y);
 #endif
     int top = 1;
-    while (top > 0) {
-        Node n = stack[--top];
+    // The node being shaded (`open`: it was hit and its children are not pushed yet), its
+    // surface and albedo, and the light whose shadow ray comes next.
+    Node n;
+    Surface s;
+    vec3 alb;
 #ifdef HAS_TEXTURES
-        vec2 n_cone = g_cones[top];
+    vec2 hit_cone;
 #endif
+    bool open = false;
+    int light = LIGHTS;
+    while (true) {
         vec4 s0;
         vec4 s1;
         vec4 s2;
         vec4 s3;
-        new_ray(n.o, n.d, BIG, s0, s1, s2, s3);
-        trace(s0, s1, s2, s3, false);
+        vec3 l;
+        bool shadow = light < LIGHTS;
+        if (shadow) {
+            vec3 o;
+            float dist;
+            if (!shadow_ray(s, LIGHT_POS(light), o, l, dist)) {
+                light++;
+                continue;
+            }
+            n_count[C_SHADOW] += 1u;
+            new_ray(o, l, dist, s0, s1, s2, s3);
+        } else {
+#ifdef HAS_SECONDARY
+            if (open && n.level < MAX_DEPTH) {
+                vec3 kr;
+                vec3 kt;
+                vec3 refl;
+                vec3 refr;
+                secondary(s.mat, s, n.d, kr, kt, refl, refr);
+                // Refracted below reflected: the reflected subtree is walked first.
+                if (child_exists(kt)) {
+                    n_count[C_REFRACTED] += 1u;
+#ifdef HAS_TEXTURES
+                    g_cones[top] = child_cone_at(s, hit_cone, true);
+#endif
+                    stack[top++] = Node(offset_origin(s, refr), refr, n.w * kt, n.level + 1);
+                }
+                if (child_exists(kr)) {
+                    n_count[C_REFLECTED] += 1u;
+#ifdef HAS_TEXTURES
+                    g_cones[top] = child_cone_at(s, hit_cone, false);
+#endif
+                    stack[top++] = Node(offset_origin(s, refl), refl, n.w * kr, n.level + 1);
+                }
+            }
+#endif
+            open = false;
+            if (top == 0) break;
+            n = stack[--top];
+            new_ray(n.o, n.d, BIG, s0, s1, s2, s3);
+        }
+        trace(s0, s1, s2, s3, shadow);
+        if (shadow) {
+            if (!in_state(s0.S0_STATE, ST_SHADING)) {
+                vec3 c = light_term(s.mat, alb, s, l, -n.d, LIGHT_RAD(light));
+                colour += n.w * c;
+            }
+            light++;
+            continue;
+        }
         bool hit = in_state(s0.S0_STATE, ST_SHADING);
         if (first && n.level == 0) {
             aov = A0_TEXEL(s3.S3_T_BEST, hit ? s3.S3_TRI_BEST : TRI_NONE, s3.S3_STEPS, s0.S0_STATE);
@@ -88,56 +147,21 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
             colour += n.w * u_background;
             continue;
         }
-        Surface s = surface(n.o, n.d, s3.S3_TRI_BEST);
+        s = surface(n.o, n.d, s3.S3_TRI_BEST);
 #ifdef HAS_TEXTURES
-        vec2 hit_cone = cone_at(n_cone, s3.S3_T_BEST);
-        vec3 alb = albedo_tex(s, hit_cone.x, n.d);
+        hit_cone = cone_at(g_cones[top], s3.S3_T_BEST);
+        alb = albedo_tex(s, hit_cone.x, n.d);
         colour += n.w * ambient_with(s, alb, u_ambient);
 #else
-        vec3 alb = albedo_at(s.mat, s.p);
+        alb = albedo_at(s.mat, s.p);
         colour += n.w * ambient_term(s, u_ambient);
 #endif
-        for (int k = 0; k < LIGHTS; k++) {
-            vec3 o;
-            vec3 l;
-            float dist;
-            if (!shadow_ray(s, LIGHT_POS(k), o, l, dist)) continue;
-            n_count[C_SHADOW] += 1u;
-            new_ray(o, l, dist, s0, s1, s2, s3);
-            trace(s0, s1, s2, s3, true);
-            if (!in_state(s0.S0_STATE, ST_SHADING)) {
-                vec3 c = light_term(s.mat, alb, s, l, -n.d, LIGHT_RAD(k));
-                colour += n.w * c;
-            }
-        }
-#ifdef HAS_SECONDARY
-        if (n.level < MAX_DEPTH) {
-            vec3 kr;
-            vec3 kt;
-            vec3 refl;
-            vec3 refr;
-            secondary(s.mat, s, n.d, kr, kt, refl, refr);
-            // Refracted below reflected: the reflected subtree is walked first.
-            if (child_exists(kt)) {
-                n_count[C_REFRACTED] += 1u;
-#ifdef HAS_TEXTURES
-                g_cones[top] = child_cone_at(s, hit_cone, true);
-#endif
-                stack[top++] = Node(offset_origin(s, refr), refr, n.w * kt, n.level + 1);
-            }
-            if (child_exists(kr)) {
-                n_count[C_REFLECTED] += 1u;
-#ifdef HAS_TEXTURES
-                g_cones[top] = child_cone_at(s, hit_cone, false);
-#endif
-                stack[top++] = Node(offset_origin(s, refl), refl, n.w * kr, n.level + 1);
-            }
-        }
-#endif
+        open = true;
+        light = 0;
     }
-    // Pending nodes left: the loop was ended from outside (llvmpipe ends every loop of an
-    // invocation once 65535 iterations of them all have run); the tree is incomplete.
-    if (top > 0) n_count[C_UNFINISHED] += 1u;
+    // Work left: the loop was ended from outside (llvmpipe ends every loop of an invocation
+    // once 65535 iterations of them all have run); the tree is incomplete.
+    if (top > 0 || open) n_count[C_UNFINISHED] += 1u;
 }
 
 // Radiance and AOV of pixel px (GL rows from the bottom of the pixels rendered, u_size)
