@@ -137,19 +137,56 @@ pub fn srgb8(v: f32) -> u8 {
     (linear_to_srgb(v) * 255.0 + 0.5).floor() as u8
 }
 
-/// [`srgb8`] by eight comparisons against [`srgb8_thresholds`] (a branchless binary
-/// search for the number of thresholds `<= v`), the same code for every f32 (a test
+/// [`srgb8`] by one table look-up and one comparison, the same code for every f32 (a test
 /// checks all of [0, 1] and the values outside it) at a fraction of a `powf`'s cost: the
-/// host converts whole images to 8-bit with it, the GPU converts with the same table.
+/// host converts whole images to 8-bit with it. The value, clamped to [0, 1] (NaN to 0),
+/// picks a bucket by its top 16 bits (sign, exponent, 7 bits of mantissa); a bucket holds at
+/// most one of [`srgb8_thresholds`] (the table's build checks it), so the code is the
+/// bucket's lowest code plus one where the value reaches that threshold. The GPU converts
+/// with the thresholds themselves (`srgb8.comp`, `srgb8.frag`): the same bytes.
 #[inline]
 pub fn srgb8_fast(v: f32) -> u8 {
-    let t = srgb8_thresholds();
-    let mut c = 0usize;
-    for step in [128, 64, 32, 16, 8, 4, 2, 1] {
-        // NaN compares false everywhere: code 0, as `srgb8` gives.
-        c += step * usize::from(t[c + step - 1] <= v);
-    }
-    c as u8
+    let t = srgb8_buckets();
+    // `max` returns 0 for NaN, as `srgb8` gives; 1.0's bucket is the table's last.
+    let v = v.max(0.0).min(1.0);
+    let b = (v.to_bits() >> SRGB8_BUCKET_SHIFT) as usize;
+    t.base[b] + u8::from(v >= t.threshold[b])
+}
+
+/// Bits of an f32 below [`srgb8_fast`]'s bucket index: with 16, a bucket spans 2^-7 of an
+/// octave (0.0039 in [0.5, 1)), less than the thresholds' spacing there (0.0060 at 0.5);
+/// 17 puts two thresholds in one bucket near 0.53.
+const SRGB8_BUCKET_SHIFT: u32 = 16;
+
+/// [`srgb8_fast`]'s table: per bucket of the f32 bit patterns of [0, 1], the code of its
+/// lowest value and the one threshold inside it (+inf where none is).
+struct Srgb8Buckets {
+    base: Vec<u8>,
+    threshold: Vec<f32>,
+}
+
+fn srgb8_buckets() -> &'static Srgb8Buckets {
+    static B: std::sync::OnceLock<Srgb8Buckets> = std::sync::OnceLock::new();
+    B.get_or_init(|| {
+        let t = srgb8_thresholds();
+        let n = (1f32.to_bits() >> SRGB8_BUCKET_SHIFT) as usize + 1;
+        let mut base = vec![0u8; n];
+        let mut threshold = vec![f32::INFINITY; n];
+        for b in 0..n {
+            let lo = f32::from_bits((b as u32) << SRGB8_BUCKET_SHIFT);
+            let hi = f32::from_bits(((b as u32 + 1) << SRGB8_BUCKET_SHIFT) - 1);
+            let (c_lo, c_hi) = (
+                t.partition_point(|&x| x <= lo),
+                t.partition_point(|&x| x <= hi),
+            );
+            assert!(c_hi - c_lo <= 1, "sRGB bucket {b} holds two thresholds");
+            base[b] = c_lo as u8;
+            if c_hi > c_lo {
+                threshold[b] = t[c_lo];
+            }
+        }
+        Srgb8Buckets { base, threshold }
+    })
 }
 
 /// The 255 linear values at which [`srgb8`] steps up: entry `c - 1` is the smallest f32
