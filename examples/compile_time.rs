@@ -14,12 +14,15 @@
 //! `MESA_SHADER_CACHE_DISABLE=true` on Mesa).
 use std::time::Instant;
 
-use fragtrace::gpu::gl::program::{compile_program, single_file_line_map, QUAD_VERTEX_SHADER};
 use fragtrace::gpu::gl::compile_compute;
+use fragtrace::gpu::gl::program::{compile_program, single_file_line_map, QUAD_VERTEX_SHADER};
 use fragtrace::gpu::GlContext;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let runs: usize = std::env::var("RUNS").ok().and_then(|r| r.parse().ok()).unwrap_or(3);
+    let runs: usize = std::env::var("RUNS")
+        .ok()
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(3);
     let ctx = GlContext::new_unchecked()?;
     for (n, path) in std::env::args().skip(1).enumerate() {
         let src = std::fs::read_to_string(&path)?;
@@ -36,7 +39,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ms.push(t.elapsed().as_secs_f64() * 1e3);
         }
         let shown: Vec<String> = ms.iter().map(|m| format!("{m:.1}")).collect();
-        println!("{path}: {} bytes, compile+link ms {}", src.len(), shown.join(" "));
+        println!(
+            "{path}: {} bytes, compile+link ms {}",
+            src.len(),
+            shown.join(" ")
+        );
     }
     Ok(())
 }
