@@ -32,11 +32,14 @@ use fragtrace::accel::Accel;
 use fragtrace::aov::{heat_map, preview, AovKind};
 use fragtrace::choices::Door;
 use fragtrace::clock::Instant;
+use fragtrace::gpu::contract::{REQUIRED_TEXTURE_UNITS, TEXTURED_TEXTURE_UNITS};
 use fragtrace::gpu::options::Kernel;
 use fragtrace::gpu::{GlContext, GpuScene};
 use fragtrace::options::{RenderOptions, MAX_SPP};
 use fragtrace::output::{Aov, AovPixel};
-use fragtrace::scene::{load_scene_str_with_texts, Camera, MeshTexts, Scene};
+use fragtrace::scene::{
+    load_scene_str_with_files, mtl_texture_files, Camera, MeshImages, MeshTexts, Scene,
+};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 
@@ -56,6 +59,7 @@ const SCENES: &[(&str, &str)] = &[
     ("dragon", include_str!("../../scenes/dragon.toml")),
     ("stadium", include_str!("../../scenes/stadium.toml")),
     ("sponza", include_str!("../../scenes/sponza.toml")),
+    ("duck-table", include_str!("../../scenes/duck-table.toml")),
 ];
 
 /// A scene on the GPU. The scene and its grid are leaked boxes that the [`GpuScene`]
@@ -141,6 +145,8 @@ struct App {
     scene_name: String,
     toml: String,
     texts: MeshTexts,
+    /// The texture images the meshes' MTLs name (fetched beside them, or dropped).
+    images: MeshImages,
     loaded: Option<Loaded>,
     /// The options of the scene loaded: the query's render flags over its defaults.
     opts: Option<RenderOptions>,
@@ -182,6 +188,19 @@ fn fetch_text(url: &str) -> Option<String> {
     (xhr.status().ok()? == 200).then(|| xhr.response_text().ok().flatten())?
 }
 
+/// A binary file next to the page (a texture image), read synchronously. A synchronous
+/// request cannot ask for an `arraybuffer`; the user-defined charset hands each byte over
+/// as one character (0x00-0x7f as is, 0x80-0xff as U+F780-U+F7FF), its low byte the byte.
+fn fetch_bytes(url: &str) -> Option<Vec<u8>> {
+    let xhr = web_sys::XmlHttpRequest::new().ok()?;
+    xhr.open_with_async("GET", url, false).ok()?;
+    xhr.override_mime_type("text/plain; charset=x-user-defined")
+        .ok()?;
+    xhr.send().ok()?;
+    let text = (xhr.status().ok()? == 200).then(|| xhr.response_text().ok().flatten())??;
+    Some(text.chars().map(|c| (c as u32 & 0xff) as u8).collect())
+}
+
 impl App {
     fn limits(&self) -> String {
         let i = &self.ctx.info;
@@ -208,7 +227,12 @@ impl App {
         self.loaded = None;
         let mut fetched = 0;
         let scene = loop {
-            match load_scene_str_with_texts(&self.toml, &self.scene_name, &self.texts) {
+            match load_scene_str_with_files(
+                &self.toml,
+                &self.scene_name,
+                &self.texts,
+                &self.images,
+            ) {
                 Ok(s) => break s,
                 Err(fragtrace::Error::Mesh { file, message }) if fetched < 8 => {
                     let obj = fetch_text(&format!("models/{file}")).ok_or_else(|| {
@@ -223,6 +247,18 @@ impl App {
                             format!("{dir}/{}", lib.trim())
                         };
                         if let Some(t) = fetch_text(&format!("models/{path}")) {
+                            // The images its `map_Kd` name, beside the OBJ (MTL paths are
+                            // relative to it), under the key the loader looks for first.
+                            for image in mtl_texture_files(&t) {
+                                let key = if dir.is_empty() {
+                                    image
+                                } else {
+                                    format!("{dir}/{image}")
+                                };
+                                if let Some(b) = fetch_bytes(&format!("models/{key}")) {
+                                    self.images.insert(key, b);
+                                }
+                            }
                             self.texts.insert(lib.trim().to_string(), t);
                         }
                     }
@@ -256,10 +292,17 @@ impl App {
         self.image = vec![0.0; (w * h * 3) as usize];
         self.display = vec![0; (w * h * 4) as usize];
         self.aov = empty_aov(w, h);
+        let s = self.loaded.as_ref().unwrap().scene();
+        // A texture not found is the material's colour and one line, as natively.
+        let textures = match (s.textures.len(), &s.texture_problems[..]) {
+            (0, []) => String::new(),
+            (n, []) => format!(", {n} image textures"),
+            (n, p) => format!(", {n} image textures; not read: {}", p.join("; ")),
+        };
         self.status = format!(
-            "{}: {} triangles, grid and upload {:.0} ms",
+            "{}: {} triangles{textures}, grid and upload {:.0} ms",
             self.scene_name,
-            self.loaded.as_ref().unwrap().scene().triangles.len(),
+            s.triangles.len(),
             t.elapsed().as_secs_f64() * 1e3
         );
         self.restart();
@@ -345,12 +388,21 @@ impl App {
     /// RGBA bytes).
     fn post_report(&self, url: &str, job: &Job) {
         let i = &self.ctx.info;
+        let scene = self.loaded.as_ref().expect("a render has its scene").scene();
+        // The fragment kernels' texture units (`gpu::contract::Unit`): the scene textures'
+        // 16th only where the scene has image textures or texture coordinates.
+        let units = if self.loaded.as_ref().unwrap().gs().layout().tex.is_some() {
+            TEXTURED_TEXTURE_UNITS
+        } else {
+            REQUIRED_TEXTURE_UNITS
+        };
         let json = format!(
             "{{\"scene\":{:?},\"width\":{},\"height\":{},\"kernel\":\"{}\",\"spp\":{},\
              \"progress\":\"{}\",\"frames\":{},\"shown\":\"{}\",\"aov_read\":{},\"aov_at_pass\":{},\"show_ms\":{:.1},\"passes\":{},\
              \"rays\":{},\"render_ms\":{:.1},\"wall_ms\":{:.1},\"renderer\":{:?},\
              \"gl_version\":{:?},\"glsl\":{:?},\"dialect\":{:?},\"max_texture_size\":{},\"max_draw_buffers\":{},\
-             \"max_texture_units\":{},\"max_viewport\":[{},{}],\"extensions\":{:?}}}",
+             \"max_texture_units\":{},\"max_viewport\":[{},{}],\"textures\":{},\"texture_problems\":{},\
+             \"texture_units\":{},{}\"extensions\":{:?}}}",
             self.scene_name,
             self.width,
             self.height,
@@ -375,6 +427,10 @@ impl App {
             i.max_texture_units,
             i.max_viewport_dims.0,
             i.max_viewport_dims.1,
+            scene.textures.len(),
+            scene.texture_problems.len(),
+            units,
+            job.cut.json(),
             i.extensions
         );
         let mut floats = self.image.clone();
@@ -534,6 +590,7 @@ pub fn start() -> Result<(), JsValue> {
         scene_name: scene_name.clone(),
         toml: toml.clone().unwrap_or_default(),
         texts: MeshTexts::new(),
+        images: MeshImages::new(),
         loaded: None,
         opts: None,
         camera: None,
@@ -725,8 +782,9 @@ fn install_mouse(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
     Ok(())
 }
 
-/// A dropped `.toml` replaces the scene; dropped `.obj`/`.mtl` files are its meshes (by
-/// file name). Files are read through `Blob.text()` promises, then the scene reloads.
+/// A dropped `.toml` replaces the scene; dropped `.obj`/`.mtl` files are its meshes and
+/// `.png`/`.jpg`/`.tga` files their textures (by file name). Files are read through
+/// `Blob.text()` (images: `Blob.arrayBuffer()`) promises, then the scene reloads.
 fn install_drop(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
     let body = document().body().ok_or("no body")?;
     let over = Closure::<dyn FnMut(web_sys::DragEvent)>::new(|e: web_sys::DragEvent| {
@@ -745,10 +803,17 @@ fn install_drop(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
             let Some(file) = files.get(k) else { continue };
             let name = file.name();
             let (a, pending) = (a.clone(), pending.clone());
-            let then = Closure::<dyn FnMut(JsValue)>::new(move |text: JsValue| {
-                let text = text.as_string().unwrap_or_default();
+            let lower = name.to_ascii_lowercase();
+            let image = [".png", ".jpg", ".jpeg", ".tga"]
+                .iter()
+                .any(|e| lower.ends_with(e));
+            let then = Closure::<dyn FnMut(JsValue)>::new(move |got: JsValue| {
                 let mut app = a.borrow_mut();
-                if name.ends_with(".toml") {
+                let text = got.as_string().unwrap_or_default();
+                if image {
+                    let bytes = js_sys::Uint8Array::new(&got).to_vec();
+                    app.images.insert(name.clone(), bytes);
+                } else if name.ends_with(".toml") {
                     app.scene_name = name.trim_end_matches(".toml").to_string();
                     app.toml = text;
                 } else {
@@ -764,7 +829,11 @@ fn install_drop(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
                     }
                 }
             });
-            let _ = file.text().then(&then);
+            let _ = if image {
+                file.array_buffer().then(&then)
+            } else {
+                file.text().then(&then)
+            };
             then.forget();
         }
     });
