@@ -489,7 +489,11 @@ fn page_renders_the_textured_duck_like_the_f32_cpu() {
         h,
         "webgl=1&kernel=multipass&progress=passes:2000",
     );
-    assert!(r.json.contains("\"dialect\":\"GLSL ES 1.00\""), "{}", r.json);
+    assert!(
+        r.json.contains("\"dialect\":\"GLSL ES 1.00\""),
+        "{}",
+        r.json
+    );
     assert_eq!(json_number(&r.json, "textures"), 2.0, "{}", r.json);
     assert_eq!(json_number(&r.json, "texture_problems"), 0.0, "{}", r.json);
     assert_eq!(json_number(&r.json, "texture_units"), 16.0, "{}", r.json);
@@ -527,7 +531,11 @@ fn page_renders_the_textured_duck_like_the_f32_cpu() {
         "{} components off by more than 1e-3",
         off(&r.image, &cpu)
     );
-    assert!(c.rmse <= RMSE_VS_F32, "RMSE {:.3e} > {RMSE_VS_F32:e}", c.rmse);
+    assert!(
+        c.rmse <= RMSE_VS_F32,
+        "RMSE {:.3e} > {RMSE_VS_F32:e}",
+        c.rmse
+    );
     assert!(g.share_above > 0.2, "the page's duck looks untextured");
 }
 

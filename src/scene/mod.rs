@@ -31,8 +31,8 @@ pub use obj_textures::mtl_texture_files;
 pub use ply::{load_ply, parse_ply};
 pub use texture::{TexLevel, Texture, Wrap};
 pub use toml_scene::{
-    builtin_scene, load_scene, load_scene_str, load_scene_str_with_search_path,
-    load_scene_str_with_files, load_scene_str_with_texts, load_scene_with_search_path,
+    builtin_scene, load_scene, load_scene_str, load_scene_str_with_files,
+    load_scene_str_with_search_path, load_scene_str_with_texts, load_scene_with_search_path,
     model_search_path, parse_scene_str, MeshImages, MeshTexts, DEFAULT_SCENE_TOML,
 };
 

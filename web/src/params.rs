@@ -128,15 +128,19 @@ pub struct PageArgs {
     /// Whether the advancing passes draw only the tiles that still hold active rays (on,
     /// the default) or the full-screen quad (off): the same image; off measures what the
     /// cut saves (issue 49).
-    #[arg(long, value_parser = on_off, default_value = "on")]
-    tiles: bool,
+    // A value, not a flag: a `bool` field would make clap take `tiles` alone.
+    #[arg(long, value_parser = on_off)]
+    tiles: Option<OnOff>,
 }
 
 /// `on` or `off`.
-fn on_off(s: &str) -> Result<bool, String> {
+#[derive(Clone, Copy, Debug)]
+struct OnOff(bool);
+
+fn on_off(s: &str) -> Result<OnOff, String> {
     match s {
-        "on" => Ok(true),
-        "off" => Ok(false),
+        "on" => Ok(OnOff(true)),
+        "off" => Ok(OnOff(false)),
         _ => Err(format!("`{s}`: expected on or off")),
     }
 }
@@ -184,7 +188,7 @@ impl Params {
             },
             band: page.band.and_then(|b| b.0),
             report: page.report,
-            tiles: page.tiles,
+            tiles: page.tiles.is_none_or(|t| t.0),
             choices,
         })
     }

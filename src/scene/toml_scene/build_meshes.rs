@@ -116,9 +116,7 @@ impl Builder<'_> {
                     "mesh files are not read by this text-only parser",
                 ))
             }
-            Meshes::Texts(texts, images) => {
-                return self.mesh_from_text(path, field, texts, images)
-            }
+            Meshes::Texts(texts, images) => return self.mesh_from_text(path, field, texts, images),
             Meshes::Files(base_dir, search) => (base_dir, search),
         };
         let found = resolve_mesh(written, base_dir, search).map_err(|searched| {
