@@ -486,12 +486,18 @@ fn page_cuts_webgl1_passes_to_active_tiles_with_the_same_image() {
     let n = |r: &Report, k: &str| json_number(&r.json, k);
     assert_eq!(n(&full, "advance_pixels"), n(&full, "advance_full_pixels"));
     let share = n(&cut, "advance_pixels") / n(&cut, "advance_full_pixels");
-    println!("WebGL 1 passes cut to tiles: {:.1}% of full quads", share * 100.0);
+    println!(
+        "WebGL 1 passes cut to tiles: {:.1}% of full quads",
+        share * 100.0
+    );
     assert!(share < 0.5, "the page's passes drew {share} of full quads");
     for k in ["passes", "rays", "advance_active", "termination_queries"] {
         assert_eq!(n(&cut, k), n(&full, k), "{k}");
     }
-    assert!(cut.image.data == full.image.data, "the cut changed the image");
+    assert!(
+        cut.image.data == full.image.data,
+        "the cut changed the image"
+    );
     assert_like_cpu(&cut.image, &cpu_f32(1).image, "tiles=on");
 }
 

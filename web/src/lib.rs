@@ -227,12 +227,8 @@ impl App {
         self.loaded = None;
         let mut fetched = 0;
         let scene = loop {
-            match load_scene_str_with_files(
-                &self.toml,
-                &self.scene_name,
-                &self.texts,
-                &self.images,
-            ) {
+            match load_scene_str_with_files(&self.toml, &self.scene_name, &self.texts, &self.images)
+            {
                 Ok(s) => break s,
                 Err(fragtrace::Error::Mesh { file, message }) if fetched < 8 => {
                     let obj = fetch_text(&format!("models/{file}")).ok_or_else(|| {
@@ -388,7 +384,11 @@ impl App {
     /// RGBA bytes).
     fn post_report(&self, url: &str, job: &Job) {
         let i = &self.ctx.info;
-        let scene = self.loaded.as_ref().expect("a render has its scene").scene();
+        let scene = self
+            .loaded
+            .as_ref()
+            .expect("a render has its scene")
+            .scene();
         // The fragment kernels' texture units (`gpu::contract::Unit`): the scene textures'
         // 16th only where the scene has image textures or texture coordinates.
         let units = if self.loaded.as_ref().unwrap().gs().layout().tex.is_some() {
