@@ -4,8 +4,8 @@
 //! the same sources as the native GLSL 1.20.
 //!
 //! The page ([`start`]) picks a shipped scene (embedded) or takes a dropped TOML with its
-//! OBJ/MTL files (meshes the shipped scenes name are fetched from `models/` next to the
-//! page when served, never shipped). A render shows its progress in bands of rows or pass
+//! OBJ/MTL files and texture images (meshes and images the shipped scenes name are fetched
+//! from `models/` next to the page when served, never shipped: `files`). A render shows its progress in bands of rows or pass
 //! by pass (`job`); dragging orbits the camera and restarts. Controls pick what is shown
 //! (the colour or a primary-ray AOV, without rendering again), the progress mode and the
 //! samples per pixel. The query string (`params`) sets their first values and what a test
@@ -13,7 +13,8 @@
 //! (AOVs on WebGL 2), `spp=N`, `progress=passes|passes:N|bands` (default `passes`, or
 //! `bands` where `band=` is given),
 //! `kernel=multipass|unrolled:K|looped` (looped on WebGL 2), `accel=irregular|uniform`,
-//! `band=ROWS|full`, and `report=URL`, to which the first finished render is POSTed (the
+//! `band=ROWS|full`, `tiles=on|off` (traversal passes cut to active tiles, or full), and
+//! `report=URL`, to which the first finished render is POSTed (the
 //! linear image, the primary-ray AOVs where read, and the canvas as shown) with the
 //! passes, time and WebGL limits in the `X-Fragtrace-Report` header (JSON); an error is
 //! POSTed there as `X-Fragtrace-Error`.
@@ -22,6 +23,7 @@
 // (as in the library).
 #![deny(clippy::undocumented_unsafe_blocks)]
 
+mod files;
 mod job;
 mod params;
 
@@ -43,6 +45,7 @@ use fragtrace::scene::{
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 
+use files::{fetch_bytes, fetch_text, install_drop, post};
 use job::{empty_aov, Job};
 use params::{parse_show, show_name, Params, Progress, Show};
 
@@ -178,27 +181,6 @@ fn element<T: JsCast>(id: &str) -> T {
         .unwrap_or_else(|| panic!("no #{id} in the page"))
         .dyn_into::<T>()
         .unwrap_or_else(|_| panic!("#{id} has the wrong type"))
-}
-
-/// A file next to the page, read synchronously (the `models/` folder; `None` when absent).
-fn fetch_text(url: &str) -> Option<String> {
-    let xhr = web_sys::XmlHttpRequest::new().ok()?;
-    xhr.open_with_async("GET", url, false).ok()?;
-    xhr.send().ok()?;
-    (xhr.status().ok()? == 200).then(|| xhr.response_text().ok().flatten())?
-}
-
-/// A binary file next to the page (a texture image), read synchronously. A synchronous
-/// request cannot ask for an `arraybuffer`; the user-defined charset hands each byte over
-/// as one character (0x00-0x7f as is, 0x80-0xff as U+F780-U+F7FF), its low byte the byte.
-fn fetch_bytes(url: &str) -> Option<Vec<u8>> {
-    let xhr = web_sys::XmlHttpRequest::new().ok()?;
-    xhr.open_with_async("GET", url, false).ok()?;
-    xhr.override_mime_type("text/plain; charset=x-user-defined")
-        .ok()?;
-    xhr.send().ok()?;
-    let text = (xhr.status().ok()? == 200).then(|| xhr.response_text().ok().flatten())??;
-    Some(text.chars().map(|c| (c as u32 & 0xff) as u8).collect())
 }
 
 impl App {
@@ -480,18 +462,6 @@ fn srgb8(v: f32) -> u8 {
         1.055 * v.powf(1.0 / 2.4) - 0.055
     };
     (s * 255.0 + 0.5) as u8
-}
-
-/// POSTs `body` to `url` with one header (fire and forget).
-fn post(url: &str, header: &str, value: &str, body: &[u8]) {
-    let Ok(xhr) = web_sys::XmlHttpRequest::new() else {
-        return;
-    };
-    if xhr.open("POST", url).is_err() {
-        return;
-    }
-    let _ = xhr.set_request_header(header, value);
-    let _ = xhr.send_with_opt_u8_array(Some(body));
 }
 
 /// The status line (with a note while the AOV picked is not there yet) and the limits.
@@ -779,65 +749,5 @@ fn install_mouse(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
     });
     canvas.add_event_listener_with_callback("mousemove", moved.as_ref().unchecked_ref())?;
     moved.forget();
-    Ok(())
-}
-
-/// A dropped `.toml` replaces the scene; dropped `.obj`/`.mtl` files are its meshes and
-/// `.png`/`.jpg`/`.tga` files their textures (by file name). Files are read through
-/// `Blob.text()` (images: `Blob.arrayBuffer()`) promises, then the scene reloads.
-fn install_drop(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
-    let body = document().body().ok_or("no body")?;
-    let over = Closure::<dyn FnMut(web_sys::DragEvent)>::new(|e: web_sys::DragEvent| {
-        e.prevent_default();
-    });
-    body.add_event_listener_with_callback("dragover", over.as_ref().unchecked_ref())?;
-    over.forget();
-    let a = app.clone();
-    let drop = Closure::<dyn FnMut(web_sys::DragEvent)>::new(move |e: web_sys::DragEvent| {
-        e.prevent_default();
-        let Some(files) = e.data_transfer().and_then(|d| d.files()) else {
-            return;
-        };
-        let pending = Rc::new(RefCell::new(files.length()));
-        for k in 0..files.length() {
-            let Some(file) = files.get(k) else { continue };
-            let name = file.name();
-            let (a, pending) = (a.clone(), pending.clone());
-            let lower = name.to_ascii_lowercase();
-            let image = [".png", ".jpg", ".jpeg", ".tga"]
-                .iter()
-                .any(|e| lower.ends_with(e));
-            let then = Closure::<dyn FnMut(JsValue)>::new(move |got: JsValue| {
-                let mut app = a.borrow_mut();
-                let text = got.as_string().unwrap_or_default();
-                if image {
-                    let bytes = js_sys::Uint8Array::new(&got).to_vec();
-                    app.images.insert(name.clone(), bytes);
-                } else if name.ends_with(".toml") {
-                    app.scene_name = name.trim_end_matches(".toml").to_string();
-                    app.toml = text;
-                } else {
-                    app.texts.insert(name.clone(), text);
-                }
-                *pending.borrow_mut() -= 1;
-                if *pending.borrow() == 0 {
-                    app.reported = true;
-                    if let Err(e) = app.load() {
-                        fail(&mut app, &e);
-                    } else {
-                        show_status(&app);
-                    }
-                }
-            });
-            let _ = if image {
-                file.array_buffer().then(&then)
-            } else {
-                file.text().then(&then)
-            };
-            then.forget();
-        }
-    });
-    body.add_event_listener_with_callback("drop", drop.as_ref().unchecked_ref())?;
-    drop.forget();
     Ok(())
 }
