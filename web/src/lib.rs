@@ -5,8 +5,8 @@
 //!
 //! The page ([`start`]) picks a shipped scene (embedded) or takes a dropped TOML with its
 //! OBJ/MTL files and texture images (meshes and images the shipped scenes name are fetched
-//! from `models/` next to the page when served, never shipped: `files`). A render shows its progress in bands of rows or pass
-//! by pass (`job`); dragging orbits the camera and restarts. Controls pick what is shown
+//! from `models/` next to the page when served, never shipped: `files`). A render shows
+//! its progress in bands of rows or pass by pass (`job`); dragging orbits the camera and restarts. Controls pick what is shown
 //! (the colour or a primary-ray AOV, without rendering again), the progress mode and the
 //! samples per pixel. The query string (`params`) sets their first values and what a test
 //! needs: `scene=NAME`, `size=WxH`, `webgl=1|2`, `aov=colour|depth|normal|primid|steps`
