@@ -77,6 +77,10 @@ pub struct ViewArgs {
     /// after N.
     #[arg(long)]
     pub play: bool,
+    /// Outline, in the frames of a render in progress, the tiles the traversal passes
+    /// draw (those that still held active rays at the last count; `t` toggles it).
+    #[arg(long)]
+    pub show_tiles: bool,
     /// Present every P passes instead of by time (reproducible frames for --screenshot).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub passes_per_frame: Option<u64>,
@@ -557,6 +561,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         passes_per_frame: args.passes_per_frame,
         frame_ms: args.frame_ms,
         play: args.play,
+        show_tiles: args.show_tiles,
     };
     crate::view::run(scene, &opts)
 }

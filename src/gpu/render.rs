@@ -18,7 +18,7 @@ use crate::accel::AccelRef;
 use crate::scene::Scene;
 use crate::{Error, Result};
 
-pub use super::request::{Flow, GpuOutput, ImageRequest, Observer, Snapshot, Work};
+pub use super::request::{Advance, Flow, GpuOutput, ImageRequest, Observer, Snapshot, Work};
 pub use super::wave::{GpuRay, GpuTrace};
 
 /// What the kernel's wing leaves to do: the compute kernel's result, or the fragment

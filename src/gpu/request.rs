@@ -75,6 +75,24 @@ pub struct Snapshot<'f> {
     /// The primary-ray AOVs, once read (after the first sample's primary wave, where the
     /// request reads them: [`crate::output::Readback::aov`]).
     pub aov: Option<&'f crate::output::Aov>,
+    /// What the last advancing pass drew (the fragment kernels; `None` before the first
+    /// and for the compute kernel): the passes cut to the tiles that still hold active
+    /// rays (issue 49), for a display of the reduction at work.
+    pub advance: Option<Advance<'f>>,
+}
+
+/// What an advancing pass (a traversal step or intersection, an unrolled or looped pass)
+/// drew: the tiles that held active rays at the termination query before it.
+#[derive(Clone, Copy, Debug)]
+pub struct Advance<'f> {
+    /// Its rectangles of pixels (rows from the bottom): runs of active tiles, or the whole
+    /// image where the passes are not cut.
+    pub rects: &'f [crate::gpu::gl::PixelRect],
+    /// The pixels they cover.
+    pub pixels: u64,
+    /// Active rays at the termination query before it: what a pass over the compacted
+    /// active rays alone would draw.
+    pub active: u64,
 }
 
 /// An observer's answer: go on, or stop the render (which then returns

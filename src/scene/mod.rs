@@ -27,12 +27,13 @@ pub use gltf_mesh::{load_gltf, load_gltf_instanced, parse_gltf, parse_gltf_insta
 pub use instance::{Instance, Instancing, Mesh};
 pub use model::{load_mesh, load_model_scene, MeshFormat};
 pub use obj::{load_obj, parse_obj_with_mtl, ObjMesh};
+pub use obj_textures::mtl_texture_files;
 pub use ply::{load_ply, parse_ply};
 pub use texture::{TexLevel, Texture, Wrap};
 pub use toml_scene::{
-    builtin_scene, load_scene, load_scene_str, load_scene_str_with_search_path,
-    load_scene_str_with_texts, load_scene_with_search_path, model_search_path, parse_scene_str,
-    MeshTexts, DEFAULT_SCENE_TOML,
+    builtin_scene, load_scene, load_scene_str, load_scene_str_with_files,
+    load_scene_str_with_search_path, load_scene_str_with_texts, load_scene_with_search_path,
+    model_search_path, parse_scene_str, MeshImages, MeshTexts, DEFAULT_SCENE_TOML,
 };
 
 /// Sentinel for "no vertex normal" in [`Triangle::n`].

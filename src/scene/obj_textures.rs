@@ -83,6 +83,27 @@ pub(super) fn parse_map(args: &[&str]) -> Option<MapStmt> {
     })
 }
 
+/// The image files an MTL library's `map_Kd` statements name, as written (relative to the
+/// MTL's folder unless absolute), each once: what the web page fetches beside the MTL so
+/// that a scene loaded from texts brings its textures ([`super::MeshImages`]).
+pub fn mtl_texture_files(mtl: &str) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for line in mtl.lines() {
+        let content = line.split_once('#').map_or(line, |(before, _)| before);
+        let mut words = content.split_whitespace();
+        if words.next() != Some("map_Kd") {
+            continue;
+        }
+        let args: Vec<&str> = words.collect();
+        if let Some(stmt) = parse_map(&args) {
+            if !out.contains(&stmt.file) {
+                out.push(stmt.file);
+            }
+        }
+    }
+    out
+}
+
 /// Loads a texture by its resolved path, or says why it cannot.
 pub(crate) type TexSource<'a> = dyn Fn(&Path, [Wrap; 2]) -> Result<Texture, String> + 'a;
 
@@ -153,5 +174,13 @@ mod tests {
         assert_eq!(m.file, "a.png");
         assert_eq!(m.ignored, ["-s 2 2", "-o 0.5"]);
         assert!(parse_map(&["-clamp", "on"]).is_none());
+    }
+
+    #[test]
+    fn an_mtl_names_its_diffuse_images_once() {
+        let mtl = "newmtl a\nmap_Kd -clamp on tex/a b.png # comment\nmap_Ks s.png\n\
+                   newmtl b\n  map_Kd tex/a b.png\nmap_Kd c.jpg\n";
+        assert_eq!(mtl_texture_files(mtl), ["tex/a b.png", "c.jpg"]);
+        assert!(mtl_texture_files("newmtl a\nKd 1 1 1\n").is_empty());
     }
 }

@@ -14,13 +14,16 @@ Keys:
   + / -              maximum depth up / down
   a                  next display: image, steps heat map, depth, normals, primitive ids
   z                  early-z mask on / off
+  t                  outline the tiles the passes draw (multipass, unrolled) on / off
   s                  save a screenshot (fragtrace-view-N.png in the current folder)
   r                  reset the camera
   p                  play / pause the scene's camera path ([animation]), frame after frame
   ?                  print this list
   q / Esc            quit
-The title shows the kernel, passes, rays/s, ms per frame and samples done. When the camera
-stops, samples accumulate up to --spp (the stratified pattern of `render --spp`).";
+The title shows the kernel, passes, rays/s, ms per frame and samples done, and what the
+last traversal pass drew: its share of the image (the tiles still holding active rays)
+and the rays active in them; at the end, the share over all traversal passes. When the
+camera stops, samples accumulate up to --spp (the stratified pattern of `render --spp`).";
 
 /// What a key does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -35,6 +38,8 @@ pub enum Action {
     NextDisplay,
     /// Early-z mask on or off.
     ToggleMask,
+    /// The outline of the tiles the passes draw on or off.
+    ToggleTiles,
     /// Save a screenshot.
     Screenshot,
     /// Camera back to the scene's.
@@ -55,6 +60,7 @@ pub fn action_for(key: &str) -> Option<Action> {
         "-" | "_" => Action::DepthDown,
         "a" | "A" => Action::NextDisplay,
         "z" | "Z" => Action::ToggleMask,
+        "t" | "T" => Action::ToggleTiles,
         "s" | "S" => Action::Screenshot,
         "r" | "R" => Action::ResetCamera,
         "p" | "P" => Action::Play,
@@ -131,6 +137,7 @@ mod tests {
             ("-", Action::DepthDown),
             ("a", Action::NextDisplay),
             ("z", Action::ToggleMask),
+            ("t", Action::ToggleTiles),
             ("s", Action::Screenshot),
             ("r", Action::ResetCamera),
             ("?", Action::Help),

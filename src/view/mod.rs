@@ -31,7 +31,7 @@ use winit::window::WindowId;
 use crate::aov::{self, AovKind};
 use crate::gpu::options::{Kernel, Mask};
 use crate::gpu::render::ImageRequest;
-use crate::gpu::render::{render, Flow, GpuOutput, Snapshot};
+use crate::gpu::render::{render, Advance, Flow, GpuOutput, Snapshot};
 use crate::gpu::{GlContext, GpuScene};
 use crate::image_io::{to_srgb8, write_atomic, Image};
 use crate::options::{RenderOptions, MAX_DEPTH};
@@ -63,6 +63,8 @@ pub struct ViewOptions {
     pub frame_ms: f64,
     /// Start playing the scene's camera path (`--play`; `p` toggles it).
     pub play: bool,
+    /// Start with the tiles the passes draw outlined (`--show-tiles`; `t` toggles it).
+    pub show_tiles: bool,
 }
 
 impl ViewOptions {
@@ -79,6 +81,8 @@ struct Settings {
     max_depth: u32,
     mask: Mask,
     display: Display,
+    /// Outline the tiles the advancing passes draw in the frames of a render in progress.
+    tiles: bool,
 }
 
 /// Input state between two pumps of the event loop.
@@ -115,6 +119,12 @@ impl Handler {
             Action::NextDisplay => {
                 s.display = s.display.next();
                 self.redraw = true;
+                return;
+            }
+            // Shown from the next frame of a render in progress; a finished picture has
+            // no tiles.
+            Action::ToggleTiles => {
+                s.tiles = !s.tiles;
                 return;
             }
             Action::Screenshot => {
@@ -183,6 +193,44 @@ struct TitleStats {
     mrays_per_s: Option<f64>,
     ms_per_frame: f64,
     note: String,
+    /// The reduction at work ([`cut_note`]), empty for the compute kernel.
+    cut: String,
+}
+
+/// What the last advancing pass of a render in progress drew: its share of the image's
+/// pixels, the rectangles (runs of active tiles), and the rays active in them.
+fn cut_note(a: &Advance, pixels: u64) -> String {
+    format!(
+        " | pass drew {:.0}% ({} px, {} rects), {} rays active",
+        100.0 * a.pixels as f64 / pixels.max(1) as f64,
+        a.pixels,
+        a.rects.len(),
+        a.active
+    )
+}
+
+/// A finished render's reduction: the advancing passes' pixels against as many full-screen
+/// quads, and the active rays' share (the floor of stream reduction).
+fn cut_total(g: &crate::output::GpuStats, pixels: u64) -> String {
+    let passes: u64 = g
+        .passes
+        .iter()
+        .filter(|(k, _)| {
+            ["traverse_step", "intersect", "unrolled", "looped"]
+                .iter()
+                .any(|p| k.starts_with(p))
+        })
+        .map(|(_, n)| n)
+        .sum();
+    if passes == 0 {
+        return String::new();
+    }
+    let full = (passes * pixels).max(1) as f64;
+    format!(
+        " | traversal passes drew {:.0}% of the image ({:.0}% active)",
+        100.0 * g.advance_pixels as f64 / full,
+        100.0 * g.advance_active as f64 / full
+    )
 }
 
 fn title(s: &Settings, spp: u32, t: &TitleStats) -> String {
@@ -195,7 +243,7 @@ fn title(s: &Settings, spp: u32, t: &TitleStats) -> String {
         ""
     };
     format!(
-        "fragtrace view: {} | depth {} | {} passes | {rays} | {:.0} ms/frame | {}/{spp} spp | {}{}{mask}",
+        "fragtrace view: {} | depth {} | {} passes | {rays} | {:.0} ms/frame | {}/{spp} spp | {}{}{mask}{}",
         s.kernel,
         s.max_depth,
         t.passes,
@@ -203,6 +251,7 @@ fn title(s: &Settings, spp: u32, t: &TitleStats) -> String {
         t.samples_done,
         s.display.name(),
         t.note,
+        t.cut,
     )
 }
 
@@ -302,6 +351,7 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
             max_depth: ro.max_depth,
             mask: ro.gpu.mask,
             display: Display::Image,
+            tiles: opts.show_tiles,
         },
         restart: true,
         redraw: false,
@@ -433,10 +483,14 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                 stats.ms_per_frame = last_present.elapsed().as_secs_f64() * 1e3;
                 stats.passes = snap.passes;
                 stats.samples_done = snap.samples_done;
+                stats.cut = snap.advance.map_or(String::new(), |a| {
+                    cut_note(&a, size.0 as u64 * size.1 as u64)
+                });
                 passes_at_present = snap.passes;
                 last_present = Instant::now();
+                let tiles = h.settings.tiles.then_some(()).and(snap.advance);
                 let shown = presenter
-                    .draw_live(&ctx, snap, size.0, size.1)
+                    .draw_live(&ctx, snap, size.0, size.1, tiles.as_ref())
                     .and_then(|()| {
                         frames += 1;
                         match (&opts.screenshot, opts.frames) {
@@ -457,7 +511,12 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                         }
                     })
                     .and_then(|()| win.swap());
-                win.window.set_title(&title(&h.settings, ro.spp, &stats));
+                let t = title(&h.settings, ro.spp, &stats);
+                win.window.set_title(&t);
+                // Without a person the title is not seen: each frame's goes to stderr.
+                if automated {
+                    eprintln!("{t}");
+                }
                 if let Err(e) = shown {
                     failure = Some(e);
                     return Flow::Cancel;
@@ -481,13 +540,18 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                 stats.passes = gpu.passes_total;
                 stats.samples_done = ro.spp;
                 stats.mrays_per_s = Some(out.rays.total as f64 / (gpu.trace_ms.max(1e-6) * 1e3));
+                stats.cut = cut_total(gpu, size.0 as u64 * size.1 as u64);
                 let (rgb, note) = picture(&out, h.settings.display);
                 stats.note = note;
                 presenter.set_picture(&ctx, size.0, size.1, &rgb)?;
                 presenter.draw_picture(&ctx, size.0, size.1)?;
                 frames += 1;
                 last = Some(out);
-                win.window.set_title(&title(&h.settings, ro.spp, &stats));
+                let t = title(&h.settings, ro.spp, &stats);
+                win.window.set_title(&t);
+                if automated {
+                    eprintln!("{t}");
+                }
                 if automated && !(h.playing && opts.frames.is_some_and(|n| frames < n)) {
                     if let Some(path) = &opts.screenshot {
                         screenshot(&ctx, size, path)?;

@@ -2,18 +2,21 @@
 //! 8-bit sRGB on the host by the same code that writes PNGs, so the window holds exactly
 //! the bytes `fragtrace render` would write), or a render in progress from its
 //! [`Snapshot`]: the colour so far, with the rays of the wave in flight tinted, so the
-//! wave is seen advancing pass by pass. Also reads the window back for screenshots.
+//! wave is seen advancing pass by pass, and on request the tiles the last traversal pass
+//! drew outlined, so the passes are seen shrinking to what is left (issue 49). Also reads
+//! the window back for screenshots.
 //!
 //! The presenter draws in the render's own context between two of its passes, so it
 //! saves and restores every piece of GL state it touches (`gpu::gl::SavedState`): the
 //! renderer never learns that it was watched.
 
 use crate::gpu::contract::{self, ray, view, Unit};
+use crate::gpu::gl::PixelRect;
 use crate::gpu::gl::{
     bind_window, compile_program, read_window as read_back_buffer, single_file_line_map, state,
     FullscreenQuad, Program, RenderTarget, SavedState, Texture,
 };
-use crate::gpu::render::Snapshot;
+use crate::gpu::render::{Advance, Snapshot};
 use crate::gpu::shader::RayState;
 use crate::gpu::GlContext;
 use crate::{Error, Result};
@@ -152,16 +155,22 @@ impl Presenter {
     /// Draws a render in progress into the window's back buffer (`w` x `h`): before its
     /// first sample is finished, the colour so far (the first sample growing term by term
     /// and bounce by bounce); after, the average of the finished samples. Rays of the wave
-    /// in flight are tinted either way.
+    /// in flight are tinted either way. With `tiles`, the rectangles the last traversal
+    /// pass drew are outlined over it.
     pub(super) fn draw_live(
         &mut self,
         ctx: &GlContext,
         snap: &Snapshot,
         w: u32,
         h: u32,
+        tiles: Option<&Advance>,
     ) -> Result<()> {
         let saved = SavedState::save(ctx.gl());
         let r = self.draw_live_inner(ctx, snap, w, h);
+        if let (Ok(()), Some(a)) = (&r, tiles) {
+            let size = (snap.radiance.width(), snap.radiance.height());
+            state::clear_rects(ctx.gl(), &outlines(a.rects, size, (w, h)), TILE_OUTLINE);
+        }
         saved.restore(ctx.gl());
         r
     }
@@ -226,6 +235,30 @@ impl Presenter {
     }
 }
 
+/// The colour of the tiles' outlines: cyan, apart from the orange tint of the wave.
+pub(super) const TILE_OUTLINE: [f32; 4] = [0.1, 0.9, 1.0, 1.0];
+
+/// The one-pixel edges of `rects` of a `from` image, scaled onto a `to` window.
+fn outlines(rects: &[PixelRect], from: (u32, u32), to: (u32, u32)) -> Vec<PixelRect> {
+    let sx = |x: u32| (x as u64 * to.0 as u64 / from.0.max(1) as u64) as u32;
+    let sy = |y: u32| (y as u64 * to.1 as u64 / from.1.max(1) as u64) as u32;
+    let mut out = Vec::with_capacity(rects.len() * 4);
+    for r in rects {
+        let (x0, y0, x1, y1) = (sx(r.x0), sy(r.y0), sx(r.x1), sy(r.y1));
+        if x1 <= x0 || y1 <= y0 {
+            continue;
+        }
+        let edge = |x0, y0, x1, y1| PixelRect { x0, y0, x1, y1 };
+        out.extend([
+            edge(x0, y0, x1, y0 + 1),
+            edge(x0, y1 - 1, x1, y1),
+            edge(x0, y0, x0 + 1, y1),
+            edge(x1 - 1, y0, x1, y1),
+        ]);
+    }
+    out
+}
+
 /// Reads the window's back buffer (`w` x `h`) as 8-bit RGB, top row first.
 pub(super) fn read_window(ctx: &GlContext, w: u32, h: u32) -> Result<Vec<u8>> {
     let rgba = read_back_buffer(ctx.gl(), w, h).map_err(|e| Error::Internal(e.to_string()))?;
@@ -274,8 +307,20 @@ mod tests {
                     passes: 10,
                     pass: "traverse_step",
                     aov: None,
+                    advance: None,
                 };
-                p.draw_live(ctx, &snap, 8, 4).unwrap();
+                let rects = [PixelRect {
+                    x0: 0,
+                    y0: 0,
+                    x1: 4,
+                    y1: 2,
+                }];
+                let tiles = Advance {
+                    rects: &rects,
+                    pixels: 8,
+                    active: 3,
+                };
+                p.draw_live(ctx, &snap, 8, 4, Some(&tiles)).unwrap();
                 let after = SavedState::save(gl);
                 assert_eq!(after.framebuffer, before.framebuffer);
                 assert_eq!(after.viewport, [0, 0, 5, 3]);

@@ -19,7 +19,7 @@ use fragtrace::gpu::render::{
     render, render_stepped, Flow, GpuOutput, ImageRequest, Observer, Snapshot,
 };
 use fragtrace::gpu::GlContext;
-use fragtrace::output::{AovPixel, Readback};
+use fragtrace::output::{AovPixel, GpuStats, Readback};
 use fragtrace::region::Region;
 use fragtrace::scene::Camera;
 
@@ -92,6 +92,52 @@ pub struct Job {
     /// Passes drawn when a pass-by-pass render's AOVs reached the page.
     pub aov_at_pass: Option<u64>,
     pub done: bool,
+    /// The cut of the advancing passes to active tiles, summed over the bands (issue 49).
+    pub cut: Cut,
+}
+
+/// What the advancing passes drew ([`GpuStats::advance_pixels`] and its neighbours).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Cut {
+    /// Advancing passes (traversal steps and intersections, unrolled or looped passes).
+    pub passes: u64,
+    /// Pixels they would draw as full-screen quads.
+    pub full: u64,
+    /// Pixels they drew.
+    pub drawn: u64,
+    /// Active rays at the termination query before each, summed.
+    pub active: u64,
+    pub termination_queries: u64,
+}
+
+impl Cut {
+    /// Adds a render's (or a band's) stats, of `pixels` pixels.
+    fn add(&mut self, g: &GpuStats, pixels: u64) {
+        let passes: u64 = g
+            .passes
+            .iter()
+            .filter(|(k, _)| {
+                ["traverse_step", "intersect", "looped", "unrolled"]
+                    .iter()
+                    .any(|p| k.starts_with(p))
+            })
+            .map(|(_, n)| n)
+            .sum();
+        self.passes += passes;
+        self.full += passes * pixels;
+        self.drawn += g.advance_pixels;
+        self.active += g.advance_active;
+        self.termination_queries += g.termination_queries;
+    }
+
+    /// The report's fields, each followed by a comma.
+    pub fn json(&self) -> String {
+        format!(
+            "\"advance_passes\":{},\"advance_full_pixels\":{},\"advance_pixels\":{},\
+             \"advance_active\":{},\"termination_queries\":{},",
+            self.passes, self.full, self.drawn, self.active, self.termination_queries
+        )
+    }
 }
 
 impl Job {
@@ -114,6 +160,7 @@ impl Job {
             samples_done: 0,
             aov_at_pass: None,
             done: false,
+            cut: Cut::default(),
         }
     }
 }
@@ -176,6 +223,7 @@ impl App {
             progress: false,
             gpu: GpuOptions {
                 kernel: self.params.kernel,
+                tiles: self.params.tiles,
                 ..opts.gpu
             },
             readback: Readback {
@@ -245,6 +293,9 @@ impl App {
         job.render_ms += ms;
         job.passes += out.gpu.as_ref().map_or(0, |g| g.passes_total);
         job.rays += out.rays.total;
+        if let Some(g) = &out.gpu {
+            job.cut.add(g, w as u64 * (y1 - y0) as u64);
+        }
         job.next_row = y1;
         job.done = y1 >= h;
         // Adapt the band to the frame budget (a fixed band when the query string sets one).
@@ -310,6 +361,9 @@ impl App {
                 drop(l);
                 job.passes = out.gpu.as_ref().map_or(0, |g| g.passes_total);
                 job.rays = out.rays.total;
+                if let Some(g) = &out.gpu {
+                    job.cut.add(g, self.width as u64 * self.height as u64);
+                }
                 job.samples_done = self.spp;
                 job.done = true;
                 job.stepped = None;

@@ -4,16 +4,17 @@
 //! the same sources as the native GLSL 1.20.
 //!
 //! The page ([`start`]) picks a shipped scene (embedded) or takes a dropped TOML with its
-//! OBJ/MTL files (meshes the shipped scenes name are fetched from `models/` next to the
-//! page when served, never shipped). A render shows its progress in bands of rows or pass
-//! by pass (`job`); dragging orbits the camera and restarts. Controls pick what is shown
+//! OBJ/MTL files and texture images (meshes and images the shipped scenes name are fetched
+//! from `models/` next to the page when served, never shipped: `files`). A render shows
+//! its progress in bands of rows or pass by pass (`job`); dragging orbits the camera and restarts. Controls pick what is shown
 //! (the colour or a primary-ray AOV, without rendering again), the progress mode and the
 //! samples per pixel. The query string (`params`) sets their first values and what a test
 //! needs: `scene=NAME`, `size=WxH`, `webgl=1|2`, `aov=colour|depth|normal|primid|steps`
 //! (AOVs on WebGL 2), `spp=N`, `progress=passes|passes:N|bands` (default `passes`, or
 //! `bands` where `band=` is given),
 //! `kernel=multipass|unrolled:K|looped` (looped on WebGL 2), `accel=irregular|uniform`,
-//! `band=ROWS|full`, and `report=URL`, to which the first finished render is POSTed (the
+//! `band=ROWS|full`, `tiles=on|off` (traversal passes cut to active tiles, or full), and
+//! `report=URL`, to which the first finished render is POSTed (the
 //! linear image, the primary-ray AOVs where read, and the canvas as shown) with the
 //! passes, time and WebGL limits in the `X-Fragtrace-Report` header (JSON); an error is
 //! POSTed there as `X-Fragtrace-Error`.
@@ -22,6 +23,7 @@
 // (as in the library).
 #![deny(clippy::undocumented_unsafe_blocks)]
 
+mod files;
 mod job;
 mod params;
 
@@ -32,14 +34,18 @@ use fragtrace::accel::Accel;
 use fragtrace::aov::{heat_map, preview, AovKind};
 use fragtrace::choices::Door;
 use fragtrace::clock::Instant;
+use fragtrace::gpu::contract::{REQUIRED_TEXTURE_UNITS, TEXTURED_TEXTURE_UNITS};
 use fragtrace::gpu::options::Kernel;
 use fragtrace::gpu::{GlContext, GpuScene};
 use fragtrace::options::{RenderOptions, MAX_SPP};
 use fragtrace::output::{Aov, AovPixel};
-use fragtrace::scene::{load_scene_str_with_texts, Camera, MeshTexts, Scene};
+use fragtrace::scene::{
+    load_scene_str_with_files, mtl_texture_files, Camera, MeshImages, MeshTexts, Scene,
+};
 use wasm_bindgen::prelude::*;
 use wasm_bindgen::JsCast;
 
+use files::{fetch_bytes, fetch_text, install_drop, post};
 use job::{empty_aov, Job};
 use params::{parse_show, show_name, Params, Progress, Show};
 
@@ -56,6 +62,7 @@ const SCENES: &[(&str, &str)] = &[
     ("dragon", include_str!("../../scenes/dragon.toml")),
     ("stadium", include_str!("../../scenes/stadium.toml")),
     ("sponza", include_str!("../../scenes/sponza.toml")),
+    ("duck-table", include_str!("../../scenes/duck-table.toml")),
 ];
 
 /// A scene on the GPU. The scene and its grid are leaked boxes that the [`GpuScene`]
@@ -141,6 +148,8 @@ struct App {
     scene_name: String,
     toml: String,
     texts: MeshTexts,
+    /// The texture images the meshes' MTLs name (fetched beside them, or dropped).
+    images: MeshImages,
     loaded: Option<Loaded>,
     /// The options of the scene loaded: the query's render flags over its defaults.
     opts: Option<RenderOptions>,
@@ -174,14 +183,6 @@ fn element<T: JsCast>(id: &str) -> T {
         .unwrap_or_else(|_| panic!("#{id} has the wrong type"))
 }
 
-/// A file next to the page, read synchronously (the `models/` folder; `None` when absent).
-fn fetch_text(url: &str) -> Option<String> {
-    let xhr = web_sys::XmlHttpRequest::new().ok()?;
-    xhr.open_with_async("GET", url, false).ok()?;
-    xhr.send().ok()?;
-    (xhr.status().ok()? == 200).then(|| xhr.response_text().ok().flatten())?
-}
-
 impl App {
     fn limits(&self) -> String {
         let i = &self.ctx.info;
@@ -208,7 +209,8 @@ impl App {
         self.loaded = None;
         let mut fetched = 0;
         let scene = loop {
-            match load_scene_str_with_texts(&self.toml, &self.scene_name, &self.texts) {
+            match load_scene_str_with_files(&self.toml, &self.scene_name, &self.texts, &self.images)
+            {
                 Ok(s) => break s,
                 Err(fragtrace::Error::Mesh { file, message }) if fetched < 8 => {
                     let obj = fetch_text(&format!("models/{file}")).ok_or_else(|| {
@@ -223,6 +225,18 @@ impl App {
                             format!("{dir}/{}", lib.trim())
                         };
                         if let Some(t) = fetch_text(&format!("models/{path}")) {
+                            // The images its `map_Kd` name, beside the OBJ (MTL paths are
+                            // relative to it), under the key the loader looks for first.
+                            for image in mtl_texture_files(&t) {
+                                let key = if dir.is_empty() {
+                                    image
+                                } else {
+                                    format!("{dir}/{image}")
+                                };
+                                if let Some(b) = fetch_bytes(&format!("models/{key}")) {
+                                    self.images.insert(key, b);
+                                }
+                            }
                             self.texts.insert(lib.trim().to_string(), t);
                         }
                     }
@@ -256,10 +270,17 @@ impl App {
         self.image = vec![0.0; (w * h * 3) as usize];
         self.display = vec![0; (w * h * 4) as usize];
         self.aov = empty_aov(w, h);
+        let s = self.loaded.as_ref().unwrap().scene();
+        // A texture not found is the material's colour and one line, as natively.
+        let textures = match (s.textures.len(), &s.texture_problems[..]) {
+            (0, []) => String::new(),
+            (n, []) => format!(", {n} image textures"),
+            (n, p) => format!(", {n} image textures; not read: {}", p.join("; ")),
+        };
         self.status = format!(
-            "{}: {} triangles, grid and upload {:.0} ms",
+            "{}: {} triangles{textures}, grid and upload {:.0} ms",
             self.scene_name,
-            self.loaded.as_ref().unwrap().scene().triangles.len(),
+            s.triangles.len(),
             t.elapsed().as_secs_f64() * 1e3
         );
         self.restart();
@@ -345,12 +366,25 @@ impl App {
     /// RGBA bytes).
     fn post_report(&self, url: &str, job: &Job) {
         let i = &self.ctx.info;
+        let scene = self
+            .loaded
+            .as_ref()
+            .expect("a render has its scene")
+            .scene();
+        // The fragment kernels' texture units (`gpu::contract::Unit`): the scene textures'
+        // 16th only where the scene has image textures or texture coordinates.
+        let units = if self.loaded.as_ref().unwrap().gs().layout().tex.is_some() {
+            TEXTURED_TEXTURE_UNITS
+        } else {
+            REQUIRED_TEXTURE_UNITS
+        };
         let json = format!(
             "{{\"scene\":{:?},\"width\":{},\"height\":{},\"kernel\":\"{}\",\"spp\":{},\
              \"progress\":\"{}\",\"frames\":{},\"shown\":\"{}\",\"aov_read\":{},\"aov_at_pass\":{},\"show_ms\":{:.1},\"passes\":{},\
              \"rays\":{},\"render_ms\":{:.1},\"wall_ms\":{:.1},\"renderer\":{:?},\
              \"gl_version\":{:?},\"glsl\":{:?},\"dialect\":{:?},\"max_texture_size\":{},\"max_draw_buffers\":{},\
-             \"max_texture_units\":{},\"max_viewport\":[{},{}],\"extensions\":{:?}}}",
+             \"max_texture_units\":{},\"max_viewport\":[{},{}],\"textures\":{},\"texture_problems\":{},\
+             \"texture_units\":{},{}\"extensions\":{:?}}}",
             self.scene_name,
             self.width,
             self.height,
@@ -375,6 +409,10 @@ impl App {
             i.max_texture_units,
             i.max_viewport_dims.0,
             i.max_viewport_dims.1,
+            scene.textures.len(),
+            scene.texture_problems.len(),
+            units,
+            job.cut.json(),
             i.extensions
         );
         let mut floats = self.image.clone();
@@ -424,18 +462,6 @@ fn srgb8(v: f32) -> u8 {
         1.055 * v.powf(1.0 / 2.4) - 0.055
     };
     (s * 255.0 + 0.5) as u8
-}
-
-/// POSTs `body` to `url` with one header (fire and forget).
-fn post(url: &str, header: &str, value: &str, body: &[u8]) {
-    let Ok(xhr) = web_sys::XmlHttpRequest::new() else {
-        return;
-    };
-    if xhr.open("POST", url).is_err() {
-        return;
-    }
-    let _ = xhr.set_request_header(header, value);
-    let _ = xhr.send_with_opt_u8_array(Some(body));
 }
 
 /// The status line (with a note while the AOV picked is not there yet) and the limits.
@@ -534,6 +560,7 @@ pub fn start() -> Result<(), JsValue> {
         scene_name: scene_name.clone(),
         toml: toml.clone().unwrap_or_default(),
         texts: MeshTexts::new(),
+        images: MeshImages::new(),
         loaded: None,
         opts: None,
         camera: None,
@@ -722,53 +749,5 @@ fn install_mouse(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
     });
     canvas.add_event_listener_with_callback("mousemove", moved.as_ref().unchecked_ref())?;
     moved.forget();
-    Ok(())
-}
-
-/// A dropped `.toml` replaces the scene; dropped `.obj`/`.mtl` files are its meshes (by
-/// file name). Files are read through `Blob.text()` promises, then the scene reloads.
-fn install_drop(app: &Rc<RefCell<App>>) -> Result<(), JsValue> {
-    let body = document().body().ok_or("no body")?;
-    let over = Closure::<dyn FnMut(web_sys::DragEvent)>::new(|e: web_sys::DragEvent| {
-        e.prevent_default();
-    });
-    body.add_event_listener_with_callback("dragover", over.as_ref().unchecked_ref())?;
-    over.forget();
-    let a = app.clone();
-    let drop = Closure::<dyn FnMut(web_sys::DragEvent)>::new(move |e: web_sys::DragEvent| {
-        e.prevent_default();
-        let Some(files) = e.data_transfer().and_then(|d| d.files()) else {
-            return;
-        };
-        let pending = Rc::new(RefCell::new(files.length()));
-        for k in 0..files.length() {
-            let Some(file) = files.get(k) else { continue };
-            let name = file.name();
-            let (a, pending) = (a.clone(), pending.clone());
-            let then = Closure::<dyn FnMut(JsValue)>::new(move |text: JsValue| {
-                let text = text.as_string().unwrap_or_default();
-                let mut app = a.borrow_mut();
-                if name.ends_with(".toml") {
-                    app.scene_name = name.trim_end_matches(".toml").to_string();
-                    app.toml = text;
-                } else {
-                    app.texts.insert(name.clone(), text);
-                }
-                *pending.borrow_mut() -= 1;
-                if *pending.borrow() == 0 {
-                    app.reported = true;
-                    if let Err(e) = app.load() {
-                        fail(&mut app, &e);
-                    } else {
-                        show_status(&app);
-                    }
-                }
-            });
-            let _ = file.text().then(&then);
-            then.forget();
-        }
-    });
-    body.add_event_listener_with_callback("drop", drop.as_ref().unchecked_ref())?;
-    drop.forget();
     Ok(())
 }

@@ -125,6 +125,24 @@ pub struct PageArgs {
     /// Where the page POSTs its finished render (tests and measurements).
     #[arg(long)]
     report: Option<String>,
+    /// Whether the advancing passes draw only the tiles that still hold active rays (on,
+    /// the default) or the full-screen quad (off): the same image; off measures what the
+    /// cut saves (issue 49).
+    // A value, not a flag: a `bool` field would make clap take `tiles` alone.
+    #[arg(long, value_parser = on_off)]
+    tiles: Option<OnOff>,
+}
+
+/// `on` or `off`.
+#[derive(Clone, Copy, Debug)]
+struct OnOff(bool);
+
+fn on_off(s: &str) -> Result<OnOff, String> {
+    match s {
+        "on" => Ok(OnOff(true)),
+        "off" => Ok(OnOff(false)),
+        _ => Err(format!("`{s}`: expected on or off")),
+    }
 }
 
 /// What the query string asks: the render flags (`kernel=`, `spp=`, `width=`, `accel=`,
@@ -149,6 +167,8 @@ pub struct Params {
     /// Rows per band; `None`: adaptive.
     pub band: Option<u32>,
     pub report: Option<String>,
+    /// `tiles=on|off`: [`fragtrace::gpu::options::GpuOptions::tiles`].
+    pub tiles: bool,
 }
 
 impl Params {
@@ -168,6 +188,7 @@ impl Params {
             },
             band: page.band.and_then(|b| b.0),
             report: page.report,
+            tiles: page.tiles.is_none_or(|t| t.0),
             choices,
         })
     }

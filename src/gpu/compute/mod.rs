@@ -414,6 +414,7 @@ pub(crate) fn render(
             passes: setup.stats.passes_total,
             pass: "compute",
             aov: None,
+            advance: None,
         };
         if observer(&snap) == Flow::Cancel {
             return Err(Error::Cancelled);

@@ -22,7 +22,7 @@ use crate::gpu::gl::{
 use crate::gpu::layout::Fetch;
 use crate::gpu::options::{FragmentKernel, GpuOptions, Mask, Storage};
 use crate::gpu::pause::pause;
-use crate::gpu::request::{Flow, Observer, Snapshot};
+use crate::gpu::request::{Advance, Flow, Observer, Snapshot};
 use crate::gpu::scene::{bind_texture, GpuScene};
 use crate::gpu::shader::{Count, Pass};
 use crate::output::{Aov, GpuStats};
@@ -58,6 +58,12 @@ pub(super) struct Frame<'a> {
     /// The rectangles of the active tiles at the last termination query and at the one
     /// before it ([`Cover::Live`] names them; `trace.rs` swaps them).
     pub(super) live: [Rects; 2],
+    /// The same rectangles on the host, and the whole image as one, for the observer.
+    live_rects: [Vec<PixelRect>; 2],
+    full_rect: [PixelRect; 1],
+    /// What the last advancing pass covered, the pixels it drew and the active rays before
+    /// it ([`Snapshot::advance`]).
+    pub(super) last_advance: Option<(Cover, u64, u64)>,
     /// Depth or depth-stencil buffer shared by both ray-state targets (`--mask`).
     pub(super) mask_buffer: Option<Renderbuffer>,
     timers: Option<TimerPool>,
@@ -282,6 +288,14 @@ impl<'a> Frame<'a> {
             },
             tile_queries: Vec::new(),
             live: [Rects::new(ctx)?, Rects::new(ctx)?],
+            live_rects: [Vec::new(), Vec::new()],
+            full_rect: [PixelRect {
+                x0: 0,
+                y0: 0,
+                x1: width,
+                y1: height,
+            }],
+            last_advance: None,
             mask_buffer,
             progress: Progress::hidden(),
             timers: (opts.timers && info.timer_query).then(|| TimerPool {
@@ -506,17 +520,32 @@ impl<'a> Frame<'a> {
     }
 
     /// Counts active rays per tile of [`Frame::grid`] (the `count` pass drawn tile by tile
-    /// under one occlusion query each, colour writes off, into `slot`; WebGL 1: the byte
-    /// target read back once and tallied per tile). Only the tiles where `region` is set are
-    /// drawn (the others count 0): outside them no ray is active.
+    /// under one occlusion query each, colour writes off, into `slot`; WebGL 1: into the
+    /// byte target, read back once and tallied per tile). Only the tiles where `region` is
+    /// set are drawn (the others count 0): outside them no ray is active.
     pub(super) fn count_tiles(&mut self, region: &[bool], slot: Slot) -> Result<Vec<u64>> {
         let pass = Pass::Count(Count::Rays);
         self.bind_state_input();
         self.stats.termination_queries += 1;
         if let Counter::Bytes(target) = &self.counter {
             target.bind(self.gl());
+            // Cleared to "no ray" (1): the tiles not drawn count none.
             state::clear_colour(self.gl(), [1.0; 4]);
-            self.draw(pass, Slot::Count)?;
+            self.gs.bind_textures()?;
+            let timer = self.begin_timer()?;
+            {
+                // Runs of consecutive tiles, one draw each (`tile_rects` holds tile k at k).
+                let bound = self.tile_rects.bind(self.ctx.gl(), &self.programs[&pass]);
+                let mut k = 0;
+                while k < region.len() {
+                    let end = (k..region.len())
+                        .find(|&e| !region[e])
+                        .unwrap_or(region.len());
+                    bound.draw(k..end);
+                    k = end + 1;
+                }
+            }
+            self.end_timer(pass, timer)?;
             let Counter::Bytes(target) = &self.counter else {
                 unreachable!()
             };
@@ -553,6 +582,7 @@ impl<'a> Frame<'a> {
     pub(super) fn set_live(&mut self, k: usize, rects: &[PixelRect]) {
         let (w, h) = self.grid.size();
         self.live[k].upload(self.ctx.gl(), rects, w, h);
+        self.live_rects[k] = rects.to_vec();
     }
 
     /// [`Frame::count_into`] the colour accumulator that is not being read.
@@ -611,6 +641,14 @@ impl Frame<'_> {
             passes: self.stats.passes_total,
             pass: self.last_pass,
             aov: self.aov.as_ref(),
+            advance: self.last_advance.map(|(cover, pixels, active)| Advance {
+                rects: match cover {
+                    Cover::Full => &self.full_rect[..],
+                    Cover::Live(k) => &self.live_rects[k][..],
+                },
+                pixels,
+                active,
+            }),
         };
         match (w.observer)(&snap) {
             Flow::Continue => Ok(()),

@@ -90,6 +90,7 @@ impl Frame<'_> {
         };
         self.stats.advance_pixels += area;
         self.stats.advance_active += cut.active;
+        self.last_advance = Some((cover, area, cut.active));
         self.state_pass_over(pass, cover).await?;
         if let Some(at) = cut.pending.take() {
             cut.drawn_at = at;

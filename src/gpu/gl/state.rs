@@ -32,6 +32,31 @@ pub fn clear_colour(gl: &glow::Context, rgba: [f32; 4]) {
     }
 }
 
+/// Clears each of `rects` (pixels of the bound framebuffer, rows from the bottom) to `rgba`
+/// through the scissor test, which it leaves off: the renderer never turns it on. The clear
+/// colour stays set, as [`clear_colour`] leaves it (every clear of the renderer sets its
+/// own first).
+pub fn clear_rects(gl: &glow::Context, rects: &[super::PixelRect], rgba: [f32; 4]) {
+    let [r, g, b, a] = rgba;
+    // SAFETY: the context is current; the scissor box takes any non-negative integers
+    // (GL clips it to the framebuffer), the widths and heights are those of well-formed
+    // rectangles, and the enums are valid.
+    unsafe {
+        gl.clear_color(r, g, b, a);
+        gl.enable(glow::SCISSOR_TEST);
+        for q in rects.iter().filter(|q| q.x1 > q.x0 && q.y1 > q.y0) {
+            gl.scissor(
+                q.x0 as i32,
+                q.y0 as i32,
+                (q.x1 - q.x0) as i32,
+                (q.y1 - q.y0) as i32,
+            );
+            gl.clear(glow::COLOR_BUFFER_BIT);
+        }
+        gl.disable(glow::SCISSOR_TEST);
+    }
+}
+
 /// Turns writes to all four colour channels on or off: off for a pass drawn only for its
 /// occlusion count (and the mask it writes), so it leaves the target's texels as they were.
 pub fn colour_writes(gl: &glow::Context, on: bool) {

@@ -38,8 +38,9 @@ pub(super) enum Meshes<'a> {
     Refused,
     /// Files: the scene's folder, then the search path.
     Files(&'a Path, &'a [PathBuf]),
-    /// Texts handed over with the scene (the web page's), by path or file name.
-    Texts(&'a super::MeshTexts),
+    /// Texts handed over with the scene (the web page's), by path or file name, and the
+    /// images their MTLs name.
+    Texts(&'a super::MeshTexts, &'a super::MeshImages),
 }
 
 /// The loader proper; `files` is where meshes are looked up.

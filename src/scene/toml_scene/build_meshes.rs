@@ -11,6 +11,7 @@ use super::super::MODEL_PATH_VAR;
 use super::{Builder, Geometry, LoadedMesh, Meshes};
 use crate::scene::model::{load_mesh_instanced, MeshFormat};
 use crate::scene::obj::{no_textures, parse_obj_with, ObjMesh};
+use crate::scene::{Texture, Wrap};
 use crate::{Error, Result};
 
 impl Builder<'_> {
@@ -33,12 +34,14 @@ impl Builder<'_> {
     }
 
     /// [`Builder::mesh`] from texts handed over with the scene: the OBJ (and each of its
-    /// `mtllib`s) by the path written, else by its file name.
+    /// `mtllib`s) by the path written, else by its file name; the images its materials name
+    /// from `images` the same way.
     fn mesh_from_text(
         &mut self,
         path: &S<String>,
         field: &str,
         texts: &super::super::MeshTexts,
+        images: &super::super::MeshImages,
     ) -> Result<LoadedMesh> {
         let written = path.get_ref();
         let key = PathBuf::from(written);
@@ -71,10 +74,24 @@ impl Builder<'_> {
                 .map(|t| (shown.clone(), t.to_owned()))
                 .ok_or_else(|| format!("{shown}: not given"))
         };
+        // `p` is relative to the OBJ's folder (MTL paths are): first beside the OBJ as the
+        // scene writes it, then as is, then by file name.
+        let obj_dir = Path::new(written).parent().unwrap_or(Path::new(""));
+        let image = |p: &Path, wrap: [Wrap; 2]| -> std::result::Result<Texture, String> {
+            let bytes = images
+                .get(&obj_dir.join(p).display().to_string())
+                .or_else(|| images.get(&p.display().to_string()))
+                .or_else(|| images.get(p.file_name()?.to_str()?))
+                .ok_or("not given with the scene")?;
+            Texture::decode(bytes, p.display().to_string(), wrap)
+        };
         let parsed = match MeshFormat::of(Path::new(written)) {
             Some(MeshFormat::Ply) => crate::scene::parse_ply(obj.as_bytes(), written),
             Some(MeshFormat::Gltf) => crate::scene::parse_gltf_instanced(obj.as_bytes(), written),
-            Some(MeshFormat::Obj) | None => parse_obj_with(obj, written, &no_textures, &mtl),
+            Some(MeshFormat::Obj) | None if images.is_empty() => {
+                parse_obj_with(obj, written, &no_textures, &mtl)
+            }
+            Some(MeshFormat::Obj) | None => parse_obj_with(obj, written, &image, &mtl),
         };
         let mesh = Rc::new(parsed.map_err(|e| match e {
             Error::Mesh { .. } | Error::Io { .. } => {
@@ -99,7 +116,7 @@ impl Builder<'_> {
                     "mesh files are not read by this text-only parser",
                 ))
             }
-            Meshes::Texts(texts) => return self.mesh_from_text(path, field, texts),
+            Meshes::Texts(texts, images) => return self.mesh_from_text(path, field, texts, images),
             Meshes::Files(base_dir, search) => (base_dir, search),
         };
         let found = resolve_mesh(written, base_dir, search).map_err(|searched| {

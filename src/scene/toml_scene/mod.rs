@@ -108,11 +108,30 @@ pub fn load_scene_str_with_search_path(
 /// Mesh files handed over as text with a scene: path or file name -> contents (OBJ or MTL).
 pub type MeshTexts = std::collections::HashMap<String, String>;
 
+/// Image files handed over with a scene: path or file name -> the file's bytes (PNG, JPEG
+/// or TGA), the textures its meshes' MTL `map_Kd` statements name.
+pub type MeshImages = std::collections::HashMap<String, Vec<u8>>;
+
 /// Parses scene text whose meshes and their MTL libraries are in `files` (looked up by the
 /// path the scene writes, else by its file name), without touching the file system: how
-/// the web page loads a shipped or dropped scene with dropped or fetched OBJ files.
+/// the web page loads a shipped or dropped scene with dropped or fetched OBJ files. Their
+/// textures are not given: each `map_Kd` is one warning and the material keeps its colour
+/// ([`load_scene_str_with_files`] takes the images too).
 pub fn load_scene_str_with_texts(text: &str, name: &str, files: &MeshTexts) -> Result<Scene> {
-    build::build_scene(text, name, build::Meshes::Texts(files))
+    load_scene_str_with_files(text, name, files, &MeshImages::new())
+}
+
+/// [`load_scene_str_with_texts`] with the texture images in `images`, looked up by the path
+/// the MTL writes joined to the OBJ's folder as the scene writes it
+/// (`duck/duck.obj` + `duckCM.png`: `duck/duckCM.png`), else as written, else by file name. A `map_Kd` whose image is not there, or does not decode,
+/// is one warning, as a missing file is natively.
+pub fn load_scene_str_with_files(
+    text: &str,
+    name: &str,
+    files: &MeshTexts,
+    images: &MeshImages,
+) -> Result<Scene> {
+    build::build_scene(text, name, build::Meshes::Texts(files, images))
 }
 
 /// Parses scene text without touching the file system: any `mesh = ...` is an error naming

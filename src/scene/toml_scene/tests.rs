@@ -649,3 +649,51 @@ fn a_key_without_a_value_is_named_as_such() {
     assert_eq!(line, 6, "{msg}");
     assert!(msg.contains("`position =` has no value"), "{msg}");
 }
+
+/// Images handed over with the texts (the web page's fetched `map_Kd` files): the scene
+/// gets the texture files give, found by the path resolved against the MTL's folder or by
+/// file name; without the image the material keeps its colour and the problem names it.
+#[test]
+fn textures_from_handed_over_images_load_like_files() {
+    let obj = "mtllib tri.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n\
+               usemtl wood\nf 1/1 2/2 3/3\n";
+    let mtl = "newmtl wood\nKd 1 1 1\nmap_Kd tex/wood.png\n";
+    let mut png = Vec::new();
+    let img = image::RgbImage::from_fn(4, 2, |x, y| image::Rgb([x as u8 * 60, y as u8 * 200, 7]));
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let text = format!("{CAM}[[objects]]\nmesh = \"some/dir/tri.obj\"\n");
+    let dir = std::env::temp_dir().join(format!("fragtrace-images-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("some/dir/tex")).unwrap();
+    std::fs::write(dir.join("some/dir/tri.obj"), obj).unwrap();
+    std::fs::write(dir.join("some/dir/tri.mtl"), mtl).unwrap();
+    std::fs::write(dir.join("some/dir/tex/wood.png"), &png).unwrap();
+    let from_files = load_scene_str_with_search_path(&text, "t.toml", &dir, &[]).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(crate::scene::mtl_texture_files(mtl), ["tex/wood.png"]);
+    let texts: MeshTexts = [("some/dir/tri.obj", obj), ("tri.mtl", mtl)]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v.to_string()))
+        .collect();
+    for key in ["some/dir/tex/wood.png", "wood.png"] {
+        let images: MeshImages = [(key.to_string(), png.clone())].into_iter().collect();
+        let s = load_scene_str_with_files(&text, "t.toml", &texts, &images).unwrap();
+        assert!(
+            s.has_textures() && s.texture_problems.is_empty(),
+            "{key}: {:?}",
+            s.texture_problems
+        );
+        assert_eq!(s.textures.len(), 1);
+        assert_eq!(s.textures[0].levels, from_files.textures[0].levels, "{key}");
+        assert_eq!(s.textures[0].wrap, from_files.textures[0].wrap);
+        assert_eq!(s.tri_uvs, from_files.tri_uvs);
+    }
+    let s = load_scene_str_with_files(&text, "t.toml", &texts, &MeshImages::new()).unwrap();
+    assert!(s.textures.is_empty());
+    assert_eq!(s.texture_problems.len(), 1);
+    assert!(
+        s.texture_problems[0].contains("wood") && s.texture_problems[0].contains("tex/wood.png"),
+        "{}",
+        s.texture_problems[0]
+    );
+}
