@@ -738,9 +738,16 @@ fn terminator_gap_of_the_sphere_octant() {
         assert_close(o, oe + l * skip, 1e-14, "on the exact ray");
     }
     // No vertex normals: the exact ray, bit for bit.
-    let flat = SurfacePoint { gap: 0.0, reach: 0.0, ..sp };
+    let flat = SurfacePoint {
+        gap: 0.0,
+        reach: 0.0,
+        ..sp
+    };
     let lp = v(3.0, 3.0, 3.0);
-    assert_eq!(shadow_ray(&flat, lp, Techniques::default()), shadow_ray(&flat, lp, exact_tech));
+    assert_eq!(
+        shadow_ray(&flat, lp, Techniques::default()),
+        shadow_ray(&flat, lp, exact_tech)
+    );
 }
 
 /// A vertex normal perpendicular to the face (as at Sponza's sharp edges) adds nothing:
