@@ -237,7 +237,7 @@ pub fn shadow_ray<T: Real>(
 /// How far a shadow ray of unit direction `l` and length `dist` from `sp` runs before
 /// hits count: until it has risen `2·sp.gap` above the triangle's plane
 /// (`2·gap / (l·nf)`), but at most `sp.reach` and `dist`; zero without a gap. Twice the
-/// gap: the neighbours' folds rise up to about 1.2 gaps above the plane where they block
+/// gap: the neighbours' folds rise up to about 1.25 gaps above the plane where they block
 /// (dragon.toml's speckles, docs/robustness.md).
 #[inline(always)]
 pub fn terminator_skip<T: Real>(sp: &SurfacePoint<T>, l: V3<T>, dist: T) -> T {
