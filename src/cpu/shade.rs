@@ -21,9 +21,10 @@
 //!   height above vertex k's tangent plane, n_k facing the side the ray came from; the
 //!   below-the-planes part is Hanika 2021's lift), and the ray, from the usual offset
 //!   origin, starts where it has risen 2·gap above the triangle's plane, at most a third of
-//!   the longest edge away. Past that every hit counts: the ray is the exact one, so it is
-//!   lit only where the exact ray is, or is blocked so close to p, by the triangle's
-//!   neighbours' folds. Reflected and refracted rays start at `p`.
+//!   the longest edge away. Past that every hit counts: the ray is part of the exact one,
+//!   so it reaches the light wherever the exact ray does, and otherwise only where all
+//!   that blocks the exact ray lies that close to p (the neighbours' folds). Reflected and
+//!   refracted rays start at `p`.
 
 use super::real::{Real, V3};
 use super::traverse::Hit;
