@@ -10,8 +10,8 @@ struct Surface {
     vec3 ns;     // shading normal facing the incoming ray
     bool entering;
     float mat;   // material index
-    vec3 p_sh;   // where shadow rays start: p, lifted onto the smooth surface with
-    vec3 p_sh_err; // TERMINATOR_SMOOTH (cpu/shade.rs: p_shadow, p_shadow_err)
+    float gap;   // with TERMINATOR_SMOOTH: how far p lies from the smooth surface along
+    float reach; // nf, and the most a shadow ray skips (cpu/shade.rs: gap, reach)
 #ifdef HAS_TEXTURES
     vec3 b;        // barycentrics of p (texture coordinates, vertex colours)
     float tri;     // the triangle hit
@@ -20,11 +20,10 @@ struct Surface {
 };
 
 #ifdef TERMINATOR_SMOOTH
-// Vertex v's share of the shadow-terminator lift of p (Hanika 2021; CPU twin
-// terminator_lift): b times the way up to v's tangent plane where p lies below it.
-vec3 terminator_lift(vec3 p, vec3 v, vec3 n, float b) {
-    float h = dot(p - v, n);
-    return h < 0.0 ? n * (b * -h) : vec3(0.0);
+// Vertex v's share of the terminator gap of p (CPU twin terminator_gap): b times p's
+// distance from v's tangent plane, along n.
+vec3 terminator_gap(vec3 p, vec3 v, vec3 n, float b) {
+    return n * (b * abs(dot(p - v, n)));
 }
 #endif
 
@@ -42,8 +41,8 @@ Surface surface(vec3 o, vec3 d, float tri) {
     s.entering = dot(d, s.ng) < 0.0;
     s.nf = s.entering ? s.ng : -s.ng;
     s.ns = s.nf;
-    s.p_sh = s.p;
-    s.p_sh_err = s.p_err;
+    s.gap = 0.0;
+    s.reach = 0.0;
 #ifdef HAS_TEXTURES
     s.b = b;
     s.tri = tri;
@@ -64,21 +63,24 @@ Surface surface(vec3 o, vec3 d, float tri) {
             s.flipped = flip;
 #endif
 #ifdef TERMINATOR_SMOOTH
-            // Vertex normals on the side ns faces (CPU twin: surface's p_shadow).
+            // Vertex normals on the side ns faces (CPU twin: surface's gap).
             if (flip) {
                 n0 = -n0;
                 n1 = -n1;
                 n2 = -n2;
             }
-            vec3 lift = terminator_lift(s.p, t0.xyz, n0, b.x)
-                + terminator_lift(s.p, t1.xyz, n1, b.y)
-                + terminator_lift(s.p, t2.xyz, n2, b.z);
-            // Only its component along nf: never sideways, never below the plane.
-            float up = dot(lift, s.nf);
+            vec3 away = terminator_gap(s.p, t0.xyz, n0, b.x)
+                + terminator_gap(s.p, t1.xyz, n1, b.y)
+                + terminator_gap(s.p, t2.xyz, n2, b.z);
+            // Only its component along nf (CPU twin: surface's gap).
+            float up = dot(away, s.nf);
             if (up > 0.0) {
-                lift = s.nf * up;
-                s.p_sh = s.p + lift;
-                s.p_sh_err = s.p_err + (abs(s.p_sh) + abs(lift)) * gamma_n(4.0);
+                s.gap = up;
+                // A third of the longest edge (CPU twin: third_of_longest_edge).
+                vec3 e0 = t1.xyz - t0.xyz;
+                vec3 e1 = t2.xyz - t1.xyz;
+                vec3 e2 = t0.xyz - t2.xyz;
+                s.reach = sqrt(max(max(dot(e0, e0), dot(e1, e1)), dot(e2, e2))) * (1.0 / 3.0);
             }
 #endif
         }
@@ -251,18 +253,27 @@ vec3 ambient_term(Surface s, vec3 ambient) {
 
 // The shadow ray from s towards a point light at light_pos: false where the light is below
 // the geometric or shading horizon (it then contributes nothing), else the ray's origin
-// (offset from p_sh: the CPU's shadow_origin), unit direction l and length dist
-// (shadow_spawn.frag; the compute kernel).
+// (offset from p), unit direction l and length dist; with TERMINATOR_SMOOTH it starts
+// further along the same line, where it has risen 2 s.gap above the triangle's plane, at
+// most s.reach away (the CPU's shadow_ray and terminator_skip) (shadow_spawn.frag; the
+// compute kernel).
 bool shadow_ray(Surface s, vec3 light_pos, out vec3 o, out vec3 l, out float dist) {
     o = vec3(0.0);
     l = vec3(0.0, 0.0, 1.0);
     dist = 0.0;
     vec3 to_l = light_pos - s.p;
     if (!(dot(to_l, s.nf) > 0.0 && dot(s.ns, to_l) > 0.0)) return false;
-    o = offset_point(s.p_sh, s.p_sh_err, s.ng, to_l);
+    o = offset_point(s.p, s.p_err, s.ng, to_l);
     vec3 dl = light_pos - o;
     dist = length(dl);
     l = dl * (1.0 / dist);
+    if (s.gap > 0.0) {
+        float rise = dot(s.nf, l);
+        float height = s.gap + s.gap;
+        float skip = min(height < s.reach * rise ? height / rise : s.reach, dist);
+        o += l * skip;
+        dist -= skip;
+    }
     return true;
 }
 

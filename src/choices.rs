@@ -155,9 +155,10 @@ pub struct Choices {
     /// epsilon (a fixed 1e-4 along the normal). For measuring the technique's cost.
     #[arg(long, value_enum, default_value_t = OffsetMethod::ErrorBound)]
     pub offset: OffsetMethod,
-    /// Shadow rays of smooth-shaded meshes: smooth (start on the surface the vertex normals
-    /// describe, Hanika 2021; the default: no dark speckles near the terminator) or exact
-    /// (start on the triangle). For measuring the technique's cost and value.
+    /// Shadow rays of smooth-shaded meshes: smooth (skip the neighbouring triangles' folds
+    /// under the surface the vertex normals describe; the default: no dark speckles near
+    /// the terminator) or exact (test from the triangle on). For measuring the technique's
+    /// cost and value.
     #[arg(long, value_enum, default_value_t = Terminator::Smooth)]
     pub terminator: Terminator,
     /// GPU: keep linked programs as binaries in the user's cache folder, so the next run

@@ -52,10 +52,11 @@ pub enum OffsetMethod {
 /// tangent plane, the triangles shadow points that the smooth shading lights.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, ValueEnum)]
 pub enum Terminator {
-    /// Hanika, "Hacking the Shadow Terminator" (Ray Tracing Gems II, 2021): the shadow
-    /// ray's origin is the barycentric mix of the hit point's projections onto the three
-    /// vertices' tangent planes (only outwards), a point of the smooth surface; then the
-    /// usual offset. Only shadow rays, only triangles with vertex normals.
+    /// The shadow ray is the exact one (from the triangle, the usual offset) less its
+    /// start: it tests hits only once it has risen twice the hit point's distance from the
+    /// smooth surface (the mix of its heights above the vertices' tangent planes, Hanika
+    /// 2021's lift on the convex side) above the triangle's plane, and at most from a
+    /// third of the longest edge on. Only triangles with vertex normals.
     #[default]
     Smooth,
     /// Shadow rays start on the triangle itself: exact for the triangles, dark speckles

@@ -15,11 +15,16 @@
 //! - Spawned rays start at the hit point offset along ±ng by pbrt's error bound of the
 //!   barycentric hit point, then nudged one more rounding step away from the surface:
 //!   the offset scales with the coordinates, never with a fixed epsilon.
-//! - Shadow rays of triangles with vertex normals start from the smooth surface the normals
-//!   describe (`Terminator::Smooth`, Hanika 2021): `p_shadow` = p + Σ b_k·max(0, -h_k)·n_k,
-//!   where h_k = (p - v_k)·n_k is the height of p above vertex k's tangent plane and n_k
-//!   faces the side the ray came from; kept only when it leaves p towards that side. The
-//!   usual offset then applies from there. Reflected and refracted rays start at `p`.
+//! - Shadow rays of triangles with vertex normals (`Terminator::Smooth`) ignore hits
+//!   while they are still within the mesh's own folds: `gap` = nf·Σ b_k·|h_k|·n_k is how
+//!   far p lies from the smooth surface those normals describe (h_k = (p - v_k)·n_k its
+//!   height above vertex k's tangent plane, n_k facing the side the ray came from; the
+//!   below-the-planes part is Hanika 2021's lift), and the ray, from the usual offset
+//!   origin, starts where it has risen 2·gap above the triangle's plane, at most a third of
+//!   the longest edge away. Past that every hit counts: the ray is part of the exact one,
+//!   so it reaches the light wherever the exact ray does, and otherwise only where all
+//!   that blocks the exact ray lies that close to p (the neighbours' folds). Reflected and
+//!   refracted rays start at `p`.
 
 use super::real::{Real, V3};
 use super::traverse::Hit;
@@ -43,13 +48,14 @@ pub struct SurfacePoint<T> {
     pub entering: bool,
     /// Material index.
     pub material: u32,
-    /// Where shadow rays start with [`Terminator::Smooth`]: `p` lifted onto the smooth
-    /// surface of the vertex normals (equal to `p` without vertex normals, or where the
-    /// lift would not leave the triangle towards the incoming ray's side).
-    pub p_shadow: V3<T>,
-    /// Absolute error bound of `p_shadow` per component, as a position on the side of the
-    /// triangle it was lifted to (`p_err` plus the lift's own rounding).
-    pub p_shadow_err: V3<T>,
+    /// How far `p` lies from the smooth surface of the vertex normals, along `nf`
+    /// (nf·Σ b_k·|h_k|·n_k, ≥ 0): the height a [`Terminator::Smooth`] shadow ray rises
+    /// through, twice over, before it tests hits ([`terminator_skip`]). Zero without vertex
+    /// normals or where the sum is not positive.
+    pub gap: T,
+    /// The most a shadow ray skips: a third of the triangle's longest edge (the folds of
+    /// its neighbours lie within about that); zero where `gap` is.
+    pub reach: T,
     /// True when the interpolated vertex normal faced away from the incoming ray (so `ns`
     /// is its negation): the ray sees the surface's curvature with the opposite sign.
     pub flipped: bool,
@@ -97,7 +103,7 @@ pub fn surface_with<T: Real>(
     let nf = if entering { ng } else { -ng };
     let tri = &scene.triangles[hit.tri as usize];
     let mut ns = nf;
-    let (mut p_shadow, mut p_shadow_err) = (p, p_err);
+    let (mut gap, mut reach) = (T::ZERO, T::ZERO);
     let mut flipped = false;
     if tri.has_normals() {
         let n = |k: usize| V3::<T>::from_vec3(scene.normals[tri.n[k] as usize]);
@@ -110,20 +116,16 @@ pub fn surface_with<T: Real>(
             ns = if flip { -s } else { s };
             // The vertex normals on the side the shading normal faces, as ns is.
             let nk = |k: usize| if flip { -n(k) } else { n(k) };
-            let lift = terminator_lift(p, verts[0], nk(0), b0)
-                + terminator_lift(p, verts[1], nk(1), b1)
-                + terminator_lift(p, verts[2], nk(2), b2);
-            // Only the lift's component along the facing normal: off the triangle towards
-            // the viewer's side, never sideways (a vertex normal far from the face, as at
-            // Sponza's sharp edges, would move the origin along the surface into a
-            // neighbouring wall), and never below the plane (the shadow ray would cross
-            // its own triangle).
-            let up = lift.dot(nf);
+            let away = terminator_gap(p, verts[0], nk(0), b0)
+                + terminator_gap(p, verts[1], nk(1), b1)
+                + terminator_gap(p, verts[2], nk(2), b2);
+            // Only its component along the facing normal: the shadow ray's rise off the
+            // triangle is measured along it (a vertex normal far from the face, as at
+            // Sponza's sharp edges, adds nothing).
+            let up = away.dot(nf);
             if up > T::ZERO {
-                let lift = nf * up;
-                p_shadow = p + lift;
-                // The sum's rounding, and the rounding of the side test above.
-                p_shadow_err = p_err + (p_shadow.abs() + lift.abs()) * T::gamma(4);
+                gap = up;
+                reach = third_of_longest_edge(verts);
             }
         }
     }
@@ -135,25 +137,31 @@ pub fn surface_with<T: Real>(
         ns,
         entering,
         material: tri.material,
-        p_shadow,
-        p_shadow_err,
+        gap,
+        reach,
         flipped,
     }
 }
 
-/// Vertex `v`'s share of the shadow-terminator lift of hit point `p` with barycentric
-/// weight `b`: the way up to the tangent plane of unit normal `n` at `v`, weighted by `b`,
-/// where `p` lies below that plane; nothing where it lies above (Hanika 2021, which
-/// projects p onto the three tangent planes and mixes the projections; the same point,
-/// without the rounding of Σ b_k·(p - v_k) = 0).
+/// A third of the longest edge of triangle `verts`: [`SurfacePoint::reach`].
 #[inline(always)]
-fn terminator_lift<T: Real>(p: V3<T>, v: V3<T>, n: V3<T>, b: T) -> V3<T> {
-    let h = (p - v).dot(n);
-    if h < T::ZERO {
-        n * (b * -h)
-    } else {
-        V3::splat(T::ZERO)
-    }
+pub fn third_of_longest_edge<T: Real>(verts: &[V3<T>; 3]) -> T {
+    let e2 = |a: V3<T>, b: V3<T>| (b - a).dot(b - a);
+    let m = e2(verts[0], verts[1])
+        .max(e2(verts[1], verts[2]))
+        .max(e2(verts[2], verts[0]));
+    m.sqrt() * T::from_f64(1.0 / 3.0)
+}
+
+/// Vertex `v`'s share of the terminator gap of hit point `p` with barycentric weight `b`:
+/// `b·|h|·n`, `h` = (p - v)·n the height of `p` above the tangent plane of unit normal `n`
+/// at `v`. Below the plane (a convex region: the triangle lies under the smooth surface)
+/// it is Hanika's lift, "Hacking the Shadow Terminator" (Ray Tracing Gems II, 2021);
+/// above it (concave: the neighbours fold up above the triangle's plane) it is the same
+/// distance the other way.
+#[inline(always)]
+fn terminator_gap<T: Real>(p: V3<T>, v: V3<T>, n: V3<T>, b: T) -> V3<T> {
+    n * (b * (p - v).dot(n).abs())
 }
 
 /// Origin for a ray leaving `sp` in direction `w`: offset to the side of the surface that
@@ -194,26 +202,13 @@ pub fn offset_origin_with<T: Real>(sp: &SurfacePoint<T>, w: V3<T>, method: Offse
     V3::new(nudge(po.x, off.x), nudge(po.y, off.y), nudge(po.z, off.z))
 }
 
-/// Origin of the shadow ray from `sp` towards a light in direction `to_l` (light position
-/// minus `sp.p`): offset by `tech.offset` from `sp.p_shadow` with [`Terminator::Smooth`],
-/// from `sp.p` with [`Terminator::Exact`].
-pub fn shadow_origin<T: Real>(sp: &SurfacePoint<T>, to_l: V3<T>, tech: Techniques) -> V3<T> {
-    match tech.terminator {
-        Terminator::Exact => offset_origin_with(sp, to_l, tech.offset),
-        Terminator::Smooth => {
-            let lifted = SurfacePoint {
-                p: sp.p_shadow,
-                p_err: sp.p_shadow_err,
-                ..*sp
-            };
-            offset_origin_with(&lifted, to_l, tech.offset)
-        }
-    }
-}
-
 /// The shadow ray from `sp` towards a point light at `lp`: its origin (offset off the
 /// surface by `tech`), unit direction and length, or `None` when the light is below the
 /// geometric or shading horizon. The scalar reference of `shade_lanes::shadows_generic`.
+///
+/// With [`Terminator::Smooth`] the ray starts [`terminator_skip`] further along the exact
+/// ray (from `p` offset by `tech.offset`): the stretch within the neighbours' folds is not
+/// tested, the rest is.
 pub fn shadow_ray<T: Real>(
     sp: &SurfacePoint<T>,
     lp: V3<T>,
@@ -223,10 +218,43 @@ pub fn shadow_ray<T: Real>(
     if to_l.dot(sp.nf) <= T::ZERO || sp.ns.dot(to_l) <= T::ZERO {
         return None; // below the geometric or shading horizon
     }
-    let o = shadow_origin(sp, to_l, tech);
+    let o = offset_origin_with(sp, to_l, tech.offset);
     let dl = lp - o;
     let dist = dl.length();
-    Some((o, dl * (T::ONE / dist), dist))
+    let l = dl * (T::ONE / dist);
+    match tech.terminator {
+        Terminator::Exact => Some((o, l, dist)),
+        Terminator::Smooth => {
+            let skip = terminator_skip(sp, l, dist);
+            if skip > T::ZERO {
+                Some((o + l * skip, l, dist - skip))
+            } else {
+                Some((o, l, dist))
+            }
+        }
+    }
+}
+
+/// How far a shadow ray of unit direction `l` and length `dist` from `sp` runs before
+/// hits count: until it has risen `2·sp.gap` above the triangle's plane
+/// (`2·gap / (l·nf)`), but at most `sp.reach` and `dist`; zero without a gap. Twice the
+/// gap: the neighbours' folds rise up to about 1.25 gaps above the plane where they block
+/// (dragon.toml's speckles, docs/robustness.md).
+#[inline(always)]
+pub fn terminator_skip<T: Real>(sp: &SurfacePoint<T>, l: V3<T>, dist: T) -> T {
+    if sp.gap > T::ZERO {
+        let rise = sp.nf.dot(l);
+        let height = sp.gap + sp.gap;
+        // height / rise where that is below reach (no division by a tiny rise).
+        let skip = if height < sp.reach * rise {
+            height / rise
+        } else {
+            sp.reach
+        };
+        skip.min(dist)
+    } else {
+        T::ZERO
+    }
 }
 
 /// Albedo at point `p` (the checker replaces the flat colour when present).

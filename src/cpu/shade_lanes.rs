@@ -1,6 +1,6 @@
 //! Direct lighting of [`LANES`] hits at once, structure of arrays: the surface point
-//! (`shade::surface_with`), the shadow ray towards a point light (`CpuRenderer`'s
-//! `shadow_ray` with `shade::shadow_origin`) and the light's term
+//! (`shade::surface_with`), the shadow ray towards a point light (`shade::shadow_ray`)
+//! and the light's term
 //! (`shade::light_term`), each lane computed with exactly the scalar functions' operations
 //! in their order, so every bit equals theirs (`shade_lanes_tests.rs` checks it on random
 //! and degenerate inputs). Not a GLSL twin: the GPU shades one ray per invocation.
@@ -15,7 +15,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::real::{Real, V3};
-use super::shade::SurfacePoint;
+use super::shade::{third_of_longest_edge, SurfacePoint};
 use crate::technique::{OffsetMethod, Techniques, Terminator, OFFSET_EPSILON};
 
 /// Hits shaded together: one AVX-512 register of f32.
@@ -105,10 +105,10 @@ pub struct Surfaces<T> {
     pub nf: V3L<T>,
     /// Shading normal facing the ray.
     pub ns: V3L<T>,
-    /// Shadow-ray origin before the offset (the terminator lift).
-    pub p_shadow: V3L<T>,
-    /// Its error bound.
-    pub p_shadow_err: V3L<T>,
+    /// Distance of the hit point from the smooth surface (the terminator gap).
+    pub gap: Lane<T>,
+    /// The most a shadow ray skips under it.
+    pub reach: Lane<T>,
     /// True where the ray enters the surface.
     pub entering: [bool; LANES],
     /// True where the interpolated normal was flipped to face the ray.
@@ -124,8 +124,8 @@ impl<T: Real> Surfaces<T> {
             ng: V3L::zero(),
             nf: V3L::zero(),
             ns: V3L::zero(),
-            p_shadow: V3L::zero(),
-            p_shadow_err: V3L::zero(),
+            gap: [T::ZERO; LANES],
+            reach: [T::ZERO; LANES],
             entering: [false; LANES],
             flipped: [false; LANES],
         }
@@ -141,8 +141,8 @@ impl<T: Real> Surfaces<T> {
             ns: self.ns.get(k),
             entering: self.entering[k],
             material,
-            p_shadow: self.p_shadow.get(k),
-            p_shadow_err: self.p_shadow_err.get(k),
+            gap: self.gap[k],
+            reach: self.reach[k],
             flipped: self.flipped[k],
         }
     }
@@ -183,7 +183,6 @@ fn dot<T: Real>(a: V3<T>, b: V3<T>) -> T {
 #[inline(always)]
 pub fn surfaces_generic<T: Real>(i: &SurfaceIn<T>, s: &mut Surfaces<T>) {
     let g7 = T::gamma(7);
-    let g4 = T::gamma(4);
     s.ng = i.ng;
     for k in 0..LANES {
         let (b0, b1, b2) = (i.b[0][k], i.b[1][k], i.b[2][k]);
@@ -201,26 +200,17 @@ pub fn surfaces_generic<T: Real>(i: &SurfaceIn<T>, s: &mut Surfaces<T>) {
         let sn = sn * (T::ONE / l);
         let flip = dot(sn, nf) < T::ZERO;
         let nk = |n: V3<T>| if flip { -n } else { n };
-        let lift_of = |v: V3<T>, n: V3<T>, b: T| {
-            let h = (p - v).dot(n);
-            if h < T::ZERO {
-                n * (b * -h)
-            } else {
-                V3::splat(T::ZERO)
-            }
-        };
-        let lift = lift_of(v0, nk(n0), b0) + lift_of(v1, nk(n1), b1) + lift_of(v2, nk(n2), b2);
-        let up = lift.dot(nf);
+        let gap_of = |v: V3<T>, n: V3<T>, b: T| n * (b * (p - v).dot(n).abs());
+        let away = gap_of(v0, nk(n0), b0) + gap_of(v1, nk(n1), b1) + gap_of(v2, nk(n2), b2);
+        let up = away.dot(nf);
         let lifted = ok && up > T::ZERO;
-        let lift = nf * up;
-        let p_sh = p + lift;
-        let p_sh_err = p_err + (p_sh.abs() + lift.abs()) * g4;
         s.p.set(k, p);
         s.p_err.set(k, p_err);
         s.nf.set(k, nf);
         s.ns.set(k, if ok { nk(sn) } else { nf });
-        s.p_shadow.set(k, if lifted { p_sh } else { p });
-        s.p_shadow_err.set(k, if lifted { p_sh_err } else { p_err });
+        s.gap[k] = if lifted { up } else { T::ZERO };
+        let reach = third_of_longest_edge(&[v0, v1, v2]);
+        s.reach[k] = if lifted { reach } else { T::ZERO };
         s.entering[k] = entering;
         s.flipped[k] = ok && flip;
     }
@@ -248,19 +238,14 @@ pub fn shadows_generic<T: Real>(
         let (p, nf, ns, ng) = (s.p.get(k), s.nf.get(k), s.ns.get(k), s.ng.get(k));
         let to_l = lp - p;
         out.cast[k] = live[k] && !(to_l.dot(nf) <= T::ZERO || ns.dot(to_l) <= T::ZERO);
-        let (pp, pe) = if smooth {
-            (s.p_shadow.get(k), s.p_shadow_err.get(k))
-        } else {
-            (p, s.p_err.get(k))
-        };
         let below = to_l.dot(ng) < T::ZERO;
         let o = match tech.offset {
-            OffsetMethod::Epsilon => pp + ng * if below { -eps } else { eps },
+            OffsetMethod::Epsilon => p + ng * if below { -eps } else { eps },
             OffsetMethod::ErrorBound => {
-                let dist = ng.abs().dot(pe);
+                let dist = ng.abs().dot(s.p_err.get(k));
                 let off = ng * dist;
                 let off = if below { -off } else { off };
-                let po = pp + off;
+                let po = p + off;
                 let nudge = |x: T, o: T| {
                     let step = x.abs() * u2 + tiny;
                     let moved = x + if o > T::ZERO { step } else { -step };
@@ -275,9 +260,25 @@ pub fn shadows_generic<T: Real>(
         };
         let dl = lp - o;
         let dist = dl.length();
-        out.dist[k] = dist;
-        out.l.set(k, dl * (T::ONE / dist));
-        out.o.set(k, o);
+        let l = dl * (T::ONE / dist);
+        // The terminator's skip (`shade::terminator_skip`), zero with `Exact`.
+        let (gap, reach) = (s.gap[k], s.reach[k]);
+        let rise = dot(nf, l);
+        let height = gap + gap;
+        let skip = if height < reach * rise {
+            height / rise
+        } else {
+            reach
+        };
+        let skip = if smooth && gap > T::ZERO {
+            skip.min(dist)
+        } else {
+            T::ZERO
+        };
+        let skipped = skip > T::ZERO;
+        out.dist[k] = if skipped { dist - skip } else { dist };
+        out.l.set(k, l);
+        out.o.set(k, if skipped { o + l * skip } else { o });
     }
 }
 

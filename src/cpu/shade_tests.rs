@@ -39,8 +39,8 @@ fn point(p: V3<f64>, ng: V3<f64>, d: V3<f64>, ns: Option<V3<f64>>) -> SurfacePoi
         ns: ns.unwrap_or(nf),
         entering,
         material: 0,
-        p_shadow: p,
-        p_shadow_err: V3::splat(0.0),
+        gap: 0.0,
+        reach: 0.0,
         flipped: false,
     }
 }
@@ -698,59 +698,64 @@ fn octant() -> (Scene, [V3<f64>; 3]) {
     (scene, tri.map(V3::from_vec3))
 }
 
-/// Hanika's lift, by hand: at the centroid of the octant triangle, p·v_k = 1/3, so p lies
-/// 2/3 below each vertex's tangent plane; the mix Σ (1/3)(2/3)·v_k = (2/9)(1,1,1) lies
-/// along the face normal, so p_shadow = (1/3 + 2/9)(1,1,1) = (5/9)(1,1,1): between the
-/// flat face (|p| = 0.577) and the sphere (1). Seen from inside (the flipped side) p lies
-/// above the flipped planes: no lift. The shadow origin is offset from p_shadow with the
-/// smooth terminator, from p with the exact one.
+/// The terminator gap by hand on the sphere octant (vertex normals = vertices): p·v_k - 1
+/// is p's height above vertex k's tangent plane. At the centroid each is -2/3, so the gap
+/// is Σ (1/3)(2/3)·v_k·nf = 2/(3√3), Hanika's lift, between the flat face (|p| = 0.577)
+/// and the sphere (1); seen from inside (the flipped side) the same distance. At
+/// b = (0.9, 0.05, 0.05) the heights are -0.1, -0.95, -0.95 and the gap 0.185/√3. The
+/// smooth terminator's shadow ray is the exact one less its first 2·gap / cos θ (θ from the
+/// face normal), at most a third of the longest edge (√2/3).
 #[test]
-fn terminator_lift_of_the_sphere_octant() {
+fn terminator_gap_of_the_sphere_octant() {
     let (scene, verts) = octant();
     let third = 1.0 / 3.0;
-    let hit = Hit {
-        t: 1.0,
-        tri: 0,
-        b: [third; 3],
+    let at = |b: [f64; 3], d: V3<f64>| {
+        let hit = Hit { t: 1.0, tri: 0, b };
+        surface(&scene, &verts, &hit, d.normalize())
     };
-    let outside = surface(&scene, &verts, &hit, v(-1.0, -1.0, -1.0).normalize());
+    let outside = at([third; 3], v(-1.0, -1.0, -1.0));
     assert_close(outside.p, v(third, third, third), 1e-15, "centroid");
-    assert_close(
-        outside.p_shadow,
-        v(5.0 / 9.0, 5.0 / 9.0, 5.0 / 9.0),
-        1e-15,
-        "lifted",
-    );
-    // The error bound grows by the lift's rounding only.
-    let e = outside.p_shadow_err - outside.p_err;
-    assert!(
-        e.x > 0.0 && e.y > 0.0 && e.z > 0.0 && e.max_elem() < 1e-14,
-        "{e:?}"
-    );
-    let inside = surface(&scene, &verts, &hit, v(1.0, 1.0, 1.0).normalize());
-    assert_eq!(inside.p_shadow, inside.p, "no lift on the concave side");
-    assert_eq!(inside.p_shadow_err, inside.p_err);
+    let gap = 2.0 / (3.0 * 3f64.sqrt());
+    assert!((outside.gap - gap).abs() < 1e-15, "{}", outside.gap);
+    let inside = at([third; 3], v(1.0, 1.0, 1.0));
+    assert!((inside.gap - gap).abs() < 1e-15, "{}", inside.gap);
+    let reach = 2f64.sqrt() / 3.0;
+    assert!((outside.reach - reach).abs() < 1e-15, "{}", outside.reach);
 
-    let to_l = v(3.0, 3.0, 3.0) - outside.p;
-    let smooth = shadow_origin(&outside, to_l, Techniques::default());
-    let exact = shadow_origin(
-        &outside,
-        to_l,
-        Techniques::default().with_terminator(Terminator::Exact),
-    );
-    assert_eq!(exact, offset_origin(&outside, to_l));
-    let d = smooth - v(5.0 / 9.0, 5.0 / 9.0, 5.0 / 9.0);
-    assert!(
-        d.dot(outside.nf) > 0.0 && d.length() < 1e-14,
-        "offset from the lifted point: {d:?}"
+    let exact_tech = Techniques::default().with_terminator(Terminator::Exact);
+    let sp = at([0.9, 0.05, 0.05], v(-1.0, -1.0, -1.0));
+    let gap = 0.185 / 3f64.sqrt();
+    assert!((sp.gap - gap).abs() < 1e-15, "{}", sp.gap);
+    let t = v(1.0, -1.0, 0.0).normalize();
+    for (deg, skip) in [(0.0f64, 2.0 * gap), (60.0, 4.0 * gap), (80.0, reach)] {
+        let (c, s) = (deg.to_radians().cos(), deg.to_radians().sin());
+        let lp = sp.p + (sp.nf * c + t * s) * 10.0;
+        let (o, l, dist) = shadow_ray(&sp, lp, Techniques::default()).unwrap();
+        let (oe, le, de) = shadow_ray(&sp, lp, exact_tech).unwrap();
+        assert_eq!(oe, offset_origin(&sp, lp - sp.p));
+        assert_eq!(l, le, "{deg}°: the exact ray's direction");
+        assert!((de - dist - skip).abs() < 1e-13, "{deg}°: {de} - {dist}");
+        assert_close(o, oe + l * skip, 1e-14, "on the exact ray");
+    }
+    // No vertex normals: the exact ray, bit for bit.
+    let flat = SurfacePoint {
+        gap: 0.0,
+        reach: 0.0,
+        ..sp
+    };
+    let lp = v(3.0, 3.0, 3.0);
+    assert_eq!(
+        shadow_ray(&flat, lp, Techniques::default()),
+        shadow_ray(&flat, lp, exact_tech)
     );
 }
 
-/// A vertex normal perpendicular to the face (as at Sponza's sharp edges) lifts nothing
-/// sideways: only the lift's component along the facing normal is taken, and a point above
-/// the three tangent planes (a concave fold, as at dragon.toml's pixel (292, 206)) stays.
+/// A vertex normal perpendicular to the face (as at Sponza's sharp edges) adds nothing:
+/// only the gap's component along the facing normal counts; a point above the three
+/// tangent planes (a concave fold, as at dragon.toml's pixel (292, 206)) gets the same gap
+/// as one below them by as much.
 #[test]
-fn terminator_lift_is_along_the_face_normal_and_only_upwards() {
+fn terminator_gap_is_along_the_face_normal_on_both_sides() {
     let (scene, verts) = smooth_scene([Vec3::Z, Vec3::Z, Vec3::new(-1.0, 0.0, 0.0)]);
     let hit = Hit {
         t: 1.0,
@@ -760,23 +765,26 @@ fn terminator_lift_is_along_the_face_normal_and_only_upwards() {
     let sp = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
     // h_2 = (p - (0,1,0))·(-1,0,0) = -0.25: Hanika's point moves 0.5·0.25 along -x; the
     // other two planes contain p. Nothing of it is along +z.
-    assert_eq!(sp.p_shadow, sp.p);
-    // Concave: normals tilted towards the centre, so p lies above each tangent plane.
+    assert_eq!(sp.gap, 0.0);
+    assert_eq!(sp.reach, 0.0);
+    // Concave: normals tilted towards the centre, so p lies above each tangent plane by
+    // 0.75, 1.25 and 0.75 times s/|n|; convex (tilted away), below by as much.
     let s = 0.6f32;
     let (scene, verts) = smooth_scene([
         Vec3::new(s, s, 1.0).normalize(),
         Vec3::new(-s, s, 1.0).normalize(),
         Vec3::new(s, -s, 1.0).normalize(),
     ]);
-    let sp = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
-    assert_eq!(sp.p_shadow, sp.p, "concave: no lift");
-    // Tilted away from the centre (convex): lifted straight up.
+    let concave = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
     let (scene, verts) = smooth_scene([
         Vec3::new(-s, -s, 1.0).normalize(),
         Vec3::new(s, -s, 1.0).normalize(),
         Vec3::new(-s, s, 1.0).normalize(),
     ]);
-    let sp = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
-    let d = sp.p_shadow - sp.p;
-    assert!(d.x == 0.0 && d.y == 0.0 && d.z > 0.05, "{d:?}");
+    let convex = surface(&scene, &verts, &hit, v(0.0, 0.0, -1.0));
+    let n2 = 1.0 + 2.0 * (s as f64) * (s as f64);
+    let want = (0.25 * 0.75 + 0.25 * 1.25 + 0.5 * 0.75) * s as f64 / n2;
+    assert!((convex.gap - want).abs() < 1e-7, "{} vs {want}", convex.gap);
+    assert!((concave.gap - convex.gap).abs() < 1e-7, "{}", concave.gap);
+    assert!((convex.reach - 2f64.sqrt() / 3.0).abs() < 1e-15);
 }
