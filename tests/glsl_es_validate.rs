@@ -241,4 +241,4 @@ impl Fnv1a {
 }
 
 /// See [`glsl_120_output_is_unchanged`].
-const GLSL_120_HASH: u64 = 0x0784_2866_8d00_2f50;
+const GLSL_120_HASH: u64 = 0x47d2_cc4a_1c02_c3de;

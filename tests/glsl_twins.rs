@@ -14,3 +14,5 @@ mod intersect;
 mod shading;
 #[path = "glsl_twins/split_index.rs"]
 mod split_index;
+#[path = "glsl_twins/texture_fetch.rs"]
+mod texture_fetch;

@@ -5,7 +5,11 @@
 //! Every texture is a 2D array of texels addressed by a linear index i that wraps into rows
 //! of a power-of-two width W (so the row `floor(i / W)` is exact in f32: dividing by a power of
 //! two only changes the exponent; adding 0.5 first would round near 2^24), at most the GPU's
-//! GL_MAX_TEXTURE_SIZE wide and high. Indices and counts are stored as floats, exact below
+//! GL_MAX_TEXTURE_SIZE wide and high. `texture2D` samples a texel a quarter in from its left
+//! edge ([`TEXEL_INSET`]), not at its centre: compilers may reassociate `(i - row W) + inset`
+//! into `(i + inset) - row W` (Mesa's NIR does, where the product is used once), and
+//! `i + 0.5` rounds to the even neighbour past 2^23, which read the next texel for every odd
+//! index there; `i + 0.25` rounds to i, the texel's own edge, so either order reads it. Indices and counts are stored as floats, exact below
 //! 2^24. A scene whose texels or references pass 2^24 is packed in the [`IndexFormat::Split`]
 //! format instead (`SPLIT_INDEX` in the GLSL, compiled in only then, so smaller scenes keep
 //! their shaders and images): list offsets split over two channels (hi * 2^24 + lo, exact to
@@ -51,6 +55,9 @@ pub const MAT_TEXELS: u32 = slot::TEXELS;
 /// Entries per texel of an entry texture ([`PackedTexture::pack_entries`]: triangle indices
 /// in `list`, voxel-map entries in `vmap`).
 pub const LIST_PER_TEXEL: u32 = 4;
+/// Where in its texel `texture2D` samples along a row, in texels from the left edge: an offset that still lands in the texel when a compiler adds it to the
+/// linear index before subtracting the row (see the module's header); exact otherwise.
+pub const TEXEL_INSET: f32 = 0.25;
 /// Widest row used, even when the GPU allows wider: keeps textures compact for small
 /// scenes and matches the limits of 2005-era cards.
 pub const MAX_ROW: u32 = 4096;
@@ -174,7 +181,7 @@ impl PackedTexture {
             (IndexFormat::Float, _) => format!("    return fetch_{n}(item * per + k);\n"),
             (IndexFormat::Split, Fetch::Texture2D) => format!(
                 "    vec2 p = rec_coord(item, per, k, {up}_W, {up}_INV_W);\n\
-                 \x20   return texture2D(u_{n}, vec2((p.x + 0.5) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H));\n"
+                 \x20   return texture2D(u_{n}, vec2((p.x + {TEXEL_INSET:?}) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H));\n"
             ),
             (IndexFormat::Split, Fetch::TexelFetch) => format!(
                 "    int i = int(item) * int(per) + int(k);\n\
@@ -190,7 +197,7 @@ impl PackedTexture {
                 Fetch::Texture2D => format!(
                     "    vec3 p = split_coord(hi, lo, j, {up}_W, {up}_INV_W);\n\
                      \x20   vec4 sel = vec4(equal(vec4(p.z), vec4(0.0, 1.0, 2.0, 3.0)));\n\
-                     \x20   return dot(texture2D(u_{n}, vec2((p.x + 0.5) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H)), sel);\n"
+                     \x20   return dot(texture2D(u_{n}, vec2((p.x + {TEXEL_INSET:?}) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H)), sel);\n"
                 ),
                 Fetch::TexelFetch => format!(
                     "    int e = int(hi) * {base} + int(lo) + int(j);\n\
@@ -267,12 +274,13 @@ impl PackedTexture {
              vec4 fetch_{n}(float i) {{\n\
              \x20   float y = floor(i * {up}_INV_W);\n\
              \x20   float x = i - y * {up}_W;\n\
-             \x20   return texture2D(u_{n}, vec2((x + 0.5) * {up}_INV_W, (y + 0.5) * {up}_INV_H));\n\
+             \x20   return texture2D(u_{n}, vec2((x + {inset:?}) * {up}_INV_W, (y + 0.5) * {up}_INV_H));\n\
              }}\n",
             n = self.name,
             w = self.width as f32,
             iw = 1.0 / self.width as f32,
             ih = 1.0 / self.height as f32,
+            inset = TEXEL_INSET,
         )
     }
 
