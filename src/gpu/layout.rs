@@ -40,8 +40,9 @@
 use super::contract::{mat as slot, Field, Unit};
 use super::split_index::check_indices;
 pub use super::split_index::{
-    check_triangles, float_slot, rec_coord, split, split_coord, IndexFormat, MAX_EXACT_INDEX,
-    MAX_SLOT_TEXELS, SPLIT_BASE, SPLIT_INDEX_ENV,
+    check_triangles, float_slot, rec_coord, slot_coord, slot_record, split, split_coord,
+    IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE,
+    SPLIT_INDEX_ENV, TRI_SLOT_BANDS,
 };
 use crate::accel::irregular_wide::WideMap;
 use crate::accel::{AccelRef, GridRef, IrregularGrid};
@@ -103,6 +104,10 @@ pub struct PackedTexture {
     /// record (cell lists, the voxel map): the GLSL then also gets `entry_<name>(i)`, and a
     /// float view under [`Fetch::Storage`].
     pub entries: bool,
+    /// True when records are addressed by triangle id, a [`float_slot`], and stored densely
+    /// (`tri`, `nrm`): in the split format `fetch_<name>_at` then decodes the slot into the
+    /// record (`slot_coord`, `slot_record`).
+    pub slots: bool,
 }
 
 impl PackedTexture {
@@ -138,6 +143,7 @@ impl PackedTexture {
             height,
             data,
             entries: false,
+            slots: false,
         })
     }
 
@@ -179,6 +185,17 @@ impl PackedTexture {
         let (mask, shift) = (self.width - 1, self.width.trailing_zeros());
         let body = match (format, fetch) {
             (IndexFormat::Float, _) => format!("    return fetch_{n}(item * per + k);\n"),
+            (IndexFormat::Split, Fetch::Texture2D) if self.slots => format!(
+                "    vec2 p = slot_coord(item, per, k, {up}_W, {up}_INV_W);\n\
+                 \x20   return texture2D(u_{n}, vec2((p.x + {TEXEL_INSET:?}) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H));\n"
+            ),
+            (IndexFormat::Split, Fetch::TexelFetch) if self.slots => format!(
+                "    int i = int(slot_record(item)) * int(per) + int(k);\n\
+                 \x20   return texelFetch(u_{n}, ivec2(i & {mask}, i >> {shift}), 0);\n"
+            ),
+            (IndexFormat::Split, Fetch::Storage) if self.slots => {
+                format!("    return buf_{n}[slot_record(item) * uint(per) + uint(k)];\n")
+            }
             (IndexFormat::Split, Fetch::Texture2D) => format!(
                 "    vec2 p = rec_coord(item, per, k, {up}_W, {up}_INV_W);\n\
                  \x20   return texture2D(u_{n}, vec2((p.x + {TEXEL_INSET:?}) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H));\n"
@@ -684,7 +701,11 @@ impl SceneTextures {
                 )
             }
         };
-        let list: Vec<f32> = tri_indices.iter().map(|&i| i as f32).collect();
+        // Triangle ids as float slots: the index itself below 2^24 (the Float format's only).
+        let list: Vec<f32> = tri_indices
+            .iter()
+            .map(|&i| float_slot(i as u64) as f32)
+            .collect();
         let cell_texels = cell.len() as u64;
         if format == IndexFormat::Float {
             let need = [
@@ -698,10 +719,11 @@ impl SceneTextures {
                 )));
             }
         }
+        let slots = |t: PackedTexture| PackedTexture { slots: true, ..t };
         Ok(SceneTextures {
-            tri: PackedTexture::pack("tri", tri, max_size)?,
+            tri: slots(PackedTexture::pack("tri", tri, max_size)?),
             nrm: if smooth {
-                Some(PackedTexture::pack("nrm", nrm, max_size)?)
+                Some(slots(PackedTexture::pack("nrm", nrm, max_size)?))
             } else {
                 None
             },

@@ -62,8 +62,9 @@ impl IndexFormat {
                  // Cursor from the cell's first reference, whose offset is split (list_at).
                  #define CURSOR_FIRST(offset) 0.0
                  #define CURSOR_END_OF(offset, count) (count)
-                 {}",
+                 {}{}",
                 include_str!("../../glsl120/split_index.glsl"),
+                slot_glsl(),
                 base = SPLIT_BASE as f32,
             ),
         }
@@ -98,19 +99,108 @@ pub fn split_coord(hi: f32, lo: f32, j: f32, w: f32) -> (f32, f32, f32) {
     let x = (e * 0.25).floor();
     (x, hi * (SPLIT_BASE as f32 * inv_r) + lr + cr, e - x * 4.0)
 }
-/// Refuses a scene of more triangles than the GPU kernels index: the ray state and hit
-/// records carry a triangle's index in one float, exact below 2^24 (the split format splits
-/// offsets, not these). Checked before a structure is built for the GPU, and again as it is
-/// packed.
+/// Bands of float slots past 2^24 that triangle ids may take ([`float_slot`]; band b holds
+/// 2^23 ids, 2^b apart): the GLSL decodes a slot with one comparison per band, so this
+/// bounds the triangles the GPU kernels carry ([`MAX_GPU_TRIANGLES`]).
+pub const TRI_SLOT_BANDS: u64 = 16;
+/// Most triangles the GPU kernels carry: 2^24 ids, then [`TRI_SLOT_BANDS`] bands of 2^23.
+pub const MAX_GPU_TRIANGLES: u64 = MAX_EXACT_INDEX + TRI_SLOT_BANDS * (1 << 23);
+
+/// Refuses a scene of more triangles than the GPU kernels index: the ray state, the hit
+/// records and the cell lists carry a triangle's id in one float, its [`float_slot`] (the
+/// index itself below 2^24, exact floats past it, up to [`MAX_GPU_TRIANGLES`]); the
+/// triangle records stay dense ([`slot_record`]). Checked before a structure is built for
+/// the GPU, and again as it is packed.
 pub fn check_triangles(n: usize) -> Result<()> {
-    if n as u64 > MAX_EXACT_INDEX {
+    if n as u64 > MAX_GPU_TRIANGLES {
         return Err(Error::Limit(format!(
-            "{n} triangles; the GPU kernels carry a triangle's index in one float, exact up \
-             to {MAX_EXACT_INDEX} triangles; render it with --backend cpu (the BVH has no \
+            "{n} triangles; the GPU kernels carry a triangle's id in one float, exact for up \
+             to {MAX_GPU_TRIANGLES} triangles; render it with --backend cpu (the BVH has no \
              such limit)"
         )));
     }
     Ok(())
+}
+
+/// The record (dense index) of float slot `s`, the inverse of [`float_slot`]: `s` itself up
+/// to 2^24, else, in band b (s in (2^(23+b), 2^(24+b)], 2^b apart), 2^23 (b + 1) + s / 2^b -
+/// 2^23. CPU twin of `slot_record` in the split GLSL ([`IndexFormat::glsl`]), which decodes
+/// the band with the same comparisons (a slot 2^(24+b) read as band b + 1 gives the same
+/// record).
+pub fn slot_record(s: f32) -> u64 {
+    let (b1, inv_p) = slot_band(s);
+    if b1 == 0.0 {
+        return s as u64;
+    }
+    (b1 as u64) * (1 << 23) + (s * inv_p - (1u64 << 23) as f32) as u64
+}
+
+/// (b + 1, 2^-b) of slot `s` past 2^24 as the GLSL finds them, (0, 1) up to 2^24.
+fn slot_band(s: f32) -> (f32, f32) {
+    if s <= MAX_EXACT_INDEX as f32 {
+        return (0.0, 1.0);
+    }
+    let (mut b1, mut inv_p) = (2.0f32, 0.5f32);
+    for b in 2..=TRI_SLOT_BANDS {
+        if s >= (1u64 << (23 + b)) as f32 {
+            b1 = (b + 1) as f32;
+            inv_p *= 0.5;
+        }
+    }
+    (b1, inv_p)
+}
+
+/// CPU twin of `slot_coord` (the GLSL of [`IndexFormat::Split`]): the (column, row) of texel
+/// `k` of the record of float slot `s` (records of `per` texels stored densely in rows `w`
+/// wide), with the GLSL's f32 operations in its order.
+pub fn slot_coord(s: f32, per: f32, k: f32, w: f32) -> (f32, f32) {
+    let (b1, inv_p) = slot_band(s);
+    if b1 == 0.0 {
+        return rec_coord(s, per, k, w);
+    }
+    let half = (1u64 << 23) as f32;
+    let (x, y) = rec_coord(s * inv_p - half, per, k, w);
+    (x, y + per * b1 * (half * (1.0 / w)))
+}
+
+/// GLSL of the slot decoding: `slot_band` (as [`slot_band`]), `slot_coord` (Texture2D) and
+/// `slot_record` (GLSL 1.30+, an unsigned record index), one comparison per band unrolled
+/// (the multipass kernel's programs have no loops).
+fn slot_glsl() -> String {
+    let mut bands = String::new();
+    for b in 2..=TRI_SLOT_BANDS {
+        bands += &format!(
+            "    if (s >= {:.1}) {{ b1 = {:.1}; inv_p = {:e}; }}\n",
+            (1u64 << (23 + b)) as f32,
+            (b + 1) as f32,
+            2f64.powi(-(b as i32))
+        );
+    }
+    format!(
+        "// Triangle ids are float slots (exact floats, 2^b apart in band b past 2^24) over\n\
+         // records stored densely: (b + 1, 2^-b) of slot s past 2^24 (CPU twin: slot_band).\n\
+         vec2 slot_band(float s) {{\n\
+         \x20   float b1 = 2.0;\n\
+         \x20   float inv_p = 0.5;\n\
+         {bands}\
+         \x20   return vec2(b1, inv_p);\n\
+         }}\n\
+         // (column, row) of texel k of slot s's record (CPU twin: slot_coord).\n\
+         vec2 slot_coord(float s, float per, float k, float w, float inv_w) {{\n\
+         \x20   if (s <= SPLIT_BASE) return rec_coord(s, per, k, w, inv_w);\n\
+         \x20   vec2 b = slot_band(s);\n\
+         \x20   vec2 c = rec_coord(s * b.y - 0.5 * SPLIT_BASE, per, k, w, inv_w);\n\
+         \x20   return vec2(c.x, c.y + per * b.x * (0.5 * SPLIT_BASE * inv_w));\n\
+         }}\n\
+         #if __VERSION__ >= 130\n\
+         // Record index of slot s (CPU twin: slot_record).\n\
+         uint slot_record(float s) {{\n\
+         \x20   if (s <= SPLIT_BASE) return uint(s);\n\
+         \x20   vec2 b = slot_band(s);\n\
+         \x20   return uint(b.x) * 8388608u + uint(s * b.y - 0.5 * SPLIT_BASE);\n\
+         }}\n\
+         #endif\n"
+    )
 }
 
 /// Refuses, with one line naming what is needed, the limit and what to do instead, a scene
@@ -199,6 +289,48 @@ mod tests {
         }
         assert_eq!(float_slot(near + band), 1 << 25);
         assert_eq!(float_slot(near + band + 1), (1 << 25) + 4);
+    }
+
+    /// Triangle ids k near every band boundary up to the last id the GPU carries, and a
+    /// seeded spread.
+    pub(crate) fn slot_ids() -> Vec<u64> {
+        let mut v: Vec<u64> = (0..4).collect();
+        for b in 0..=TRI_SLOT_BANDS {
+            let edge = MAX_EXACT_INDEX + b * (1 << 23);
+            v.extend(edge.saturating_sub(3)..edge + 4);
+        }
+        let mut x = 0x53u64;
+        for _ in 0..2000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            v.push(x % MAX_GPU_TRIANGLES);
+        }
+        v.retain(|&k| k < MAX_GPU_TRIANGLES);
+        v
+    }
+
+    /// A triangle's float slot decodes to its own record, and `slot_coord` addresses that
+    /// record's texels, for ids around 2^24, every band edge and the last id carried.
+    #[test]
+    fn slots_decode_to_their_dense_record() {
+        for k in slot_ids() {
+            let s = float_slot(k);
+            assert_eq!(s as f32 as u64, s, "slot of {k} is not exact");
+            assert_eq!(slot_record(s as f32), k, "slot {s}");
+            for (w, per, j) in [(4096u64, 3u64, 0u64), (16384, 3, 2), (4096, 3, 1), (1, 3, 2)] {
+                let t = per * k + j;
+                if t / w >= 1 << 24 {
+                    continue;
+                }
+                let want = ((t % w) as f32, (t / w) as f32);
+                let got = slot_coord(s as f32, per as f32, j as f32, w as f32);
+                assert_eq!(got, want, "slot {s} of {k}, w {w}, texel {j}");
+            }
+        }
+        assert!(check_triangles(MAX_GPU_TRIANGLES as usize).is_ok());
+        let e = check_triangles(MAX_GPU_TRIANGLES as usize + 1).unwrap_err();
+        assert!(e.to_string().contains("--backend cpu"), "{e}");
     }
 
     /// The CPU twins of the split address arithmetic against u64 for indices around 2^24
