@@ -44,6 +44,8 @@ pub use super::split_index::{
     IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE,
     SPLIT_INDEX_ENV, TRI_SLOT_BANDS,
 };
+use super::split_index::{align_blocks, MapEntry
+};
 use crate::accel::irregular_wide::WideMap;
 use crate::accel::{AccelRef, GridRef, IrregularGrid};
 use crate::scene::{CheckerAxes, Scene};
@@ -456,6 +458,10 @@ pub struct IrregularLayout {
     ///
     /// [`GpuScene::with_skewed_faces`]: super::scene::GpuScene::with_skewed_faces
     pub skew_faces: bool,
+    /// How node entries address their child blocks: minus (block + 1), one float (Float),
+    /// or minus the block's start, an exact float split into hi * 2^24 + lo for the read
+    /// ([`align_blocks`], Split).
+    pub format: IndexFormat,
 }
 
 /// Exact decimal literal of 2^-n (every such power has a finite decimal expansion).
@@ -464,7 +470,7 @@ fn pow2_literal(n: u32) -> String {
 }
 
 impl IrregularLayout {
-    fn pack(g: &IrregularGrid, max_size: u32) -> Result<Self> {
+    fn pack(g: &IrregularGrid, max_size: u32, format: IndexFormat) -> Result<Self> {
         let w = match hop_bits_override() {
             Some(bits) => WideMap::build(g, bits),
             None => {
@@ -474,21 +480,36 @@ impl IrregularLayout {
                 WideMap::for_gpu(g, row * max_size as usize * LIST_PER_TEXEL as usize)
             }
         };
-        let entries: Vec<f32> = w
-            .vmap
-            .iter()
-            .map(|&e| {
-                if e & crate::accel::irregular::NODE != 0 {
-                    -((e & !crate::accel::irregular::NODE) as f32) - 1.0
-                } else {
-                    float_slot(e as u64) as f32
-                }
-            })
-            .collect();
-        if entries.len() as u64 > MAX_EXACT_INDEX {
+        let cell = |id: u32| float_slot(id as u64) as f32;
+        let entries: Vec<f32> = match format {
+            IndexFormat::Float => w
+                .vmap
+                .iter()
+                .map(|&e| {
+                    if e & crate::accel::irregular::NODE != 0 {
+                        -((e & !crate::accel::irregular::NODE) as f32) - 1.0
+                    } else {
+                        cell(e)
+                    }
+                })
+                .collect(),
+            IndexFormat::Split => align_blocks(&w, f32::MANTISSA_DIGITS)
+                .into_iter()
+                .map(|e| match e {
+                    MapEntry::Cell(id) => cell(id),
+                    MapEntry::Node(start) => -(start as f32),
+                })
+                .collect(),
+        };
+        let limit = match format {
+            IndexFormat::Float => MAX_EXACT_INDEX,
+            // The compute kernel's integer reads (`entry_vmap_split`).
+            IndexFormat::Split => MAX_SLOT_TEXELS,
+        };
+        if entries.len() as u64 > limit {
             return Err(Error::Limit(format!(
-                "{} voxel-map entries; the GPU's descent indexes them with one float, exact \
-                 up to {MAX_EXACT_INDEX}; --accel uniform, or render it with --backend cpu",
+                "{} voxel-map entries; the GPU's descent reads at most {limit}; --accel \
+                 uniform, or render it with --backend cpu",
                 entries.len()
             )));
         }
@@ -498,6 +519,7 @@ impl IrregularLayout {
             hops: w.hops,
             shift: g.shift,
             skew_faces: false,
+            format,
         })
     }
 
@@ -529,12 +551,21 @@ impl IrregularLayout {
             }
             let span = n.map(|b| format!("{:.1}", (1u32 << b) as f32));
             let stride = [1u32, 1 << n[0], 1 << (n[0] + n[1])].map(|v| format!("{:.1}", v as f32));
-            s += &format!(
-                "    if (e < 0.0) e = vmap_entry(-e - 1.0 + dot(mod(floor(k * {}), {}), {}));\n",
+            let child = format!(
+                "dot(mod(floor(k * {}), {}), {})",
                 v3(rem.map(pow2_literal)),
                 v3(span),
                 v3(stride)
             );
+            s += &match self.format {
+                IndexFormat::Float => format!("    if (e < 0.0) e = vmap_entry(-e - 1.0 + {child});\n"),
+                // The block's start -e, an exact float, as hi * 2^24 + lo; the child's
+                // offset added in the split address arithmetic.
+                IndexFormat::Split => format!(
+                    "    if (e < 0.0) {{ float hi = floor(-e * {}); e = entry_vmap_split(hi, -e - hi * SPLIT_BASE, {child}); }}\n",
+                    pow2_literal(24)
+                ),
+            };
         }
         s += "    return e;\n}\n";
         if self.skew_faces {
@@ -583,9 +614,11 @@ impl SceneTextures {
         normals: bool,
     ) -> Result<Self> {
         let accel = accel.into().grid()?;
+        // The voxel map the GPU reads passes 2^24 entries exactly when the built one does
+        // (`WideMap::for_gpu` widens hops only within 2^24).
         let (cells, refs, per_cell) = match accel {
             GridRef::Uniform(g) => (g.cells.len(), g.tri_indices.len(), 1),
-            GridRef::Irregular(g) => (g.cells.len(), g.tri_indices.len(), 2),
+            GridRef::Irregular(g) => (g.cells.len(), g.tri_indices.len().max(g.vmap.len()), 2),
         };
         let texels =
             (scene.triangles.len() as u64 * TRI_TEXELS as u64).max(cells as u64 * per_cell);
@@ -697,7 +730,7 @@ impl SceneTextures {
                 (
                     cell,
                     &g.tri_indices,
-                    Some(IrregularLayout::pack(g, max_size)?),
+                    Some(IrregularLayout::pack(g, max_size, format)?),
                 )
             }
         };

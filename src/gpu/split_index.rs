@@ -5,6 +5,7 @@
 //! keep the irregular grid's cell ids one exact float, and the limits that remain, each
 //! refused in one line. `layout.rs` packs with it and re-exports it.
 
+use crate::accel::irregular_wide::WideMap;
 use crate::accel::GridRef;
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -236,6 +237,84 @@ pub(crate) fn check_indices(scene: &Scene, accel: GridRef<'_>) -> Result<()> {
     }
 }
 
+/// A voxel-map entry as the split format writes it ([`align_blocks`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapEntry {
+    /// A cell id (written as its [`float_slot`]).
+    Cell(u32),
+    /// A node: its child block starts at this entry (written as minus it; never 0, since the
+    /// top entries come first).
+    Node(u64),
+}
+
+/// The voxel map `w` relaid for the split format: every child block that starts past
+/// 2^`bits` (2^24 for f32) starts at a multiple of the spacing of floats of `bits`
+/// significant bits there, so that its start is one exact float, which the descent splits
+/// into hi * 2^24 + lo and adds the child's offset to in the split address arithmetic
+/// (`entry_vmap_split`); blocks below keep their places. The padding left between blocks is
+/// under one spacing per block (2 entries past 2^24, 4 past 2^25, ...). Lookups through the
+/// result reach the cells `w`'s do (`bits` is a parameter so that tests reach the regime
+/// with few entries).
+pub fn align_blocks(w: &WideMap, bits: u32) -> Vec<MapEntry> {
+    use crate::accel::irregular::NODE;
+    let tops = w.top_res.iter().map(|&r| r as usize).product::<usize>();
+    let size = |hop: usize| 1usize << w.hops[hop].iter().sum::<u32>();
+    // Every child block: (old start, hop), found from the top entries down.
+    let mut blocks: Vec<(usize, usize)> = Vec::new();
+    let mut stack: Vec<(usize, usize)> = w.vmap[..tops]
+        .iter()
+        .filter(|&&e| e & NODE != 0)
+        .map(|&e| ((e & !NODE) as usize, 0))
+        .collect();
+    while let Some((start, hop)) = stack.pop() {
+        blocks.push((start, hop));
+        for &e in &w.vmap[start..start + size(hop)] {
+            if e & NODE != 0 {
+                stack.push(((e & !NODE) as usize, hop + 1));
+            }
+        }
+    }
+    blocks.sort_unstable();
+    let exact = 1u64 << bits;
+    let align = |pos: u64| {
+        if pos <= exact {
+            return pos;
+        }
+        let step = 1u64 << (63 - pos.leading_zeros() - (bits - 1));
+        pos.div_ceil(step) * step
+    };
+    let mut new_start = Vec::with_capacity(blocks.len());
+    let mut pos = tops as u64;
+    for &(_, hop) in &blocks {
+        pos = align(pos);
+        new_start.push(pos);
+        pos += size(hop) as u64;
+    }
+    let moved = |old: u32| {
+        let k = blocks
+            .binary_search_by_key(&(old as usize), |b| b.0)
+            .expect("a node entry points at a child block");
+        MapEntry::Node(new_start[k])
+    };
+    let entry = |e: u32| {
+        if e & NODE != 0 {
+            moved(e & !NODE)
+        } else {
+            MapEntry::Cell(e)
+        }
+    };
+    let mut out = vec![MapEntry::Cell(0); pos as usize];
+    for (o, &e) in out.iter_mut().zip(&w.vmap[..tops]) {
+        *o = entry(e);
+    }
+    for (&(old, hop), &new) in blocks.iter().zip(&new_start) {
+        for (o, &e) in out[new as usize..].iter_mut().zip(&w.vmap[old..old + size(hop)]) {
+            *o = entry(e);
+        }
+    }
+    out
+}
+
 /// Most texels a record texture addressed by float slots may take: what the 32-bit
 /// integer arithmetic of the compute kernel's fetches reaches.
 pub const MAX_SLOT_TEXELS: u64 = 1 << 31;
@@ -331,6 +410,63 @@ mod tests {
         assert!(check_triangles(MAX_GPU_TRIANGLES as usize).is_ok());
         let e = check_triangles(MAX_GPU_TRIANGLES as usize + 1).unwrap_err();
         assert!(e.to_string().contains("--backend cpu"), "{e}");
+    }
+
+    /// A voxel map relaid by `align_blocks` with 10 significant bits (so that blocks pass
+    /// the "exact" bound at 1024 entries) leads every virtual cell to its cell, as
+    /// the map it came from; every block past the bound starts at a multiple of the spacing.
+    #[test]
+    fn aligned_voxel_map_keeps_every_lookup() {
+        use crate::accel::irregular_wide::WideMap;
+        use crate::accel::{IrregularConfig, IrregularGrid};
+        use glam::Vec3;
+        // Two icospheres apart: a map several levels deep with empty space between.
+        let (p, _, t) = crate::scene::shapes::sphere(3);
+        let mut tris = Vec::new();
+        for (c, r) in [(Vec3::ZERO, 1.0), (Vec3::new(3.0, 0.5, 0.0), 0.5)] {
+            tris.extend(t.iter().map(|f| f.map(|i| c + p[i as usize] * r)));
+        }
+        let s = crate::testing::scene_of(&tris);
+        let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
+        for hop_bits in [1, 3] {
+            let w = WideMap::build(&g, hop_bits);
+            let bits = 10;
+            let a = align_blocks(&w, bits);
+            assert!(a.len() >= w.vmap.len() && w.vmap.len() > 2 << bits, "{}", w.vmap.len());
+            let tops = w.top_res.iter().map(|&r| r as usize).product::<usize>();
+            let res = [0, 1, 2].map(|k| w.top_res[k] << w.shift[k]);
+            let mut past = 0;
+            for z in 0..res[2] {
+                for y in 0..res[1] {
+                    for x in 0..res[0] {
+                        let k = [x, y, z];
+                        let mut rem = w.shift;
+                        let t = [0, 1, 2].map(|a| (k[a] >> rem[a]) as usize);
+                        let top = t[0] + w.top_res[0] as usize * (t[1] + w.top_res[1] as usize * t[2]);
+                        let mut e = a[top];
+                        for n in &w.hops {
+                            let MapEntry::Node(start) = e else { break };
+                            if start > 1 << bits {
+                                let step = 1u64 << (63 - start.leading_zeros() - (bits - 1));
+                                assert_eq!(start % step, 0, "block at {start}");
+                                past += 1;
+                            }
+                            assert!(start >= tops as u64);
+                            let mut idx = start as usize;
+                            let mut stride = 0;
+                            for ax in 0..3 {
+                                rem[ax] -= n[ax];
+                                idx += ((k[ax] as usize >> rem[ax]) & ((1 << n[ax]) - 1)) << stride;
+                                stride += n[ax];
+                            }
+                            e = a[idx];
+                        }
+                        assert_eq!(e, MapEntry::Cell(w.lookup(k)), "{k:?}");
+                    }
+                }
+            }
+            assert!(past > 0, "no block past the bound");
+        }
     }
 
     /// The CPU twins of the split address arithmetic against u64 for indices around 2^24
