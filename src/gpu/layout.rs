@@ -9,14 +9,17 @@
 //! edge ([`TEXEL_INSET`]), not at its centre: compilers may reassociate `(i - row W) + inset`
 //! into `(i + inset) - row W` (Mesa's NIR does, where the product is used once), and
 //! `i + 0.5` rounds to the even neighbour past 2^23, which read the next texel for every odd
-//! index there; `i + 0.25` rounds to i, the texel's own edge, so either order reads it. Indices and counts are stored as floats, exact below
-//! 2^24. A scene whose texels or references pass 2^24 is packed in the [`IndexFormat::Split`]
-//! format instead (`SPLIT_INDEX` in the GLSL, compiled in only then, so smaller scenes keep
-//! their shaders and images): list offsets split over two channels (hi * 2^24 + lo, exact to
-//! 2^48), the ray's list cursor counted from its cell's first reference, and records fetched
-//! by (record, texel) without forming their product. What remains is one float per triangle
-//! index and per cell id (below 2^24 each) and the GPU's own limits, each refused with one
-//! line ([`SceneTextures::pack`]).
+//! index there; `i + 0.25` rounds to i, the texel's own edge, so either order reads it.
+//!
+//! Indices and counts are stored as floats, exact below 2^24. A scene whose texels or
+//! references pass 2^24 is packed in the [`IndexFormat::Split`] format instead
+//! (`SPLIT_INDEX` in the GLSL, compiled in only then, so smaller scenes keep their shaders
+//! and images): list offsets split over two channels (hi * 2^24 + lo, exact to 2^48), the
+//! ray's list cursor counted from its cell's first reference, and records fetched by
+//! (record, texel) without forming their product; triangle and irregular cell ids are
+//! float slots (exact floats past 2^24), voxel-map blocks start at exact floats. What
+//! remains is the uniform grid's cell index (below 2^24), [`MAX_GPU_TRIANGLES`] and the
+//! GPU's own limits, each refused with one line ([`SceneTextures::pack`]).
 //!
 //! | texture | texels per item | contents |
 //! |---|---|---|
@@ -39,12 +42,11 @@
 
 use super::contract::{mat as slot, Field, Unit};
 use super::split_index::check_indices;
+use super::split_index::{align_blocks, MapEntry};
 pub use super::split_index::{
     check_triangles, float_slot, rec_coord, slot_coord, slot_record, split, split_coord,
-    IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE,
-    SPLIT_INDEX_ENV, TRI_SLOT_BANDS,
-};
-use super::split_index::{align_blocks, MapEntry
+    IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE, SPLIT_INDEX_ENV,
+    TRI_SLOT_BANDS,
 };
 use crate::accel::irregular_wide::WideMap;
 use crate::accel::{AccelRef, GridRef, IrregularGrid};
@@ -133,12 +135,10 @@ impl PackedTexture {
             )));
         }
         let height = height as u32;
-        let len = width as usize * height as usize * 4;
-        let mut data = Vec::with_capacity(len);
-        for t in &texels {
-            data.extend_from_slice(t);
-        }
-        data.resize(len, 0.0);
+        // Padded and flattened in place: no second copy of a scene's largest textures.
+        let mut texels = texels;
+        texels.resize(width as usize * height as usize, [0.0; 4]);
+        let data = texels.into_flattened();
         Ok(PackedTexture {
             name,
             width,

@@ -2,8 +2,10 @@
 //! references pass 2^24, what one f32 counts exactly ([`IndexFormat`], `SPLIT_INDEX` in the
 //! GLSL), the CPU twins of its address arithmetic (GLSL twin: `glsl120/split_index.glsl`,
 //! held to these on the driver by `tests/glsl_twins/split_index.rs`), the float slots that
-//! keep the irregular grid's cell ids one exact float, and the limits that remain, each
-//! refused in one line. `layout.rs` packs with it and re-exports it.
+//! keep the irregular grid's cell ids and the triangle ids one exact float (triangle
+//! records stay dense: [`slot_record`]), the voxel map's blocks aligned to exact floats
+//! ([`align_blocks`]), and the limits that remain, each refused in one line. `layout.rs`
+//! packs with it and re-exports it.
 
 use crate::accel::irregular_wide::WideMap;
 use crate::accel::GridRef;
@@ -308,7 +310,10 @@ pub fn align_blocks(w: &WideMap, bits: u32) -> Vec<MapEntry> {
         *o = entry(e);
     }
     for (&(old, hop), &new) in blocks.iter().zip(&new_start) {
-        for (o, &e) in out[new as usize..].iter_mut().zip(&w.vmap[old..old + size(hop)]) {
+        for (o, &e) in out[new as usize..]
+            .iter_mut()
+            .zip(&w.vmap[old..old + size(hop)])
+        {
             *o = entry(e);
         }
     }
@@ -397,7 +402,12 @@ mod tests {
             let s = float_slot(k);
             assert_eq!(s as f32 as u64, s, "slot of {k} is not exact");
             assert_eq!(slot_record(s as f32), k, "slot {s}");
-            for (w, per, j) in [(4096u64, 3u64, 0u64), (16384, 3, 2), (4096, 3, 1), (1, 3, 2)] {
+            for (w, per, j) in [
+                (4096u64, 3u64, 0u64),
+                (16384, 3, 2),
+                (4096, 3, 1),
+                (1, 3, 2),
+            ] {
                 let t = per * k + j;
                 if t / w >= 1 << 24 {
                     continue;
@@ -432,7 +442,11 @@ mod tests {
             let w = WideMap::build(&g, hop_bits);
             let bits = 10;
             let a = align_blocks(&w, bits);
-            assert!(a.len() >= w.vmap.len() && w.vmap.len() > 2 << bits, "{}", w.vmap.len());
+            assert!(
+                a.len() >= w.vmap.len() && w.vmap.len() > 2 << bits,
+                "{}",
+                w.vmap.len()
+            );
             let tops = w.top_res.iter().map(|&r| r as usize).product::<usize>();
             let res = [0, 1, 2].map(|k| w.top_res[k] << w.shift[k]);
             let mut past = 0;
@@ -442,7 +456,8 @@ mod tests {
                         let k = [x, y, z];
                         let mut rem = w.shift;
                         let t = [0, 1, 2].map(|a| (k[a] >> rem[a]) as usize);
-                        let top = t[0] + w.top_res[0] as usize * (t[1] + w.top_res[1] as usize * t[2]);
+                        let top =
+                            t[0] + w.top_res[0] as usize * (t[1] + w.top_res[1] as usize * t[2]);
                         let mut e = a[top];
                         for n in &w.hops {
                             let MapEntry::Node(start) = e else { break };

@@ -235,8 +235,22 @@ fn slot_coordinates_match_the_cpu_twin_past_2_pow_24() {
     });
     for (k, q) in cases.iter().enumerate() {
         let cpu = slot_coord(q[0], q[1], q[2], q[3]);
-        assert_eq!((out[0][k][0], out[0][k][1]), cpu, "slot {} texel {} w {}", q[0], q[2], q[3]);
-        assert_eq!(cpu, truth[k], "slot {} texel {} w {} against u64", q[0], q[2], q[3]);
+        assert_eq!(
+            (out[0][k][0], out[0][k][1]),
+            cpu,
+            "slot {} texel {} w {}",
+            q[0],
+            q[2],
+            q[3]
+        );
+        assert_eq!(
+            cpu, truth[k],
+            "slot {} texel {} w {} against u64",
+            q[0], q[2], q[3]
+        );
     }
-    println!("slot_coord: {} cases bit for bit on the driver", cases.len());
+    println!(
+        "slot_coord: {} cases bit for bit on the driver",
+        cases.len()
+    );
 }
