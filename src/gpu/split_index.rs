@@ -422,6 +422,49 @@ mod tests {
         assert!(e.to_string().contains("--backend cpu"), "{e}");
     }
 
+    /// `slot_record` (GLSL 4.30, the compute kernel's record index of a triangle's slot,
+    /// which `fetch_tri_at` and `fetch_nrm_at` take under texel fetches and storage
+    /// buffers) on the driver gives its CPU twin's record, the id itself, for every id of
+    /// `slot_ids` (around 2^24, every band edge, the last id carried).
+    #[test]
+    fn slot_record_on_the_driver_is_the_cpu_twins() {
+        use crate::gpu::context::with_test_context;
+        use crate::gpu::gl::{compile_compute, dispatch, StorageBuffer};
+        let ids = slot_ids();
+        let slots: Vec<f32> = ids.iter().map(|&k| float_slot(k) as f32).collect();
+        let src = format!(
+            "#version 430\n{}\nlayout(local_size_x = 64) in;\n\
+             layout(std430, binding = 0) readonly buffer In {{ float s[]; }};\n\
+             layout(std430, binding = 1) writeonly buffer Out {{ uint r[]; }};\n\
+             void main() {{\n\
+             \x20   uint i = gl_GlobalInvocationID.x;\n\
+             \x20   if (i < {n}u) r[i] = slot_record(s[i]);\n\
+             }}\n",
+            IndexFormat::Split.glsl(),
+            n = slots.len()
+        );
+        let got = with_test_context(|ctx| {
+            if !ctx.info.compute {
+                println!("skipped: no compute shaders on this context");
+                return None;
+            }
+            let p = compile_compute(ctx, "slot_record", &src, &|n| ("test".into(), n)).unwrap();
+            let bytes: Vec<u8> = slots.iter().flat_map(|v| v.to_le_bytes()).collect();
+            let input = StorageBuffer::new(ctx, &bytes).unwrap();
+            let out = StorageBuffer::zeroed_u32(ctx, slots.len()).unwrap();
+            input.bind(ctx.gl(), 0);
+            out.bind(ctx.gl(), 1);
+            dispatch(ctx.gl(), &p, [slots.len().div_ceil(64) as u32, 1, 1]);
+            Some(out.read_u32(ctx.gl()).unwrap())
+        });
+        let Some(got) = got else { return };
+        for ((&k, &s), &g) in ids.iter().zip(&slots).zip(&got) {
+            assert_eq!(slot_record(s), k);
+            assert_eq!(g as u64, k, "slot {s}");
+        }
+        println!("slot_record: {} ids on the driver", ids.len());
+    }
+
     /// A voxel map relaid by `align_blocks` with 10 significant bits (so that blocks pass
     /// the "exact" bound at 1024 entries) leads every virtual cell to its cell, as
     /// the map it came from; every block past the bound starts at a multiple of the spacing.
