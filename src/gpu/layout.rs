@@ -5,14 +5,21 @@
 //! Every texture is a 2D array of texels addressed by a linear index i that wraps into rows
 //! of a power-of-two width W (so the row `floor(i / W)` is exact in f32: dividing by a power of
 //! two only changes the exponent; adding 0.5 first would round near 2^24), at most the GPU's
-//! GL_MAX_TEXTURE_SIZE wide and high. Indices and counts are stored as floats, exact below
-//! 2^24. A scene whose texels or references pass 2^24 is packed in the [`IndexFormat::Split`]
-//! format instead (`SPLIT_INDEX` in the GLSL, compiled in only then, so smaller scenes keep
-//! their shaders and images): list offsets split over two channels (hi * 2^24 + lo, exact to
-//! 2^48), the ray's list cursor counted from its cell's first reference, and records fetched
-//! by (record, texel) without forming their product. What remains is one float per triangle
-//! index and per cell id (below 2^24 each) and the GPU's own limits, each refused with one
-//! line ([`SceneTextures::pack`]).
+//! GL_MAX_TEXTURE_SIZE wide and high. `texture2D` samples a texel a quarter in from its left
+//! edge ([`TEXEL_INSET`]), not at its centre: compilers may reassociate `(i - row W) + inset`
+//! into `(i + inset) - row W` (Mesa's NIR does, where the product is used once), and
+//! `i + 0.5` rounds to the even neighbour past 2^23, which read the next texel for every odd
+//! index there; `i + 0.25` rounds to i, the texel's own edge, so either order reads it.
+//!
+//! Indices and counts are stored as floats, exact below 2^24. A scene whose texels or
+//! references pass 2^24 is packed in the [`IndexFormat::Split`] format instead
+//! (`SPLIT_INDEX` in the GLSL, compiled in only then, so smaller scenes keep their shaders
+//! and images): list offsets split over two channels (hi * 2^24 + lo, exact to 2^48), the
+//! ray's list cursor counted from its cell's first reference, and records fetched by
+//! (record, texel) without forming their product; triangle and irregular cell ids are
+//! float slots (exact floats past 2^24), voxel-map blocks start at exact floats. What
+//! remains is the uniform grid's cell index (below 2^24), [`MAX_GPU_TRIANGLES`] and the
+//! GPU's own limits, each refused with one line ([`SceneTextures::pack`]).
 //!
 //! | texture | texels per item | contents |
 //! |---|---|---|
@@ -35,9 +42,11 @@
 
 use super::contract::{mat as slot, Field, Unit};
 use super::split_index::check_indices;
+use super::split_index::{align_blocks, MapEntry};
 pub use super::split_index::{
-    check_triangles, float_slot, rec_coord, split, split_coord, IndexFormat, MAX_EXACT_INDEX,
-    MAX_SLOT_TEXELS, SPLIT_BASE, SPLIT_INDEX_ENV,
+    check_triangles, float_slot, rec_coord, slot_coord, slot_record, split, split_coord,
+    IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE, SPLIT_INDEX_ENV,
+    TRI_SLOT_BANDS,
 };
 use crate::accel::irregular_wide::WideMap;
 use crate::accel::{AccelRef, GridRef, IrregularGrid};
@@ -51,6 +60,9 @@ pub const MAT_TEXELS: u32 = slot::TEXELS;
 /// Entries per texel of an entry texture ([`PackedTexture::pack_entries`]: triangle indices
 /// in `list`, voxel-map entries in `vmap`).
 pub const LIST_PER_TEXEL: u32 = 4;
+/// Where in its texel `texture2D` samples along a row, in texels from the left edge: an offset that still lands in the texel when a compiler adds it to the
+/// linear index before subtracting the row (see the module's header); exact otherwise.
+pub const TEXEL_INSET: f32 = 0.25;
 /// Widest row used, even when the GPU allows wider: keeps textures compact for small
 /// scenes and matches the limits of 2005-era cards.
 pub const MAX_ROW: u32 = 4096;
@@ -96,6 +108,10 @@ pub struct PackedTexture {
     /// record (cell lists, the voxel map): the GLSL then also gets `entry_<name>(i)`, and a
     /// float view under [`Fetch::Storage`].
     pub entries: bool,
+    /// True when records are addressed by triangle id, a [`float_slot`], and stored densely
+    /// (`tri`, `nrm`): in the split format `fetch_<name>_at` then decodes the slot into the
+    /// record (`slot_coord`, `slot_record`).
+    pub slots: bool,
 }
 
 impl PackedTexture {
@@ -119,18 +135,17 @@ impl PackedTexture {
             )));
         }
         let height = height as u32;
-        let len = width as usize * height as usize * 4;
-        let mut data = Vec::with_capacity(len);
-        for t in &texels {
-            data.extend_from_slice(t);
-        }
-        data.resize(len, 0.0);
+        // Padded and flattened in place: no second copy of a scene's largest textures.
+        let mut texels = texels;
+        texels.resize(width as usize * height as usize, [0.0; 4]);
+        let data = texels.into_flattened();
         Ok(PackedTexture {
             name,
             width,
             height,
             data,
             entries: false,
+            slots: false,
         })
     }
 
@@ -172,9 +187,20 @@ impl PackedTexture {
         let (mask, shift) = (self.width - 1, self.width.trailing_zeros());
         let body = match (format, fetch) {
             (IndexFormat::Float, _) => format!("    return fetch_{n}(item * per + k);\n"),
+            (IndexFormat::Split, Fetch::Texture2D) if self.slots => format!(
+                "    vec2 p = slot_coord(item, per, k, {up}_W, {up}_INV_W);\n\
+                 \x20   return texture2D(u_{n}, vec2((p.x + {TEXEL_INSET:?}) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H));\n"
+            ),
+            (IndexFormat::Split, Fetch::TexelFetch) if self.slots => format!(
+                "    int i = int(slot_record(item)) * int(per) + int(k);\n\
+                 \x20   return texelFetch(u_{n}, ivec2(i & {mask}, i >> {shift}), 0);\n"
+            ),
+            (IndexFormat::Split, Fetch::Storage) if self.slots => {
+                format!("    return buf_{n}[slot_record(item) * uint(per) + uint(k)];\n")
+            }
             (IndexFormat::Split, Fetch::Texture2D) => format!(
                 "    vec2 p = rec_coord(item, per, k, {up}_W, {up}_INV_W);\n\
-                 \x20   return texture2D(u_{n}, vec2((p.x + 0.5) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H));\n"
+                 \x20   return texture2D(u_{n}, vec2((p.x + {TEXEL_INSET:?}) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H));\n"
             ),
             (IndexFormat::Split, Fetch::TexelFetch) => format!(
                 "    int i = int(item) * int(per) + int(k);\n\
@@ -190,7 +216,7 @@ impl PackedTexture {
                 Fetch::Texture2D => format!(
                     "    vec3 p = split_coord(hi, lo, j, {up}_W, {up}_INV_W);\n\
                      \x20   vec4 sel = vec4(equal(vec4(p.z), vec4(0.0, 1.0, 2.0, 3.0)));\n\
-                     \x20   return dot(texture2D(u_{n}, vec2((p.x + 0.5) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H)), sel);\n"
+                     \x20   return dot(texture2D(u_{n}, vec2((p.x + {TEXEL_INSET:?}) * {up}_INV_W, (p.y + 0.5) * {up}_INV_H)), sel);\n"
                 ),
                 Fetch::TexelFetch => format!(
                     "    int e = int(hi) * {base} + int(lo) + int(j);\n\
@@ -267,12 +293,13 @@ impl PackedTexture {
              vec4 fetch_{n}(float i) {{\n\
              \x20   float y = floor(i * {up}_INV_W);\n\
              \x20   float x = i - y * {up}_W;\n\
-             \x20   return texture2D(u_{n}, vec2((x + 0.5) * {up}_INV_W, (y + 0.5) * {up}_INV_H));\n\
+             \x20   return texture2D(u_{n}, vec2((x + {inset:?}) * {up}_INV_W, (y + 0.5) * {up}_INV_H));\n\
              }}\n",
             n = self.name,
             w = self.width as f32,
             iw = 1.0 / self.width as f32,
             ih = 1.0 / self.height as f32,
+            inset = TEXEL_INSET,
         )
     }
 
@@ -431,6 +458,10 @@ pub struct IrregularLayout {
     ///
     /// [`GpuScene::with_skewed_faces`]: super::scene::GpuScene::with_skewed_faces
     pub skew_faces: bool,
+    /// How node entries address their child blocks: minus (block + 1), one float (Float),
+    /// or minus the block's start, an exact float split into hi * 2^24 + lo for the read
+    /// ([`align_blocks`], Split).
+    pub format: IndexFormat,
 }
 
 /// Exact decimal literal of 2^-n (every such power has a finite decimal expansion).
@@ -439,7 +470,7 @@ fn pow2_literal(n: u32) -> String {
 }
 
 impl IrregularLayout {
-    fn pack(g: &IrregularGrid, max_size: u32) -> Result<Self> {
+    fn pack(g: &IrregularGrid, max_size: u32, format: IndexFormat) -> Result<Self> {
         let w = match hop_bits_override() {
             Some(bits) => WideMap::build(g, bits),
             None => {
@@ -449,21 +480,36 @@ impl IrregularLayout {
                 WideMap::for_gpu(g, row * max_size as usize * LIST_PER_TEXEL as usize)
             }
         };
-        let entries: Vec<f32> = w
-            .vmap
-            .iter()
-            .map(|&e| {
-                if e & crate::accel::irregular::NODE != 0 {
-                    -((e & !crate::accel::irregular::NODE) as f32) - 1.0
-                } else {
-                    float_slot(e as u64) as f32
-                }
-            })
-            .collect();
-        if entries.len() as u64 > MAX_EXACT_INDEX {
+        let cell = |id: u32| float_slot(id as u64) as f32;
+        let entries: Vec<f32> = match format {
+            IndexFormat::Float => w
+                .vmap
+                .iter()
+                .map(|&e| {
+                    if e & crate::accel::irregular::NODE != 0 {
+                        -((e & !crate::accel::irregular::NODE) as f32) - 1.0
+                    } else {
+                        cell(e)
+                    }
+                })
+                .collect(),
+            IndexFormat::Split => align_blocks(&w, f32::MANTISSA_DIGITS)
+                .into_iter()
+                .map(|e| match e {
+                    MapEntry::Cell(id) => cell(id),
+                    MapEntry::Node(start) => -(start as f32),
+                })
+                .collect(),
+        };
+        let limit = match format {
+            IndexFormat::Float => MAX_EXACT_INDEX,
+            // The compute kernel's integer reads (`entry_vmap_split`).
+            IndexFormat::Split => MAX_SLOT_TEXELS,
+        };
+        if entries.len() as u64 > limit {
             return Err(Error::Limit(format!(
-                "{} voxel-map entries; the GPU's descent indexes them with one float, exact \
-                 up to {MAX_EXACT_INDEX}; --accel uniform, or render it with --backend cpu",
+                "{} voxel-map entries; the GPU's descent reads at most {limit}; --accel \
+                 uniform, or render it with --backend cpu",
                 entries.len()
             )));
         }
@@ -473,6 +519,7 @@ impl IrregularLayout {
             hops: w.hops,
             shift: g.shift,
             skew_faces: false,
+            format,
         })
     }
 
@@ -504,12 +551,21 @@ impl IrregularLayout {
             }
             let span = n.map(|b| format!("{:.1}", (1u32 << b) as f32));
             let stride = [1u32, 1 << n[0], 1 << (n[0] + n[1])].map(|v| format!("{:.1}", v as f32));
-            s += &format!(
-                "    if (e < 0.0) e = vmap_entry(-e - 1.0 + dot(mod(floor(k * {}), {}), {}));\n",
+            let child = format!(
+                "dot(mod(floor(k * {}), {}), {})",
                 v3(rem.map(pow2_literal)),
                 v3(span),
                 v3(stride)
             );
+            s += &match self.format {
+                IndexFormat::Float => format!("    if (e < 0.0) e = vmap_entry(-e - 1.0 + {child});\n"),
+                // The block's start -e, an exact float, as hi * 2^24 + lo; the child's
+                // offset added in the split address arithmetic.
+                IndexFormat::Split => format!(
+                    "    if (e < 0.0) {{ float hi = floor(-e * {}); e = entry_vmap_split(hi, -e - hi * SPLIT_BASE, {child}); }}\n",
+                    pow2_literal(24)
+                ),
+            };
         }
         s += "    return e;\n}\n";
         if self.skew_faces {
@@ -558,9 +614,11 @@ impl SceneTextures {
         normals: bool,
     ) -> Result<Self> {
         let accel = accel.into().grid()?;
+        // The voxel map the GPU reads passes 2^24 entries exactly when the built one does
+        // (`WideMap::for_gpu` widens hops only within 2^24).
         let (cells, refs, per_cell) = match accel {
             GridRef::Uniform(g) => (g.cells.len(), g.tri_indices.len(), 1),
-            GridRef::Irregular(g) => (g.cells.len(), g.tri_indices.len(), 2),
+            GridRef::Irregular(g) => (g.cells.len(), g.tri_indices.len().max(g.vmap.len()), 2),
         };
         let texels =
             (scene.triangles.len() as u64 * TRI_TEXELS as u64).max(cells as u64 * per_cell);
@@ -672,11 +730,15 @@ impl SceneTextures {
                 (
                     cell,
                     &g.tri_indices,
-                    Some(IrregularLayout::pack(g, max_size)?),
+                    Some(IrregularLayout::pack(g, max_size, format)?),
                 )
             }
         };
-        let list: Vec<f32> = tri_indices.iter().map(|&i| i as f32).collect();
+        // Triangle ids as float slots: the index itself below 2^24 (the Float format's only).
+        let list: Vec<f32> = tri_indices
+            .iter()
+            .map(|&i| float_slot(i as u64) as f32)
+            .collect();
         let cell_texels = cell.len() as u64;
         if format == IndexFormat::Float {
             let need = [
@@ -690,10 +752,11 @@ impl SceneTextures {
                 )));
             }
         }
+        let slots = |t: PackedTexture| PackedTexture { slots: true, ..t };
         Ok(SceneTextures {
-            tri: PackedTexture::pack("tri", tri, max_size)?,
+            tri: slots(PackedTexture::pack("tri", tri, max_size)?),
             nrm: if smooth {
-                Some(PackedTexture::pack("nrm", nrm, max_size)?)
+                Some(slots(PackedTexture::pack("nrm", nrm, max_size)?))
             } else {
                 None
             },

@@ -118,12 +118,14 @@ pub type Observer<'o> = dyn FnMut(&Snapshot<'_>) -> Flow + 'o;
 /// One primary ray's AOV pixel: its hit (t, triangle) if any and its traversal steps.
 pub(crate) fn aov_pixel(scene: &Scene, hit: Option<(f32, f32)>, steps: f32) -> AovPixel {
     match hit {
-        Some((t, tri)) => {
+        Some((t, slot)) => {
+            // The GPU carries a triangle's id as its float slot (the index below 2^24).
+            let tri = crate::gpu::layout::slot_record(slot);
             let v = scene.triangle_vertices(tri as usize);
             let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
             AovPixel {
                 depth: t,
-                primid: tri,
+                primid: tri as f32,
                 normal: n.to_array(),
                 steps,
             }

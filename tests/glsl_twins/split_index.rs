@@ -184,3 +184,73 @@ fn entry_list_split_reads_past_2_pow_24() {
     }
     println!("entry_list_split: {} reads around 2^24 exact", cases.len());
 }
+
+/// `slot_coord` (a triangle id's float slot to its dense record's texel) on the driver gives
+/// its CPU twin's answer bit for bit, and that is the u64 truth, for ids around 2^24, at
+/// every slot band's edges up to the last id the GPU carries, and a seeded spread.
+#[test]
+fn slot_coordinates_match_the_cpu_twin_past_2_pow_24() {
+    use fragtrace::gpu::layout::{
+        float_slot, slot_coord, slot_record, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, TRI_SLOT_BANDS,
+    };
+    let mut ids: Vec<u64> = (0..4).collect();
+    for b in 0..=TRI_SLOT_BANDS {
+        let edge = MAX_EXACT_INDEX + b * (1 << 23);
+        ids.extend(edge - 3..edge + 4);
+    }
+    let seed = 0x53u64;
+    println!("slot ids seed {seed}");
+    let mut rng = Rng(seed);
+    ids.extend((0..3000).map(|_| ((rng.f() * 0.5 + 0.5) * MAX_GPU_TRIANGLES as f32) as u64));
+    ids.retain(|&k| k < MAX_GPU_TRIANGLES);
+    let mut cases = Vec::new();
+    let mut truth = Vec::new();
+    for &k in &ids {
+        for (w, j) in [(4096u64, 0u64), (16384, 2), (4096, 1)] {
+            let s = float_slot(k) as f32;
+            assert_eq!(slot_record(s), k);
+            cases.push([s, 3.0, j as f32, w as f32]);
+            let t = 3 * k + j;
+            truth.push(((t % w) as f32, (t / w) as f32));
+        }
+    }
+    let text = "uniform sampler2D u_in;\n\
+        void main() {\n\
+            vec4 q = texture2D(u_in, v_uv);\n\
+            gl_FragData[0] = vec4(slot_coord(q.x, q.y, q.z, q.w, 1.0 / q.w), 0.0, 0.0);\n\
+        }\n";
+    let layout = split_layout(4096);
+    let out = with_test_context(|ctx| {
+        run_program(
+            ctx,
+            text,
+            &[],
+            &layout,
+            Techniques::default(),
+            &[("u_in", &cases[..])],
+            &[],
+            &[],
+            1,
+        )
+    });
+    for (k, q) in cases.iter().enumerate() {
+        let cpu = slot_coord(q[0], q[1], q[2], q[3]);
+        assert_eq!(
+            (out[0][k][0], out[0][k][1]),
+            cpu,
+            "slot {} texel {} w {}",
+            q[0],
+            q[2],
+            q[3]
+        );
+        assert_eq!(
+            cpu, truth[k],
+            "slot {} texel {} w {} against u64",
+            q[0], q[2], q[3]
+        );
+    }
+    println!(
+        "slot_coord: {} cases bit for bit on the driver",
+        cases.len()
+    );
+}
