@@ -111,6 +111,28 @@ impl RayCounts {
     }
 }
 
+/// A ray rate for people: `rays` in `ms` milliseconds as Mrays/s, krays/s or rays/s,
+/// whichever shows three significant figures or more, so a slow render never reads
+/// "0.00 Mrays/s"; "- rays/s" where no time was measured.
+pub fn ray_rate(rays: u64, ms: f64) -> String {
+    let per_s = rays as f64 / (ms * 1e-3);
+    if !(ms > 0.0 && per_s.is_finite()) {
+        return "- rays/s".into();
+    }
+    match per_s {
+        r if r >= 1e6 => format!("{:.2} Mrays/s", r * 1e-6),
+        r if r >= 1e5 => format!("{:.0} krays/s", r * 1e-3),
+        r if r >= 1e4 => format!("{:.1} krays/s", r * 1e-3),
+        r if r >= 1e3 => format!("{:.2} krays/s", r * 1e-3),
+        0.0 => "0 rays/s".into(),
+        // Three significant figures below a thousand, however few rays.
+        r => {
+            let decimals = (2 - r.log10().floor() as i32).clamp(0, 9) as usize;
+            format!("{r:.decimals$} rays/s")
+        }
+    }
+}
+
 /// One AOV pixel of the primary ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AovPixel {
@@ -286,6 +308,27 @@ pub struct Features {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The case, 15,343 rays in 1.2 s, read "0.01 Mrays/s" and a slower GL 2.1
+    /// render "0.00 Mrays/s": every rate keeps three figures in a unit that fits.
+    #[test]
+    fn ray_rates_keep_three_figures_and_never_read_zero() {
+        assert_eq!(ray_rate(15_343, 909.6), "16.9 krays/s");
+        assert_eq!(ray_rate(15_343, 9159.0), "1.68 krays/s");
+        assert_eq!(ray_rate(500, 9159.0), "54.6 rays/s");
+        assert_eq!(ray_rate(1, 1e6), "0.00100 rays/s");
+        assert_eq!(ray_rate(0, 5.0), "0 rays/s");
+        assert_eq!(ray_rate(2_000_000, 1000.0), "2.00 Mrays/s");
+        assert_eq!(ray_rate(250_000, 1000.0), "250 krays/s");
+        assert_eq!(ray_rate(10, 0.0), "- rays/s");
+        for (rays, ms) in [(1, 1e6), (7, 3e4), (15_343, 9159.0), (1 << 40, 1.0)] {
+            let r = ray_rate(rays, ms);
+            assert!(
+                !r.contains("0.00 ") && r != "0 rays/s",
+                "{rays} in {ms} ms: {r}"
+            );
+        }
+    }
 
     /// Timer results add up per kind and in the total; one result that measured nothing
     /// (llvmpipe's 1 ns for a compute dispatch) makes the render's GPU time unknown, `null`

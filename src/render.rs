@@ -54,16 +54,28 @@ pub struct RenderStats {
     pub max_depth: u32,
     /// Triangle count.
     pub triangles: usize,
-    /// Cells per axis of the structure (the irregular grid's virtual resolution).
+    /// Cells per axis of the structure: the uniform grid's, or the irregular grid's finest
+    /// (its virtual resolution, "finest" in the summary line); zeros for the BVH.
     pub grid: [u32; 3],
+    /// The irregular grid's top cells per axis ("top" in the summary line); absent for
+    /// the other structures.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub grid_top: Option<[u32; 3]>,
     /// The acceleration structure: kind, size, memory, build time.
     pub accel: AccelSummary,
     /// Robustness techniques that differ from the default (`default` when none).
     pub techniques: String,
     /// Acceleration-structure build time.
     pub grid_build_ms: f64,
-    /// Render time (excluding grid build).
+    /// Render time: tracing, shading and read-back, the same on every backend. It
+    /// excludes the acceleration-structure build (`grid_build_ms`) and, on the GPU, the
+    /// set-up a frame pays before tracing (`setup_ms`).
     pub render_ms: f64,
+    /// What the frame paid before tracing: on the GPU the scene's packing and upload
+    /// (`gpu.upload_ms`) and its programs' compile and link (`gpu.compile_ms`), charged to
+    /// the first frame of a scene; 0 on the CPU. `setup_ms + render_ms` is the frame's
+    /// wall time.
+    pub setup_ms: f64,
     /// Rays by kind.
     pub rays: RayCounts,
     /// Grid cells visited by all rays (CPU and the compute kernel: the fragment kernels count
@@ -79,7 +91,7 @@ pub struct RenderStats {
     /// without `--aov`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub primary_steps_per_ray: Option<f64>,
-    /// Million rays per second over `render_ms`.
+    /// Million rays per second over `render_ms` (set-up excluded).
     pub mrays_per_s: f64,
     /// Backend-specific extras (GPU pass counts and timings).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -293,8 +305,8 @@ impl<'s> Prepared<'s> {
         self.cpu_renderer(opts).render(&self.scene.camera)
     }
 
-    /// Renders once on the GPU in `ctx`: the scene uploaded, the programs compiled and the
-    /// image rendered (all counted in `render_ms`).
+    /// Renders once on the GPU in `ctx`: the scene uploaded and the programs compiled
+    /// (`setup_ms`), and the image rendered (`render_ms`).
     pub fn render_gl(&self, ctx: &GlContext, opts: &RenderOptions) -> Result<Rendered> {
         self.gl_renderer(ctx, opts)?.render(&self.scene.camera)
     }
@@ -322,9 +334,16 @@ impl<'s> Prepared<'s> {
         plan: Plan,
         out: BackendOutput,
         device: String,
-        render_ms: f64,
+        wall_ms: f64,
     ) -> Rendered {
         let summary = self.summary.clone();
+        // The GPU's set-up, charged to the frame that paid it: what the CPU's figure has no
+        // counterpart of (its conversion happens when the renderer is made, unclocked).
+        let setup_ms = out
+            .gpu
+            .as_ref()
+            .map_or(0.0, |g| (g.upload_ms + g.compile_ms).min(wall_ms));
+        let render_ms = wall_ms - setup_ms;
         let stats = RenderStats {
             plan,
             backend: plan.backend().into(),
@@ -338,10 +357,12 @@ impl<'s> Prepared<'s> {
             max_depth: opts.max_depth,
             triangles: self.scene.instanced_triangles() as usize,
             grid: summary.resolution,
+            grid_top: summary.top_resolution,
             grid_build_ms: summary.build_ms,
             accel: summary,
             techniques: opts.techniques.tag(),
             render_ms,
+            setup_ms,
             rays: out.rays,
             cells_visited: out.work.map(|w| w.cells),
             triangle_tests: out.work.map(|w| w.tests),
@@ -443,8 +464,8 @@ impl Renderer<'_> {
         Ok(())
     }
 
-    /// Renders one frame from `camera`; `render_ms` counts what this frame spent,
-    /// including set-up the first frame paid for.
+    /// Renders one frame from `camera`; `setup_ms` plus `render_ms` is what this frame
+    /// spent, set-up the first frame paid for included (in `setup_ms`).
     pub fn render(&mut self, camera: &Camera) -> Result<Rendered> {
         let opts = &self.opts;
         let t0 = Instant::now();
@@ -482,10 +503,10 @@ impl Renderer<'_> {
                 gpu::render::render(gs, &req, None)?
             }
         };
-        let render_ms = t0.elapsed().as_secs_f64() * 1e3 + std::mem::take(&mut self.pending_ms);
+        let wall_ms = t0.elapsed().as_secs_f64() * 1e3 + std::mem::take(&mut self.pending_ms);
         Ok(self
             .prepared
-            .rendered(opts, self.plan, out, self.device.clone(), render_ms))
+            .rendered(opts, self.plan, out, self.device.clone(), wall_ms))
     }
 
     /// What this renderer runs.

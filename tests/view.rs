@@ -460,6 +460,213 @@ fn screenshot_must_be_a_writable_png() {
     assert!(err.contains("PNG"), "{err}");
 }
 
+/// `view --play --frames N --screenshot` shows frame N - 1 of the camera path, rendered to
+/// the end, every time, however often the render in progress is presented: the same image
+/// as `render --frames` writes for that frame. Before, presented frames of renders in
+/// progress counted too, and a render cut short moved the path on: N = 5 gave frame 3, 4,
+/// 4, 3, 3, and once a frame in progress (with `--passes-per-frame 2`, always one).
+#[test]
+fn play_frames_n_shows_frame_n_minus_1_every_time() {
+    if !display_or_acknowledged_skip("play_frames_n_shows_frame_n_minus_1_every_time") {
+        return;
+    }
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/turntable.toml");
+    let scene = scene.to_str().unwrap();
+    let size = [
+        "--width", "48", "--height", "36", "--spp", "1", "--kernel", "looped",
+    ];
+    let frames = scratch("play-f_###.png");
+    let mut args = vec!["render", scene, "--backend", "gl", "-q", "--frames", "0..3"];
+    args.extend(size);
+    args.extend(["-o", frames.to_str().unwrap()]);
+    ok(&run(&args, &[]), "render --frames");
+    let frame = |k: u32| scratch(&format!("play-f_{k:03}.png"));
+    for (i, present) in [
+        ["--passes-per-frame", "2"],
+        ["--frame-ms", "0"],
+        ["--frame-ms", "50"],
+    ]
+    .iter()
+    .enumerate()
+    {
+        let shot = scratch(&format!("play-{i}.png"));
+        let mut args = vec!["view", scene, "--play", "--frames", "3"];
+        args.extend(size);
+        args.extend(present);
+        args.extend(["--screenshot", shot.to_str().unwrap()]);
+        ok(&run(&args, &[]), "view --play");
+        let rmse: Vec<f64> = (0..=3).map(|k| rmse8(&shot, &frame(k))).collect();
+        eprintln!("{present:?}: RMSE against frames 0..3 {rmse:?}");
+        assert!(rmse[2] <= MAX_RMSE, "{present:?}: not frame 2: {rmse:?}");
+    }
+}
+
+/// `view --play` on a scene without a camera path exits 2 as `render --frames` does, before
+/// any window opens; so does a script word that is neither a key nor a mouse move, naming
+/// where it stands.
+#[test]
+fn play_on_a_still_scene_and_a_bad_script_exit_2() {
+    let shot = scratch("still.png");
+    let out = run(
+        &[
+            "view",
+            "--play",
+            "--frames",
+            "1",
+            "--screenshot",
+            shot.to_str().unwrap(),
+        ],
+        &[],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with("fragtrace: error: --play needs a camera path:")
+            && err.contains("[animation]"),
+        "{err}"
+    );
+    let script = scratch("bad-keys.txt");
+    std::fs::write(&script, "a # next display\nk w\n").unwrap();
+    for (args, want) in [
+        (
+            vec!["view", "--keys", "k w"],
+            "--keys:1: `w`: not a key".to_string(),
+        ),
+        (
+            vec!["view", "--script", script.to_str().unwrap()],
+            format!("{}:2: `w`: not a key", script.display()),
+        ),
+        (
+            vec!["view", "--keys", "zoom:x"],
+            "--keys:1: `zoom:x`".into(),
+        ),
+    ] {
+        let out = run(&args, &[]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(&want), "{args:?}: want {want} in {err}");
+    }
+}
+
+/// The view's keys, scripted (`--keys`, `--script`) and seen headless: each step is applied
+/// once the render before it is complete, and the screenshot shows what they made, equal to
+/// the headless render of the same thing: `a a` shows the depth AOV (`render --aov depth`'s
+/// preview), `- -` lowers the depth by two, a scripted drag and two wheel lines move the
+/// camera where `control::orbit` and `control::zoom` say (cornell.toml rendered from that
+/// camera), `r` brings it back, and `s` saves the window in the current folder.
+#[test]
+fn scripted_keys_do_what_the_keys_do() {
+    if !display_or_acknowledged_skip("scripted_keys_do_what_the_keys_do") {
+        return;
+    }
+    let size = [
+        "--width", "48", "--height", "36", "--spp", "1", "--kernel", "looped",
+    ];
+    let view = |tag: &str, scene: Option<&str>, extra: &[&str]| -> PathBuf {
+        let shot = scratch(&format!("keys-{tag}.png"));
+        let mut args = vec!["view"];
+        args.extend(scene);
+        args.extend(size);
+        args.extend(extra);
+        args.extend(["--screenshot", shot.to_str().unwrap()]);
+        ok(&run(&args, &[]), &format!("view {extra:?}"));
+        shot
+    };
+    let render = |tag: &str, scene: Option<&str>, extra: &[&str]| -> PathBuf {
+        let out = scratch(&format!("keys-{tag}-render.png"));
+        let mut args = vec![
+            "render",
+            "--backend",
+            "gl",
+            "-q",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend(scene);
+        args.extend(size);
+        args.extend(extra);
+        ok(&run(&args, &[]), &format!("render {extra:?}"));
+        out
+    };
+    let depth = view("depth", None, &["--keys", "a a"]);
+    render("depth", None, &["--aov", "depth"]);
+    let rmse = rmse8(&depth, &scratch("keys-depth-render.depth.png"));
+    assert!(rmse <= MAX_RMSE, "`a a`: RMSE {rmse} against the depth AOV");
+    let script = scratch("keys.txt");
+    std::fs::write(&script, "- # depth down\n-\n").unwrap();
+    let shallow = view(
+        "shallow",
+        None,
+        &["--max-depth", "3", "--script", script.to_str().unwrap()],
+    );
+    let rmse = rmse8(&shallow, &render("shallow", None, &["--max-depth", "1"]));
+    assert!(
+        rmse <= MAX_RMSE,
+        "`- -` from depth 3: RMSE {rmse} against depth 1"
+    );
+
+    // cornell.toml from the camera the scripted drag and wheel give.
+    let cornell = mesh_scene();
+    let text = std::fs::read_to_string(&cornell).unwrap();
+    let home = fragtrace::scene::camera::Camera {
+        eye: glam::Vec3::new(0.0, 1.0, 3.9),
+        look_at: glam::Vec3::new(0.0, 1.0, 0.0),
+        up: glam::Vec3::Y,
+        vfov_deg: 38.0,
+    };
+    assert!(
+        text.contains("eye = [0.0, 1.0, 3.9]\nlook_at = [0.0, 1.0, 0.0]\nfov = 38\n"),
+        "cornell.toml's camera moved: update this test"
+    );
+    let moved = control::orbit(&home, 40.0, -10.0);
+    let dist = (home.eye - home.look_at).length() as f64;
+    let moved = control::zoom(&moved, 2.0, dist * control::MIN_DISTANCE);
+    let e = moved.eye;
+    // Its mesh is found through FRAGTRACE_MODEL_PATH, as the shipped scene's.
+    let moved_scene = scratch("moved.toml");
+    std::fs::write(
+        &moved_scene,
+        text.replace(
+            "eye = [0.0, 1.0, 3.9]",
+            &format!("eye = [{:?}, {:?}, {:?}]", e.x, e.y, e.z),
+        ),
+    )
+    .unwrap();
+    let expected = render("moved", Some(moved_scene.to_str().unwrap()), &[]);
+    let shot = view("moved", Some(&cornell), &["--keys", "orbit:40,-10 zoom:2"]);
+    let rmse = rmse8(&shot, &expected);
+    let home_png = render("home", Some(&cornell), &[]);
+    let rmse_home = rmse8(&shot, &home_png);
+    eprintln!("orbit + zoom: RMSE {rmse} against the moved camera, {rmse_home} against home");
+    assert!(rmse <= MAX_RMSE && rmse_home > 0.02, "{rmse} {rmse_home}");
+    let back = view("back", Some(&cornell), &["--keys", "orbit:40,-10 zoom:2 r"]);
+    assert!(
+        rmse8(&back, &home_png) <= MAX_RMSE,
+        "`r` did not reset the camera"
+    );
+
+    // `s` saves the window (fragtrace-view-1.png in the current folder), `q` ends the view
+    // without --screenshot.
+    let dir = scratch("keys-s");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+        .current_dir(&dir)
+        .args(["view", "--keys", "a a s q"])
+        .args(size)
+        .output()
+        .unwrap();
+    ok(&out, "view --keys 'a a s q'");
+    let saved = dir.join("fragtrace-view-1.png");
+    assert!(saved.is_file(), "{}", String::from_utf8_lossy(&out.stdout));
+    assert!(
+        rmse8(&saved, &depth) <= MAX_RMSE,
+        "`s` saved another picture"
+    );
+}
+
 fn cursor(x: f64, y: f64) -> WindowEvent {
     WindowEvent::CursorMoved {
         device_id: DeviceId::dummy(),

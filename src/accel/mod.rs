@@ -239,7 +239,12 @@ impl AccelSummary {
         let [x, y, z] = self.resolution;
         match (self.kind, self.top_resolution) {
             (AccelKind::Irregular, Some([tx, ty, tz])) => {
-                format!("irregular grid (top {tx}x{ty}x{tz}, {} cells)", self.cells)
+                // Both resolutions, labelled: `--stats` reports them as `grid_top` and
+                // `grid` (the finest cells', which the JSON had alone).
+                format!(
+                    "irregular grid (top {tx}x{ty}x{tz}, finest {x}x{y}x{z}, {} cells)",
+                    self.cells
+                )
             }
             (AccelKind::Bvh, _) => format!("4-wide BVH ({} nodes)", self.cells),
             _ => format!("{} grid {x}x{y}x{z}", self.kind.name()),

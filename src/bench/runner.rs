@@ -221,13 +221,13 @@ pub fn run_bench(opts: &BenchOptions) -> Result<BenchReport> {
             };
             match &row.error {
                 None => say(format!(
-                    "{} / {}: {} (median of {}), {} rays, {:.3} Mrays/s, RMSE {:.6}, FLIP {:.6}",
+                    "{} / {}: {} (median of {}), {} rays, {}, RMSE {:.6}, FLIP {:.6}",
                     row.scene,
                     row.config,
                     fmt_secs(row.time_s),
                     row.runs,
                     row.rays.total,
-                    row.mrays_per_s,
+                    crate::output::ray_rate(row.rays.total, row.time_s * 1e3),
                     row.rmse,
                     row.flip_mean
                 )),

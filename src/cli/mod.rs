@@ -74,17 +74,32 @@ pub struct ViewArgs {
     pub frame_ms: f64,
     /// Play the scene's camera path (the scene file's `[animation]` table) from its first
     /// frame, one whole render per frame, in a loop (`p` pauses); with --frames N, stop
-    /// after N.
+    /// after the path's N-th frame (frame N - 1 from the first), rendered to the end.
     #[arg(long)]
     pub play: bool,
     /// Outline, in the frames of a render in progress, the tiles the traversal passes
     /// draw (those that still held active rays at the last count; `t` toggles it).
     #[arg(long)]
     pub show_tiles: bool,
+    /// Type these keys and mouse moves, one after the other, each once the render before
+    /// it is complete: e.g. "k + a" or "orbit:40,0 zoom:2 s" (keys as listed below;
+    /// orbit:DX,DY and pan:DX,DY drag by pixels, zoom:N turns the wheel N lines). With
+    /// --screenshot, the window is saved after the last one.
+    #[arg(
+        long,
+        value_name = "KEYS",
+        conflicts_with = "script",
+        allow_hyphen_values = true
+    )]
+    pub keys: Option<String>,
+    /// --keys read from FILE (white space between steps, `#` comments).
+    #[arg(long, value_name = "FILE")]
+    pub script: Option<PathBuf>,
     /// Present every P passes instead of by time (reproducible frames for --screenshot).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub passes_per_frame: Option<u64>,
-    /// Without input: stop after N presented frames, or when the render is complete.
+    /// Without input: stop after N presented frames, or when the render is complete (with
+    /// --play: after N frames of the camera path).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub frames: Option<u64>,
     /// Without input: write the window's content (PNG) when stopping and exit; alone,
@@ -546,7 +561,23 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
             args.frame_ms
         )));
     }
+    let script = match (&args.keys, &args.script) {
+        (Some(keys), _) => crate::view::script::parse("--keys", keys)?,
+        (None, Some(file)) => {
+            let text = std::fs::read_to_string(file)
+                .map_err(|e| Error::Usage(format!("--script {}: {e}", file.display())))?;
+            crate::view::script::parse(&file.display().to_string(), &text)?
+        }
+        (None, None) => Vec::new(),
+    };
     let scene = load(args.scene.as_deref(), args.choices.textures)?;
+    if args.play && scene.animation.is_none() {
+        // As `render --frames` refuses it: nothing would play.
+        return Err(Error::Usage(format!(
+            "--play needs a camera path: {} has no [animation] table (docs/scene-format.md)",
+            scene.source
+        )));
+    }
     // The render flags go through `render`'s own conversion and checks, at `view`'s door;
     // the window renders on the GPU, so `--accel auto` is the GPU's structure.
     let render = args
@@ -562,6 +593,7 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         frame_ms: args.frame_ms,
         play: args.play,
         show_tiles: args.show_tiles,
+        script,
     };
     crate::view::run(scene, &opts)
 }

@@ -448,7 +448,7 @@ pub fn run_parts(
 /// The one-line summary of a render on stderr (`-q` turns it off).
 fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) -> String {
     format!(
-            "{}: {}x{}{} spp {} on {} [{}{}{}], {} triangles, {} ({:.1} ms), render {:.1} ms, {} rays ({:.2} Mrays/s)",
+            "{}: {}x{}{} spp {} on {} [{}{}{}], {} triangles, {} ({:.1} ms), {}render {:.1} ms, {} rays ({})",
             output.display(),
             s.width,
             s.height,
@@ -470,9 +470,17 @@ fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) 
             s.triangles,
             s.accel.brief(),
             s.grid_build_ms,
+            // The GPU's set-up apart: render_ms means tracing on both backends.
+            match &s.gpu {
+                Some(g) if s.setup_ms > 0.0 => format!(
+                    "compile {:.1} ms, upload {:.1} ms, ",
+                    g.compile_ms, g.upload_ms
+                ),
+                _ => String::new(),
+            },
             s.render_ms,
             s.rays.total,
-            s.mrays_per_s
+            crate::output::ray_rate(s.rays.total, s.render_ms)
         )
 }
 

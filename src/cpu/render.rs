@@ -212,10 +212,25 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
                 .into_par_iter()
                 .map(|_| None),
         );
-        let tallies: Vec<Tally> = colours
+        // The bands run in an order spread over the region (`spread_order`), so that the
+        // rows done at any moment sample the whole image, sky and mesh alike: the progress
+        // bar's rate, and so its ETA, is the image's, not that of its cheap top rows.
+        let mut bands: Vec<_> = colours
             .into_bands()
             .zip(aov_bands)
             .enumerate()
+            .map(Some)
+            .collect();
+        // Spread by groups of SPREAD_GROUP bands, each group's bands in a row: what a
+        // band leaves in the caches (the structure's nodes near the rows) serves the next.
+        let n_bands = bands.len();
+        let spread: Vec<_> = spread_order(n_bands.div_ceil(SPREAD_GROUP))
+            .into_iter()
+            .flat_map(|g| g * SPREAD_GROUP..((g + 1) * SPREAD_GROUP).min(n_bands))
+            .map(|b| bands[b].take().expect("a permutation"))
+            .collect();
+        let tallies: Vec<Tally> = spread
+            .into_par_iter()
             .map(|(b, (mut out, mut aov))| {
                 let j0 = region.y0 + b as u32 * TILE;
                 let j1 = (j0 + TILE).min(region.y1);
@@ -382,6 +397,29 @@ where
     }
 }
 
+/// Bands rendered one after another before the order jumps elsewhere in the image.
+const SPREAD_GROUP: usize = 4;
+
+/// 0..n in steps of about n/φ (the golden ratio), modulo n: a permutation (the step is
+/// made coprime with n) in which every stretch, the first items and the items from the
+/// middle on alike, is spread over 0..n with gaps of at most three sizes (the three-gap
+/// theorem), so that two threads each taking half of it in turn both sample the whole
+/// range from their first item on.
+fn spread_order(n: usize) -> Vec<usize> {
+    fn gcd(a: usize, b: usize) -> usize {
+        if b == 0 {
+            a
+        } else {
+            gcd(b, a % b)
+        }
+    }
+    let mut step = ((n as f64) * 0.618_033_988_75).round().max(1.0) as usize;
+    while gcd(step, n) > 1 {
+        step += 1;
+    }
+    (0..n).map(|k| k * step % n).collect()
+}
+
 /// AOV values (depth, primitive id, geometric normal `ng`, steps) of a primary ray.
 fn aov_of<T: Real>(hit: Option<&Hit<T>>, ng: V3<T>, steps: u64) -> AovPixel {
     match hit {
@@ -392,5 +430,39 @@ fn aov_of<T: Real>(hit: Option<&Hit<T>>, ng: V3<T>, steps: u64) -> AovPixel {
             normal: ng.to_dvec3().as_vec3().to_array(),
             steps: steps as f32,
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spread_order;
+
+    /// A permutation of 0..n whose first k items, and the first k of its second half, each
+    /// leave no gap wider than about 2n/k: the rows done early sample the whole image.
+    #[test]
+    fn spread_order_is_a_permutation_spread_from_the_start_of_either_half() {
+        for n in [0, 1, 2, 3, 7, 8, 150, 300, 1000] {
+            let order = spread_order(n);
+            let mut sorted = order.clone();
+            sorted.sort_unstable();
+            assert_eq!(sorted, (0..n).collect::<Vec<_>>(), "n {n}");
+            for start in [0, n / 2] {
+                for k in [4, 8, 16].into_iter().filter(|&k| start + k <= n && k < n) {
+                    let mut seen: Vec<usize> = order[start..start + k].to_vec();
+                    seen.sort_unstable();
+                    let gap = seen
+                        .windows(2)
+                        .map(|w| w[1] - w[0])
+                        .chain([seen[0], n - seen[k - 1]])
+                        .max()
+                        .unwrap();
+                    assert!(
+                        gap <= 4 * n / k + 1,
+                        "n {n}, items {start}..+{k}: gap {gap}"
+                    );
+                }
+            }
+        }
+        assert_eq!(spread_order(8), [0, 5, 2, 7, 4, 1, 6, 3]);
     }
 }

@@ -10,14 +10,17 @@
 //!
 //! - [`control`]: orbit, pan and zoom as pure functions, and the mouse controller;
 //! - [`keys`]: the key table and actions;
+//! - [`script`]: keys and mouse moves given up front (`--keys`, `--script`);
 //! - `present`: drawing into the window and reading it back;
 //! - `window`: the winit window and glutin context.
 
 pub mod control;
 pub mod keys;
 mod present;
+pub mod script;
 mod window;
 
+use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -53,7 +56,8 @@ use present::Presenter;
 pub struct ViewOptions {
     /// The render: the window's initial size is `render.width` x `render.height`.
     pub render: RenderOptions,
-    /// Stop after this many presented frames (or when the render is complete).
+    /// Stop after this many presented frames (or when the render is complete); playing,
+    /// after this many frames of the camera path, each rendered to the end.
     pub frames: Option<u64>,
     /// Write the window's content here (PNG) when stopping for `frames` or completion.
     pub screenshot: Option<PathBuf>,
@@ -65,6 +69,9 @@ pub struct ViewOptions {
     pub play: bool,
     /// Start with the tiles the passes draw outlined (`--show-tiles`; `t` toggles it).
     pub show_tiles: bool,
+    /// Input given up front (`--keys`, `--script`), applied one step each time the view is
+    /// idle ([`script`]).
+    pub script: Vec<script::Step>,
 }
 
 impl ViewOptions {
@@ -104,6 +111,14 @@ struct Handler {
 }
 
 impl Handler {
+    /// Applies one scripted step as the key or the mouse would.
+    fn step(&mut self, step: script::Step) {
+        match step {
+            script::Step::Key(action) => self.apply(action),
+            mouse => self.restart |= mouse.drive(&mut self.controller),
+        }
+    }
+
     fn apply(&mut self, action: Action) {
         let s = &mut self.settings;
         match action {
@@ -190,7 +205,8 @@ impl ApplicationHandler for Handler {
 struct TitleStats {
     passes: u64,
     samples_done: u32,
-    mrays_per_s: Option<f64>,
+    /// Rays traced and the milliseconds they took (the trace, set-up excluded).
+    rays: Option<(u64, f64)>,
     ms_per_frame: f64,
     note: String,
     /// The reduction at work ([`cut_note`]), empty for the compute kernel.
@@ -234,9 +250,9 @@ fn cut_total(g: &crate::output::GpuStats, pixels: u64) -> String {
 }
 
 fn title(s: &Settings, spp: u32, t: &TitleStats) -> String {
-    let rays = t
-        .mrays_per_s
-        .map_or("- Mrays/s".to_string(), |r| format!("{r:.2} Mrays/s"));
+    let rays = t.rays.map_or("- rays/s".to_string(), |(n, ms)| {
+        crate::output::ray_rate(n, ms)
+    });
     let mask = if s.mask == Mask::EarlyZ {
         " | early-z"
     } else {
@@ -362,15 +378,24 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
         playing: opts.play,
     };
     // The camera path `p` plays: its frames in a loop, each the camera of a whole render.
+    // `frame` moves on only when its render completes: a render cut short (a resize as the
+    // window maps, a key) renders the same frame again, so `--play --frames N` shows
+    // frame N - 1 of the path however the renders were interrupted or watched.
     let path = scene.animation.clone();
     let mut frame = path.as_ref().map_or(0, |p| *p.frames().start());
     if h.playing && path.is_none() {
+        // `fragtrace view --play` refuses a still scene before the window opens.
         eprintln!("fragtrace view: the scene has no [animation] to play");
         h.playing = false;
     }
     let mut last: Option<GpuOutput> = None;
     let mut stats = TitleStats::default();
     let mut frames = 0u64;
+    // Path frames rendered to the end while playing.
+    let mut played = 0u64;
+    let mut script: VecDeque<script::Step> = opts.script.iter().copied().collect();
+    // No render is due or running: the script's next step may be applied.
+    let mut idle = false;
     let budget = Duration::from_secs_f64(opts.frame_ms.max(0.0) / 1e3);
     let automated = opts.automated();
     loop {
@@ -378,7 +403,7 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
         if h.quit {
             return Ok(());
         }
-        let wait = if h.restart || automated {
+        let wait = if h.restart || automated || (idle && !script.is_empty()) {
             Some(Duration::ZERO)
         } else {
             None
@@ -388,6 +413,15 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
         }
         if h.quit {
             return Ok(());
+        }
+        if idle {
+            if let Some(step) = script.pop_front() {
+                let due = std::mem::take(&mut h.restart);
+                h.step(step);
+                // A step that starts a render is seen through before the next one.
+                idle = !h.restart;
+                h.restart |= due;
+            }
         }
         if let Some(s) = h.resized.take() {
             win.resize(s);
@@ -423,20 +457,33 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
             win.swap()?;
             println!("fragtrace: wrote {}", path.display());
         }
+        // Automated, the view stops once the script is through and the last render is
+        // complete (playing with --frames N: the N-th frame of the path), the screenshot
+        // showing that render as the window does.
+        let through = idle
+            && script.is_empty()
+            && match (h.playing, opts.frames) {
+                (true, Some(n)) => played >= n,
+                _ => true,
+            };
+        if automated && through && presenter.has_picture() {
+            presenter.draw_picture(&ctx, size.0, size.1)?;
+            if let Some(path) = &opts.screenshot {
+                screenshot(&ctx, size, path)?;
+            }
+            win.swap()?;
+            return Ok(());
+        }
         if !h.restart {
             continue;
         }
         h.restart = false;
+        idle = false;
 
         // One render of the whole image at the current camera and settings; playing, the
-        // camera of the path's next frame.
+        // camera of the path's current frame.
         if let (true, Some(p)) = (h.playing, &path) {
             h.controller.camera = p.camera_at(frame);
-            frame = if frame >= *p.frames().end() {
-                *p.frames().start()
-            } else {
-                frame + 1
-            };
         }
         let req = ImageRequest {
             camera: h.controller.camera,
@@ -493,7 +540,9 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                     .draw_live(&ctx, snap, size.0, size.1, tiles.as_ref())
                     .and_then(|()| {
                         frames += 1;
-                        match (&opts.screenshot, opts.frames) {
+                        // Playing, --frames counts the path's frames, rendered to the end.
+                        let count = opts.frames.filter(|_| !h.playing);
+                        match (&opts.screenshot, count) {
                             (Some(path), Some(n)) if frames >= n => {
                                 done = true;
                                 screenshot(&ctx, size, path)
@@ -505,7 +554,7 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                                 screenshot(&ctx, size, &path)
                             }
                             _ => {
-                                done = opts.frames.is_some_and(|n| frames >= n);
+                                done = count.is_some_and(|n| frames >= n);
                                 Ok(())
                             }
                         }
@@ -539,7 +588,7 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                 let gpu = out.gpu.as_ref().expect("a GPU render has GPU statistics");
                 stats.passes = gpu.passes_total;
                 stats.samples_done = ro.spp;
-                stats.mrays_per_s = Some(out.rays.total as f64 / (gpu.trace_ms.max(1e-6) * 1e3));
+                stats.rays = Some((out.rays.total, gpu.trace_ms));
                 stats.cut = cut_total(gpu, size.0 as u64 * size.1 as u64);
                 let (rgb, note) = picture(&out, h.settings.display);
                 stats.note = note;
@@ -549,19 +598,22 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
                 last = Some(out);
                 let t = title(&h.settings, ro.spp, &stats);
                 win.window.set_title(&t);
+                // Without a person the title is not seen: each frame's goes to stderr.
                 if automated {
                     eprintln!("{t}");
                 }
-                if automated && !(h.playing && opts.frames.is_some_and(|n| frames < n)) {
-                    if let Some(path) = &opts.screenshot {
-                        screenshot(&ctx, size, path)?;
-                    }
-                    win.swap()?;
-                    return Ok(());
-                }
                 win.swap()?;
+                idle = true;
                 // Playing: the next frame of the path starts at once.
-                h.restart |= h.playing;
+                if let (true, Some(p)) = (h.playing, &path) {
+                    played += 1;
+                    frame = if frame >= *p.frames().end() {
+                        *p.frames().start()
+                    } else {
+                        frame + 1
+                    };
+                    h.restart = true;
+                }
             }
             Err(Error::Cancelled) if done => return Ok(()),
             // Input arrived: start over once it is handled (a resize to the same size, say,
