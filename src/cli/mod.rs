@@ -19,7 +19,7 @@ pub use render_cmd::{run_check, run_parts, run_render, verbose_report};
 
 /// fragtrace: a Whitted ray tracer on GLSL 1.20 fragment programs, with an f64 CPU reference.
 #[derive(Parser, Debug)]
-#[command(name = "fragtrace", version, about, long_about = None, args_conflicts_with_subcommands = true)]
+#[command(name = "fragtrace", version = env!("FRAGTRACE_BUILD"), about, long_about = None, args_conflicts_with_subcommands = true)]
 pub struct Cli {
     /// The command; `render` when omitted (so `fragtrace -o x.png` renders the default scene).
     #[command(subcommand)]

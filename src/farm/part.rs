@@ -14,7 +14,7 @@
 //! | `fragtrace.frame`     | the animation frame (absent for a still)                   |
 //! | `fragtrace.device`    | the device that rendered it (information only)             |
 //! | `fragtrace.tile`      | `I/N` when made with `--tile` (information only)           |
-//! | `fragtrace.version`   | the fragtrace version that wrote it (`merge` compares it)  |
+//! | `fragtrace.version`   | the build that wrote it, version+commit (`merge` compares) |
 //! | `fragtrace.frames`    | the frames of the job the part belongs to (`merge` checks  |
 //! |                       | each has its parts), as `--frames` writes them             |
 //!
@@ -55,12 +55,14 @@ pub struct PartHeader {
     /// The frames of the whole job, for a part of an animation ([`frames_text`]): `merge`
     /// refuses a set of parts with a frame of them missing.
     pub frames: Option<String>,
-    /// The fragtrace version that wrote it (`merge` refuses parts of two versions).
+    /// The build that wrote it ([`VERSION`]: `merge` refuses parts of two builds).
     pub version: String,
 }
 
-/// The version parts written by this build carry.
-pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+/// The build parts written by this binary carry: the crate version and the commit of the
+/// code (`0.1.0+3f9c2d1e4b5a`, `-dirty` when built from changed code, `+unknown` without
+/// git; `build.rs`), so that `merge` refuses parts of two builds of one version.
+pub const VERSION: &str = env!("FRAGTRACE_BUILD");
 
 /// Frames as `--frames` takes them, short: runs of three or more frames a constant step
 /// apart as `A..B` or `A..B:S`, the rest one by one (`0..10:2,13,17`).
