@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::choices::{clap_error_line, count_in, Choices, Door, RenderArgs};
+use crate::choices::{clap_error_line, Choices, Door, RenderArgs};
 use crate::image_io;
 use crate::options::TextureMode;
 use crate::region::Region;
@@ -92,9 +92,10 @@ pub struct ViewArgs {
 /// Arguments of `info`.
 #[derive(Args, Debug, Clone)]
 pub struct InfoArgs {
-    /// Report on EGL device N (as `render --gpu N` would use it) instead of the default.
-    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count_in(0, u32::MAX))]
-    pub gpu: Option<u32>,
+    /// Report on EGL device N (as `render --gpu N` would use it) instead of the default;
+    /// `env`: the device `render --gpu env` would take, and why.
+    #[arg(long, value_name = "N|env", allow_negative_numbers = true)]
+    pub gpu: Option<crate::gpu::options::GpuChoice>,
 }
 
 /// Arguments of `merge`.
@@ -491,7 +492,16 @@ pub fn run_merge(args: &MergeArgs) -> Result<crate::farm::merge::Merged> {
 
 /// The `info` command: what the GL driver offers and whether fragtrace can run on it.
 pub fn run_info(args: &InfoArgs) -> Result<bool> {
-    let ctx = crate::gpu::GlContext::new_unchecked_on(args.gpu)?;
+    let device = match args.gpu {
+        None => None,
+        Some(crate::gpu::options::GpuChoice::Index(n)) => Some(n),
+        Some(crate::gpu::options::GpuChoice::Env) => {
+            let pick = crate::gpu::device::from_env().map_err(Error::Usage)?;
+            println!("{}", pick.why);
+            Some(pick.index)
+        }
+    };
+    let ctx = crate::gpu::GlContext::new_unchecked_on(device)?;
     println!("{}", ctx.info);
     match render::auto_declines(&ctx.info) {
         None => println!("--backend auto:   gl (this GL)"),
@@ -509,7 +519,7 @@ pub fn run_info(args: &InfoArgs) -> Result<bool> {
                     d.name,
                     d.cuda
                         .map_or(String::new(), |c| format!(", CUDA device {c}")),
-                    if args.gpu == Some(d.index) {
+                    if device == Some(d.index) {
                         " (this report)"
                     } else {
                         ""
