@@ -593,3 +593,62 @@ fn parts_name_the_commit_of_their_build() {
         assert_eq!(build, "unknown", "{version} outside a git checkout");
     }
 }
+
+/// `merge --summary` reads a job's parts across its tasks: with task 2 of 4 missing it
+/// names the task, its tiles and the re-run, gives each task's time and node, and exits 1
+/// (where there was no summary at all); once task 2 is re-run the set is complete (exit 0)
+/// with the spread of task times, and `-o` merges after the summary.
+#[test]
+fn merge_summary_across_tasks() {
+    let d = tmpdir("summary");
+    let task = |i: u32| {
+        ok(run(
+            &d,
+            &small(&[
+                "--task-index",
+                &format!("{i}/4"),
+                "--tiles",
+                "8",
+                "-o",
+                "part-{tile}.exr",
+            ]),
+            &[("SLURMD_NODENAME", &format!("node{i}"))],
+        ))
+    };
+    for i in [0, 1, 3] {
+        task(i);
+    }
+    let parts: Vec<String> = (0..8)
+        .filter(|t| ![4, 5].contains(t))
+        .map(|t| format!("part-{t}.exr"))
+        .collect();
+    let mut args: Vec<&str> = vec!["merge", "--summary"];
+    args.extend(parts.iter().map(String::as_str));
+    let o = run(&d, &args, &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for want in [
+        "task 0 of 4: 2 of 2 parts, ",
+        " on node0\n",
+        "task 2 of 4: 0 of 2 parts; missing tile 4 of 8, tile 5 of 8\n",
+        "6 of 8 parts done, missing: tile 4 of 8, tile 5 of 8\n",
+        "to re-run: task 2 (sbatch --array=2 ... --task-index env:4)\n",
+        " over 3 complete tasks\n",
+    ] {
+        assert!(out.contains(want), "want `{want}` in:\n{out}");
+    }
+    task(2);
+    let all: Vec<String> = (0..8).map(|t| format!("part-{t}.exr")).collect();
+    let mut args: Vec<&str> = vec!["merge", "--summary"];
+    args.extend(all.iter().map(String::as_str));
+    let o = ok(run(&d, &args, &[]));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("8 of 8 parts done\n") && out.contains(" over 4 complete tasks\n"),
+        "{out}"
+    );
+    args.extend(["-o", "m.png"]);
+    let o = ok(run(&d, &args, &[]));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("8 of 8 parts done"));
+    assert!(d.join("m.png").is_file());
+}

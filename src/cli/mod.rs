@@ -107,8 +107,13 @@ pub struct MergeArgs {
     /// The merged image: .png (sRGB 8-bit, the same bits as a single-process render) or
     /// .exr (linear float, itself a part covering the whole image); a run of `#` in the file name
     /// writes one image per frame of an animation's parts.
-    #[arg(short, long)]
-    pub output: PathBuf,
+    #[arg(short, long, required_unless_present = "summary")]
+    pub output: Option<PathBuf>,
+    /// Print the job's parts across its tasks first (done, missing by tile and frame with
+    /// the task that owed each, each task's time and node); without -o only that, exit 1
+    /// when a part is missing or unreadable.
+    #[arg(long)]
+    pub summary: bool,
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
@@ -462,14 +467,45 @@ pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
     crate::bench::run_bench(&opts)
 }
 
-/// The `merge` command: checks the output path, then [`crate::farm::merge::merge`].
-pub fn run_merge(args: &MergeArgs) -> Result<crate::farm::merge::Merged> {
+/// The `merge` command: with `--summary` the parts across their tasks
+/// ([`crate::farm::summary`]; without `-o` false when one is missing), then with `-o` the
+/// output path checked and [`crate::farm::merge::merge`].
+pub fn run_merge(args: &MergeArgs) -> Result<bool> {
+    let summary = args.summary.then(|| {
+        let parts: Vec<_> = args
+            .parts
+            .iter()
+            .map(|p| {
+                let header = crate::farm::part::read_part(p)
+                    .map(|part| part.header)
+                    .map_err(|e| {
+                        let e = e.to_string();
+                        let prefix = format!("{}: ", p.display());
+                        e.strip_prefix(&prefix).unwrap_or(&e).to_string()
+                    });
+                (p.clone(), header)
+            })
+            .collect();
+        let s = crate::farm::summary::summarize(&parts);
+        for l in &s.lines {
+            println!("{l}");
+        }
+        s.complete
+    });
+    match &args.output {
+        Some(output) => merge_to(args, output).map(|_| true),
+        None => Ok(summary.unwrap_or(true)),
+    }
+}
+
+/// `merge -o OUTPUT`: the parts checked and assembled, the outputs reported.
+fn merge_to(args: &MergeArgs, output: &Path) -> Result<crate::farm::merge::Merged> {
     image_io::remove_partials_on_signal();
     // A probe next to where frame 0 would go: the folder must exist and be writable.
-    let probe = crate::farm::template::OutputTemplate::new(&args.output)?.path(Some(0), None);
+    let probe = crate::farm::template::OutputTemplate::new(output)?.path(Some(0), None);
     check_writable(&probe, "image")?;
-    image_io::Format::from_path(&args.output)?;
-    let merged = crate::farm::merge::merge(&args.parts, &args.output)?;
+    image_io::Format::from_path(output)?;
+    let merged = crate::farm::merge::merge(&args.parts, output)?;
     if !args.quiet {
         if !merged.devices.is_empty() {
             eprintln!(
@@ -592,6 +628,7 @@ fn mistyped_subcommand(scene: &Path) -> Option<String> {
 
 /// Runs a parsed command line; `Ok(false)` means "ran, but the answer is no" (exit 1).
 pub fn run(cli: Cli) -> Result<bool> {
+    crate::clock::mark_start();
     if let Some(n) = cli.threads {
         // The global pool, before anything uses it: every parallel loop takes this size.
         rayon::ThreadPoolBuilder::new()
@@ -614,7 +651,7 @@ pub fn run(cli: Cli) -> Result<bool> {
         Some(Command::Render(args)) => run_render(&args).map(|_| true),
         Some(Command::Compare(args)) => run_compare(&args),
         Some(Command::Bench(args)) => run_bench(&args).map(|_| true),
-        Some(Command::Merge(args)) => run_merge(&args).map(|_| true),
+        Some(Command::Merge(args)) => run_merge(&args),
         Some(Command::Info(args)) => run_info(&args),
         Some(Command::View(args)) => run_view(&args).map(|()| true),
         Some(Command::DumpShaders(args)) => {

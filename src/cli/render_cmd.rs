@@ -426,6 +426,7 @@ pub fn run_parts(
             unit.frame,
             parts.tile_label(k),
             parts.frames.as_deref(),
+            parts.task.as_ref(),
         )?;
         if let Some(path) = parts.stats.get(k) {
             write_stats(path, &out.stats)?;

@@ -319,6 +319,7 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
                 let header = PartHeader {
                     region: Region::full(header.width, header.height),
                     tile: None,
+                    provenance: Default::default(),
                     device: if devices.is_empty() {
                         header.device
                     } else {
