@@ -203,20 +203,24 @@ fn host() -> Option<String> {
         .filter(|h| !h.is_empty())
 }
 
-/// Writes one rendered unit: as a part (OpenEXR with its data window and header) to a
-/// `.exr` path, or as a plain crop of the region to a `.png` path (`--region`); `frames`
-/// are the job's frames, for a part of an animation, and `task` the task rendering it.
+/// Writes unit `k` of `plan`, rendered as `out`, to its file: as a part (OpenEXR with its
+/// data window and a header naming its frame, tile, the job's frames and the task) to a
+/// `.exr` path, or as a plain crop of the region to a `.png` path (`--region`).
 pub fn write_unit(
-    path: &std::path::Path,
     scene: &crate::scene::Scene,
     opts: &RenderOptions,
     out: &crate::render::Rendered,
-    frame: Option<u32>,
-    tile: Option<String>,
-    frames: Option<&[u32]>,
-    task: Option<&task::TaskIndex>,
+    plan: &plan::PartPlan,
+    k: usize,
 ) -> crate::Result<()> {
     use crate::image_io::{write_image, Format};
+    let path = &plan.outputs[k];
+    let (frame, tile, frames, task) = (
+        plan.units[k].frame,
+        plan.tile_label(k),
+        plan.frames.as_deref(),
+        plan.task.as_ref(),
+    );
     match Format::from_path(path)? {
         Format::Exr => {
             let header = part::PartHeader {
