@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser};
 
 use crate::accel::{AccelKind, GridConfig, GridRes};
-use crate::gpu::options::{Kernel, Mask, SceneFetch, ShaderCache, Storage};
+use crate::gpu::options::{GpuChoice, Kernel, Mask, SceneFetch, ShaderCache, Storage};
 use crate::options::{
     check_range, AccelChoice, Backend, CpuPath, Precision, RenderOptions, TextureMode, MAX_DEPTH,
     MAX_IMAGE_SIDE, MAX_QUERY_EVERY, MAX_SPP,
@@ -166,11 +166,12 @@ pub struct Choices {
     /// $FRAGTRACE_SHADER_CACHE (on|off).
     #[arg(long, value_enum)]
     pub shader_cache: Option<ShaderCache>,
-    /// GPU: render on EGL device N (`fragtrace info` lists them; on a Slurm GPU node, the
-    /// one the task was given: docs/distributed.md); default: the first display that
-    /// works.
-    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count_in(0, u32::MAX))]
-    pub gpu: Option<u32>,
+    /// GPU: render on EGL device N (`fragtrace info` lists them), or `env`: the GPU the
+    /// batch scheduler gave the task (CUDA_VISIBLE_DEVICES, SLURM_STEP_GPUS,
+    /// SLURM_JOB_GPUS, GPU_DEVICE_ORDINAL, the local rank SLURM_LOCALID:
+    /// docs/distributed.md); default: the first display that works.
+    #[arg(long, value_name = "N|env", allow_negative_numbers = true)]
+    pub gpu: Option<GpuChoice>,
 }
 
 impl Choices {
@@ -202,6 +203,24 @@ impl Choices {
             given.push(format!("--shader-cache {c}"));
         }
         given
+    }
+
+    /// The EGL device `--gpu` names: N, or the one the scheduler's variables give
+    /// (`--gpu env`, [`crate::gpu::device`]: a variable naming no device present is a usage
+    /// error naming those there are).
+    pub fn device(&self) -> Result<Option<u32>> {
+        match self.gpu {
+            None => Ok(None),
+            Some(GpuChoice::Index(n)) => Ok(Some(n)),
+            #[cfg(not(target_arch = "wasm32"))]
+            Some(GpuChoice::Env) => crate::gpu::device::from_env()
+                .map(|p| Some(p.index))
+                .map_err(Error::Usage),
+            #[cfg(target_arch = "wasm32")]
+            Some(GpuChoice::Env) => Err(Error::Usage(
+                "--gpu env: a web page has no EGL devices".into(),
+            )),
+        }
     }
 
     /// The CPU-only flags given: what a GPU render refuses.
@@ -430,7 +449,7 @@ impl Choices {
         }
         opts.grid = grid;
         opts.gpu = self.gpu_options();
-        opts.device = self.gpu;
+        opts.device = self.device()?;
         opts.techniques = Techniques {
             intersect: self.intersect,
             t_bound: self.t_bound,
@@ -520,10 +539,18 @@ impl RenderArgs {
     }
 
     /// Turns the flags into render options for `scene` ([`Choices::to_options`] at
-    /// `render`'s door), with the progress display unless `-q`.
+    /// `render`'s door), with the progress display unless `-q` (and then `--gpu env`'s
+    /// device and why on stderr).
     pub fn to_options(&self, scene: &Scene) -> Result<RenderOptions> {
         let mut opts = self.choices.to_options(scene, Door::Render)?;
         opts.progress = !self.quiet;
+        if self.choices.gpu == Some(GpuChoice::Env) && !self.quiet {
+            // A task's log says which device the scheduler's variables gave it, once.
+            static TOLD: std::sync::Once = std::sync::Once::new();
+            if let Ok(p) = crate::gpu::device::from_env() {
+                TOLD.call_once(|| eprintln!("{}", p.why));
+            }
+        }
         Ok(opts)
     }
 }

@@ -6,7 +6,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use common::{model_path, with_test_context};
 use fragtrace::image_io::to_srgb8;
@@ -15,10 +15,7 @@ use fragtrace::render::{render_cpu, render_gl_with};
 use fragtrace::scene::{load_scene_with_search_path, Scene};
 
 fn fragtrace(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
-        .args(args)
-        .output()
-        .expect("run fragtrace")
+    common::bin().args(args).output().expect("run fragtrace")
 }
 
 fn scratch(name: &str) -> PathBuf {

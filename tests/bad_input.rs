@@ -2,8 +2,10 @@
 //! file, line and field where that applies, no panic, no hang, no file written, and an
 //! existing output never replaced.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
 
 const CAM: &str = "[camera]\neye = [0, 1, 5]\nlook_at = [0, 1, 0]\nfov = 45\n";
@@ -24,7 +26,7 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 
 /// Runs the binary in `dir` with `args` (and `env`), with a deadline: a hang is a failure.
 fn run_in(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_fragtrace"));
+    let mut cmd = common::bin();
     cmd.current_dir(dir)
         .args(args)
         .env_remove("FRAGTRACE_GL_LIMITS")

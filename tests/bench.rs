@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn bin() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_fragtrace"));
+    let mut c = common::bin();
     c.current_dir(env!("CARGO_MANIFEST_DIR"));
     c
 }
@@ -386,9 +386,8 @@ fn bad_bench_input_exits_2_with_a_clear_message() {
 #[test]
 fn bench_progress_on_a_terminal_only() {
     let d = tmpdir("progress");
-    let exe = env!("CARGO_BIN_EXE_fragtrace");
     let args = "bench --scenes whitted --configs cpu-f64,cpu-f32 --size 48x32 --runs 2 --out o";
-    let piped = Command::new(exe)
+    let piped = common::bin()
         .current_dir(&d)
         .args(args.split(' '))
         .output()
@@ -403,7 +402,7 @@ fn bench_progress_on_a_terminal_only() {
         err.contains("whitted / cpu-f32: ") && err.contains("wrote "),
         "{err}"
     );
-    let on_tty = |extra: &str| common::on_terminal(&d, &format!("{exe} {args} {extra}"));
+    let on_tty = |extra: &str| common::on_terminal(&d, &format!("{args} {extra}"));
     let shown = on_tty("");
     assert!(
         shown.contains("/6 renders"),

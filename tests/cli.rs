@@ -1,19 +1,7 @@
 //! The binary as a user meets it: outputs, statistics, exit codes and error messages.
 
 mod common;
-use std::path::PathBuf;
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fragtrace-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
+use common::{bin, tmpdir};
 
 #[test]
 fn default_command_renders_the_builtin_scene_with_stats() {
@@ -386,7 +374,6 @@ fn verbose_logs_pass_kinds_and_cpu_work() {
 fn progress_shows_on_a_terminal_only() {
     let d = tmpdir("progress");
     let args = "--backend cpu --width 64 --height 2000 -o p.png";
-    let exe = env!("CARGO_BIN_EXE_fragtrace");
     let piped = bin()
         .current_dir(&d)
         .args(args.split(' '))
@@ -397,7 +384,7 @@ fn progress_shows_on_a_terminal_only() {
         !String::from_utf8_lossy(&piped.stderr).contains("rows"),
         "progress drawn into a pipe"
     );
-    let on_tty = |extra: &str| common::on_terminal(&d, &format!("{exe} {args} {extra}"));
+    let on_tty = |extra: &str| common::on_terminal(&d, &format!("{args} {extra}"));
     let shown = on_tty("");
     assert!(
         shown.contains("/2000 rows"),
@@ -676,8 +663,7 @@ fn gl_progress_shows_a_monotone_percentage_and_eta() {
         !String::from_utf8_lossy(&piped.stderr).contains("% (eta"),
         "progress drawn into a pipe"
     );
-    let exe = env!("CARGO_BIN_EXE_fragtrace");
-    let shown = common::on_terminal(&d, &format!("{exe} {args}"));
+    let shown = common::on_terminal(&d, args);
     let percents: Vec<u32> = shown
         .split("% (eta ")
         .filter_map(|before| {
@@ -1247,5 +1233,75 @@ fn one_frame_is_one_frame() {
     assert!(
         two.contains(": 2 frames of 16x12") && two.contains("frames/s after the first"),
         "{two}"
+    );
+}
+
+/// No test writes into the user's home: the binary's program-binary cache (on by default,
+/// in `~/.cache/fragtrace`) goes to the test process's own folder. Every test crate runs
+/// the binary through `common::bin()` (or hands `common::exe()` to a script together with
+/// that folder), and a GL render through it with HOME elsewhere leaves HOME untouched and
+/// its programs in `common::shader_cache_dir()`.
+#[test]
+fn tests_keep_the_shader_cache_out_of_the_home_folder() {
+    let tests = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    let mut sources = Vec::new();
+    let mut stack = vec![tests.clone()];
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                sources.push(p);
+            }
+        }
+    }
+    let mut offenders = Vec::new();
+    for p in &sources {
+        let src = std::fs::read_to_string(p).unwrap();
+        let name = p.strip_prefix(&tests).unwrap().display().to_string();
+        if name == "common/mod.rs" {
+            continue;
+        }
+        if src.contains(concat!("CARGO_BIN_EXE_", "fragtrace")) {
+            offenders.push(format!("{name} names the binary itself"));
+        }
+        if src.contains("common::exe()") && !src.contains("common::shader_cache_dir()") {
+            offenders.push(format!(
+                "{name} runs common::exe() without the cache folder"
+            ));
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "run the binary through common::bin(): {offenders:?}"
+    );
+
+    let d = tmpdir("home");
+    let home = d.join("home");
+    std::fs::create_dir_all(&home).unwrap();
+    let out = bin()
+        .current_dir(&d)
+        .env("HOME", &home)
+        .env_remove("XDG_CACHE_HOME")
+        .env("FRAGTRACE_SHADER_CACHE", "on")
+        // Mesa's own disk cache on (llvmpipe offers program binaries only with it), in d.
+        .env("MESA_SHADER_CACHE_DIR", d.join("mesa"))
+        .env_remove("MESA_SHADER_CACHE_DISABLE")
+        .args(["--backend", "gl", "--width", "16", "--height", "12", "-q"])
+        .args(["-o", "g.png"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", common::text(&out));
+    let left: Vec<_> = std::fs::read_dir(&home)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert!(left.is_empty(), "the render wrote into HOME: {left:?}");
+    let programs = common::shader_cache_dir().join("programs");
+    assert!(
+        std::fs::read_dir(&programs).is_ok_and(|mut r| r.next().is_some()),
+        "no program binaries in {}",
+        programs.display()
     );
 }

@@ -325,7 +325,7 @@ fn auto_runs_compute_on_a_gl43_context() {
 }
 
 fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+    common::bin()
 }
 
 /// Mesa's variables that give a GL 2.1 / GLSL 1.20 context.

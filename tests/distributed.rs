@@ -7,8 +7,8 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
 use fragtrace::gpu::options::Kernel;
 use fragtrace::options::{Backend, Precision, RenderOptions};
@@ -16,24 +16,7 @@ use fragtrace::region::{Region, Tiling};
 use fragtrace::render::{render_cpu, render_gl_with, Rendered};
 use fragtrace::scene::{builtin_scene, Scene};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fragtrace-dist-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
+use common::{bin, ok, refused, run, text, tmpdir};
 
 /// Odd sizes (parts of unequal width and height), two samples per pixel (the sub-pixel
 /// pattern must be the full render's too).
@@ -175,45 +158,6 @@ fn render_args(extra: &[&str]) -> Vec<String> {
     .collect();
     v.extend(extra.iter().map(|s| s.to_string()));
     v
-}
-
-fn run(dir: &Path, args: &[String], env: &[(&str, &str)]) -> Output {
-    let mut c = bin();
-    c.current_dir(dir).args(args);
-    c.env(
-        "FRAGTRACE_MODEL_PATH",
-        std::env::join_paths(common::model_path()).unwrap(),
-    );
-    for var in [
-        "SLURM_ARRAY_TASK_ID",
-        "SLURM_ARRAY_TASK_MIN",
-        "SLURM_ARRAY_TASK_MAX",
-        "SLURM_ARRAY_TASK_STEP",
-        "SLURM_ARRAY_TASK_COUNT",
-        "JOB_COMPLETION_INDEX",
-    ] {
-        c.env_remove(var);
-    }
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c.output().unwrap()
-}
-
-fn ok(o: Output) -> Output {
-    assert!(o.status.success(), "{}", text(&o));
-    o
-}
-
-/// One line `fragtrace: error: ...` containing `want`, exit 2.
-fn refused(o: &Output, want: &str) {
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{}", text(o));
-    assert_eq!(err.lines().count(), 1, "one line: {err}");
-    assert!(
-        err.starts_with("fragtrace: error: ") && err.contains(want),
-        "want `{want}` in: {err}"
-    );
 }
 
 fn merge(dir: &Path, parts: &[&str], out: &str) -> Output {
@@ -480,6 +424,86 @@ fn a_gpu_beyond_the_devices_is_refused_naming_how_many() {
     .map(|s| s.to_string())
     .collect();
     ok(run(&d, &a, &[]));
+}
+
+/// `--gpu env` takes the EGL device the scheduler's variables name: the position in
+/// CUDA_VISIBLE_DEVICES (or Slurm's GPU lists) or the local rank, said on stderr; a
+/// variable naming a device beyond those present is one line, exit 2, naming them (also
+/// under `--backend auto`, which must not fall back to the CPU then); no variable at all is
+/// refused; `info --gpu env` reports on the device and says why. Here the device list is
+/// Mesa's (llvmpipe), so the number is the device's position.
+#[test]
+fn gpu_env_takes_the_device_the_scheduler_names() {
+    let d = tmpdir("gpuenv");
+    let gpu_vars = [
+        "CUDA_VISIBLE_DEVICES",
+        "SLURM_STEP_GPUS",
+        "SLURM_JOB_GPUS",
+        "GPU_DEVICE_ORDINAL",
+        "SLURM_LOCALID",
+        "LOCAL_RANK",
+        "OMPI_COMM_WORLD_LOCAL_RANK",
+    ];
+    let render = |backend: &str, env: &[(&str, &str)]| {
+        let mut c = bin();
+        c.current_dir(&d)
+            .args(["render", "--backend", backend, "--gpu", "env"])
+            .args(["--width", "8", "--height", "6", "-o", "g.png"]);
+        for v in gpu_vars {
+            c.env_remove(v);
+        }
+        c.envs(env.iter().copied()).output().unwrap()
+    };
+    let info = text(&ok(run(&d, &["info"], &[])));
+    let count: usize = info
+        .lines()
+        .find_map(|l| l.strip_prefix("EGL devices ("))
+        .and_then(|l| l.split(';').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("`fragtrace info` lists no EGL devices:\n{info}"));
+    let bad = count.to_string();
+    for backend in ["gl", "auto"] {
+        refused(
+            &render(backend, &[("CUDA_VISIBLE_DEVICES", &bad)]),
+            &format!(
+                "--gpu env: CUDA_VISIBLE_DEVICES={bad} names device {bad}, but this machine has {count} EGL device{}: --gpu 0 (",
+                if count == 1 { "" } else { "s" }
+            ),
+        );
+    }
+    refused(
+        &render("gl", &[]),
+        "--gpu env: none of CUDA_VISIBLE_DEVICES",
+    );
+    refused(
+        &render("gl", &[("SLURM_JOB_GPUS", "0,1"), ("SLURM_LOCALID", "5")]),
+        "SLURM_LOCALID=5, but SLURM_JOB_GPUS=0,1 names 2 GPUs",
+    );
+    for env in [
+        &[("CUDA_VISIBLE_DEVICES", "0")][..],
+        &[("SLURM_STEP_GPUS", "0"), ("SLURM_LOCALID", "0")][..],
+        &[("SLURM_LOCALID", "0")][..],
+    ] {
+        let o = ok(render("gl", env));
+        let err = String::from_utf8_lossy(&o.stderr);
+        let (k, v) = env[0];
+        assert!(
+            err.contains(&format!("--gpu env: {k}={v}")) && err.contains(": EGL device --gpu 0 ("),
+            "{env:?}: {err}"
+        );
+    }
+    let mut c = bin();
+    c.current_dir(&d).args(["info", "--gpu", "env"]);
+    for v in gpu_vars {
+        c.env_remove(v);
+    }
+    let o = ok(c.env("CUDA_VISIBLE_DEVICES", "0").output().unwrap());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("--gpu env: CUDA_VISIBLE_DEVICES=0: EGL device --gpu 0 (")
+            && out.contains("(this report)"),
+        "{out}"
+    );
 }
 
 /// An animation shared out: `--frames` with `--task-index` over a Slurm array writes whole

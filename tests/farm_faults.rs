@@ -3,7 +3,7 @@
 //! apply to the part); a re-run of one Slurm index renders that task of the job, and an
 //! array of one task without the job's count is refused; SIGTERM leaves no partial file
 //! and what SIGKILL leaves is removed by the next write and by the merge; merge names a
-//! missing tile and a missing frame and refuses parts of another version, tiling or frame
+//! missing tile and a missing frame and refuses parts of another build, tiling or frame
 //! set; parts' folders are made; `compare` compares a part with its region; stepped and
 //! listed frames; `--check` and `--resume`. Bad input: one line, exit 2, outputs kept.
 
@@ -12,65 +12,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("fragtrace-faults-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-const SLURM_VARS: [&str; 6] = [
-    "SLURM_ARRAY_TASK_ID",
-    "SLURM_ARRAY_TASK_MIN",
-    "SLURM_ARRAY_TASK_MAX",
-    "SLURM_ARRAY_TASK_STEP",
-    "SLURM_ARRAY_TASK_COUNT",
-    "JOB_COMPLETION_INDEX",
-];
-
-fn run(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut c = bin();
-    c.current_dir(dir).args(args);
-    c.env(
-        "FRAGTRACE_MODEL_PATH",
-        std::env::join_paths(common::model_path()).unwrap(),
-    );
-    for var in SLURM_VARS {
-        c.env_remove(var);
-    }
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c.output().unwrap()
-}
-
-fn ok(o: Output) -> Output {
-    assert!(o.status.success(), "{}", text(&o));
-    o
-}
-
-/// One line `fragtrace: error: ...` containing `want`, exit 2.
-fn refused(o: &Output, want: &str) {
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{}", text(o));
-    assert_eq!(err.lines().count(), 1, "one line: {err}");
-    assert!(
-        err.starts_with("fragtrace: error: ") && err.contains(want),
-        "want `{want}` in: {err}"
-    );
-}
+use common::{ok, refused, run, text, tmpdir};
 
 const WHITTED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/whitted.toml");
 const TURNTABLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/turntable.toml");
@@ -310,7 +252,7 @@ fn sigterm_removes_the_partial_file_and_sigkill_litter_is_cleared() {
     assert!(partials(&d).is_empty(), "{:?}", files(&d));
 }
 
-/// Merge names the missing tile; refuses a part of another fragtrace version and of
+/// Merge names the missing tile; refuses a part of another fragtrace build and of
 /// another tiling; refuses a set of parts of frames 3..5 whose frame 4 has no parts,
 /// naming it, where today frames 3 and 5 were written; nothing is written on refusal.
 #[test]
@@ -331,9 +273,11 @@ fn merge_names_what_is_missing_and_refuses_other_builds() {
         ),
         "missing tile 2 of 4 (pixels 0,18,24,36)",
     );
-    // The same part as written by another version.
+    // The same part as written by another build of this version: another commit.
     let mut other = fragtrace::farm::part::read_part(&d.join("p-1.exr")).unwrap();
-    other.header.version = "0.0.0-another-build".into();
+    let ours = other.header.version.clone();
+    let theirs = format!("{}+0123456789ab", env!("CARGO_PKG_VERSION"));
+    other.header.version = theirs.clone();
     fragtrace::farm::part::write_part(&d.join("v.exr"), &other).unwrap();
     refused(
         &run(
@@ -343,7 +287,7 @@ fn merge_names_what_is_missing_and_refuses_other_builds() {
             ],
             &[],
         ),
-        "different fragtrace versions (0.0.0-another-build against",
+        &format!("different fragtrace builds ({theirs} against {ours})"),
     );
     // A whole image as tile 0 of 1 (what `sbatch --array=3` wrote before) with the rest.
     ok(run(
@@ -603,4 +547,108 @@ fn check_and_resume_find_and_fill_the_holes() {
         std::fs::read(d.join("m.png")).unwrap(),
         std::fs::read(d.join("single.png")).unwrap()
     );
+}
+
+/// A part's `fragtrace.version` names the commit of the code the binary was built from
+/// (`0.1.0+<12 hex digits>`, `-dirty` when built from changed code), where it was the crate
+/// version alone and two builds of one version merged. `fragtrace --version` says the same.
+/// Without a `-dirty` mark the code at that commit is the code of this tree.
+#[test]
+fn parts_name_the_commit_of_their_build() {
+    let d = tmpdir("version");
+    ok(run(&d, &small(&["--tile", "0/2", "-o", "p.exr"]), &[]));
+    let version = fragtrace::farm::part::read_part(&d.join("p.exr"))
+        .unwrap()
+        .header
+        .version;
+    let shown = text(&ok(run(&d, &["--version"], &[])));
+    assert_eq!(shown.trim(), format!("fragtrace {version}"));
+    let build = version
+        .strip_prefix(concat!(env!("CARGO_PKG_VERSION"), "+"))
+        .unwrap_or_else(|| panic!("{version}: not the crate version and a build"));
+    let (commit, dirty) = match build.strip_suffix("-dirty") {
+        Some(c) => (c, true),
+        None => (build, false),
+    };
+    let git = |args: &[&str]| {
+        Command::new("git")
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args(args)
+            .output()
+    };
+    if git(&["rev-parse", "--git-dir"]).is_ok_and(|o| o.status.success()) {
+        assert!(
+            commit.len() >= 12 && commit.chars().all(|c| c.is_ascii_hexdigit()),
+            "{version}: the build names no commit in a git checkout"
+        );
+        let exists = git(&["cat-file", "-e", &format!("{commit}^{{commit}}")]).unwrap();
+        assert!(exists.status.success(), "{version}: no such commit");
+        if !dirty {
+            let mut diff = vec!["diff", "--quiet", commit, "--"];
+            diff.extend(["src", "glsl120", "Cargo.toml", "Cargo.lock", "build.rs"]);
+            let same = git(&diff).unwrap();
+            assert!(same.status.success(), "{version}: the code differs from it");
+        }
+    } else {
+        assert_eq!(build, "unknown", "{version} outside a git checkout");
+    }
+}
+
+/// `merge --summary` reads a job's parts across its tasks: with task 2 of 4 missing it
+/// names the task, its tiles and the re-run, gives each task's time and node, and exits 1
+/// (where there was no summary at all); once task 2 is re-run the set is complete (exit 0)
+/// with the spread of task times, and `-o` merges after the summary.
+#[test]
+fn merge_summary_across_tasks() {
+    let d = tmpdir("summary");
+    let task = |i: u32| {
+        ok(run(
+            &d,
+            &small(&[
+                "--task-index",
+                &format!("{i}/4"),
+                "--tiles",
+                "8",
+                "-o",
+                "part-{tile}.exr",
+            ]),
+            &[("SLURMD_NODENAME", &format!("node{i}"))],
+        ))
+    };
+    for i in [0, 1, 3] {
+        task(i);
+    }
+    let parts: Vec<String> = (0..8)
+        .filter(|t| ![4, 5].contains(t))
+        .map(|t| format!("part-{t}.exr"))
+        .collect();
+    let mut args: Vec<&str> = vec!["merge", "--summary"];
+    args.extend(parts.iter().map(String::as_str));
+    let o = run(&d, &args, &[]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for want in [
+        "task 0 of 4: 2 of 2 parts, ",
+        " on node0\n",
+        "task 2 of 4: 0 of 2 parts; missing tile 4 of 8, tile 5 of 8\n",
+        "6 of 8 parts done, missing: tile 4 of 8, tile 5 of 8\n",
+        "to re-run: task 2 (sbatch --array=2 ... --task-index env:4)\n",
+        " over 3 complete tasks\n",
+    ] {
+        assert!(out.contains(want), "want `{want}` in:\n{out}");
+    }
+    task(2);
+    let all: Vec<String> = (0..8).map(|t| format!("part-{t}.exr")).collect();
+    let mut args: Vec<&str> = vec!["merge", "--summary"];
+    args.extend(all.iter().map(String::as_str));
+    let o = ok(run(&d, &args, &[]));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("8 of 8 parts done\n") && out.contains(" over 4 complete tasks\n"),
+        "{out}"
+    );
+    args.extend(["-o", "m.png"]);
+    let o = ok(run(&d, &args, &[]));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("8 of 8 parts done"));
+    assert!(d.join("m.png").is_file());
 }

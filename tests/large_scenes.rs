@@ -3,8 +3,10 @@
 //! scene CI can afford) renders the CPU's image on the compute and looped kernels, and a
 //! scene too large for the machine is refused in one line before anything is built.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("fragtrace-large-{name}-{}", std::process::id()));
@@ -14,7 +16,7 @@ fn tmpdir(name: &str) -> PathBuf {
 }
 
 fn run(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_fragtrace"));
+    let mut cmd = common::bin();
     cmd.current_dir(dir)
         .args(args)
         .env_remove("FRAGTRACE_SPLIT_INDICES");

@@ -11,7 +11,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 
 use common::model_path;
 use fragtrace::image_io::Image;
@@ -425,7 +425,7 @@ fn node_transforms_and_several_primitives() {
 }
 
 fn run(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+    common::bin()
         .current_dir(dir)
         .args(args)
         .stdin(Stdio::null())

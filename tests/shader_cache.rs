@@ -4,8 +4,9 @@
 //! without binary formats compiles as before; every image equals the uncached one byte for
 //! byte.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("fragtrace-sc-{name}-{}", std::process::id()));
@@ -18,7 +19,7 @@ fn tmpdir(name: &str) -> PathBuf {
 /// Mesa's own cache in `d/mesa` (on, so that llvmpipe offers a binary format, but private
 /// to the test), extra `env` and `args`: its PNG's bytes and (compiled, cached) programs.
 fn render(d: &Path, kernel: &str, env: &[(&str, &str)], args: &[&str]) -> (Vec<u8>, (u64, u64)) {
-    let out = Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+    let out = common::bin()
         .current_dir(d)
         .env("FRAGTRACE_SHADER_CACHE_DIR", d.join("cache"))
         .env("MESA_SHADER_CACHE_DIR", d.join("mesa"))
@@ -142,11 +143,7 @@ fn a_second_process_links_from_the_cache_and_damage_is_rebuilt() {
 fn without_binary_formats_every_program_is_compiled() {
     let d = tmpdir("noformat");
     let off = [("MESA_SHADER_CACHE_DISABLE", "true")];
-    let info = Command::new(env!("CARGO_BIN_EXE_fragtrace"))
-        .envs(off)
-        .arg("info")
-        .output()
-        .unwrap();
+    let info = common::bin().envs(off).arg("info").output().unwrap();
     let info = String::from_utf8_lossy(&info.stdout);
     assert!(info.contains("Program binaries: 0 formats"), "{info}");
     let (first, (n, cached)) = render(&d, "compute", &off, &[]);

@@ -12,6 +12,8 @@
 //! installs them). Without them it fails, saying so, unless `FRAGTRACE_ALLOW_SKIP=1`
 //! acknowledges the skip: in CI it runs, and a cluster that does not start fails it.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -50,7 +52,8 @@ fn tiles_and_frames_on_a_real_slurm_cluster_equal_the_single_process_bits() {
     }
     let out = Command::new("bash")
         .arg(repo.join("ci/slurm/test.sh"))
-        .arg(env!("CARGO_BIN_EXE_fragtrace"))
+        .arg(common::exe())
+        .env("FRAGTRACE_SHADER_CACHE_DIR", common::shader_cache_dir())
         .output()
         .expect("run ci/slurm/test.sh");
     let text = format!(

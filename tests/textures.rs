@@ -7,7 +7,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 
 use common::{model_path, with_test_context};
 use fragtrace::gpu::options::Kernel;
@@ -352,7 +352,7 @@ fn tmpdir(tag: &str) -> PathBuf {
 }
 
 fn run(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+    common::bin()
         .current_dir(dir)
         .args(args)
         .stdin(Stdio::null())

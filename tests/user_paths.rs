@@ -2,8 +2,10 @@
 //! (each one line, exit 2), `compare` saying which bound failed, `--help` text, AOV
 //! previews and comparing an AOV channel.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 
 const CAM: &str = "[camera]\neye = [0, 1, 5]\nlook_at = [0, 1, 0]\nfov = 45\n";
 
@@ -19,7 +21,7 @@ fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) {
 }
 
 fn run_in(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+    common::bin()
         .current_dir(dir)
         .args(args)
         .env_remove("FRAGTRACE_GL_LIMITS")

@@ -12,7 +12,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use fragtrace::view::control::{self, Controller, ORBIT_RAD_PER_PX, ZOOM_PER_LINE};
 use fragtrace::view::winit::dpi::PhysicalPosition;
@@ -60,7 +60,7 @@ fn mesa_or_acknowledged_skip(test: &str) -> bool {
 }
 
 fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+    common::bin()
         .args(args)
         .envs(env.iter().copied())
         .output()
@@ -410,7 +410,7 @@ fn frames_in_progress_show_the_passes_cut_to_active_tiles() {
 
 #[test]
 fn no_display_is_one_line_and_exit_2() {
-    let out = Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+    let out = common::bin()
         .args(["view", "--width", "32", "--height", "24", "--frames", "1"])
         .env_remove("DISPLAY")
         .env_remove("WAYLAND_DISPLAY")

@@ -53,3 +53,15 @@ without_switch() {
 job_state() {
     scontrol show job "$1" 2>/dev/null | grep -o 'JobState=[A-Z_]*' | head -n 1 | cut -d= -f2 || true
 }
+
+# parts_summary PARTS_DIR: the job's parts across its tasks (fragtrace merge --summary:
+# parts done, missing by tile and frame with the task that owed each, time per task);
+# nothing when the folder holds no part. Its exit status is merge's (1: a part missing).
+parts_summary() {
+    local files
+    shopt -s nullglob
+    files=("$1"/*.exr)
+    shopt -u nullglob
+    [ ${#files[@]} -gt 0 ] || { echo "no parts in $1"; return 1; }
+    "${FRAGTRACE:-fragtrace}" merge --summary "${files[@]}"
+}

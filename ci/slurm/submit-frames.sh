@@ -7,7 +7,8 @@
 # --wait, waits for the last job and exits 0 only when every frame of OUT exists whole
 # (fragtrace render --check); otherwise exit 1 naming the missing files and the command
 # that re-runs a task. The backend is pinned (gl with --gpu, else cpu) unless the flags
-# name one. --resume among the flags skips the frames that exist whole.
+# name one. --resume among the flags skips the frames that exist whole. With --tiles it
+# ends with the parts across the tasks (fragtrace merge --summary).
 #
 #   ci/slurm/submit-frames.sh [--wait] [--gpu] TASKS SCENE.toml FRAMES OUT [render flags...]
 set -euo pipefail
@@ -70,6 +71,7 @@ without_flag tiles "${flags[@]}"
 without_switch resume "${rest[@]}"
 frags=${FRAGTRACE:-fragtrace}
 if "$frags" render "$scene" --frames "$frames" "${rest[@]}" -o "$out" --check >/dev/null 2>&1 && [ $rc = 0 ]; then
+    [ -z "$parts" ] || parts_summary "$parts" || true
     exit 0
 fi
 echo "submit-frames.sh: not every frame of $out was written (job $last: $(job_state "$last"), sbatch exit $rc):" >&2
@@ -77,6 +79,7 @@ echo "submit-frames.sh: not every frame of $out was written (job $last: $(job_st
 if [ -n "$parts" ]; then
     "$frags" render "$scene" --frames "$frames" "${flags[@]}" --task-index 0/1 \
         -o "$parts/f####-{tile}.exr" --check >&2 || true
+    parts_summary "$parts" >&2 || true
     echo "submit-frames.sh: re-run task K with: sbatch --array=K $here/frames.sbatch $scene $frames $parts/f####-{tile}.exr --task-index env:$tasks ${flags[*]}; then: sbatch $here/merge.sbatch $out $parts" >&2
 else
     echo "submit-frames.sh: re-run task K with: sbatch --array=K $here/frames.sbatch $scene $frames $out --task-index env:$tasks ${flags[*]} (or add --resume to render only what is missing)" >&2

@@ -2,7 +2,9 @@
 # Renders one image on a Slurm cluster: a job array of TASKS tiles, then the merge, which
 # waits for the array (afterok). Prints the two job ids. With --wait, waits for the merge
 # and exits 0 only when OUT was written by it; otherwise exit 1 naming the missing or
-# broken parts (fragtrace render --check) and the command that re-runs a task.
+# broken parts (fragtrace render --check) and the command that re-runs a task. Either way
+# it ends with the parts across the tasks (fragtrace merge --summary: parts done, missing
+# by tile with the task that owed each, time per task).
 #
 #   ci/slurm/submit-tiles.sh [--wait] [--gpu] TASKS SCENE.toml OUT.png|OUT.exr [render flags...]
 #
@@ -59,6 +61,7 @@ echo "array job $array (tiles), merge job $merge -> $out"
 # (DependencyNeverSatisfied): the output itself is the verdict.
 if [ $rc = 0 ] && [ -f "$out" ] && [ "$out" -nt "$stamp" ]; then
     rm -f "$stamp"
+    parts_summary "$parts" || true
     exit 0
 fi
 rm -f "$stamp"
@@ -67,5 +70,6 @@ check=(--task-index 0/1)
 [ -n "$tiles" ] || check+=(--tiles "$tasks")
 "${FRAGTRACE:-fragtrace}" render "$scene" "${flags[@]}" "${check[@]}" \
     -o "$parts/part-{tile}.exr" --check >&2 || true
+parts_summary "$parts" >&2 || true
 echo "submit-tiles.sh: re-run task K with: sbatch --array=K $here/tiles.sbatch $scene $parts --task-index env:$tasks ${flags[*]}; then: sbatch $here/merge.sbatch $out $parts" >&2
 exit 1

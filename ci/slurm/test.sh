@@ -55,14 +55,18 @@ same() {
 
 t0=$(date +%s)
 # 1. One image, 4 tasks, one tile each; the backend submit-tiles.sh pins without --gpu
-#    (the CPU), to PNG.
+#    (the CPU), to PNG; the script ends with the summary across the tasks.
 flags=(--width 320 --height 240 --spp 2)
 "$bin" render "$repo/scenes/whitted.toml" "${flags[@]}" --backend cpu -q -o "$work/whitted-single.png" ||
     fail "the single-process render of whitted.toml failed"
 "$repo/ci/slurm/submit-tiles.sh" --wait 4 "$repo/scenes/whitted.toml" \
-    "$work/whitted.png" "${flags[@]}" || fail "the whitted.toml job (4 tiles) failed"
+    "$work/whitted.png" "${flags[@]}" >"$work/whitted.out" || fail "the whitted.toml job (4 tiles) failed"
 [ "$(ls "$work"/parts-whitted/*.exr | wc -l)" -eq 4 ] || fail "expected 4 parts of whitted"
 same "$work/whitted.png" "$work/whitted-single.png"
+# It ends with the summary across the tasks: every part, each task's time and node.
+grep -q "^4 of 4 parts done$" "$work/whitted.out" && grep -q "^task 3 of 4: 1 of 1 part, .* on " "$work/whitted.out" &&
+    grep -q " over 4 complete tasks$" "$work/whitted.out" ||
+    fail "submit-tiles.sh printed no summary across the tasks: $(cat "$work/whitted.out")"
 
 # 2. A mesh scene on the CPU in f32, cut into 2x4 tiles shared by 4 tasks (two each, in one
 #    process), to EXR: the merged floats equal the single render's.
@@ -125,6 +129,9 @@ cat "$work/cancelled.out"
 [ ! -f "$work/cancelled.png" ] || fail "an image was written with task 2 cancelled"
 grep -q "part-2.exr: missing" "$work/cancelled.out" ||
     fail "submit-tiles.sh did not name the missing part-2.exr"
+grep -q "^task 2 of 4: 0 of 1 part; missing tile 2 of 4$" "$work/cancelled.out" &&
+    grep -q "^to re-run: task 2 (sbatch --array=2" "$work/cancelled.out" ||
+    fail "submit-tiles.sh's summary did not name task 2 and its tile"
 echo "slurm test: a cancelled task: submit-tiles.sh --wait exits 1 naming part-2.exr"
 # The array's other tasks may still be running: let them end before the re-run.
 for _ in $(seq 600); do [ -z "$(squeue -h -j "$array" 2>/dev/null)" ] && break; sleep 0.2; done

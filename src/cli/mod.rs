@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::choices::{clap_error_line, count_in, Choices, Door, RenderArgs};
+use crate::choices::{clap_error_line, Choices, Door, RenderArgs};
 use crate::image_io;
 use crate::options::TextureMode;
 use crate::region::Region;
@@ -19,7 +19,7 @@ pub use render_cmd::{run_check, run_parts, run_render, verbose_report};
 
 /// fragtrace: a Whitted ray tracer on GLSL 1.20 fragment programs, with an f64 CPU reference.
 #[derive(Parser, Debug)]
-#[command(name = "fragtrace", version, about, long_about = None, args_conflicts_with_subcommands = true)]
+#[command(name = "fragtrace", version = env!("FRAGTRACE_BUILD"), about, long_about = None, args_conflicts_with_subcommands = true)]
 pub struct Cli {
     /// The command; `render` when omitted (so `fragtrace -o x.png` renders the default scene).
     #[command(subcommand)]
@@ -111,9 +111,10 @@ pub struct ViewArgs {
 /// Arguments of `info`.
 #[derive(Args, Debug, Clone)]
 pub struct InfoArgs {
-    /// Report on EGL device N (as `render --gpu N` would use it) instead of the default.
-    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = count_in(0, u32::MAX))]
-    pub gpu: Option<u32>,
+    /// Report on EGL device N (as `render --gpu N` would use it) instead of the default;
+    /// `env`: the device `render --gpu env` would take, and why.
+    #[arg(long, value_name = "N|env", allow_negative_numbers = true)]
+    pub gpu: Option<crate::gpu::options::GpuChoice>,
 }
 
 /// Arguments of `merge`.
@@ -125,8 +126,13 @@ pub struct MergeArgs {
     /// The merged image: .png (sRGB 8-bit, the same bits as a single-process render) or
     /// .exr (linear float, itself a part covering the whole image); a run of `#` in the file name
     /// writes one image per frame of an animation's parts.
-    #[arg(short, long)]
-    pub output: PathBuf,
+    #[arg(short, long, required_unless_present = "summary")]
+    pub output: Option<PathBuf>,
+    /// Print the job's parts across its tasks first (done, missing by tile and frame with
+    /// the task that owed each, each task's time and node); without -o only that, exit 1
+    /// when a part is missing or unreadable.
+    #[arg(long)]
+    pub summary: bool,
     /// Print nothing but errors.
     #[arg(short, long)]
     pub quiet: bool,
@@ -480,14 +486,45 @@ pub fn run_bench(args: &BenchArgs) -> Result<crate::bench::BenchReport> {
     crate::bench::run_bench(&opts)
 }
 
-/// The `merge` command: checks the output path, then [`crate::farm::merge::merge`].
-pub fn run_merge(args: &MergeArgs) -> Result<crate::farm::merge::Merged> {
+/// The `merge` command: with `--summary` the parts across their tasks
+/// ([`crate::farm::summary`]; without `-o` false when one is missing), then with `-o` the
+/// output path checked and [`crate::farm::merge::merge`].
+pub fn run_merge(args: &MergeArgs) -> Result<bool> {
+    let summary = args.summary.then(|| {
+        let parts: Vec<_> = args
+            .parts
+            .iter()
+            .map(|p| {
+                let header = crate::farm::part::read_part(p)
+                    .map(|part| part.header)
+                    .map_err(|e| {
+                        let e = e.to_string();
+                        let prefix = format!("{}: ", p.display());
+                        e.strip_prefix(&prefix).unwrap_or(&e).to_string()
+                    });
+                (p.clone(), header)
+            })
+            .collect();
+        let s = crate::farm::summary::summarize(&parts);
+        for l in &s.lines {
+            println!("{l}");
+        }
+        s.complete
+    });
+    match &args.output {
+        Some(output) => merge_to(args, output).map(|_| true),
+        None => Ok(summary.unwrap_or(true)),
+    }
+}
+
+/// `merge -o OUTPUT`: the parts checked and assembled, the outputs reported.
+fn merge_to(args: &MergeArgs, output: &Path) -> Result<crate::farm::merge::Merged> {
     image_io::remove_partials_on_signal();
     // A probe next to where frame 0 would go: the folder must exist and be writable.
-    let probe = crate::farm::template::OutputTemplate::new(&args.output)?.path(Some(0), None);
+    let probe = crate::farm::template::OutputTemplate::new(output)?.path(Some(0), None);
     check_writable(&probe, "image")?;
-    image_io::Format::from_path(&args.output)?;
-    let merged = crate::farm::merge::merge(&args.parts, &args.output)?;
+    image_io::Format::from_path(output)?;
+    let merged = crate::farm::merge::merge(&args.parts, output)?;
     if !args.quiet {
         if !merged.devices.is_empty() {
             eprintln!(
@@ -510,7 +547,16 @@ pub fn run_merge(args: &MergeArgs) -> Result<crate::farm::merge::Merged> {
 
 /// The `info` command: what the GL driver offers and whether fragtrace can run on it.
 pub fn run_info(args: &InfoArgs) -> Result<bool> {
-    let ctx = crate::gpu::GlContext::new_unchecked_on(args.gpu)?;
+    let device = match args.gpu {
+        None => None,
+        Some(crate::gpu::options::GpuChoice::Index(n)) => Some(n),
+        Some(crate::gpu::options::GpuChoice::Env) => {
+            let pick = crate::gpu::device::from_env().map_err(Error::Usage)?;
+            println!("{}", pick.why);
+            Some(pick.index)
+        }
+    };
+    let ctx = crate::gpu::GlContext::new_unchecked_on(device)?;
     println!("{}", ctx.info);
     match render::auto_declines(&ctx.info) {
         None => println!("--backend auto:   gl (this GL)"),
@@ -528,7 +574,7 @@ pub fn run_info(args: &InfoArgs) -> Result<bool> {
                     d.name,
                     d.cuda
                         .map_or(String::new(), |c| format!(", CUDA device {c}")),
-                    if args.gpu == Some(d.index) {
+                    if device == Some(d.index) {
                         " (this report)"
                     } else {
                         ""
@@ -619,6 +665,7 @@ fn mistyped_subcommand(scene: &Path) -> Option<String> {
 
 /// Runs a parsed command line; `Ok(false)` means "ran, but the answer is no" (exit 1).
 pub fn run(cli: Cli) -> Result<bool> {
+    crate::clock::mark_start();
     if let Some(n) = cli.threads {
         // The global pool, before anything uses it: every parallel loop takes this size.
         rayon::ThreadPoolBuilder::new()
@@ -641,7 +688,7 @@ pub fn run(cli: Cli) -> Result<bool> {
         Some(Command::Render(args)) => run_render(&args).map(|_| true),
         Some(Command::Compare(args)) => run_compare(&args),
         Some(Command::Bench(args)) => run_bench(&args).map(|_| true),
-        Some(Command::Merge(args)) => run_merge(&args).map(|_| true),
+        Some(Command::Merge(args)) => run_merge(&args),
         Some(Command::Info(args)) => run_info(&args),
         Some(Command::View(args)) => run_view(&args).map(|()| true),
         Some(Command::DumpShaders(args)) => {

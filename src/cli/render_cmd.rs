@@ -418,15 +418,7 @@ pub fn run_parts(
                 "the render produced a NaN or Inf pixel".into(),
             ));
         }
-        crate::farm::write_unit(
-            &parts.outputs[k],
-            &scene,
-            &opts,
-            &out,
-            unit.frame,
-            parts.tile_label(k),
-            parts.frames.as_deref(),
-        )?;
+        crate::farm::write_unit(&scene, &opts, &out, parts, k)?;
         if let Some(path) = parts.stats.get(k) {
             write_stats(path, &out.stats)?;
         }

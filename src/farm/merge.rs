@@ -55,6 +55,15 @@ fn options_difference(a: &str, b: &str) -> String {
 
 /// Why `b` is not a part of the same render as `a`, or None.
 fn mismatch(a: &PartHeader, b: &PartHeader) -> Option<String> {
+    // First: two builds may hash scenes or spell options differently, and the build is
+    // then the thing to fix.
+    if a.version != b.version {
+        return Some(format!(
+            "they were written by different fragtrace builds ({} against {}): render every part with one build",
+            show(&b.version),
+            show(&a.version)
+        ));
+    }
     if a.scene_hash != b.scene_hash {
         return Some(format!(
             "the scenes differ ({} has scene hash {:016x}, this {} has {:016x})",
@@ -78,13 +87,6 @@ fn mismatch(a: &PartHeader, b: &PartHeader) -> Option<String> {
         return Some(format!(
             "the image sizes differ ({}x{} against {}x{})",
             b.width, b.height, a.width, a.height
-        ));
-    }
-    if a.version != b.version {
-        return Some(format!(
-            "they were written by different fragtrace versions ({} against {}): render every part with one build",
-            show(&b.version),
-            show(&a.version)
         ));
     }
     // Parts of two tilings (a re-run that cut the image differently: `sbatch --array=3`
@@ -317,6 +319,7 @@ pub fn merge(inputs: &[PathBuf], output: &Path) -> Result<Merged> {
                 let header = PartHeader {
                     region: Region::full(header.width, header.height),
                     tile: None,
+                    provenance: Default::default(),
                     device: if devices.is_empty() {
                         header.device
                     } else {

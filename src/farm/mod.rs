@@ -20,6 +20,7 @@ pub mod merge;
 pub mod part;
 pub mod plan;
 pub mod resume;
+pub mod summary;
 pub mod task;
 pub mod template;
 
@@ -193,19 +194,33 @@ pub fn plan_of(options: &str) -> Option<Plan> {
     options.parse::<PartOptions>().ok().map(|o| o.plan)
 }
 
-/// Writes one rendered unit: as a part (OpenEXR with its data window and header) to a
-/// `.exr` path, or as a plain crop of the region to a `.png` path (`--region`); `frames`
-/// are the job's frames, for a part of an animation.
+/// This node's name, as a part records it: Slurm's for the node, else the kernel's.
+fn host() -> Option<String> {
+    std::env::var("SLURMD_NODENAME")
+        .ok()
+        .or_else(|| std::fs::read_to_string("/proc/sys/kernel/hostname").ok())
+        .map(|h| h.trim().to_string())
+        .filter(|h| !h.is_empty())
+}
+
+/// Writes unit `k` of `plan`, rendered as `out`, to its file: as a part (OpenEXR with its
+/// data window and a header naming its frame, tile, the job's frames and the task) to a
+/// `.exr` path, or as a plain crop of the region to a `.png` path (`--region`).
 pub fn write_unit(
-    path: &std::path::Path,
     scene: &crate::scene::Scene,
     opts: &RenderOptions,
     out: &crate::render::Rendered,
-    frame: Option<u32>,
-    tile: Option<String>,
-    frames: Option<&[u32]>,
+    plan: &plan::PartPlan,
+    k: usize,
 ) -> crate::Result<()> {
     use crate::image_io::{write_image, Format};
+    let path = &plan.outputs[k];
+    let (frame, tile, frames, task) = (
+        plan.units[k].frame,
+        plan.tile_label(k),
+        plan.frames.as_deref(),
+        plan.task.as_ref(),
+    );
     match Format::from_path(path)? {
         Format::Exr => {
             let header = part::PartHeader {
@@ -220,6 +235,12 @@ pub fn write_unit(
                 tile,
                 frames: frames.map(part::frames_text),
                 version: part::VERSION.to_string(),
+                provenance: part::Provenance {
+                    task: task.map(|t| format!("{}/{}", t.index, t.count)),
+                    host: host(),
+                    render_ms: Some(out.stats.render_ms.round() as u64),
+                    task_ms: Some(crate::clock::since_start_ms()),
+                },
             };
             part::write_pixels(path, &header, &out.image)
         }

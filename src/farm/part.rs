@@ -14,9 +14,12 @@
 //! | `fragtrace.frame`     | the animation frame (absent for a still)                   |
 //! | `fragtrace.device`    | the device that rendered it (information only)             |
 //! | `fragtrace.tile`      | `I/N` when made with `--tile` (information only)           |
-//! | `fragtrace.version`   | the fragtrace version that wrote it (`merge` compares it)  |
+//! | `fragtrace.version`   | the build that wrote it, version+commit (`merge` compares) |
 //! | `fragtrace.frames`    | the frames of the job the part belongs to (`merge` checks  |
 //! |                       | each has its parts), as `--frames` writes them             |
+//! | `fragtrace.task`, `.host`, `.renderMs`, `.taskMs` | task `t/T`, node, the part's   |
+//! |                       | render time and the task's time so far (information only:  |
+//! |                       | `merge --summary`)                                         |
 //!
 //! Pixels are linear RGB f32 (channels `R`, `G`, `B`), stored losslessly (ZIP), so a
 //! merged image has the rendered bits.
@@ -55,12 +58,31 @@ pub struct PartHeader {
     /// The frames of the whole job, for a part of an animation ([`frames_text`]): `merge`
     /// refuses a set of parts with a frame of them missing.
     pub frames: Option<String>,
-    /// The fragtrace version that wrote it (`merge` refuses parts of two versions).
+    /// The build that wrote it ([`VERSION`]: `merge` refuses parts of two builds).
     pub version: String,
+    /// Where it came from, for `merge --summary` only (not checked, not hashed).
+    pub provenance: Provenance,
 }
 
-/// The version parts written by this build carry.
-pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+/// Who rendered a part and how long it took: what `merge --summary` reports per task.
+/// Information only: `merge` checks none of it and the hash does not cover it.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Provenance {
+    /// `t/T`: task t of a job of T tasks, for a part rendered with `--task-index`.
+    pub task: Option<String>,
+    /// The node's name (`SLURMD_NODENAME`, else the kernel's host name).
+    pub host: Option<String>,
+    /// Wall time of this part's render, milliseconds.
+    pub render_ms: Option<u64>,
+    /// Wall time of the task's process from its start to this part's write, milliseconds:
+    /// the task's time so far, scene load and structure build included.
+    pub task_ms: Option<u64>,
+}
+
+/// The build parts written by this binary carry: the crate version and the commit of the
+/// code (`0.1.0+3f9c2d1e4b5a`, `-dirty` when built from changed code, `+unknown` without
+/// git; `build.rs`), so that `merge` refuses parts of two builds of one version.
+pub const VERSION: &str = env!("FRAGTRACE_BUILD");
 
 /// Frames as `--frames` takes them, short: runs of three or more frames a constant step
 /// apart as `A..B` or `A..B:S`, the rest one by one (`0..10:2,13,17`).
@@ -122,6 +144,10 @@ const ATTR_DEVICE: &str = "fragtrace.device";
 const ATTR_TILE: &str = "fragtrace.tile";
 const ATTR_VERSION: &str = "fragtrace.version";
 const ATTR_FRAMES: &str = "fragtrace.frames";
+const ATTR_TASK: &str = "fragtrace.task";
+const ATTR_HOST: &str = "fragtrace.host";
+const ATTR_RENDER_MS: &str = "fragtrace.renderMs";
+const ATTR_TASK_MS: &str = "fragtrace.taskMs";
 
 /// EXR text is bytes; fragtrace writes UTF-8 (a scene path may need more than Latin-1).
 fn text(s: &str) -> AttributeValue {
@@ -165,6 +191,17 @@ pub fn write_pixels(path: &Path, header: &PartHeader, image: &Image) -> Result<(
     }
     if let Some(t) = &h.tile {
         other.push((ATTR_TILE, t.clone()));
+    }
+    let p = &h.provenance;
+    for (k, v) in [
+        (ATTR_TASK, p.task.clone()),
+        (ATTR_HOST, p.host.clone()),
+        (ATTR_RENDER_MS, p.render_ms.map(|m| m.to_string())),
+        (ATTR_TASK_MS, p.task_ms.map(|m| m.to_string())),
+    ] {
+        if let Some(v) = v {
+            other.push((k, v));
+        }
     }
     for (k, v) in other {
         attrs.other.insert(Text::from(k), text(&v));
@@ -296,6 +333,12 @@ fn read_part_inner(path: &Path) -> std::result::Result<Part, PartReadError> {
         tile: get(ATTR_TILE),
         frames: get(ATTR_FRAMES),
         version: get(ATTR_VERSION).unwrap_or_default(),
+        provenance: Provenance {
+            task: get(ATTR_TASK),
+            host: get(ATTR_HOST),
+            render_ms: get(ATTR_RENDER_MS).and_then(|m| m.parse().ok()),
+            task_ms: get(ATTR_TASK_MS).and_then(|m| m.parse().ok()),
+        },
     };
     if format!("{:016x}", header.hash()) != stored {
         return Err(header_err(format!(

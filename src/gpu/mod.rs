@@ -1,4 +1,5 @@
-//! The GPU backend: a headless OpenGL context over EGL ([`context`], [`egl`], [`info`]),
+//! The GPU backend: a headless OpenGL context over EGL ([`context`], [`egl`], [`info`];
+//! `device`: `--gpu env`'s device from the scheduler's variables),
 //! owning GL objects ([`gl`]), the Rust/GLSL contract ([`contract`]), the scene's texel
 //! layout ([`layout`]), shader assembly ([`shader`]), options ([`options`]), the scene
 //! uploaded once ([`scene`]), what a render is asked and gives back ([`request`], [`wave`]),
@@ -24,6 +25,8 @@
 mod compute;
 pub mod context;
 pub mod contract;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod device;
 pub mod dialect;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod egl;

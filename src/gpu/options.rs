@@ -447,3 +447,34 @@ mod tests {
         assert!("unrolled:65".parse::<Kernel>().is_err());
     }
 }
+
+/// `--gpu`'s value: an EGL device by its number, or `env`, the one the batch scheduler's
+/// variables give the task (`gpu::device`, resolved when the options are made).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuChoice {
+    /// Device N of the EGL device list (`fragtrace info` lists them).
+    Index(u32),
+    /// From `CUDA_VISIBLE_DEVICES`, Slurm's GPU ids or the local rank.
+    Env,
+}
+
+impl std::str::FromStr for GpuChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s == "env" {
+            return Ok(GpuChoice::Env);
+        }
+        s.parse::<u32>().map(GpuChoice::Index).map_err(|_| {
+            format!("`{s}` is neither a device number (0, 1, ...) nor env (the GPU the batch scheduler gave the task)")
+        })
+    }
+}
+
+impl std::fmt::Display for GpuChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GpuChoice::Index(n) => write!(f, "{n}"),
+            GpuChoice::Env => f.write_str("env"),
+        }
+    }
+}

@@ -2,8 +2,9 @@
 //! crate uses every helper).
 #![allow(dead_code)]
 
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output};
 use std::sync::Mutex;
 
 use fragtrace::gpu::GlContext;
@@ -11,12 +12,106 @@ use fragtrace::scene::{builtin_scene, load_scene_with_search_path, Scene};
 
 use glam::DVec3;
 
-/// Runs `cmdline` in `dir` on a pseudo-terminal (util-linux `script`, so progress displays
-/// that only draw on a terminal do), requires success and returns what the terminal showed.
-pub fn on_terminal(dir: &Path, cmdline: &str) -> String {
+/// The binary under test, writing its program-binary cache into this test process's
+/// [`shader_cache_dir`], never into the user's (`~/.cache/fragtrace`): every test runs it
+/// through here (tests/cli.rs checks that no test crate names the binary itself).
+pub fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_fragtrace"));
+    c.env("FRAGTRACE_SHADER_CACHE_DIR", shader_cache_dir());
+    c
+}
+
+/// The binary's path, for a script that runs it itself: give that script's command
+/// `FRAGTRACE_SHADER_CACHE_DIR` = [`shader_cache_dir`] too (its jobs inherit it).
+pub fn exe() -> &'static str {
+    env!("CARGO_BIN_EXE_fragtrace")
+}
+
+/// This test process's own shader-cache folder, in the temporary folder (fresh for each
+/// test process, so no test depends on what another left).
+pub fn shader_cache_dir() -> PathBuf {
+    std::env::temp_dir().join(format!(
+        "fragtrace-test-shader-cache-{}",
+        std::process::id()
+    ))
+}
+
+/// A fresh scratch folder named by the test crate, `name` and the process.
+pub fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "fragtrace-{}-{name}-{}",
+        env!("CARGO_CRATE_NAME"),
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A child's stdout and stderr, for failure messages.
+pub fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// The variables of Slurm arrays and Kubernetes Indexed Jobs that `--task-index env` reads:
+/// a test's child must not inherit them from a CI job that itself runs under a scheduler.
+pub const TASK_VARS: [&str; 6] = [
+    "SLURM_ARRAY_TASK_ID",
+    "SLURM_ARRAY_TASK_MIN",
+    "SLURM_ARRAY_TASK_MAX",
+    "SLURM_ARRAY_TASK_STEP",
+    "SLURM_ARRAY_TASK_COUNT",
+    "JOB_COMPLETION_INDEX",
+];
+
+/// Runs the binary in `dir` with `args`, the test meshes, none of [`TASK_VARS`] and the
+/// variables `env`.
+pub fn run<S: AsRef<OsStr>>(dir: &Path, args: &[S], env: &[(&str, &str)]) -> Output {
+    let mut c = bin();
+    c.current_dir(dir).args(args);
+    c.env(
+        "FRAGTRACE_MODEL_PATH",
+        std::env::join_paths(model_path()).unwrap(),
+    );
+    for var in TASK_VARS {
+        c.env_remove(var);
+    }
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().unwrap()
+}
+
+/// Requires success, naming what the child said otherwise.
+pub fn ok(o: Output) -> Output {
+    assert!(o.status.success(), "{}", text(&o));
+    o
+}
+
+/// One line `fragtrace: error: ...` containing `want`, exit 2.
+pub fn refused(o: &Output, want: &str) {
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{}", text(o));
+    assert_eq!(err.lines().count(), 1, "one line: {err}");
+    assert!(
+        err.starts_with("fragtrace: error: ") && err.contains(want),
+        "want `{want}` in: {err}"
+    );
+}
+
+/// Runs the binary under test with `args` (one string, split by the shell) in `dir` on a
+/// pseudo-terminal (util-linux `script`, so progress displays that only draw on a terminal
+/// do), requires success and returns what the terminal showed.
+pub fn on_terminal(dir: &Path, args: &str) -> String {
+    let cmdline = format!("{} {args}", env!("CARGO_BIN_EXE_fragtrace"));
     let out = Command::new("script")
         .current_dir(dir)
-        .args(["-qec", cmdline, "/dev/null"])
+        .env("FRAGTRACE_SHADER_CACHE_DIR", shader_cache_dir())
+        .args(["-qec", &cmdline, "/dev/null"])
         .output()
         .expect("util-linux `script`");
     assert!(

@@ -11,7 +11,6 @@ use fragtrace::render::{render_cpu, render_gl_with};
 use fragtrace::Error;
 use glam::{DVec3, Vec3};
 use std::path::PathBuf;
-use std::process::Command;
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("fragtrace-hard-{name}-{}", std::process::id()));
@@ -82,7 +81,7 @@ fn case_20_non_finite_input_is_a_clear_error() {
         let scene = dir.join(format!("{name}.toml"));
         std::fs::write(&scene, toml).unwrap();
         let out_png = dir.join(format!("{name}.png"));
-        let out = Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+        let out = crate::common::bin()
             .args(["render"])
             .arg(&scene)
             .args(["--backend", "cpu", "--width", "8", "--height", "6", "-o"])
