@@ -147,7 +147,9 @@ pub fn srgb8(v: f32) -> u8 {
 #[inline]
 pub fn srgb8_fast(v: f32) -> u8 {
     let t = srgb8_buckets();
-    // `max` returns 0 for NaN, as `srgb8` gives; 1.0's bucket is the table's last.
+    // `max` returns 0 for NaN, as `srgb8` gives (`clamp` would keep the NaN); 1.0's bucket
+    // is the table's last.
+    #[allow(clippy::manual_clamp)]
     let v = v.max(0.0).min(1.0);
     let b = (v.to_bits() >> SRGB8_BUCKET_SHIFT) as usize;
     t.base[b] + u8::from(v >= t.threshold[b])

@@ -241,4 +241,4 @@ impl Fnv1a {
 }
 
 /// See [`glsl_120_output_is_unchanged`].
-const GLSL_120_HASH: u64 = 0xb76c_2dd6_067a_558a;
+const GLSL_120_HASH: u64 = 0x5c29_8108_6d5e_3470;

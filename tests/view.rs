@@ -652,7 +652,7 @@ fn scripted_keys_do_what_the_keys_do() {
     let dir = scratch("keys-s");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_fragtrace"))
+    let out = common::bin()
         .current_dir(&dir)
         .args(["view", "--keys", "a a s q"])
         .args(size)
