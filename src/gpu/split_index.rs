@@ -127,7 +127,7 @@ pub fn check_triangles(n: usize) -> Result<()> {
 
 /// The record (dense index) of float slot `s`, the inverse of [`float_slot`]: `s` itself up
 /// to 2^24, else, in band b (s in (2^(23+b), 2^(24+b)], 2^b apart), 2^23 (b + 1) + s / 2^b -
-/// 2^23. CPU twin of `slot_record` in the split GLSL ([`IndexFormat::glsl`]), which decodes
+/// 2^23. CPU twin of `slot_record` in the split GLSL (`IndexFormat::glsl`), which decodes
 /// the band with the same comparisons (a slot 2^(24+b) read as band b + 1 gives the same
 /// record).
 pub fn slot_record(s: f32) -> u64 {
