@@ -407,10 +407,9 @@ fn progress_shows_on_a_terminal_only() {
 #[test]
 fn row_eta_is_not_below_a_fifth_of_the_render_until_half_the_rows() {
     let d = tmpdir("eta");
-    let exe = common::exe(); // on_terminal sets the cache folder
     let shown = common::on_terminal(
         &d,
-        &format!("{exe} --backend cpu --precision f64 --width 240 --height 600 --spp 2 -o e.png"),
+        "--backend cpu --precision f64 --width 240 --height 600 --spp 2 -o e.png",
     );
     let render_s = shown
         .split(", render ")

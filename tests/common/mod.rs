@@ -116,8 +116,8 @@ pub fn on_terminal(dir: &Path, args: &str) -> String {
         .expect("util-linux `script`");
     assert!(
         out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        "`{cmdline}` on a terminal: {}",
+        text(&out)
     );
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
