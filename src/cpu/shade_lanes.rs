@@ -16,6 +16,7 @@
 
 use super::real::{Real, V3};
 use super::shade::{third_of_longest_edge, SurfacePoint};
+use super::traverse_packet::PacketIsa;
 use crate::technique::{OffsetMethod, Techniques, Terminator, OFFSET_EPSILON};
 
 /// Hits shaded together: one AVX-512 register of f32.
@@ -327,33 +328,33 @@ pub enum Dispatch {
 }
 
 impl Dispatch {
-    /// The widest this CPU runs.
+    /// The widest this CPU runs: the packet walk's choice ([`PacketIsa::detect`]), so that
+    /// which units the CPU has is decided in one place.
     pub fn detect() -> Dispatch {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                return Dispatch::Avx512;
-            }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                return Dispatch::Avx2;
-            }
-        }
-        Dispatch::Baseline
+        PacketIsa::detect().into()
     }
 
     /// Every compilation this CPU can run (for the tests).
     pub fn available() -> Vec<Dispatch> {
-        let mut v = vec![Dispatch::Baseline];
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                v.push(Dispatch::Avx2);
-            }
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                v.push(Dispatch::Avx512);
-            }
+        std::iter::once(Dispatch::Baseline)
+            .chain(
+                [PacketIsa::Avx2, PacketIsa::Avx512]
+                    .into_iter()
+                    .filter(|isa| isa.available())
+                    .map(|isa| Some(isa).into()),
+            )
+            .collect()
+    }
+}
+
+impl From<Option<PacketIsa>> for Dispatch {
+    /// The lanes' compilation for a packet unit (`None`: the target's baseline).
+    fn from(isa: Option<PacketIsa>) -> Dispatch {
+        match isa {
+            Some(PacketIsa::Avx512) => Dispatch::Avx512,
+            Some(PacketIsa::Avx2) => Dispatch::Avx2,
+            None => Dispatch::Baseline,
         }
-        v
     }
 }
 
