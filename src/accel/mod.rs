@@ -285,6 +285,19 @@ impl<'a> AccelRef<'a> {
                 b as f64 / triangles as f64
             }
         };
+        // A BVH, flat or the instances' top level over per-mesh BVHs.
+        let bvh = |s: &bvh::BvhStats, detail: String| AccelSummary {
+            kind: AccelKind::Bvh,
+            resolution: [0; 3],
+            top_resolution: None,
+            build_ms: s.build_ms,
+            bytes: s.bytes,
+            bytes_per_triangle: per_tri(s.bytes),
+            cells: s.nodes,
+            empty_cells: 0,
+            references: s.references,
+            detail,
+        };
         match self {
             AccelRef::Uniform(g) => AccelSummary {
                 kind: AccelKind::Uniform,
@@ -310,30 +323,8 @@ impl<'a> AccelRef<'a> {
                 references: g.stats.references,
                 detail: g.stats.to_string(),
             },
-            AccelRef::Bvh(b) => AccelSummary {
-                kind: AccelKind::Bvh,
-                resolution: [0; 3],
-                top_resolution: None,
-                build_ms: b.stats.build_ms,
-                bytes: b.stats.bytes,
-                bytes_per_triangle: per_tri(b.stats.bytes),
-                cells: b.stats.nodes,
-                empty_cells: 0,
-                references: b.stats.references,
-                detail: b.stats.to_string(),
-            },
-            AccelRef::Instanced(t) => AccelSummary {
-                kind: AccelKind::Bvh,
-                resolution: [0; 3],
-                top_resolution: None,
-                build_ms: t.stats.build_ms,
-                bytes: t.stats.bytes,
-                bytes_per_triangle: per_tri(t.stats.bytes),
-                cells: t.stats.nodes,
-                empty_cells: 0,
-                references: t.stats.references,
-                detail: t.detail(t.boxes.len()),
-            },
+            AccelRef::Bvh(b) => bvh(&b.stats, b.stats.to_string()),
+            AccelRef::Instanced(t) => bvh(&t.stats, t.detail(t.boxes.len())),
         }
     }
 }

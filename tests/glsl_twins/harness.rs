@@ -13,7 +13,8 @@ use fragtrace::scene::{Camera, Material, Scene};
 use fragtrace::technique::Techniques;
 use glam::Vec3;
 
-pub(crate) fn dummy_layout() -> SceneTextures {
+/// One triangle and its grid: the scene the twin tests pack when only the programs matter.
+pub(crate) fn one_triangle() -> (Scene, Grid) {
     let mut s = Scene::empty(Camera {
         eye: Vec3::Z,
         look_at: Vec3::ZERO,
@@ -23,6 +24,11 @@ pub(crate) fn dummy_layout() -> SceneTextures {
     let m = s.add_material(Material::default());
     s.add_triangle(Vec3::ZERO, Vec3::X, Vec3::Y, m);
     let g = Grid::build(&s, &GridConfig::default()).unwrap();
+    (s, g)
+}
+
+pub(crate) fn dummy_layout() -> SceneTextures {
+    let (s, g) = one_triangle();
     SceneTextures::pack(&s, &g, 4096).unwrap()
 }
 

@@ -5,25 +5,14 @@
 
 use super::harness::*;
 use crate::common::with_test_context;
-use fragtrace::accel::{Grid, GridConfig};
 use fragtrace::gpu::layout::{
     rec_coord, split, split_coord, IndexFormat, PackedTexture, SceneTextures, SPLIT_BASE,
 };
-use fragtrace::scene::{Camera, Material, Scene};
 use fragtrace::technique::Techniques;
-use glam::Vec3;
 
 /// A one-triangle scene packed in the split format (its shaders get `split_index.glsl`).
 fn split_layout(max_size: u32) -> SceneTextures {
-    let mut s = Scene::empty(Camera {
-        eye: Vec3::Z,
-        look_at: Vec3::ZERO,
-        up: Vec3::Y,
-        vfov_deg: 45.0,
-    });
-    let m = s.add_material(Material::default());
-    s.add_triangle(Vec3::ZERO, Vec3::X, Vec3::Y, m);
-    let g = Grid::build(&s, &GridConfig::default()).unwrap();
+    let (s, g) = one_triangle();
     let l = SceneTextures::pack_format(&s, &g, max_size, false, IndexFormat::Split).unwrap();
     assert_eq!(l.format, IndexFormat::Split);
     l

@@ -206,17 +206,37 @@ pub struct FullscreenQuad {
     vao: Option<Owned<VertexArrayKind>>,
 }
 
+/// A new vertex buffer, and a vertex array where the context has them (GL >= 3.0, where a
+/// core-profile driver rejects drawing without one; a 2.1 context uses the default vertex
+/// state): what the full-screen quad and the tile rectangles ([`super::rects::Rects`]) draw
+/// from.
+pub(crate) fn vertex_buffer(
+    ctx: &GlContext,
+) -> Result<(Owned<BufferKind>, Option<Owned<VertexArrayKind>>)> {
+    let gl = ctx.gl();
+    // SAFETY: the context is current; the new names are owned at once.
+    unsafe {
+        let vbo = Owned::new(
+            ctx,
+            gl.create_buffer()
+                .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
+        );
+        let vao = if gl.version().major >= 3 {
+            gl.create_vertex_array().ok().map(|v| Owned::new(ctx, v))
+        } else {
+            None
+        };
+        Ok((vbo, vao))
+    }
+}
+
 impl FullscreenQuad {
     /// Uploads the quad's vertices.
     pub fn new(ctx: &GlContext) -> Result<Self> {
         let gl = ctx.gl();
+        let (vbo, vao) = vertex_buffer(ctx)?;
         // SAFETY: the context is current; the buffer data is a local constant.
         unsafe {
-            let vbo = Owned::new(
-                ctx,
-                gl.create_buffer()
-                    .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
-            );
             gl.bind_buffer(glow::ARRAY_BUFFER, Some(vbo.name()));
             gl.buffer_data_u8_slice(
                 glow::ARRAY_BUFFER,
@@ -224,11 +244,6 @@ impl FullscreenQuad {
                 glow::STATIC_DRAW,
             );
             gl.bind_buffer(glow::ARRAY_BUFFER, None);
-            let vao = if gl.version().major >= 3 {
-                gl.create_vertex_array().ok().map(|v| Owned::new(ctx, v))
-            } else {
-                None
-            };
             check_gl_error(gl, "creating the full-screen quad")?;
             Ok(FullscreenQuad { vbo, vao })
         }

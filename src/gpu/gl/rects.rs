@@ -14,7 +14,7 @@ use glow::HasContext;
 
 use super::program::{Program, ATTRIB_POS, ATTRIB_UV};
 use super::{check_gl_error, f32_bytes, BufferKind, Owned, VertexArrayKind};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::gpu::context::GlContext;
 
 /// A rectangle of pixels `[x0, x1) x [y0, y1)`, rows counted from the bottom as GL does.
@@ -57,27 +57,14 @@ pub struct Rects {
 impl Rects {
     /// An empty buffer.
     pub fn new(ctx: &GlContext) -> Result<Self> {
-        let gl = ctx.gl();
-        // SAFETY: the context is current; the new names are owned at once.
-        unsafe {
-            let vbo = Owned::new(
-                ctx,
-                gl.create_buffer()
-                    .map_err(|e| Error::Internal(format!("glGenBuffers: {e}")))?,
-            );
-            let vao = if gl.version().major >= 3 {
-                gl.create_vertex_array().ok().map(|v| Owned::new(ctx, v))
-            } else {
-                None
-            };
-            check_gl_error(gl, "creating a rectangle buffer")?;
-            Ok(Rects {
-                vbo,
-                vao,
-                len: 0,
-                area: 0,
-            })
-        }
+        let (vbo, vao) = super::program::vertex_buffer(ctx)?;
+        check_gl_error(ctx.gl(), "creating a rectangle buffer")?;
+        Ok(Rects {
+            vbo,
+            vao,
+            len: 0,
+            area: 0,
+        })
     }
 
     /// Replaces the rectangles with `rects` of a `width` x `height` target.
