@@ -1,6 +1,6 @@
 // split_index.glsl: the exact address arithmetic of SPLIT_INDEX, the layout of scenes whose
 // texels or references pass 2^24 (what one float counts exactly). Generated fetches
-// (fetch_<name>_at, entry_<name>_split, src/gpu/layout.rs) call these; every value formed
+// (fetch_<name>_at, entry_<name>_split, src/gpu/layout/) call these; every value formed
 // stays an integer below 2^24, or one times a power of two. CPU twins: rec_coord and
 // split_coord in src/gpu/split_index.rs, which the tests compare against this file on the
 // driver.

@@ -1,5 +1,5 @@
 // texture.glsl: texture lookups and ray cones. CPU twin: src/cpu/texture.rs (conventions
-// and the papers there). Textured scenes only: the layout (src/gpu/layout.rs) appends this
+// and the papers there). Textured scenes only: the layout (src/gpu/layout/) appends this
 // file to its generated text, after fetch_tex, so an untextured program has none of it.
 // Reads: the `tex` texture through fetch_tex: per triangle TEX_REC texels
 //        (u0, v0, u1, v1), (u2, v2, lod_bias, curvature); from TEX_COLORS three vertex

@@ -17,7 +17,7 @@
 //! `a`, child `(px, py, pz)` (the hop's bits of each axis, most significant first as the
 //! levels take them) sits at `px + 2^n[0] * (py + 2^n[1] * pz)`.
 //!
-//! Only the GPU reads it (`gpu/layout.rs` uploads it in place of the built map). The CPU
+//! Only the GPU reads it (`gpu/layout/` uploads it in place of the built map). The CPU
 //! walks keep the built map: with this one the H200 host's CPU render did not get faster
 //! (2 threads within the noise, 16 threads 8-15% slower: a larger map in the caches), and
 //! building it inside the grid's build cost the 3.3 M-triangle icosphere 0.4 s

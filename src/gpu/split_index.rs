@@ -4,7 +4,7 @@
 //! held to these on the driver by `tests/glsl_twins/split_index.rs`), the float slots that
 //! keep the irregular grid's cell ids and the triangle ids one exact float (triangle
 //! records stay dense: [`slot_record`]), the voxel map's blocks aligned to exact floats
-//! ([`align_blocks`]), and the limits that remain, each refused in one line. `layout.rs`
+//! ([`align_blocks`]), and the limits that remain, each refused in one line. `layout/`
 //! packs with it and re-exports it.
 
 use crate::accel::irregular_wide::WideMap;

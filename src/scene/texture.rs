@@ -1,6 +1,6 @@
 //! Image textures of the scene model: decoded once at load time into linear RGB, with the
 //! mip pyramid built here on the CPU (a 2x2 box filter in linear light), so that the CPU
-//! renderer and the GPU's atlas (`gpu/layout.rs`) read the very same texels. Sampling
+//! renderer and the GPU's atlas (`gpu/layout/`) read the very same texels. Sampling
 //! (bilinear, level of detail from ray cones) is the renderers' job: `cpu/texture.rs` and
 //! its GLSL twin `glsl120/texture.glsl`.
 //!

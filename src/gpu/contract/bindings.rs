@@ -202,7 +202,7 @@ pub mod uniform {
         "child: 0 reflected, 1 refracted",
     );
 
-    /// Textured scenes only (declared by the layout, `gpu/layout.rs`): the cone of the
+    /// Textured scenes only (declared by the layout, `gpu/layout/`): the cone of the
     /// level being shaded or spawned from, when it is the root (x = 1: the primary rays,
     /// whose cone is width 0 and spread y; else x = 0 and the level's cone record `u_r3` /
     /// `u_p3` holds it).

@@ -1,0 +1,429 @@
+//! Texel layout of the scene and the grid in RGBA32F textures: defined here, once, and
+//! turned into the GLSL constants and fetch functions the shaders use
+//! ([`SceneTextures::glsl`]), so the packing and the unpacking cannot drift apart.
+//!
+//! Every texture is a 2D array of texels addressed by a linear index i that wraps into rows
+//! of a power-of-two width W (so the row `floor(i / W)` is exact in f32: dividing by a power of
+//! two only changes the exponent; adding 0.5 first would round near 2^24), at most the GPU's
+//! GL_MAX_TEXTURE_SIZE wide and high. `texture2D` samples a texel a quarter in from its left
+//! edge ([`TEXEL_INSET`]), not at its centre: compilers may reassociate `(i - row W) + inset`
+//! into `(i + inset) - row W` (Mesa's NIR does, where the product is used once), and
+//! `i + 0.5` rounds to the even neighbour past 2^23, which read the next texel for every odd
+//! index there; `i + 0.25` rounds to i, the texel's own edge, so either order reads it.
+//!
+//! Indices and counts are stored as floats, exact below 2^24. A scene whose texels or
+//! references pass 2^24 is packed in the [`IndexFormat::Split`] format instead
+//! (`SPLIT_INDEX` in the GLSL, compiled in only then, so smaller scenes keep their shaders
+//! and images): list offsets split over two channels (hi * 2^24 + lo, exact to 2^48), the
+//! ray's list cursor counted from its cell's first reference, and records fetched by
+//! (record, texel) without forming their product; triangle and irregular cell ids are
+//! float slots (exact floats past 2^24), voxel-map blocks start at exact floats. What
+//! remains is the uniform grid's cell index (below 2^24), [`MAX_GPU_TRIANGLES`] and the
+//! GPU's own limits, each refused with one line ([`SceneTextures::pack`]).
+//!
+//! | texture | texels per item | contents |
+//! |---|---|---|
+//! | `tri` | 3 per triangle | (v0, material), (v1, has_normals), (v2, 0) |
+//! | `nrm` | 3 per triangle | vertex normals n0, n1, n2 (only when the scene has any) |
+//! | `mat` | 7 per material | see [`contract::mat`](super::contract::mat) |
+//! | `cell` | 1 per uniform grid cell | (offset into `list`, count, 0, 0) |
+//! | `cell` | 2 per irregular cell | (exit box lower corner, offset), (exit box upper corner, count) |
+//! | `cell` | split: 1 per uniform cell | (offset lo, count, offset hi, 0) |
+//! | `cell` | split: 3 per irregular cell | as above with offset lo, then (offset hi, 0, 0, 0) |
+//! | `vmap` | 1 per 4 voxel-map entries | irregular grid only: cell id, or -(child block + 1) |
+//! | `list` | 1 per 4 references | four triangle indices |
+//! | `tex` | see [`TexLayout`] | textured scenes only: uv records, colours, texture table, texels |
+//!
+//! For the irregular grid the layout also generates `irr_lookup(k)`, the voxel-map descent
+//! from a virtual cell to its cell id, unrolled hop by hop with the splits of each hop as
+//! constants (no loop: the multipass kernel's programs have none). The map uploaded is the
+//! built one with its levels merged into hops of several levels ([`WideMap`](crate::accel::irregular_wide::WideMap)), so a lookup
+//! waits on fewer dependent reads; the cells are the built grid's.
+
+mod irregular;
+mod packed;
+mod tex;
+
+pub use irregular::{IrregularLayout, HOP_BITS_ENV};
+pub use packed::PackedTexture;
+pub use tex::{TexLayout, TEX_REC};
+
+use super::contract::{mat as slot, Field, Unit};
+use super::split_index::check_indices;
+pub use super::split_index::{
+    check_triangles, float_slot, rec_coord, slot_coord, slot_record, split, split_coord,
+    IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE, SPLIT_INDEX_ENV,
+    TRI_SLOT_BANDS,
+};
+use crate::accel::{AccelRef, GridRef};
+use crate::scene::{CheckerAxes, Scene};
+use crate::{Error, Result};
+
+/// Texels per triangle in `tri` and `nrm`.
+pub const TRI_TEXELS: u32 = 3;
+/// Texels per material; the slots are declared in [`contract::mat`](super::contract::mat).
+pub const MAT_TEXELS: u32 = slot::TEXELS;
+/// Entries per texel of an entry texture ([`PackedTexture::pack_entries`]: triangle indices
+/// in `list`, voxel-map entries in `vmap`).
+pub const LIST_PER_TEXEL: u32 = 4;
+/// Where in its texel `texture2D` samples along a row, in texels from the left edge: an offset that still lands in the texel when a compiler adds it to the
+/// linear index before subtracting the row (see the module's header); exact otherwise.
+pub const TEXEL_INSET: f32 = 0.25;
+/// Widest row used, even when the GPU allows wider: keeps textures compact for small
+/// scenes and matches the limits of 2005-era cards.
+pub const MAX_ROW: u32 = 4096;
+
+/// How the generated `fetch_<name>(i)` functions read a texel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Fetch {
+    /// `texture2D` at the texel's centre (GLSL 1.20: the fragment kernels).
+    Texture2D,
+    /// `texelFetch` at integer coordinates (GLSL 1.30+: the compute kernel).
+    TexelFetch,
+    /// A shader storage buffer of texels, the k-th texture at binding
+    /// [`STORAGE_BINDING_BASE`] + k (GLSL 4.30: the compute kernel).
+    Storage,
+}
+
+impl Fetch {
+    /// The name `--stats` reports as `gpu.scene_fetch`: `texture2D`, or `texel-fetch` and
+    /// `storage-buffer` as `--scene-fetch` spells them.
+    pub fn name(self) -> &'static str {
+        match self {
+            Fetch::Texture2D => "texture2D",
+            Fetch::TexelFetch => "texel-fetch",
+            Fetch::Storage => "storage-buffer",
+        }
+    }
+}
+
+pub use super::contract::STORAGE_BINDING_BASE;
+
+/// The scene and its grid, packed for upload.
+#[derive(Clone, Debug)]
+pub struct SceneTextures {
+    /// Triangle vertices and material indices.
+    pub tri: PackedTexture,
+    /// Vertex normals (`None` when no triangle has them: compiled out).
+    pub nrm: Option<PackedTexture>,
+    /// Materials.
+    pub mat: PackedTexture,
+    /// Cell table of the grid.
+    pub cell: PackedTexture,
+    /// Triangle-index list.
+    pub list: PackedTexture,
+    /// The irregular grid's voxel map and descent (`None` for the uniform grid).
+    pub irregular: Option<IrregularLayout>,
+    /// Texture coordinates, vertex colours and textures (`None` for a scene without
+    /// textures and vertex colours: then no texture code is compiled).
+    pub tex: Option<TexLayout>,
+    /// How indices are written (and read by the GLSL).
+    pub format: IndexFormat,
+}
+
+/// Numeric code of a checker's axes in the material texture (and in GLSL).
+pub fn axes_code(a: CheckerAxes) -> f32 {
+    match a {
+        CheckerAxes::Xy => 0.0,
+        CheckerAxes::Xz => 1.0,
+        CheckerAxes::Yz => 2.0,
+    }
+}
+
+impl SceneTextures {
+    /// Packs `scene` and `grid` for a GPU whose textures may be `max_size` texels wide/high;
+    /// the vertex-normal texture only when the scene has vertex normals.
+    pub fn pack<'a>(scene: &Scene, accel: impl Into<AccelRef<'a>>, max_size: u32) -> Result<Self> {
+        Self::pack_with(scene, accel, max_size, scene.has_smooth_normals())
+    }
+
+    /// As [`SceneTextures::pack`], with the vertex-normal texture packed when `normals` is
+    /// set even if no triangle has normals (all zero then): shaders built with every feature
+    /// on (`--no-specialize`) fetch from it, behind the per-triangle flag.
+    pub fn pack_with<'a>(
+        scene: &Scene,
+        accel: impl Into<AccelRef<'a>>,
+        max_size: u32,
+        normals: bool,
+    ) -> Result<Self> {
+        let accel = accel.into().grid()?;
+        // The voxel map the GPU reads passes 2^24 entries exactly when the built one does
+        // (`WideMap::for_gpu` widens hops only within 2^24).
+        let (cells, refs, per_cell) = match accel {
+            GridRef::Uniform(g) => (g.cells.len(), g.tri_indices.len(), 1),
+            GridRef::Irregular(g) => (g.cells.len(), g.tri_indices.len().max(g.vmap.len()), 2),
+        };
+        let texels =
+            (scene.triangles.len() as u64 * TRI_TEXELS as u64).max(cells as u64 * per_cell);
+        let format = IndexFormat::needed(texels, refs as u64);
+        Self::pack_format(scene, accel, max_size, normals, format)
+    }
+
+    /// As [`SceneTextures::pack_with`], in the index format given.
+    pub fn pack_format<'a>(
+        scene: &Scene,
+        accel: impl Into<AccelRef<'a>>,
+        max_size: u32,
+        normals: bool,
+        format: IndexFormat,
+    ) -> Result<Self> {
+        let accel = accel.into().grid()?;
+        check_indices(scene, accel)?;
+        let smooth = normals || scene.has_smooth_normals();
+        let n_tris = scene.triangles.len();
+        let mut tri = Vec::with_capacity(n_tris * 3);
+        let mut nrm = Vec::with_capacity(if smooth { n_tris * 3 } else { 0 });
+        for (i, t) in scene.triangles.iter().enumerate() {
+            let v = scene.triangle_vertices(i);
+            let has_n = t.has_normals();
+            tri.push([v[0].x, v[0].y, v[0].z, t.material as f32]);
+            tri.push([v[1].x, v[1].y, v[1].z, if has_n { 1.0 } else { 0.0 }]);
+            tri.push([v[2].x, v[2].y, v[2].z, 0.0]);
+            if smooth {
+                for k in 0..3 {
+                    let n = if has_n {
+                        scene.normals[t.n[k] as usize]
+                    } else {
+                        glam::Vec3::ZERO
+                    };
+                    nrm.push([n.x, n.y, n.z, 0.0]);
+                }
+            }
+        }
+        let tex = TexLayout::pack(scene, max_size)?;
+        let mut mat = vec![[0f32; 4]; scene.materials.len() * MAT_TEXELS as usize];
+        for (i, m) in scene.materials.iter().enumerate() {
+            let (ca, cb, scale, axes, phase) = match &m.checker {
+                Some(c) => (c.color_a, c.color_b, c.scale, axes_code(c.axes), c.phase),
+                None => (glam::Vec3::ZERO, glam::Vec3::ZERO, 0.0, 0.0, [0.0; 2]),
+            };
+            let texels = &mut mat[i * MAT_TEXELS as usize..][..MAT_TEXELS as usize];
+            let mut put = |f: Field, v: &[f32]| {
+                texels[f.texel][f.first..f.first + f.len].copy_from_slice(v);
+            };
+            put(slot::ALBEDO, &m.albedo.to_array());
+            put(slot::KA, &[m.ka]);
+            put(slot::KS, &m.ks.to_array());
+            put(slot::NS, &[m.ns]);
+            put(slot::KR, &m.kr.to_array());
+            put(slot::KD, &[m.kd]);
+            put(slot::KT, &m.kt.to_array());
+            put(slot::IOR, &[m.ior]);
+            put(slot::CHECKER_A, &ca.to_array());
+            put(slot::CHECKER_SCALE, &[scale]);
+            put(slot::CHECKER_B, &cb.to_array());
+            put(slot::CHECKER_AXES, &[axes]);
+            put(slot::FRESNEL, &[if m.fresnel { 1.0 } else { 0.0 }]);
+            put(slot::CHECKER_PHASE, &phase);
+            if let (Some(k), Some(t)) = (m.diffuse_map, &tex) {
+                // `M6_MAP_KD`: the texture's header, plus one (zero: no texture).
+                put(slot::PAD, &[t.headers[k as usize] as f32 + 1.0]);
+            }
+        }
+        // Offsets as written: one float (exact below 2^24, checked above for Float), or hi
+        // and lo.
+        let off = |o: u32| match format {
+            IndexFormat::Float => (o as f32, 0.0),
+            IndexFormat::Split => {
+                let (hi, lo) = split(o as u64);
+                (lo, hi)
+            }
+        };
+        let (cell, tri_indices, irregular) = match accel {
+            GridRef::Uniform(grid) => (
+                grid.cells
+                    .iter()
+                    .map(|c| {
+                        let (lo, hi) = off(c.offset);
+                        [lo, c.count as f32, hi, 0.0]
+                    })
+                    .collect::<Vec<_>>(),
+                &grid.tri_indices,
+                None,
+            ),
+            GridRef::Irregular(g) => {
+                let f = |v: [u32; 3], w: f32| [v[0] as f32, v[1] as f32, v[2] as f32, w];
+                // Cell k at its float slot (k itself below 2^24: the Float format's only).
+                let per = format.irregular_cell_texels() as usize;
+                let slots = g
+                    .cells
+                    .len()
+                    .checked_sub(1)
+                    .map_or(0, |k| float_slot(k as u64) + 1);
+                let mut cell = vec![[0f32; 4]; slots as usize * per];
+                for (k, c) in g.cells.iter().enumerate() {
+                    let (lo, hi) = off(c.range.offset);
+                    let at = &mut cell[float_slot(k as u64) as usize * per..][..per];
+                    at[0] = f(c.exit_lo, lo);
+                    at[1] = f(c.exit_hi, c.range.count as f32);
+                    if format == IndexFormat::Split {
+                        at[2] = [hi, 0.0, 0.0, 0.0];
+                    }
+                }
+                (
+                    cell,
+                    &g.tri_indices,
+                    Some(IrregularLayout::pack(g, max_size, format)?),
+                )
+            }
+        };
+        // Triangle ids as float slots: the index itself below 2^24 (the Float format's only).
+        let list: Vec<f32> = tri_indices
+            .iter()
+            .map(|&i| float_slot(i as u64) as f32)
+            .collect();
+        let cell_texels = cell.len() as u64;
+        if format == IndexFormat::Float {
+            let need = [
+                ("triangle texels", n_tris as u64 * TRI_TEXELS as u64),
+                ("cell texels", cell_texels),
+                ("triangle references", list.len() as u64),
+            ];
+            if let Some((what, n)) = need.iter().find(|(_, n)| *n > MAX_EXACT_INDEX) {
+                return Err(Error::Internal(format!(
+                    "{n} {what} packed with one float per index (exact to 2^24)"
+                )));
+            }
+        }
+        let slots = |t: PackedTexture| PackedTexture { slots: true, ..t };
+        Ok(SceneTextures {
+            tri: slots(PackedTexture::pack("tri", tri, max_size)?),
+            nrm: if smooth {
+                Some(slots(PackedTexture::pack("nrm", nrm, max_size)?))
+            } else {
+                None
+            },
+            mat: PackedTexture::pack("mat", mat, max_size)?,
+            cell: PackedTexture::pack("cell", cell, max_size)?,
+            list: PackedTexture::pack_entries("list", &list, max_size)?,
+            irregular,
+            tex,
+            format,
+        })
+    }
+
+    /// All textures, in binding order.
+    pub fn all(&self) -> Vec<&PackedTexture> {
+        self.with_units().into_iter().map(|(_, t)| t).collect()
+    }
+
+    /// All textures with the unit each is bound to.
+    pub fn with_units(&self) -> Vec<(Unit, &PackedTexture)> {
+        let mut v = vec![
+            (Unit::Tri, &self.tri),
+            (Unit::Mat, &self.mat),
+            (Unit::Cell, &self.cell),
+            (Unit::List, &self.list),
+        ];
+        if let Some(n) = &self.nrm {
+            v.push((Unit::Nrm, n));
+        }
+        if let Some(i) = &self.irregular {
+            v.push((Unit::Vmap, &i.vmap));
+        }
+        if let Some(t) = &self.tex {
+            v.push((Unit::Tex, &t.texture));
+        }
+        v
+    }
+
+    /// GLSL 1.20 declarations of every texture and the layout constants.
+    pub fn glsl(&self) -> String {
+        self.glsl_with(Fetch::Texture2D)
+    }
+
+    /// GLSL declarations of every texture and the layout constants, fetching through `fetch`.
+    pub fn glsl_with(&self, fetch: Fetch) -> String {
+        let mut s = format!(
+            "#define TRI_TEXELS {TRI_TEXELS}.0\n#define MAT_TEXELS {MAT_TEXELS}.0\n\
+             #define CELL_TEXELS {}.0\n",
+            self.format.irregular_cell_texels()
+        );
+        s.push_str(&self.format.glsl());
+        for (k, t) in self.all().into_iter().enumerate() {
+            s.push_str(&t.glsl_format(fetch, STORAGE_BINDING_BASE + k as u32, self.format));
+        }
+        if let Some(i) = &self.irregular {
+            s.push_str(&i.glsl());
+        }
+        if let Some(t) = &self.tex {
+            s.push_str(&t.glsl(fetch));
+        }
+        s
+    }
+
+    /// Storage blocks the textures take under [`Fetch::Storage`]: one per texture, and the
+    /// float views the kernels read entries through (the list's, the voxel map's).
+    pub fn storage_blocks(&self) -> u32 {
+        self.all().len() as u32 + 1 + u32::from(self.irregular.is_some())
+    }
+
+    /// Total bytes uploaded.
+    pub fn bytes(&self) -> usize {
+        self.all().iter().map(|t| t.bytes()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Emulates the GLSL fetch arithmetic in f32 and checks it lands on the packed texel.
+    #[test]
+    fn fetch_arithmetic_is_exact_up_to_2_pow_24() {
+        let t = PackedTexture::pack("x", vec![[0.0; 4]; 5000], 2048).unwrap();
+        assert_eq!((t.width, t.height), (2048, 3));
+        for w in [1u32, 2, 64, 2048, 4096] {
+            let inv_w = 1.0 / w as f32;
+            for i in [0u32, 1, w - 1, w, w + 1, 12345, (1 << 24) - 1] {
+                let fi = i as f32;
+                let y = (fi * inv_w).floor();
+                let x = fi - y * w as f32;
+                assert_eq!((x as u32, y as u32), (i % w, i / w), "w {w} i {i}");
+            }
+        }
+    }
+
+    /// Entry textures hold their scalars in order, four to a texel with the last padded, and
+    /// only they get `entry_<name>`: the cell list and the voxel map of a real build, not the
+    /// record textures.
+    #[test]
+    fn entry_textures_pack_in_order_and_only_they_get_entry_functions() {
+        let e: Vec<f32> = (1..=6).map(|i| i as f32).collect();
+        let t = PackedTexture::pack_entries("list", &e, 64).unwrap();
+        assert!(t.entries);
+        assert_eq!((t.width, t.height), (2, 1));
+        assert_eq!(t.data, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 0.0, 0.0]);
+
+        use crate::accel::{IrregularConfig, IrregularGrid};
+        use crate::testing::scene_of;
+        use glam::Vec3;
+        let s = scene_of(&[[Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z, Vec3::X, Vec3::Y]]);
+        let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
+        let l = SceneTextures::pack(&s, &g, 4096).unwrap();
+        let vmap = &l.irregular.as_ref().unwrap().vmap;
+        for fetch in [Fetch::Texture2D, Fetch::TexelFetch, Fetch::Storage] {
+            for t in [&l.list, vmap] {
+                assert!(t.entries, "{}", t.name);
+                let glsl = t.glsl_with(fetch, 9);
+                assert!(glsl.contains(&format!("entry_{}(", t.name)), "{fetch:?}");
+            }
+            for t in [&l.tri, &l.mat, &l.cell] {
+                assert!(!t.entries, "{}", t.name);
+                assert!(!t.glsl_with(fetch, 9).contains("entry_"), "{}", t.name);
+            }
+        }
+        // Every triangle index of the grid's lists, in order.
+        let n = g.tri_indices.len();
+        let listed: Vec<u32> = l.list.data[..n].iter().map(|&x| x as u32).collect();
+        assert_eq!(listed, g.tri_indices);
+    }
+
+    #[test]
+    fn too_large_is_a_clear_error() {
+        let e = PackedTexture::pack("big", vec![[0.0; 4]; 64 * 64 + 1], 64).unwrap_err();
+        assert!(e.to_string().contains("GL_MAX_TEXTURE_SIZE is 64"), "{e}");
+        let ok = PackedTexture::pack("fit", vec![[0.0; 4]; 64 * 64], 64).unwrap();
+        assert_eq!((ok.width, ok.height), (64, 64));
+    }
+}
