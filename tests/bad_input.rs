@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::words;
+
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
@@ -227,19 +229,7 @@ fn missing_mtl_is_an_error_unless_the_scene_overrides_materials() {
     write(&d, "ok.toml", &format!("{CAM}[[lights]]\nposition = [0, 3, 3]\n[[objects]]\nmesh = \"m.obj\"\nmaterial = {{ albedo = [1, 0, 0] }}\n"));
     let out = run_in(
         &d,
-        &[
-            "render",
-            "ok.toml",
-            "--backend",
-            "cpu",
-            "--width",
-            "4",
-            "--height",
-            "4",
-            "-q",
-            "-o",
-            "ok.png",
-        ],
+        &words("render ok.toml --backend cpu --width 4 --height 4 -q -o ok.png"),
         &[],
     );
     assert!(
@@ -317,19 +307,7 @@ fn obj_face_with_fewer_than_three_vertices_names_scene_object_obj_and_line() {
     );
     let out = run_in(
         &d,
-        &[
-            "render",
-            "l.toml",
-            "--backend",
-            "cpu",
-            "--width",
-            "4",
-            "--height",
-            "4",
-            "-q",
-            "-o",
-            "l.png",
-        ],
+        &words("render l.toml --backend cpu --width 4 --height 4 -q -o l.png"),
         &[],
     );
     assert!(
@@ -490,18 +468,7 @@ fn image_beyond_the_gl_limits_is_refused_before_allocating() {
     // The geforce7 profile lowers GL_MAX_TEXTURE_SIZE and the viewport to 4096.
     fails(
         &d,
-        &[
-            "render",
-            "--backend",
-            "gl",
-            "--width",
-            "5000",
-            "--height",
-            "8",
-            "-q",
-            "-o",
-            "out.png",
-        ],
+        &words("render --backend gl --width 5000 --height 8 -q -o out.png"),
         &[("FRAGTRACE_GL_LIMITS", "geforce7")],
         &["5000x8", "GL_MAX_TEXTURE_SIZE 4096"],
     );
@@ -515,15 +482,7 @@ fn max_depth_out_of_range() {
     let d = tmpdir("depth");
     fails(
         &d,
-        &[
-            "render",
-            "--backend",
-            "cpu",
-            "--max-depth",
-            "17",
-            "-o",
-            "out.png",
-        ],
+        &words("render --backend cpu --max-depth 17 -o out.png"),
         &[],
         &["--max-depth 17", "0..=16"],
     );
@@ -558,14 +517,7 @@ fn unwritable_output_is_refused_before_the_scene_is_loaded() {
     }
     fails(
         &d,
-        &[
-            "render",
-            "missing.toml",
-            "-o",
-            "x.png",
-            "--stats",
-            "no/dir/s.json",
-        ],
+        &words("render missing.toml -o x.png --stats no/dir/s.json"),
         &[],
         &["no/dir/s.json", "statistics"],
     );
@@ -591,18 +543,7 @@ fn existing_output_is_untouched_by_a_failed_run() {
     // A render that fails after loading (no EGL with --backend gl) keeps it too.
     fails(
         &d,
-        &[
-            "render",
-            "--backend",
-            "gl",
-            "--width",
-            "4",
-            "--height",
-            "4",
-            "-q",
-            "-o",
-            "out.png",
-        ],
+        &words("render --backend gl --width 4 --height 4 -q -o out.png"),
         &[("FRAGTRACE_EGL_LIBRARY", "/nonexistent/libEGL.so.1")],
         &["/nonexistent/libEGL.so.1"],
     );
@@ -670,17 +611,7 @@ fn no_egl_library_names_it_and_the_packages() {
     let d = tmpdir("egl");
     fails(
         &d,
-        &[
-            "render",
-            "--backend",
-            "gl",
-            "--width",
-            "4",
-            "--height",
-            "4",
-            "-o",
-            "out.png",
-        ],
+        &words("render --backend gl --width 4 --height 4 -o out.png"),
         &[("FRAGTRACE_EGL_LIBRARY", "/nonexistent")],
         &["/nonexistent", "libegl1 libegl-mesa0 libgl1-mesa-dri"],
     );
@@ -720,15 +651,7 @@ fn grid_without_accel_uniform_and_bad_accel_flags_are_usage_errors() {
     let d = tmpdir("accel");
     for args in [
         &["render", "--backend", "cpu", "--grid", "8x8x8"][..],
-        &[
-            "render",
-            "--backend",
-            "cpu",
-            "--accel",
-            "irregular",
-            "--grid",
-            "8x8x8",
-        ],
+        &words("render --backend cpu --accel irregular --grid 8x8x8"),
     ] {
         fails(&d, args, &[], &["--grid 8x8x8", "--accel uniform"]);
     }
@@ -835,15 +758,7 @@ fn flags_that_do_not_apply_are_refused_on_every_front_door() {
     );
     let line = fails(
         &d,
-        &[
-            "bench",
-            "--configs",
-            "c.toml",
-            "--scenes",
-            "whitted",
-            "--out",
-            "b",
-        ],
+        &words("bench --configs c.toml --scenes whitted --out b"),
         &[],
         &["--kernel looped", "applies to the GPU backend"],
     );

@@ -1,7 +1,7 @@
 //! The binary as a user meets it: outputs, statistics, exit codes and error messages.
 
 mod common;
-use common::{bin, tmpdir};
+use common::{bin, tmpdir, words};
 
 #[test]
 fn default_command_renders_the_builtin_scene_with_stats() {
@@ -345,18 +345,7 @@ fn verbose_logs_pass_kinds_and_cpu_work() {
         );
         let s = stats_of(
             &d,
-            &[
-                "--backend",
-                "gl",
-                "--kernel",
-                "compute",
-                "--width",
-                "24",
-                "--height",
-                "18",
-                "-o",
-                "c.png",
-            ],
+            &words("--backend gl --kernel compute --width 24 --height 18 -o c.png"),
             "c.json",
         );
         assert!(
@@ -775,14 +764,7 @@ fn accel_flag_selects_the_structure_and_stats_report_it() {
     // `auto` with a grid density asks for a grid: the irregular one.
     let s = stats_of(
         &d,
-        &[
-            "--backend",
-            "cpu",
-            "--grid-density",
-            "0.5",
-            "-o",
-            "dens.png",
-        ],
+        &words("--backend cpu --grid-density 0.5 -o dens.png"),
         "s.json",
     );
     assert_eq!(s["accel"]["kind"], "irregular", "{s}");

@@ -12,7 +12,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use common::{ok, refused, run, text, tmpdir};
+use common::{ok, refused, run, text, tmpdir, words};
 
 const WHITTED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/whitted.toml");
 const TURNTABLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/turntable.toml");
@@ -64,14 +64,7 @@ fn parts_of_a_poster_larger_than_the_limit_render() {
             "t.exr",
         ),
         (
-            &[
-                "--backend",
-                "cpu",
-                "--region",
-                "8000,8000,8100,8060",
-                "-o",
-                "r.exr",
-            ],
+            &words("--backend cpu --region 8000,8000,8100,8060 -o r.exr"),
             "r.exr",
         ),
         (
@@ -88,14 +81,7 @@ fn parts_of_a_poster_larger_than_the_limit_render() {
             "k-0005.exr",
         ),
         (
-            &[
-                "--backend",
-                "gl",
-                "--region",
-                "8000,8000,8064,8048",
-                "-o",
-                "g.exr",
-            ],
+            &words("--backend gl --region 8000,8000,8064,8048 -o g.exr"),
             "g.exr",
         ),
     ] {
@@ -344,15 +330,7 @@ fn merge_names_what_is_missing_and_refuses_other_builds() {
     refused(
         &run(
             &d,
-            &[
-                "merge",
-                "f0003-0.exr",
-                "f0003-1.exr",
-                "f0005-0.exr",
-                "f0005-1.exr",
-                "-o",
-                "m_##.png",
-            ],
+            &words("merge f0003-0.exr f0003-1.exr f0005-0.exr f0005-1.exr -o m_##.png"),
             &[],
         ),
         "the parts are of the frames 3..5, but frame 4 has no parts (4 parts given)",

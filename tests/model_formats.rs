@@ -13,7 +13,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
 
-use common::model_path;
+use common::{model_path, words};
 use fragtrace::image_io::Image;
 use fragtrace::options::{Backend, Precision, RenderOptions};
 use fragtrace::render::render_cpu;
@@ -519,18 +519,7 @@ fn a_model_file_renders_on_its_own_framed() {
     write_binary_ply(&dir.join("bunny.ply"), &obj.v, &faces);
     let out = run(
         &dir,
-        &[
-            "render",
-            "bunny.ply",
-            "--backend",
-            "cpu",
-            "--width",
-            "160",
-            "--height",
-            "120",
-            "-o",
-            "b.png",
-        ],
+        &words("render bunny.ply --backend cpu --width 160 --height 120 -o b.png"),
     );
     assert!(
         out.status.success(),

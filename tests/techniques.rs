@@ -14,8 +14,8 @@
 //!   (case 16).
 
 mod common;
-use common::with_test_context;
 use common::Rng;
+use common::{with_test_context, words};
 use fragtrace::accel::{Grid, GridConfig};
 use fragtrace::cpu::real::{Real, V3};
 use fragtrace::cpu::shade::{offset_origin_with, reflect, surface};
@@ -603,14 +603,9 @@ fn command_line_flags_select_techniques() {
         .to_options(&scene)
         .unwrap();
     assert_eq!(o.techniques, Techniques::default());
-    let args = RenderArgs::try_parse_from_args(&[
-        "--intersect",
-        "moller-trumbore",
-        "--t-bound",
-        "off",
-        "--offset",
-        "epsilon",
-    ])
+    let args = RenderArgs::try_parse_from_args(&words(
+        "--intersect moller-trumbore --t-bound off --offset epsilon",
+    ))
     .unwrap();
     let o = args.to_options(&scene).unwrap();
     assert_eq!(

@@ -9,7 +9,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
 
-use common::{model_path, with_test_context};
+use common::{model_path, with_test_context, words};
 use fragtrace::gpu::options::Kernel;
 use fragtrace::options::{Backend, Precision, RenderOptions};
 use fragtrace::render::{render_cpu, render_gl_with};
@@ -404,16 +404,7 @@ fn a_missing_texture_is_one_warning_or_with_strict_an_error() {
     assert!(dir.join("a.png").exists());
     let out = run(
         &dir,
-        &[
-            "render",
-            "s.toml",
-            "--backend",
-            "cpu",
-            "--textures",
-            "strict",
-            "-o",
-            "b.png",
-        ],
+        &words("render s.toml --backend cpu --textures strict -o b.png"),
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");

@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::words;
+
 use std::path::{Path, PathBuf};
 use std::process::{Output, Stdio};
 
@@ -221,15 +223,7 @@ fn compare_says_which_bound_failed_and_rejects_bad_numbers() {
     render(&d, "b.png", &["--spp", "4"]);
     let out = run_in(
         &d,
-        &[
-            "compare",
-            "a.png",
-            "b.png",
-            "--max-rmse",
-            "1e-6",
-            "--max-flip",
-            "0.5",
-        ],
+        &words("compare a.png b.png --max-rmse 1e-6 --max-flip 0.5"),
     );
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
@@ -240,18 +234,7 @@ fn compare_says_which_bound_failed_and_rejects_bad_numbers() {
         "{err}"
     );
     // Within both bounds: exit 0, nothing on stderr.
-    let out = run_in(
-        &d,
-        &[
-            "compare",
-            "a.png",
-            "a.png",
-            "--max-rmse",
-            "0",
-            "--max-flip",
-            "0",
-        ],
-    );
+    let out = run_in(&d, &words("compare a.png a.png --max-rmse 0 --max-flip 0"));
     assert_eq!(out.status.code(), Some(0));
     assert!(out.stderr.is_empty());
     for (flag, v) in [
@@ -303,15 +286,7 @@ fn compare_reads_a_named_aov_channel() {
     // Same render: identical depth, misses (+inf) included.
     let out = run_in(
         &d,
-        &[
-            "compare",
-            "a.aov.exr",
-            "b.aov.exr",
-            "--channel",
-            "depth",
-            "--max-rmse",
-            "0",
-        ],
+        &words("compare a.aov.exr b.aov.exr --channel depth --max-rmse 0"),
     );
     let text = String::from_utf8_lossy(&out.stdout);
     assert_eq!(
@@ -325,21 +300,7 @@ fn compare_reads_a_named_aov_channel() {
     write(&d, "moved.toml", "[camera]\neye = [0, 3, 9]\nlook_at = [0, 0, 0]\nfov = 30\n[[objects]]\nshape = \"sphere\"\n");
     let o = run_in(
         &d,
-        &[
-            "render",
-            "moved.toml",
-            "--backend",
-            "cpu",
-            "--width",
-            "32",
-            "--height",
-            "24",
-            "-q",
-            "-o",
-            "m.png",
-            "--aov",
-            "depth",
-        ],
+        &words("render moved.toml --backend cpu --width 32 --height 24 -q -o m.png --aov depth"),
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let out = run_in(

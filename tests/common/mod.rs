@@ -86,6 +86,12 @@ pub fn run<S: AsRef<OsStr>>(dir: &Path, args: &[S], env: &[(&str, &str)]) -> Out
     c.output().unwrap()
 }
 
+/// Command-line words of `line`, split at white space (no quoting: for arguments without
+/// spaces), so a test's command reads as one line.
+pub fn words(line: &str) -> Vec<&str> {
+    line.split_whitespace().collect()
+}
+
 /// Requires success, naming what the child said otherwise.
 pub fn ok(o: Output) -> Output {
     assert!(o.status.success(), "{}", text(&o));
