@@ -203,10 +203,10 @@ vec3 light_term(float mat, vec3 albedo, Surface s, vec3 l, vec3 v) {
 
 // What a term adds to a pixel: the node's weight w times the term, then times the scene's
 // factor (the ambient light, a light's radiance), in that order in every kernel. Written
-// w * (term * factor), Mesa's compiler (llvmpipe) regrouped the product in the fragment
-// passes, where the factor is a uniform, and not in the compute kernel, whose radiance
-// comes from a buffer: one f32 ulp apart in a few pixels. With the uniform last there is
-// nothing to move, and the compute and looped kernels render the same bytes (issue 52).
+// w * (term * factor), Mesa 22.3's compiler (llvmpipe) regrouped the product as
+// (w * albedo) * ... in the fragment passes and kept it in the compute kernel: one f32 ulp
+// apart in a few pixels of most scenes. With the factor last the two kernels render the
+// same bytes on every shipped scene (tests/compute_kernel.rs; issue 52).
 vec3 contribution(vec3 w, vec3 term, vec3 factor) {
     return (w * term) * factor;
 }
