@@ -29,7 +29,10 @@
 #           driver's still off), with the
 #           driver's cache warm (ours off); the turntable (FRAMES) cold and with our cache
 #           warm; the equal-work view at SIZES[0]² warm (SIZES[1]: the others' side). An OLD without the cache ignores its
-#           variables, so its `ours` rows are cold ones
+#           variables, so its `ours` rows are cold ones. `looped_frames`: the frames `--kernel
+#           auto` rendered with the looped kernel while the compute kernel compiled (issue 52's
+#           cold start); the cold and warm images and turntable frames of NEW must be the same
+#           bytes whichever kernel rendered them (exit 1 otherwise)
 set -uo pipefail
 [ $# -ge 3 ] || { sed -n '2,31p' "$0" >&2; exit 2; }
 # The binaries by absolute path: the suites run from the repository's root.
@@ -185,9 +188,10 @@ cold_run() {
         FRAGTRACE_SHADER_CACHE=$ours FRAGTRACE_SHADER_CACHE_DIR="$W/ours-$v" \
         "${!v}" render "$@" -q --stats "$W/cold.json" 2>>"$W/stderr"
     local wall=$(( ($(date +%s%N) - t0) / 1000000 ))
-    echo "$v $label :: wall_ms $wall $(json "$W/cold.json" '"compile_ms %.1f cached %d" % (
+    echo "$v $label :: wall_ms $wall $(json "$W/cold.json" '"compile_ms %.1f cached %d looped_frames %d" % (
         d["gpu"]["compile_ms"] if "gpu" in d else sum(f["render"]["gpu"]["compile_ms"] for f in d["per_frame"]),
-        (d["gpu"] if "gpu" in d else d["per_frame"][0]["render"]["gpu"]).get("programs_cached", 0))' 2>/dev/null || echo failed)"
+        (d["gpu"] if "gpu" in d else d["per_frame"][0]["render"]["gpu"]).get("programs_cached", 0),
+        sum(g.get("cold_start", False) for g in ([d["gpu"]] if "gpu" in d else [f["render"]["gpu"] for f in d["per_frame"]])))' 2>/dev/null || echo failed)"
 }
 
 suite_cold() {
@@ -205,14 +209,23 @@ suite_cold() {
             cold_run "(warming the driver's cache)" $v driver -- "${ew[@]}" -o "$W/x.png" >/dev/null
             cold_run "equal-work ${n}² driver cache warm" $v driver -- "${ew[@]}" -o "$W/drv-$v.png"
             rm -rf "$W/drv-$v" "$W/ours-$v"
-            cold_run "turntable ${n}² PNG no cache" $v ours -- "${tt[@]}" -o "$W/tt-$v-####.png"
+            cold_run "turntable ${n}² PNG no cache" $v ours -- "${tt[@]}" -o "$W/ttc-$v-####.png"
             cold_run "turntable ${n}² PNG our cache warm" $v ours -- "${tt[@]}" -o "$W/tt-$v-####.png"
+            # A single frame that ends before the compute compile leaves our cache cold
+            # (src/gpu/render.rs, cold_start): warmed here by one `--kernel compute` run.
+            rm -rf "$W/ours-$v"
+            cold_run "(warming our cache with --kernel compute)" $v ours -- "${ew[@]}" --kernel compute -o "$W/x.png" >/dev/null
+            cold_run "equal-work ${n}² our cache warmed by --kernel compute" $v ours -- "${ew[@]}" -o "$W/ourc-$v.png"
         done
     done | grep -v "^(warming" | medians
     for f in cold ours drv big; do
         echo "image $f: $("$NEW" compare "$W/$f-OLD.png" "$W/$f-NEW.png" 2>&1 | tail -1)"
     done
     cmp -s "$W/cold-NEW.png" "$W/ours-NEW.png" || { echo "NEW: the cached programs' image differs" >&2; status=1; }
+    cmp -s "$W/cold-NEW.png" "$W/ourc-NEW.png" || { echo "NEW: the image after --kernel compute differs" >&2; status=1; }
+    for f in "$W"/ttc-NEW-*.png; do
+        cmp -s "$f" "${f/ttc-/tt-}" || { echo "NEW: turntable $(basename "$f") cold differs from warm" >&2; status=1; }
+    done
 }
 
 suite_images() { bash ci/compare-binaries.sh "$OLD" "$NEW" || status=1; }
