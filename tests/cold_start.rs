@@ -179,3 +179,29 @@ fn a_driver_that_compiles_in_the_call_runs_compute_at_once() {
     assert!(s["gpu"]["programs_compiled"].as_u64().unwrap() >= 1, "{s}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A farm whose tasks met different caches: part 0 rendered on a cold cache (the looped
+/// kernel, the compute programs compiling), part 1 on the cache that left warm (compute);
+/// `fragtrace merge` takes them as parts of one render (the same plan in their headers)
+/// and the merged PNG is the single compute render's byte for byte.
+#[test]
+fn parts_from_cold_and_warm_tasks_merge_to_the_single_render() {
+    let d = common::tmpdir("parts");
+    let polls = [("FRAGTRACE_COMPILE_POLLS", "1")];
+    let (cold, _) = render(&d, &["--tile", "0/2", "-o", "part-0.exr"], &polls);
+    assert_eq!(cold["gpu"]["kernel"], "looped", "{cold}");
+    let (warm, _) = render(&d, &["--tile", "1/2", "-o", "part-1.exr"], &polls);
+    assert_eq!(warm["gpu"]["kernel"], "compute", "{warm}");
+    render(&d, &["--kernel", "compute", "-o", "whole.png"], &[]);
+    common::ok(common::run(
+        &d,
+        &["merge", "part-0.exr", "part-1.exr", "-o", "merged.png"],
+        &[],
+    ));
+    let read = |f: &str| std::fs::read(d.join(f)).unwrap();
+    assert!(
+        read("merged.png") == read("whole.png"),
+        "merged parts differ"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
