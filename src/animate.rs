@@ -302,3 +302,36 @@ pub fn render_frames(
         per_frame,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(kernel: &str, cold_start: bool, first: u32, last: u32) -> KernelFrames {
+        KernelFrames {
+            kernel: kernel.into(),
+            cold_start,
+            first,
+            last,
+            frames: last - first + 1,
+        }
+    }
+
+    /// The summary line names one kernel as before, and a cold start's runs frame by frame.
+    #[test]
+    fn kernels_are_described_by_their_frames() {
+        assert_eq!(describe_kernels(&[]), "");
+        assert_eq!(
+            describe_kernels(&[run("compute", false, 0, 119)]),
+            "compute kernel"
+        );
+        assert_eq!(
+            describe_kernels(&[run("looped", true, 0, 0), run("compute", false, 1, 119)]),
+            "looped kernel for frame 0 (compute compiling), compute kernel for frames 1-119"
+        );
+        assert_eq!(
+            describe_kernels(&[run("looped", true, 3, 5)]),
+            "looped kernel (compute compiling)"
+        );
+    }
+}
