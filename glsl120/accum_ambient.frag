@@ -19,9 +19,9 @@ void main() {
             // This level's cone: the root's from u_root_cone, else its record r3.
             vec2 cone = u_root_cone.x > 0.5 ? vec2(0.0, u_root_cone.y) : texture2D(u_r3, v_uv).xy;
             vec3 alb = albedo_tex(s, cone_at(cone, r1.R1_T).x, r1.R1_DIR);
-            acc.xyz += r2.R2_WEIGHT * ambient_with(s, alb, u_ambient);
+            acc.xyz += contribution(r2.R2_WEIGHT, ambient_with(s, alb), u_ambient);
 #else
-            acc.xyz += r2.R2_WEIGHT * ambient_term(s, u_ambient);
+            acc.xyz += contribution(r2.R2_WEIGHT, ambient_term(s), u_ambient);
 #endif
         } else if (r0.R0_TRI > -1.5) {
             acc.xyz += r2.R2_WEIGHT * u_background;

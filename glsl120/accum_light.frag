@@ -24,8 +24,8 @@ void main() {
 #else
         vec3 alb = albedo_at(s.mat, s.p);
 #endif
-        vec3 c = light_term(s.mat, alb, s, l, -r1.R1_DIR, u_light_rad);
-        acc.xyz += r2.R2_WEIGHT * c;
+        vec3 c = light_term(s.mat, alb, s, l, -r1.R1_DIR);
+        acc.xyz += contribution(r2.R2_WEIGHT, c, u_light_rad);
     }
     gl_FragData[0] = acc;
 }

@@ -132,8 +132,8 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
         trace(s0, s1, s2, s3, shadow);
         if (shadow) {
             if (!in_state(s0.S0_STATE, ST_SHADING)) {
-                vec3 c = light_term(s.mat, alb, s, l, -n.d, LIGHT_RAD(light));
-                colour += n.w * c;
+                vec3 c = light_term(s.mat, alb, s, l, -n.d);
+                colour += contribution(n.w, c, LIGHT_RAD(light));
             }
             light++;
             continue;
@@ -151,10 +151,10 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
 #ifdef HAS_TEXTURES
         hit_cone = cone_at(g_cones[top], s3.S3_T_BEST);
         alb = albedo_tex(s, hit_cone.x, n.d);
-        colour += n.w * ambient_with(s, alb, u_ambient);
+        colour += contribution(n.w, ambient_with(s, alb), u_ambient);
 #else
         alb = albedo_at(s.mat, s.p);
-        colour += n.w * ambient_term(s, u_ambient);
+        colour += contribution(n.w, ambient_term(s), u_ambient);
 #endif
         open = true;
         light = 0;

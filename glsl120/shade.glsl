@@ -182,8 +182,9 @@ void secondary(float mat, Surface s, vec3 d, out vec3 kr, out vec3 kt, out vec3 
 #endif
 }
 
-// Direct term of one visible light; l = unit direction to the light, v = to the viewer.
-vec3 light_term(float mat, vec3 albedo, Surface s, vec3 l, vec3 v, vec3 radiance) {
+// Direct term of one visible light before its radiance (what `contribution` scales by
+// it); l = unit direction to the light, v = to the viewer.
+vec3 light_term(float mat, vec3 albedo, Surface s, vec3 l, vec3 v) {
     float ndotl = dot(s.ns, l);
     if (ndotl <= 0.0) return vec3(0.0);
     vec4 kr_kd = mat_texel(mat, M2_SLOT);
@@ -197,7 +198,17 @@ vec3 light_term(float mat, vec3 albedo, Surface s, vec3 l, vec3 v, vec3 radiance
         c += ks * (rv > 0.0 ? pow(rv, ks_ns.M1_NS) : 0.0);
     }
 #endif
-    return c * radiance;
+    return c;
+}
+
+// What a term adds to a pixel: the node's weight w times the term, then times the scene's
+// factor (the ambient light, a light's radiance), in that order in every kernel. Written
+// w * (term * factor), Mesa 22.3's compiler (llvmpipe) regrouped the product as
+// (w * albedo) * ... in the fragment passes and kept it in the compute kernel: one f32 ulp
+// apart in a few pixels of most scenes. With the factor last the two kernels render the
+// same bytes on every shipped scene (tests/compute_kernel.rs; issue 52).
+vec3 contribution(vec3 w, vec3 term, vec3 factor) {
+    return (w * term) * factor;
 }
 
 #ifdef HAS_TEXTURES
@@ -238,17 +249,19 @@ vec2 child_cone_at(Surface s, vec2 cone, bool refracted) {
     return child_cone(cone, k, refracted, eta);
 }
 
-// Ambient term ka A albedo at s with the albedo given.
-vec3 ambient_with(Surface s, vec3 albedo, vec3 ambient) {
+// Ambient term ka albedo at s with the albedo given, before the ambient light A (what
+// `contribution` scales by it).
+vec3 ambient_with(Surface s, vec3 albedo) {
     float ka = mat_texel(s.mat, M0_SLOT).M0_KA;
-    return albedo * ambient * ka;
+    return albedo * ka;
 }
 #endif
 
-// Ambient term ka A albedo at s (accum_ambient.frag; the compute kernel).
-vec3 ambient_term(Surface s, vec3 ambient) {
+// Ambient term ka albedo at s, before the ambient light A (accum_ambient.frag; the compute
+// kernel).
+vec3 ambient_term(Surface s) {
     float ka = mat_texel(s.mat, M0_SLOT).M0_KA;
-    return albedo_at(s.mat, s.p) * ambient * ka;
+    return albedo_at(s.mat, s.p) * ka;
 }
 
 // The shadow ray from s towards a point light at light_pos: false where the light is below

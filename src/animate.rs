@@ -31,8 +31,79 @@ pub struct AnimationStats {
     pub frames_ms: f64,
     /// The frames after the first (its uploads and compiles) per second.
     pub steady_fps: f64,
+    /// The GPU kernels that rendered the frames, run by run, in frame order (empty on the
+    /// CPU): one run, or with `--kernel auto` on a cold start the looped kernel's first
+    /// frames while the compute kernel compiled, then compute's (issue 52).
+    pub kernels: Vec<KernelFrames>,
     /// Per frame: its number, file, render statistics and encode-and-write time.
     pub per_frame: Vec<FrameStats>,
+}
+
+/// Consecutive frames one GPU kernel rendered (of [`AnimationStats::kernels`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct KernelFrames {
+    /// The kernel (`GpuStats::kernel`).
+    pub kernel: String,
+    /// It rendered them while the compute kernel compiled (`GpuStats::cold_start`).
+    pub cold_start: bool,
+    /// The first frame's number.
+    pub first: u32,
+    /// The last frame's number.
+    pub last: u32,
+    /// How many frames.
+    pub frames: u32,
+}
+
+/// The runs of frames each GPU kernel rendered, in frame order.
+pub fn kernel_runs(per_frame: &[FrameStats]) -> Vec<KernelFrames> {
+    let mut runs: Vec<KernelFrames> = Vec::new();
+    for f in per_frame {
+        let Some(g) = f.render.gpu.as_ref() else {
+            continue;
+        };
+        match runs.last_mut() {
+            Some(r) if r.kernel == g.kernel && r.cold_start == g.cold_start => {
+                r.last = f.frame;
+                r.frames += 1;
+            }
+            _ => runs.push(KernelFrames {
+                kernel: g.kernel.clone(),
+                cold_start: g.cold_start,
+                first: f.frame,
+                last: f.frame,
+                frames: 1,
+            }),
+        }
+    }
+    runs
+}
+
+/// The kernels of `runs` for the summary line: `compute kernel`, or with a cold start
+/// `looped kernel for frames 0-1 (compute compiling), compute kernel for frames 2-119`.
+pub fn describe_kernels(runs: &[KernelFrames]) -> String {
+    let why = |r: &KernelFrames| {
+        if r.cold_start {
+            " (compute compiling)"
+        } else {
+            ""
+        }
+    };
+    match runs {
+        [] => String::new(),
+        [r] => format!("{} kernel{}", r.kernel, why(r)),
+        _ => runs
+            .iter()
+            .map(|r| {
+                let frames = if r.frames == 1 {
+                    format!("frame {}", r.first)
+                } else {
+                    format!("frames {}-{}", r.first, r.last)
+                };
+                format!("{} kernel for {frames}{}", r.kernel, why(r))
+            })
+            .collect::<Vec<_>>()
+            .join(", "),
+    }
 }
 
 /// One frame of [`AnimationStats`].
@@ -221,11 +292,46 @@ pub fn render_frames(
         Some(t) if count > 1 => (count - 1) as f64 / t.elapsed().as_secs_f64().max(1e-9),
         _ => 0.0,
     };
+    let per_frame: Vec<FrameStats> = per_frame.into_iter().flatten().collect();
     Ok(AnimationStats {
         frames: count,
         setup_ms,
         frames_ms,
         steady_fps,
-        per_frame: per_frame.into_iter().flatten().collect(),
+        kernels: kernel_runs(&per_frame),
+        per_frame,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(kernel: &str, cold_start: bool, first: u32, last: u32) -> KernelFrames {
+        KernelFrames {
+            kernel: kernel.into(),
+            cold_start,
+            first,
+            last,
+            frames: last - first + 1,
+        }
+    }
+
+    /// The summary line names one kernel as before, and a cold start's runs frame by frame.
+    #[test]
+    fn kernels_are_described_by_their_frames() {
+        assert_eq!(describe_kernels(&[]), "");
+        assert_eq!(
+            describe_kernels(&[run("compute", false, 0, 119)]),
+            "compute kernel"
+        );
+        assert_eq!(
+            describe_kernels(&[run("looped", true, 0, 0), run("compute", false, 1, 119)]),
+            "looped kernel for frame 0 (compute compiling), compute kernel for frames 1-119"
+        );
+        assert_eq!(
+            describe_kernels(&[run("looped", true, 3, 5)]),
+            "looped kernel (compute compiling)"
+        );
+    }
 }

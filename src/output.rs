@@ -215,6 +215,11 @@ pub struct GpuStats {
     /// The kernel that ran (`--kernel auto` resolved): compute, looped, unrolled:K or
     /// multipass.
     pub kernel: String,
+    /// `--kernel auto` chose the compute kernel, whose programs were still compiling (a
+    /// cold start: not in the program-binary cache, the driver compiling them on threads
+    /// of its own), and `kernel`, its fragment fallback, rendered this one meanwhile: the
+    /// same image (issue 52).
+    pub cold_start: bool,
     /// How the kernel read the scene textures (named by `gpu::layout::Fetch::name`):
     /// `texel-fetch` or `storage-buffer` (compute, `--scene-fetch` resolved), `texture2D`
     /// (the fragment kernels).

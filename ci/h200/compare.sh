@@ -23,15 +23,22 @@
 #           sharing the GPU, then `fragtrace merge` (docs/distributed.md)
 #   images  ci/compare-binaries.sh OLD NEW: every shipped scene x backend, kernel and
 #           structure, OLD against NEW (exit 1 when any image differs)
+#   kernels NEW alone: every shipped scene on both grids at SIZES[1]², `--kernel compute`
+#           against `--kernel looped`, the EXR and the AOV file byte for byte (issue 52:
+#           the cold start shows either kernel's frames as one image; exit 1 where any
+#           differs; llvmpipe's loop limit refuses compute on two scenes there, not here)
 #   cold    the cold start (issue 52), whole process to PNG: the equal-work view at 1024²
 #           with no cache at all (the driver's off and ours empty, which that run fills:
 #           every CI run on a GPU runner), then with our program-binary cache warm (the
 #           driver's still off), with the
 #           driver's cache warm (ours off); the turntable (FRAMES) cold and with our cache
 #           warm; the equal-work view at SIZES[0]² warm (SIZES[1]: the others' side). An OLD without the cache ignores its
-#           variables, so its `ours` rows are cold ones
+#           variables, so its `ours` rows are cold ones. `looped_frames`: the frames a fragment
+#           kernel rendered (with `--kernel auto`: while the compute kernel compiled, issue
+#           52's cold start); the cold and warm images and turntable frames of NEW must be the same
+#           bytes whichever kernel rendered them (exit 1 otherwise)
 set -uo pipefail
-[ $# -ge 3 ] || { sed -n '2,31p' "$0" >&2; exit 2; }
+[ $# -ge 3 ] || { sed -n '2,39p' "$0" >&2; exit 2; }
 # The binaries by absolute path: the suites run from the repository's root.
 abs() { if [ "$1" = - ]; then echo -; else realpath "$1"; fi; }
 OLD=$(abs "$1") NEW=$(abs "$2")
@@ -185,9 +192,10 @@ cold_run() {
         FRAGTRACE_SHADER_CACHE=$ours FRAGTRACE_SHADER_CACHE_DIR="$W/ours-$v" \
         "${!v}" render "$@" -q --stats "$W/cold.json" 2>>"$W/stderr"
     local wall=$(( ($(date +%s%N) - t0) / 1000000 ))
-    echo "$v $label :: wall_ms $wall $(json "$W/cold.json" '"compile_ms %.1f cached %d" % (
+    echo "$v $label :: wall_ms $wall $(json "$W/cold.json" '"compile_ms %.1f cached %d looped_frames %d" % (
         d["gpu"]["compile_ms"] if "gpu" in d else sum(f["render"]["gpu"]["compile_ms"] for f in d["per_frame"]),
-        (d["gpu"] if "gpu" in d else d["per_frame"][0]["render"]["gpu"]).get("programs_cached", 0))' 2>/dev/null || echo failed)"
+        (d["gpu"] if "gpu" in d else d["per_frame"][0]["render"]["gpu"]).get("programs_cached", 0),
+        sum(g["kernel"] != "compute" for g in ([d["gpu"]] if "gpu" in d else [f["render"]["gpu"] for f in d["per_frame"]])))' 2>/dev/null || echo failed)"
 }
 
 suite_cold() {
@@ -201,26 +209,60 @@ suite_cold() {
             cold_run "equal-work ${n}² our cache warm" $v ours -- "${ew[@]}" -o "$W/ours-$v.png"
             cold_run "equal-work ${big}² PNG our cache warm" $v ours -- ci/peers/equal-work.toml --backend gl \
                 --width "$big" --height "$big" -o "$W/big-$v.png"
+            # The looped kernel alone from cold: what auto's cold start should come to, unless
+            # the process waits at its exit for the compute compile it started.
+            rm -rf "$W/ours-$v"
+            cold_run "equal-work ${n}² no cache --kernel looped" $v ours -- "${ew[@]}" --kernel looped -o "$W/x.png"
             rm -rf "$W/drv-$v"
             cold_run "(warming the driver's cache)" $v driver -- "${ew[@]}" -o "$W/x.png" >/dev/null
             cold_run "equal-work ${n}² driver cache warm" $v driver -- "${ew[@]}" -o "$W/drv-$v.png"
             rm -rf "$W/drv-$v" "$W/ours-$v"
-            cold_run "turntable ${n}² PNG no cache" $v ours -- "${tt[@]}" -o "$W/tt-$v-####.png"
+            cold_run "turntable ${n}² PNG no cache" $v ours -- "${tt[@]}" -o "$W/ttc-$v-####.png"
             cold_run "turntable ${n}² PNG our cache warm" $v ours -- "${tt[@]}" -o "$W/tt-$v-####.png"
+            # A single frame that ends before the compute compile leaves our cache cold
+            # (src/gpu/render.rs, cold_start): warmed here by one `--kernel compute` run.
+            rm -rf "$W/ours-$v"
+            cold_run "(warming our cache with --kernel compute)" $v ours -- "${ew[@]}" --kernel compute -o "$W/x.png" >/dev/null
+            cold_run "equal-work ${n}² our cache warmed by --kernel compute" $v ours -- "${ew[@]}" -o "$W/ourc-$v.png"
         done
     done | grep -v "^(warming" | medians
     for f in cold ours drv big; do
         echo "image $f: $("$NEW" compare "$W/$f-OLD.png" "$W/$f-NEW.png" 2>&1 | tail -1)"
     done
     cmp -s "$W/cold-NEW.png" "$W/ours-NEW.png" || { echo "NEW: the cached programs' image differs" >&2; status=1; }
+    cmp -s "$W/cold-NEW.png" "$W/ourc-NEW.png" || { echo "NEW: the image after --kernel compute differs" >&2; status=1; }
+    for f in "$W"/ttc-NEW-*.png; do
+        cmp -s "$f" "${f/ttc-/tt-}" || { echo "NEW: turntable $(basename "$f") cold differs from warm" >&2; status=1; }
+    done
+}
+
+suite_kernels() {
+    local n=${SIZES[1]:-1024} differ=0 total=0
+    for scene in builtin scenes/*.toml; do
+        local arg=(); [ "$scene" = builtin ] || arg=("$scene")
+        for accel in irregular uniform; do
+            for k in compute looped; do
+                "$NEW" render "${arg[@]}" --backend gl --kernel $k --accel $accel --width "$n" --height "$n" \
+                    --aov depth,normal,primid,steps -q -o "$W/k-$k.exr" 2>>"$W/stderr" || echo "$scene $accel $k: failed"
+            done
+            total=$((total + 1))
+            if ! cmp -s "$W/k-compute.exr" "$W/k-looped.exr" || ! cmp -s "$W/k-compute.aov.exr" "$W/k-looped.aov.exr"; then
+                differ=$((differ + 1))
+                echo "$(basename "$scene" .toml) $accel: compute and looped differ: $("$NEW" compare "$W/k-compute.exr" "$W/k-looped.exr" 2>&1 | tail -1)"
+            fi
+            rm -f "$W"/k-*
+        done
+    done
+    echo "kernels: $differ of $total scene x grid pairs differ between compute and looped"
+    [ $differ = 0 ] || status=1
 }
 
 suite_images() { bash ci/compare-binaries.sh "$OLD" "$NEW" || status=1; }
 
 for s in "$@"; do
     case $s in
-        gpu | cpu | build | frames | tiles | images | cold) echo "=== $s ($(date -u +%T))"; "suite_$s" ;;
-        *) echo "unknown suite: $s (gpu, cpu, build, frames, tiles, images, cold)" >&2; exit 2 ;;
+        gpu | cpu | build | frames | tiles | images | kernels | cold) echo "=== $s ($(date -u +%T))"; "suite_$s" ;;
+        *) echo "unknown suite: $s (gpu, cpu, build, frames, tiles, images, kernels, cold)" >&2; exit 2 ;;
     esac
 done
 [ -s "$W/stderr" ] && { echo "=== stderr (last lines)"; tail -5 "$W/stderr"; }

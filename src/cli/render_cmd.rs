@@ -189,9 +189,10 @@ fn run_frames(args: &RenderArgs, frames: &crate::options::FrameRange) -> Result<
             opts.width,
             opts.height,
             first.map_or("-".into(), |f| f.render.backend.clone()),
-            first
-                .and_then(|f| f.render.gpu.as_ref())
-                .map_or(String::new(), |g| format!(", {} kernel", g.kernel)),
+            match crate::animate::describe_kernels(&stats.kernels) {
+                k if k.is_empty() => k,
+                k => format!(", {k}"),
+            },
             stats.setup_ms,
             stats.frames_ms,
         );
@@ -449,6 +450,7 @@ fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) 
             s.backend,
             s.precision,
             match (&s.gpu, &s.plan) {
+                (Some(g), _) if g.cold_start => format!(", {} kernel (compute compiling)", g.kernel),
                 (Some(g), _) => format!(", {} kernel", g.kernel),
                 // The CPU path that ran (the plan records it: packets need the BVH and AVX2).
                 (None, crate::plan::Plan::Cpu { path, .. }) => format!(", {} path", path.name()),
@@ -499,6 +501,13 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
         );
     }
     if let Some(g) = &s.gpu {
+        if g.cold_start {
+            out += &format!(
+                "kernel: {} while the compute kernel compiled (a cold start: its programs \
+                 were not in the program-binary cache; the same image)\n",
+                g.kernel
+            );
+        }
         let mut rows: Vec<(String, u64, Option<f64>)> = g
             .passes
             .iter()

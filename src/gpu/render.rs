@@ -69,10 +69,52 @@ pub fn render<'a>(
     let compute = || compute::render(gs, req, observer.as_deref_mut());
     #[cfg(target_arch = "wasm32")]
     let compute = || Err(no_compute());
+    if let Some(k) = cold_start(gs, req)? {
+        let out = fragment::render(gs, req, k, observer)?;
+        return after_cold_start(gs, out);
+    }
     match wing(&req.gpu, &gs.ctx().info, compute)? {
         Wing::Done(out) => Ok(out),
         Wing::Fragment(k) => fragment::render(gs, req, k, observer),
     }
+}
+
+/// `--kernel auto`'s cold start (issue 52): where `auto` chose the compute kernel and its
+/// programs are neither kept nor in the program-binary cache, their compile is handed to
+/// the driver (`compute::programs_ready`) and, while a driver with
+/// `GL_KHR_parallel_shader_compile` works on it on threads of its own, the fallback
+/// fragment kernel renders this frame, whole: a frame is never split between kernels, so
+/// a single frame ends on it, and compute takes the frames after the compile. On the H200
+/// that is the sooner end either way (cold: the looped kernel's compile 0.37 s against
+/// compute's 1.8-2.6 s, a 1024² frame about 1 ms; docs/performance.md); a driver that
+/// compiles within the call (llvmpipe, or no extension) is done when asked, and runs
+/// compute as before. The images are the same bytes (tests/compute_kernel.rs), so only
+/// `GpuStats::kernel` and `cold_start` tell.
+#[cfg(not(target_arch = "wasm32"))]
+fn cold_start(gs: &GpuScene, req: &ImageRequest) -> Result<Option<FragmentKernel>> {
+    Ok(match req.gpu.choose_kernel(&gs.ctx().info)? {
+        KernelChoice::Compute { fallback: Some(k) } if !compute::programs_ready(gs, req)? => {
+            Some(k)
+        }
+        _ => None,
+    })
+}
+
+/// The web build has no compute kernel, so no cold start.
+#[cfg(target_arch = "wasm32")]
+fn cold_start(_: &GpuScene, _: &ImageRequest) -> Result<Option<FragmentKernel>> {
+    Ok(None)
+}
+
+/// A frame the fragment fallback rendered on a cold start, marked so; the compute programs
+/// that finished compiling meanwhile are kept and stored for the next frame or run.
+#[cfg_attr(target_arch = "wasm32", allow(dead_code))]
+fn after_cold_start(gs: &GpuScene, mut out: GpuOutput) -> Result<GpuOutput> {
+    gs.settle_compiles()?;
+    if let Some(g) = out.gpu.as_mut() {
+        g.cold_start = true;
+    }
+    Ok(out)
 }
 
 /// [`render`] one stretch at a time: the render runs on each [`Stepped::resume`] until
@@ -93,6 +135,10 @@ pub fn render_stepped<'a>(
         let compute = || compute::render(gs, &req, Some(&mut *observer));
         #[cfg(target_arch = "wasm32")]
         let compute = || Err(no_compute());
+        if let Some(k) = cold_start(gs, &req)? {
+            let out = fragment::walk(gs, req, k, Some(&mut *observer)).await?;
+            return after_cold_start(gs, out);
+        }
         let kernel = match wing(&req.gpu, &gs.ctx().info, compute)? {
             Wing::Done(out) => return Ok(out),
             Wing::Fragment(k) => k,

@@ -20,6 +20,7 @@ use std::rc::Rc;
 use super::context::GlContext;
 use super::contract::STORAGE_BINDING_BASE;
 use super::contract::{uniform, Unit};
+use super::gl::compute::{start_compute, PendingCompute};
 use super::gl::program::{allow_parallel_compile, link_binary, start_program, PendingProgram};
 use super::gl::{compile_compute, compile_program, state, Program, StorageBuffer, Texture};
 use super::layout::{IndexFormat, SceneTextures};
@@ -65,6 +66,23 @@ impl Costs {
     }
 }
 
+/// Tests only (read when a scene is made): each compute program's compile answers "not
+/// done" to its first N polls ([`GpuScene::compute_program_ready`]), as on a driver that
+/// compiles on threads of its own (NVIDIA), where llvmpipe compiles within the call and
+/// is done at the first. The images are the same either way; only which kernel renders
+/// which frame moves.
+pub const COMPILE_POLLS_ENV: &str = "FRAGTRACE_COMPILE_POLLS";
+
+/// A compute program the driver is compiling while the render goes on: its key in the
+/// program cache, its source's line map, and the polls it still answers "not done" to
+/// ([`COMPILE_POLLS_ENV`]).
+struct Compiling {
+    source: SourceKey,
+    assembled: Assembled,
+    pending: PendingCompute,
+    polls_left: u32,
+}
+
 /// A program of the scene's cache.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum ProgramKey {
@@ -82,6 +100,10 @@ pub struct GpuScene<'s> {
     textures: OnceCell<Vec<(Unit, Texture)>>,
     buffers: OnceCell<Vec<(u32, StorageBuffer)>>,
     programs: RefCell<HashMap<ProgramKey, Rc<Program>>>,
+    /// Compute programs started and not yet finished ([`GpuScene::compute_program_ready`]).
+    compiling: RefCell<HashMap<ProgramKey, Compiling>>,
+    /// [`COMPILE_POLLS_ENV`], read once.
+    compile_polls: u32,
     /// Where linked programs are looked up before compiling, and stored after.
     cache: Option<ProgramCache>,
     /// The compute kernel's light buffer and 8-bit sRGB thresholds, made on first use.
@@ -127,6 +149,11 @@ impl<'s> GpuScene<'s> {
             textures: OnceCell::new(),
             buffers: OnceCell::new(),
             programs: RefCell::new(HashMap::new()),
+            compiling: RefCell::new(HashMap::new()),
+            compile_polls: std::env::var(COMPILE_POLLS_ENV)
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(0),
             cache: None,
             lights: OnceCell::new(),
             srgb_thresholds: OnceCell::new(),
@@ -431,7 +458,13 @@ impl<'s> GpuScene<'s> {
         spec: &ComputeSpec,
         techniques: Techniques,
     ) -> Result<Rc<Program>> {
-        self.program(ProgramKey::Compute(pass, *spec, techniques), || {
+        let key = ProgramKey::Compute(pass, *spec, techniques);
+        self.program(key, || {
+            // Started by compute_program_ready: wait for it.
+            let started = self.compiling.borrow_mut().remove(&key);
+            if let Some(c) = started {
+                return self.finish_compiling(c);
+            }
             let a = assemble_compute(pass, spec, self.features, techniques, &self.layout)?;
             let key = SourceKey::of(pass.name(), &[&a.source]);
             let program = self.cached_or(pass.name(), key, || {
@@ -439,6 +472,102 @@ impl<'s> GpuScene<'s> {
             })?;
             Ok(program.declaring(a.declared))
         })
+    }
+
+    /// Whether the compute program of `pass` for `spec` can run without waiting for a
+    /// compile: kept, linked now from the program-binary cache, or compiled by the driver
+    /// on threads of its own since this started it. Otherwise its compile is started
+    /// (where it was not yet) and the answer is false: the caller renders with a fragment
+    /// kernel meanwhile and asks again later (`--kernel auto`'s cold start, issue 52).
+    /// A driver without `GL_KHR_parallel_shader_compile` cannot tell, and compiles on the
+    /// caller's thread anyway: there the compile is waited for and the answer is true.
+    pub fn compute_program_ready(
+        &self,
+        pass: ComputePass,
+        spec: &ComputeSpec,
+        techniques: Techniques,
+    ) -> Result<bool> {
+        let key = ProgramKey::Compute(pass, *spec, techniques);
+        if self.programs.borrow().contains_key(&key) {
+            return Ok(true);
+        }
+        let t0 = Instant::now();
+        let ready = self.start_or_poll(key, pass, spec, techniques);
+        self.charge(|c| c.compile_ms += ms_since(t0));
+        ready
+    }
+
+    /// [`GpuScene::compute_program_ready`] past its first question.
+    fn start_or_poll(
+        &self,
+        key: ProgramKey,
+        pass: ComputePass,
+        spec: &ComputeSpec,
+        techniques: Techniques,
+    ) -> Result<bool> {
+        if !self.compiling.borrow().contains_key(&key) {
+            let a = assemble_compute(pass, spec, self.features, techniques, &self.layout)?;
+            let source = SourceKey::of(pass.name(), &[&a.source]);
+            if let Some(p) = self.cached(pass.name(), source) {
+                self.keep(key, p.declaring(a.declared))?;
+                return Ok(true);
+            }
+            let pending = start_compute(self.ctx, pass.name(), &a.source)?;
+            let c = Compiling {
+                source,
+                assembled: a,
+                pending,
+                polls_left: self.compile_polls,
+            };
+            self.compiling.borrow_mut().insert(key, c);
+        }
+        self.finish_if_done(key)
+    }
+
+    /// Polls the compile of `key` (started): when the driver is done, the program is
+    /// finished, kept and stored in the program-binary cache, and the answer is true.
+    fn finish_if_done(&self, key: ProgramKey) -> Result<bool> {
+        let done = match self.compiling.borrow_mut().get_mut(&key) {
+            None => return Ok(self.programs.borrow().contains_key(&key)),
+            Some(c) if c.polls_left > 0 => {
+                c.polls_left -= 1;
+                false
+            }
+            Some(c) => c.pending.is_complete(self.ctx),
+        };
+        if !done {
+            return Ok(false);
+        }
+        let c = self
+            .compiling
+            .borrow_mut()
+            .remove(&key)
+            .expect("polled above");
+        let program = self.finish_compiling(c)?;
+        self.keep(key, program)?;
+        Ok(true)
+    }
+
+    /// Every compute program started whose compile the driver has finished meanwhile,
+    /// kept and stored in the program-binary cache; none is waited for. Called after a
+    /// render that ran a fragment kernel while they compiled, so that a single frame that
+    /// outlasts the compile leaves the next run a warm cache.
+    pub fn settle_compiles(&self) -> Result<()> {
+        let t0 = Instant::now();
+        let keys: Vec<ProgramKey> = self.compiling.borrow().keys().copied().collect();
+        for key in keys {
+            self.finish_if_done(key)?;
+        }
+        self.charge(|c| c.compile_ms += ms_since(t0));
+        Ok(())
+    }
+
+    /// Waits for the compile `c` and returns its program, counted as compiled and stored
+    /// in the program-binary cache.
+    fn finish_compiling(&self, c: Compiling) -> Result<Program> {
+        let program = c.pending.finish(self.ctx, &|n| c.assembled.origin(n))?;
+        self.compiled(c.source, &program);
+        Ok(program.declaring(c.assembled.declared))
     }
 
     /// The program of `key` linked from its cached binary where the cache has one the

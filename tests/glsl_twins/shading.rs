@@ -167,8 +167,9 @@ void main() {
     gl_FragData[2] = vec4(refl, 0.0);
     gl_FragData[3] = vec4(refr, 0.0);
 #endif
-    gl_FragData[4] = vec4(light_term(s.mat, alb, s, texture2D(u_in2, v_uv).xyz, -d,
-                                     texture2D(u_in3, v_uv).xyz), 0.0);
+    // The CPU's light_term includes the radiance; shade.glsl's leaves it to contribution.
+    gl_FragData[4] = vec4(light_term(s.mat, alb, s, texture2D(u_in2, v_uv).xyz, -d)
+                          * texture2D(u_in3, v_uv).xyz, 0.0);
 }
 "#;
 

@@ -81,18 +81,7 @@ impl<'g> Setup<'g> {
             Limits::query(ctx.gl()).blocks,
             gs.layout().storage_blocks() + STORAGE_BINDING_BASE,
         );
-        let fetch = match spec.fetch {
-            Fetch::Storage if blocks < needed => {
-                if opts.scene_fetch == SceneFetch::StorageBuffer {
-                    return Err(Error::Limit(format!(
-                        "--scene-fetch storage-buffer needs {needed} storage blocks in a \
-                         compute shader; this context has {blocks}"
-                    )));
-                }
-                Fetch::TexelFetch
-            }
-            f => f,
-        };
+        let fetch = settle_fetch(spec.fetch, blocks, needed, opts)?;
         stats.scene_fetch = fetch.name().into();
         match fetch {
             Fetch::Storage => drop(gs.buffers()?),
@@ -162,6 +151,60 @@ fn scene_fetch(choice: SceneFetch, info: &GlInfo) -> Fetch {
     }
 }
 
+/// The fetch a program asking for `fetch` gets where the context has `blocks` storage
+/// blocks and the scene needs `needed`: storage buffers only where every scene texture
+/// has its block beside the kernel's own; else `auto` falls back to texelFetch and an
+/// explicit `--scene-fetch storage-buffer` fails.
+fn settle_fetch(fetch: Fetch, blocks: u32, needed: u32, opts: &GpuOptions) -> Result<Fetch> {
+    Ok(match fetch {
+        Fetch::Storage if blocks < needed => {
+            if opts.scene_fetch == SceneFetch::StorageBuffer {
+                return Err(Error::Limit(format!(
+                    "--scene-fetch storage-buffer needs {needed} storage blocks in a \
+                     compute shader; this context has {blocks}"
+                )));
+            }
+            Fetch::TexelFetch
+        }
+        f => f,
+    })
+}
+
+/// The render program's specialisation for `req` (the scene fetch as asked, settled by
+/// [`settle_fetch`] when the program is set up).
+fn render_spec(gs: &GpuScene, req: &ImageRequest) -> ComputeSpec {
+    ComputeSpec {
+        samples: camera::sample_offsets(req.spp).len() as u32,
+        lights: gs.scene().lights.len() as u32,
+        max_depth: req.max_depth,
+        secondary: gs.has_secondary(),
+        max_iterations: gs.max_iterations().min(i32::MAX as u64) as u32,
+        fetch: scene_fetch(req.gpu.scene_fetch, &gs.ctx().info),
+        aov: req.readback.aov,
+    }
+}
+
+/// Whether every compute program `req` needs (the render kernel, and the 8-bit conversion
+/// for `readback.srgb8`) is ready to run without waiting for a compile: kept by the scene,
+/// linked from the program-binary cache, or compiled by the driver on its own threads
+/// since it was started. A program that is not is started now (where it was not yet), and
+/// the caller renders with a fragment kernel meanwhile (`--kernel auto`'s cold start,
+/// issue 52; `gpu::render`).
+pub(crate) fn programs_ready(gs: &GpuScene, req: &ImageRequest) -> Result<bool> {
+    let spec = render_spec(gs, req);
+    let needed = gs.layout().storage_blocks() + STORAGE_BINDING_BASE;
+    let blocks = Limits::query(gs.ctx().gl()).blocks;
+    let spec = ComputeSpec {
+        fetch: settle_fetch(spec.fetch, blocks, needed, &req.gpu)?,
+        ..spec
+    };
+    let render = gs.compute_program_ready(ComputePass::Render, &spec, req.techniques)?;
+    // Both are polled (and started) whatever the first answers: they compile side by side.
+    let convert = !req.readback.srgb8
+        || gs.compute_program_ready(ComputePass::Srgb8, &ComputeSpec::CONVERT, req.techniques)?;
+    Ok(render && convert)
+}
+
 /// How long each band should take: [`BAND_TIME`] when `progress` is drawn (a test may ask
 /// for timed bands without a terminal), else None (the largest bands).
 fn band_time(progress: &Progress) -> Option<Duration> {
@@ -195,16 +238,8 @@ pub(crate) fn render(
     let limits = Limits::query(gl);
     let offsets = camera::sample_offsets(req.spp);
     let readback = req.readback;
-    let spec = ComputeSpec {
-        samples: offsets.len() as u32,
-        lights: scene.lights.len() as u32,
-        max_depth: req.max_depth,
-        secondary: gs.has_secondary(),
-        max_iterations: gs.max_iterations().min(i32::MAX as u64) as u32,
-        // Setup::new falls back to texelFetch where the context has too few storage blocks.
-        fetch: scene_fetch(req.gpu.scene_fetch, &ctx.info),
-        aov: readback.aov,
-    };
+    // Setup::new falls back to texelFetch where the context has too few storage blocks.
+    let spec = render_spec(gs, req);
     let mut setup = Setup::new(gs, ComputePass::Render, &spec, &req.gpu, req.techniques)?;
     // The 8-bit conversion: its program (compiled once per scene) and the thresholds.
     let convert = if readback.srgb8 {

@@ -17,30 +17,32 @@ pub fn compile_compute(
     src: &str,
     line_map: &dyn Fn(usize) -> (String, usize),
 ) -> Result<Program> {
+    start_compute(ctx, pass, src)?.finish(ctx, line_map)
+}
+
+/// A compute program handed to the driver to compile and link, whose outcome nobody has
+/// asked for yet: a driver with `GL_KHR_parallel_shader_compile` (or the ARB one) works on
+/// it on threads of its own while the caller renders with another kernel, and says when it
+/// is done ([`PendingCompute::is_complete`]) without waiting (issue 52: the cold start).
+#[derive(Debug)]
+pub struct PendingCompute {
+    program: Program,
+    shader: Owned<ShaderKind>,
+}
+
+/// Starts compiling and linking the program [`compile_compute`] builds, without waiting
+/// for either (no status is queried until [`PendingCompute::finish`]).
+pub fn start_compute(ctx: &GlContext, pass: &str, src: &str) -> Result<PendingCompute> {
     let gl = ctx.gl();
-    let shader_error = |(file, line): (String, usize), log: String| Error::Shader {
-        pass: pass.to_string(),
-        file,
-        line,
-        log: log.trim_end().to_string(),
-    };
     // SAFETY: the context is current; every name used is created and owned here.
     unsafe {
-        let cs = Owned::<ShaderKind>::new(
+        let shader = Owned::<ShaderKind>::new(
             ctx,
             gl.create_shader(glow::COMPUTE_SHADER)
                 .map_err(|e| Error::Internal(format!("glCreateShader(GL_COMPUTE_SHADER): {e}")))?,
         );
-        gl.shader_source(cs.name(), src);
-        gl.compile_shader(cs.name());
-        if !gl.get_shader_compile_status(cs.name()) {
-            let log = gl.get_shader_info_log(cs.name());
-            let at = match parse_error_line(&log) {
-                Some(n) => line_map(n),
-                None => ("<compute shader>".to_string(), 0),
-            };
-            return Err(shader_error(at, log));
-        }
+        gl.shader_source(shader.name(), src);
+        gl.compile_shader(shader.name());
         let program = Program::from_owned(
             Owned::new(
                 ctx,
@@ -50,19 +52,70 @@ pub fn compile_compute(
             pass,
         );
         let p = program.name();
-        gl.attach_shader(p, cs.name());
+        gl.attach_shader(p, shader.name());
         keep_binary(ctx, p);
         gl.link_program(p);
-        gl.detach_shader(p, cs.name());
-        drop(cs);
-        if !gl.get_program_link_status(p) {
-            let log = gl.get_program_info_log(p);
-            let line = parse_error_line(&log).unwrap_or(0);
-            return Err(shader_error(("<link>".into(), line), log));
-        }
-        check_gl_error(gl, &format!("building the `{pass}` program"))?;
-        Ok(program)
+        Ok(PendingCompute { program, shader })
     }
+}
+
+impl PendingCompute {
+    /// Whether the driver has finished compiling and linking (`GL_COMPLETION_STATUS`),
+    /// without waiting. A context without the parallel-compile extension has no way to
+    /// say so: there the answer is true, and [`PendingCompute::finish`] waits.
+    pub fn is_complete(&self, ctx: &GlContext) -> bool {
+        if !has_parallel_compile(ctx) {
+            return true;
+        }
+        // SAFETY: the context is current and offers the query (its extension); the
+        // program is this value's.
+        unsafe { ctx.gl().get_program_completion_status(self.program.name()) }
+    }
+
+    /// Waits for the link and returns the program, or [`compile_compute`]'s error.
+    pub fn finish(
+        self,
+        ctx: &GlContext,
+        line_map: &dyn Fn(usize) -> (String, usize),
+    ) -> Result<Program> {
+        let gl = ctx.gl();
+        let pass = self.program.pass.clone();
+        let shader_error = |(file, line): (String, usize), log: String| Error::Shader {
+            pass: pass.clone(),
+            file,
+            line,
+            log: log.trim_end().to_string(),
+        };
+        // SAFETY: the context is current; the shader and the program are this value's.
+        unsafe {
+            let p = self.program.name();
+            if !gl.get_program_link_status(p) {
+                if !gl.get_shader_compile_status(self.shader.name()) {
+                    let log = gl.get_shader_info_log(self.shader.name());
+                    let at = match parse_error_line(&log) {
+                        Some(n) => line_map(n),
+                        None => ("<compute shader>".to_string(), 0),
+                    };
+                    return Err(shader_error(at, log));
+                }
+                let log = gl.get_program_info_log(p);
+                let line = parse_error_line(&log).unwrap_or(0);
+                return Err(shader_error(("<link>".into(), line), log));
+            }
+            // The shader is only needed until link; detached (and dropped) the driver
+            // frees it now.
+            gl.detach_shader(p, self.shader.name());
+            check_gl_error(gl, &format!("building the `{pass}` program"))?;
+        }
+        Ok(self.program)
+    }
+}
+
+/// Whether the context's driver may compile on threads of its own and answers
+/// `GL_COMPLETION_STATUS` (`GL_KHR_parallel_shader_compile` or the ARB one).
+pub fn has_parallel_compile(ctx: &GlContext) -> bool {
+    ctx.info.has_extension("GL_KHR_parallel_shader_compile")
+        || ctx.info.has_extension("GL_ARB_parallel_shader_compile")
 }
 
 /// A shader storage buffer; deleted when dropped.

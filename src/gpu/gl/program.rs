@@ -49,7 +49,7 @@ pub struct Binary {
 pub struct Program {
     obj: Owned<ProgramKind>,
     /// The pass it was built for, for messages.
-    pass: String,
+    pub(super) pass: String,
     /// The contract's names its source declares ([`Program::declaring`]).
     declared: Vec<&'static str>,
 }
@@ -451,9 +451,7 @@ impl PendingProgram {
 /// Lets a driver with `GL_KHR_parallel_shader_compile` (or the ARB one) compile on as many
 /// threads as it likes, where the default may be fewer.
 pub fn allow_parallel_compile(ctx: &GlContext) {
-    if ctx.info.has_extension("GL_KHR_parallel_shader_compile")
-        || ctx.info.has_extension("GL_ARB_parallel_shader_compile")
-    {
+    if super::compute::has_parallel_compile(ctx) {
         // SAFETY: the context is current and offers the entry point (its extension).
         unsafe { ctx.gl().max_shader_compiler_threads(0xFFFF_FFFF) };
     }

@@ -1,0 +1,207 @@
+//! `--kernel auto`'s cold start (issue 52), as separate processes meet it: where the compute
+//! kernel's programs are not in the program-binary cache, the looped kernel renders while
+//! the driver compiles them, compute takes the frames after, and their binaries are stored
+//! so that the next process goes straight to compute; `--kernel compute` waits for its
+//! compile instead. Every frame is the same bytes whichever kernel rendered it, and
+//! `--stats` and the summary line name the kernel of every frame.
+//!
+//! llvmpipe compiles within the call (it answers `GL_COMPLETION_STATUS` true at once), so
+//! the driver that compiles on threads of its own is played by `FRAGTRACE_COMPILE_POLLS`:
+//! each compute program answers "not done" to its first N polls (one at the start of
+//! every frame, one after every frame the looped kernel rendered meanwhile).
+
+mod common;
+
+use std::path::Path;
+
+use serde_json::Value;
+
+/// `render` of turntable.toml (`--frames`, EXR frames, `--stats s.json`) in `d` with the
+/// program cache in `d/cache` and Mesa's own in `d/mesa` (on, so that llvmpipe offers a
+/// binary format, but empty for each test process), `extra` arguments and `env`: the
+/// stats and the summary line.
+fn render(d: &Path, extra: &[&str], env: &[(&str, &str)]) -> (Value, String) {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/turntable.toml");
+    let mut c = common::bin();
+    c.current_dir(d)
+        .arg(&scene)
+        .args(["--backend", "gl", "--width", "48", "--height", "36"])
+        .args(["--shader-cache", "on", "--stats", "s.json"])
+        .args(extra)
+        .env("FRAGTRACE_SHADER_CACHE_DIR", d.join("cache"))
+        .env("MESA_SHADER_CACHE_DIR", d.join("mesa"))
+        .env(
+            "FRAGTRACE_MODEL_PATH",
+            std::env::join_paths(common::model_path()).unwrap(),
+        )
+        .env_remove("MESA_SHADER_CACHE_DISABLE")
+        .env_remove("FRAGTRACE_COMPILE_POLLS")
+        .envs(env.iter().copied());
+    for var in common::TASK_VARS {
+        c.env_remove(var);
+    }
+    let o = common::ok(c.output().unwrap());
+    let stats = serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+    (stats, String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+/// (kernel, cold_start) of every frame of an animation's stats.
+fn kernels(stats: &Value) -> Vec<(String, bool)> {
+    stats["per_frame"]
+        .as_array()
+        .expect("per_frame")
+        .iter()
+        .map(|f| {
+            let g = &f["render"]["gpu"];
+            (
+                g["kernel"].as_str().unwrap().to_string(),
+                g["cold_start"].as_bool().unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// The bytes of the frames `f_000.exr`.. in `dir`.
+fn frames(dir: &Path, n: usize) -> Vec<Vec<u8>> {
+    (0..n)
+        .map(|k| std::fs::read(dir.join(format!("f_{k:03}.exr"))).unwrap())
+        .collect()
+}
+
+/// A cold cache: frame 0 on the looped kernel (marked a cold start), frames 1-3 on compute,
+/// the summary line naming both; the frames equal an all-compute run's byte for byte. The
+/// next process finds the compute programs in the cache (stored as soon as the driver had
+/// finished them) and renders every frame with compute, compiling none of its programs.
+#[test]
+fn a_cold_cache_starts_on_looped_and_the_next_run_is_warm() {
+    let d = common::tmpdir("animation");
+    let polls = [("FRAGTRACE_COMPILE_POLLS", "1")];
+    let (cold, line) = render(&d, &["--frames", "0..3", "-o", "cold/f_###.exr"], &polls);
+    let looped = ("looped".to_string(), true);
+    let compute = ("compute".to_string(), false);
+    assert_eq!(
+        kernels(&cold),
+        vec![looped, compute.clone(), compute.clone(), compute.clone()],
+        "{cold}"
+    );
+    assert_eq!(cold["kernels"][0]["kernel"], "looped", "{cold}");
+    assert_eq!(cold["kernels"][1]["first"], 1, "{cold}");
+    assert!(
+        line.contains(
+            "looped kernel for frame 0 (compute compiling), compute kernel for frames 1-3"
+        ),
+        "{line}"
+    );
+
+    // The same frames from a warm cache, and from the compute kernel alone.
+    let (warm, line) = render(&d, &["--frames", "0..3", "-o", "warm/f_###.exr"], &polls);
+    assert_eq!(kernels(&warm), vec![compute.clone(); 4], "{warm}");
+    assert!(line.contains("compute kernel,"), "{line}");
+    let first = &warm["per_frame"][0]["render"]["gpu"];
+    assert_eq!(first["programs_compiled"], 0, "{first}");
+    assert!(first["programs_cached"].as_u64().unwrap() >= 1, "{first}");
+    render(
+        &d,
+        &[
+            "--kernel",
+            "compute",
+            "--frames",
+            "0..3",
+            "-o",
+            "compute/f_###.exr",
+        ],
+        &[],
+    );
+    let reference = frames(&d.join("compute"), 4);
+    assert!(
+        frames(&d.join("cold"), 4) == reference,
+        "cold frames differ"
+    );
+    assert!(
+        frames(&d.join("warm"), 4) == reference,
+        "warm frames differ"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// One frame: a cold cache renders it on the looped kernel (`-v` says why), the same bytes
+/// as compute's, and stores the compute programs the driver finished meanwhile, so the
+/// next process renders with compute from the cache. `--kernel compute` never starts on
+/// another kernel: it waits for its compile.
+#[test]
+fn a_single_cold_frame_ends_on_looped_and_compute_waits_for_its_compile() {
+    let d = common::tmpdir("single");
+    let polls = [("FRAGTRACE_COMPILE_POLLS", "1")];
+    let (cold, line) = render(&d, &["-o", "cold.exr", "-v"], &polls);
+    assert_eq!(cold["gpu"]["kernel"], "looped", "{cold}");
+    assert_eq!(cold["gpu"]["cold_start"], true, "{cold}");
+    assert!(line.contains("looped kernel (compute compiling)"), "{line}");
+    assert!(
+        line.contains("kernel: looped while the compute kernel compiled"),
+        "{line}"
+    );
+    let (warm, _) = render(&d, &["-o", "warm.exr"], &polls);
+    assert_eq!(warm["gpu"]["kernel"], "compute", "{warm}");
+    assert_eq!(warm["gpu"]["cold_start"], false, "{warm}");
+    assert_eq!(warm["gpu"]["programs_compiled"], 0, "{warm}");
+
+    let fresh = d.join("fresh");
+    std::fs::create_dir_all(&fresh).unwrap();
+    let many = [("FRAGTRACE_COMPILE_POLLS", "5")];
+    let (explicit, _) = render(&fresh, &["--kernel", "compute", "-o", "c.exr"], &many);
+    assert_eq!(explicit["gpu"]["kernel"], "compute", "{explicit}");
+    assert_eq!(explicit["gpu"]["cold_start"], false, "{explicit}");
+    let read = |p: &Path| std::fs::read(p).unwrap();
+    assert!(read(&d.join("cold.exr")) == read(&fresh.join("c.exr")));
+    assert!(read(&d.join("warm.exr")) == read(&fresh.join("c.exr")));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A driver that compiles within the call (llvmpipe: `GL_COMPLETION_STATUS` is true as soon
+/// as it is asked) has the compute programs ready at the first poll, so even a cold cache
+/// renders with compute, as before the cold start existed: waiting there costs nothing the
+/// looped kernel would save.
+#[test]
+fn a_driver_that_compiles_in_the_call_runs_compute_at_once() {
+    let renderer = common::with_test_context(|ctx| ctx.info.renderer.clone());
+    if !renderer.contains("llvmpipe") {
+        let why = format!("this test knows llvmpipe's compile; the driver is {renderer:?}");
+        if std::env::var("FRAGTRACE_ALLOW_SKIP").as_deref() == Ok("1") {
+            eprintln!("SKIPPED (FRAGTRACE_ALLOW_SKIP=1): {why}");
+            return;
+        }
+        panic!("{why}: run it on llvmpipe, or set FRAGTRACE_ALLOW_SKIP=1");
+    }
+    let d = common::tmpdir("in-call");
+    let (s, _) = render(&d, &["-o", "a.exr"], &[]);
+    assert_eq!(s["gpu"]["kernel"], "compute", "{s}");
+    assert_eq!(s["gpu"]["cold_start"], false, "{s}");
+    assert!(s["gpu"]["programs_compiled"].as_u64().unwrap() >= 1, "{s}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A farm whose tasks met different caches: part 0 rendered on a cold cache (the looped
+/// kernel, the compute programs compiling), part 1 on the cache that left warm (compute);
+/// `fragtrace merge` takes them as parts of one render (the same plan in their headers)
+/// and the merged PNG is the single compute render's byte for byte.
+#[test]
+fn parts_from_cold_and_warm_tasks_merge_to_the_single_render() {
+    let d = common::tmpdir("parts");
+    let polls = [("FRAGTRACE_COMPILE_POLLS", "1")];
+    let (cold, _) = render(&d, &["--tile", "0/2", "-o", "part-0.exr"], &polls);
+    assert_eq!(cold["gpu"]["kernel"], "looped", "{cold}");
+    let (warm, _) = render(&d, &["--tile", "1/2", "-o", "part-1.exr"], &polls);
+    assert_eq!(warm["gpu"]["kernel"], "compute", "{warm}");
+    render(&d, &["--kernel", "compute", "-o", "whole.png"], &[]);
+    common::ok(common::run(
+        &d,
+        &["merge", "part-0.exr", "part-1.exr", "-o", "merged.png"],
+        &[],
+    ));
+    let read = |f: &str| std::fs::read(d.join(f)).unwrap();
+    assert!(
+        read("merged.png") == read("whole.png"),
+        "merged parts differ"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
