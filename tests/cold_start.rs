@@ -157,6 +157,34 @@ fn a_single_cold_frame_ends_on_looped_and_compute_waits_for_its_compile() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// One frame at a time on a driver slower to compile than the frame takes (polls that
+/// never answer "done" in the first process): the first run ends on the looped kernel with
+/// the compute compile unfinished, and marks it so; the second waits for that compile
+/// (compute, compiled, no cold start) and stores it; the third links it from the cache.
+/// Without the mark every run would start the compile anew and end on looped, never
+/// reaching the faster kernel.
+#[test]
+fn a_compile_left_unfinished_is_waited_for_by_the_next_run() {
+    let d = common::tmpdir("unfinished");
+    let never = [("FRAGTRACE_COMPILE_POLLS", "1000")];
+    let (first, _) = render(&d, &["-o", "1.exr"], &never);
+    assert_eq!(first["gpu"]["kernel"], "looped", "{first}");
+    assert_eq!(first["gpu"]["cold_start"], true, "{first}");
+    let (second, _) = render(&d, &["-o", "2.exr"], &never);
+    assert_eq!(second["gpu"]["kernel"], "compute", "{second}");
+    assert_eq!(second["gpu"]["cold_start"], false, "{second}");
+    assert!(
+        second["gpu"]["programs_compiled"].as_u64().unwrap() >= 1,
+        "{second}"
+    );
+    let (third, _) = render(&d, &["-o", "3.exr"], &never);
+    assert_eq!(third["gpu"]["kernel"], "compute", "{third}");
+    assert_eq!(third["gpu"]["programs_compiled"], 0, "{third}");
+    let read = |n: &str| std::fs::read(d.join(n)).unwrap();
+    assert!(read("1.exr") == read("2.exr") && read("2.exr") == read("3.exr"));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A driver that compiles within the call (llvmpipe: `GL_COMPLETION_STATUS` is true as soon
 /// as it is asked) has the compute programs ready at the first poll, so even a cold cache
 /// renders with compute, as before the cold start existed: waiting there costs nothing the

@@ -126,6 +126,31 @@ impl ProgramCache {
             .join(format!("{:016x}-{:016x}.bin", self.driver, key.0))
     }
 
+    /// The marker of entry `key`: an earlier process started its compile on the driver's
+    /// threads and ended before the driver finished it (a single frame that `--kernel
+    /// auto`'s cold start rendered on the looped kernel), so the compile died with it.
+    fn unfinished_path(&self, key: SourceKey) -> PathBuf {
+        self.dir
+            .join(format!("{:016x}-{:016x}.unfinished", self.driver, key.0))
+    }
+
+    /// Marks entry `key` as a compile left unfinished (see [`ProgramCache::was_unfinished`]).
+    /// Failures are ignored: the next run then starts the compile on the driver's threads
+    /// again.
+    pub fn mark_unfinished(&self, key: SourceKey) {
+        let _ = std::fs::create_dir_all(&self.dir)
+            .and_then(|()| std::fs::File::create(self.unfinished_path(key)).map(drop));
+    }
+
+    /// Whether an earlier process left the compile of entry `key` unfinished: the next run
+    /// that needs it waits for its compile rather than starting it again on the driver's
+    /// threads, so that the process after it finds the binary (a user who renders one
+    /// frame at a time pays the compile once, on the second run, instead of never getting
+    /// the faster kernel). Storing the entry removes the marker.
+    pub fn was_unfinished(&self, key: SourceKey) -> bool {
+        self.unfinished_path(key).is_file()
+    }
+
     /// The binary stored for `key`, checked against its header; None (counted as a miss or
     /// a rejection) when there is none or it cannot be trusted.
     pub fn load(&self, key: SourceKey) -> Option<Binary> {
@@ -177,6 +202,7 @@ impl ProgramCache {
             std::fs::rename(&tmp, &path)
         };
         if write().is_ok() {
+            let _ = std::fs::remove_file(self.unfinished_path(key));
             self.count(|c| c.stored += 1);
         } else {
             let _ = std::fs::remove_file(&tmp);

@@ -117,6 +117,19 @@ pub struct GpuScene<'s> {
     costs: Cell<Costs>,
 }
 
+/// A compute program whose compile the driver had not finished when the scene goes (the
+/// process ends after a cold start's looped frames) is marked in the program-binary cache,
+/// so that the next run waits for it ([`ProgramCache::was_unfinished`]).
+impl Drop for GpuScene<'_> {
+    fn drop(&mut self) {
+        if let Some(cache) = &self.cache {
+            for c in self.compiling.get_mut().values() {
+                cache.mark_unfinished(c.source);
+            }
+        }
+    }
+}
+
 impl<'s> GpuScene<'s> {
     /// Packs `scene` and `accel` for `ctx` (uploads follow on first use). With
     /// `no_specialize` every shading feature is compiled in, whatever the scene needs.
@@ -519,6 +532,17 @@ impl<'s> GpuScene<'s> {
                 pending,
                 polls_left: self.compile_polls,
             };
+            if self
+                .cache
+                .as_ref()
+                .is_some_and(|c| c.was_unfinished(source))
+            {
+                // The run before ended with this compile unfinished: wait for it this
+                // time, so that the next run finds its binary.
+                let program = self.finish_compiling(c)?;
+                self.keep(key, program)?;
+                return Ok(true);
+            }
             self.compiling.borrow_mut().insert(key, c);
         }
         self.finish_if_done(key)
