@@ -6,7 +6,8 @@
 // order, the reflected subtree, the refracted subtree, depth first. A small per-invocation
 // stack holds the pending children (at most one per level: STACK_SIZE = max depth + 1).
 // Reads: the scene textures through the generated texelFetch fetch functions, grid
-//        uniforms, u_eye, u_ambient, u_background, u_sample_weight, the camera buffer (the
+//        uniforms, with INSTANCED the instancing buffer (instance.glsl: the walk of an
+//        instanced scene's two levels), u_eye, u_ambient, u_background, u_sample_weight, the camera buffer (the
 //        f64 frame and sample offsets: primary directions by the camera's formula in f64,
 //        rounded to f32, as the host computes them for the fragment kernels) and the lights
 //        buffer (position, radiance).
@@ -17,8 +18,9 @@
 #include "intersect.glsl"
 #include "traverse.glsl"
 #include "step.glsl"
-#include "shade.glsl"
 #include "compute.glsl"
+#include "instance.glsl"
+#include "shade.glsl"
 
 // Declared by the host from gpu/contract (bindings.rs, compute.rs): the buffers `cam`
 // (CAM_* slots: the camera frame, then (ox, oy) per sample from CAM_OFFSETS on), `lights`
@@ -129,7 +131,11 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
             n = stack[--top];
             new_ray(n.o, n.d, BIG, s0, s1, s2, s3);
         }
+#ifdef INSTANCED
+        trace_scene(s0, s1, s2, s3, shadow);
+#else
         trace(s0, s1, s2, s3, shadow);
+#endif
         if (shadow) {
             if (!in_state(s0.S0_STATE, ST_SHADING)) {
                 vec3 c = light_term(s.mat, alb, s, l, -n.d, LIGHT_RAD(light));
@@ -147,7 +153,12 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
             colour += n.w * u_background;
             continue;
         }
+#ifdef INSTANCED
+        // The packed triangle hit (its id is the instance's first plus its index).
+        s = surface(n.o, n.d, g_hit_rec);
+#else
         s = surface(n.o, n.d, s3.S3_TRI_BEST);
+#endif
 #ifdef HAS_TEXTURES
         hit_cone = cone_at(g_cones[top], s3.S3_T_BEST);
         alb = albedo_tex(s, hit_cone.x, n.d);

@@ -98,6 +98,14 @@ impl<'g> Setup<'g> {
             Fetch::Storage => drop(gs.buffers()?),
             Fetch::TexelFetch | Fetch::Texture2D => drop(gs.textures()?),
         }
+        if gs.instanced() && pass != ComputePass::Render {
+            return Err(Error::Internal(format!(
+                "{} walks scenes stored flat; an instanced scene renders through render.comp",
+                pass.name()
+            )));
+        }
+        // Uploaded here so that its bytes count in this render's set-up.
+        gs.instancing_buffer()?;
         let program = gs.compute_program(pass, &ComputeSpec { fetch, ..*spec }, techniques)?;
         let costs = gs.take_costs();
         stats.upload_ms = costs.upload_ms;
@@ -204,6 +212,7 @@ pub(crate) fn render(
         // Setup::new falls back to texelFetch where the context has too few storage blocks.
         fetch: scene_fetch(req.gpu.scene_fetch, &ctx.info),
         aov: readback.aov,
+        instanced: gs.instanced(),
     };
     let mut setup = Setup::new(gs, ComputePass::Render, &spec, &req.gpu, req.techniques)?;
     // The 8-bit conversion: its program (compiled once per scene) and the thresholds.
@@ -243,6 +252,9 @@ pub(crate) fn render(
     let cam_buf = StorageBuffer::new(ctx, &cam_bytes)?;
     cam_buf.bind(gl, Buffer::Camera.binding());
     gs.light_buffer()?.bind(gl, Buffer::Lights.binding());
+    if let Some(b) = gs.instancing_buffer()? {
+        b.bind(gl, Buffer::Instancing.binding());
+    }
 
     // Bands of rows whose outputs fit one storage block (the AOV's 16 bytes per pixel are
     // the larger); with a progress bar drawn, bands sized to take about BAND_TIME each.
@@ -518,6 +530,7 @@ pub(crate) fn trace_wave(
         max_iterations: gs.max_iterations().min(i32::MAX as u64) as u32,
         fetch: Fetch::TexelFetch,
         aov: false,
+        instanced: false,
     };
     let mut setup = Setup::new(gs, ComputePass::Wave(query), &spec, opts, opts.techniques)?;
     let gl = ctx.gl();
