@@ -121,7 +121,7 @@ pub(crate) fn aov_pixel(scene: &Scene, hit: Option<(f32, f32)>, steps: f32) -> A
         Some((t, slot)) => {
             // The GPU carries a triangle's id as its float slot (the index below 2^24).
             let tri = crate::gpu::layout::slot_record(slot);
-            let v = scene.triangle_vertices(tri as usize);
+            let v = scene.placed_vertices(tri as usize);
             let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
             AovPixel {
                 depth: t,

@@ -77,7 +77,11 @@ enum ProgramKey {
 /// The scene, its acceleration structure and their GPU copies (see the module docs).
 pub struct GpuScene<'s> {
     ctx: &'s GlContext,
+    /// The scene packed: the one given, or an instanced scene's own triangles and meshes
+    /// (`GridInstances::packed`).
     scene: &'s Scene,
+    /// The scene as given: whose ids the hits carry.
+    given: &'s Scene,
     accel: GridRef<'s>,
     features: Features,
     layout: SceneTextures,
@@ -112,6 +116,7 @@ impl<'s> GpuScene<'s> {
     ) -> Result<Self> {
         let accel = accel.into();
         let t = Instant::now();
+        let given = scene;
         // An instanced scene packs its own triangles and its meshes' (`GridInstances`).
         let (scene, instancing) = match accel {
             AccelRef::GridInstanced(gi) => (&gi.packed, Some((gi, instancing_buffer(scene, gi)))),
@@ -133,6 +138,7 @@ impl<'s> GpuScene<'s> {
         Ok(GpuScene {
             ctx,
             scene,
+            given,
             accel,
             features,
             layout,
@@ -195,9 +201,16 @@ impl<'s> GpuScene<'s> {
         self.ctx
     }
 
-    /// The scene.
+    /// The scene packed (for an instanced scene its own triangles, then its meshes' in
+    /// object space; materials, lights and camera as given).
     pub fn scene(&self) -> &'s Scene {
         self.scene
+    }
+
+    /// The scene as given, whose primitive ids the hits carry (an instanced scene's
+    /// placed triangles among them: [`Scene::placed_vertices`]).
+    pub fn given_scene(&self) -> &'s Scene {
+        self.given
     }
 
     /// Its acceleration structure.

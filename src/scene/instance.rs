@@ -199,6 +199,26 @@ impl Scene {
         !self.instancing.is_empty()
     }
 
+    /// The vertices of triangle `id` (one of the scene's own, or an instance's past them)
+    /// as [`Scene::flattened`] stores them: placed, rounded once, the winding reversed
+    /// under a mirroring placement.
+    pub fn placed_vertices(&self, id: usize) -> [Vec3; 3] {
+        if id < self.triangles.len() {
+            return self.triangle_vertices(id);
+        }
+        let inst = &self.instancing;
+        let (k, j) = inst.locate(id as u32);
+        let place = &inst.instances[k];
+        let g = &inst.meshes[place.mesh as usize].geometry;
+        let mut v = g.triangles[j]
+            .v
+            .map(|i| place.point(g.positions[i as usize]));
+        if place.mirrors() {
+            v.swap(1, 2);
+        }
+        v
+    }
+
     /// Triangles once instances are counted: the scene's own and every instance's.
     pub fn instanced_triangles(&self) -> u64 {
         self.triangles.len() as u64 + self.instancing.triangles()

@@ -395,7 +395,7 @@ pub(crate) fn render(
         (RgbImage::from_rgb(width, height, rgb), None)
     };
     let aov = if readback.aov {
-        aov_from_texels(scene, &aov_data, width, height)
+        aov_from_texels(gs.given_scene(), &aov_data, width, height)
     } else {
         Aov::from_vec(0, 0, Vec::new())
     };
