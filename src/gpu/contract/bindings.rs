@@ -734,7 +734,12 @@ mod tests {
             if !ctx.info.compute {
                 continue;
             }
-            for fetch in [Fetch::TexelFetch, Fetch::Storage] {
+            // The instanced walk (`instance.glsl`) with storage-buffer reads.
+            for (fetch, instanced) in [
+                (Fetch::TexelFetch, false),
+                (Fetch::Storage, false),
+                (Fetch::Storage, true),
+            ] {
                 let spec = ComputeSpec {
                     samples: 2,
                     lights: 2,
@@ -743,6 +748,7 @@ mod tests {
                     max_iterations: 1000,
                     fetch,
                     aov: true,
+                    instanced,
                 };
                 for pass in [
                     ComputePass::Render,

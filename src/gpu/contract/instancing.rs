@@ -97,6 +97,7 @@ mod tests {
 [camera]
 eye = [0.0, 0.0, 5.0]
 look_at = [0.0, 0.0, 0.0]
+fov = 40
 [[objects]]
 shape = "box"
 [[objects]]
