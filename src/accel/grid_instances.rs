@@ -180,15 +180,18 @@ impl GridInstances {
         self.packed.triangles.len()
     }
 
-    /// The stats line: what instancing holds and the grids' figures.
-    pub fn detail(&self) -> String {
-        format!(
-            "instanced: {} instances of {} meshes, {} triangles stored, {} placed; {}",
+    /// What the levels hold (`AccelSummary::instanced`).
+    pub fn holds(&self) -> String {
+        crate::scene::Instancing::holds(
             self.instances,
             self.meshes.len(),
             self.stored(),
             self.placed,
-            self.grid.stats
         )
+    }
+
+    /// The stats line: what instancing holds and the grids' figures.
+    pub fn detail(&self) -> String {
+        format!("instanced: {}; {}", self.holds(), self.grid.stats)
     }
 }

@@ -210,6 +210,11 @@ pub struct AccelSummary {
     pub references: usize,
     /// The structure's own one-line description.
     pub detail: String,
+    /// For a scene walked as instances (two levels: the CPU's BVH, the compute kernel's
+    /// uniform grids), what they hold: "N instances of M meshes, T triangles stored, P
+    /// placed"; absent where the scene is walked as stored (flat).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instanced: Option<String>,
 }
 
 impl Accel {
@@ -255,6 +260,14 @@ impl AccelSummary {
             }
             (AccelKind::Bvh, _) => format!("4-wide BVH ({} nodes)", self.cells),
             _ => format!("{} grid {x}x{y}x{z}", self.kind.name()),
+        }
+    }
+
+    /// [`AccelSummary::brief`], and for instances what the two levels hold.
+    pub fn line(&self) -> String {
+        match &self.instanced {
+            Some(i) => format!("{}, instanced: {i}", self.brief()),
+            None => self.brief(),
         }
     }
 }
@@ -306,6 +319,7 @@ impl<'a> AccelRef<'a> {
             empty_cells: 0,
             references: s.references,
             detail,
+            instanced: None,
         };
         match self {
             AccelRef::Uniform(g) => AccelSummary {
@@ -319,6 +333,7 @@ impl<'a> AccelRef<'a> {
                 empty_cells: g.stats.empty_cells,
                 references: g.stats.references,
                 detail: g.stats.to_string(),
+                instanced: None,
             },
             AccelRef::Irregular(g) => AccelSummary {
                 kind: AccelKind::Irregular,
@@ -331,9 +346,13 @@ impl<'a> AccelRef<'a> {
                 empty_cells: g.stats.empty_cells,
                 references: g.stats.references,
                 detail: g.stats.to_string(),
+                instanced: None,
             },
             AccelRef::Bvh(b) => bvh(&b.stats, b.stats.to_string()),
-            AccelRef::Instanced(t) => bvh(&t.stats, t.detail(t.boxes.len())),
+            AccelRef::Instanced(t) => AccelSummary {
+                instanced: Some(t.holds()),
+                ..bvh(&t.stats, t.detail(t.boxes.len()))
+            },
             AccelRef::GridInstanced(t) => {
                 let g = &t.grid;
                 AccelSummary {
@@ -347,6 +366,7 @@ impl<'a> AccelRef<'a> {
                     empty_cells: g.stats.empty_cells,
                     references: g.stats.references,
                     detail: t.detail(),
+                    instanced: Some(t.holds()),
                 }
             }
         }

@@ -173,6 +173,15 @@ impl Instancing {
         (k, (id - self.instances[k].first) as usize)
     }
 
+    /// What a two-level structure holds, for the stats: `instances` instances of
+    /// `meshes` meshes, `stored` triangles stored (the scene's own and each mesh's once),
+    /// `placed` placed.
+    pub fn holds(instances: usize, meshes: usize, stored: usize, placed: u64) -> String {
+        format!(
+            "{instances} instances of {meshes} meshes, {stored} triangles stored, {placed} placed"
+        )
+    }
+
     /// Memory of the meshes (positions, normals, triangles) and placements, in bytes.
     pub fn bytes(&self) -> usize {
         let mesh: usize = self
