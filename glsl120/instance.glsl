@@ -6,14 +6,17 @@
 //        and, through trace (compute.glsl), the scene textures, in which every mesh's
 //        triangles and grid cells follow the scene's own.
 // Writes: the ray state of the walk (s0, s3: the closest hit's t and primitive id
-//         `first + triangle`), g_hit_rec and g_shade_inst (the packed triangle hit and its
-//         instance, or -1 for the scene's own, for surface() in shade.glsl).
+//         `first + triangle`, as a float: exact below 2^24), g_hit_id (the id exactly),
+//         g_hit_rec and g_shade_inst (the packed triangle hit and its instance, or -1 for
+//         the scene's own, for surface() in shade.glsl).
 // Needs compute.glsl (trace, new_ray) and traverse.glsl (own_grid, the per-walk grid).
 #ifdef INSTANCED
 
-// The hit surface() shades: its packed triangle, and its instance (-1: the scene's own).
+// The hit surface() shades: its packed triangle, and its instance (-1: the scene's own);
+// and its primitive id (render.comp writes its bits to the AOV: exact to 2^32).
 float g_hit_rec;
 int g_shade_inst = -1;
+uint g_hit_id;
 
 uint inst_bits(float f) {
     return floatBitsToUint(f);
@@ -186,6 +189,7 @@ void trace_scene(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3, const boo
     if (any_hit) return;
     g_hit_rec = rec_b;
     g_shade_inst = inst_b;
+    g_hit_id = id_b;
     if (held) {
         s0.S0_STATE = ST_SHADING;
         s3.S3_HIT = vec2(t_b, float(id_b));

@@ -13,7 +13,8 @@
 //        buffer (position, radiance).
 // Writes: radiance (linear RGB summed over samples) and, with WRITE_AOV, aov_out (first
 //         sample's primary ray: t_best, tri_best or TRI_NONE, steps, state), both in image
-//         order; the render's 64-bit counter sums (rays by kind, cells entered, triangle
+//         order (with INSTANCED the id's bits in its tri channel); the render's 64-bit
+//         counter sums (rays by kind, cells entered, triangle
 //         tests, rays cut off by MAX_ITERATIONS, primary-ray steps, non-finite pixels).
 #include "intersect.glsl"
 #include "traverse.glsl"
@@ -146,7 +147,13 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
         }
         bool hit = in_state(s0.S0_STATE, ST_SHADING);
         if (first && n.level == 0) {
+#ifdef INSTANCED
+            // The id's bits (the host reads them back exactly: ids run to 2^32).
+            aov = A0_TEXEL(s3.S3_T_BEST, hit ? uintBitsToFloat(g_hit_id) : TRI_NONE, s3.S3_STEPS,
+                           s0.S0_STATE);
+#else
             aov = A0_TEXEL(s3.S3_T_BEST, hit ? s3.S3_TRI_BEST : TRI_NONE, s3.S3_STEPS, s0.S0_STATE);
+#endif
             n_count[C_PRIMARY_STEPS] += uint(s3.S3_STEPS);
         }
         if (!hit) {

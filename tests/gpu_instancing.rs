@@ -211,9 +211,12 @@ fn the_upload_is_the_meshes_not_the_placed_triangles() {
 }
 
 /// 3,000 instances of the 327,680-triangle sphere (983 million placed) pass the memory
-/// check for the compute kernel and build: what is stored is one sphere.
+/// check for the compute kernel and build: what is stored is one sphere. Rendered small,
+/// the primary ids, a quarter of them past 2^24 (where a float no longer holds them: the
+/// AOV carries their bits), are the CPU's two-level f64 walk's (measured: all of the 1,024
+/// pixels, 239 of them past 2^24; at most 1% may differ).
 #[test]
-fn a_billion_instanced_triangles_prepare_for_the_compute_kernel() {
+fn a_billion_instanced_triangles_prepare_and_render_on_the_compute_kernel() {
     let mut text = String::from(
         "[camera]\neye = [0, 5, 80]\nlook_at = [0, 0, 0]\nfov = 40\n[[objects]]\nshape = \
          \"sphere\"\nsubdivisions = 7\ninstances = [\n",
@@ -232,6 +235,29 @@ fn a_billion_instanced_triangles_prepare_for_the_compute_kernel() {
         "instanced: 3000 instances of 1 meshes, 327680 triangles stored, 983040000 placed"
     ));
     assert!(p.summary.bytes < 100 << 20, "{} bytes", p.summary.bytes);
+    let o = RenderOptions {
+        width: 32,
+        height: 32,
+        ..opts(&s)
+    };
+    let mut c = o.clone();
+    c.backend = Backend::Cpu;
+    c.precision = Precision::F64;
+    c.accel = AccelChoice::Bvh;
+    let cpu = render_cpu(&s, &c).unwrap();
+    common::with_test_context(|ctx| {
+        let gl = p.render_gl(ctx, &o).unwrap();
+        let past = gl
+            .aov
+            .pixels
+            .iter()
+            .filter(|p| p.primid >= (1u32 << 24) as f32)
+            .count();
+        let same = same_ids(&gl, &cpu);
+        println!("{past} of 1024 primary ids past 2^24; ids agree on {same}");
+        assert!(past > 100, "{past}");
+        assert!(same >= 0.99, "{same}");
+    });
 }
 
 /// `--stats` says which path ran and what was uploaded: with `--kernel compute --accel

@@ -26,7 +26,7 @@ use super::contract::{uniform, Buffer, Image, StateTexels, STORAGE_BINDING_BASE}
 use super::gl::{bind_image, dispatch, Program, ReadbackRing, StorageBuffer, Texture, TimerQuery};
 use super::info::GlInfo;
 use super::options::{GpuOptions, SceneFetch, Storage};
-use super::request::{aov_pixel, Flow, GpuOutput, ImageRequest, Observer, Snapshot};
+use super::request::{aov_pixel, aov_pixel_id, Flow, GpuOutput, ImageRequest, Observer, Snapshot};
 use super::scene::{ms_since, GpuScene};
 use super::shader::{ComputePass, ComputeSpec, Fetch, Query, LOCAL_SIZE};
 use super::wave::{check_finished, initial_state, traces_from, GpuRay, GpuTrace};
@@ -395,7 +395,7 @@ pub(crate) fn render(
         (RgbImage::from_rgb(width, height, rgb), None)
     };
     let aov = if readback.aov {
-        aov_from_texels(gs.given_scene(), &aov_data, width, height)
+        aov_from_texels(gs.given_scene(), gs.instanced(), &aov_data, width, height)
     } else {
         Aov::from_vec(0, 0, Vec::new())
     };
@@ -487,19 +487,29 @@ fn read_bytes_staged(ctx: &GlContext, src: &StorageBuffer, out: &mut [u8]) -> Re
 
 /// The primary-ray AOVs from `render.comp`'s AOV buffer: one `A0_TEXEL` per pixel, in
 /// image order.
-fn aov_from_texels(scene: &crate::scene::Scene, data: &[f32], w: u32, h: u32) -> Aov {
+/// An instanced scene's texels carry the hit's id as its bits (exact to 2^32; a float
+/// holds ids exactly only below 2^24) and a hit as the SHADING state.
+fn aov_from_texels(
+    scene: &crate::scene::Scene,
+    instanced: bool,
+    data: &[f32],
+    w: u32,
+    h: u32,
+) -> Aov {
+    let shading = super::contract::RayState::Shading.code();
     // Collected in parallel: at 4096x4096 a serial fill of the 400 MB of pixels alone took
     // longer than the dispatch.
     let pixels: Vec<AovPixel> = data
         .par_chunks_exact(4)
         .map(|t| {
-            let tri = t[aov::TRI.first];
-            let hit = tri >= 0.0;
-            aov_pixel(
-                scene,
-                hit.then_some((t[aov::T_BEST.first], tri)),
-                t[aov::STEPS.first],
-            )
+            let (tri, t_best) = (t[aov::TRI.first], t[aov::T_BEST.first]);
+            let steps = t[aov::STEPS.first];
+            if instanced {
+                let hit = (t[aov::STATE.first] - shading).abs() < 0.25;
+                aov_pixel_id(scene, hit.then_some((t_best, tri.to_bits() as u64)), steps)
+            } else {
+                aov_pixel(scene, (tri >= 0.0).then_some((t_best, tri)), steps)
+            }
         })
         .collect();
     Aov::from_vec(w, h, pixels)
