@@ -117,8 +117,9 @@ pub struct Rendered {
 /// acceleration structure `--accel` names built. The one way in for `render`, `view` and
 /// `bench`, so all three render the same structure from the same flags.
 pub struct Prepared<'s> {
-    /// The scene: the one given, or, for a structure other than the BVH, the one given
-    /// with its instances stored flat ([`Scene::flattened`]).
+    /// The scene: the one given, or, for a structure other than the BVH (and the compute
+    /// kernel's uniform grids, which walk instances as placed), the one given with its
+    /// instances stored flat ([`Scene::flattened`]).
     pub scene: Cow<'s, Scene>,
     /// Its acceleration structure.
     pub accel: Accel,

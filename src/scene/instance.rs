@@ -1,8 +1,9 @@
 //! Instancing: one mesh stored once and placed many times, each placement ([`Instance`])
 //! an affine transform from the mesh's object space to the scene's local space. The CPU's
 //! BVH walks instances as a two-level structure (`accel/instances.rs`,
-//! `cpu/traverse_instances.rs`); every other structure and the GPU render
-//! [`Scene::flattened`], the same triangles stored once per instance.
+//! `cpu/traverse_instances.rs`), and so does the GPU's compute kernel over uniform grids
+//! (`accel/grid_instances.rs`, `glsl120/instance.glsl`); every other structure and GPU
+//! kernel renders [`Scene::flattened`], the same triangles stored once per instance.
 //!
 //! Primitive ids: an instanced triangle has the id it would have in the flattened scene:
 //! the scene's own triangles first (`0 .. triangles.len()`), then each instance's mesh
