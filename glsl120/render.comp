@@ -19,9 +19,9 @@
 #include "intersect.glsl"
 #include "traverse.glsl"
 #include "step.glsl"
+#include "shade.glsl"
 #include "compute.glsl"
 #include "instance.glsl"
-#include "shade.glsl"
 
 // Declared by the host from gpu/contract (bindings.rs, compute.rs): the buffers `cam`
 // (CAM_* slots: the camera frame, then (ox, oy) per sample from CAM_OFFSETS on), `lights`

@@ -27,6 +27,12 @@ vec3 terminator_gap(vec3 p, vec3 v, vec3 n, float b) {
 }
 #endif
 
+#ifdef INSTANCED
+// The instance being shaded places its triangle and normals (instance.glsl, included later).
+void place_triangle(inout vec4 t0, inout vec4 t1, inout vec4 t2);
+void place_normals(inout vec3 n0, inout vec3 n1, inout vec3 n2);
+#endif
+
 Surface surface(vec3 o, vec3 d, float tri) {
     Surface s;
     vec4 t0 = fetch_tri_at(tri, TRI_TEXELS, 0.0);

@@ -188,7 +188,10 @@ fn every_web_pass_is_valid_glsl_es_300_irregular_grid() {
 /// tested finiteness per channel (issue 52: llvmpipe folded the vector test and called NaN
 /// finite), and when the split index format joined the layout (issue 53: a scene that fits
 /// in floats gets `fetch_<name>_at` and the cursor macros as wrappers of the same
-/// arithmetic, and renders bit for bit as before); any change to `glsl120/`, the
+/// arithmetic, and renders bit for bit as before), and when the compute kernel's instanced
+/// walk joined `traverse.glsl` and `shade.glsl` under `#ifdef INSTANCED` (issue 53: every
+/// fragment program, its comments, blank lines and `INSTANCED` blocks left out, is the
+/// text it was); any change to `glsl120/`, the
 /// contract or the layout changes it, and then this value is updated in the same commit,
 /// deliberately.
 #[test]
@@ -241,4 +244,4 @@ impl Fnv1a {
 }
 
 /// See [`glsl_120_output_is_unchanged`].
-const GLSL_120_HASH: u64 = 0x5c29_8108_6d5e_3470;
+const GLSL_120_HASH: u64 = 0x247e_9486_ca1a_bd4a;

@@ -195,3 +195,59 @@ impl GridInstances {
         format!("instanced: {}; {}", self.holds(), self.grid.stats)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The packed levels hold the scene's own triangles first, then each mesh's once in
+    /// object space; each mesh grid's cells lie after the own grid's and list only that
+    /// mesh's packed triangles, as its own grid lists them; the top tree's leaves hold
+    /// every instance once.
+    #[test]
+    fn packed_levels_keep_each_mesh_apart() {
+        let toml = r#"
+[camera]
+eye = [0.0, 0.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 40
+[[objects]]
+shape = "quad"
+[[objects]]
+shape = "sphere"
+subdivisions = 1
+instances = [{ translate = [1, 0, 0] }, { scale = [-1, 2, 1] }, { translate = [0, 3, 0] }]
+[[objects]]
+shape = "box"
+instances = [{ translate = [-2, 0, 0] }]
+"#;
+        let s = crate::scene::load_scene_str(toml, "t.toml", std::path::Path::new(".")).unwrap();
+        let cfg = GridConfig::default();
+        let gi = GridInstances::build(&s, &cfg).unwrap();
+        let own = Grid::build(&s, &cfg).unwrap();
+        assert_eq!(gi.grid.res, own.res);
+        assert_eq!(gi.grid.cells[..own.cells.len()], own.cells[..]);
+        assert_eq!(gi.packed.triangles.len(), s.triangles.len() + 80 + 12);
+        for (m, mg) in s.instancing.meshes.iter().zip(&gi.meshes) {
+            let g = Grid::build(&m.geometry, &cfg).unwrap();
+            assert_eq!((mg.min, mg.max, mg.res), (g.min, g.max, g.res));
+            for (k, c) in g.cells.iter().enumerate() {
+                let p = gi.grid.cells[mg.cell_base as usize + k];
+                let listed = &gi.grid.tri_indices[p.offset as usize..][..p.count as usize];
+                let cell = &g.tri_indices[c.offset as usize..][..c.count as usize];
+                let want: Vec<u32> = cell.iter().map(|&i| i + mg.tri_base).collect();
+                assert_eq!((p.count, listed), (c.count, &want[..]));
+            }
+            for i in 0..mg.triangles as usize {
+                let packed = gi.packed.triangle_vertices(mg.tri_base as usize + i);
+                assert_eq!(packed, m.geometry.triangle_vertices(i));
+            }
+        }
+        let mut leaves = gi.top.tri_indices.clone();
+        leaves.sort_unstable();
+        assert_eq!(leaves, (0..4).collect::<Vec<u32>>());
+        assert!(gi
+            .detail()
+            .starts_with("instanced: 4 instances of 2 meshes, 94 triangles stored"));
+    }
+}
