@@ -46,6 +46,8 @@ pub struct MeshGrid {
     pub tri_base: u32,
     /// Its triangles.
     pub triangles: u32,
+    /// Its grid's (cell, triangle) references.
+    pub references: u32,
 }
 
 /// The levels (see the module documentation).
@@ -127,6 +129,7 @@ impl GridInstances {
                 cell_base,
                 tri_base,
                 triangles: geo.triangles.len() as u32,
+                references: g.tri_indices.len() as u32,
             });
         }
         if !packed.tri_uvs.is_empty() {

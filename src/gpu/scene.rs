@@ -243,7 +243,7 @@ impl<'s> GpuScene<'s> {
         // Each walk of an instanced scene (its own grid's, a mesh's) is bounded alone.
         let meshes = self.instancing.iter().flat_map(|(gi, _)| &gi.meshes);
         meshes
-            .map(|m| 16 * (m.res.iter().map(|&r| r as u64).sum::<u64>() + m.triangles as u64 + 16))
+            .map(|m| 16 * (m.res.iter().map(|&r| r as u64).sum::<u64>() + m.references as u64 + 16))
             .fold(max_iterations(self.accel), u64::max)
     }
 
