@@ -6,19 +6,22 @@
 // order, the reflected subtree, the refracted subtree, depth first. A small per-invocation
 // stack holds the pending children (at most one per level: STACK_SIZE = max depth + 1).
 // Reads: the scene textures through the generated texelFetch fetch functions, grid
-//        uniforms, u_eye, u_ambient, u_background, u_sample_weight, the camera buffer (the
+//        uniforms, with INSTANCED the instancing buffer (instance.glsl: the walk of an
+//        instanced scene's two levels), u_eye, u_ambient, u_background, u_sample_weight, the camera buffer (the
 //        f64 frame and sample offsets: primary directions by the camera's formula in f64,
 //        rounded to f32, as the host computes them for the fragment kernels) and the lights
 //        buffer (position, radiance).
 // Writes: radiance (linear RGB summed over samples) and, with WRITE_AOV, aov_out (first
 //         sample's primary ray: t_best, tri_best or TRI_NONE, steps, state), both in image
-//         order; the render's 64-bit counter sums (rays by kind, cells entered, triangle
+//         order (with INSTANCED the id's bits in its tri channel); the render's 64-bit
+//         counter sums (rays by kind, cells entered, triangle
 //         tests, rays cut off by MAX_ITERATIONS, primary-ray steps, non-finite pixels).
 #include "intersect.glsl"
 #include "traverse.glsl"
 #include "step.glsl"
 #include "shade.glsl"
 #include "compute.glsl"
+#include "instance.glsl"
 
 // Declared by the host from gpu/contract (bindings.rs, compute.rs): the buffers `cam`
 // (CAM_* slots: the camera frame, then (ox, oy) per sample from CAM_OFFSETS on), `lights`
@@ -129,7 +132,11 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
             n = stack[--top];
             new_ray(n.o, n.d, BIG, s0, s1, s2, s3);
         }
+#ifdef INSTANCED
+        trace_scene(s0, s1, s2, s3, shadow);
+#else
         trace(s0, s1, s2, s3, shadow);
+#endif
         if (shadow) {
             if (!in_state(s0.S0_STATE, ST_SHADING)) {
                 vec3 c = light_term(s.mat, alb, s, l, -n.d);
@@ -140,14 +147,25 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
         }
         bool hit = in_state(s0.S0_STATE, ST_SHADING);
         if (first && n.level == 0) {
+#ifdef INSTANCED
+            // The id's bits (the host reads them back exactly: ids run to 2^32).
+            aov = A0_TEXEL(s3.S3_T_BEST, hit ? uintBitsToFloat(g_hit_id) : TRI_NONE, s3.S3_STEPS,
+                           s0.S0_STATE);
+#else
             aov = A0_TEXEL(s3.S3_T_BEST, hit ? s3.S3_TRI_BEST : TRI_NONE, s3.S3_STEPS, s0.S0_STATE);
+#endif
             n_count[C_PRIMARY_STEPS] += uint(s3.S3_STEPS);
         }
         if (!hit) {
             colour += n.w * u_background;
             continue;
         }
+#ifdef INSTANCED
+        // The packed triangle hit (its id is the instance's first plus its index).
+        s = surface(n.o, n.d, g_hit_rec);
+#else
         s = surface(n.o, n.d, s3.S3_TRI_BEST);
+#endif
 #ifdef HAS_TEXTURES
         hit_cone = cone_at(g_cones[top], s3.S3_T_BEST);
         alb = albedo_tex(s, hit_cone.x, n.d);

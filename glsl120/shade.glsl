@@ -27,11 +27,21 @@ vec3 terminator_gap(vec3 p, vec3 v, vec3 n, float b) {
 }
 #endif
 
+#ifdef INSTANCED
+// The instance being shaded places its triangle and normals (instance.glsl, included later).
+void place_triangle(inout vec4 t0, inout vec4 t1, inout vec4 t2);
+void place_normals(inout vec3 n0, inout vec3 n1, inout vec3 n2);
+#endif
+
 Surface surface(vec3 o, vec3 d, float tri) {
     Surface s;
     vec4 t0 = fetch_tri_at(tri, TRI_TEXELS, 0.0);
     vec4 t1 = fetch_tri_at(tri, TRI_TEXELS, 1.0);
     vec4 t2 = fetch_tri_at(tri, TRI_TEXELS, 2.0);
+#ifdef INSTANCED
+    // An instance's hit shades on its placed (world) triangle (instance.glsl).
+    place_triangle(t0, t1, t2);
+#endif
     vec3 b = tri_bary(o, d, t0.xyz, t1.xyz, t2.xyz);
     s.p = t0.xyz * b.x + t1.xyz * b.y + t2.xyz * b.z;
     s.p_err = (abs(t0.xyz * b.x) + abs(t1.xyz * b.y) + abs(t2.xyz * b.z)) * gamma_n(7.0);
@@ -53,6 +63,9 @@ Surface surface(vec3 o, vec3 d, float tri) {
         vec3 n0 = fetch_nrm_at(tri, TRI_TEXELS, 0.0).xyz;
         vec3 n1 = fetch_nrm_at(tri, TRI_TEXELS, 1.0).xyz;
         vec3 n2 = fetch_nrm_at(tri, TRI_TEXELS, 2.0).xyz;
+#ifdef INSTANCED
+        place_normals(n0, n1, n2);
+#endif
         vec3 sn = n0 * b.x + n1 * b.y + n2 * b.z;
         float l = length(sn);
         if (l > 0.0) {

@@ -4,7 +4,30 @@
 // The boundary parameter of an axis is recomputed from the cell index rather than
 // accumulated with tDelta, which would drift by an ulp per step (see the CPU twin).
 // Reads the grid uniforms u_grid_min, u_grid_max, u_cell_size, u_grid_res (declared by the
-// host from gpu/contract).
+// host from gpu/contract); with INSTANCED, the grid of the walk in progress instead.
+
+#ifdef INSTANCED
+// The grid a walk reads (instance.glsl): the scene's own, from the uniforms (own_grid), or
+// an instanced mesh's in its object space (mesh_grid), whose cells follow the own grid's in
+// the cell texture from g_cell_base on. Compiled in for instanced scenes only, so the
+// programs of other scenes read the uniforms as before.
+vec3 g_grid_min;
+vec3 g_grid_max;
+vec3 g_cell_size;
+vec3 g_grid_res;
+float g_cell_base;
+void own_grid() {
+    g_grid_min = u_grid_min;
+    g_grid_max = u_grid_max;
+    g_cell_size = u_cell_size;
+    g_grid_res = u_grid_res;
+    g_cell_base = 0.0;
+}
+#define u_grid_min g_grid_min
+#define u_grid_max g_grid_max
+#define u_cell_size g_cell_size
+#define u_grid_res g_grid_res
+#endif
 
 // Slab clip of the ray against the grid box within [t0, t1]: (t_enter, t_exit); a miss
 // when t_enter > t_exit. A +-0 direction component leaves the slab unbounded when the
@@ -56,7 +79,11 @@ vec3 boundaries(vec3 o, vec3 d, vec3 c) {
 
 // Linear cell index, x fastest (exact: below 2^24).
 float cell_linear(vec3 c) {
+#ifdef INSTANCED
+    return g_cell_base + (c.x + u_grid_res.x * (c.y + u_grid_res.y * c.z));
+#else
     return c.x + u_grid_res.x * (c.y + u_grid_res.y * c.z);
+#endif
 }
 
 // Slack of the in-cell acceptance test, as in the CPU twin.

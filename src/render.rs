@@ -9,7 +9,8 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::accel::{Accel, AccelRef, AccelSummary, GridRef};
+use crate::accel::grid_instances::GridInstances;
+use crate::accel::{Accel, AccelKind, AccelRef, AccelSummary, GridRef};
 use crate::cpu::simd::Isa;
 use crate::cpu::simd_walk::SimdWalker;
 use crate::cpu::traverse::Trace;
@@ -116,8 +117,9 @@ pub struct Rendered {
 /// acceleration structure `--accel` names built. The one way in for `render`, `view` and
 /// `bench`, so all three render the same structure from the same flags.
 pub struct Prepared<'s> {
-    /// The scene: the one given, or, for a structure other than the BVH, the one given
-    /// with its instances stored flat ([`Scene::flattened`]).
+    /// The scene: the one given, or, for a structure other than the BVH (and the compute
+    /// kernel's uniform grids, which walk instances as placed), the one given with its
+    /// instances stored flat ([`Scene::flattened`]).
     pub scene: Cow<'s, Scene>,
     /// Its acceleration structure.
     pub accel: Accel,
@@ -129,12 +131,42 @@ pub struct Prepared<'s> {
 pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s>> {
     opts.validate()?;
     let kind = opts.accel_kind();
-    // Only the CPU's BVH walks instances; the grids (and so the GPU) take them flat.
-    let scene = if scene.has_instances() && kind != crate::accel::AccelKind::Bvh {
+    let gpu = opts.backend == Backend::Gl;
+    // The CPU's BVH and the compute kernel over uniform grids walk instances as two
+    // levels (`--kernel compute` named: `auto` may resolve to a fragment kernel, which
+    // walks flat scenes only); every other structure and kernel takes them flat.
+    let two_level_gpu = gpu
+        && kind == AccelKind::Uniform
+        && opts.gpu.kernel == crate::gpu::options::Kernel::Compute;
+    if scene.has_instances() && two_level_gpu {
+        // What the GPU stores: the scene's own triangles and each mesh's once.
+        let meshes = &scene.instancing.meshes;
+        let stored = scene.triangles.len()
+            + meshes
+                .iter()
+                .map(|m| m.geometry.triangles.len())
+                .sum::<usize>();
+        crate::gpu::layout::check_triangles(stored)?;
+        crate::memory::check_build(kind, stored, gpu, crate::memory::available_bytes())?;
+        let levels = GridInstances::build(scene, &opts.grid)?;
+        let accel = Accel::GridInstanced(Box::new(levels));
+        let summary = accel.as_ref().summary(scene.instanced_triangles() as usize);
+        return Ok(Prepared {
+            scene: Cow::Borrowed(scene),
+            accel,
+            summary,
+        });
+    }
+    let scene = if scene.has_instances() && kind != AccelKind::Bvh {
         let why = format!("the {} grid", kind.name());
         let flat = scene.flattened(crate::options::MAX_HOST_BYTES, &why)?;
+        let placed = if gpu {
+            "--kernel compute --accel uniform walks them as placed on the GPU"
+        } else {
+            "--backend cpu --accel bvh walks them as placed"
+        };
         eprintln!(
-            "fragtrace: warning: {}: {why} stores the {} instances flat ({} triangles, about {:.1} MB more); --backend cpu --accel bvh walks them as placed",
+            "fragtrace: warning: {}: {why} stores the {} instances flat ({} triangles, about {:.1} MB more); {placed}",
             scene.source,
             scene.instancing.instances.len(),
             flat.triangles.len(),
@@ -146,7 +178,6 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
     };
     // What the machine cannot hold, refused before the structure is allocated: the GPU's
     // index limit (its layout's), then memory (of the triangles stored, instanced or not).
-    let gpu = opts.backend == Backend::Gl;
     if gpu {
         crate::gpu::layout::check_triangles(scene.triangles.len())?;
     }
@@ -249,6 +280,9 @@ impl<'s> Prepared<'s> {
                 };
                 let r = CpuRenderer::with_walker(scene, walker, depth, tech);
                 (Engine::Cpu32Inst(r), kernel, ran)
+            }
+            (AccelRef::GridInstanced(_), ..) => {
+                unreachable!("prepare builds the instanced grids for --backend gl only")
             }
             (AccelRef::Uniform(g), precision, path) => {
                 grid_engine(scene, g.into(), opts, precision, path)

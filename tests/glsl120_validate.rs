@@ -62,15 +62,15 @@ fn every_generated_shader_is_valid_glsl_120() {
         }
     }
     // Per feature set and technique folder: the full ray-tree program (storage-buffer and
-    // texelFetch scene reads), the primary-only one, the sRGB8 conversion and both wave
-    // programs.
+    // texelFetch scene reads, and the instanced walk), the primary-only one, the sRGB8
+    // conversion and both wave programs.
     let compute = files
         .iter()
         .filter(|f| f.extension().is_some_and(|e| e == "comp"))
         .count();
     assert_eq!(
         compute,
-        6 * (32 + Techniques::one_off().len()),
+        7 * (32 + Techniques::one_off().len()),
         "compute programs written"
     );
     let mut bad = Vec::new();

@@ -29,6 +29,8 @@ pub struct TwoLevel {
     /// Each instance's local-space box (what the top level was built over), tested before
     /// a ray is taken into its object space.
     pub boxes: Vec<(Vec3, Vec3)>,
+    /// Triangles the instances place (each mesh counted once per instance).
+    pub placed: u64,
     /// Build figures of all levels together (nodes, references, bytes summed; the depth
     /// the top's plus the deepest mesh's).
     pub stats: BvhStats,
@@ -84,8 +86,20 @@ impl TwoLevel {
             meshes,
             top,
             boxes,
+            placed: inst.triangles(),
             stats,
         })
+    }
+
+    /// What the levels hold (`AccelSummary::instanced`).
+    pub fn holds(&self) -> String {
+        let stored = self.own.tri_indices.len()
+            + self
+                .meshes
+                .iter()
+                .map(|m| m.tri_indices.len())
+                .sum::<usize>();
+        crate::scene::Instancing::holds(self.boxes.len(), self.meshes.len(), stored, self.placed)
     }
 
     /// The stats line: the levels' figures, and what instancing holds.

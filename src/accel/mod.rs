@@ -11,6 +11,7 @@
 pub mod binning;
 pub mod bvh;
 pub mod grid;
+pub mod grid_instances;
 pub mod instances;
 pub mod irregular;
 mod irregular_build;
@@ -87,6 +88,9 @@ pub enum Accel {
     Bvh(Bvh),
     /// The BVH of a scene with instances: two levels (CPU only; `--accel bvh`).
     Instanced(instances::TwoLevel),
+    /// The uniform grids of a scene with instances: two levels (the GPU's compute kernel,
+    /// `--accel uniform`).
+    GridInstanced(Box<grid_instances::GridInstances>),
 }
 
 /// A borrowed acceleration structure: what renderers take, so that a `&Grid` or a
@@ -101,6 +105,8 @@ pub enum AccelRef<'a> {
     Bvh(&'a Bvh),
     /// The two-level BVH of a scene with instances (CPU only).
     Instanced(&'a instances::TwoLevel),
+    /// The two-level uniform grids of a scene with instances (the compute kernel).
+    GridInstanced(&'a grid_instances::GridInstances),
 }
 
 impl<'a> From<&'a Grid> for AccelRef<'a> {
@@ -128,6 +134,7 @@ impl<'a> From<&'a Accel> for AccelRef<'a> {
             Accel::Irregular(g) => AccelRef::Irregular(g),
             Accel::Bvh(b) => AccelRef::Bvh(b),
             Accel::Instanced(t) => AccelRef::Instanced(t),
+            Accel::GridInstanced(t) => AccelRef::GridInstanced(t),
         }
     }
 }
@@ -203,6 +210,11 @@ pub struct AccelSummary {
     pub references: usize,
     /// The structure's own one-line description.
     pub detail: String,
+    /// For a scene walked as instances (two levels: the CPU's BVH, the compute kernel's
+    /// uniform grids), what they hold: "N instances of M meshes, T triangles stored, P
+    /// placed"; absent where the scene is walked as stored (flat).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instanced: Option<String>,
 }
 
 impl Accel {
@@ -250,6 +262,14 @@ impl AccelSummary {
             _ => format!("{} grid {x}x{y}x{z}", self.kind.name()),
         }
     }
+
+    /// [`AccelSummary::brief`], and for instances what the two levels hold.
+    pub fn line(&self) -> String {
+        match &self.instanced {
+            Some(i) => format!("{}, instanced: {i}", self.brief()),
+            None => self.brief(),
+        }
+    }
 }
 
 impl<'a> AccelRef<'a> {
@@ -259,6 +279,8 @@ impl<'a> AccelRef<'a> {
         match self {
             AccelRef::Uniform(g) => Ok(GridRef::Uniform(g)),
             AccelRef::Irregular(g) => Ok(GridRef::Irregular(g)),
+            // The packed grid: what the GPU walks, over the packed scene.
+            AccelRef::GridInstanced(t) => Ok(GridRef::Uniform(&t.grid)),
             AccelRef::Bvh(_) | AccelRef::Instanced(_) => Err(crate::Error::Usage(
                 "--accel bvh is walked on the CPU backend only: the GPU walks the grids \
                  (--accel irregular or uniform)"
@@ -270,7 +292,7 @@ impl<'a> AccelRef<'a> {
     /// Which structure this is.
     pub fn kind(&self) -> AccelKind {
         match self {
-            AccelRef::Uniform(_) => AccelKind::Uniform,
+            AccelRef::Uniform(_) | AccelRef::GridInstanced(_) => AccelKind::Uniform,
             AccelRef::Irregular(_) => AccelKind::Irregular,
             AccelRef::Bvh(_) | AccelRef::Instanced(_) => AccelKind::Bvh,
         }
@@ -297,6 +319,7 @@ impl<'a> AccelRef<'a> {
             empty_cells: 0,
             references: s.references,
             detail,
+            instanced: None,
         };
         match self {
             AccelRef::Uniform(g) => AccelSummary {
@@ -310,6 +333,7 @@ impl<'a> AccelRef<'a> {
                 empty_cells: g.stats.empty_cells,
                 references: g.stats.references,
                 detail: g.stats.to_string(),
+                instanced: None,
             },
             AccelRef::Irregular(g) => AccelSummary {
                 kind: AccelKind::Irregular,
@@ -322,9 +346,29 @@ impl<'a> AccelRef<'a> {
                 empty_cells: g.stats.empty_cells,
                 references: g.stats.references,
                 detail: g.stats.to_string(),
+                instanced: None,
             },
             AccelRef::Bvh(b) => bvh(&b.stats, b.stats.to_string()),
-            AccelRef::Instanced(t) => bvh(&t.stats, t.detail(t.boxes.len())),
+            AccelRef::Instanced(t) => AccelSummary {
+                instanced: Some(t.holds()),
+                ..bvh(&t.stats, t.detail(t.boxes.len()))
+            },
+            AccelRef::GridInstanced(t) => {
+                let g = &t.grid;
+                AccelSummary {
+                    kind: AccelKind::Uniform,
+                    resolution: g.res,
+                    top_resolution: None,
+                    build_ms: t.build_ms,
+                    bytes: g.stats.bytes,
+                    bytes_per_triangle: per_tri(g.stats.bytes),
+                    cells: g.stats.cells,
+                    empty_cells: g.stats.empty_cells,
+                    references: g.stats.references,
+                    detail: t.detail(),
+                    instanced: Some(t.holds()),
+                }
+            }
         }
     }
 }

@@ -462,7 +462,7 @@ fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) 
                 format!(", {}", s.techniques)
             },
             s.triangles,
-            s.accel.brief(),
+            s.accel.line(),
             s.grid_build_ms,
             // The GPU's set-up apart: render_ms means tracing on both backends.
             match &s.gpu {

@@ -3,8 +3,9 @@
 //! first; at each instance met, the ray taken into the mesh's object space (in f64, the
 //! direction not renormalised, so the parameter t is the same in both spaces and the
 //! hit's t and barycentrics need no conversion) and the mesh's own BVH walked by
-//! [`BvhWalker`] (scalar, or in f32 vectorised). No GLSL twin: the GPU renders the
-//! flattened scene (`Scene::flattened`).
+//! [`BvhWalker`] (scalar, or in f32 vectorised). GLSL twin: `glsl120/instance.glsl`, the
+//! compute kernel's walk of the same top tree with the same tie rule over each mesh's
+//! uniform grid (`accel/grid_instances.rs`).
 //!
 //! The tie rule, as the one-level walk's: a hit closer than the held one by more than
 //! [`TIE_EPS`](crate::accel::TIE_EPS) replaces it; within the margin the lower primitive id

@@ -117,11 +117,16 @@ pub type Observer<'o> = dyn FnMut(&Snapshot<'_>) -> Flow + 'o;
 
 /// One primary ray's AOV pixel: its hit (t, triangle) if any and its traversal steps.
 pub(crate) fn aov_pixel(scene: &Scene, hit: Option<(f32, f32)>, steps: f32) -> AovPixel {
+    // The GPU carries a triangle's id as its float slot (the index below 2^24).
+    let hit = hit.map(|(t, slot)| (t, crate::gpu::layout::slot_record(slot)));
+    aov_pixel_id(scene, hit, steps)
+}
+
+/// [`aov_pixel`] of a hit whose triangle id is known exactly.
+pub(crate) fn aov_pixel_id(scene: &Scene, hit: Option<(f32, u64)>, steps: f32) -> AovPixel {
     match hit {
-        Some((t, slot)) => {
-            // The GPU carries a triangle's id as its float slot (the index below 2^24).
-            let tri = crate::gpu::layout::slot_record(slot);
-            let v = scene.triangle_vertices(tri as usize);
+        Some((t, tri)) => {
+            let v = scene.placed_vertices(tri as usize);
             let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
             AovPixel {
                 depth: t,

@@ -18,6 +18,7 @@ use std::collections::HashMap;
 use std::rc::Rc;
 
 use super::context::GlContext;
+use super::contract::instancing::instancing_buffer;
 use super::contract::STORAGE_BINDING_BASE;
 use super::contract::{uniform, Unit};
 use super::gl::compute::{start_compute, PendingCompute};
@@ -28,6 +29,7 @@ use super::program_cache::{ProgramCache, SourceKey};
 use super::shader::{
     assemble_compute, assemble_in, Assembled, ComputePass, ComputeSpec, Features, Pass,
 };
+use crate::accel::grid_instances::GridInstances;
 use crate::accel::{AccelRef, GridRef};
 use crate::clock::Instant;
 use crate::output::GpuStats;
@@ -93,7 +95,11 @@ enum ProgramKey {
 /// The scene, its acceleration structure and their GPU copies (see the module docs).
 pub struct GpuScene<'s> {
     ctx: &'s GlContext,
+    /// The scene packed: the one given, or an instanced scene's own triangles and meshes
+    /// (`GridInstances::packed`).
     scene: &'s Scene,
+    /// The scene as given: whose ids the hits carry.
+    given: &'s Scene,
     accel: GridRef<'s>,
     features: Features,
     layout: SceneTextures,
@@ -111,6 +117,10 @@ pub struct GpuScene<'s> {
     srgb_thresholds: OnceCell<StorageBuffer>,
     /// The same thresholds as a 256 x 1 texture (in .r), for `srgb8.frag`.
     srgb_texture: OnceCell<Texture>,
+    /// An instanced scene's levels (the compute kernel walks them) and its instancing
+    /// buffer (`contract::instancing`), uploaded on first use.
+    instancing: Option<(&'s GridInstances, Vec<[f32; 4]>)>,
+    instancing_buffer: OnceCell<StorageBuffer>,
     /// What a wing keeps between renders of this scene, one value per type (see
     /// [`GpuScene::kept`]).
     kept: RefCell<HashMap<TypeId, Box<dyn Any>>>,
@@ -139,9 +149,16 @@ impl<'s> GpuScene<'s> {
         accel: impl Into<AccelRef<'s>>,
         no_specialize: bool,
     ) -> Result<Self> {
-        let accel = accel.into().grid()?;
-        allow_parallel_compile(ctx);
+        let accel = accel.into();
         let t = Instant::now();
+        let given = scene;
+        // An instanced scene packs its own triangles and its meshes' (`GridInstances`).
+        let (scene, instancing) = match accel {
+            AccelRef::GridInstanced(gi) => (&gi.packed, Some((gi, instancing_buffer(scene, gi)))),
+            _ => (scene, None),
+        };
+        let accel = accel.grid()?;
+        allow_parallel_compile(ctx);
         let features = if no_specialize {
             Features::all()
         } else {
@@ -156,6 +173,7 @@ impl<'s> GpuScene<'s> {
         Ok(GpuScene {
             ctx,
             scene,
+            given,
             accel,
             features,
             layout,
@@ -171,6 +189,8 @@ impl<'s> GpuScene<'s> {
             lights: OnceCell::new(),
             srgb_thresholds: OnceCell::new(),
             srgb_texture: OnceCell::new(),
+            instancing,
+            instancing_buffer: OnceCell::new(),
             kept: RefCell::new(HashMap::new()),
             costs: Cell::new(costs),
         })
@@ -221,9 +241,16 @@ impl<'s> GpuScene<'s> {
         self.ctx
     }
 
-    /// The scene.
+    /// The scene packed (for an instanced scene its own triangles, then its meshes' in
+    /// object space; materials, lights and camera as given).
     pub fn scene(&self) -> &'s Scene {
         self.scene
+    }
+
+    /// The scene as given, whose primitive ids the hits carry (an instanced scene's
+    /// placed triangles among them: [`Scene::placed_vertices`]).
+    pub fn given_scene(&self) -> &'s Scene {
+        self.given
     }
 
     /// Its acceleration structure.
@@ -253,7 +280,40 @@ impl<'s> GpuScene<'s> {
     /// at most rx+ry+rz cells (an irregular walk at most as many as its virtual grid's) and
     /// each test is one iteration; generously.
     pub fn max_iterations(&self) -> u64 {
-        max_iterations(self.accel)
+        // Each walk of an instanced scene (its own grid's, a mesh's) is bounded alone.
+        let meshes = self.instancing.iter().flat_map(|(gi, _)| &gi.meshes);
+        meshes
+            .map(|m| 16 * (m.res.iter().map(|&r| r as u64).sum::<u64>() + m.references as u64 + 16))
+            .fold(max_iterations(self.accel), u64::max)
+    }
+
+    /// Whether the scene is walked as instances (the compute kernel's `INSTANCED`).
+    pub fn instanced(&self) -> bool {
+        self.instancing.is_some()
+    }
+
+    /// The instancing buffer of an instanced scene, uploaded on first use (None for
+    /// another scene).
+    pub fn instancing_buffer(&self) -> Result<Option<&StorageBuffer>> {
+        let Some((_, data)) = &self.instancing else {
+            return Ok(None);
+        };
+        if let Some(b) = self.instancing_buffer.get() {
+            return Ok(Some(b));
+        }
+        let t0 = Instant::now();
+        let bytes: Vec<u8> = data
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_ne_bytes())
+            .collect();
+        let b = StorageBuffer::new(self.ctx, &bytes)?;
+        state::finish(self.ctx.gl());
+        self.charge(|c| {
+            c.upload_ms += ms_since(t0);
+            c.upload_bytes += bytes.len();
+        });
+        Ok(Some(self.instancing_buffer.get_or_init(|| b)))
     }
 
     /// What was spent since the last call (the first render also pays for the packing).

@@ -60,6 +60,7 @@ const SOURCES: &[(&str, &str)] = &[
     ),
     ("count.frag", include_str!("../../glsl120/count.frag")),
     ("compute.glsl", include_str!("../../glsl120/compute.glsl")),
+    ("instance.glsl", include_str!("../../glsl120/instance.glsl")),
     ("render.comp", include_str!("../../glsl120/render.comp")),
     ("wave.comp", include_str!("../../glsl120/wave.comp")),
     ("srgb8.comp", include_str!("../../glsl120/srgb8.comp")),
@@ -72,6 +73,7 @@ const INCLUDABLE: &[&str] = &[
     "shade.glsl",
     "step.glsl",
     "compute.glsl",
+    "instance.glsl",
 ];
 
 pub use super::contract::RayState;
@@ -561,6 +563,8 @@ pub struct ComputeSpec {
     pub fetch: Fetch,
     /// Whether the render writes the primary rays' AOV texels.
     pub aov: bool,
+    /// Whether the scene is walked as instances over meshes' grids (`instance.glsl`).
+    pub instanced: bool,
 }
 
 impl ComputeSpec {
@@ -573,6 +577,7 @@ impl ComputeSpec {
         max_iterations: 0,
         fetch: Fetch::TexelFetch,
         aov: false,
+        instanced: false,
     };
 }
 
@@ -614,6 +619,9 @@ impl ComputePass {
                 }
                 if spec.aov {
                     d.push("WRITE_AOV".into());
+                }
+                if spec.instanced {
+                    d.push("INSTANCED".into());
                 }
             }
             ComputePass::Wave(Query::Any) => d.push("ANY_HIT".into()),

@@ -1,8 +1,9 @@
 //! Instancing: one mesh stored once and placed many times, each placement ([`Instance`])
 //! an affine transform from the mesh's object space to the scene's local space. The CPU's
 //! BVH walks instances as a two-level structure (`accel/instances.rs`,
-//! `cpu/traverse_instances.rs`); every other structure and the GPU render
-//! [`Scene::flattened`], the same triangles stored once per instance.
+//! `cpu/traverse_instances.rs`), and so does the GPU's compute kernel over uniform grids
+//! (`accel/grid_instances.rs`, `glsl120/instance.glsl`); every other structure and GPU
+//! kernel renders [`Scene::flattened`], the same triangles stored once per instance.
 //!
 //! Primitive ids: an instanced triangle has the id it would have in the flattened scene:
 //! the scene's own triangles first (`0 .. triangles.len()`), then each instance's mesh
@@ -173,6 +174,15 @@ impl Instancing {
         (k, (id - self.instances[k].first) as usize)
     }
 
+    /// What a two-level structure holds, for the stats: `instances` instances of
+    /// `meshes` meshes, `stored` triangles stored (the scene's own and each mesh's once),
+    /// `placed` placed.
+    pub fn holds(instances: usize, meshes: usize, stored: usize, placed: u64) -> String {
+        format!(
+            "{instances} instances of {meshes} meshes, {stored} triangles stored, {placed} placed"
+        )
+    }
+
     /// Memory of the meshes (positions, normals, triangles) and placements, in bytes.
     pub fn bytes(&self) -> usize {
         let mesh: usize = self
@@ -197,6 +207,26 @@ impl Scene {
     /// True when the scene places meshes by instances.
     pub fn has_instances(&self) -> bool {
         !self.instancing.is_empty()
+    }
+
+    /// The vertices of triangle `id` (one of the scene's own, or an instance's past them)
+    /// as [`Scene::flattened`] stores them: placed, rounded once, the winding reversed
+    /// under a mirroring placement.
+    pub fn placed_vertices(&self, id: usize) -> [Vec3; 3] {
+        if id < self.triangles.len() {
+            return self.triangle_vertices(id);
+        }
+        let inst = &self.instancing;
+        let (k, j) = inst.locate(id as u32);
+        let place = &inst.instances[k];
+        let g = &inst.meshes[place.mesh as usize].geometry;
+        let mut v = g.triangles[j]
+            .v
+            .map(|i| place.point(g.positions[i as usize]));
+        if place.mirrors() {
+            v.swap(1, 2);
+        }
+        v
     }
 
     /// Triangles once instances are counted: the scene's own and every instance's.

@@ -26,7 +26,7 @@ use super::contract::{uniform, Buffer, Image, StateTexels, STORAGE_BINDING_BASE}
 use super::gl::{bind_image, dispatch, Program, ReadbackRing, StorageBuffer, Texture, TimerQuery};
 use super::info::GlInfo;
 use super::options::{GpuOptions, SceneFetch, Storage};
-use super::request::{aov_pixel, Flow, GpuOutput, ImageRequest, Observer, Snapshot};
+use super::request::{aov_pixel, aov_pixel_id, Flow, GpuOutput, ImageRequest, Observer, Snapshot};
 use super::scene::{ms_since, GpuScene};
 use super::shader::{ComputePass, ComputeSpec, Fetch, Query, LOCAL_SIZE};
 use super::wave::{check_finished, initial_state, traces_from, GpuRay, GpuTrace};
@@ -87,6 +87,14 @@ impl<'g> Setup<'g> {
             Fetch::Storage => drop(gs.buffers()?),
             Fetch::TexelFetch | Fetch::Texture2D => drop(gs.textures()?),
         }
+        if gs.instanced() && pass != ComputePass::Render {
+            return Err(Error::Internal(format!(
+                "{} walks scenes stored flat; an instanced scene renders through render.comp",
+                pass.name()
+            )));
+        }
+        // Uploaded here so that its bytes count in this render's set-up.
+        gs.instancing_buffer()?;
         let program = gs.compute_program(pass, &ComputeSpec { fetch, ..*spec }, techniques)?;
         let costs = gs.take_costs();
         stats.upload_ms = costs.upload_ms;
@@ -181,6 +189,7 @@ fn render_spec(gs: &GpuScene, req: &ImageRequest) -> ComputeSpec {
         max_iterations: gs.max_iterations().min(i32::MAX as u64) as u32,
         fetch: scene_fetch(req.gpu.scene_fetch, &gs.ctx().info),
         aov: req.readback.aov,
+        instanced: gs.instanced(),
     }
 }
 
@@ -232,7 +241,6 @@ pub(crate) fn render(
     let px = req.pixels();
     let (width, height) = (px.width(), px.height());
     let ctx = gs.ctx();
-    let scene = gs.scene();
     ctx.info.check_image_size(width, height)?;
     let gl = ctx.gl();
     let limits = Limits::query(gl);
@@ -278,6 +286,9 @@ pub(crate) fn render(
     let cam_buf = StorageBuffer::new(ctx, &cam_bytes)?;
     cam_buf.bind(gl, Buffer::Camera.binding());
     gs.light_buffer()?.bind(gl, Buffer::Lights.binding());
+    if let Some(b) = gs.instancing_buffer()? {
+        b.bind(gl, Buffer::Instancing.binding());
+    }
 
     // Bands of rows whose outputs fit one storage block (the AOV's 16 bytes per pixel are
     // the larger); with a progress bar drawn, bands sized to take about BAND_TIME each.
@@ -418,7 +429,7 @@ pub(crate) fn render(
         (RgbImage::from_rgb(width, height, rgb), None)
     };
     let aov = if readback.aov {
-        aov_from_texels(scene, &aov_data, width, height)
+        aov_from_texels(gs.given_scene(), gs.instanced(), &aov_data, width, height)
     } else {
         Aov::from_vec(0, 0, Vec::new())
     };
@@ -510,19 +521,29 @@ fn read_bytes_staged(ctx: &GlContext, src: &StorageBuffer, out: &mut [u8]) -> Re
 
 /// The primary-ray AOVs from `render.comp`'s AOV buffer: one `A0_TEXEL` per pixel, in
 /// image order.
-fn aov_from_texels(scene: &crate::scene::Scene, data: &[f32], w: u32, h: u32) -> Aov {
+/// An instanced scene's texels carry the hit's id as its bits (exact to 2^32; a float
+/// holds ids exactly only below 2^24) and a hit as the SHADING state.
+fn aov_from_texels(
+    scene: &crate::scene::Scene,
+    instanced: bool,
+    data: &[f32],
+    w: u32,
+    h: u32,
+) -> Aov {
+    let shading = super::contract::RayState::Shading.code();
     // Collected in parallel: at 4096x4096 a serial fill of the 400 MB of pixels alone took
     // longer than the dispatch.
     let pixels: Vec<AovPixel> = data
         .par_chunks_exact(4)
         .map(|t| {
-            let tri = t[aov::TRI.first];
-            let hit = tri >= 0.0;
-            aov_pixel(
-                scene,
-                hit.then_some((t[aov::T_BEST.first], tri)),
-                t[aov::STEPS.first],
-            )
+            let (tri, t_best) = (t[aov::TRI.first], t[aov::T_BEST.first]);
+            let steps = t[aov::STEPS.first];
+            if instanced {
+                let hit = (t[aov::STATE.first] - shading).abs() < 0.25;
+                aov_pixel_id(scene, hit.then_some((t_best, tri.to_bits() as u64)), steps)
+            } else {
+                aov_pixel(scene, (tri >= 0.0).then_some((t_best, tri)), steps)
+            }
         })
         .collect();
     Aov::from_vec(w, h, pixels)
@@ -553,6 +574,7 @@ pub(crate) fn trace_wave(
         max_iterations: gs.max_iterations().min(i32::MAX as u64) as u32,
         fetch: Fetch::TexelFetch,
         aov: false,
+        instanced: false,
     };
     let mut setup = Setup::new(gs, ComputePass::Wave(query), &spec, opts, opts.techniques)?;
     let gl = ctx.gl();

@@ -477,11 +477,14 @@ pub enum Buffer {
     /// The 256 linear values at which the 8-bit sRGB code steps up (the host's
     /// `image_io::srgb8_thresholds`, padded with +inf).
     SrgbThresholds,
+    /// An instanced scene's placements, meshes' grids and top tree
+    /// ([`super::compute::instancing_buffer`]).
+    Instancing,
 }
 
 impl Buffer {
     /// Every buffer, in binding order.
-    pub const ALL: [Buffer; 7] = [
+    pub const ALL: [Buffer; 8] = [
         Buffer::Camera,
         Buffer::Lights,
         Buffer::Counters,
@@ -489,6 +492,7 @@ impl Buffer {
         Buffer::Aov,
         Buffer::Srgb8,
         Buffer::SrgbThresholds,
+        Buffer::Instancing,
     ];
 
     /// Its binding point.
@@ -506,6 +510,7 @@ impl Buffer {
             Buffer::Aov => "aov_out",
             Buffer::Srgb8 => "srgb8_out",
             Buffer::SrgbThresholds => "srgb_thresholds",
+            Buffer::Instancing => "inst_data",
         }
     }
 
@@ -524,6 +529,7 @@ impl Buffer {
                 "SrgbThresholdBuffer",
                 "float srgb_thresholds[256]",
             ),
+            Buffer::Instancing => ("readonly", "InstanceBuffer", "vec4 inst_data[]"),
         };
         let access = if access.is_empty() {
             String::new()
@@ -542,6 +548,7 @@ impl Buffer {
             Buffer::Radiance => &["render.comp", "srgb8.comp"],
             Buffer::Srgb8 | Buffer::SrgbThresholds => &["srgb8.comp"],
             Buffer::Camera | Buffer::Lights | Buffer::Counters | Buffer::Aov => &["render.comp"],
+            Buffer::Instancing => &["instance.glsl"],
         }
     }
 }
@@ -727,7 +734,12 @@ mod tests {
             if !ctx.info.compute {
                 continue;
             }
-            for fetch in [Fetch::TexelFetch, Fetch::Storage] {
+            // The instanced walk (`instance.glsl`) with storage-buffer reads.
+            for (fetch, instanced) in [
+                (Fetch::TexelFetch, false),
+                (Fetch::Storage, false),
+                (Fetch::Storage, true),
+            ] {
                 let spec = ComputeSpec {
                     samples: 2,
                     lights: 2,
@@ -736,6 +748,7 @@ mod tests {
                     max_iterations: 1000,
                     fetch,
                     aov: true,
+                    instanced,
                 };
                 for pass in [
                     ComputePass::Render,

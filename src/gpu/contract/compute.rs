@@ -183,5 +183,6 @@ pub fn compute_glsl() -> String {
          #define LIGHT_RAD(k) lights[{LIGHT_TEXELS} * (k) + 1].xyz\n"
     ));
     s.push_str(&super::group_glsl("a", &aov::ALL, false));
+    s.push_str(&super::instancing::instancing_glsl());
     s
 }

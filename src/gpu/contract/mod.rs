@@ -17,6 +17,7 @@
 
 mod bindings;
 pub mod compute;
+pub mod instancing;
 
 pub use bindings::{
     declarations_for, uniform, view, Buffer, Decl, GlslType, Image, Sampler, Stage, Uniform,

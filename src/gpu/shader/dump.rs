@@ -74,6 +74,7 @@ fn compute_programs(
         max_iterations,
         fetch: Fetch::Storage,
         aov: false,
+        instanced: false,
     };
     let mut v = if all_variants {
         vec![
@@ -88,6 +89,7 @@ fn compute_programs(
                     max_iterations,
                     fetch: Fetch::Storage,
                     aov: true,
+                    instanced: false,
                 },
             ),
             (
@@ -101,6 +103,7 @@ fn compute_programs(
                     max_iterations,
                     fetch: Fetch::Storage,
                     aov: true,
+                    instanced: false,
                 },
             ),
         ]
@@ -116,6 +119,7 @@ fn compute_programs(
                 max_iterations,
                 fetch: Fetch::Storage,
                 aov: true,
+                instanced: false,
             },
         )]
     };
@@ -128,6 +132,15 @@ fn compute_programs(
             pass,
             ComputeSpec {
                 fetch: Fetch::TexelFetch,
+                ..spec
+            },
+        ));
+        // The walk of an instanced scene's two levels (`instance.glsl`).
+        v.push((
+            "compute_instanced",
+            pass,
+            ComputeSpec {
+                instanced: true,
                 ..spec
             },
         ));
