@@ -9,7 +9,9 @@
 //! Names: `W` (lanes), `V` (f32 lanes), `M` (a lane mask: a bit mask on AVX-512, a vector
 //! of all-ones lanes on AVX2), `splat`, `load`, `store`, `add`, `sub`, `mul`, `div`, `max`,
 //! `min`, `abs`, `neg`, `lt`, `gt`, `le`, `eq`, `mand`, `mor`, `mandnot` (`!a & b`),
-//! `select` (`m ? a : b`), `bits` (the mask as lane bits) and `from_bits`.
+//! `select` (`m ? a : b`), `bits` (the mask as lane bits), `from_bits`, `gather_rows`
+//! (one f32 field of an array of records, lane `i` from record `min(i, last)`) and
+//! `store_u32` (counts kept in f32 lanes, stored as integers).
 
 #![cfg(target_arch = "x86_64")]
 // Every function here needs its module's target feature, which its callers (the walks
@@ -168,6 +170,31 @@ pub mod avx512 {
     pub fn from_bits(b: u32) -> M {
         b as M
     }
+    /// Lane `i` from `p[min(i, last) * stride]`: one f32 field of records `stride` f32
+    /// apart, the last record repeated past `last`.
+    ///
+    /// # Safety
+    /// `p[j * stride]` must be readable for `j` in `0..=last`, and `last * stride`
+    /// must fit an `i32`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn gather_rows(p: *const f32, stride: usize, last: usize) -> V {
+        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+        let rec = _mm512_min_epi32(lane, _mm512_set1_epi32(last as i32));
+        let idx = _mm512_mullo_epi32(rec, _mm512_set1_epi32(stride as i32));
+        // SAFETY: the caller's contract; the indices count f32 (scale 4).
+        unsafe { _mm512_i32gather_ps::<4>(idx, p as *const _) }
+    }
+    /// Sixteen lanes, each a whole number in `0..2^31`, to `p` as integers.
+    ///
+    /// # Safety
+    /// `p .. p + 16` must be writable.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn store_u32(p: *mut u32, v: V) {
+        // SAFETY: the caller's contract.
+        unsafe { _mm512_storeu_si512(p as *mut _, _mm512_cvttps_epi32(v)) }
+    }
 }
 
 /// Eight lanes: AVX2, lane masks as vectors of all-ones lanes.
@@ -316,5 +343,30 @@ pub mod avx2 {
         let lane = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
         let hit = _mm256_and_si256(_mm256_set1_epi32(b as i32), lane);
         _mm256_castsi256_ps(_mm256_cmpeq_epi32(hit, lane))
+    }
+    /// Lane `i` from `p[min(i, last) * stride]`: one f32 field of records `stride` f32
+    /// apart, the last record repeated past `last`.
+    ///
+    /// # Safety
+    /// `p[j * stride]` must be readable for `j` in `0..=last`, and `last * stride`
+    /// must fit an `i32`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn gather_rows(p: *const f32, stride: usize, last: usize) -> V {
+        let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        let rec = _mm256_min_epi32(lane, _mm256_set1_epi32(last as i32));
+        let idx = _mm256_mullo_epi32(rec, _mm256_set1_epi32(stride as i32));
+        // SAFETY: the caller's contract; the indices count f32 (scale 4).
+        unsafe { _mm256_i32gather_ps::<4>(p, idx) }
+    }
+    /// Eight lanes, each a whole number in `0..2^31`, to `p` as integers.
+    ///
+    /// # Safety
+    /// `p .. p + 8` must be writable.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn store_u32(p: *mut u32, v: V) {
+        // SAFETY: the caller's contract.
+        unsafe { _mm256_storeu_si256(p as *mut __m256i, _mm256_cvttps_epi32(v)) }
     }
 }
