@@ -54,8 +54,16 @@ impl PacketIsa {
         #[cfg(target_arch = "x86_64")]
         {
             match self {
-                PacketIsa::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
-                PacketIsa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+                // POPCNT too (every CPU with AVX2 has it): the walks count lanes by
+                // their masks, which without it is a dozen instructions.
+                PacketIsa::Avx512 => {
+                    std::arch::is_x86_feature_detected!("avx512f")
+                        && std::arch::is_x86_feature_detected!("popcnt")
+                }
+                PacketIsa::Avx2 => {
+                    std::arch::is_x86_feature_detected!("avx2")
+                        && std::arch::is_x86_feature_detected!("popcnt")
+                }
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -816,7 +824,7 @@ macro_rules! packet_walks {
 mod k16 {
     use super::SoaTris;
     use crate::cpu::lanes::avx512::*;
-    packet_walks!("avx512f");
+    packet_walks!("avx512f,popcnt");
 }
 
 /// The walks in 8 lanes (AVX2).
@@ -824,7 +832,7 @@ mod k16 {
 mod k8 {
     use super::SoaTris;
     use crate::cpu::lanes::avx2::*;
-    packet_walks!("avx2");
+    packet_walks!("avx2,popcnt");
 }
 
 #[cfg(test)]
