@@ -291,6 +291,19 @@ const RAY_FIELDS: [usize; 8] = {
     f
 };
 
+// `rows8` reads a ray as its eight f32 in this order.
+#[cfg(target_arch = "x86_64")]
+const _: () = {
+    let mut k = 0;
+    while k < 8 {
+        assert!(
+            RAY_FIELDS[k] == k && RAY_STRIDE == 8,
+            "a ray is eight f32 in order"
+        );
+        k += 1;
+    }
+};
+
 /// Stack entries: three per level of the deepest tree the build makes, and a node's four.
 const STACK: usize = 3 * crate::accel::bvh::MAX_DEPTH + crate::accel::bvh::WIDTH + 1;
 
@@ -358,7 +371,7 @@ struct Lanes {
 #[cfg(target_arch = "x86_64")]
 macro_rules! packet_walks {
     ($feature:literal) => {
-        use super::{Entry, Lanes, Packet, PacketScene, Stack, MAX_W, RAY_FIELDS, RAY_STRIDE};
+        use super::{Entry, Lanes, Packet, PacketScene, Stack, MAX_W};
         use crate::accel::bvh::{Node4, WIDTH};
         use crate::cpu::closest::Closest;
         use crate::cpu::real::Real;
@@ -376,14 +389,12 @@ macro_rules! packet_walks {
         pub(super) unsafe fn packet(rays: &[Ray<f32>]) -> Packet {
             debug_assert!(!rays.is_empty() && rays.len() <= W);
             let n = rays.len();
-            // Origin, direction and interval, lane by lane: each field gathered from the
-            // rays in place (a gather per field, not a scalar copy per lane and field).
-            let base = rays.as_ptr() as *const f32;
-            // SAFETY: `RAY_FIELDS` are f32 fields of `Ray<f32>`, `RAY_STRIDE` f32 apart;
-            // rays `0..n` exist.
-            let l = |k: usize| unsafe { gather_rows(base.add(RAY_FIELDS[k]), RAY_STRIDE, n - 1) };
-            let (o, d) = ([l(0), l(1), l(2)], [l(3), l(4), l(5)]);
-            let (t_min, t_max) = (l(6), l(7));
+            // Origin, direction and interval, lane by lane: the rays' eight f32 each,
+            // transposed in registers (`RAY_FIELDS`: a ray is those eight, in order).
+            // SAFETY: rays `0..n` exist, eight f32 each.
+            let [ox, oy, oz, dx, dy, dz, t_min, t_max] =
+                unsafe { rows8(rays.as_ptr() as *const f32, n) };
+            let (o, d) = ([ox, oy, oz], [dx, dy, dz]);
             let (zero, one) = (splat(0.0), splat(1.0));
             let all = from_bits(if W == 32 { u32::MAX } else { (1u32 << W) - 1 });
             let inv = [div(one, d[0]), div(one, d[1]), div(one, d[2])];
