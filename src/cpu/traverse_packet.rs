@@ -391,9 +391,9 @@ macro_rules! packet_walks {
             let n = rays.len();
             // Origin, direction and interval, lane by lane: the rays' eight f32 each,
             // transposed in registers (`RAY_FIELDS`: a ray is those eight, in order).
+            let p = rays.as_ptr() as *const f32;
             // SAFETY: rays `0..n` exist, eight f32 each.
-            let [ox, oy, oz, dx, dy, dz, t_min, t_max] =
-                unsafe { rows8(rays.as_ptr() as *const f32, n) };
+            let [ox, oy, oz, dx, dy, dz, t_min, t_max] = unsafe { rows8(p, n) };
             let (o, d) = ([ox, oy, oz], [dx, dy, dz]);
             let (zero, one) = (splat(0.0), splat(1.0));
             let all = from_bits(if W == 32 { u32::MAX } else { (1u32 << W) - 1 });
