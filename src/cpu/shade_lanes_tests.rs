@@ -260,3 +260,113 @@ fn lanes_are_the_scalar_shading_bit_for_bit() {
     lanes_match_the_scalar_functions::<f32>(seed);
     lanes_match_the_scalar_functions::<f64>(seed);
 }
+
+/// Vertex normals lying in the triangle's own plane make a shading normal at exactly right
+/// angles to the face (`ns . nf` is zero): it is kept as it is, not flipped (the flip is
+/// for `ns . nf < 0` only, strictly, as `shade::surface_with` has it), whichever side the
+/// ray comes from. Independent answer: the interpolated normal itself, `flipped` false.
+fn in_plane_normals_are_kept<T: Real>() {
+    let tri = [
+        V3::new(T::ZERO, T::ZERO, T::ZERO),
+        V3::new(T::ONE, T::ZERO, T::ZERO),
+        V3::new(T::ZERO, T::ONE, T::ZERO),
+    ];
+    let ng = geometric_normal(&tri);
+    assert_eq!(bits(ng), bits(V3::new(T::ZERO, T::ZERO, T::ONE)));
+    // Weights in powers of two: the interpolated normal is the vertices' one exactly.
+    let b = [0.5, 0.25, 0.25].map(T::from_f64);
+    let mut inp = SurfaceIn::<T>::zero();
+    let mut want = Vec::new();
+    for k in 0..LANES {
+        // Along +x, -x, +y or -y: unit already, so normalising leaves it as it is.
+        let s = if k % 2 == 0 { T::ONE } else { -T::ONE };
+        let n = if k % 4 < 2 {
+            V3::new(s, T::ZERO, T::ZERO)
+        } else {
+            V3::new(T::ZERO, s, T::ZERO)
+        };
+        let dz = if k < LANES / 2 { -T::ONE } else { T::ONE };
+        for a in 0..3 {
+            inp.v[a].set(k, tri[a]);
+            inp.n[a].set(k, n);
+            inp.b[a][k] = b[a];
+        }
+        inp.ng.set(k, ng);
+        inp.has_normals[k] = true;
+        inp.d
+            .set(k, V3::new(T::from_f64(0.25), T::from_f64(-0.5), dz));
+        want.push(n);
+    }
+    for dispatch in Dispatch::available() {
+        let mut s = Surfaces::zero();
+        dispatch.surfaces(&inp, &mut s);
+        for (k, n) in want.iter().enumerate() {
+            let what = format!("{dispatch:?} {}, lane {k}", T::NAME);
+            assert_eq!(bits(s.ns.get(k)), bits(*n), "{what}: ns");
+            assert!(!s.flipped[k], "{what}: flipped");
+            assert_eq!(s.entering[k], k < LANES / 2, "{what}: entering");
+        }
+    }
+}
+
+#[test]
+fn normals_in_the_face_plane_are_not_flipped() {
+    in_plane_normals_are_kept::<f32>();
+    in_plane_normals_are_kept::<f64>();
+}
+
+/// Triangles so small and so near the origin that the error-bound offset's floor (`1e-30`,
+/// added to each coordinate's nudge) is larger than the coordinates' own ulp: in f64 at
+/// 1e-15 the floor decides the nudge's bits (at unit size it vanishes in the rounding, so
+/// the random scenes cannot see it). The shadow ray's origin is the scalar code's bit for
+/// bit, and leaves the surface towards the light (checked in f64 against the plane
+/// through the hit point: an independent answer).
+fn tiny_triangles_are_left_towards_the_light<T: Real>(scale: f64) {
+    let tech = Techniques {
+        offset: OffsetMethod::ErrorBound,
+        terminator: Terminator::Exact,
+        ..Techniques::default()
+    };
+    let seed = test_seed("shade_lanes tiny", 0x71e1_0001);
+    let mut rng = Rng::new(seed);
+    let mut inp = SurfaceIn::<T>::zero();
+    for k in 0..LANES {
+        let tri: [V3<T>; 3] = std::array::from_fn(|_| V3::from_dvec3(rng.dvec3(-1.0, 1.0) * scale));
+        let ng = geometric_normal(&tri);
+        let b = [0.25, 0.5, 0.25].map(T::from_f64);
+        for a in 0..3 {
+            inp.v[a].set(k, tri[a]);
+            inp.b[a][k] = b[a];
+        }
+        inp.ng.set(k, ng);
+        inp.d.set(k, -ng);
+    }
+    let live = [true; LANES];
+    for dispatch in Dispatch::available() {
+        let mut s = Surfaces::zero();
+        dispatch.surfaces(&inp, &mut s);
+        // Each lane's light along its face normal: every ray is cast.
+        for k in 0..LANES {
+            let (p, ng) = (s.p.get(k), s.ng.get(k));
+            let lp = p + ng * T::from_f64(scale);
+            let mut sh = Shadows::zero();
+            dispatch.shadows(&s, &live, lp, tech, &mut sh);
+            let what = format!(
+                "seed {seed}, {dispatch:?} {} at {scale:e}, lane {k}",
+                T::NAME
+            );
+            let want = shadow_ray(&s.point(k, 0), lp, tech).expect("a light above");
+            assert!(sh.cast[k], "{what}: cast");
+            assert_eq!(bits(sh.o.get(k)), bits(want.0), "{what}: origin");
+            let lift = (sh.o.get(k).to_dvec3() - p.to_dvec3()).dot(ng.to_dvec3());
+            assert!(lift > 0.0, "{what}: origin {lift:e} off the surface");
+        }
+    }
+}
+
+#[test]
+fn tiny_triangles_near_the_origin_are_left_towards_the_light() {
+    tiny_triangles_are_left_towards_the_light::<f64>(1e-15);
+    // Where f32's cross products stay normal numbers: the floor is below its ulps.
+    tiny_triangles_are_left_towards_the_light::<f32>(1e-18);
+}

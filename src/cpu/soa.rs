@@ -27,6 +27,22 @@ pub struct SoaTris {
     pub ok: Vec<f32>,
     /// References (without the padding).
     pub len: usize,
+    /// Reference `r`'s triangle in one record at index `r` (no padding), for the packet
+    /// walk (`cpu/traverse_packet.rs`), which tests one triangle at a time against many
+    /// rays: its nine coordinates in one or two cache lines instead of nine. Empty until
+    /// [`SoaTris::pack`].
+    pub packed: Vec<PackedTri>,
+}
+
+/// One triangle of [`SoaTris`] in one record: `v[k][a]` is coordinate `a` of vertex `k`,
+/// `ok` as [`SoaTris::ok`].
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+pub struct PackedTri {
+    /// The vertices.
+    pub v: [[f32; 3]; 3],
+    /// As [`SoaTris::ok`].
+    pub ok: f32,
 }
 
 impl SoaTris {
@@ -65,7 +81,18 @@ impl SoaTris {
             v,
             ok,
             len: list.len(),
+            packed: Vec::new(),
         }
+    }
+
+    /// Fills [`SoaTris::packed`] from the arrays.
+    pub fn pack(&mut self) {
+        self.packed = (0..self.len)
+            .map(|r| PackedTri {
+                v: std::array::from_fn(|k| std::array::from_fn(|a| self.v[k][a][r])),
+                ok: self.ok[r],
+            })
+            .collect();
     }
 
     /// Bytes held (for the stats).

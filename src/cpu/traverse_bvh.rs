@@ -477,6 +477,7 @@ impl<'a> BvhWalker<'a, f32> {
         );
         let mut w = BvhWalker::vectorised(scene, bvh, techniques, isa);
         if w.isa != Isa::Scalar {
+            w.soa.pack();
             w.packets = Some(packets);
             w.closest_many = Self::packet_closest;
             w.any_many = Self::packet_any;

@@ -54,8 +54,16 @@ impl PacketIsa {
         #[cfg(target_arch = "x86_64")]
         {
             match self {
-                PacketIsa::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
-                PacketIsa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+                // POPCNT too (every CPU with AVX2 has it): the walks count lanes by
+                // their masks, which without it is a dozen instructions.
+                PacketIsa::Avx512 => {
+                    std::arch::is_x86_feature_detected!("avx512f")
+                        && std::arch::is_x86_feature_detected!("popcnt")
+                }
+                PacketIsa::Avx2 => {
+                    std::arch::is_x86_feature_detected!("avx2")
+                        && std::arch::is_x86_feature_detected!("popcnt")
+                }
             }
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -119,8 +127,8 @@ pub fn closest_hits(
         {
             let mut best: [Closest<f32>; MAX_W] =
                 std::array::from_fn(|i| Closest::new(rays[i.min(rays.len() - 1)].t_max));
-            let mut cells = [0.0f32; MAX_W];
-            let mut tests = [0.0f32; MAX_W];
+            let mut cells = [0u32; MAX_W];
+            let mut tests = [0u32; MAX_W];
             // SAFETY: `isa` is available (asserted above).
             unsafe {
                 match isa {
@@ -247,6 +255,55 @@ impl Packet {
     }
 }
 
+/// `Ray<f32>`'s size in f32, for gathering a field of a slice of rays.
+#[cfg(target_arch = "x86_64")]
+const RAY_STRIDE: usize = std::mem::size_of::<Ray<f32>>() / 4;
+
+/// Where each field the packet gathers lies in a `Ray<f32>`, in f32 from its start:
+/// origin x, y, z, direction x, y, z, `t_min`, `t_max`.
+#[cfg(target_arch = "x86_64")]
+const RAY_FIELDS: [usize; 8] = {
+    use super::real::V3;
+    use std::mem::offset_of;
+    let (o, d) = (offset_of!(Ray<f32>, o), offset_of!(Ray<f32>, d));
+    let (x, y, z) = (
+        offset_of!(V3<f32>, x),
+        offset_of!(V3<f32>, y),
+        offset_of!(V3<f32>, z),
+    );
+    let b = [
+        o + x,
+        o + y,
+        o + z,
+        d + x,
+        d + y,
+        d + z,
+        offset_of!(Ray<f32>, t_min),
+        offset_of!(Ray<f32>, t_max),
+    ];
+    let mut f = [0; 8];
+    let mut k = 0;
+    while k < 8 {
+        assert!(b[k] % 4 == 0, "f32 fields lie on f32 boundaries");
+        f[k] = b[k] / 4;
+        k += 1;
+    }
+    f
+};
+
+// `rows8` reads a ray as its eight f32 in this order.
+#[cfg(target_arch = "x86_64")]
+const _: () = {
+    let mut k = 0;
+    while k < 8 {
+        assert!(
+            RAY_FIELDS[k] == k && RAY_STRIDE == 8,
+            "a ray is eight f32 in order"
+        );
+        k += 1;
+    }
+};
+
 /// Stack entries: three per level of the deepest tree the build makes, and a node's four.
 const STACK: usize = 3 * crate::accel::bvh::MAX_DEPTH + crate::accel::bvh::WIDTH + 1;
 
@@ -332,18 +389,12 @@ macro_rules! packet_walks {
         pub(super) unsafe fn packet(rays: &[Ray<f32>]) -> Packet {
             debug_assert!(!rays.is_empty() && rays.len() <= W);
             let n = rays.len();
-            // Origin, direction and interval, lane by lane.
-            let mut f = [[0.0f32; MAX_W]; 8];
-            for i in 0..W {
-                let r = &rays[i.min(n - 1)];
-                let v = [r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, r.t_min, r.t_max];
-                for (k, x) in v.into_iter().enumerate() {
-                    f[k][i] = x;
-                }
-            }
-            // SAFETY: each array holds MAX_W >= W f32.
-            let l = |k: usize| unsafe { load(f[k].as_ptr()) };
-            let (o, d) = ([l(0), l(1), l(2)], [l(3), l(4), l(5)]);
+            // Origin, direction and interval, lane by lane: the rays' eight f32 each,
+            // transposed in registers (`RAY_FIELDS`: a ray is those eight, in order).
+            let p = rays.as_ptr() as *const f32;
+            // SAFETY: rays `0..n` exist, eight f32 each.
+            let [ox, oy, oz, dx, dy, dz, t_min, t_max] = unsafe { rows8(p, n) };
+            let (o, d) = ([ox, oy, oz], [dx, dy, dz]);
             let (zero, one) = (splat(0.0), splat(1.0));
             let all = from_bits(if W == 32 { u32::MAX } else { (1u32 << W) - 1 });
             let inv = [div(one, d[0]), div(one, d[1]), div(one, d[2])];
@@ -376,12 +427,17 @@ macro_rules! packet_walks {
                 inv: [[0.0; MAX_W]; 3],
                 ok: [[0.0; MAX_W]; 3],
                 s: [[0.0; MAX_W]; 3],
-                t_min: f[6],
-                t_max: f[7],
+                t_min: [0.0; MAX_W],
+                t_max: [0.0; MAX_W],
                 neg: [0; 3],
                 axis: [[0; 3]; 3],
                 live: (1u32 << n) - 1,
             };
+            // SAFETY: each array holds MAX_W >= W f32.
+            unsafe {
+                store(p.t_min.as_mut_ptr(), t_min);
+                store(p.t_max.as_mut_ptr(), t_max);
+            }
             for k in 0..3 {
                 // SAFETY: each array holds MAX_W >= W f32.
                 unsafe {
@@ -512,18 +568,18 @@ macro_rules! packet_walks {
             t_bound: bool,
             keep: Option<&mut Lanes>,
         ) -> u32 {
-            let v = &soa.v;
+            let v = &soa.packed[r].v;
             let [ox, oy, oz] = lv.ok;
             let [sx, sy, sz] = lv.s;
             // Vertex k's coordinates on each lane's shear axes, minus the lane's origin.
             let rel = |k: usize| match lv.uniform {
                 Some([x, y, z]) => [
-                    sub(splat(v[k][x][r]), ox),
-                    sub(splat(v[k][y][r]), oy),
-                    sub(splat(v[k][z][r]), oz),
+                    sub(splat(v[k][x]), ox),
+                    sub(splat(v[k][y]), oy),
+                    sub(splat(v[k][z]), oz),
                 ],
                 None => {
-                    let q = [v[k][0][r], v[k][1][r], v[k][2][r]];
+                    let q = v[k];
                     let [kx, ky, kz] = &lv.axis;
                     [
                         sub(pick(kx, q), ox),
@@ -612,13 +668,16 @@ macro_rules! packet_walks {
             sc: &PacketScene<'_>,
             p: &Packet,
             best: &mut [Closest<f32>; MAX_W],
-            cells_out: &mut [f32; MAX_W],
-            tests_out: &mut [f32; MAX_W],
+            cells_out: &mut [u32; MAX_W],
+            tests_out: &mut [u32; MAX_W],
         ) {
             let lv = Lv::new(p);
             let (soa, list) = (sc.soa, &sc.bvh.tri_indices);
-            // Each lane's bound (`Closest::bound`), kept beside `best` as lanes.
-            let mut hi = p.t_max;
+            // Each lane's bound (`Closest::bound`), kept beside `best` as lanes, in a
+            // register: a lane written through memory and then read as a vector would
+            // stall the load until the store retires (no store forwarding).
+            // SAFETY: the array holds MAX_W >= W f32.
+            let mut hv = unsafe { load(p.t_max.as_ptr()) };
             let (zero, one) = (splat(0.0), splat(1.0));
             let (mut cells, mut tests) = (zero, zero);
             let mut lanes = Lanes::default();
@@ -630,8 +689,8 @@ macro_rules! packet_walks {
                 near: p.t_min,
             });
             while let Some(e) = stack.pop() {
-                // SAFETY: the arrays hold MAX_W >= W f32.
-                let (hv, en) = unsafe { (load(hi.as_ptr()), load(e.near.as_ptr())) };
+                // SAFETY: the array holds MAX_W >= W f32.
+                let en = unsafe { load(e.near.as_ptr()) };
                 // The lanes still entering: as the single-ray walk's `e.near > hi` cull.
                 let m = mand(from_bits(e.mask), le(en, hv));
                 if bits(m) == 0 {
@@ -641,11 +700,9 @@ macro_rules! packet_walks {
                     let (off, n) = (e.child as usize, e.count as usize);
                     tests = add(tests, select(m, splat(n as f32), zero));
                     for r in off..off + n {
-                        if soa.ok[r].to_bits() == 0 {
+                        if soa.packed[r].ok.to_bits() == 0 {
                             continue; // zero area: never hit
                         }
-                        // SAFETY: as above.
-                        let hv = unsafe { load(hi.as_ptr()) };
                         let mut cand = triangle(&lv, soa, r, m, hv, sc.t_bound, Some(&mut lanes));
                         while cand != 0 {
                             let i = cand.trailing_zeros() as usize;
@@ -658,7 +715,8 @@ macro_rules! packet_walks {
                                 uvwd: [lanes.u[i], lanes.v[i], lanes.w[i], lanes.det[i]],
                             };
                             best[i].offer(p.t_max[i], &c, list[r]);
-                            hi[i] = best[i].bound(p.t_max[i]);
+                            let b = splat(best[i].bound(p.t_max[i]));
+                            hv = select(from_bits(1 << i), b, hv);
                         }
                     }
                     continue;
@@ -696,8 +754,8 @@ macro_rules! packet_walks {
             }
             // SAFETY: as above.
             unsafe {
-                store(cells_out.as_mut_ptr(), cells);
-                store(tests_out.as_mut_ptr(), tests);
+                store_u32(cells_out.as_mut_ptr(), cells);
+                store_u32(tests_out.as_mut_ptr(), tests);
             }
         }
 
@@ -734,7 +792,7 @@ macro_rules! packet_walks {
                     let (off, n) = (e.child as usize, e.count as usize);
                     for r in off..off + n {
                         tests += m.count_ones() as u64;
-                        if soa.ok[r].to_bits() == 0 {
+                        if soa.packed[r].ok.to_bits() == 0 {
                             continue; // zero area: never hit
                         }
                         let hit = triangle(&lv, soa, r, from_bits(m), t_max, sc.t_bound, None);
@@ -777,7 +835,7 @@ macro_rules! packet_walks {
 mod k16 {
     use super::SoaTris;
     use crate::cpu::lanes::avx512::*;
-    packet_walks!("avx512f");
+    packet_walks!("avx512f,popcnt");
 }
 
 /// The walks in 8 lanes (AVX2).
@@ -785,7 +843,7 @@ mod k16 {
 mod k8 {
     use super::SoaTris;
     use crate::cpu::lanes::avx2::*;
-    packet_walks!("avx2");
+    packet_walks!("avx2,popcnt");
 }
 
 #[cfg(test)]

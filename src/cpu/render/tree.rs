@@ -333,7 +333,24 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         // The buffer is reused: only `live` and `mat` are read where no hit wrote them.
         *live = [false; LANES];
         *mat = [0; LANES];
-        for k in 0..LANES.min(hits.len().saturating_sub(base)) {
+        let count = LANES.min(hits.len().saturating_sub(base));
+        // The hits' triangles are scattered over memory: ask for all of their records
+        // first, so that the lanes' cache misses overlap instead of coming one by one.
+        #[cfg(target_arch = "x86_64")]
+        for h in hits[base..base + count].iter().flatten() {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let tri = h.tri as usize;
+            if let (Some(v), Some(t)) = (self.walker.tris().get(tri), self.scene.triangles.get(tri))
+            {
+                // SAFETY: prefetching reads nothing and cannot fault; the addresses are of
+                // live elements anyway.
+                unsafe {
+                    _mm_prefetch::<_MM_HINT_T0>(v.as_ptr() as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(t as *const _ as *const i8);
+                }
+            }
+        }
+        for k in 0..count {
             let Some(h) = &hits[base + k] else { continue };
             live[k] = true;
             let tri = h.tri as usize;
