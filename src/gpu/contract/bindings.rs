@@ -478,7 +478,7 @@ pub enum Buffer {
     /// `image_io::srgb8_thresholds`, padded with +inf).
     SrgbThresholds,
     /// An instanced scene's placements, meshes' grids and top tree
-    /// ([`super::compute::instancing_buffer`]).
+    /// ([`super::instancing::instancing_buffer`]).
     Instancing,
 }
 
