@@ -46,6 +46,9 @@ pub struct KernelFrames {
     pub kernel: String,
     /// It rendered them while the compute kernel compiled (`GpuStats::cold_start`).
     pub cold_start: bool,
+    /// The row from which the compute kernel, its compile done, rendered the rest of the
+    /// last frame (`GpuStats::handover_row`).
+    pub handover_row: Option<u32>,
     /// The first frame's number.
     pub first: u32,
     /// The last frame's number.
@@ -65,10 +68,12 @@ pub fn kernel_runs(per_frame: &[FrameStats]) -> Vec<KernelFrames> {
             Some(r) if r.kernel == g.kernel && r.cold_start == g.cold_start => {
                 r.last = f.frame;
                 r.frames += 1;
+                r.handover_row = g.handover_row;
             }
             _ => runs.push(KernelFrames {
                 kernel: g.kernel.clone(),
                 cold_start: g.cold_start,
+                handover_row: g.handover_row,
                 first: f.frame,
                 last: f.frame,
                 frames: 1,
@@ -79,14 +84,21 @@ pub fn kernel_runs(per_frame: &[FrameStats]) -> Vec<KernelFrames> {
 }
 
 /// The kernels of `runs` for the summary line: `compute kernel`, or with a cold start
-/// `looped kernel for frames 0-1 (compute compiling), compute kernel for frames 2-119`.
+/// `looped kernel for frames 0-1 (compute compiling), compute kernel for frames 2-119`;
+/// where compute took over part way down a frame, `... (compute compiling; compute from row
+/// 512 of frame 1) ...`.
 pub fn describe_kernels(runs: &[KernelFrames]) -> String {
-    let why = |r: &KernelFrames| {
-        if r.cold_start {
-            " (compute compiling)"
-        } else {
-            ""
+    let many = runs.len() > 1 || runs.first().is_some_and(|r| r.frames > 1);
+    let why = |r: &KernelFrames| match (r.cold_start, r.handover_row) {
+        (false, _) => String::new(),
+        (true, None) => " (compute compiling)".to_string(),
+        (true, Some(row)) if many => {
+            format!(
+                " (compute compiling; compute from row {row} of frame {})",
+                r.last
+            )
         }
+        (true, Some(row)) => format!(" (compute compiling; compute from row {row})"),
     };
     match runs {
         [] => String::new(),
@@ -311,6 +323,7 @@ mod tests {
         KernelFrames {
             kernel: kernel.into(),
             cold_start,
+            handover_row: None,
             first,
             last,
             frames: last - first + 1,
@@ -332,6 +345,24 @@ mod tests {
         assert_eq!(
             describe_kernels(&[run("looped", true, 3, 5)]),
             "looped kernel (compute compiling)"
+        );
+        // The compute kernel took over part way down the last looped frame.
+        let handed = KernelFrames {
+            handover_row: Some(512),
+            ..run("looped", true, 0, 1)
+        };
+        assert_eq!(
+            describe_kernels(&[handed.clone(), run("compute", false, 2, 119)]),
+            "looped kernel for frames 0-1 (compute compiling; compute from row 512 of frame 1), \
+             compute kernel for frames 2-119"
+        );
+        let one = KernelFrames {
+            handover_row: Some(16),
+            ..run("looped", true, 0, 0)
+        };
+        assert_eq!(
+            describe_kernels(&[one]),
+            "looped kernel (compute compiling; compute from row 16)"
         );
     }
 }

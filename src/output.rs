@@ -44,6 +44,54 @@ impl BackendOutput {
         self.primary_steps.map(|s| s as f64 / pixels.max(1.0))
     }
 
+    /// One output from renders of full-width bands of rows, `parts` top band first, each
+    /// a render of its own rows of the same image (`ImageRequest::region`): the rows
+    /// stacked, the counts summed. What only some parts counted (the compute kernel's
+    /// traversal work, its primary steps, a non-finite count) is not known for the whole
+    /// and is left out rather than given for a share of the pixels.
+    ///
+    /// How `--kernel auto`'s cold start hands a frame from the fragment fallback to the
+    /// compute kernel part way down (`gpu::render`).
+    pub fn stack_rows(parts: Vec<BackendOutput>) -> BackendOutput {
+        let mut parts = parts.into_iter();
+        let mut out = parts.next().expect("stack_rows of no parts");
+        for p in parts {
+            debug_assert_eq!(p.image.width, out.image.width, "bands of one width");
+            out.image.height += p.image.height;
+            out.image.data.extend_from_slice(&p.image.data);
+            let aov_complete = !out.aov.pixels.is_empty() && !p.aov.pixels.is_empty();
+            out.aov.height += p.aov.height;
+            if aov_complete {
+                out.aov.pixels.extend_from_slice(&p.aov.pixels);
+            } else {
+                out.aov.pixels.clear();
+            }
+            let r = p.rays;
+            out.rays = RayCounts::new(
+                out.rays.primary + r.primary,
+                out.rays.shadow + r.shadow,
+                out.rays.reflected + r.reflected,
+                out.rays.refracted + r.refracted,
+            );
+            out.work = out.work.zip(p.work).map(|(a, b)| Work {
+                cells: a.cells + b.cells,
+                tests: a.tests + b.tests,
+            });
+            match (out.gpu.as_mut(), p.gpu) {
+                (Some(a), Some(b)) => a.absorb(b),
+                (None, b) => out.gpu = b,
+                (Some(_), None) => {}
+            }
+            out.srgb8 = out.srgb8.zip(p.srgb8).map(|(mut a, b)| {
+                a.extend_from_slice(&b);
+                a
+            });
+            out.primary_steps = out.primary_steps.zip(p.primary_steps).map(|(a, b)| a + b);
+            out.nonfinite = out.nonfinite.zip(p.nonfinite).map(|(a, b)| a + b);
+        }
+        out
+    }
+
     /// Whether every pixel is finite (from the image, or the backend's count).
     pub fn all_finite(&self) -> bool {
         match self.nonfinite {
@@ -220,6 +268,11 @@ pub struct GpuStats {
     /// of its own), and `kernel`, its fragment fallback, rendered this one meanwhile: the
     /// same image (issue 52).
     pub cold_start: bool,
+    /// On a cold start, the row of the whole image (0 the top) from which the compute
+    /// kernel rendered the rest of the frame, its compile having finished while the
+    /// fallback rendered the bands above; None where the fallback rendered the whole frame
+    /// (or there was no cold start).
+    pub handover_row: Option<u32>,
     /// How the kernel read the scene textures (named by `gpu::layout::Fetch::name`):
     /// `texel-fetch` or `storage-buffer` (compute, `--scene-fetch` resolved), `texture2D`
     /// (the fragment kernels).
@@ -269,6 +322,41 @@ pub struct GpuStats {
 }
 
 impl GpuStats {
+    /// Adds the figures of `other`, a render of other pixels of the same frame
+    /// ([`BackendOutput::stack_rows`]): passes, times and counts summed; the context, the
+    /// kernel and the features stay this render's (the frame's first).
+    pub fn absorb(&mut self, other: GpuStats) {
+        for (k, n) in other.passes {
+            *self.passes.entry(k).or_default() += n;
+        }
+        self.passes_total += other.passes_total;
+        self.timers_void |= other.timers_void;
+        match (self.gpu_ms.as_mut(), other.gpu_ms) {
+            (Some(a), Some(b)) if !self.timers_void => {
+                for (k, ms) in b {
+                    *a.entry(k).or_default() += ms;
+                }
+                self.gpu_ms_total = Some(a.values().sum());
+            }
+            _ => {
+                self.gpu_ms = None;
+                self.gpu_ms_total = None;
+            }
+        }
+        for (k, ms) in other.phases_ms {
+            *self.phases_ms.entry(k).or_default() += ms;
+        }
+        self.compile_ms += other.compile_ms;
+        self.programs_compiled += other.programs_compiled;
+        self.programs_cached += other.programs_cached;
+        self.upload_ms += other.upload_ms;
+        self.upload_bytes += other.upload_bytes;
+        self.trace_ms += other.trace_ms;
+        self.termination_queries += other.termination_queries;
+        self.advance_pixels += other.advance_pixels;
+        self.advance_active += other.advance_active;
+    }
+
     /// Adds the `ns` a timer query measured for one pass or dispatch of `kind`. A result of
     /// 0 or 1 ns measured nothing, and makes the whole render's GPU time unknown rather
     /// than a figure that reads as real: llvmpipe's `GL_TIME_ELAPSED` is stamped by its

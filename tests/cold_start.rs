@@ -21,11 +21,27 @@ use serde_json::Value;
 /// binary format, but empty for each test process), `extra` arguments and `env`: the
 /// stats and the summary line.
 fn render(d: &Path, extra: &[&str], env: &[(&str, &str)]) -> (Value, String) {
+    render_at(d, (48, 36), extra, env)
+}
+
+/// [`render`] at `width` x `height`.
+fn render_at(
+    d: &Path,
+    (width, height): (u32, u32),
+    extra: &[&str],
+    env: &[(&str, &str)],
+) -> (Value, String) {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/turntable.toml");
     let mut c = common::bin();
     c.current_dir(d)
         .arg(&scene)
-        .args(["--backend", "gl", "--width", "48", "--height", "36"])
+        .args(["--backend", "gl"])
+        .args([
+            "--width",
+            &width.to_string(),
+            "--height",
+            &height.to_string(),
+        ])
         .args(["--shader-cache", "on", "--stats", "s.json"])
         .args(extra)
         .env("FRAGTRACE_SHADER_CACHE_DIR", d.join("cache"))
@@ -154,6 +170,63 @@ fn a_single_cold_frame_ends_on_looped_and_compute_waits_for_its_compile() {
     let read = |p: &Path| std::fs::read(p).unwrap();
     assert!(read(&d.join("cold.exr")) == read(&fresh.join("c.exr")));
     assert!(read(&d.join("warm.exr")) == read(&fresh.join("c.exr")));
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A frame larger than the fallback's first band (65,536 pixels: 256 rows at 256 wide) on
+/// a cold cache: the looped kernel renders the first band, the compute programs are then
+/// linked (the second poll), and compute renders rows 256..319; the stats and the summary
+/// line say so. The image, its AOVs and the 8-bit PNG are the bytes of compute's whole
+/// render: the bands are stacked exactly.
+#[test]
+fn a_large_cold_frame_is_handed_to_compute_part_way_down() {
+    let d = common::tmpdir("handover");
+    let polls = [("FRAGTRACE_COMPILE_POLLS", "1")];
+    let size = (256, 320);
+    let aov = ["--aov", "depth,normal,primid,steps"];
+    for sub in ["a", "b", "c"] {
+        std::fs::create_dir_all(d.join(sub)).unwrap();
+    }
+    let (cold, line) = render_at(
+        &d.join("a"),
+        size,
+        &[&aov[..], &["-o", "h.exr", "-v"]].concat(),
+        &polls,
+    );
+    assert_eq!(cold["gpu"]["kernel"], "looped", "{cold}");
+    assert_eq!(cold["gpu"]["cold_start"], true, "{cold}");
+    assert_eq!(cold["gpu"]["handover_row"], 256, "{cold}");
+    assert_eq!(cold["rays"]["primary"], 256 * 320, "{cold}");
+    assert!(
+        line.contains("looped kernel (compute compiling; compute from row 256)"),
+        "{line}"
+    );
+    assert!(line.contains("then compute from row 256"), "{line}");
+    let (png, _) = render_at(&d.join("b"), size, &["-o", "h.png"], &polls);
+    assert_eq!(png["gpu"]["handover_row"], 256, "{png}");
+    let (whole, _) = render_at(
+        &d.join("c"),
+        size,
+        &[&aov[..], &["--kernel", "compute", "-o", "c.exr"]].concat(),
+        &[],
+    );
+    assert_eq!(whole["gpu"]["handover_row"], Value::Null, "{whole}");
+    render_at(
+        &d.join("c"),
+        size,
+        &["--kernel", "compute", "-o", "c.png"],
+        &[],
+    );
+    let read = |p: &str| std::fs::read(d.join(p)).unwrap();
+    assert!(
+        read("a/h.exr") == read("c/c.exr"),
+        "the handed-over image differs"
+    );
+    assert!(
+        read("a/h.aov.exr") == read("c/c.aov.exr"),
+        "its AOVs differ"
+    );
+    assert!(read("b/h.png") == read("c/c.png"), "its PNG differs");
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -450,7 +450,13 @@ fn summary_line(output: &Path, s: &render::RenderStats, region: Option<Region>) 
             s.backend,
             s.precision,
             match (&s.gpu, &s.plan) {
-                (Some(g), _) if g.cold_start => format!(", {} kernel (compute compiling)", g.kernel),
+                (Some(g), _) if g.cold_start => match g.handover_row {
+                    Some(row) => format!(
+                        ", {} kernel (compute compiling; compute from row {row})",
+                        g.kernel
+                    ),
+                    None => format!(", {} kernel (compute compiling)", g.kernel),
+                },
                 (Some(g), _) => format!(", {} kernel", g.kernel),
                 // The CPU path that ran (the plan records it: packets need the BVH and AVX2).
                 (None, crate::plan::Plan::Cpu { path, .. }) => format!(", {} path", path.name()),
@@ -504,8 +510,12 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
         if g.cold_start {
             out += &format!(
                 "kernel: {} while the compute kernel compiled (a cold start: its programs \
-                 were not in the program-binary cache; the same image)\n",
-                g.kernel
+                 were not in the program-binary cache; the same image){}\n",
+                g.kernel,
+                match g.handover_row {
+                    Some(row) => format!(", then compute from row {row}, its compile done"),
+                    None => String::new(),
+                }
             );
         }
         let mut rows: Vec<(String, u64, Option<f64>)> = g

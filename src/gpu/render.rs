@@ -15,6 +15,8 @@ use super::scene::GpuScene;
 use super::shader::Query;
 use super::wave::wave_size;
 use crate::accel::AccelRef;
+#[cfg(not(target_arch = "wasm32"))]
+use crate::region::Region;
 use crate::scene::Scene;
 use crate::{Error, Result};
 
@@ -70,7 +72,11 @@ pub fn render<'a>(
     #[cfg(target_arch = "wasm32")]
     let compute = || Err(no_compute());
     if let Some(k) = cold_start(gs, req)? {
-        let out = fragment::render(gs, req, k, observer)?;
+        // A watched render (the viewer) shows one kernel's passes: its frame stays whole.
+        let out = match observer {
+            None => handover(gs, req, k)?,
+            watched => fragment::render(gs, req, k, watched)?,
+        };
         return after_cold_start(gs, out);
     }
     match wing(&req.gpu, &gs.ctx().info, compute)? {
@@ -83,12 +89,11 @@ pub fn render<'a>(
 /// programs are neither kept nor in the program-binary cache, their compile is handed to
 /// the driver (`compute::programs_ready`) and, while a driver with
 /// `GL_KHR_parallel_shader_compile` works on it on threads of its own, the fallback
-/// fragment kernel renders this frame, whole: a frame is never split between kernels, so
-/// a single frame ends on it, and compute takes the frames after the compile. On the H200
-/// that is the sooner end either way (cold: the looped kernel's compile 0.37 s against
-/// compute's 1.8-2.6 s, a 1024² frame about 1 ms; docs/performance.md); a driver that
-/// compiles within the call (llvmpipe, or no extension) is done when asked, and runs
-/// compute as before. The images are the same bytes (tests/compute_kernel.rs), so only
+/// fragment kernel renders this frame band by band until the compute kernel is linked,
+/// which renders the rest ([`handover`]); compute takes the frames after the compile. On
+/// the H200 that is the sooner end either way (cold: the looped kernel's compile 0.37 s
+/// against compute's 1.8-2.6 s; docs/performance.md); a driver that compiles within the
+/// call (llvmpipe, or no extension) is done when asked, and runs compute as before. The images are the same bytes (tests/compute_kernel.rs), so only
 /// `GpuStats::kernel` and `cold_start` tell.
 #[cfg(not(target_arch = "wasm32"))]
 fn cold_start(gs: &GpuScene, req: &ImageRequest) -> Result<Option<FragmentKernel>> {
@@ -98,6 +103,85 @@ fn cold_start(gs: &GpuScene, req: &ImageRequest) -> Result<Option<FragmentKernel
         }
         _ => None,
     })
+}
+
+/// Pixels of the fallback's first band on a cold start: small enough that the compute
+/// kernel, once linked, takes over within a fraction of a large frame, large enough that a
+/// band's own set-up stays a small share (1024 rows of 64 pixels, 64 of 1024, 16 of 4096).
+#[cfg(not(target_arch = "wasm32"))]
+const FIRST_BAND_PIXELS: u64 = 1 << 16;
+
+/// How long each later band should take: the compute kernel takes over at most about this
+/// late after its compile finishes.
+#[cfg(not(target_arch = "wasm32"))]
+const BAND_TARGET: std::time::Duration = std::time::Duration::from_millis(60);
+
+/// A cold start's frame: the fallback fragment kernel `k` renders full-width bands of rows
+/// from the top while the driver compiles the compute programs, asking before each band
+/// whether they are linked; once they are, the compute kernel renders the rest of the
+/// frame in one go. The parts are the same bytes as a whole render by either kernel (a
+/// region renders exactly its pixels of the whole image: `crate::region`; the two kernels
+/// agree to the bit: `tests/compute_kernel.rs`), so the frame is too; only the stats say
+/// where the compute kernel took over ([`crate::output::GpuStats::handover_row`]). A large
+/// frame thus costs about the compile plus the compute kernel's time, never the fallback's
+/// time for the whole frame (the built-in scene at 4096² on the H100: 10.4 s of looped
+/// kernel against 64 ms of compute). Bands after the first are sized from the last one's
+/// time to take [`BAND_TARGET`].
+#[cfg(not(target_arch = "wasm32"))]
+fn handover(gs: &GpuScene, req: &ImageRequest, k: FragmentKernel) -> Result<GpuOutput> {
+    let all = req.pixels();
+    let mut rows =
+        (FIRST_BAND_PIXELS / all.width().max(1) as u64).clamp(1, all.height() as u64) as u32;
+    let mut parts = Vec::new();
+    let mut y = all.y0;
+    while y < all.y1 {
+        let rest = Region { y0: y, ..all };
+        if !parts.is_empty() && compute::programs_ready(gs, req)? {
+            let part = ImageRequest {
+                region: Some(rest),
+                ..*req
+            };
+            let compute = || compute::render(gs, &part, None);
+            let mut out = match wing(&req.gpu, &gs.ctx().info, compute)? {
+                Wing::Done(out) => out,
+                Wing::Fragment(k) => fragment::render(gs, &part, k, None)?,
+            };
+            if let Some(g) = out.gpu.as_mut() {
+                g.handover_row = Some(y);
+            }
+            parts.push(out);
+            break;
+        }
+        let band = Region {
+            y1: (y + rows).min(all.y1),
+            ..rest
+        };
+        let t0 = std::time::Instant::now();
+        let part = ImageRequest {
+            region: Some(band),
+            ..*req
+        };
+        parts.push(fragment::render(gs, &part, k, None)?);
+        let took = t0.elapsed().as_secs_f64().max(1e-4);
+        let scale = (BAND_TARGET.as_secs_f64() / took).clamp(0.25, 4.0);
+        rows = ((rows as f64 * scale) as u32).max(1);
+        y = band.y1;
+    }
+    let handover_row = parts
+        .last()
+        .and_then(|p| p.gpu.as_ref())
+        .and_then(|g| g.handover_row);
+    let mut out = crate::output::BackendOutput::stack_rows(parts);
+    if let Some(g) = out.gpu.as_mut() {
+        g.handover_row = handover_row;
+    }
+    Ok(out)
+}
+
+/// The web build has no compute kernel, so no cold start and no hand-over.
+#[cfg(target_arch = "wasm32")]
+fn handover(gs: &GpuScene, req: &ImageRequest, k: FragmentKernel) -> Result<GpuOutput> {
+    fragment::render(gs, req, k, None)
 }
 
 /// The web build has no compute kernel, so no cold start.
