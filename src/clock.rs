@@ -21,3 +21,8 @@ pub fn mark_start() {
 pub fn since_start_ms() -> u64 {
     START.get_or_init(Instant::now).elapsed().as_millis() as u64
 }
+
+/// [`since_start_ms`] to the microsecond.
+pub fn since_start_ms_f64() -> f64 {
+    START.get_or_init(Instant::now).elapsed().as_secs_f64() * 1e3
+}

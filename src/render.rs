@@ -97,6 +97,29 @@ pub struct RenderStats {
     /// Backend-specific extras (GPU pass counts and timings).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gpu: Option<GpuStats>,
+    /// Where a `render` command's whole process went (set by the command line, absent for
+    /// library renders).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub process: Option<ProcessTimes>,
+}
+
+/// The phases of one `render` command, wall time in milliseconds, for the whole-process
+/// figures (`time fragtrace render ...`): what the process spent before the scene, loading
+/// it, in the render call (the GL context, the structure's build, upload, compile and the
+/// render itself: `grid_build_ms + setup_ms + render_ms` and the context's start), and
+/// writing the image. What `time` adds beyond `total_ms` is the program's start and exit.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct ProcessTimes {
+    /// From the process's start ([`crate::clock::mark_start`]) to the scene's load.
+    pub start_ms: f64,
+    /// Loading the scene and its meshes.
+    pub load_ms: f64,
+    /// The render call, whole.
+    pub render_call_ms: f64,
+    /// Encoding and writing the image (and the AOV file).
+    pub write_ms: f64,
+    /// From the process's start to the statistics' write.
+    pub total_ms: f64,
 }
 
 /// A finished render.
@@ -403,6 +426,7 @@ impl<'s> Prepared<'s> {
             primary_steps_per_ray: out.mean_primary_steps(),
             mrays_per_s: out.rays.total as f64 / (render_ms * 1e3).max(1e-9),
             gpu: out.gpu,
+            process: None,
         };
         Rendered {
             image: out.image,

@@ -32,7 +32,9 @@
 #           every CI run on a GPU runner), then with our program-binary cache warm (the
 #           driver's still off), with the
 #           driver's cache warm (ours off); the turntable (FRAMES) cold and with our cache
-#           warm; the equal-work view at SIZES[0]² warm (SIZES[1]: the others' side). An OLD without the cache ignores its
+#           warm; the equal-work view at SIZES[0]² warm, and the built-in scene at SIZES[0]²
+#           with no cache (a large cold frame: `handover_row`, the row from which the compute
+#           kernel took over from the fallback) (SIZES[1]: the others' side). An OLD without the cache ignores its
 #           variables, so its `ours` rows are cold ones. `looped_frames`: the frames a fragment
 #           kernel rendered (with `--kernel auto`: while the compute kernel compiled, issue
 #           52's cold start); the cold and warm images and turntable frames of NEW must be the same
@@ -192,10 +194,11 @@ cold_run() {
         FRAGTRACE_SHADER_CACHE=$ours FRAGTRACE_SHADER_CACHE_DIR="$W/ours-$v" \
         "${!v}" render "$@" -q --stats "$W/cold.json" 2>>"$W/stderr"
     local wall=$(( ($(date +%s%N) - t0) / 1000000 ))
-    echo "$v $label :: wall_ms $wall $(json "$W/cold.json" '"compile_ms %.1f cached %d looped_frames %d" % (
+    echo "$v $label :: wall_ms $wall $(json "$W/cold.json" '"compile_ms %.1f cached %d looped_frames %d handover_row %s" % (
         d["gpu"]["compile_ms"] if "gpu" in d else sum(f["render"]["gpu"]["compile_ms"] for f in d["per_frame"]),
         (d["gpu"] if "gpu" in d else d["per_frame"][0]["render"]["gpu"]).get("programs_cached", 0),
-        sum(g["kernel"] != "compute" for g in ([d["gpu"]] if "gpu" in d else [f["render"]["gpu"] for f in d["per_frame"]])))' 2>/dev/null || echo failed)"
+        sum(g["kernel"] != "compute" for g in ([d["gpu"]] if "gpu" in d else [f["render"]["gpu"] for f in d["per_frame"]])),
+        next((g["handover_row"] for g in ([d["gpu"]] if "gpu" in d else [f["render"]["gpu"] for f in d["per_frame"]]) if g.get("handover_row") is not None), "-"))' 2>/dev/null || echo failed)"
 }
 
 suite_cold() {
@@ -216,6 +219,10 @@ suite_cold() {
             rm -rf "$W/drv-$v"
             cold_run "(warming the driver's cache)" $v driver -- "${ew[@]}" -o "$W/x.png" >/dev/null
             cold_run "equal-work ${n}² driver cache warm" $v driver -- "${ew[@]}" -o "$W/drv-$v.png"
+            # A large single frame from cold: the fallback renders bands until the compute
+            # kernel is linked, which renders the rest (gpu::render::handover).
+            rm -rf "$W/ours-$v"
+            cold_run "built-in scene ${big}² PNG no cache" $v ours -- --backend gl --width "$big" --height "$big" -o "$W/bic-$v.png"
             rm -rf "$W/drv-$v" "$W/ours-$v"
             cold_run "turntable ${n}² PNG no cache" $v ours -- "${tt[@]}" -o "$W/ttc-$v-####.png"
             cold_run "turntable ${n}² PNG our cache warm" $v ours -- "${tt[@]}" -o "$W/tt-$v-####.png"
@@ -226,7 +233,7 @@ suite_cold() {
             cold_run "equal-work ${n}² our cache warmed by --kernel compute" $v ours -- "${ew[@]}" -o "$W/ourc-$v.png"
         done
     done | grep -v "^(warming" | medians
-    for f in cold ours drv big; do
+    for f in cold ours drv big bic; do
         echo "image $f: $("$NEW" compare "$W/$f-OLD.png" "$W/$f-NEW.png" 2>&1 | tail -1)"
     done
     cmp -s "$W/cold-NEW.png" "$W/ours-NEW.png" || { echo "NEW: the cached programs' image differs" >&2; status=1; }

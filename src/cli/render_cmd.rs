@@ -87,7 +87,11 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         .as_deref()
         .map(crate::aov::AovKind::parse_list)
         .transpose()?;
+    let ms = |t: crate::clock::Instant| t.elapsed().as_secs_f64() * 1e3;
+    let start_ms = crate::clock::since_start_ms_f64();
+    let t = crate::clock::Instant::now();
     let scene = load(args.scene.as_deref(), args.choices.textures)?;
+    let load_ms = ms(t);
     let mut opts = args.to_options(&scene)?;
     opts.check_memory()?;
     // Read back only what the output needs: an 8-bit format (PNG, PPM, JPEG) as 8-bit sRGB
@@ -96,7 +100,9 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         aov: aovs.is_some(),
         srgb8: image_io::Format::from_path(&args.output)?.is_srgb8(),
     };
-    let out = render::render(&scene, &opts)?;
+    let t = crate::clock::Instant::now();
+    let mut out = render::render(&scene, &opts)?;
+    let render_call_ms = ms(t);
     let finite = match out.nonfinite {
         Some(n) => n == 0,
         None => out.image.all_finite(),
@@ -106,6 +112,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
             "the render produced a NaN or Inf pixel".into(),
         ));
     }
+    let t = crate::clock::Instant::now();
     match &out.srgb8 {
         Some(rgb) => image_io::write_srgb8(&args.output, out.image.width, out.image.height, rgb)?,
         None => image_io::write_image(&args.output, &out.image)?,
@@ -113,6 +120,13 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
     if let Some(kinds) = &aovs {
         crate::aov::write_aovs(&args.output, &out.aov, kinds)?;
     }
+    out.stats.process = Some(render::ProcessTimes {
+        start_ms,
+        load_ms,
+        render_call_ms,
+        write_ms: ms(t),
+        total_ms: crate::clock::since_start_ms_f64(),
+    });
     if let Some(path) = &args.stats {
         write_stats(path, &out.stats)?;
     }
