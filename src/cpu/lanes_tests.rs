@@ -173,11 +173,8 @@ macro_rules! lane_tests {
                 for (name, op, f) in cmps {
                     let want = (0..W).fold(0, |m, i| m | (u32::from(f(xs[i], ys[i])) << i));
                     // SAFETY: the unit is present (this function's feature).
-                    assert_eq!(
-                        mask_lanes(unsafe { op(a, b) }),
-                        want,
-                        "{name}: {xs:?} {ys:?}"
-                    );
+                    let got = unsafe { op(a, b) };
+                    assert_eq!(mask_lanes(got), want, "{name}: {xs:?} {ys:?}");
                 }
                 let s = xs[0];
                 assert!(lanes(splat(s)).iter().all(|x| x.to_bits() == s.to_bits()));
@@ -276,9 +273,10 @@ macro_rules! lane_tests {
                 // `gather_rows`: lane i is p[min(i, last) * stride].
                 for stride in [1, 3, 8, 11] {
                     for last in 0..W + 2 {
-                        // SAFETY: p[j * stride] for j in 0..=last lies in `v`.
                         assert!(last * stride < v.len());
-                        let got = lanes(unsafe { gather_rows(v.as_ptr(), stride, last) });
+                        // SAFETY: p[j * stride] for j in 0..=last lies in `v` (above).
+                        let got = unsafe { gather_rows(v.as_ptr(), stride, last) };
+                        let got = lanes(got);
                         for i in 0..W {
                             let want = v[i.min(last) * stride];
                             assert_eq!(
