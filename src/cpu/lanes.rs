@@ -442,3 +442,7 @@ pub mod avx2 {
         std::array::from_fn(|k| unsafe { gather_rows(p.add(k), 8, n - 1) })
     }
 }
+
+#[cfg(test)]
+#[path = "lanes_tests.rs"]
+mod tests;
