@@ -311,12 +311,13 @@ impl RenderOptions {
                  walks them on the GPU as placed, stored once; --backend cpu --accel bvh does \
                  on the CPU"
                 .into(),
-            (true, _) => {
-                let mut change = self.blocks_two_levels();
-                if change.is_empty() {
-                    // Not settled in a context (a library caller, `view`): both named.
-                    change = vec!["--kernel compute --accel uniform".into()];
-                }
+            // Not settled in a context: `view` (one scene uploaded for every kernel its
+            // key switches to), or a library caller.
+            (true, None) => "`fragtrace render --backend gl` walks them on the GPU as placed, \
+                 stored once (two levels on the compute kernel)"
+                .into(),
+            (true, Some(true)) => {
+                let change = self.blocks_two_levels();
                 format!(
                     "{} would walk them on the GPU as placed, stored once (two levels on the \
                      compute kernel)",
@@ -530,6 +531,93 @@ impl TextureMode {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gpu::options::FragmentKernel;
+
+    /// The one rule for a scene with instances on the GPU: `auto` (or the two levels'
+    /// kernel and structure named) in a context that runs compute takes the two levels,
+    /// the kernel named (and `auto`'s fallback kept aside for the loop limit); anything that
+    /// keeps a scene on the fragment kernels or the irregular grid leaves the options as
+    /// given, and the warning's advice names what to change; no compute, or no instances,
+    /// changes nothing. Settling twice changes nothing.
+    #[test]
+    fn instances_go_to_the_two_levels_where_the_context_runs_compute() {
+        let text = "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[objects]]\nshape = \"box\"\ninstances = [{ translate = [1, 0, 0] }]\n";
+        let inst = crate::scene::load_scene_str(text, "i.toml", std::path::Path::new(".")).unwrap();
+        let flat = crate::scene::builtin_scene();
+        let old = crate::gpu::info::tests::sample_info();
+        let mut new = old.clone();
+        new.compute = true;
+        new.gl_major_minor = (4, 5);
+        let base = RenderOptions {
+            backend: Backend::Gl,
+            accel: AccelChoice::Auto,
+            ..RenderOptions::for_scene(&inst)
+        };
+        let with = |f: &dyn Fn(&mut RenderOptions)| {
+            let mut o = base.clone();
+            f(&mut o);
+            o
+        };
+        let two = |o: &RenderOptions| (o.gpu.kernel, o.accel_kind());
+        let auto = base.on_context(&inst, Some(&new));
+        assert_eq!(two(&auto), (Kernel::Compute, AccelKind::Uniform));
+        assert_eq!(
+            auto.instanced_fallback,
+            Some((FragmentKernel::Looped, AccelChoice::Auto))
+        );
+        let again = auto.on_context(&inst, Some(&new));
+        assert_eq!(
+            (two(&again), again.instanced_fallback),
+            (two(&auto), auto.instanced_fallback)
+        );
+        let named = with(&|o| {
+            o.gpu.kernel = Kernel::Compute;
+            o.accel = AccelChoice::Uniform;
+        })
+        .on_context(&inst, Some(&new));
+        assert_eq!(two(&named), (Kernel::Compute, AccelKind::Uniform));
+        assert_eq!(named.instanced_fallback, None);
+        for (change, advice) in [
+            (
+                &(|o: &mut RenderOptions| o.gpu.kernel = Kernel::Looped)
+                    as &dyn Fn(&mut RenderOptions),
+                "--kernel compute",
+            ),
+            (
+                &|o: &mut RenderOptions| o.accel = AccelChoice::Irregular,
+                "--accel uniform",
+            ),
+            (
+                &|o: &mut RenderOptions| o.gpu.mask = Mask::Stencil,
+                "without --mask stencil",
+            ),
+            (
+                &|o: &mut RenderOptions| o.gpu.storage = Storage::F16,
+                "without --storage f16",
+            ),
+        ] {
+            let given = with(change);
+            let o = given.on_context(&inst, Some(&new));
+            assert_eq!(
+                (o.gpu.kernel, o.accel),
+                (given.gpu.kernel, given.accel.resolve(true).into())
+            );
+            assert_eq!(o.instanced_fallback, None);
+            let a = o.stored_once_advice();
+            assert!(a.contains(advice), "{a}");
+        }
+        let o = base.on_context(&inst, Some(&old));
+        assert_eq!(two(&o), (Kernel::Auto, AccelKind::Irregular));
+        assert!(o.stored_once_advice().contains("no compute kernel"));
+        let o = base.on_context(&flat, Some(&new));
+        assert_eq!(two(&o), (Kernel::Auto, AccelKind::Irregular));
+        let cpu = RenderOptions {
+            backend: Backend::Auto,
+            ..base.clone()
+        }
+        .on_context(&inst, None);
+        assert_eq!(two(&cpu), (Kernel::Auto, AccelKind::Bvh));
+    }
 
     /// `--accel auto` resolves to the BVH on the CPU and the irregular grid on the GPU;
     /// a named structure is the same on both.
