@@ -4,24 +4,33 @@
 # the 36-sphere scene of ci/measure-large.sh (icospheres at subdivisions = 7, 327,680
 # triangles each, on a floor) written twice, as 36 objects (stored flat) and as one object
 # with 36 instances, then N instances of the same sphere (default 3000: 983 million
-# triangles placed), each on the compute kernel, one render at a time; prints per render:
-# exit status, whole-process wall time and peak RSS (/usr/bin/time -v), the structure's
-# build, the bytes uploaded, the upload, the render (ms, from --stats) and, for the
-# instanced 36, the image against the flat one.
+# triangles placed), each on the GPU (the compute kernel unless --flags says otherwise),
+# one render at a time; prints per render:
+# exit status, whole-process wall time and peak RSS (/usr/bin/time -v), the path that ran
+# (kernel/structure, 2-level or flat), the structure's build, the bytes uploaded, the
+# upload, the render (ms, from --stats) and, for the instanced 36, the image against the
+# flat one. --flags replaces the kernel and structure flags after `--backend gl`:
+# `--flags ""` measures the default `render --backend gl` (kernel and structure left to
+# auto, which takes an instanced scene to the two levels where the context runs compute;
+# before that change, flat on the irregular grid).
 #
-#   ci/measure-gpu-instances.sh [--size PIXELS] [--bin FRAGTRACE] [--out DIR] [N]
+#   ci/measure-gpu-instances.sh [--size PIXELS] [--bin FRAGTRACE] [--out DIR]
+#                               [--flags "FLAGS"] [N]
 #
-# Defaults: --size 64, --bin target/release/fragtrace, --out target/gpu-instances, N 3000.
+# Defaults: --size 64, --bin target/release/fragtrace, --out target/gpu-instances,
+# --flags "--kernel compute --accel uniform", N 3000.
 set -euo pipefail
 out=target/gpu-instances
 bin=target/release/fragtrace
 size=64
+flags="--kernel compute --accel uniform"
 while [ $# -gt 0 ]; do
     case $1 in
         --size) size=$2; shift 2 ;;
         --bin) bin=$2; shift 2 ;;
         --out) out=$2; shift 2 ;;
-        -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+        --flags) flags=$2; shift 2 ;;
+        -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
         --*) echo "unknown option $1 (see --help)" >&2; exit 2 ;;
         *) break ;;
     esac
@@ -73,7 +82,8 @@ PY
 run() { # name scene ref : one compute render with its time, memory and stats
     local name=$1 toml=$2 ref=$3 log="$out/$1.log" stats="$out/$1.json" img="$out/$1.exr"
     rm -f "$stats"
-    if /usr/bin/time -v "$bin" render "$toml" --backend gl --kernel compute --accel uniform \
+    # shellcheck disable=SC2086 # the flags are words
+    if /usr/bin/time -v "$bin" render "$toml" --backend gl $flags \
         --width "$size" --height "$size" -o "$img" --stats "$stats" -q >"$log" 2>&1; then
         status=ok
     else
@@ -90,7 +100,10 @@ import json, sys
 path, name, status, wall, rss, cmp = sys.argv[1:]
 try:
     s = json.load(open(path)); g = s["gpu"]
-    f = (f"build {s['grid_build_ms']:8.0f} ms  uploaded {g['upload_bytes'] / 1e6:9.2f} MB  "
+    w = s["plan"].split()
+    ran = f"{w[w.index('--kernel') + 1]}/{w[w.index('--accel') + 1]}"
+    ran += "/2-level" if "instanced" in s["accel"] else "/flat"
+    f = (f"{ran:24} build {s['grid_build_ms']:8.0f} ms  uploaded {g['upload_bytes'] / 1e6:9.2f} MB  "
          f"upload {g['upload_ms']:7.0f} ms  render {s['render_ms']:8.0f} ms")
 except (OSError, ValueError, KeyError, TypeError):
     f = "(no stats)"

@@ -190,7 +190,7 @@ pub fn render_frames(
     opts.progress = false;
     opts.validate()?;
     // `--accel auto`: the structure of the backend the context settles.
-    let (ctx, opts) = render::context_for(&opts, progress)?;
+    let (ctx, opts) = render::context_for(&opts, scene, progress)?;
     let prepared = render::prepare(scene, &opts)?;
     let mut renderer: Renderer<'_> = match &ctx {
         Some(ctx) => prepared.gl_renderer(ctx, &opts)?,

@@ -10,6 +10,7 @@ use clap::ValueEnum;
 use serde::Serialize;
 
 use crate::accel::{AccelKind, GridConfig, IrregularConfig};
+use crate::gpu::options::{Kernel, Mask, Storage};
 use crate::region::Region;
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -197,6 +198,18 @@ pub struct RenderOptions {
     pub region: Option<Region>,
     /// The EGL device the GL backend opens (`--gpu N`); None: the first display that works.
     pub device: Option<u32>,
+    /// Whether the GL context that renders runs the compute kernel (OpenGL 4.3), once the
+    /// options are settled in it ([`RenderOptions::on_context`]); None before, and on the
+    /// CPU. What the warning of an instanced scene taken flat advises from
+    /// ([`RenderOptions::stored_once_advice`]).
+    pub gl_compute: Option<bool>,
+    /// Where `auto` chose the GPU's two levels for a scene with instances
+    /// ([`RenderOptions::on_context`]): the fragment kernel that renders the scene flat
+    /// instead where the driver cuts the compute kernel's loops short (llvmpipe's loop
+    /// limit), as `auto` falls back for any scene (`render::Renderer::render`), with the
+    /// structure the user asked for (`auto`, or the uniform grid named). None elsewhere: a
+    /// compute kernel the user named fails instead.
+    pub instanced_fallback: Option<(crate::gpu::options::FragmentKernel, AccelChoice)>,
 }
 
 impl RenderOptions {
@@ -220,6 +233,8 @@ impl RenderOptions {
             readback: crate::output::Readback::default(),
             region: None,
             device: None,
+            gl_compute: None,
+            instanced_fallback: None,
         }
     }
 
@@ -229,6 +244,86 @@ impl RenderOptions {
         RenderOptions {
             accel: self.accel.resolve(gpu).into(),
             ..self.clone()
+        }
+    }
+
+    /// These options for rendering `scene` in the GL context `gl` describes, or on the CPU
+    /// (None): [`on_backend`](Self::on_backend), and the one rule for a scene with
+    /// instances on the GPU. Where its kernel and structure are left to `auto` (or named as
+    /// the two levels need them) and the context runs the compute kernel, they become the
+    /// compute kernel over uniform grids, which walks the instances as two levels, stored
+    /// once (`accel/grid_instances.rs`); the kernel is then named, so that no fragment
+    /// kernel, which walks flat scenes only, takes over a frame (`auto`'s cold start and
+    /// loop-limit fallback, which takes the scene flat instead:
+    /// [`instanced_fallback`](Self::instanced_fallback)). Elsewhere (no GL 4.3, a fragment kernel, the irregular grid
+    /// or a fragment kernel's option named) they stay as given and [`crate::render::prepare`]
+    /// takes the instances flat, with one warning naming what would walk them stored once.
+    /// The backend is settled too (`auto` that took the context is `gl`). A second call
+    /// changes nothing.
+    pub fn on_context(&self, scene: &Scene, gl: Option<&crate::gpu::GlInfo>) -> RenderOptions {
+        let Some(info) = gl else {
+            return self.on_backend(false);
+        };
+        // The backend settled: `auto` that took the context renders on GL.
+        let mut o = RenderOptions {
+            backend: Backend::Gl,
+            gl_compute: Some(info.compute),
+            ..self.clone()
+        };
+        if scene.has_instances() && info.compute && self.blocks_two_levels().is_empty() {
+            o.gpu.kernel = Kernel::Compute;
+            o.accel = AccelChoice::Uniform;
+            if self.gpu.kernel == Kernel::Auto {
+                o.instanced_fallback = Some((Kernel::fastest_fragment(info), self.accel));
+            }
+        }
+        o.on_backend(true)
+    }
+
+    /// What would change the flags of these options that keep a scene's instances off the
+    /// GPU's two levels (the compute kernel over uniform grids), as flags to give
+    /// (`--kernel compute`) or drop (`without --mask stencil`): empty where none does.
+    fn blocks_two_levels(&self) -> Vec<String> {
+        let g = &self.gpu;
+        let mut change = Vec::new();
+        if !matches!(g.kernel, Kernel::Auto | Kernel::Compute) {
+            change.push("--kernel compute".to_string());
+        }
+        if !matches!(self.accel, AccelChoice::Auto | AccelChoice::Uniform) {
+            change.push("--accel uniform".into());
+        }
+        if matches!(g.mask, Mask::EarlyZ | Mask::Stencil) {
+            change.push(format!("without --mask {}", g.mask));
+        }
+        if g.storage != Storage::F32 {
+            change.push(format!("without --storage {}", g.storage));
+        }
+        change
+    }
+
+    /// What would render a scene's instances stored once, where these options (settled:
+    /// [`on_context`](Self::on_context)) take them flat: the end of the one warning
+    /// [`crate::render::prepare`] gives.
+    pub fn stored_once_advice(&self) -> String {
+        match (self.backend == Backend::Gl, self.gl_compute) {
+            (false, _) => "--backend cpu --accel bvh walks them as placed, stored once".into(),
+            (true, Some(false)) => "this GL context has no compute kernel (OpenGL 4.3), which \
+                 walks them on the GPU as placed, stored once; --backend cpu --accel bvh does \
+                 on the CPU"
+                .into(),
+            // Not settled in a context: `view` (one scene uploaded for every kernel its
+            // key switches to), or a library caller.
+            (true, None) => "`fragtrace render --backend gl` walks them on the GPU as placed, \
+                 stored once (two levels on the compute kernel)"
+                .into(),
+            (true, Some(true)) => {
+                let change = self.blocks_two_levels();
+                format!(
+                    "{} would walk them on the GPU as placed, stored once (two levels on the \
+                     compute kernel)",
+                    change.join(" ")
+                )
+            }
         }
     }
 
@@ -436,6 +531,93 @@ impl TextureMode {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gpu::options::FragmentKernel;
+
+    /// The one rule for a scene with instances on the GPU: `auto` (or the two levels'
+    /// kernel and structure named) in a context that runs compute takes the two levels,
+    /// the kernel named (and `auto`'s fallback kept aside for the loop limit); anything that
+    /// keeps a scene on the fragment kernels or the irregular grid leaves the options as
+    /// given, and the warning's advice names what to change; no compute, or no instances,
+    /// changes nothing. Settling twice changes nothing.
+    #[test]
+    fn instances_go_to_the_two_levels_where_the_context_runs_compute() {
+        let text = "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[objects]]\nshape = \"box\"\ninstances = [{ translate = [1, 0, 0] }]\n";
+        let inst = crate::scene::load_scene_str(text, "i.toml", std::path::Path::new(".")).unwrap();
+        let flat = crate::scene::builtin_scene();
+        let old = crate::gpu::info::tests::sample_info();
+        let mut new = old.clone();
+        new.compute = true;
+        new.gl_major_minor = (4, 5);
+        let base = RenderOptions {
+            backend: Backend::Gl,
+            accel: AccelChoice::Auto,
+            ..RenderOptions::for_scene(&inst)
+        };
+        let with = |f: &dyn Fn(&mut RenderOptions)| {
+            let mut o = base.clone();
+            f(&mut o);
+            o
+        };
+        let two = |o: &RenderOptions| (o.gpu.kernel, o.accel_kind());
+        let auto = base.on_context(&inst, Some(&new));
+        assert_eq!(two(&auto), (Kernel::Compute, AccelKind::Uniform));
+        assert_eq!(
+            auto.instanced_fallback,
+            Some((FragmentKernel::Looped, AccelChoice::Auto))
+        );
+        let again = auto.on_context(&inst, Some(&new));
+        assert_eq!(
+            (two(&again), again.instanced_fallback),
+            (two(&auto), auto.instanced_fallback)
+        );
+        let named = with(&|o| {
+            o.gpu.kernel = Kernel::Compute;
+            o.accel = AccelChoice::Uniform;
+        })
+        .on_context(&inst, Some(&new));
+        assert_eq!(two(&named), (Kernel::Compute, AccelKind::Uniform));
+        assert_eq!(named.instanced_fallback, None);
+        for (change, advice) in [
+            (
+                &(|o: &mut RenderOptions| o.gpu.kernel = Kernel::Looped)
+                    as &dyn Fn(&mut RenderOptions),
+                "--kernel compute",
+            ),
+            (
+                &|o: &mut RenderOptions| o.accel = AccelChoice::Irregular,
+                "--accel uniform",
+            ),
+            (
+                &|o: &mut RenderOptions| o.gpu.mask = Mask::Stencil,
+                "without --mask stencil",
+            ),
+            (
+                &|o: &mut RenderOptions| o.gpu.storage = Storage::F16,
+                "without --storage f16",
+            ),
+        ] {
+            let given = with(change);
+            let o = given.on_context(&inst, Some(&new));
+            assert_eq!(
+                (o.gpu.kernel, o.accel),
+                (given.gpu.kernel, given.accel.resolve(true).into())
+            );
+            assert_eq!(o.instanced_fallback, None);
+            let a = o.stored_once_advice();
+            assert!(a.contains(advice), "{a}");
+        }
+        let o = base.on_context(&inst, Some(&old));
+        assert_eq!(two(&o), (Kernel::Auto, AccelKind::Irregular));
+        assert!(o.stored_once_advice().contains("no compute kernel"));
+        let o = base.on_context(&flat, Some(&new));
+        assert_eq!(two(&o), (Kernel::Auto, AccelKind::Irregular));
+        let cpu = RenderOptions {
+            backend: Backend::Auto,
+            ..base.clone()
+        }
+        .on_context(&inst, None);
+        assert_eq!(two(&cpu), (Kernel::Auto, AccelKind::Bvh));
+    }
 
     /// `--accel auto` resolves to the BVH on the CPU and the irregular grid on the GPU;
     /// a named structure is the same on both.

@@ -148,6 +148,10 @@ pub struct Prepared<'s> {
     pub accel: Accel,
     /// What was built (kind, size, build time): what `--stats` and the summary report.
     pub summary: AccelSummary,
+    /// The scene with its instances stored flat, prepared where the GPU's two levels were
+    /// cut short by the driver ([`RenderOptions::instanced_fallback`]): built once, by the
+    /// first frame that needs it, for it and the frames after.
+    flat: std::cell::OnceCell<Box<Prepared<'static>>>,
 }
 
 /// Checks `opts` and builds the acceleration structure they name for `scene`.
@@ -156,8 +160,8 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
     let kind = opts.accel_kind();
     let gpu = opts.backend == Backend::Gl;
     // The CPU's BVH and the compute kernel over uniform grids walk instances as two
-    // levels (`--kernel compute` named: `auto` may resolve to a fragment kernel, which
-    // walks flat scenes only); every other structure and kernel takes them flat.
+    // levels (the kernel named: `RenderOptions::on_context` names it where `auto` may
+    // take it); every other structure and kernel takes them flat.
     let two_level_gpu = gpu
         && kind == AccelKind::Uniform
         && opts.gpu.kernel == crate::gpu::options::Kernel::Compute;
@@ -178,22 +182,32 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
             scene: Cow::Borrowed(scene),
             accel,
             summary,
+            flat: Default::default(),
         });
     }
+    prepare_flat(scene, opts, || opts.stored_once_advice())
+}
+
+/// [`prepare`] of a structure other than the two levels: an instanced scene is taken flat
+/// (but for the CPU's BVH), with one warning line ending in `advice`, what would walk it
+/// stored once.
+fn prepare_flat<'s>(
+    scene: &'s Scene,
+    opts: &RenderOptions,
+    advice: impl FnOnce() -> String,
+) -> Result<Prepared<'s>> {
+    let kind = opts.accel_kind();
+    let gpu = opts.backend == Backend::Gl;
     let scene = if scene.has_instances() && kind != AccelKind::Bvh {
         let why = format!("the {} grid", kind.name());
         let flat = scene.flattened(crate::options::MAX_HOST_BYTES, &why)?;
-        let placed = if gpu {
-            "--kernel compute --accel uniform walks them as placed on the GPU"
-        } else {
-            "--backend cpu --accel bvh walks them as placed"
-        };
         eprintln!(
-            "fragtrace: warning: {}: {why} stores the {} instances flat ({} triangles, about {:.1} MB more); {placed}",
+            "fragtrace: warning: {}: {why} stores the {} instances flat ({} triangles, about {:.1} MB more); {}",
             scene.source,
             scene.instancing.instances.len(),
             flat.triangles.len(),
-            (flat.triangles.len() - scene.triangles.len()) as f64 * 100.0 / 1e6
+            (flat.triangles.len() - scene.triangles.len()) as f64 * 100.0 / 1e6,
+            advice()
         );
         Cow::Owned(flat)
     } else {
@@ -216,6 +230,7 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
         scene,
         accel,
         summary,
+        flat: Default::default(),
     })
 }
 
@@ -505,7 +520,7 @@ pub struct Renderer<'p> {
     pending_ms: f64,
 }
 
-impl Renderer<'_> {
+impl<'p> Renderer<'p> {
     /// Renders only `region` of the image from the next frame on (None: all of it), as
     /// `RenderOptions::region` does: a process that renders several parts builds once.
     pub fn set_region(&mut self, region: Option<crate::region::Region>) -> Result<()> {
@@ -558,13 +573,72 @@ impl Renderer<'_> {
             }
             Engine::Gl(gs) => {
                 let req = self.prepared.request(opts, camera);
-                gpu::render::render(gs, &req, None)?
+                match gpu::render::render(gs, &req, None) {
+                    Err(crate::Error::Unfinished(why)) if opts.instanced_fallback.is_some() => {
+                        self.take_instances_flat(&why)?;
+                        return self.render(camera);
+                    }
+                    r => r?,
+                }
             }
         };
         let wall_ms = t0.elapsed().as_secs_f64() * 1e3 + std::mem::take(&mut self.pending_ms);
         Ok(self
             .prepared
             .rendered(opts, self.plan, out, self.device.clone(), wall_ms))
+    }
+
+    /// `auto`'s fallback for a scene with instances on the GPU's two levels where the
+    /// driver cut the compute kernel's loops short (`why`): as for any scene, a fragment
+    /// kernel ([`RenderOptions::instanced_fallback`]) renders it, and since those walk flat
+    /// scenes only, the scene is prepared flat first (its structure the one asked for:
+    /// `auto`'s for a flat scene, or the uniform grid named), with the one warning line
+    /// that says so. This frame and the next render
+    /// it; the set-up is charged to this frame.
+    fn take_instances_flat(&mut self, why: &str) -> Result<()> {
+        let Engine::Gl(gs) = &self.engine else {
+            unreachable!("only a GPU renderer meets the compute kernel's loop limit")
+        };
+        let ctx = gs.ctx();
+        let (kernel, accel) = self.opts.instanced_fallback.expect("checked by the caller");
+        let mut opts = RenderOptions {
+            accel,
+            instanced_fallback: None,
+            ..self.opts.clone()
+        };
+        opts.gpu.kernel = kernel.kernel();
+        let opts = opts.on_backend(true);
+        let t0 = Instant::now();
+        let prepared: &'p Prepared<'p> = self.prepared;
+        if prepared.flat.get().is_none() {
+            let given = &*prepared.scene;
+            let flat = prepare_flat(given, &opts, || {
+                let cut = why.split(';').next().unwrap_or(why);
+                format!(
+                    "the compute kernel, which walks them stored once, was cut short by the \
+                     driver's loop limit ({cut}); --backend cpu --accel bvh walks them stored \
+                     once"
+                )
+            })?;
+            // Flattened, the scene is owned: no copy is made.
+            let flat = Prepared {
+                scene: Cow::Owned(flat.scene.into_owned()),
+                accel: flat.accel,
+                summary: flat.summary,
+                flat: Default::default(),
+            };
+            let _ = prepared.flat.set(Box::new(flat));
+        }
+        let flat: &'p Prepared<'p> = prepared.flat.get().expect("set above");
+        let plan = Plan::resolve(&opts, flat.summary.kind, Some(&ctx.info))?;
+        let gs = GpuScene::new(ctx, &flat.scene, &flat.accel, opts.gpu.no_specialize)?
+            .with_program_cache(opts.gpu.shader_cache.open(&ctx.info));
+        self.prepared = flat;
+        self.opts = opts;
+        self.plan = plan;
+        self.engine = Engine::Gl(Box::new(gs));
+        self.pending_ms += t0.elapsed().as_secs_f64() * 1e3;
+        Ok(())
     }
 
     /// What this renderer runs.
@@ -614,7 +688,7 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
 /// Builds the acceleration structure and renders `scene` on the GPU in `ctx` (the kernel
 /// `opts.gpu.kernel` resolves to).
 pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
-    let opts = &opts.on_backend(true);
+    let opts = &opts.on_context(scene, Some(&ctx.info));
     opts.validate()?;
     // The pixels rendered must fit the driver's textures and viewport before any work is
     // done (a tile of a poster larger than the limit does).
@@ -651,15 +725,17 @@ pub const SOFTWARE_DEVICE: &str = "the only EGL device is Mesa's software raster
 /// the GPU when a suitable context can be made (on `--gpu N`'s device) and is not a
 /// software rasterizer ([`auto_declines`]), and otherwise the CPU, saying why in one line
 /// on stderr when `notices` (off with `-q`), with the GPU settings it leaves unused; `Gl` never falls back, and neither does a
-/// bad `--gpu N`. Returned with the options for that backend
-/// ([`RenderOptions::on_backend`]: `--accel auto` settled), which whoever prepares the
-/// render then uses.
+/// bad `--gpu N`. Returned with the options for that backend and `scene`
+/// ([`RenderOptions::on_context`]: `--accel auto` settled, and a scene with instances on
+/// the GPU's two levels where the context runs them), which whoever prepares the render
+/// then uses.
 pub fn context_for(
     opts: &RenderOptions,
+    scene: &Scene,
     notices: bool,
 ) -> Result<(Option<GlContext>, RenderOptions)> {
     let ctx = choose_context(opts, notices)?;
-    let opts = opts.on_backend(ctx.is_some());
+    let opts = opts.on_context(scene, ctx.as_ref().map(|c| &c.info));
     Ok((ctx, opts))
 }
 
@@ -741,7 +817,7 @@ fn unused_on_the_cpu(opts: &RenderOptions) -> String {
 /// Renders with the backend chosen in `opts` (see [`context_for`]; its notice is shown
 /// with `opts.progress`, which `-q` turns off with the progress display).
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
-    match context_for(opts, opts.progress)? {
+    match context_for(opts, scene, opts.progress)? {
         (Some(ctx), opts) => render_gl_with(&ctx, scene, &opts),
         (None, opts) => render_cpu(scene, &opts),
     }

@@ -288,7 +288,10 @@ fn bench_one(
             .filter(|ctx| render::auto_declines(&ctx.info).is_none()),
         _ => None,
     };
-    let ropts = &ropts.on_backend(ctx.is_some() || ropts.backend == Backend::Gl);
+    let ropts = &match ctx {
+        Some(ctx) => ropts.on_context(scene, Some(&ctx.info)),
+        None => ropts.on_backend(ropts.backend == Backend::Gl),
+    };
     let prepared = match cfg
         .steady
         .then(|| render::prepare(scene, ropts))

@@ -399,7 +399,7 @@ pub fn run_parts(
     // resolved for the backend the context settles) and the renderer (the GPU scene
     // uploaded once); each part sets its region and camera.
     base.validate()?;
-    let (ctx, base) = render::context_for(&base, !args.quiet)?;
+    let (ctx, base) = render::context_for(&base, &scene, !args.quiet)?;
     let prepared = render::prepare(&scene, &base)?;
     let mut renderer = match &ctx {
         Some(ctx) => prepared.gl_renderer(ctx, &base)?,

@@ -282,7 +282,7 @@ impl Kernel {
 
     /// The fastest fragment kernel for `info`: looped on GL 3.x and later, the multipass
     /// design of the period on GL 2.x, whose hardware had no dynamic loops to rely on.
-    fn fastest_fragment(info: &super::info::GlInfo) -> FragmentKernel {
+    pub fn fastest_fragment(info: &super::info::GlInfo) -> FragmentKernel {
         if info.gl_major_minor >= (3, 0) {
             FragmentKernel::Looped
         } else {
