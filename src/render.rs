@@ -575,6 +575,8 @@ impl<'p> Renderer<'p> {
                 let req = self.prepared.request(opts, camera);
                 match gpu::render::render(gs, &req, None) {
                     Err(crate::Error::Unfinished(why)) if opts.instanced_fallback.is_some() => {
+                        // The attempt is this frame's time, as `auto`'s fallback's is.
+                        self.pending_ms += t0.elapsed().as_secs_f64() * 1e3;
                         self.take_instances_flat(&why)?;
                         return self.render(camera);
                     }
