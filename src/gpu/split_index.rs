@@ -259,6 +259,49 @@ pub enum MapEntry {
 /// with few entries).
 pub fn align_blocks(w: &WideMap, bits: u32) -> Vec<MapEntry> {
     use crate::accel::irregular::NODE;
+    let (blocks, new_start, pos) = aligned_blocks(w, bits);
+    let tops = w.top_res.iter().map(|&r| r as usize).product::<usize>();
+    let size = |hop: usize| 1usize << w.hops[hop].iter().sum::<u32>();
+    let moved = |old: u32| {
+        let k = blocks
+            .binary_search_by_key(&(old as usize), |b| b.0)
+            .expect("a node entry points at a child block");
+        MapEntry::Node(new_start[k])
+    };
+    let entry = |e: u32| {
+        if e & NODE != 0 {
+            moved(e & !NODE)
+        } else {
+            MapEntry::Cell(e)
+        }
+    };
+    let mut out = vec![MapEntry::Cell(0); pos as usize];
+    for (o, &e) in out.iter_mut().zip(&w.vmap[..tops]) {
+        *o = entry(e);
+    }
+    for (&(old, hop), &new) in blocks.iter().zip(&new_start) {
+        for (o, &e) in out[new as usize..]
+            .iter_mut()
+            .zip(&w.vmap[old..old + size(hop)])
+        {
+            *o = entry(e);
+        }
+    }
+    out
+}
+
+/// Entries of the map [`align_blocks`] lays out, counted without laying it out: what the
+/// layout's size check ([`LayoutPlan`](super::layout::LayoutPlan)) reads before anything
+/// of the voxel map's texture is allocated.
+pub fn aligned_len(w: &WideMap, bits: u32) -> u64 {
+    aligned_blocks(w, bits).2
+}
+
+/// Every child block of `w` as (old start, hop), sorted by old start; the new start of
+/// each, aligned as [`align_blocks`] says; and the relaid map's length.
+#[allow(clippy::type_complexity)]
+fn aligned_blocks(w: &WideMap, bits: u32) -> (Vec<(usize, usize)>, Vec<u64>, u64) {
+    use crate::accel::irregular::NODE;
     let tops = w.top_res.iter().map(|&r| r as usize).product::<usize>();
     let size = |hop: usize| 1usize << w.hops[hop].iter().sum::<u32>();
     // Every child block: (old start, hop), found from the top entries down.
@@ -292,32 +335,7 @@ pub fn align_blocks(w: &WideMap, bits: u32) -> Vec<MapEntry> {
         new_start.push(pos);
         pos += size(hop) as u64;
     }
-    let moved = |old: u32| {
-        let k = blocks
-            .binary_search_by_key(&(old as usize), |b| b.0)
-            .expect("a node entry points at a child block");
-        MapEntry::Node(new_start[k])
-    };
-    let entry = |e: u32| {
-        if e & NODE != 0 {
-            moved(e & !NODE)
-        } else {
-            MapEntry::Cell(e)
-        }
-    };
-    let mut out = vec![MapEntry::Cell(0); pos as usize];
-    for (o, &e) in out.iter_mut().zip(&w.vmap[..tops]) {
-        *o = entry(e);
-    }
-    for (&(old, hop), &new) in blocks.iter().zip(&new_start) {
-        for (o, &e) in out[new as usize..]
-            .iter_mut()
-            .zip(&w.vmap[old..old + size(hop)])
-        {
-            *o = entry(e);
-        }
-    }
-    out
+    (blocks, new_start, pos)
 }
 
 /// Most texels a record texture addressed by float slots may take: what the 32-bit
@@ -485,6 +503,7 @@ mod tests {
             let w = WideMap::build(&g, hop_bits);
             let bits = 10;
             let a = align_blocks(&w, bits);
+            assert_eq!(aligned_len(&w, bits), a.len() as u64);
             assert!(
                 a.len() >= w.vmap.len() && w.vmap.len() > 2 << bits,
                 "{}",

@@ -42,10 +42,12 @@
 
 mod irregular;
 mod packed;
+mod plan;
 mod tex;
 
 pub use irregular::{IrregularLayout, HOP_BITS_ENV};
-pub use packed::PackedTexture;
+pub use packed::{texture_dims, PackedTexture};
+pub use plan::{irregular_cell_texels, GridCounts, LayoutCounts, LayoutPlan, TEXEL_BYTES};
 pub use tex::{TexLayout, TEX_REC};
 
 use super::contract::{mat as slot, Field, Unit};
@@ -171,6 +173,31 @@ impl SceneTextures {
         check_indices(scene, accel)?;
         let smooth = normals || scene.has_smooth_normals();
         let n_tris = scene.triangles.len();
+        // Every texture's size from the counts, refused before any is allocated (the
+        // irregular grid's voxel map as the GPU reads it is built first: its size is part
+        // of the plan).
+        let (grid, wide) = match accel {
+            GridRef::Uniform(g) => (
+                GridCounts::Uniform {
+                    cells: g.cells.len() as u64,
+                    refs: g.tri_indices.len() as u64,
+                },
+                None,
+            ),
+            GridRef::Irregular(g) => {
+                let w = IrregularLayout::wide_map(g, max_size);
+                let vmap_entries = IrregularLayout::entries(&w, format);
+                IrregularLayout::check_entries(vmap_entries, format)?;
+                let counts = GridCounts::Irregular {
+                    cells: g.cells.len() as u64,
+                    refs: g.tri_indices.len() as u64,
+                    vmap_entries,
+                };
+                (counts, Some(w))
+            }
+        };
+        LayoutPlan::new(&LayoutCounts::of(scene, grid, smooth, format))
+            .check(max_size, crate::memory::available_bytes())?;
         let mut tri = Vec::with_capacity(n_tris * 3);
         let mut nrm = Vec::with_capacity(if smooth { n_tris * 3 } else { 0 });
         for (i, t) in scene.triangles.iter().enumerate() {
@@ -229,8 +256,8 @@ impl SceneTextures {
                 (lo, hi)
             }
         };
-        let (cell, tri_indices, irregular) = match accel {
-            GridRef::Uniform(grid) => (
+        let (cell, tri_indices, irregular) = match (accel, wide) {
+            (GridRef::Uniform(grid), _) => (
                 grid.cells
                     .iter()
                     .map(|c| {
@@ -241,16 +268,12 @@ impl SceneTextures {
                 &grid.tri_indices,
                 None,
             ),
-            GridRef::Irregular(g) => {
+            (GridRef::Irregular(g), wide) => {
                 let f = |v: [u32; 3], w: f32| [v[0] as f32, v[1] as f32, v[2] as f32, w];
                 // Cell k at its float slot (k itself below 2^24: the Float format's only).
                 let per = format.irregular_cell_texels() as usize;
-                let slots = g
-                    .cells
-                    .len()
-                    .checked_sub(1)
-                    .map_or(0, |k| float_slot(k as u64) + 1);
-                let mut cell = vec![[0f32; 4]; slots as usize * per];
+                let texels = irregular_cell_texels(g.cells.len() as u64, format);
+                let mut cell = vec![[0f32; 4]; texels as usize];
                 for (k, c) in g.cells.iter().enumerate() {
                     let (lo, hi) = off(c.range.offset);
                     let at = &mut cell[float_slot(k as u64) as usize * per..][..per];
@@ -263,7 +286,12 @@ impl SceneTextures {
                 (
                     cell,
                     &g.tri_indices,
-                    Some(IrregularLayout::pack(g, max_size, format)?),
+                    Some(IrregularLayout::pack(
+                        g,
+                        wide.unwrap_or_else(|| IrregularLayout::wide_map(g, max_size)),
+                        max_size,
+                        format,
+                    )?),
                 )
             }
         };
@@ -417,6 +445,45 @@ mod tests {
         let n = g.tri_indices.len();
         let listed: Vec<u32> = l.list.data[..n].iter().map(|&x| x as u32).collect();
         assert_eq!(listed, g.tri_indices);
+    }
+
+    /// A real irregular grid (a 5,120-triangle icosphere) whose cell texture, in the split
+    /// format (3 texels a cell), passes a limit its triangle texture fits: refused by the
+    /// size check before the cell texture is allocated, naming `cell`, the limit and both
+    /// options that exist; at the next size up it packs.
+    #[test]
+    fn irregular_cells_beyond_the_limit_are_refused_before_packing() {
+        use crate::accel::{IrregularConfig, IrregularGrid};
+        let (p, _, t) = crate::scene::shapes::sphere(4);
+        let tris: Vec<_> = t.iter().map(|f| f.map(|i| p[i as usize])).collect();
+        let s = crate::testing::scene_of(&tris);
+        let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
+        let cells = irregular_cell_texels(g.cells.len() as u64, IndexFormat::Split);
+        let tri = s.triangles.len() as u64 * TRI_TEXELS as u64;
+        // The smallest square power-of-two limit the triangles fit.
+        let max = (1u32..)
+            .map(|b| 1 << b)
+            .find(|&m| m as u64 * m as u64 >= tri)
+            .unwrap();
+        println!("{tri} triangle texels, {cells} cell texels (split), limit {max}");
+        assert!(
+            cells > max as u64 * max as u64,
+            "{cells} cell texels fit {max}"
+        );
+        let e = SceneTextures::pack_format(&s, &g, max, false, IndexFormat::Split).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            matches!(e, Error::Limit(_)) && !text.contains('\n'),
+            "{text}"
+        );
+        for want in [
+            format!("texture `cell` needs {cells} texels"),
+            format!("GL_MAX_TEXTURE_SIZE is {max}"),
+            "--accel uniform, or --backend cpu".into(),
+        ] {
+            assert!(text.contains(&want), "{text}");
+        }
+        assert!(SceneTextures::pack_format(&s, &g, 2 * max, false, IndexFormat::Split).is_ok());
     }
 
     #[test]

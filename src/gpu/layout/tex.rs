@@ -29,6 +29,28 @@ pub struct TexLayout {
 }
 
 impl TexLayout {
+    /// Texels [`TexLayout::pack`] lays out for `scene` (`None`: no `tex` texture), counted
+    /// before anything is allocated.
+    pub(super) fn texels(scene: &Scene) -> Option<u64> {
+        if !scene.has_textures() && !scene.has_vertex_colors() {
+            return None;
+        }
+        let n = scene.triangles.len() as u64;
+        let colors = if scene.has_vertex_colors() { 3 * n } else { 0 };
+        let textures: u64 = scene
+            .textures
+            .iter()
+            .map(|t| {
+                1 + t
+                    .levels
+                    .iter()
+                    .map(|l| 1 + l.texels.len() as u64)
+                    .sum::<u64>()
+            })
+            .sum();
+        Some(n * TEX_REC as u64 + colors + textures)
+    }
+
     /// The layout of `scene`, or `None` when it has neither textures nor vertex colours.
     pub(super) fn pack(scene: &Scene, max_size: u32) -> Result<Option<Self>> {
         use crate::scene::texture::TriTex;
