@@ -43,7 +43,9 @@ pub const IRREGULAR_CELLS_PER_TRIANGLE: f64 = 1.875;
 /// sparser every 2^23 cells, which its cell texture leaves empty: not linear in the
 /// triangles (about 43 bytes more per triangle at 11.8 M triangles, 1,900 at 32.8 M).
 pub fn gpu_bytes(kind: AccelKind, triangles: u64) -> u64 {
-    use crate::gpu::layout::{irregular_cell_texels, IndexFormat, TEXEL_BYTES};
+    use crate::gpu::split_index::{irregular_cell_texels, IndexFormat};
+    // RGBA32F (`gpu::layout::TEXEL_BYTES`; the layout reads this file, not the other way).
+    let texel_bytes = std::mem::size_of::<[f32; 4]>() as u64;
     let linear = triangles * GPU_BYTES_PER_TRIANGLE;
     if kind != AccelKind::Irregular {
         return linear;
@@ -51,7 +53,7 @@ pub fn gpu_bytes(kind: AccelKind, triangles: u64) -> u64 {
     let cells = (triangles as f64 * IRREGULAR_CELLS_PER_TRIANGLE) as u64;
     let per = IndexFormat::Split.irregular_cell_texels() as u64;
     let empty = irregular_cell_texels(cells, IndexFormat::Split) - cells * per;
-    linear + 2 * empty * TEXEL_BYTES
+    linear + 2 * empty * texel_bytes
 }
 
 /// Environment variable naming a file read instead of `/proc/meminfo` (tests: a machine

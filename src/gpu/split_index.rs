@@ -223,8 +223,7 @@ pub(crate) fn check_indices(scene: &Scene, accel: GridRef<'_>) -> Result<()> {
             )))
         }
         GridRef::Irregular(g) if !g.cells.is_empty() => {
-            let per = IndexFormat::Split.irregular_cell_texels() as u64;
-            let texels = (float_slot(g.cells.len() as u64 - 1) + 1) * per;
+            let texels = irregular_cell_texels(g.cells.len() as u64, IndexFormat::Split);
             if texels > MAX_SLOT_TEXELS {
                 return Err(Error::Limit(format!(
                     "{} grid cells; the GPU's irregular grid addresses them through {texels} \
@@ -336,6 +335,15 @@ fn aligned_blocks(w: &WideMap, bits: u32) -> (Vec<(usize, usize)>, Vec<u64>, u64
         pos += size(hop) as u64;
     }
     (blocks, new_start, pos)
+}
+
+/// Texels of the irregular grid's cell texture: cell k at its [`float_slot`], `format`'s
+/// texels per cell, the slots between left empty; as
+/// [`SceneTextures::pack`](super::layout::SceneTextures::pack) lays it out. Past 2^24 cells
+/// it grows faster than the cells (twice as fast per cell every 2^23 more).
+pub fn irregular_cell_texels(cells: u64, format: IndexFormat) -> u64 {
+    let slots = cells.checked_sub(1).map_or(0, |k| float_slot(k) + 1);
+    slots * format.irregular_cell_texels() as u64
 }
 
 /// Most texels a record texture addressed by float slots may take: what the 32-bit

@@ -47,15 +47,15 @@ mod tex;
 
 pub use irregular::{IrregularLayout, HOP_BITS_ENV};
 pub use packed::{texture_dims, PackedTexture};
-pub use plan::{irregular_cell_texels, GridCounts, LayoutCounts, LayoutPlan, TEXEL_BYTES};
+pub use plan::{GridCounts, LayoutCounts, LayoutPlan, TEXEL_BYTES};
 pub use tex::{TexLayout, TEX_REC};
 
 use super::contract::{mat as slot, Field, Unit};
 use super::split_index::check_indices;
 pub use super::split_index::{
-    check_triangles, float_slot, rec_coord, slot_coord, slot_record, split, split_coord,
-    IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE, SPLIT_INDEX_ENV,
-    TRI_SLOT_BANDS,
+    check_triangles, float_slot, irregular_cell_texels, rec_coord, slot_coord, slot_record, split,
+    split_coord, IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE,
+    SPLIT_INDEX_ENV, TRI_SLOT_BANDS,
 };
 use crate::accel::{AccelRef, GridRef};
 use crate::scene::{CheckerAxes, Scene};

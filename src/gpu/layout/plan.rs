@@ -2,18 +2,20 @@
 //! scene's and the grid's sizes, and checked against the GPU's texture size and the host's
 //! memory before any texture is allocated (issue 53: a scene too large is refused in one
 //! line, not after allocating it). The counts matter most for the irregular grid: its cells
-//! sit at float slots ([`float_slot`]) that get sparser every 2^23 cells past 2^24, so its
+//! sit at float slots ([`float_slot`](super::float_slot)) that get sparser every 2^23 cells past 2^24, so its
 //! cell texture grows faster than its cells: the 100-sphere scene's 61.5 M cells take
 //! 2.14 G texels (34 GB), where they would take 184 M densely.
 
 use super::packed::too_large;
 use super::tex::TexLayout;
-use super::{float_slot, texture_dims, IndexFormat, LIST_PER_TEXEL, MAT_TEXELS, TRI_TEXELS};
+use super::{
+    irregular_cell_texels, texture_dims, IndexFormat, LIST_PER_TEXEL, MAT_TEXELS, TRI_TEXELS,
+};
 use crate::scene::Scene;
 use crate::{Error, Result};
 
 /// Bytes of one RGBA32F texel.
-pub const TEXEL_BYTES: u64 = 16;
+pub const TEXEL_BYTES: u64 = std::mem::size_of::<[f32; 4]>() as u64;
 
 /// What the grid adds to the layout, in counts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -65,13 +67,6 @@ impl LayoutCounts {
             format,
         }
     }
-}
-
-/// Texels of the irregular grid's cell texture: cell k at its [`float_slot`], `format`'s
-/// texels per cell; as [`SceneTextures::pack`](super::SceneTextures::pack) lays it out.
-pub fn irregular_cell_texels(cells: u64, format: IndexFormat) -> u64 {
-    let slots = cells.checked_sub(1).map_or(0, |k| float_slot(k) + 1);
-    slots * format.irregular_cell_texels() as u64
 }
 
 /// Every texture the layout allocates, with its texels, in packing order.
