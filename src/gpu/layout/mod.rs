@@ -19,7 +19,8 @@
 //! (record, texel) without forming their product; triangle and irregular cell ids are
 //! float slots (exact floats past 2^24), voxel-map blocks start at exact floats. What
 //! remains is the uniform grid's cell index (below 2^24), [`MAX_GPU_TRIANGLES`] and the
-//! GPU's own limits, each refused with one line ([`SceneTextures::pack`]).
+//! GPU's own limits, each refused with one line ([`SceneTextures::pack`]), the textures'
+//! sizes from the counts before any is allocated ([`LayoutPlan`]).
 //!
 //! | texture | texels per item | contents |
 //! |---|---|---|
