@@ -197,8 +197,8 @@ impl SceneTextures {
                 (counts, Some(w))
             }
         };
-        LayoutPlan::new(&LayoutCounts::of(scene, grid, smooth, format))
-            .check(max_size, crate::memory::available_bytes())?;
+        let plan = LayoutPlan::new(&LayoutCounts::of(scene, grid, smooth, format));
+        plan.check(max_size, crate::memory::available_bytes())?;
         let mut tri = Vec::with_capacity(n_tris * 3);
         let mut nrm = Vec::with_capacity(if smooth { n_tris * 3 } else { 0 });
         for (i, t) in scene.triangles.iter().enumerate() {
@@ -315,7 +315,7 @@ impl SceneTextures {
             }
         }
         let slots = |t: PackedTexture| PackedTexture { slots: true, ..t };
-        Ok(SceneTextures {
+        let packed = SceneTextures {
             tri: slots(PackedTexture::pack("tri", tri, max_size)?),
             nrm: if smooth {
                 Some(slots(PackedTexture::pack("nrm", nrm, max_size)?))
@@ -328,7 +328,19 @@ impl SceneTextures {
             irregular,
             tex,
             format,
-        })
+        };
+        // What was checked is what was packed: every texture as the plan sized it.
+        for t in packed.all() {
+            let counted = plan.textures.iter().find(|&&(n, _)| n == t.name);
+            let want = counted.map(|&(_, n)| texture_dims(n, max_size));
+            if want != Some((t.width, t.height as u64)) {
+                return Err(Error::Internal(format!(
+                    "texture `{}` packed {}x{} where the plan counted {want:?}",
+                    t.name, t.width, t.height
+                )));
+            }
+        }
+        Ok(packed)
     }
 
     /// All textures, in binding order.

@@ -103,6 +103,14 @@ impl TexLayout {
                 texels.extend(l.texels.iter().map(|c| [c[0], c[1], c[2], 0.0]));
             }
         }
+        // The size check counted these texels before any was allocated (`LayoutPlan`).
+        if Some(texels.len() as u64) != Self::texels(scene) {
+            return Err(Error::Internal(format!(
+                "`tex` packed {} texels where {:?} were counted",
+                texels.len(),
+                Self::texels(scene)
+            )));
+        }
         Ok(Some(TexLayout {
             texture: PackedTexture::pack("tex", texels, max_size)?,
             colors,
