@@ -7,6 +7,12 @@
 //! (1.31 M triangles, 2 cores): whole-process peaks of 0.22 GB (BVH), 0.35 GB (uniform grid)
 //! and 0.77 GB (irregular grid), less the scene and the binary. They are estimates, so the
 //! check refuses only what cannot fit: more than the memory the kernel reports available.
+//! Re-measured on the 12-sphere scene (3.93 M triangles, 2 cores, llvmpipe, at b70a83e):
+//! 2.19 GB whole process for the CPU's irregular grid, 2.87 GB for the compute kernel over
+//! it, under the estimates' 2.2 and 3.4 GB beside the scene. The irregular grid's GPU
+//! layout is not linear in the triangles past 2^24 cells ([`gpu_bytes`]); once the grid is
+//! built, the layout's exact sizes are checked again before anything is packed
+//! ([`LayoutPlan`](crate::gpu::layout::LayoutPlan)).
 
 use crate::accel::AccelKind;
 use crate::{Error, Result};
@@ -24,6 +30,31 @@ pub fn build_bytes_per_triangle(kind: AccelKind) -> u64 {
 /// texels, about 140 for the irregular grid) and again in the driver's copy (llvmpipe keeps
 /// its textures in host memory).
 pub const GPU_BYTES_PER_TRIANGLE: u64 = 300;
+
+/// Irregular cells per triangle the GPU estimate assumes: 2.13 measured on
+/// `ci/measure-large.sh`'s 12-sphere scene (8,368,508 cells for 3,932,162 triangles), 1.88 on
+/// its 100-sphere scene (61.5 M cells for 32.8 M triangles, from the H100's refusal); the
+/// lower, as the estimate refuses only what cannot fit.
+pub const IRREGULAR_CELLS_PER_TRIANGLE: f64 = 1.875;
+
+/// Bytes the GPU layout of a `kind` structure over `triangles` triangles takes on the host
+/// (with the driver's copy): [`GPU_BYTES_PER_TRIANGLE`] each, and for the irregular grid
+/// the float slots of its cells past 2^24 ([`float_slot`](crate::gpu::layout::float_slot)),
+/// sparser every 2^23 cells, which its cell texture leaves empty: not linear in the
+/// triangles (about 43 bytes more per triangle at 11.8 M triangles, 1,900 at 32.8 M).
+pub fn gpu_bytes(kind: AccelKind, triangles: u64) -> u64 {
+    use crate::gpu::split_index::{irregular_cell_texels, IndexFormat};
+    // RGBA32F (`gpu::layout::TEXEL_BYTES`; the layout reads this file, not the other way).
+    let texel_bytes = std::mem::size_of::<[f32; 4]>() as u64;
+    let linear = triangles * GPU_BYTES_PER_TRIANGLE;
+    if kind != AccelKind::Irregular {
+        return linear;
+    }
+    let cells = (triangles as f64 * IRREGULAR_CELLS_PER_TRIANGLE) as u64;
+    let per = IndexFormat::Split.irregular_cell_texels() as u64;
+    let empty = irregular_cell_texels(cells, IndexFormat::Split) - cells * per;
+    linear + 2 * empty * texel_bytes
+}
 
 /// Environment variable naming a file read instead of `/proc/meminfo` (tests: a machine
 /// with less memory than this one).
@@ -52,18 +83,31 @@ pub fn check_build(
     let Some(available) = available else {
         return Ok(());
     };
-    let per = build_bytes_per_triangle(kind) + if gpu { GPU_BYTES_PER_TRIANGLE } else { 0 };
-    let need = triangles as u64 * per;
+    let build = triangles as u64 * build_bytes_per_triangle(kind);
+    let need = build
+        + if gpu {
+            gpu_bytes(kind, triangles as u64)
+        } else {
+            0
+        };
+    let per = need / (triangles as u64).max(1);
     if need <= available {
         return Ok(());
     }
     let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
-    let advice = match kind {
-        AccelKind::Bvh => "free memory or render on a larger machine".to_string(),
-        _ => format!(
-            "--backend cpu --accel bvh needs about {:.1} GiB",
-            gib(triangles as u64 * build_bytes_per_triangle(AccelKind::Bvh))
-        ),
+    let bvh = gib(triangles as u64 * build_bytes_per_triangle(AccelKind::Bvh));
+    let advice = match (kind, gpu) {
+        (AccelKind::Bvh, _) => "free memory or render on a larger machine".to_string(),
+        (AccelKind::Irregular, true) => {
+            let n = triangles as u64;
+            let uniform =
+                n * build_bytes_per_triangle(AccelKind::Uniform) + gpu_bytes(AccelKind::Uniform, n);
+            format!(
+                "--accel uniform needs about {:.1} GiB, --backend cpu --accel bvh about {bvh:.1} GiB",
+                gib(uniform)
+            )
+        }
+        _ => format!("--backend cpu --accel bvh needs about {bvh:.1} GiB"),
     };
     Err(Error::Limit(format!(
         "the {} of {triangles} triangles needs about {:.1} GiB of memory ({per} bytes per \
@@ -94,17 +138,45 @@ mod tests {
         assert!(matches!(e, Error::Limit(_)), "{e}");
         assert!(!text.contains('\n'), "{text}");
         assert!(
-            text.contains("32768002 triangles needs about 26.2 GiB"),
+            text.contains("32768002 triangles needs about 84.3 GiB"),
             "{text}"
         );
         assert!(text.contains("4.0 GiB is available"), "{text}");
         assert!(
-            text.contains("--backend cpu --accel bvh needs about 3.7 GiB"),
+            text.contains(
+                "--accel uniform needs about 16.2 GiB, --backend cpu --accel bvh about 3.7 GiB"
+            ),
             "{text}"
+        );
+        let e = check_build(AccelKind::Uniform, 32_768_002, false, Some(gib)).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("--backend cpu --accel bvh needs about 3.7 GiB"),
+            "{e}"
         );
         let e = check_build(AccelKind::Bvh, 100_000_000, false, Some(gib)).unwrap_err();
         assert!(e.to_string().contains("free memory"), "{e}");
         assert!(check_build(AccelKind::Bvh, usize::MAX / 1024, false, None).is_ok());
+    }
+
+    /// The GPU layout's estimate: linear below 2^24 cells (all structures), then the
+    /// irregular grid's empty float slots on top: 2,200 bytes per triangle for the layout
+    /// at the 100-sphere scene's 32.8 M triangles (its 61.4 M estimated cells at slots that
+    /// take 2.1 G texels, the 34 GB the H100's host allocated), 343 at the 36-sphere
+    /// scene's 11.8 M.
+    #[test]
+    fn gpu_estimate_counts_the_slot_spacing() {
+        let n = 32_768_002u64;
+        assert_eq!(gpu_bytes(AccelKind::Uniform, n), n * GPU_BYTES_PER_TRIANGLE);
+        let small = 8_000_000u64; // 15 M cells: below 2^24, no slots skipped
+        assert_eq!(
+            gpu_bytes(AccelKind::Irregular, small),
+            small * GPU_BYTES_PER_TRIANGLE
+        );
+        let per = |n: u64| gpu_bytes(AccelKind::Irregular, n) as f64 / n as f64;
+        let (big, mid) = (per(n), per(11_796_482));
+        assert!((2100.0..2300.0).contains(&big), "{big}");
+        assert!((330.0..360.0).contains(&mid), "{mid}");
     }
 
     /// The machine's figure is read where there is one (Linux).

@@ -223,8 +223,7 @@ pub(crate) fn check_indices(scene: &Scene, accel: GridRef<'_>) -> Result<()> {
             )))
         }
         GridRef::Irregular(g) if !g.cells.is_empty() => {
-            let per = IndexFormat::Split.irregular_cell_texels() as u64;
-            let texels = (float_slot(g.cells.len() as u64 - 1) + 1) * per;
+            let texels = irregular_cell_texels(g.cells.len() as u64, IndexFormat::Split);
             if texels > MAX_SLOT_TEXELS {
                 return Err(Error::Limit(format!(
                     "{} grid cells; the GPU's irregular grid addresses them through {texels} \
@@ -259,6 +258,49 @@ pub enum MapEntry {
 /// with few entries).
 pub fn align_blocks(w: &WideMap, bits: u32) -> Vec<MapEntry> {
     use crate::accel::irregular::NODE;
+    let (blocks, new_start, pos) = aligned_blocks(w, bits);
+    let tops = w.top_res.iter().map(|&r| r as usize).product::<usize>();
+    let size = |hop: usize| 1usize << w.hops[hop].iter().sum::<u32>();
+    let moved = |old: u32| {
+        let k = blocks
+            .binary_search_by_key(&(old as usize), |b| b.0)
+            .expect("a node entry points at a child block");
+        MapEntry::Node(new_start[k])
+    };
+    let entry = |e: u32| {
+        if e & NODE != 0 {
+            moved(e & !NODE)
+        } else {
+            MapEntry::Cell(e)
+        }
+    };
+    let mut out = vec![MapEntry::Cell(0); pos as usize];
+    for (o, &e) in out.iter_mut().zip(&w.vmap[..tops]) {
+        *o = entry(e);
+    }
+    for (&(old, hop), &new) in blocks.iter().zip(&new_start) {
+        for (o, &e) in out[new as usize..]
+            .iter_mut()
+            .zip(&w.vmap[old..old + size(hop)])
+        {
+            *o = entry(e);
+        }
+    }
+    out
+}
+
+/// Entries of the map [`align_blocks`] lays out, counted without laying it out: what the
+/// layout's size check ([`LayoutPlan`](super::layout::LayoutPlan)) reads before anything
+/// of the voxel map's texture is allocated.
+pub fn aligned_len(w: &WideMap, bits: u32) -> u64 {
+    aligned_blocks(w, bits).2
+}
+
+/// Every child block of `w` as (old start, hop), sorted by old start; the new start of
+/// each, aligned as [`align_blocks`] says; and the relaid map's length.
+#[allow(clippy::type_complexity)]
+fn aligned_blocks(w: &WideMap, bits: u32) -> (Vec<(usize, usize)>, Vec<u64>, u64) {
+    use crate::accel::irregular::NODE;
     let tops = w.top_res.iter().map(|&r| r as usize).product::<usize>();
     let size = |hop: usize| 1usize << w.hops[hop].iter().sum::<u32>();
     // Every child block: (old start, hop), found from the top entries down.
@@ -292,32 +334,16 @@ pub fn align_blocks(w: &WideMap, bits: u32) -> Vec<MapEntry> {
         new_start.push(pos);
         pos += size(hop) as u64;
     }
-    let moved = |old: u32| {
-        let k = blocks
-            .binary_search_by_key(&(old as usize), |b| b.0)
-            .expect("a node entry points at a child block");
-        MapEntry::Node(new_start[k])
-    };
-    let entry = |e: u32| {
-        if e & NODE != 0 {
-            moved(e & !NODE)
-        } else {
-            MapEntry::Cell(e)
-        }
-    };
-    let mut out = vec![MapEntry::Cell(0); pos as usize];
-    for (o, &e) in out.iter_mut().zip(&w.vmap[..tops]) {
-        *o = entry(e);
-    }
-    for (&(old, hop), &new) in blocks.iter().zip(&new_start) {
-        for (o, &e) in out[new as usize..]
-            .iter_mut()
-            .zip(&w.vmap[old..old + size(hop)])
-        {
-            *o = entry(e);
-        }
-    }
-    out
+    (blocks, new_start, pos)
+}
+
+/// Texels of the irregular grid's cell texture: cell k at its [`float_slot`], `format`'s
+/// texels per cell, the slots between left empty; as
+/// [`SceneTextures::pack`](super::layout::SceneTextures::pack) lays it out. Past 2^24 cells
+/// it grows faster than the cells (twice as fast per cell every 2^23 more).
+pub fn irregular_cell_texels(cells: u64, format: IndexFormat) -> u64 {
+    let slots = cells.checked_sub(1).map_or(0, |k| float_slot(k) + 1);
+    slots * format.irregular_cell_texels() as u64
 }
 
 /// Most texels a record texture addressed by float slots may take: what the 32-bit
@@ -485,6 +511,7 @@ mod tests {
             let w = WideMap::build(&g, hop_bits);
             let bits = 10;
             let a = align_blocks(&w, bits);
+            assert_eq!(aligned_len(&w, bits), a.len() as u64);
             assert!(
                 a.len() >= w.vmap.len() && w.vmap.len() > 2 << bits,
                 "{}",

@@ -8,7 +8,7 @@ use super::{
 };
 use crate::accel::irregular_wide::WideMap;
 use crate::accel::IrregularGrid;
-use crate::gpu::split_index::{align_blocks, MapEntry};
+use crate::gpu::split_index::{align_blocks, aligned_len, MapEntry};
 use crate::{Error, Result};
 
 /// The irregular grid's part of the layout: its voxel map and the constants of the descent.
@@ -39,8 +39,10 @@ fn pow2_literal(n: u32) -> String {
 }
 
 impl IrregularLayout {
-    pub(super) fn pack(g: &IrregularGrid, max_size: u32, format: IndexFormat) -> Result<Self> {
-        let w = match hop_bits_override() {
+    /// The voxel map the GPU reads for `g`: hops as wide as a texture of this GPU holds
+    /// ([`WideMap::for_gpu`]), or as [`HOP_BITS_ENV`] fixes them.
+    pub(super) fn wide_map(g: &IrregularGrid, max_size: u32) -> WideMap {
+        match hop_bits_override() {
             Some(bits) => WideMap::build(g, bits),
             None => {
                 // Entries the largest texture of this GPU holds (as `PackedTexture::pack`
@@ -48,7 +50,42 @@ impl IrregularLayout {
                 let row = prev_pow2(max_size.min(MAX_ROW)).max(1) as usize;
                 WideMap::for_gpu(g, row * max_size as usize * LIST_PER_TEXEL as usize)
             }
+        }
+    }
+
+    /// Entries the voxel map `w` takes in `format` (the split format's blocks aligned to
+    /// exact floats: [`align_blocks`]), counted before it is laid out.
+    pub(super) fn entries(w: &WideMap, format: IndexFormat) -> u64 {
+        match format {
+            IndexFormat::Float => w.vmap.len() as u64,
+            IndexFormat::Split => aligned_len(w, f32::MANTISSA_DIGITS),
+        }
+    }
+
+    /// Refuses a voxel map of `entries` entries that the descent of `format` cannot read.
+    pub(super) fn check_entries(entries: u64, format: IndexFormat) -> Result<()> {
+        let limit = match format {
+            IndexFormat::Float => MAX_EXACT_INDEX,
+            // The compute kernel's integer reads (`entry_vmap_split`).
+            IndexFormat::Split => MAX_SLOT_TEXELS,
         };
+        if entries > limit {
+            return Err(Error::Limit(format!(
+                "{entries} voxel-map entries; the GPU's descent reads at most {limit}; --accel \
+                 uniform, or render it with --backend cpu"
+            )));
+        }
+        Ok(())
+    }
+
+    /// Packs `g` with its GPU voxel map `w` ([`IrregularLayout::wide_map`]), whose size
+    /// the caller has checked ([`LayoutPlan`](super::LayoutPlan)).
+    pub(super) fn pack(
+        g: &IrregularGrid,
+        w: WideMap,
+        max_size: u32,
+        format: IndexFormat,
+    ) -> Result<Self> {
         let cell = |id: u32| float_slot(id as u64) as f32;
         let entries: Vec<f32> = match format {
             IndexFormat::Float => w
@@ -70,18 +107,7 @@ impl IrregularLayout {
                 })
                 .collect(),
         };
-        let limit = match format {
-            IndexFormat::Float => MAX_EXACT_INDEX,
-            // The compute kernel's integer reads (`entry_vmap_split`).
-            IndexFormat::Split => MAX_SLOT_TEXELS,
-        };
-        if entries.len() as u64 > limit {
-            return Err(Error::Limit(format!(
-                "{} voxel-map entries; the GPU's descent reads at most {limit}; --accel \
-                 uniform, or render it with --backend cpu",
-                entries.len()
-            )));
-        }
+        Self::check_entries(entries.len() as u64, format)?;
         Ok(IrregularLayout {
             vmap: PackedTexture::pack_entries("vmap", &entries, max_size)?,
             top_res: g.top_res,

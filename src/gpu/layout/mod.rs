@@ -19,7 +19,8 @@
 //! (record, texel) without forming their product; triangle and irregular cell ids are
 //! float slots (exact floats past 2^24), voxel-map blocks start at exact floats. What
 //! remains is the uniform grid's cell index (below 2^24), [`MAX_GPU_TRIANGLES`] and the
-//! GPU's own limits, each refused with one line ([`SceneTextures::pack`]).
+//! GPU's own limits, each refused with one line ([`SceneTextures::pack`]), the textures'
+//! sizes from the counts before any is allocated ([`LayoutPlan`]).
 //!
 //! | texture | texels per item | contents |
 //! |---|---|---|
@@ -42,18 +43,20 @@
 
 mod irregular;
 mod packed;
+mod plan;
 mod tex;
 
 pub use irregular::{IrregularLayout, HOP_BITS_ENV};
-pub use packed::PackedTexture;
+pub use packed::{texture_dims, PackedTexture};
+pub use plan::{GridCounts, LayoutCounts, LayoutPlan, TEXEL_BYTES};
 pub use tex::{TexLayout, TEX_REC};
 
 use super::contract::{mat as slot, Field, Unit};
 use super::split_index::check_indices;
 pub use super::split_index::{
-    check_triangles, float_slot, rec_coord, slot_coord, slot_record, split, split_coord,
-    IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE, SPLIT_INDEX_ENV,
-    TRI_SLOT_BANDS,
+    check_triangles, float_slot, irregular_cell_texels, rec_coord, slot_coord, slot_record, split,
+    split_coord, IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE,
+    SPLIT_INDEX_ENV, TRI_SLOT_BANDS,
 };
 use crate::accel::{AccelRef, GridRef};
 use crate::scene::{CheckerAxes, Scene};
@@ -171,6 +174,31 @@ impl SceneTextures {
         check_indices(scene, accel)?;
         let smooth = normals || scene.has_smooth_normals();
         let n_tris = scene.triangles.len();
+        // Every texture's size from the counts, refused before any is allocated (the
+        // irregular grid's voxel map as the GPU reads it is built first: its size is part
+        // of the plan).
+        let (grid, wide) = match accel {
+            GridRef::Uniform(g) => (
+                GridCounts::Uniform {
+                    cells: g.cells.len() as u64,
+                    refs: g.tri_indices.len() as u64,
+                },
+                None,
+            ),
+            GridRef::Irregular(g) => {
+                let w = IrregularLayout::wide_map(g, max_size);
+                let vmap_entries = IrregularLayout::entries(&w, format);
+                IrregularLayout::check_entries(vmap_entries, format)?;
+                let counts = GridCounts::Irregular {
+                    cells: g.cells.len() as u64,
+                    refs: g.tri_indices.len() as u64,
+                    vmap_entries,
+                };
+                (counts, Some(w))
+            }
+        };
+        let plan = LayoutPlan::new(&LayoutCounts::of(scene, grid, smooth, format));
+        plan.check(max_size, crate::memory::available_bytes())?;
         let mut tri = Vec::with_capacity(n_tris * 3);
         let mut nrm = Vec::with_capacity(if smooth { n_tris * 3 } else { 0 });
         for (i, t) in scene.triangles.iter().enumerate() {
@@ -229,8 +257,8 @@ impl SceneTextures {
                 (lo, hi)
             }
         };
-        let (cell, tri_indices, irregular) = match accel {
-            GridRef::Uniform(grid) => (
+        let (cell, tri_indices, irregular) = match (accel, wide) {
+            (GridRef::Uniform(grid), _) => (
                 grid.cells
                     .iter()
                     .map(|c| {
@@ -241,16 +269,12 @@ impl SceneTextures {
                 &grid.tri_indices,
                 None,
             ),
-            GridRef::Irregular(g) => {
+            (GridRef::Irregular(g), wide) => {
                 let f = |v: [u32; 3], w: f32| [v[0] as f32, v[1] as f32, v[2] as f32, w];
                 // Cell k at its float slot (k itself below 2^24: the Float format's only).
                 let per = format.irregular_cell_texels() as usize;
-                let slots = g
-                    .cells
-                    .len()
-                    .checked_sub(1)
-                    .map_or(0, |k| float_slot(k as u64) + 1);
-                let mut cell = vec![[0f32; 4]; slots as usize * per];
+                let texels = irregular_cell_texels(g.cells.len() as u64, format);
+                let mut cell = vec![[0f32; 4]; texels as usize];
                 for (k, c) in g.cells.iter().enumerate() {
                     let (lo, hi) = off(c.range.offset);
                     let at = &mut cell[float_slot(k as u64) as usize * per..][..per];
@@ -263,7 +287,12 @@ impl SceneTextures {
                 (
                     cell,
                     &g.tri_indices,
-                    Some(IrregularLayout::pack(g, max_size, format)?),
+                    Some(IrregularLayout::pack(
+                        g,
+                        wide.unwrap_or_else(|| IrregularLayout::wide_map(g, max_size)),
+                        max_size,
+                        format,
+                    )?),
                 )
             }
         };
@@ -286,7 +315,7 @@ impl SceneTextures {
             }
         }
         let slots = |t: PackedTexture| PackedTexture { slots: true, ..t };
-        Ok(SceneTextures {
+        let packed = SceneTextures {
             tri: slots(PackedTexture::pack("tri", tri, max_size)?),
             nrm: if smooth {
                 Some(slots(PackedTexture::pack("nrm", nrm, max_size)?))
@@ -299,7 +328,19 @@ impl SceneTextures {
             irregular,
             tex,
             format,
-        })
+        };
+        // What was checked is what was packed: every texture as the plan sized it.
+        for t in packed.all() {
+            let counted = plan.textures.iter().find(|&&(n, _)| n == t.name);
+            let want = counted.map(|&(_, n)| texture_dims(n, max_size));
+            if want != Some((t.width, t.height as u64)) {
+                return Err(Error::Internal(format!(
+                    "texture `{}` packed {}x{} where the plan counted {want:?}",
+                    t.name, t.width, t.height
+                )));
+            }
+        }
+        Ok(packed)
     }
 
     /// All textures, in binding order.
@@ -417,6 +458,45 @@ mod tests {
         let n = g.tri_indices.len();
         let listed: Vec<u32> = l.list.data[..n].iter().map(|&x| x as u32).collect();
         assert_eq!(listed, g.tri_indices);
+    }
+
+    /// A real irregular grid (a 5,120-triangle icosphere) whose cell texture, in the split
+    /// format (3 texels a cell), passes a limit its triangle texture fits: refused by the
+    /// size check before the cell texture is allocated, naming `cell`, the limit and both
+    /// options that exist; at the next size up it packs.
+    #[test]
+    fn irregular_cells_beyond_the_limit_are_refused_before_packing() {
+        use crate::accel::{IrregularConfig, IrregularGrid};
+        let (p, _, t) = crate::scene::shapes::sphere(4);
+        let tris: Vec<_> = t.iter().map(|f| f.map(|i| p[i as usize])).collect();
+        let s = crate::testing::scene_of(&tris);
+        let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
+        let cells = irregular_cell_texels(g.cells.len() as u64, IndexFormat::Split);
+        let tri = s.triangles.len() as u64 * TRI_TEXELS as u64;
+        // The smallest square power-of-two limit the triangles fit.
+        let max = (1u32..)
+            .map(|b| 1 << b)
+            .find(|&m| m as u64 * m as u64 >= tri)
+            .unwrap();
+        println!("{tri} triangle texels, {cells} cell texels (split), limit {max}");
+        assert!(
+            cells > max as u64 * max as u64,
+            "{cells} cell texels fit {max}"
+        );
+        let e = SceneTextures::pack_format(&s, &g, max, false, IndexFormat::Split).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            matches!(e, Error::Limit(_)) && !text.contains('\n'),
+            "{text}"
+        );
+        for want in [
+            format!("texture `cell` needs {cells} texels"),
+            format!("GL_MAX_TEXTURE_SIZE is {max}"),
+            "--accel uniform, or --backend cpu".into(),
+        ] {
+            assert!(text.contains(&want), "{text}");
+        }
+        assert!(SceneTextures::pack_format(&s, &g, 2 * max, false, IndexFormat::Split).is_ok());
     }
 
     #[test]

@@ -31,20 +31,14 @@ impl PackedTexture {
     /// where rows of [`MAX_ROW`] would need more than `max_size` of them. Whether the
     /// indices that address them are exact is the caller's ([`SceneTextures::pack`](super::SceneTextures::pack)).
     pub fn pack(name: &'static str, texels: Vec<[f32; 4]>, max_size: u32) -> Result<Self> {
-        let n = texels.len().max(1) as u64;
-        let narrow = prev_pow2(max_size.min(MAX_ROW)).max(1);
-        let cap = if n > narrow as u64 * max_size as u64 {
-            prev_pow2(max_size).max(1)
-        } else {
-            narrow
-        };
-        let width = (n.next_power_of_two().min(cap as u64)) as u32;
-        let height = n.div_ceil(width as u64);
+        let (width, height) = texture_dims(texels.len() as u64, max_size);
         if height > max_size as u64 {
-            return Err(Error::Limit(format!(
-                "texture `{name}` needs {n} texels, {width}x{height}, but GL_MAX_TEXTURE_SIZE \
-                 is {max_size}; render it with --backend cpu"
-            )));
+            return Err(too_large(
+                name,
+                texels.len() as u64,
+                max_size,
+                "--backend cpu",
+            ));
         }
         let height = height as u32;
         // Padded and flattened in place: no second copy of a scene's largest textures.
@@ -219,6 +213,33 @@ impl PackedTexture {
     pub fn bytes(&self) -> usize {
         self.data.len() * 4
     }
+}
+
+/// (width, height) of a texture of `texels` texels as [`PackedTexture::pack`] lays it out
+/// under a limit of `max_size`: rows of [`MAX_ROW`] (a power of two), or rows as wide as
+/// the limit allows where rows of [`MAX_ROW`] would need more than `max_size` of them. The
+/// height may pass `max_size`: then the texture does not fit.
+pub fn texture_dims(texels: u64, max_size: u32) -> (u32, u64) {
+    let n = texels.max(1);
+    let narrow = prev_pow2(max_size.min(MAX_ROW)).max(1);
+    let cap = if n > narrow as u64 * max_size as u64 {
+        prev_pow2(max_size).max(1)
+    } else {
+        narrow
+    };
+    let width = (n.next_power_of_two().min(cap as u64)) as u32;
+    (width, n.div_ceil(width as u64))
+}
+
+/// The one line refusing texture `name` of `texels` texels beyond `max_size`, naming
+/// `options` that render the scene instead.
+pub(super) fn too_large(name: &str, texels: u64, max_size: u32, options: &str) -> Error {
+    let (width, height) = texture_dims(texels, max_size);
+    Error::Limit(format!(
+        "texture `{name}` needs {} texels, {width}x{height}, but GL_MAX_TEXTURE_SIZE is \
+         {max_size}; render it with {options}",
+        texels.max(1)
+    ))
 }
 
 pub(super) fn prev_pow2(v: u32) -> u32 {

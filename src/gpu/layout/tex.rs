@@ -29,6 +29,28 @@ pub struct TexLayout {
 }
 
 impl TexLayout {
+    /// Texels [`TexLayout::pack`] lays out for `scene` (`None`: no `tex` texture), counted
+    /// before anything is allocated.
+    pub(super) fn texels(scene: &Scene) -> Option<u64> {
+        if !scene.has_textures() && !scene.has_vertex_colors() {
+            return None;
+        }
+        let n = scene.triangles.len() as u64;
+        let colors = if scene.has_vertex_colors() { 3 * n } else { 0 };
+        let textures: u64 = scene
+            .textures
+            .iter()
+            .map(|t| {
+                1 + t
+                    .levels
+                    .iter()
+                    .map(|l| 1 + l.texels.len() as u64)
+                    .sum::<u64>()
+            })
+            .sum();
+        Some(n * TEX_REC as u64 + colors + textures)
+    }
+
     /// The layout of `scene`, or `None` when it has neither textures nor vertex colours.
     pub(super) fn pack(scene: &Scene, max_size: u32) -> Result<Option<Self>> {
         use crate::scene::texture::TriTex;
@@ -80,6 +102,14 @@ impl TexLayout {
             for l in &t.levels {
                 texels.extend(l.texels.iter().map(|c| [c[0], c[1], c[2], 0.0]));
             }
+        }
+        // The size check counted these texels before any was allocated (`LayoutPlan`).
+        if Some(texels.len() as u64) != Self::texels(scene) {
+            return Err(Error::Internal(format!(
+                "`tex` packed {} texels where {:?} were counted",
+                texels.len(),
+                Self::texels(scene)
+            )));
         }
         Ok(Some(TexLayout {
             texture: PackedTexture::pack("tex", texels, max_size)?,
