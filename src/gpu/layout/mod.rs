@@ -198,7 +198,12 @@ impl SceneTextures {
             }
         };
         let plan = LayoutPlan::new(&LayoutCounts::of(scene, grid, smooth, format));
-        plan.check(max_size, crate::memory::available_bytes())?;
+        // The browser tells a page nothing of the host's memory: there the driver refuses.
+        #[cfg(not(target_arch = "wasm32"))]
+        let available = crate::memory::available_bytes();
+        #[cfg(target_arch = "wasm32")]
+        let available = None;
+        plan.check(max_size, available)?;
         let mut tri = Vec::with_capacity(n_tris * 3);
         let mut nrm = Vec::with_capacity(if smooth { n_tris * 3 } else { 0 });
         for (i, t) in scene.triangles.iter().enumerate() {
