@@ -30,6 +30,8 @@ pub mod accel;
 pub mod animate;
 pub mod aov;
 #[cfg(not(target_arch = "wasm32"))]
+pub mod backend_choice;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod bench;
 pub mod choices;
 #[cfg(not(target_arch = "wasm32"))]
