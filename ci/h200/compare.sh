@@ -34,7 +34,9 @@
 #           driver's cache warm (ours off); the turntable (FRAMES) cold and with our cache
 #           warm; the equal-work view at SIZES[0]² warm, and the built-in scene at SIZES[0]²
 #           with no cache (a large cold frame: `handover_row`, the row from which the compute
-#           kernel took over from the fallback) (SIZES[1]: the others' side). An OLD without the cache ignores its
+#           kernel took over from the fallback) (SIZES[1]: the others' side). A single
+#           render's line ends with its `process` times (`--stats`: start, load, the render
+#           call, the write, total ms), where the build writes them. An OLD without the cache ignores its
 #           variables, so its `ours` rows are cold ones. `looped_frames`: the frames a fragment
 #           kernel rendered (with `--kernel auto`: while the compute kernel compiled, issue
 #           52's cold start); the cold and warm images and turntable frames of NEW must be the same
@@ -194,11 +196,12 @@ cold_run() {
         FRAGTRACE_SHADER_CACHE=$ours FRAGTRACE_SHADER_CACHE_DIR="$W/ours-$v" \
         "${!v}" render "$@" -q --stats "$W/cold.json" 2>>"$W/stderr"
     local wall=$(( ($(date +%s%N) - t0) / 1000000 ))
-    echo "$v $label :: wall_ms $wall $(json "$W/cold.json" '"compile_ms %.1f cached %d looped_frames %d handover_row %s" % (
+    echo "$v $label :: wall_ms $wall $(json "$W/cold.json" '"compile_ms %.1f cached %d looped_frames %d handover_row %s%s" % (
         d["gpu"]["compile_ms"] if "gpu" in d else sum(f["render"]["gpu"]["compile_ms"] for f in d["per_frame"]),
         (d["gpu"] if "gpu" in d else d["per_frame"][0]["render"]["gpu"]).get("programs_cached", 0),
         sum(g["kernel"] != "compute" for g in ([d["gpu"]] if "gpu" in d else [f["render"]["gpu"] for f in d["per_frame"]])),
-        next((g["handover_row"] for g in ([d["gpu"]] if "gpu" in d else [f["render"]["gpu"] for f in d["per_frame"]]) if g.get("handover_row") is not None), "-"))' 2>/dev/null || echo failed)"
+        next((g["handover_row"] for g in ([d["gpu"]] if "gpu" in d else [f["render"]["gpu"] for f in d["per_frame"]]) if g.get("handover_row") is not None), "-"),
+        "".join(" %s %.1f" % kv for kv in (d.get("process") or {}).items()))' 2>/dev/null || echo failed)"
 }
 
 suite_cold() {

@@ -11,7 +11,9 @@
 #
 # After it: FRAGTRACE_MODEL_PATH is set, NVIDIA's EGL vendor file is named, and `stats_line
 # FILE` / `frames_line FILE` print a `--stats` JSON of one render / of `render --frames`.
-if compgen -G ".gl/*.deb" >/dev/null; then
+# Only on the NVIDIA machine: elsewhere (a checkout that keeps .gl/ for the next call) the
+# system's own GL stays, and NVIDIA's vendor file would leave EGL without a display.
+if compgen -G ".gl/*.deb" >/dev/null && command -v nvidia-smi >/dev/null; then
     for f in .gl/*.deb; do dpkg -x "$f" /; done
     ldconfig
     export __EGL_VENDOR_LIBRARY_FILENAMES=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
