@@ -7,6 +7,7 @@
 pub mod closest;
 pub mod intersect;
 pub mod lanes;
+pub mod packet_state;
 pub mod real;
 pub mod render;
 pub mod shade;
