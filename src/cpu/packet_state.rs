@@ -36,14 +36,11 @@ pub(super) struct Packet {
     pub(super) live: u32,
 }
 
-#[cfg(all(test, target_arch = "x86_64"))]
 impl Packet {
-    /// The packet of `rays` ray by ray, from the single-ray walks' own constructors: the
-    /// reference the vectorised `packet` of each unit is tested against.
-    pub(super) fn new(rays: &[Ray<f32>]) -> Packet {
-        use super::simd::RayConsts;
-        debug_assert!(!rays.is_empty() && rays.len() <= MAX_W);
-        let mut p = Packet {
+    /// A packet of `n` live lanes (the first `n`), every value zero, for the set-up to fill.
+    #[cfg(target_arch = "x86_64")]
+    pub(super) fn empty(n: usize) -> Packet {
+        Packet {
             o: [[0.0; MAX_W]; 3],
             inv: [[0.0; MAX_W]; 3],
             ok: [[0.0; MAX_W]; 3],
@@ -52,8 +49,19 @@ impl Packet {
             t_max: [0.0; MAX_W],
             neg: [0; 3],
             axis: [[0; 3]; 3],
-            live: (1u32 << rays.len()) - 1,
-        };
+            live: (1u32 << n) - 1,
+        }
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+impl Packet {
+    /// The packet of `rays` ray by ray, from the single-ray walks' own constructors: the
+    /// reference the vectorised `packet` of each unit is tested against.
+    pub(super) fn new(rays: &[Ray<f32>]) -> Packet {
+        use super::simd::RayConsts;
+        debug_assert!(!rays.is_empty() && rays.len() <= MAX_W);
+        let mut p = Packet::empty(rays.len());
         for i in 0..MAX_W {
             let ray = &rays[i.min(rays.len() - 1)];
             // The t bound is the walk's switch, not the packet's: any value here.

@@ -244,17 +244,7 @@ macro_rules! packet_walks {
                 pick3(&axis[1], &o),
                 pick3(&axis[2], &o),
             ];
-            let mut p = Packet {
-                o: [[0.0; MAX_W]; 3],
-                inv: [[0.0; MAX_W]; 3],
-                ok: [[0.0; MAX_W]; 3],
-                s: [[0.0; MAX_W]; 3],
-                t_min: [0.0; MAX_W],
-                t_max: [0.0; MAX_W],
-                neg: [0; 3],
-                axis: [[0; 3]; 3],
-                live: (1u32 << n) - 1,
-            };
+            let mut p = Packet::empty(n);
             // SAFETY: each array holds MAX_W >= W f32.
             unsafe {
                 store(p.t_min.as_mut_ptr(), t_min);

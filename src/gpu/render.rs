@@ -133,6 +133,7 @@ fn handover(gs: &GpuScene, req: &ImageRequest, k: FragmentKernel) -> Result<GpuO
     let mut rows =
         (FIRST_BAND_PIXELS / all.width().max(1) as u64).clamp(1, all.height() as u64) as u32;
     let mut parts = Vec::new();
+    let mut handover_row = None;
     let mut y = all.y0;
     while y < all.y1 {
         let rest = Region { y0: y, ..all };
@@ -142,14 +143,11 @@ fn handover(gs: &GpuScene, req: &ImageRequest, k: FragmentKernel) -> Result<GpuO
                 ..*req
             };
             let compute = || compute::render(gs, &part, None);
-            let mut out = match wing(&req.gpu, &gs.ctx().info, compute)? {
+            parts.push(match wing(&req.gpu, &gs.ctx().info, compute)? {
                 Wing::Done(out) => out,
                 Wing::Fragment(k) => fragment::render(gs, &part, k, None)?,
-            };
-            if let Some(g) = out.gpu.as_mut() {
-                g.handover_row = Some(y);
-            }
-            parts.push(out);
+            });
+            handover_row = Some(y);
             break;
         }
         let band = Region {
@@ -167,10 +165,6 @@ fn handover(gs: &GpuScene, req: &ImageRequest, k: FragmentKernel) -> Result<GpuO
         rows = ((rows as f64 * scale) as u32).max(1);
         y = band.y1;
     }
-    let handover_row = parts
-        .last()
-        .and_then(|p| p.gpu.as_ref())
-        .and_then(|g| g.handover_row);
     let mut out = crate::output::BackendOutput::stack_rows(parts);
     if let Some(g) = out.gpu.as_mut() {
         g.handover_row = handover_row;
