@@ -42,13 +42,12 @@ fn tiles_and_frames_on_a_real_slurm_cluster_equal_the_single_process_bits() {
         (true, false) => Some("not root (the test starts munged, slurmctld and slurmd)".into()),
     };
     if let Some(why) = why {
-        if std::env::var("FRAGTRACE_ALLOW_SKIP").as_deref() == Ok("1") {
-            eprintln!("SKIPPED (FRAGTRACE_ALLOW_SKIP=1): the Slurm test cannot run: {why}");
+        if !common::acknowledged_skip(
+            &format!("the Slurm test cannot run: {why}"),
+            "install them and run as root (ci/test.sh does)",
+        ) {
             return;
         }
-        panic!(
-            "the Slurm test cannot run: {why}; set FRAGTRACE_ALLOW_SKIP=1 to acknowledge the skip"
-        );
     }
     let out = Command::new("bash")
         .arg(repo.join("ci/slurm/test.sh"))

@@ -26,37 +26,13 @@ const GL21: [(&str, &str); 2] = [
     ("MESA_GLSL_VERSION_OVERRIDE", "120"),
 ];
 
-/// Whether an X display is there; without one, panics unless the skip is acknowledged.
+/// Whether an X display is there; without one, [`common::acknowledged_skip`].
 fn display_or_acknowledged_skip(test: &str) -> bool {
-    if std::env::var_os("DISPLAY").is_some_and(|d| !d.is_empty()) {
-        return true;
-    }
-    let why = format!("{test} needs an X display (DISPLAY is unset)");
-    if std::env::var("FRAGTRACE_ALLOW_SKIP").as_deref() == Ok("1") {
-        eprintln!("SKIPPED (FRAGTRACE_ALLOW_SKIP=1): {why}");
-        false
-    } else {
-        panic!(
-            "{why}: run the tests under `xvfb-run -a` (apt-get install -y xvfb), or set \
-             FRAGTRACE_ALLOW_SKIP=1 to acknowledge the skip"
-        );
-    }
-}
-
-/// Whether the GL driver is Mesa (whose override variables force GL 2.1); off Mesa,
-/// panics unless the skip is acknowledged, as the GL unit tests do.
-fn mesa_or_acknowledged_skip(test: &str) -> bool {
-    let version = common::with_test_context(|ctx| ctx.info.gl_version.clone());
-    if version.contains("Mesa") {
-        return true;
-    }
-    let why = format!("{test} forces GL 2.1 through Mesa's overrides; the driver is {version:?}");
-    if std::env::var("FRAGTRACE_ALLOW_SKIP").as_deref() == Ok("1") {
-        eprintln!("SKIPPED (FRAGTRACE_ALLOW_SKIP=1): {why}");
-        false
-    } else {
-        panic!("{why}: run it on Mesa, or set FRAGTRACE_ALLOW_SKIP=1 to acknowledge the skip");
-    }
+    std::env::var_os("DISPLAY").is_some_and(|d| !d.is_empty())
+        || common::acknowledged_skip(
+            &format!("{test} needs an X display (DISPLAY is unset)"),
+            "run the tests under `xvfb-run -a` (apt-get install -y xvfb)",
+        )
 }
 
 fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
@@ -242,7 +218,7 @@ fn screenshot_equals_headless_render_mesh_scene() {
 #[test]
 fn screenshot_equals_headless_render_in_gl21() {
     if !display_or_acknowledged_skip("screenshot_equals_headless_render_in_gl21")
-        || !mesa_or_acknowledged_skip("screenshot_equals_headless_render_in_gl21")
+        || !common::mesa_overrides_available()
     {
         return;
     }
@@ -432,7 +408,7 @@ fn no_display_is_one_line_and_exit_2() {
 #[test]
 fn inadequate_context_is_one_line_and_exit_2() {
     if !display_or_acknowledged_skip("inadequate_context_is_one_line_and_exit_2")
-        || !mesa_or_acknowledged_skip("inadequate_context_is_one_line_and_exit_2")
+        || !common::mesa_overrides_available()
     {
         return;
     }

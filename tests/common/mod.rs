@@ -221,19 +221,24 @@ pub fn shipped_scenes() -> Vec<(String, Scene)> {
     v
 }
 
-/// Whether a test that forces a GL 2.1 context through Mesa's version overrides can run
-/// here: true on Mesa; on another driver false with a `SKIPPED` line where
-/// `FRAGTRACE_ALLOW_SKIP=1` acknowledges the skip, else a panic (a skip is never silent).
-pub fn mesa_overrides_available() -> bool {
-    let version = with_test_context(|ctx| ctx.info.gl_version.clone());
-    if version.contains("Mesa") {
-        return true;
-    }
-    let why =
-        format!("this test forces GL 2.1 through Mesa's overrides; the driver is {version:?}");
+/// A test that cannot run here for the reason `why`: false after a `SKIPPED` line where
+/// `FRAGTRACE_ALLOW_SKIP=1` acknowledges the skip, else a panic naming `why` and `remedy`
+/// (a skip is never silent; docs/testing.md).
+pub fn acknowledged_skip(why: &str, remedy: &str) -> bool {
     if std::env::var("FRAGTRACE_ALLOW_SKIP").as_deref() == Ok("1") {
         eprintln!("SKIPPED (FRAGTRACE_ALLOW_SKIP=1): {why}");
         return false;
     }
-    panic!("{why}: run it on Mesa, or set FRAGTRACE_ALLOW_SKIP=1 to acknowledge the skip");
+    panic!("{why}: {remedy}, or set FRAGTRACE_ALLOW_SKIP=1 to acknowledge the skip");
+}
+
+/// Whether a test that forces a GL 2.1 context through Mesa's version overrides can run
+/// here: true on Mesa, else [`acknowledged_skip`].
+pub fn mesa_overrides_available() -> bool {
+    let version = with_test_context(|ctx| ctx.info.gl_version.clone());
+    version.contains("Mesa")
+        || acknowledged_skip(
+            &format!("this test forces GL 2.1 through Mesa's overrides; the driver is {version:?}"),
+            "run it on Mesa",
+        )
 }
