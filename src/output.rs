@@ -293,6 +293,9 @@ pub struct GpuStats {
     /// aov; the fragment kernels' drain (waiting for the walk's queued passes), srgb8 (the
     /// 8-bit conversion pass of a PNG) and read_back (their passes' GPU time is in `gpu_ms`).
     pub phases_ms: HashMap<String, f64>,
+    /// Opening the EGL display and the GL context in the render call (the driver's start;
+    /// 0 where the caller gave the context: the window, an animation's later frames).
+    pub context_ms: f64,
     /// Shader compile and link time (programs linked from the program-binary cache
     /// included).
     pub compile_ms: f64,
@@ -346,6 +349,7 @@ impl GpuStats {
         for (k, ms) in other.phases_ms {
             *self.phases_ms.entry(k).or_default() += ms;
         }
+        self.context_ms += other.context_ms;
         self.compile_ms += other.compile_ms;
         self.programs_compiled += other.programs_compiled;
         self.programs_cached += other.programs_cached;

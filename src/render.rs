@@ -704,8 +704,16 @@ pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> R
 /// Renders with the backend chosen in `opts` (see [`context_for`]; its notice is shown
 /// with `opts.progress`, which `-q` turns off with the progress display).
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+    let t = crate::clock::Instant::now();
     match context_for(opts, scene, opts.progress)? {
-        (Some(ctx), opts) => render_gl_with(&ctx, scene, &opts),
+        (Some(ctx), opts) => {
+            let context_ms = t.elapsed().as_secs_f64() * 1e3;
+            let mut out = render_gl_with(&ctx, scene, &opts)?;
+            if let Some(g) = out.stats.gpu.as_mut() {
+                g.context_ms = context_ms;
+            }
+            Ok(out)
+        }
         (None, opts) => render_cpu(scene, &opts),
     }
 }

@@ -562,13 +562,14 @@ pub fn verbose_report(s: &render::RenderStats) -> String {
         }
         out += &format!(
             "total: {} passes, {} termination queries, {} pixels drawn by advancing passes \
-             ({} active), gpu {}, compile {:.1} ms, upload {:.1} ms\n",
+             ({} active), gpu {}, context {:.1} ms, compile {:.1} ms, upload {:.1} ms\n",
             g.passes_total,
             g.termination_queries,
             g.advance_pixels,
             g.advance_active,
             g.gpu_ms_total
                 .map_or("n/a".into(), |t| format!("{t:.2} ms")),
+            g.context_ms,
             g.compile_ms,
             g.upload_ms,
         );
