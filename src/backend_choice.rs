@@ -53,46 +53,73 @@ pub fn context_for(
     Ok((ctx, opts))
 }
 
+/// What the backend choice of `opts` comes to before any driver starts.
+pub(crate) enum Start {
+    /// The CPU: named, or `auto` where no context is worth opening (why, for the notice).
+    Cpu(Option<String>),
+    /// A context to open ([`open_context`]): `gl`, or `auto` on a device that is not Mesa's
+    /// software one.
+    Open,
+}
+
+/// [`Start`] of `opts`: the part of the choice that needs no driver.
+pub(crate) fn start_of(opts: &RenderOptions) -> Start {
+    match opts.backend {
+        Backend::Cpu => Start::Cpu(None),
+        Backend::Gl => Start::Open,
+        Backend::Auto if !opts.accel_kind().on_gpu() => Start::Cpu(Some(format!(
+            "--accel {} is walked on the CPU only",
+            opts.accel_kind().name()
+        ))),
+        // Only Mesa's software device to open: the answer `auto_declines` would give for
+        // its context, without starting a driver to hear it.
+        Backend::Auto if crate::gpu::egl::software_only(opts.device) => {
+            Start::Cpu(Some(SOFTWARE_DEVICE.to_string()))
+        }
+        Backend::Auto => Start::Open,
+    }
+}
+
 /// [`context_for`]'s context alone.
 fn choose_context(opts: &RenderOptions, notices: bool) -> Result<Option<GlContext>> {
-    match opts.backend {
-        Backend::Cpu => Ok(None),
-        Backend::Gl => GlContext::on_device(opts.device).map(Some),
-        Backend::Auto if !opts.accel_kind().on_gpu() => {
-            if notices {
-                eprintln!(
-                    "fragtrace: notice: using the CPU backend: --accel {} is walked on the CPU only{}",
-                    opts.accel_kind().name(),
-                    unused_on_the_cpu(opts)
-                );
+    match start_of(opts) {
+        Start::Cpu(why) => {
+            if let Some(why) = why.filter(|_| notices) {
+                cpu_notice(opts, &why);
             }
             Ok(None)
         }
-        Backend::Auto => {
-            // Only Mesa's software device to open: the answer `auto_declines` would give
-            // for its context, without starting a driver to hear it.
-            let why = if crate::gpu::egl::software_only(opts.device) {
-                SOFTWARE_DEVICE.to_string()
-            } else {
-                match GlContext::on_device(opts.device) {
-                    Ok(ctx) => match auto_declines(&ctx.info) {
-                        None => return Ok(Some(ctx)),
-                        Some(why) => why,
-                    },
-                    // A bad `--gpu N` is the user's to fix, not a reason to fall back.
-                    Err(e @ crate::Error::Usage(_)) => return Err(e),
-                    Err(e) => e.to_string(),
-                }
-            };
-            if notices {
-                eprintln!(
-                    "fragtrace: notice: using the CPU backend: {why}{}",
-                    unused_on_the_cpu(opts)
-                );
-            }
-            Ok(None)
-        }
+        Start::Open => open_context(opts, notices),
     }
+}
+
+/// The context of a [`Start::Open`] choice: `gl`'s, which never falls back, or `auto`'s,
+/// None (the CPU, with the notice) where the context fails to open or
+/// [`auto_declines`] it. A bad `--gpu N` is the user's to fix, not a reason to fall back.
+pub(crate) fn open_context(opts: &RenderOptions, notices: bool) -> Result<Option<GlContext>> {
+    if opts.backend == Backend::Gl {
+        return GlContext::on_device(opts.device).map(Some);
+    }
+    let why = match GlContext::on_device(opts.device) {
+        Ok(ctx) => match auto_declines(&ctx.info) {
+            None => return Ok(Some(ctx)),
+            Some(why) => why,
+        },
+        Err(e @ crate::Error::Usage(_)) => return Err(e),
+        Err(e) => e.to_string(),
+    };
+    if notices {
+        cpu_notice(opts, &why);
+    }
+    Ok(None)
+}
+
+/// `auto`'s one line on taking the CPU.
+fn cpu_notice(opts: &RenderOptions, why: &str) {
+    eprintln!(
+        "fragtrace: notice: using the CPU backend: {why}{}",
+        unused_on_the_cpu(opts)
+    );
 }
 
 /// The GPU settings `opts` name that `--backend auto` leaves unused by taking the CPU, as

@@ -538,6 +538,21 @@ impl RenderArgs {
             })
     }
 
+    /// The options that choose the backend and open its context, from the flags alone,
+    /// before the scene is loaded ([`crate::overlap::render_loading`] opens the context
+    /// while the scene loads): an empty scene stands in for what a scene gives (size,
+    /// depth), which the choice does not read. None where these flags refuse that stand-in
+    /// (the scene's own options say why, after its load, as before).
+    pub fn context_options(&self) -> Option<RenderOptions> {
+        let stand_in = Scene::empty(crate::scene::Camera {
+            eye: glam::Vec3::Z,
+            look_at: glam::Vec3::ZERO,
+            up: glam::Vec3::Y,
+            vfov_deg: 45.0,
+        });
+        self.to_options(&stand_in).ok()
+    }
+
     /// Turns the flags into render options for `scene` ([`Choices::to_options`] at
     /// `render`'s door), with the progress display unless `-q` (and then `--gpu env`'s
     /// device and why on stderr).

@@ -52,6 +52,8 @@ pub mod numeric;
 pub mod options;
 pub mod output;
 #[cfg(not(target_arch = "wasm32"))]
+pub mod overlap;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod plan;
 pub mod pool;
 pub mod progress;

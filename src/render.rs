@@ -114,9 +114,10 @@ pub struct RenderStats {
 pub struct ProcessTimes {
     /// From the process's start ([`crate::clock::mark_start`]) to the scene's load.
     pub start_ms: f64,
-    /// Loading the scene and its meshes.
+    /// Loading the scene and its meshes (on a thread of its own where a GL context opens
+    /// meanwhile: [`crate::overlap`]).
     pub load_ms: f64,
-    /// The render call, whole.
+    /// The render call, whole, from the load's start (the load overlaps it).
     pub render_call_ms: f64,
     /// Encoding and writing the image (and the AOV file).
     pub write_ms: f64,
@@ -692,13 +693,64 @@ pub fn render_cpu(scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
 /// Builds the acceleration structure and renders `scene` on the GPU in `ctx` (the kernel
 /// `opts.gpu.kernel` resolves to).
 pub fn render_gl_with(ctx: &GlContext, scene: &Scene, opts: &RenderOptions) -> Result<Rendered> {
+    render_gl_built(ctx, scene, opts, None)
+}
+
+/// [`render_gl_with`], with the structure `built` where it was prepared before the context
+/// was open ([`crate::overlap`]) with the options the context settles: used where they
+/// build the same one (the same structure and configuration, the scene's own triangles
+/// only), else built again here.
+pub(crate) fn render_gl_built(
+    ctx: &GlContext,
+    scene: &Scene,
+    opts: &RenderOptions,
+    built: Option<(&Prepared<'_>, &RenderOptions)>,
+) -> Result<Rendered> {
     let opts = &opts.on_context(scene, Some(&ctx.info));
     opts.validate()?;
     // The pixels rendered must fit the driver's textures and viewport before any work is
     // done (a tile of a poster larger than the limit does).
     let px = opts.pixels();
     ctx.info.check_image_size(px.width(), px.height())?;
-    prepare(scene, opts)?.render_gl(ctx, opts)
+    let same = |o: &RenderOptions| {
+        !scene.has_instances()
+            && o.backend == opts.backend
+            && o.accel_kind() == opts.accel_kind()
+            && o.grid == opts.grid
+            && o.irregular == opts.irregular
+    };
+    match built.filter(|(_, o)| same(o)) {
+        Some((p, _)) => p.render_gl(ctx, opts),
+        None => prepare(scene, opts)?.render_gl(ctx, opts),
+    }
+}
+
+/// [`prepare`] of a scene it takes, which travels with its structure (from the thread
+/// that loaded and built it: [`crate::overlap`]); on an error the scene comes back with it.
+#[allow(clippy::result_large_err)]
+pub fn prepare_owned(
+    scene: Scene,
+    opts: &RenderOptions,
+) -> std::result::Result<Prepared<'static>, (crate::Error, Scene)> {
+    let Prepared {
+        scene: taken,
+        accel,
+        summary,
+        flat,
+    } = match prepare(&scene, opts) {
+        Ok(p) => p,
+        Err(e) => return Err((e, scene)),
+    };
+    let scene = match taken {
+        Cow::Owned(flattened) => flattened,
+        Cow::Borrowed(_) => scene,
+    };
+    Ok(Prepared {
+        scene: Cow::Owned(scene),
+        accel,
+        summary,
+        flat,
+    })
 }
 
 /// Renders with the backend chosen in `opts` (see [`context_for`]; its notice is shown

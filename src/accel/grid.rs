@@ -108,7 +108,7 @@ impl fmt::Display for GridRes {
 }
 
 /// Grid build parameters.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridConfig {
     /// Resolution choice.
     pub res: GridRes,

@@ -89,19 +89,28 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         .transpose()?;
     let ms = |t: crate::clock::Instant| t.elapsed().as_secs_f64() * 1e3;
     let start_ms = crate::clock::since_start_ms_f64();
-    let t = crate::clock::Instant::now();
-    let scene = load(args.scene.as_deref(), args.choices.textures)?;
-    let load_ms = ms(t);
-    let mut opts = args.to_options(&scene)?;
-    opts.check_memory()?;
     // Read back only what the output needs: an 8-bit format (PNG, PPM, JPEG) as 8-bit sRGB
     // (converted on the GPU, or in the CPU's bands), the AOVs only with --aov.
-    opts.readback = crate::output::Readback {
+    let readback = crate::output::Readback {
         aov: aovs.is_some(),
         srgb8: image_io::Format::from_path(&args.output)?.is_srgb8(),
     };
+    // The scene loads while the GL driver starts (crate::overlap).
     let t = crate::clock::Instant::now();
-    let mut out = render::render(&scene, &opts)?;
+    let (mut out, load_ms) =
+        crate::overlap::render_loading(args.context_options().as_ref(), || {
+            let t = crate::clock::Instant::now();
+            let scene = load(args.scene.as_deref(), args.choices.textures)?;
+            let load_ms = ms(t);
+            let mut opts = args.to_options(&scene)?;
+            opts.check_memory()?;
+            opts.readback = readback;
+            Ok(crate::overlap::Loaded {
+                scene,
+                opts,
+                load_ms,
+            })
+        })?;
     let render_call_ms = ms(t);
     let finite = match out.nonfinite {
         Some(n) => n == 0,
