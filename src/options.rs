@@ -571,14 +571,15 @@ mod tests {
     use super::*;
     use crate::gpu::options::FragmentKernel;
 
-    /// The one rule for a scene with instances on the GPU: `auto` (or the two levels'
-    /// kernel and structure named) in a context that runs compute takes the two levels,
-    /// the kernel named (and `auto`'s fallback kept aside for the loop limit); anything that
-    /// keeps a scene on the fragment kernels or the irregular grid leaves the options as
-    /// given, and the warning's advice names what to change; no compute, or no instances,
-    /// changes nothing. Settling twice changes nothing.
+    /// The one rule for a scene with instances on the GPU: `auto` (or the uniform grid
+    /// named) takes the two levels on any kernel: `auto`'s kernel becomes the compute
+    /// kernel where the context runs it (its fallback kept aside for the loop limit), else
+    /// (no compute, or a mask asked for) the fastest fragment kernel; a named fragment
+    /// kernel keeps its name. The irregular grid, 16-bit ray storage on a fragment kernel
+    /// and a textured scene on one leave the options as given, and the warning's advice
+    /// names what to change; no instances changes nothing. Settling twice changes nothing.
     #[test]
-    fn instances_go_to_the_two_levels_where_the_context_runs_compute() {
+    fn instances_go_to_the_two_levels_on_every_kernel() {
         let text = "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[objects]]\nshape = \"box\"\ninstances = [{ translate = [1, 0, 0] }]\n";
         let inst = crate::scene::load_scene_str(text, "i.toml", std::path::Path::new(".")).unwrap();
         let flat = crate::scene::builtin_scene();
@@ -615,19 +616,30 @@ mod tests {
         .on_context(&inst, Some(&new));
         assert_eq!(two(&named), (Kernel::Compute, AccelKind::Uniform));
         assert_eq!(named.instanced_fallback, None);
-        for (change, advice) in [
+        for (change, kernel) in [
             (
                 &(|o: &mut RenderOptions| o.gpu.kernel = Kernel::Looped)
                     as &dyn Fn(&mut RenderOptions),
-                "--kernel compute",
+                Kernel::Looped,
             ),
             (
-                &|o: &mut RenderOptions| o.accel = AccelChoice::Irregular,
-                "--accel uniform",
+                &|o: &mut RenderOptions| o.gpu.kernel = Kernel::Multipass,
+                Kernel::Multipass,
             ),
             (
                 &|o: &mut RenderOptions| o.gpu.mask = Mask::Stencil,
-                "without --mask stencil",
+                Kernel::Looped,
+            ),
+        ] {
+            let o = with(change).on_context(&inst, Some(&new));
+            assert_eq!(two(&o), (kernel, AccelKind::Uniform));
+            assert_eq!(o.instanced_fallback, None);
+        }
+        for (change, advice) in [
+            (
+                &(|o: &mut RenderOptions| o.accel = AccelChoice::Irregular)
+                    as &dyn Fn(&mut RenderOptions),
+                "--accel uniform",
             ),
             (
                 &|o: &mut RenderOptions| o.gpu.storage = Storage::F16,
@@ -641,12 +653,23 @@ mod tests {
                 (given.gpu.kernel, given.accel.resolve(true).into())
             );
             assert_eq!(o.instanced_fallback, None);
-            let a = o.stored_once_advice();
+            let a = o.stored_once_advice(&inst);
             assert!(a.contains(advice), "{a}");
         }
         let o = base.on_context(&inst, Some(&old));
+        assert_eq!(
+            two(&o),
+            (Kernel::fastest_fragment(&old).kernel(), AccelKind::Uniform)
+        );
+        let mut textured = inst.clone();
+        textured.materials[0].diffuse_map = Some(0);
+        let o = base.on_context(&textured, Some(&old));
         assert_eq!(two(&o), (Kernel::Auto, AccelKind::Irregular));
-        assert!(o.stored_once_advice().contains("no compute kernel"));
+        assert!(o
+            .stored_once_advice(&textured)
+            .contains("no compute kernel"));
+        let o = base.on_context(&textured, Some(&new));
+        assert_eq!(two(&o), (Kernel::Compute, AccelKind::Uniform));
         let o = base.on_context(&flat, Some(&new));
         assert_eq!(two(&o), (Kernel::Auto, AccelKind::Irregular));
         let cpu = RenderOptions {

@@ -720,20 +720,49 @@ mod tests {
     fn active_everywhere(ctx: &crate::gpu::GlContext) -> (HashMap<String, Vec<u32>>, Vec<Program>) {
         let mut active: HashMap<String, Vec<u32>> = HashMap::new();
         let mut programs = Vec::new();
-        // The built-in scene on the uniform grid, and textured on the irregular one: the
-        // texture declarations are active in textured programs only.
-        for (kind, scene) in [
-            (AccelKind::Uniform, builtin_scene()),
-            (AccelKind::Irregular, textured_builtin()),
-        ] {
-            let accel = Accel::build(
-                &scene,
-                kind,
-                &GridConfig::default(),
-                &IrregularConfig::default(),
+        // The built-in scene on the uniform grid, textured on the irregular one and with
+        // instances on the two levels: the texture declarations are active in textured
+        // programs only, the instancing ones in instanced programs only.
+        let mut placed = builtin_scene();
+        let sphere = placed.clone();
+        placed.instancing.meshes.push(crate::scene::Mesh {
+            name: "builtin".into(),
+            geometry: sphere,
+        });
+        placed.instancing.instances.push(
+            crate::scene::Instance::new(
+                0,
+                glam::DMat3::from_diagonal(glam::DVec3::new(-1.0, 1.0, 1.0)),
+                glam::DVec3::X,
             )
-            .unwrap();
-            let layout = SceneTextures::pack_with(&scene, accel.as_ref(), 4096, true).unwrap();
+            .unwrap(),
+        );
+        let n = placed.triangles.len();
+        placed.instancing.number(n, "test").unwrap();
+        for (kind, scene, instanced) in [
+            (AccelKind::Uniform, builtin_scene(), false),
+            (AccelKind::Irregular, textured_builtin(), false),
+            (AccelKind::Uniform, placed, true),
+        ] {
+            let (layout, _levels) = if instanced {
+                let gi = crate::accel::grid_instances::GridInstances::build(
+                    &scene,
+                    &GridConfig::default(),
+                )
+                .unwrap();
+                let l = SceneTextures::pack_instanced(&scene, &gi, 4096, true, None).unwrap();
+                (l, Some(gi))
+            } else {
+                let accel = Accel::build(
+                    &scene,
+                    kind,
+                    &GridConfig::default(),
+                    &IrregularConfig::default(),
+                )
+                .unwrap();
+                let l = SceneTextures::pack_with(&scene, accel.as_ref(), 4096, true).unwrap();
+                (l, None)
+            };
             let mut add = |p: Program| {
                 for (name, utype) in p.active_uniforms(ctx.gl()) {
                     active.entry(name).or_default().push(utype);
@@ -751,12 +780,8 @@ mod tests {
             if !ctx.info.compute {
                 continue;
             }
-            // The instanced walk (`instance.glsl`) with storage-buffer reads.
-            for (fetch, instanced) in [
-                (Fetch::TexelFetch, false),
-                (Fetch::Storage, false),
-                (Fetch::Storage, true),
-            ] {
+            // The instanced walk (`instance_walk.glsl`) with both fetch paths.
+            for fetch in [Fetch::TexelFetch, Fetch::Storage] {
                 let spec = ComputeSpec {
                     samples: 2,
                     lights: 2,
