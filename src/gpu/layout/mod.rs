@@ -34,6 +34,7 @@
 //! | `vmap` | 1 per 4 voxel-map entries | irregular grid only: cell id, or -(child block + 1) |
 //! | `list` | 1 per 4 references | four triangle indices |
 //! | `tex` | see [`TexLayout`] | textured scenes only: uv records, colours, texture table, texels |
+//! | `inst` | see [`contract::instancing`](super::contract::instancing) | instanced scenes only: placements, meshes' grids, the threaded top tree |
 //!
 //! For the irregular grid the layout also generates `irr_lookup(k)`, the voxel-map descent
 //! from a virtual cell to its cell id, unrolled hop by hop with the splits of each hop as
