@@ -243,12 +243,18 @@ instances = [{ translate = [1, 0, 0] }, { scale = [-1, 2, 1], rotate = [0, 30, 0
     }
 
     /// The threaded walk (next entry on a box met, skip on a miss) visits every instance
-    /// once when every box is met, and a missed inner entry skips exactly its subtree: the
-    /// instances under it are those whose boxes it holds.
+    /// once when every box is met, a subtree's entries lie inside its box, and for random
+    /// query boxes the instances the walk reaches are brute force's (those whose boxes meet
+    /// the query), with fewer box tests than entries where the query is small.
     #[test]
     fn threaded_tree_visits_each_instance_once_and_skips_subtrees() {
+        let mut toml = TOML.replace("instances = [", "instances = [\n");
+        for i in 0..60 {
+            let at = format!("{{ translate = [{}, {}, 0] }},\n", i % 8 * 3, i / 8 * 3);
+            toml = toml.replacen("instances = [\n", &format!("instances = [\n{at}"), 1);
+        }
         let scene =
-            crate::scene::load_scene_str(TOML, "t.toml", std::path::Path::new(".")).unwrap();
+            crate::scene::load_scene_str(&toml, "t.toml", std::path::Path::new(".")).unwrap();
         let gi = GridInstances::build(&scene, &Default::default()).unwrap();
         let boxes = instance_boxes(&scene, &gi);
         let e = threaded(&gi.top, &boxes);
@@ -262,5 +268,31 @@ instances = [{ translate = [1, 0, 0] }, { scale = [-1, 2, 1], rotate = [0, 30, 0
             }
         }
         assert!(threaded(&gi.top, &[]).is_empty());
+        let meets =
+            |lo: Vec3, hi: Vec3, q: (Vec3, Vec3)| lo.cmple(q.1).all() && hi.cmpge(q.0).all();
+        let mut rng = crate::testing::Rng::new(53);
+        let mut fewer = 0;
+        for _ in 0..200 {
+            let c = rng.dvec3(-3.0, 24.0).as_vec3();
+            let r = rng.range(0.1, 4.0) as f32;
+            let q = (c - Vec3::splat(r), c + Vec3::splat(r));
+            let (mut k, mut tests, mut reached) = (0usize, 0, Vec::new());
+            while k < e.len() {
+                tests += 1;
+                if !meets(e[k].lo, e[k].hi, q) {
+                    k = e[k].skip as usize;
+                    continue;
+                }
+                reached.extend(e[k].instance);
+                k += 1;
+            }
+            reached.sort_unstable();
+            let want: Vec<u32> = (0..boxes.len() as u32)
+                .filter(|&i| meets(boxes[i as usize].0, boxes[i as usize].1, q))
+                .collect();
+            assert_eq!(reached, want);
+            fewer += usize::from(tests < e.len());
+        }
+        assert!(fewer > 100, "{fewer} of 200 queries skipped a subtree");
     }
 }
