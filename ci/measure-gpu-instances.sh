@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Issue 53, instancing on the GPU: the compute kernel with --accel uniform walks an
-# instanced scene as two levels (accel/grid_instances.rs, glsl120/instance.glsl). Renders
+# Issue 53, instancing on the GPU: every kernel with --accel uniform walks an instanced
+# scene as two levels (accel/grid_instances.rs, glsl120/instance_walk.glsl). Renders
 # the 36-sphere scene of ci/measure-large.sh (icospheres at subdivisions = 7, 327,680
 # triangles each, on a floor) written twice, as 36 objects (stored flat) and as one object
 # with 36 instances, then N instances of the same sphere (default 3000: 983 million
@@ -11,8 +11,9 @@
 # upload, the render (ms, from --stats) and, for the instanced 36, the image against the
 # flat one. --flags replaces the kernel and structure flags after `--backend gl`:
 # `--flags ""` measures the default `render --backend gl` (kernel and structure left to
-# auto, which takes an instanced scene to the two levels where the context runs compute;
-# before that change, flat on the irregular grid).
+# auto, which takes an instanced scene to the two levels: on the compute kernel where the
+# context runs it, else on the fastest fragment kernel; before those changes, flat on the
+# irregular grid).
 #
 #   ci/measure-gpu-instances.sh [--size PIXELS] [--bin FRAGTRACE] [--out DIR]
 #                               [--flags "FLAGS"] [N]

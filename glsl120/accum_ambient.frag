@@ -5,9 +5,14 @@
 // Writes: colour = u_acc + weight * (ka A albedo) on hits, + weight * background on misses.
 #include "intersect.glsl"
 #include "shade.glsl"
+#include "instance.glsl"
 
 
 void main() {
+#ifdef INSTANCED
+    // The instance of this level's (the parent's) hit, which surface() places.
+    g_shade_inst = texture2D(u_ri, v_uv).x;
+#endif
     vec4 acc = texture2D(u_acc, v_uv);
     vec4 r2 = texture2D(u_r2, v_uv);
     if (r2.R2_EXISTS > 0.5) {

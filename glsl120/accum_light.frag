@@ -6,9 +6,14 @@
 // Writes: colour = u_acc + weight * I_l * (kd albedo n.l + ks (r.v)^ns) where visible.
 #include "intersect.glsl"
 #include "shade.glsl"
+#include "instance.glsl"
 
 
 void main() {
+#ifdef INSTANCED
+    // The instance of this level's (the parent's) hit, which surface() places.
+    g_shade_inst = texture2D(u_ri, v_uv).x;
+#endif
     vec4 acc = texture2D(u_acc, v_uv);
     vec4 s0 = texture2D(u_s0, v_uv);
     vec4 s3 = texture2D(u_s3, v_uv);

@@ -14,8 +14,13 @@ float gamma_n(float n) {
     return n * UNIT_ROUNDOFF / (1.0 - n * UNIT_ROUNDOFF);
 }
 
-// State codes are small integers stored as floats; compare with a margin.
+// State codes are small integers stored as floats; compare with a margin. An instanced
+// scene's fragment passes keep the top-level walk's place in s0's state above it (8 per
+// entry: instance_walk.glsl's lv_pack), which the remainder drops.
 bool in_state(float s, float code) {
+#if defined(INSTANCED) && !defined(KERNEL_COMPUTE)
+    s -= 8.0 * floor(s * 0.125);
+#endif
     return abs(s - code) < 0.25;
 }
 

@@ -12,7 +12,12 @@ void main() {
     // gl_FragCoord is the pixel centre, so it samples texel (i, row) exactly.
     vec3 d = texture2D(u_dir, gl_FragCoord.xy / vec2(u_size)).xyz;
     vec2 span = clip_grid(u_eye, d, 0.0, BIG);
+#ifdef INSTANCED
+    // The instances lie outside the own grid's box too: every ray walks the top level.
+    float state = ST_INITIAL;
+#else
     float state = span.x > span.y ? ST_INVALID : ST_INITIAL;
+#endif
     gl_FragData[0] = S0_TEXEL(u_eye, state);
     gl_FragData[1] = S1_TEXEL(d, BIG);
     gl_FragData[2] = S2_TEXEL(vec3(0.0), 0.0);

@@ -1,7 +1,8 @@
 // record.frag: stores the finished trace of one ray-tree node in its level's hit record.
 // Reads: s0 (origin, state), s1 (direction), s3 (t_best, tri_best).
 // Writes: r0 = (origin, tri) with tri = hit triangle, TRI_NONE for a miss, TRI_NO_RAY
-//         for no ray; r1 = (direction, t).
+//         for no ray; r1 = (direction, t); with INSTANCED ri = (the hit's instance, -1 for
+//         the scene's own triangles), which the passes that shade read as u_ri.
 void main() {
     vec4 s0 = texture2D(u_s0, v_uv);
     vec4 s1 = texture2D(u_s1, v_uv);
@@ -10,4 +11,8 @@ void main() {
               : (s3.S3_TRI_BEST < -1.5 ? TRI_NO_RAY : TRI_NONE);
     gl_FragData[0] = R0_TEXEL(s0.S0_ORIGIN, tri);
     gl_FragData[1] = R1_TEXEL(s1.S1_DIR, s3.S3_T_BEST);
+#ifdef INSTANCED
+    // The hit's instance (instance_walk.glsl's finished state: s3's third channel).
+    gl_FragData[2] = vec4(s3.z, 0.0, 0.0, 0.0);
+#endif
 }

@@ -6,8 +6,8 @@
 // order, the reflected subtree, the refracted subtree, depth first. A small per-invocation
 // stack holds the pending children (at most one per level: STACK_SIZE = max depth + 1).
 // Reads: the scene textures through the generated texelFetch fetch functions, grid
-//        uniforms, with INSTANCED the instancing buffer (instance.glsl: the walk of an
-//        instanced scene's two levels), u_eye, u_ambient, u_background, u_sample_weight, the camera buffer (the
+//        uniforms, with INSTANCED the instancing data (instance.glsl, instance_walk.glsl: the
+//        walk of an instanced scene's two levels), u_eye, u_ambient, u_background, u_sample_weight, the camera buffer (the
 //        f64 frame and sample offsets: primary directions by the camera's formula in f64,
 //        rounded to f32, as the host computes them for the fragment kernels) and the lights
 //        buffer (position, radiance).
@@ -22,6 +22,7 @@
 #include "shade.glsl"
 #include "compute.glsl"
 #include "instance.glsl"
+#include "instance_walk.glsl"
 
 // Declared by the host from gpu/contract (bindings.rs, compute.rs): the buffers `cam`
 // (CAM_* slots: the camera frame, then (ox, oy) per sample from CAM_OFFSETS on), `lights`

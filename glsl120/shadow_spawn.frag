@@ -6,9 +6,14 @@
 //         or shading horizon (it then contributes nothing).
 #include "intersect.glsl"
 #include "shade.glsl"
+#include "instance.glsl"
 
 
 void main() {
+#ifdef INSTANCED
+    // The instance of this level's (the parent's) hit, which surface() places.
+    g_shade_inst = texture2D(u_ri, v_uv).x;
+#endif
     vec4 r0 = texture2D(u_r0, v_uv);
     bool spawned = false;
     vec3 o;

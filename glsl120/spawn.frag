@@ -5,9 +5,14 @@
 //         with tri_best = TRI_NO_RAY where the node does not exist.
 #include "intersect.glsl"
 #include "shade.glsl"
+#include "instance.glsl"
 
 
 void main() {
+#ifdef INSTANCED
+    // The instance of this level's (the parent's) hit, which surface() places.
+    g_shade_inst = texture2D(u_ri, v_uv).x;
+#endif
     vec4 c2 = texture2D(u_c2, v_uv);
     if (c2.R2_EXISTS > 0.5) {
         vec4 p0 = texture2D(u_p0, v_uv);

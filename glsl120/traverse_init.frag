@@ -8,13 +8,20 @@
 #include "intersect.glsl"
 #include "traverse.glsl"
 #include "step.glsl"
+#include "instance.glsl"
+#include "instance_walk.glsl"
 
 void main() {
     vec4 s0 = texture2D(u_s0, v_uv);
     vec4 s1 = texture2D(u_s1, v_uv);
     vec4 s2 = texture2D(u_s2, v_uv);
     vec4 s3 = texture2D(u_s3, v_uv);
+#ifdef INSTANCED
+    // The own grid's set-up, in the two-level walk's packed state.
+    lv_pass_step(s0, s1, s2, s3);
+#else
     traverse_setup(s0, s1, s2, s3);
+#endif
     gl_FragData[0] = s0;
     gl_FragData[1] = s1;
     gl_FragData[2] = s2;

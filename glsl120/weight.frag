@@ -6,9 +6,14 @@
 //         parent's (u_root_cone at the root, else u_p3).
 #include "intersect.glsl"
 #include "shade.glsl"
+#include "instance.glsl"
 
 
 void main() {
+#ifdef INSTANCED
+    // The instance of this level's (the parent's) hit, which surface() places.
+    g_shade_inst = texture2D(u_ri, v_uv).x;
+#endif
     vec4 p0 = texture2D(u_p0, v_uv);
     vec4 p2 = texture2D(u_p2, v_uv);
     vec4 outw = R2_TEXEL(vec3(0.0), 0.0);

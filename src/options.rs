@@ -249,17 +249,17 @@ impl RenderOptions {
 
     /// These options for rendering `scene` in the GL context `gl` describes, or on the CPU
     /// (None): [`on_backend`](Self::on_backend), and the one rule for a scene with
-    /// instances on the GPU. Where its kernel and structure are left to `auto` (or named as
-    /// the two levels need them) and the context runs the compute kernel, they become the
-    /// compute kernel over uniform grids, which walks the instances as two levels, stored
-    /// once (`accel/grid_instances.rs`); the kernel is then named, so that no fragment
-    /// kernel, which walks flat scenes only, takes over a frame (`auto`'s cold start and
-    /// loop-limit fallback, which takes the scene flat instead:
-    /// [`instanced_fallback`](Self::instanced_fallback)). Elsewhere (no GL 4.3, a fragment kernel, the irregular grid
-    /// or a fragment kernel's option named) they stay as given and [`crate::render::prepare`]
-    /// takes the instances flat, with one warning naming what would walk them stored once.
-    /// The backend is settled too (`auto` that took the context is `gl`). A second call
-    /// changes nothing.
+    /// instances on the GPU. Every kernel walks its instances as two levels over uniform
+    /// grids, stored once (`accel/grid_instances.rs`; a fragment kernel untextured scenes
+    /// only, in 32-bit ray state): where the structure is left to `auto` (or named
+    /// uniform) and nothing else keeps the scene flat ([`two_level_blocks`](Self::two_level_blocks)),
+    /// it becomes the uniform grid, and `auto`'s kernel is named: the compute kernel where
+    /// the context runs it (its fallback for the driver's loop limit, the fastest fragment
+    /// kernel, kept aside: [`instanced_fallback`](Self::instanced_fallback)), else the
+    /// fastest fragment kernel. Elsewhere the options stay as given and
+    /// [`crate::render::prepare`] takes the instances flat, with one warning naming what
+    /// would walk them stored once. The backend is settled too (`auto` that took the
+    /// context is `gl`). A second call changes nothing.
     pub fn on_context(&self, scene: &Scene, gl: Option<&crate::gpu::GlInfo>) -> RenderOptions {
         let Some(info) = gl else {
             return self.on_backend(false);
@@ -270,57 +270,95 @@ impl RenderOptions {
             gl_compute: Some(info.compute),
             ..self.clone()
         };
-        if scene.has_instances() && info.compute && self.blocks_two_levels().is_empty() {
-            o.gpu.kernel = Kernel::Compute;
+        let fragment = match self.gpu.kernel {
+            Kernel::Compute => false,
+            Kernel::Auto => !info.compute || self.fragment_only(),
+            Kernel::Multipass | Kernel::Unrolled(_) | Kernel::Looped => true,
+        };
+        if scene.has_instances() && self.two_level_blocks(scene, fragment).is_empty() {
             o.accel = AccelChoice::Uniform;
             if self.gpu.kernel == Kernel::Auto {
-                o.instanced_fallback = Some((Kernel::fastest_fragment(info), self.accel));
+                let fastest = Kernel::fastest_fragment(info);
+                if fragment {
+                    o.gpu.kernel = fastest.kernel();
+                } else {
+                    o.gpu.kernel = Kernel::Compute;
+                    o.instanced_fallback = Some((fastest, self.accel));
+                }
             }
         }
         o.on_backend(true)
     }
 
-    /// What would change the flags of these options that keep a scene's instances off the
-    /// GPU's two levels (the compute kernel over uniform grids), as flags to give
-    /// (`--kernel compute`) or drop (`without --mask stencil`): empty where none does.
-    fn blocks_two_levels(&self) -> Vec<String> {
+    /// Whether these options ask for something only the fragment kernels have (a mask, or
+    /// 16-bit ray storage: what makes `--kernel auto` a fragment kernel).
+    fn fragment_only(&self) -> bool {
+        matches!(self.gpu.mask, Mask::EarlyZ | Mask::Stencil) || self.gpu.storage != Storage::F32
+    }
+
+    /// What keeps `scene`'s instances off the GPU's two levels with these options on a
+    /// fragment kernel (`fragment`) or the compute kernel: the flags to give or drop
+    /// (`--accel uniform`, `without --storage f16`, and for a textured scene on a fragment
+    /// kernel, whose records have no room for the hit's instance beside its cone,
+    /// `--kernel compute`); empty where nothing does.
+    pub fn two_level_blocks(&self, scene: &Scene, fragment: bool) -> Vec<String> {
         let g = &self.gpu;
         let mut change = Vec::new();
-        if !matches!(g.kernel, Kernel::Auto | Kernel::Compute) {
-            change.push("--kernel compute".to_string());
-        }
         if !matches!(self.accel, AccelChoice::Auto | AccelChoice::Uniform) {
-            change.push("--accel uniform".into());
+            change.push("--accel uniform".to_string());
         }
-        if matches!(g.mask, Mask::EarlyZ | Mask::Stencil) {
-            change.push(format!("without --mask {}", g.mask));
-        }
-        if g.storage != Storage::F32 {
-            change.push(format!("without --storage {}", g.storage));
+        if fragment {
+            // s1 in half floats holds the held hit's bound too coarsely.
+            if g.storage != Storage::F32 {
+                change.push(format!("without --storage {}", g.storage));
+            }
+            let coloured = scene.has_vertex_colors()
+                || scene
+                    .instancing
+                    .meshes
+                    .iter()
+                    .any(|m| m.geometry.has_vertex_colors());
+            if scene.has_textures() || coloured {
+                change.push("--kernel compute".into());
+            }
         }
         change
     }
 
-    /// What would render a scene's instances stored once, where these options (settled:
+    /// Whether these options' kernel is a fragment kernel (named; `auto` is not).
+    pub fn fragment_kernel_named(&self) -> bool {
+        matches!(
+            self.gpu.kernel,
+            Kernel::Multipass | Kernel::Unrolled(_) | Kernel::Looped
+        )
+    }
+
+    /// What would render `scene`'s instances stored once, where these options (settled:
     /// [`on_context`](Self::on_context)) take them flat: the end of the one warning
     /// [`crate::render::prepare`] gives.
-    pub fn stored_once_advice(&self) -> String {
+    pub fn stored_once_advice(&self, scene: &Scene) -> String {
         match (self.backend == Backend::Gl, self.gl_compute) {
             (false, _) => "--backend cpu --accel bvh walks them as placed, stored once".into(),
-            (true, Some(false)) => "this GL context has no compute kernel (OpenGL 4.3), which \
-                 walks them on the GPU as placed, stored once; --backend cpu --accel bvh does \
-                 on the CPU"
-                .into(),
             // Not settled in a context: `view` (one scene uploaded for every kernel its
             // key switches to), or a library caller.
             (true, None) => "`fragtrace render --backend gl` walks them on the GPU as placed, \
-                 stored once (two levels on the compute kernel)"
+                 stored once (two levels over uniform grids)"
                 .into(),
-            (true, Some(true)) => {
-                let change = self.blocks_two_levels();
+            (true, Some(compute)) => {
+                let fragment = self.gpu.kernel != Kernel::Compute;
+                let mut change = self.two_level_blocks(scene, fragment);
+                if !compute && change.iter().any(|c| c == "--kernel compute") {
+                    return "the fragment kernels walk a textured scene's instances flat and \
+                         this GL context has no compute kernel (OpenGL 4.3), which walks them \
+                         stored once; --backend cpu --accel bvh does on the CPU"
+                        .into();
+                }
+                if change.is_empty() {
+                    change.push("--accel uniform".into());
+                }
                 format!(
-                    "{} would walk them on the GPU as placed, stored once (two levels on the \
-                     compute kernel)",
+                    "{} would walk them on the GPU as placed, stored once (two levels over \
+                     uniform grids)",
                     change.join(" ")
                 )
             }
@@ -533,14 +571,15 @@ mod tests {
     use super::*;
     use crate::gpu::options::FragmentKernel;
 
-    /// The one rule for a scene with instances on the GPU: `auto` (or the two levels'
-    /// kernel and structure named) in a context that runs compute takes the two levels,
-    /// the kernel named (and `auto`'s fallback kept aside for the loop limit); anything that
-    /// keeps a scene on the fragment kernels or the irregular grid leaves the options as
-    /// given, and the warning's advice names what to change; no compute, or no instances,
-    /// changes nothing. Settling twice changes nothing.
+    /// The one rule for a scene with instances on the GPU: `auto` (or the uniform grid
+    /// named) takes the two levels on any kernel: `auto`'s kernel becomes the compute
+    /// kernel where the context runs it (its fallback kept aside for the loop limit), else
+    /// (no compute, or a mask asked for) the fastest fragment kernel; a named fragment
+    /// kernel keeps its name. The irregular grid, 16-bit ray storage on a fragment kernel
+    /// and a textured scene on one leave the options as given, and the warning's advice
+    /// names what to change; no instances changes nothing. Settling twice changes nothing.
     #[test]
-    fn instances_go_to_the_two_levels_where_the_context_runs_compute() {
+    fn instances_go_to_the_two_levels_on_every_kernel() {
         let text = "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[objects]]\nshape = \"box\"\ninstances = [{ translate = [1, 0, 0] }]\n";
         let inst = crate::scene::load_scene_str(text, "i.toml", std::path::Path::new(".")).unwrap();
         let flat = crate::scene::builtin_scene();
@@ -577,19 +616,30 @@ mod tests {
         .on_context(&inst, Some(&new));
         assert_eq!(two(&named), (Kernel::Compute, AccelKind::Uniform));
         assert_eq!(named.instanced_fallback, None);
-        for (change, advice) in [
+        for (change, kernel) in [
             (
                 &(|o: &mut RenderOptions| o.gpu.kernel = Kernel::Looped)
                     as &dyn Fn(&mut RenderOptions),
-                "--kernel compute",
+                Kernel::Looped,
             ),
             (
-                &|o: &mut RenderOptions| o.accel = AccelChoice::Irregular,
-                "--accel uniform",
+                &|o: &mut RenderOptions| o.gpu.kernel = Kernel::Multipass,
+                Kernel::Multipass,
             ),
             (
                 &|o: &mut RenderOptions| o.gpu.mask = Mask::Stencil,
-                "without --mask stencil",
+                Kernel::Looped,
+            ),
+        ] {
+            let o = with(change).on_context(&inst, Some(&new));
+            assert_eq!(two(&o), (kernel, AccelKind::Uniform));
+            assert_eq!(o.instanced_fallback, None);
+        }
+        for (change, advice) in [
+            (
+                &(|o: &mut RenderOptions| o.accel = AccelChoice::Irregular)
+                    as &dyn Fn(&mut RenderOptions),
+                "--accel uniform",
             ),
             (
                 &|o: &mut RenderOptions| o.gpu.storage = Storage::F16,
@@ -603,12 +653,23 @@ mod tests {
                 (given.gpu.kernel, given.accel.resolve(true).into())
             );
             assert_eq!(o.instanced_fallback, None);
-            let a = o.stored_once_advice();
+            let a = o.stored_once_advice(&inst);
             assert!(a.contains(advice), "{a}");
         }
         let o = base.on_context(&inst, Some(&old));
+        assert_eq!(
+            two(&o),
+            (Kernel::fastest_fragment(&old).kernel(), AccelKind::Uniform)
+        );
+        let mut textured = inst.clone();
+        textured.materials[0].diffuse_map = Some(0);
+        let o = base.on_context(&textured, Some(&old));
         assert_eq!(two(&o), (Kernel::Auto, AccelKind::Irregular));
-        assert!(o.stored_once_advice().contains("no compute kernel"));
+        assert!(o
+            .stored_once_advice(&textured)
+            .contains("no compute kernel"));
+        let o = base.on_context(&textured, Some(&new));
+        assert_eq!(two(&o), (Kernel::Compute, AccelKind::Uniform));
         let o = base.on_context(&flat, Some(&new));
         assert_eq!(two(&o), (Kernel::Auto, AccelKind::Irregular));
         let cpu = RenderOptions {

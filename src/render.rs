@@ -162,12 +162,14 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
     opts.validate()?;
     let kind = opts.accel_kind();
     let gpu = opts.backend == Backend::Gl;
-    // The CPU's BVH and the compute kernel over uniform grids walk instances as two
-    // levels (the kernel named: `RenderOptions::on_context` names it where `auto` may
-    // take it); every other structure and kernel takes them flat.
+    // The CPU's BVH and every GPU kernel over uniform grids walk instances as two levels
+    // (the kernel named: `RenderOptions::on_context` names it where `auto` may take it;
+    // a fragment kernel for what `two_level_blocks` lets through); every other structure
+    // takes them flat.
     let two_level_gpu = gpu
         && kind == AccelKind::Uniform
-        && opts.gpu.kernel == crate::gpu::options::Kernel::Compute;
+        && (opts.gpu.kernel == crate::gpu::options::Kernel::Compute
+            || (opts.fragment_kernel_named() && opts.two_level_blocks(scene, true).is_empty()));
     if scene.has_instances() && two_level_gpu {
         // What the GPU stores: the scene's own triangles and each mesh's once.
         let meshes = &scene.instancing.meshes;
@@ -188,7 +190,7 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
             flat: Default::default(),
         });
     }
-    prepare_flat(scene, opts, || opts.stored_once_advice())
+    prepare_flat(scene, opts, || opts.stored_once_advice(scene))
 }
 
 /// [`prepare`] of a structure other than the two levels: an instanced scene is taken flat
@@ -595,17 +597,36 @@ impl<'p> Renderer<'p> {
 
     /// `auto`'s fallback for a scene with instances on the GPU's two levels where the
     /// driver cut the compute kernel's loops short (`why`): as for any scene, a fragment
-    /// kernel ([`RenderOptions::instanced_fallback`]) renders it, and since those walk flat
-    /// scenes only, the scene is prepared flat first (its structure the one asked for:
-    /// `auto`'s for a flat scene, or the uniform grid named), with the one warning line
-    /// that says so. This frame and the next render
-    /// it; the set-up is charged to this frame.
+    /// kernel ([`RenderOptions::instanced_fallback`]) renders it, on the same two levels
+    /// and upload where it walks them (an untextured scene); else the scene is prepared
+    /// flat first (its structure the one asked for: `auto`'s for a flat scene, or the
+    /// uniform grid named), with the one warning line that says so. This frame and the
+    /// next render it; the set-up is charged to this frame.
     fn take_instances_flat(&mut self, why: &str) -> Result<()> {
         let Engine::Gl(gs) = &self.engine else {
             unreachable!("only a GPU renderer meets the compute kernel's loop limit")
         };
         let ctx = gs.ctx();
         let (kernel, accel) = self.opts.instanced_fallback.expect("checked by the caller");
+        if self
+            .opts
+            .two_level_blocks(&self.prepared.scene, true)
+            .is_empty()
+        {
+            let mut opts = RenderOptions {
+                instanced_fallback: None,
+                ..self.opts.clone()
+            };
+            opts.gpu.kernel = kernel.kernel();
+            self.plan = Plan::resolve(&opts, self.prepared.summary.kind, Some(&ctx.info))?;
+            self.opts = opts;
+            // As `auto`'s fallback says it for any scene (`gpu::render::wing`).
+            eprintln!(
+                "fragtrace: notice: the compute kernel did not finish ({why}); rendering the \
+                 instances' two levels with the {kernel} kernel"
+            );
+            return Ok(());
+        }
         let mut opts = RenderOptions {
             accel,
             instanced_fallback: None,

@@ -62,17 +62,25 @@ fn every_generated_shader_is_valid_glsl_120() {
         }
     }
     // Per feature set and technique folder: the full ray-tree program (storage-buffer and
-    // texelFetch scene reads, and the instanced walk), the primary-only one, the sRGB8
-    // conversion and both wave programs.
+    // texelFetch scene reads), the primary-only one, the sRGB8 conversion and both wave
+    // programs; and in `instanced/`, an instanced scene's every fragment pass (the
+    // two-level walk in GLSL 1.20) and its ray-tree program.
     let compute = files
         .iter()
         .filter(|f| f.extension().is_some_and(|e| e == "comp"))
         .count();
     assert_eq!(
         compute,
-        7 * (32 + Techniques::one_off().len()),
+        6 * (32 + Techniques::one_off().len()) + 1,
         "compute programs written"
     );
+    let instanced = dir.join("instanced");
+    let walks = files
+        .iter()
+        .filter(|f| f.starts_with(&instanced))
+        .filter(|f| std::fs::read_to_string(f).unwrap().contains("lv_unpack("))
+        .count();
+    assert!(walks >= 10, "{walks} instanced passes walk the two levels");
     let mut bad = Vec::new();
     for f in &files {
         let (ok, log) = validate(f);

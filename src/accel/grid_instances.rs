@@ -1,10 +1,10 @@
 //! The two-level structure of a scene with instances (`scene/instance.rs`) for the GPU's
-//! compute kernel (`glsl120/instance.glsl`): a uniform grid over the scene's own
+//! kernels (`glsl120/instance.glsl`, `instance_walk.glsl`): a uniform grid over the scene's own
 //! triangles, one uniform grid per instanced mesh in its object space (built once however
 //! many times the mesh is placed), and the CPU's top BVH over the instances' local-space
 //! boxes (`Bvh::over_boxes`, as `accel/instances.rs` builds it: the top level is then the
-//! same tree on both backends, logarithmic in instances, and its 4-wide nodes walk with a
-//! small stack). Memory grows with the meshes' triangles and the instances, not with the
+//! same tree on both backends, logarithmic in instances; the GPU walks it threaded,
+//! without a stack: `gpu/contract/instancing.rs`). Memory grows with the meshes' triangles and the instances, not with the
 //! triangles they place.
 //!
 //! What the GPU packs is one scene and one grid ([`GridInstances::packed`],
@@ -24,10 +24,6 @@ use crate::{Error, Result};
 
 /// SAH cost of a top-level node visit, in instance walks (as `accel/instances.rs`).
 const TOP_NODE_COST: f32 = 0.1;
-
-/// Entries of the GPU walk's top-level stack ([`GridInstances::build`] refuses a deeper
-/// tree): a 4-wide walk pushes at most three siblings per level.
-pub const TOP_STACK: usize = 64;
 
 /// One instanced mesh's grid within the packed grid.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -149,15 +145,6 @@ impl GridInstances {
             })
             .collect();
         let top = Bvh::over_boxes(&boxes, TOP_NODE_COST)?;
-        if 3 * top.stats.depth + 1 > TOP_STACK {
-            return Err(Error::Limit(format!(
-                "{}: the instances' top tree is {} levels deep; the GPU walk's stack holds {} \
-                 levels; render with --backend cpu --accel bvh",
-                scene.source,
-                top.stats.depth,
-                (TOP_STACK - 1) / 3
-            )));
-        }
         // The grid's figures: all levels' cells and references together.
         let s = &mut grid.stats;
         s.cells = grid.cells.len();

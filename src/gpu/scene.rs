@@ -18,7 +18,6 @@ use std::collections::HashMap;
 use std::rc::Rc;
 
 use super::context::GlContext;
-use super::contract::instancing::instancing_buffer;
 use super::contract::STORAGE_BINDING_BASE;
 use super::contract::{uniform, Unit};
 use super::gl::compute::{start_compute, PendingCompute};
@@ -117,10 +116,9 @@ pub struct GpuScene<'s> {
     srgb_thresholds: OnceCell<StorageBuffer>,
     /// The same thresholds as a 256 x 1 texture (in .r), for `srgb8.frag`.
     srgb_texture: OnceCell<Texture>,
-    /// An instanced scene's levels (the compute kernel walks them) and its instancing
-    /// buffer (`contract::instancing`), uploaded on first use.
-    instancing: Option<(&'s GridInstances, Vec<[f32; 4]>)>,
-    instancing_buffer: OnceCell<StorageBuffer>,
+    /// An instanced scene's levels (every kernel walks them; their instancing data is
+    /// the layout's texture `inst`).
+    instancing: Option<&'s GridInstances>,
     /// What a wing keeps between renders of this scene, one value per type (see
     /// [`GpuScene::kept`]).
     kept: RefCell<HashMap<TypeId, Box<dyn Any>>>,
@@ -154,7 +152,7 @@ impl<'s> GpuScene<'s> {
         let given = scene;
         // An instanced scene packs its own triangles and its meshes' (`GridInstances`).
         let (scene, instancing) = match accel {
-            AccelRef::GridInstanced(gi) => (&gi.packed, Some((gi, instancing_buffer(scene, gi)))),
+            AccelRef::GridInstanced(gi) => (&gi.packed, Some(gi)),
             _ => (scene, None),
         };
         let accel = accel.grid()?;
@@ -165,7 +163,12 @@ impl<'s> GpuScene<'s> {
             Features::of(scene)
         };
         let max_size = ctx.info.max_texture_size.max(0) as u32;
-        let layout = SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?;
+        let layout = match instancing {
+            Some(gi) => {
+                SceneTextures::pack_instanced(given, gi, max_size, features.smooth_normals, None)?
+            }
+            None => SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?,
+        };
         let costs = Costs {
             upload_ms: ms_since(t),
             ..Costs::default()
@@ -190,7 +193,6 @@ impl<'s> GpuScene<'s> {
             srgb_thresholds: OnceCell::new(),
             srgb_texture: OnceCell::new(),
             instancing,
-            instancing_buffer: OnceCell::new(),
             kept: RefCell::new(HashMap::new()),
             costs: Cell::new(costs),
         })
@@ -226,13 +228,22 @@ impl<'s> GpuScene<'s> {
     /// must render the same image).
     pub fn with_index_format(mut self, format: IndexFormat) -> Result<Self> {
         let max_size = self.ctx.info.max_texture_size.max(0) as u32;
-        self.layout = SceneTextures::pack_format(
-            self.scene,
-            self.accel,
-            max_size,
-            self.features.smooth_normals,
-            format,
-        )?;
+        self.layout = match self.instancing {
+            Some(gi) => SceneTextures::pack_instanced(
+                self.given,
+                gi,
+                max_size,
+                self.features.smooth_normals,
+                Some(format),
+            )?,
+            None => SceneTextures::pack_format(
+                self.scene,
+                self.accel,
+                max_size,
+                self.features.smooth_normals,
+                format,
+            )?,
+        };
         Ok(self)
     }
 
@@ -281,10 +292,28 @@ impl<'s> GpuScene<'s> {
     /// each test is one iteration; generously.
     pub fn max_iterations(&self) -> u64 {
         // Each walk of an instanced scene (its own grid's, a mesh's) is bounded alone.
-        let meshes = self.instancing.iter().flat_map(|(gi, _)| &gi.meshes);
+        let meshes = self.instancing.iter().flat_map(|gi| &gi.meshes);
         meshes
-            .map(|m| 16 * (m.res.iter().map(|&r| r as u64).sum::<u64>() + m.references as u64 + 16))
+            .map(|m| walk_iterations(m.res, m.references as u64))
             .fold(max_iterations(self.accel), u64::max)
+    }
+
+    /// The fragment kernels' bound on one ray's iterations: [`GpuScene::max_iterations`],
+    /// or for an instanced scene, whose walks a fragment kernel counts together, the own
+    /// walk's, one per top-level entry (at most two per instance) and every instance's.
+    pub fn ray_iterations(&self) -> u64 {
+        let Some(gi) = self.instancing else {
+            return self.max_iterations();
+        };
+        let instances = &self.given.instancing.instances;
+        let placed: u64 = instances
+            .iter()
+            .map(|i| {
+                let m = &gi.meshes[i.mesh as usize];
+                walk_iterations(m.res, m.references as u64)
+            })
+            .sum();
+        max_iterations(self.accel) + 2 * instances.len() as u64 + placed
     }
 
     /// Whether the scene is walked as instances (the compute kernel's `INSTANCED`).
@@ -292,28 +321,9 @@ impl<'s> GpuScene<'s> {
         self.instancing.is_some()
     }
 
-    /// The instancing buffer of an instanced scene, uploaded on first use (None for
-    /// another scene).
-    pub fn instancing_buffer(&self) -> Result<Option<&StorageBuffer>> {
-        let Some((_, data)) = &self.instancing else {
-            return Ok(None);
-        };
-        if let Some(b) = self.instancing_buffer.get() {
-            return Ok(Some(b));
-        }
-        let t0 = Instant::now();
-        let bytes: Vec<u8> = data
-            .iter()
-            .flatten()
-            .flat_map(|v| v.to_ne_bytes())
-            .collect();
-        let b = StorageBuffer::new(self.ctx, &bytes)?;
-        state::finish(self.ctx.gl());
-        self.charge(|c| {
-            c.upload_ms += ms_since(t0);
-            c.upload_bytes += bytes.len();
-        });
-        Ok(Some(self.instancing_buffer.get_or_init(|| b)))
+    /// An instanced scene's levels (None for a scene walked flat).
+    pub fn instancing(&self) -> Option<&'s GridInstances> {
+        self.instancing
     }
 
     /// What was spent since the last call (the first render also pays for the packing).
@@ -753,7 +763,12 @@ pub fn max_iterations(accel: GridRef<'_>) -> u64 {
         GridRef::Uniform(g) => (g.res, g.tri_indices.len()),
         GridRef::Irregular(g) => (g.res, g.tri_indices.len()),
     };
-    16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs as u64 + 16)
+    walk_iterations(res, refs as u64)
+}
+
+/// The bound of one grid walk over cells `res` holding `refs` references.
+fn walk_iterations(res: [u32; 3], refs: u64) -> u64 {
+    16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs + 16)
 }
 
 /// Binds `tex` to `unit`.

@@ -61,6 +61,10 @@ const SOURCES: &[(&str, &str)] = &[
     ("count.frag", include_str!("../../glsl120/count.frag")),
     ("compute.glsl", include_str!("../../glsl120/compute.glsl")),
     ("instance.glsl", include_str!("../../glsl120/instance.glsl")),
+    (
+        "instance_walk.glsl",
+        include_str!("../../glsl120/instance_walk.glsl"),
+    ),
     ("render.comp", include_str!("../../glsl120/render.comp")),
     ("wave.comp", include_str!("../../glsl120/wave.comp")),
     ("srgb8.comp", include_str!("../../glsl120/srgb8.comp")),
@@ -74,6 +78,7 @@ const INCLUDABLE: &[&str] = &[
     "step.glsl",
     "compute.glsl",
     "instance.glsl",
+    "instance_walk.glsl",
 ];
 
 pub use super::contract::RayState;
@@ -207,6 +212,12 @@ impl Pass {
                 let step = "traverse_step(s0, s1, s2, s3); intersect_step(s0, s1, s2, s3);";
                 d.push(format!(
                     "UNROLLED_STEPS {}",
+                    vec![step; k as usize].join(" ")
+                ));
+                // The same iterations of an instanced scene's two-level walk.
+                let step = "lv_step(L, q0, q1, q2, q3); lv_test(L, q0, q1, q2, q3, QUERY_ANY);";
+                d.push(format!(
+                    "UNROLLED_LEVELS {}",
                     vec![step; k as usize].join(" ")
                 ));
                 d

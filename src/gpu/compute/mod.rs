@@ -93,8 +93,6 @@ impl<'g> Setup<'g> {
                 pass.name()
             )));
         }
-        // Uploaded here so that its bytes count in this render's set-up.
-        gs.instancing_buffer()?;
         let program = gs.compute_program(pass, &ComputeSpec { fetch, ..*spec }, techniques)?;
         let costs = gs.take_costs();
         stats.upload_ms = costs.upload_ms;
@@ -286,9 +284,6 @@ pub(crate) fn render(
     let cam_buf = StorageBuffer::new(ctx, &cam_bytes)?;
     cam_buf.bind(gl, Buffer::Camera.binding());
     gs.light_buffer()?.bind(gl, Buffer::Lights.binding());
-    if let Some(b) = gs.instancing_buffer()? {
-        b.bind(gl, Buffer::Instancing.binding());
-    }
 
     // Bands of rows whose outputs fit one storage block (the AOV's 16 bytes per pixel are
     // the larger); with a progress bar drawn, bands sized to take about BAND_TIME each.

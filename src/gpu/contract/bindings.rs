@@ -274,13 +274,37 @@ const CHILD: &[&str] = &["weight.frag", "spawn.frag"];
 /// are read as `u_r*` by the shading passes and as the parent's `u_p*` by the child
 /// passes; the node weight `u_c2`, the primary directions `u_dir` and the 8-bit sRGB
 /// thresholds `u_srgb` likewise).
-pub const SAMPLERS: [Sampler; 25] = [
+pub const SAMPLERS: [Sampler; 27] = [
     sampler("u_tri", Unit::Tri, &[LAYOUT], Stage::Any, "triangles"),
     sampler("u_mat", Unit::Mat, &[LAYOUT], Stage::Any, "materials"),
     sampler("u_cell", Unit::Cell, &[LAYOUT], Stage::Any, "cell table"),
     sampler("u_list", Unit::List, &[LAYOUT], Stage::Any, "triangle list"),
     sampler("u_nrm", Unit::Nrm, &[LAYOUT], Stage::Any, "vertex normals"),
     sampler("u_vmap", Unit::Vmap, &[LAYOUT], Stage::Any, "voxel map"),
+    // The two levels of an instanced scene walk uniform grids only: the voxel map's unit
+    // is free for them.
+    sampler(
+        "u_inst",
+        Unit::Vmap,
+        &[LAYOUT],
+        Stage::Any,
+        "instanced scenes: placements, meshes' grids, the threaded top tree",
+    ),
+    // As the cone records: s2's unit, which no pass reading records reads.
+    sampler(
+        "u_ri",
+        Unit::S2,
+        &[
+            "accum_ambient.frag",
+            "accum_light.frag",
+            "shadow_spawn.frag",
+            "spawn.frag",
+            "weight.frag",
+        ],
+        Stage::Fragment,
+        "instanced scenes: the instance of this level's (or the parent's) hit, -1 for the \
+         scene's own (record.frag's third output)",
+    ),
     sampler(
         "u_tex",
         Unit::Tex,
@@ -477,14 +501,11 @@ pub enum Buffer {
     /// The 256 linear values at which the 8-bit sRGB code steps up (the host's
     /// `image_io::srgb8_thresholds`, padded with +inf).
     SrgbThresholds,
-    /// An instanced scene's placements, meshes' grids and top tree
-    /// ([`super::instancing::instancing_buffer`]).
-    Instancing,
 }
 
 impl Buffer {
     /// Every buffer, in binding order.
-    pub const ALL: [Buffer; 8] = [
+    pub const ALL: [Buffer; 7] = [
         Buffer::Camera,
         Buffer::Lights,
         Buffer::Counters,
@@ -492,7 +513,6 @@ impl Buffer {
         Buffer::Aov,
         Buffer::Srgb8,
         Buffer::SrgbThresholds,
-        Buffer::Instancing,
     ];
 
     /// Its binding point.
@@ -510,7 +530,6 @@ impl Buffer {
             Buffer::Aov => "aov_out",
             Buffer::Srgb8 => "srgb8_out",
             Buffer::SrgbThresholds => "srgb_thresholds",
-            Buffer::Instancing => "inst_data",
         }
     }
 
@@ -529,7 +548,6 @@ impl Buffer {
                 "SrgbThresholdBuffer",
                 "float srgb_thresholds[256]",
             ),
-            Buffer::Instancing => ("readonly", "InstanceBuffer", "vec4 inst_data[]"),
         };
         let access = if access.is_empty() {
             String::new()
@@ -548,7 +566,6 @@ impl Buffer {
             Buffer::Radiance => &["render.comp", "srgb8.comp"],
             Buffer::Srgb8 | Buffer::SrgbThresholds => &["srgb8.comp"],
             Buffer::Camera | Buffer::Lights | Buffer::Counters | Buffer::Aov => &["render.comp"],
-            Buffer::Instancing => &["instance.glsl"],
         }
     }
 }
@@ -703,20 +720,49 @@ mod tests {
     fn active_everywhere(ctx: &crate::gpu::GlContext) -> (HashMap<String, Vec<u32>>, Vec<Program>) {
         let mut active: HashMap<String, Vec<u32>> = HashMap::new();
         let mut programs = Vec::new();
-        // The built-in scene on the uniform grid, and textured on the irregular one: the
-        // texture declarations are active in textured programs only.
-        for (kind, scene) in [
-            (AccelKind::Uniform, builtin_scene()),
-            (AccelKind::Irregular, textured_builtin()),
-        ] {
-            let accel = Accel::build(
-                &scene,
-                kind,
-                &GridConfig::default(),
-                &IrregularConfig::default(),
+        // The built-in scene on the uniform grid, textured on the irregular one and with
+        // instances on the two levels: the texture declarations are active in textured
+        // programs only, the instancing ones in instanced programs only.
+        let mut placed = builtin_scene();
+        let sphere = placed.clone();
+        placed.instancing.meshes.push(crate::scene::Mesh {
+            name: "builtin".into(),
+            geometry: sphere,
+        });
+        placed.instancing.instances.push(
+            crate::scene::Instance::new(
+                0,
+                glam::DMat3::from_diagonal(glam::DVec3::new(-1.0, 1.0, 1.0)),
+                glam::DVec3::X,
             )
-            .unwrap();
-            let layout = SceneTextures::pack_with(&scene, accel.as_ref(), 4096, true).unwrap();
+            .unwrap(),
+        );
+        let n = placed.triangles.len();
+        placed.instancing.number(n, "test").unwrap();
+        for (kind, scene, instanced) in [
+            (AccelKind::Uniform, builtin_scene(), false),
+            (AccelKind::Irregular, textured_builtin(), false),
+            (AccelKind::Uniform, placed, true),
+        ] {
+            let (layout, _levels) = if instanced {
+                let gi = crate::accel::grid_instances::GridInstances::build(
+                    &scene,
+                    &GridConfig::default(),
+                )
+                .unwrap();
+                let l = SceneTextures::pack_instanced(&scene, &gi, 4096, true, None).unwrap();
+                (l, Some(gi))
+            } else {
+                let accel = Accel::build(
+                    &scene,
+                    kind,
+                    &GridConfig::default(),
+                    &IrregularConfig::default(),
+                )
+                .unwrap();
+                let l = SceneTextures::pack_with(&scene, accel.as_ref(), 4096, true).unwrap();
+                (l, None)
+            };
             let mut add = |p: Program| {
                 for (name, utype) in p.active_uniforms(ctx.gl()) {
                     active.entry(name).or_default().push(utype);
@@ -734,12 +780,8 @@ mod tests {
             if !ctx.info.compute {
                 continue;
             }
-            // The instanced walk (`instance.glsl`) with storage-buffer reads.
-            for (fetch, instanced) in [
-                (Fetch::TexelFetch, false),
-                (Fetch::Storage, false),
-                (Fetch::Storage, true),
-            ] {
+            // The instanced walk (`instance_walk.glsl`) with both fetch paths.
+            for fetch in [Fetch::TexelFetch, Fetch::Storage] {
                 let spec = ComputeSpec {
                     samples: 2,
                     lights: 2,

@@ -83,6 +83,10 @@ pub(super) struct Frame<'a> {
     pub(super) aov: Option<Aov>,
     /// The primary rays' cone spread (textured scenes: [`Frame::set_root_cone`]).
     pub(super) root_spread: f32,
+    /// The level whose records [`Frame::bind_records`] bound last: an instanced scene's
+    /// ray-state passes that read them (the spawns) bind its instance record again after
+    /// the state, which shares its unit.
+    records_level: std::cell::Cell<Option<usize>>,
 }
 
 /// Timer queries in flight, resolved in batches so the pipeline is not stalled per pass.
@@ -192,8 +196,16 @@ impl<'a> Frame<'a> {
                 }
             )));
         }
-        // Check memory before allocating: ray state (8), records (3 per level), colour (2).
-        let bytes = (width as u64 * height as u64) * 16 * (8 + 3 * levels as u64 + 2);
+        if textured && gs.instanced() {
+            return Err(Error::Internal(
+                "a textured scene's instances reach the fragment kernels flat (render::prepare)"
+                    .into(),
+            ));
+        }
+        // Check memory before allocating: ray state (8), records (3 per level, 4 with
+        // instances), colour (2).
+        let per_level = if gs.instanced() { 4 } else { 3 };
+        let bytes = (width as u64 * height as u64) * 16 * (8 + per_level * levels as u64 + 2);
         if bytes > 8 << 30 {
             return Err(Error::Limit(format!(
                 "{width}x{height} with {levels} ray-tree levels needs {:.1} GiB of ray textures",
@@ -258,7 +270,10 @@ impl<'a> Frame<'a> {
             programs,
             state,
             cur: 0,
-            rec01: (0..levels).map(|_| targets(2)).collect::<Result<_>>()?,
+            // An instanced scene's record target also holds the hit's instance (ri).
+            rec01: (0..levels)
+                .map(|_| targets(if gs.instanced() { 3 } else { 2 }))
+                .collect::<Result<_>>()?,
             // With textures, r2's target also holds the level's cone record r3, which the
             // weight pass writes beside the weight.
             rec2: (0..levels)
@@ -305,11 +320,12 @@ impl<'a> Frame<'a> {
             stats,
             opts,
             kernel,
-            max_iterations: gs.max_iterations(),
+            max_iterations: gs.ray_iterations(),
             watch: None,
             last_pass: "none",
             aov: None,
             root_spread: 0.0,
+            records_level: Default::default(),
         })
     }
 
@@ -353,11 +369,21 @@ impl<'a> Frame<'a> {
     /// textures its cone record r3 to s2's unit, which no pass reading records reads
     /// (so this comes after the ray state is bound).
     pub(super) fn bind_records(&self, level: usize) {
+        self.records_level.set(Some(level));
         for (k, unit) in Unit::RECORD.into_iter().enumerate() {
             bind_texture(self.gl(), unit, self.record_texture(level, k));
         }
         if let Some(cone) = self.rec2[level].textures().get(1) {
             bind_texture(self.gl(), Unit::S2, cone);
+        }
+        self.bind_instance_record(level);
+    }
+
+    /// An instanced scene's record of level `level`'s hit instances, on s2's unit (an
+    /// instanced scene on a fragment kernel has no cone records: `render::prepare`).
+    fn bind_instance_record(&self, level: usize) {
+        if let Some(ri) = self.rec01[level].textures().get(2) {
+            bind_texture(self.gl(), Unit::S2, ri);
         }
     }
 
@@ -472,6 +498,9 @@ impl<'a> Frame<'a> {
     /// held, which must be the current state there (`trace.rs` sees to it).
     pub(super) async fn state_pass_over(&mut self, pass: Pass, cover: Cover) -> Result<()> {
         self.bind_state_input();
+        if let (Pass::Spawn | Pass::ShadowSpawn, Some(level)) = (pass, self.records_level.get()) {
+            self.bind_instance_record(level);
+        }
         let other = 1 - self.cur;
         self.draw_over(pass, Slot::State(other), cover)?;
         self.cur = other;

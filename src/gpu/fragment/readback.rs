@@ -8,7 +8,7 @@ use super::frame::Frame;
 use crate::gpu::contract::{ray, RayState, StateTexels, Unit};
 use crate::gpu::gl::{state, ReadbackRing, RenderTarget, TexFormat};
 use crate::gpu::options::{FragmentKernel, GpuOptions};
-use crate::gpu::request::aov_pixel;
+use crate::gpu::request::{aov_pixel, aov_pixel_id};
 use crate::gpu::scene::bind_texture;
 use crate::gpu::scene::GpuScene;
 use crate::gpu::shader::{Pass, Query};
@@ -106,6 +106,9 @@ fn read_state(f: &Frame) -> Result<StateTexels> {
 /// Primary-ray AOVs from the finished level-0 wave.
 pub(super) fn read_aov(f: &Frame, scene: &Scene, w: u32, h: u32) -> Result<Aov> {
     let s = read_state(f)?;
+    if let Some(gi) = f.gs.instancing() {
+        return Ok(instanced_aov(&s, f.gs.given_scene(), gi, w, h));
+    }
     let mut pixels = vec![AovPixel::miss(0.0); (w * h) as usize];
     pixels
         .par_chunks_mut(w as usize)
@@ -122,6 +125,45 @@ pub(super) fn read_aov(f: &Frame, scene: &Scene, w: u32, h: u32) -> Result<Aov> 
     Ok(Aov::from_vec(w, h, pixels))
 }
 
+/// [`read_aov`] of an instanced scene: its finished state (`instance_walk.glsl`) holds the
+/// hit's packed triangle and, in s3's third channel, its instance (-1: the scene's own),
+/// which give its primitive id exactly (the instance's first id plus the triangle's index
+/// in its mesh), whatever its size.
+fn instanced_aov(
+    s: &StateTexels,
+    given: &Scene,
+    gi: &crate::accel::grid_instances::GridInstances,
+    w: u32,
+    h: u32,
+) -> Aov {
+    let instances = &given.instancing.instances;
+    let mut pixels = vec![AovPixel::miss(0.0); (w * h) as usize];
+    pixels
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .for_each(|(j, out)| {
+            let row = (h as usize - 1 - j) * w as usize;
+            for (i, px) in out.iter_mut().enumerate() {
+                let k = row + i;
+                let hit = RayState::from_code(s.get(k, ray::STATE)) == Some(RayState::Shading);
+                let best = hit.then(|| {
+                    let rec = crate::gpu::layout::slot_record(s.get(k, ray::TRI_BEST));
+                    let inst = s.get(k, ray::CURSOR_END);
+                    let id = if inst < 0.0 {
+                        rec
+                    } else {
+                        let i = &instances[inst as usize];
+                        let base = gi.meshes[i.mesh as usize].tri_base as u64;
+                        i.first as u64 + (rec - base)
+                    };
+                    (s.get(k, ray::T_BEST), id)
+                });
+                *px = aov_pixel_id(given, best, s.get(k, ray::STEPS));
+            }
+        });
+    Aov::from_vec(w, h, pixels)
+}
+
 /// Traces the wave of `rays` with `kernel` (the fragment side of `trace_rays`).
 pub(crate) fn trace_wave(
     gs: &GpuScene,
@@ -130,6 +172,13 @@ pub(crate) fn trace_wave(
     kernel: FragmentKernel,
     opts: &GpuOptions,
 ) -> Result<Vec<GpuTrace>> {
+    if gs.instanced() {
+        return Err(crate::Error::Internal(
+            "a wave of given rays walks scenes stored flat; an instanced scene renders whole \
+             images"
+                .into(),
+        ));
+    }
     let n = rays.len() as u32;
     let (w, h) = wave_size(n);
     let mut f = Frame::new(gs, w, h, 1, false, kernel, opts, opts.techniques)?;

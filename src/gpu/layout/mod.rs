@@ -34,6 +34,7 @@
 //! | `vmap` | 1 per 4 voxel-map entries | irregular grid only: cell id, or -(child block + 1) |
 //! | `list` | 1 per 4 references | four triangle indices |
 //! | `tex` | see [`TexLayout`] | textured scenes only: uv records, colours, texture table, texels |
+//! | `inst` | see [`contract::instancing`](super::contract::instancing) | instanced scenes only: placements, meshes' grids, the threaded top tree |
 //!
 //! For the irregular grid the layout also generates `irr_lookup(k)`, the voxel-map descent
 //! from a virtual cell to its cell id, unrolled hop by hop with the splits of each hop as
@@ -120,6 +121,10 @@ pub struct SceneTextures {
     /// Texture coordinates, vertex colours and textures (`None` for a scene without
     /// textures and vertex colours: then no texture code is compiled).
     pub tex: Option<TexLayout>,
+    /// An instanced scene's instancing data (`contract::instancing`: placements, meshes'
+    /// grids, the threaded top tree), at the voxel map's unit, which the uniform grid the
+    /// two levels use leaves free (`None` for a scene walked flat).
+    pub inst: Option<PackedTexture>,
     /// How indices are written (and read by the GLSL).
     pub format: IndexFormat,
 }
@@ -170,6 +175,36 @@ impl SceneTextures {
         normals: bool,
         format: IndexFormat,
     ) -> Result<Self> {
+        Self::pack_all(scene, accel, max_size, normals, format, None)
+    }
+
+    /// An instanced scene's two levels `gi` (`given`: the scene as loaded, its placements)
+    /// packed as [`SceneTextures::pack_with`] packs the scene and grid they store, with the
+    /// instancing data `inst` beside them (in `format` when given).
+    pub fn pack_instanced(
+        given: &Scene,
+        gi: &crate::accel::grid_instances::GridInstances,
+        max_size: u32,
+        normals: bool,
+        format: Option<IndexFormat>,
+    ) -> Result<Self> {
+        let data = super::contract::instancing::instancing_data(given, gi)?;
+        let scene = &gi.packed;
+        let texels =
+            (scene.triangles.len() as u64 * TRI_TEXELS as u64).max(gi.grid.cells.len() as u64);
+        let format =
+            format.unwrap_or_else(|| IndexFormat::needed(texels, gi.grid.tri_indices.len() as u64));
+        Self::pack_all(scene, &gi.grid, max_size, normals, format, Some(data))
+    }
+
+    fn pack_all<'a>(
+        scene: &Scene,
+        accel: impl Into<AccelRef<'a>>,
+        max_size: u32,
+        normals: bool,
+        format: IndexFormat,
+        inst: Option<Vec<[f32; 4]>>,
+    ) -> Result<Self> {
         let accel = accel.into().grid()?;
         check_indices(scene, accel)?;
         let smooth = normals || scene.has_smooth_normals();
@@ -197,7 +232,10 @@ impl SceneTextures {
                 (counts, Some(w))
             }
         };
-        let plan = LayoutPlan::new(&LayoutCounts::of(scene, grid, smooth, format));
+        let plan = LayoutPlan::new(&LayoutCounts {
+            inst_texels: inst.as_ref().map(|d| d.len() as u64),
+            ..LayoutCounts::of(scene, grid, smooth, format)
+        });
         // The browser tells a page nothing of the host's memory: there the driver refuses.
         #[cfg(not(target_arch = "wasm32"))]
         let available = crate::memory::available_bytes();
@@ -332,6 +370,10 @@ impl SceneTextures {
             list: PackedTexture::pack_entries("list", &list, max_size)?,
             irregular,
             tex,
+            inst: match inst {
+                Some(d) => Some(PackedTexture::pack("inst", d, max_size)?),
+                None => None,
+            },
             format,
         };
         // What was checked is what was packed: every texture as the plan sized it.
@@ -370,6 +412,9 @@ impl SceneTextures {
         if let Some(t) = &self.tex {
             v.push((Unit::Tex, &t.texture));
         }
+        if let Some(t) = &self.inst {
+            v.push((Unit::Vmap, t));
+        }
         v
     }
 
@@ -394,6 +439,12 @@ impl SceneTextures {
         }
         if let Some(t) = &self.tex {
             s.push_str(&t.glsl(fetch));
+        }
+        if self.inst.is_some() {
+            // The fragment passes learn that the scene is instanced here (the compute
+            // kernel from its spec as well).
+            s.push_str("#ifndef INSTANCED\n#define INSTANCED\n#endif\n");
+            s.push_str(&super::contract::instancing::instancing_glsl());
         }
         s
     }

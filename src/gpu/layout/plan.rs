@@ -51,6 +51,8 @@ pub struct LayoutCounts {
     pub grid: GridCounts,
     /// Texels of the `tex` texture (`None`: the scene has none).
     pub tex_texels: Option<u64>,
+    /// Texels of an instanced scene's instancing data `inst` (`contract::instancing`).
+    pub inst_texels: Option<u64>,
     /// The index format the textures are written in.
     pub format: IndexFormat,
 }
@@ -64,6 +66,7 @@ impl LayoutCounts {
             materials: scene.materials.len() as u64,
             grid,
             tex_texels: TexLayout::texels(scene),
+            inst_texels: None,
             format,
         }
     }
@@ -107,6 +110,9 @@ impl LayoutPlan {
         };
         if let Some(t) = c.tex_texels {
             textures.push(("tex", t));
+        }
+        if let Some(t) = c.inst_texels {
+            textures.push(("inst", t));
         }
         LayoutPlan {
             textures,
@@ -215,6 +221,7 @@ mod tests {
                 vmap_entries: cells * 2,
             },
             tex_texels: None,
+            inst_texels: None,
             format: IndexFormat::Split,
         };
         let cells = 61_500_880;
@@ -257,6 +264,7 @@ mod tests {
                 materials: 1,
                 grid: GridCounts::Uniform { cells, refs: 10 },
                 tex_texels: None,
+                inst_texels: None,
                 format: IndexFormat::Float,
             })
         };
@@ -287,6 +295,7 @@ mod tests {
                 vmap_entries: 1 << 22,
             },
             tex_texels: None,
+            inst_texels: None,
             format: IndexFormat::Float,
         };
         let plan = LayoutPlan::new(&c);

@@ -135,15 +135,6 @@ fn compute_programs(
                 ..spec
             },
         ));
-        // The walk of an instanced scene's two levels (`instance.glsl`).
-        v.push((
-            "compute_instanced",
-            pass,
-            ComputeSpec {
-                instanced: true,
-                ..spec
-            },
-        ));
     }
     v.push((
         ComputePass::Srgb8.name(),
@@ -241,5 +232,49 @@ pub fn dump_shaders_as<'a>(
             write(sub.join(format!("{stem}.comp")), &a.source)?;
         }
     }
+    if all_variants {
+        // An instanced scene's programs (`instance.glsl`, `instance_walk.glsl`), every
+        // feature on, in `instanced/`: the scene placed as a mesh of its own, mirrored.
+        let placed = instanced_twin(scene)?;
+        let gi = crate::accel::grid_instances::GridInstances::build(&placed, &Default::default())?;
+        let layout = SceneTextures::pack_instanced(&placed, &gi, layout::MAX_ROW, true, None)?;
+        let sub = dir.join("instanced");
+        crate::image_io::create_folder(&sub, "shader")?;
+        let (f, t) = (Features::all(), Techniques::default());
+        for pass in all_passes() {
+            let name = match pass {
+                Pass::Unrolled(_, k) => format!("{}{k}.frag", pass.name()),
+                _ => format!("{}.frag", pass.name()),
+            };
+            write(sub.join(name), &assemble(pass, f, t, &layout)?.source)?;
+        }
+        let (_, pass, spec) = compute[0];
+        let spec = ComputeSpec {
+            instanced: true,
+            ..spec
+        };
+        let a = assemble_compute(pass, &spec, f, t, &layout)?;
+        write(sub.join("compute_instanced.comp"), &a.source)?;
+    }
     Ok(written)
+}
+
+/// `scene` with a copy of itself placed once as an instance (mirrored), for the instanced
+/// programs of `--all-variants`.
+fn instanced_twin(scene: &Scene) -> Result<Scene> {
+    let mut placed = scene.clone();
+    placed.instancing = Default::default();
+    let mesh = placed.clone();
+    placed.instancing.meshes.push(crate::scene::Mesh {
+        name: "twin".into(),
+        geometry: mesh,
+    });
+    let mirror = glam::DMat3::from_diagonal(glam::DVec3::new(-1.0, 1.0, 1.0));
+    let inst = crate::scene::Instance::new(0, mirror, glam::DVec3::X)
+        .ok_or_else(|| Error::Internal("a mirroring placement is invertible".into()))?;
+    placed.instancing.instances.push(inst);
+    let own = placed.triangles.len();
+    let source = placed.source.clone();
+    placed.instancing.number(own, &source)?;
+    Ok(placed)
 }
