@@ -246,4 +246,4 @@ impl Fnv1a {
 }
 
 /// See [`glsl_120_output_is_unchanged`].
-const GLSL_120_HASH: u64 = 0xbcb3_46d5_ca12_db54;
+const GLSL_120_HASH: u64 = 0xe6d6_bf76_b73d_9a9a;

@@ -24,7 +24,7 @@ use super::contract::{uniform, Unit};
 use super::gl::compute::{start_compute, PendingCompute};
 use super::gl::program::{allow_parallel_compile, link_binary, start_program, PendingProgram};
 use super::gl::{compile_compute, compile_program, state, Program, StorageBuffer, Texture};
-use super::layout::{IndexFormat, SceneTextures};
+use super::layout::{DenseBuffer, Fetch, IndexFormat, LayoutTarget, SceneTextures};
 use super::program_cache::{ProgramCache, SourceKey};
 use super::shader::{
     assemble_compute, assemble_in, Assembled, ComputePass, ComputeSpec, Features, Pass,
@@ -102,9 +102,17 @@ pub struct GpuScene<'s> {
     given: &'s Scene,
     accel: GridRef<'s>,
     features: Features,
-    layout: SceneTextures,
-    textures: OnceCell<Vec<(Unit, Texture)>>,
-    buffers: OnceCell<Vec<(u32, StorageBuffer)>>,
+    /// The layouts, each packed on first use ([`LayoutSlot`]): the float one and the
+    /// compute kernel's over the irregular grid; and each one's uploaded copies.
+    layouts: [OnceCell<SceneTextures>; 2],
+    textures: [OnceCell<Vec<(Unit, Texture)>>; 2],
+    buffers: [OnceCell<Vec<(u32, StorageBuffer)>>; 2],
+    /// The dense grid's storage buffers at their bindings, uploaded on first use.
+    dense_buffers: OnceCell<Vec<(u32, StorageBuffer)>>,
+    /// Tests only: the index format the float layout is packed in
+    /// ([`GpuScene::with_index_format`]), and faces skewed ([`GpuScene::with_skewed_faces`]).
+    index_format: Option<IndexFormat>,
+    skew_faces: bool,
     programs: RefCell<HashMap<ProgramKey, Rc<Program>>>,
     /// Compute programs started and not yet finished ([`GpuScene::compute_program_ready`]).
     compiling: RefCell<HashMap<ProgramKey, Compiling>>,
@@ -164,8 +172,6 @@ impl<'s> GpuScene<'s> {
         } else {
             Features::of(scene)
         };
-        let max_size = ctx.info.max_texture_size.max(0) as u32;
-        let layout = SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?;
         let costs = Costs {
             upload_ms: ms_since(t),
             ..Costs::default()
@@ -176,9 +182,12 @@ impl<'s> GpuScene<'s> {
             given,
             accel,
             features,
-            layout,
-            textures: OnceCell::new(),
-            buffers: OnceCell::new(),
+            layouts: Default::default(),
+            textures: Default::default(),
+            buffers: Default::default(),
+            dense_buffers: OnceCell::new(),
+            index_format: None,
+            skew_faces: false,
             programs: RefCell::new(HashMap::new()),
             compiling: RefCell::new(HashMap::new()),
             compile_polls: std::env::var(COMPILE_POLLS_ENV)
@@ -203,9 +212,7 @@ impl<'s> GpuScene<'s> {
     /// whether the walk still finds every hit (`tests/hard_cases/grid.rs`, case 08/09).
     /// The uniform grid is left as it is.
     pub fn with_skewed_faces(mut self) -> Self {
-        if let Some(i) = &mut self.layout.irregular {
-            i.skew_faces = true;
-        }
+        self.skew_faces = true;
         self
     }
 
@@ -221,18 +228,10 @@ impl<'s> GpuScene<'s> {
         self.cache.as_ref()
     }
 
-    /// Tests only: the scene repacked in `format` before anything is uploaded
-    /// ([`IndexFormat::Split`] takes a scene that fits in floats down the split path, which
-    /// must render the same image).
+    /// Tests only: the float layout packed in `format` ([`IndexFormat::Split`] takes a scene
+    /// that fits in floats down the split path, which must render the same image).
     pub fn with_index_format(mut self, format: IndexFormat) -> Result<Self> {
-        let max_size = self.ctx.info.max_texture_size.max(0) as u32;
-        self.layout = SceneTextures::pack_format(
-            self.scene,
-            self.accel,
-            max_size,
-            self.features.smooth_normals,
-            format,
-        )?;
+        self.index_format = Some(format);
         Ok(self)
     }
 
@@ -263,9 +262,50 @@ impl<'s> GpuScene<'s> {
         self.features
     }
 
-    /// The packed layout (texture sizes, storage blocks).
-    pub fn layout(&self) -> &SceneTextures {
-        &self.layout
+    /// The layout `target` reads, packed on first use (its size checked from the counts
+    /// first: [`LayoutPlan`](super::layout::LayoutPlan)); what packing took is charged as
+    /// upload time.
+    pub fn layout(&self, target: LayoutTarget) -> Result<&SceneTextures> {
+        let slot = self.slot(target);
+        if let Some(l) = self.layouts[slot].get() {
+            return Ok(l);
+        }
+        let t0 = Instant::now();
+        let max_size = self.ctx.info.max_texture_size.max(0) as u32;
+        let normals = self.features.smooth_normals;
+        let mut l = match (slot, self.index_format) {
+            (FLOAT, Some(format)) => {
+                SceneTextures::pack_format(self.scene, self.accel, max_size, normals, format)?
+            }
+            _ => SceneTextures::pack_for(
+                self.scene,
+                self.accel,
+                max_size,
+                normals,
+                target,
+                block_bytes(self.ctx),
+            )?,
+        };
+        if self.skew_faces {
+            l.skew_faces();
+        }
+        self.charge(|c| c.upload_ms += ms_since(t0));
+        Ok(self.layouts[slot].get_or_init(|| l))
+    }
+
+    /// Which of the layouts `target` reads: the compute kernel's own over the irregular
+    /// grid, else the float one.
+    fn slot(&self, target: LayoutTarget) -> usize {
+        match (target, self.accel) {
+            (LayoutTarget::Compute, GridRef::Irregular(_)) => DENSE,
+            (LayoutTarget::Compute | LayoutTarget::Float, _) => FLOAT,
+        }
+    }
+
+    /// Whether the scene has texture coordinates or vertex colours (then the layouts pack
+    /// `tex` and the programs compile `HAS_TEXTURES`).
+    pub fn textured(&self) -> bool {
+        self.scene.has_textures() || self.scene.has_vertex_colors()
     }
 
     /// Whether any material reflects or refracts (else no ray has children).
@@ -327,14 +367,20 @@ impl<'s> GpuScene<'s> {
         self.costs.set(c);
     }
 
-    /// The scene textures with their units, uploaded on first use.
+    /// The float layout's textures with their units, uploaded on first use.
     pub fn textures(&self) -> Result<&[(Unit, Texture)]> {
-        if let Some(t) = self.textures.get() {
+        self.textures_for(LayoutTarget::Float)
+    }
+
+    /// The textures of `target`'s layout with their units, uploaded on first use.
+    fn textures_for(&self, target: LayoutTarget) -> Result<&[(Unit, Texture)]> {
+        let slot = self.slot(target);
+        if let Some(t) = self.textures[slot].get() {
             return Ok(t);
         }
+        let layout = self.layout(target)?;
         let t0 = Instant::now();
-        let textures = self
-            .layout
+        let textures = layout
             .with_units()
             .into_iter()
             .map(|(unit, t)| {
@@ -349,20 +395,21 @@ impl<'s> GpuScene<'s> {
         state::finish(self.ctx.gl());
         self.charge(|c| {
             c.upload_ms += ms_since(t0);
-            c.upload_bytes += self.layout.bytes();
+            c.upload_bytes += layout.bytes();
         });
-        Ok(self.textures.get_or_init(|| textures))
+        Ok(self.textures[slot].get_or_init(|| textures))
     }
 
-    /// The same texels as storage buffers at their bindings (the compute kernel's
-    /// `Fetch::Storage`), uploaded on first use.
-    pub fn buffers(&self) -> Result<&[(u32, StorageBuffer)]> {
-        if let Some(b) = self.buffers.get() {
+    /// The compute kernel's layout's texels as storage buffers at their bindings
+    /// (`Fetch::Storage`), uploaded on first use.
+    fn buffers(&self) -> Result<&[(u32, StorageBuffer)]> {
+        let slot = self.slot(LayoutTarget::Compute);
+        if let Some(b) = self.buffers[slot].get() {
             return Ok(b);
         }
+        let layout = self.layout(LayoutTarget::Compute)?;
         let t0 = Instant::now();
-        let buffers = self
-            .layout
+        let buffers = layout
             .with_units()
             .into_iter()
             .enumerate()
@@ -377,9 +424,69 @@ impl<'s> GpuScene<'s> {
         state::finish(self.ctx.gl());
         self.charge(|c| {
             c.upload_ms += ms_since(t0);
-            c.upload_bytes += self.layout.bytes();
+            c.upload_bytes += layout.bytes();
         });
-        Ok(self.buffers.get_or_init(|| buffers))
+        Ok(self.buffers[slot].get_or_init(|| buffers))
+    }
+
+    /// The dense grid's storage buffers at their bindings (none for the float layout),
+    /// uploaded on first use, each from the grid's own words where it keeps them (the
+    /// cells' records made one buffer at a time), so the host holds no copy of the grid.
+    fn dense_buffers(&self) -> Result<&[(u32, StorageBuffer)]> {
+        if let Some(b) = self.dense_buffers.get() {
+            return Ok(b);
+        }
+        let layout = self.layout(LayoutTarget::Compute)?;
+        let (Some(d), GridRef::Irregular(g)) = (layout.dense(), self.accel) else {
+            return Ok(self.dense_buffers.get_or_init(Vec::new));
+        };
+        let t0 = Instant::now();
+        let buffers = DenseBuffer::ALL
+            .iter()
+            .map(|&b| {
+                let words = d.buffer_words(g, b);
+                Ok((
+                    layout.dense_binding(b),
+                    StorageBuffer::from_u32(self.ctx, &words)?,
+                ))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        state::finish(self.ctx.gl());
+        self.charge(|c| {
+            c.upload_ms += ms_since(t0);
+            c.upload_bytes += layout.dense_bytes() as usize;
+        });
+        Ok(self.dense_buffers.get_or_init(|| buffers))
+    }
+
+    /// Uploads what the compute kernel reads through `fetch` (its layout's textures or
+    /// storage buffers, and the dense grid's buffers), so that it counts in the set-up.
+    pub fn upload_compute(&self, fetch: Fetch) -> Result<()> {
+        match fetch {
+            Fetch::Storage => drop(self.buffers()?),
+            Fetch::TexelFetch | Fetch::Texture2D => drop(self.textures_for(LayoutTarget::Compute)?),
+        }
+        self.dense_buffers().map(drop)
+    }
+
+    /// Binds what the compute kernel reads through `fetch` (uploading it first if needed).
+    pub fn bind_compute(&self, fetch: Fetch) -> Result<()> {
+        match fetch {
+            Fetch::Storage => {
+                for (binding, buf) in self.buffers()? {
+                    buf.bind(self.ctx.gl(), *binding);
+                }
+            }
+            Fetch::TexelFetch | Fetch::Texture2D => {
+                for (unit, tex) in self.textures_for(LayoutTarget::Compute)? {
+                    bind_texture(self.ctx.gl(), *unit, tex);
+                }
+            }
+        }
+        for (binding, buf) in self.dense_buffers()? {
+            buf.bind(self.ctx.gl(), *binding);
+        }
+        Ok(())
     }
 
     /// The lights as the compute kernel's light buffer (`contract::compute::light_buffer`),
@@ -447,14 +554,6 @@ impl<'s> GpuScene<'s> {
         Ok(())
     }
 
-    /// Binds the scene's storage buffers to their bindings (uploading them first if needed).
-    pub fn bind_buffers(&self) -> Result<()> {
-        for (binding, buf) in self.buffers()? {
-            buf.bind(self.ctx.gl(), *binding);
-        }
-        Ok(())
-    }
-
     /// The fragment program of `pass`, compiled (or linked from the cache) on first use.
     pub fn fragment_program(&self, pass: Pass, techniques: Techniques) -> Result<Rc<Program>> {
         self.program(ProgramKey::Fragment(pass, techniques), || {
@@ -513,8 +612,9 @@ impl<'s> GpuScene<'s> {
     /// The assembled source of fragment pass `pass`.
     fn assemble_fragment(&self, pass: Pass, techniques: Techniques) -> Result<Assembled> {
         let dialect = self.ctx.info.dialect;
+        let layout = self.layout(LayoutTarget::Float)?;
         #[allow(unused_mut)]
-        let mut a = assemble_in(dialect, pass, self.features, techniques, &self.layout)?;
+        let mut a = assemble_in(dialect, pass, self.features, techniques, layout)?;
         #[cfg(test)]
         if BREAK_PASS.get() == Some(pass) {
             a.source.push_str("this line does not compile\n");
@@ -538,7 +638,13 @@ impl<'s> GpuScene<'s> {
             if let Some(c) = started {
                 return self.finish_compiling(c);
             }
-            let a = assemble_compute(pass, spec, self.features, techniques, &self.layout)?;
+            let a = assemble_compute(
+                pass,
+                spec,
+                self.features,
+                techniques,
+                self.layout(LayoutTarget::Compute)?,
+            )?;
             let key = SourceKey::of(pass.name(), &[&a.source]);
             let program = self.cached_or(pass.name(), key, || {
                 compile_compute(self.ctx, pass.name(), &a.source, &|n| a.origin(n))
@@ -579,7 +685,13 @@ impl<'s> GpuScene<'s> {
         techniques: Techniques,
     ) -> Result<bool> {
         if !self.compiling.borrow().contains_key(&key) {
-            let a = assemble_compute(pass, spec, self.features, techniques, &self.layout)?;
+            let a = assemble_compute(
+                pass,
+                spec,
+                self.features,
+                techniques,
+                self.layout(LayoutTarget::Compute)?,
+            )?;
             let source = SourceKey::of(pass.name(), &[&a.source]);
             if let Some(p) = self.cached(pass.name(), source) {
                 self.keep(key, p.declaring(a.declared))?;
@@ -754,6 +866,25 @@ pub fn max_iterations(accel: GridRef<'_>) -> u64 {
         GridRef::Irregular(g) => (g.res, g.tri_indices.len()),
     };
     16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs as u64 + 16)
+}
+
+/// [`GpuScene::layouts`]' slots.
+const FLOAT: usize = 0;
+const DENSE: usize = 1;
+
+/// Environment variable that caps the storage-block size the compute kernel's dense grid
+/// is sized against below the driver's GL_MAX_SHADER_STORAGE_BLOCK_SIZE (tests: the
+/// refusal past it on a small scene); other values are ignored.
+pub const DENSE_BLOCK_BYTES_ENV: &str = "FRAGTRACE_DENSE_BLOCK_BYTES";
+
+/// The storage-block size the dense grid's buffers must fit: the driver's, or
+/// [`DENSE_BLOCK_BYTES_ENV`]'s where lower.
+fn block_bytes(ctx: &GlContext) -> u64 {
+    let driver = super::gl::storage_limits(ctx.gl()).1;
+    let cap = std::env::var(DENSE_BLOCK_BYTES_ENV)
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok());
+    cap.map_or(driver, |c| c.min(driver))
 }
 
 /// Binds `tex` to `unit`.

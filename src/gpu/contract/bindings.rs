@@ -734,6 +734,17 @@ mod tests {
             if !ctx.info.compute {
                 continue;
             }
+            // The compute programs read the compute kernel's layout (on the irregular grid,
+            // its integer buffers: `DENSE_GRID`).
+            let layout = SceneTextures::pack_for(
+                &scene,
+                accel.as_ref(),
+                4096,
+                true,
+                crate::gpu::layout::LayoutTarget::Compute,
+                1 << 27,
+            )
+            .unwrap();
             // The instanced walk (`instance.glsl`) with storage-buffer reads.
             for (fetch, instanced) in [
                 (Fetch::TexelFetch, false),

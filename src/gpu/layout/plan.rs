@@ -9,7 +9,8 @@
 use super::packed::too_large;
 use super::tex::TexLayout;
 use super::{
-    irregular_cell_texels, texture_dims, IndexFormat, LIST_PER_TEXEL, MAT_TEXELS, TRI_TEXELS,
+    irregular_cell_texels, texture_dims, DenseBuffer, IndexFormat, LIST_PER_TEXEL, MAT_TEXELS,
+    TRI_TEXELS,
 };
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -34,6 +35,15 @@ pub enum GridCounts {
         /// Triangle references.
         refs: u64,
         /// Voxel-map entries as laid out for the GPU (hops, aligned blocks).
+        vmap_entries: u64,
+    },
+    /// An irregular grid in the compute kernel's integer buffers ([`DenseIrregular`](super::DenseIrregular)).
+    Dense {
+        /// Cells.
+        cells: u64,
+        /// Triangle references.
+        refs: u64,
+        /// Voxel-map entries.
         vmap_entries: u64,
     },
 }
@@ -74,6 +84,8 @@ impl LayoutCounts {
 pub struct LayoutPlan {
     /// (texture name, texels).
     pub textures: Vec<(&'static str, u64)>,
+    /// (storage buffer name, bytes): the dense grid's.
+    pub buffers: Vec<(&'static str, u64)>,
     /// Whether the grid is the irregular one (what the refusals advise).
     pub irregular: bool,
 }
@@ -88,6 +100,7 @@ impl LayoutPlan {
         }
         textures.push(("mat", c.materials * MAT_TEXELS as u64));
         let entries = |n: u64| n.div_ceil(LIST_PER_TEXEL as u64);
+        let mut buffers = Vec::new();
         let irregular = match c.grid {
             GridCounts::Uniform { cells, refs } => {
                 textures.push(("cell", cells));
@@ -104,17 +117,30 @@ impl LayoutPlan {
                 textures.push(("vmap", entries(vmap_entries)));
                 true
             }
+            GridCounts::Dense {
+                cells,
+                refs,
+                vmap_entries,
+            } => {
+                for b in DenseBuffer::ALL {
+                    let n = b.elements(cells, refs, vmap_entries);
+                    buffers.push((b.name(), n * b.element_bytes()));
+                }
+                true
+            }
         };
         if let Some(t) = c.tex_texels {
             textures.push(("tex", t));
         }
         LayoutPlan {
             textures,
+            buffers,
             irregular,
         }
     }
 
-    /// Host bytes of the textures as packed under a limit of `max_size` (rows padded).
+    /// Host bytes of the textures as packed under a limit of `max_size` (rows padded) and
+    /// of the dense grid's buffers.
     pub fn bytes(&self, max_size: u32) -> u64 {
         self.textures
             .iter()
@@ -122,7 +148,8 @@ impl LayoutPlan {
                 let (w, h) = texture_dims(n, max_size);
                 w as u64 * h * TEXEL_BYTES
             })
-            .sum()
+            .sum::<u64>()
+            + self.buffers.iter().map(|&(_, b)| b).sum::<u64>()
     }
 
     /// Options that render the scene when texture `name` cannot be packed: every structure
@@ -131,6 +158,7 @@ impl LayoutPlan {
     fn advice(&self, name: &str) -> &'static str {
         match (name, self.irregular) {
             ("cell" | "list" | "vmap", true) => "--accel uniform, or --backend cpu",
+            (n, true) if n.starts_with("dense_") => "--accel uniform, or --backend cpu",
             ("cell" | "list", false) => "a lower --grid-density, or --backend cpu",
             _ => "--backend cpu",
         }
@@ -163,11 +191,16 @@ impl LayoutPlan {
             .copied()
             .max_by_key(|&(_, n)| n)
             .unwrap_or(("tri", 0));
-        let largest = self.bytes_of(name, max_size);
+        let (name, what, largest) = match self.buffers.iter().copied().max_by_key(|&(_, b)| b) {
+            Some((b, bytes)) if bytes > self.bytes_of(name, max_size) => {
+                (b, format!("{bytes} bytes"), bytes)
+            }
+            _ => (name, format!("{n} texels"), self.bytes_of(name, max_size)),
+        };
         Err(Error::Limit(format!(
-            "the GPU layout of the {} grid needs about {:.1} GiB of host memory (its textures, \
-             {:.1} GiB, the largest `{name}` of {n} texels at {:.1} GiB, and the driver's copy), \
-             and {:.1} GiB is available; render it with {}",
+            "the GPU layout of the {} grid needs about {:.1} GiB of host memory (its textures \
+             and buffers, {:.1} GiB, the largest `{name}` of {what} at {:.1} GiB, and the \
+             driver's copy), and {:.1} GiB is available; render it with {}",
             if self.irregular {
                 "irregular"
             } else {
