@@ -119,7 +119,9 @@ fn split_indices_render_the_cpu_image_on_compute_and_looped() {
 /// (`FRAGTRACE_DENSE_PAST_2_24=1`), so that every reference it reads lies past 2^24, on
 /// four spheres at subdivisions 6 (327,682 triangles, a scene CI can afford): its image is
 /// the unpadded render's and the CPU's bit for bit (measured identical here, so any
-/// difference fails), and the padding was uploaded (64 MiB more).
+/// difference fails), and the padding was uploaded (64 MiB more). With storage blocks too
+/// small for the dense buffers (`FRAGTRACE_DENSE_BLOCK_BYTES`) the kernel falls back to the
+/// float layout, again with the CPU's image.
 #[test]
 fn dense_grid_reads_references_past_2_pow_24() {
     let d = tmpdir("dense");
@@ -155,6 +157,12 @@ fn dense_grid_reads_references_past_2_pow_24() {
         4 << 24,
         "the padding was not uploaded"
     );
+    // Storage blocks too small for the dense buffers (a stand-in limit of 4 KiB): the
+    // compute kernel takes the float layout (its upload differs), with the same image.
+    let small = [("FRAGTRACE_DENSE_BLOCK_BYTES", "4096")];
+    let float = render(&d, "float.png", &flags("float.json"), &small);
+    assert_eq!(differ(&float, &cpu), 0, "float layout against the CPU");
+    assert_ne!(uploaded("float.json"), uploaded("plain.json"));
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -874,7 +874,7 @@ const DENSE: usize = 1;
 
 /// Environment variable that caps the storage-block size the compute kernel's dense grid
 /// is sized against below the driver's GL_MAX_SHADER_STORAGE_BLOCK_SIZE (tests: the
-/// refusal past it on a small scene); other values are ignored.
+/// fallback to the float layout past it, on a small scene); other values are ignored.
 pub const DENSE_BLOCK_BYTES_ENV: &str = "FRAGTRACE_DENSE_BLOCK_BYTES";
 
 /// The storage-block size the dense grid's buffers must fit: the driver's, or

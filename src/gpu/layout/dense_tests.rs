@@ -166,3 +166,27 @@ fn dense_descent_on_the_driver_is_the_built_grids_lookup() {
         );
     }
 }
+
+/// The compute kernel's layout where a dense buffer passes the block size: the float
+/// layout, which fits (as before the dense one); where the float layout does not fit
+/// either (textures 64 texels wide), one line naming both refusals.
+#[test]
+fn compute_takes_the_float_layout_where_the_dense_one_does_not_fit() {
+    use crate::gpu::layout::LayoutTarget;
+    let (s, g) = two_spheres();
+    let pack =
+        |max, block| SceneTextures::pack_for(&s, &g, max, false, LayoutTarget::Compute, block);
+    assert!(pack(4096, BLOCK).unwrap().dense().is_some());
+    let small = 16 * g.cells.len() as u64 - 1;
+    let l = pack(4096, small).unwrap();
+    assert!(l.dense().is_none() && l.cell().is_some() && l.irregular().is_some());
+    let e = pack(64, small).unwrap_err().to_string();
+    assert!(!e.contains('\n'), "{e}");
+    for want in [
+        "GL_MAX_SHADER_STORAGE_BLOCK_SIZE",
+        "the float layout does not fit either",
+        "GL_MAX_TEXTURE_SIZE is 64",
+    ] {
+        assert!(e.contains(want), "{e}");
+    }
+}

@@ -364,7 +364,10 @@ impl SceneTextures {
 
     /// The layout of `scene` over `accel` for `target`: the compute kernel's over an
     /// irregular grid ([`SceneTextures::pack_dense`]), else the float layout
-    /// ([`SceneTextures::pack_with`]).
+    /// ([`SceneTextures::pack_with`]). Where a dense buffer passes `block_bytes` (llvmpipe's
+    /// blocks are 128 MiB, where its textures hold 4 GiB) the compute kernel takes the float
+    /// layout if that fits, as it did before the dense one; if neither fits, the refusal
+    /// names both.
     pub fn pack_for<'a>(
         scene: &Scene,
         accel: impl Into<AccelRef<'a>>,
@@ -376,7 +379,15 @@ impl SceneTextures {
         let accel = accel.into().grid()?;
         match (target, accel) {
             (LayoutTarget::Compute, GridRef::Irregular(g)) => {
-                Self::pack_dense(scene, g, max_size, normals, block_bytes)
+                match Self::pack_dense(scene, g, max_size, normals, block_bytes) {
+                    Err(Error::Limit(dense)) => Self::pack_with(scene, accel, max_size, normals)
+                        .map_err(|float| {
+                            Error::Limit(format!(
+                                "{dense}; the float layout does not fit either: {float}"
+                            ))
+                        }),
+                    packed => packed,
+                }
             }
             (LayoutTarget::Compute | LayoutTarget::Float, _) => {
                 Self::pack_with(scene, accel, max_size, normals)

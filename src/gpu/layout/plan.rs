@@ -4,7 +4,11 @@
 //! line, not after allocating it). The counts matter most for the irregular grid: its cells
 //! sit at float slots ([`float_slot`](super::float_slot)) that get sparser every 2^23 cells past 2^24, so its
 //! cell texture grows faster than its cells: the 100-sphere scene's 61.5 M cells take
-//! 2.14 G texels (34 GB), where they would take 184 M densely.
+//! 2.14 G texels (34 GB), where they would take 184 M densely. The compute kernel's dense
+//! layout of the irregular grid ([`GridCounts::Dense`]) is counted as storage buffers of
+//! bytes instead: 32 bytes per cell, 4 per reference and per voxel-map entry, checked
+//! against GL_MAX_SHADER_STORAGE_BLOCK_SIZE ([`DenseIrregular::check`](super::DenseIrregular::check))
+//! and, with the textures, against the host's memory.
 
 use super::packed::too_large;
 use super::tex::TexLayout;
@@ -277,6 +281,47 @@ mod tests {
         let cell = gb(fits.bytes_of("cell", 32768));
         assert!((1.2..1.4).contains(&cell), "{cell}");
         assert!((0.5..0.6).contains(&gb(fits.bytes_of("tri", 32768))));
+    }
+
+    /// The 100-sphere scene's counts in the compute kernel's dense layout (61.5 M cells
+    /// from the H100's refusal; 5.31 references and 2 voxel-map entries a triangle, the
+    /// 12-sphere scene's 20.9 M references over 3.93 M triangles): no texture of the grid,
+    /// fits a GPU of 32768-texel textures and 2 GiB storage blocks (each buffer under 1 GB),
+    /// and takes 32 bytes a cell where the slots took 11.6 times 48.
+    #[test]
+    fn spheres_100_irregular_fits_the_dense_layout() {
+        let (triangles, cells) = (32_768_002u64, 61_500_880u64);
+        let refs = triangles * 531 / 100;
+        let plan = LayoutPlan::new(&LayoutCounts {
+            triangles,
+            normals: true,
+            materials: 2,
+            grid: GridCounts::Dense {
+                cells,
+                refs,
+                vmap_entries: 2 * triangles,
+            },
+            tex_texels: None,
+            format: IndexFormat::Split,
+        });
+        let names: Vec<&str> = plan.textures.iter().map(|&(n, _)| n).collect();
+        assert_eq!(names, ["tri", "nrm", "mat"]);
+        assert!(plan.check(32768, None).is_ok());
+        for &(name, bytes) in &plan.buffers {
+            assert!(bytes < 1_000_000_000, "{name}: {bytes}");
+        }
+        let cell_bytes: u64 = plan
+            .buffers
+            .iter()
+            .filter(|(n, _)| n.starts_with("dense_cell"))
+            .map(|&(_, b)| b)
+            .sum();
+        assert_eq!(cell_bytes, 32 * cells);
+        // Everything the layout uploads: about 185 bytes a triangle (tri and nrm 48 each,
+        // cells 60, references 21, voxel map 8), where the float layout's cell texture
+        // alone took 1,047.
+        let per = plan.bytes(32768) as f64 / triangles as f64;
+        assert!((180.0..200.0).contains(&per), "{per}");
     }
 
     /// The uniform grid's cell texture beyond the limit names the options that change it;
