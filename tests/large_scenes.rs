@@ -147,22 +147,24 @@ fn dense_grid_reads_references_past_2_pow_24() {
     println!("dense past 2^24: {to_plain} values differ from the unpadded render, {to_cpu} from the CPU's");
     assert_eq!(to_plain, 0, "padded against unpadded");
     assert_eq!(to_cpu, 0, "padded against the CPU");
-    let uploaded = |f: &str| {
+    let gpu = |f: &str, key: &str| {
         let text = std::fs::read_to_string(d.join(f)).unwrap();
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();
-        v["gpu"]["upload_bytes"].as_u64().unwrap()
+        v["gpu"][key].clone()
     };
+    let uploaded = |f: &str| gpu(f, "upload_bytes").as_u64().unwrap();
+    assert_eq!(gpu("padded.json", "grid_layout"), "dense");
     assert_eq!(
         uploaded("padded.json") - uploaded("plain.json"),
         4 << 24,
         "the padding was not uploaded"
     );
     // Storage blocks too small for the dense buffers (a stand-in limit of 4 KiB): the
-    // compute kernel takes the float layout (its upload differs), with the same image.
+    // compute kernel takes the float layout (`gpu.grid_layout`), with the same image.
     let small = [("FRAGTRACE_DENSE_BLOCK_BYTES", "4096")];
     let float = render(&d, "float.png", &flags("float.json"), &small);
     assert_eq!(differ(&float, &cpu), 0, "float layout against the CPU");
-    assert_ne!(uploaded("float.json"), uploaded("plain.json"));
+    assert_eq!(gpu("float.json", "grid_layout"), "float");
     let _ = std::fs::remove_dir_all(&d);
 }
 

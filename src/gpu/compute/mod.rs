@@ -78,9 +78,11 @@ impl<'g> Setup<'g> {
         // Settled here, not in `Plan::resolve`: the blocks needed are the packed scene's
         // (`layout().storage_blocks()`), known only once `GpuScene` has packed it, which
         // comes after the plan so that a refused kernel costs no packing.
+        let layout = gs.layout(LayoutTarget::Compute)?;
+        stats.grid_layout = layout.grid_name().into();
         let (blocks, needed) = (
             Limits::query(ctx.gl()).blocks,
-            gs.layout(LayoutTarget::Compute)?.storage_blocks() + STORAGE_BINDING_BASE,
+            layout.storage_blocks() + STORAGE_BINDING_BASE,
         );
         let fetch = settle_fetch(spec.fetch, blocks, needed, opts)?;
         stats.scene_fetch = fetch.name().into();

@@ -410,6 +410,14 @@ impl SceneTextures {
         Ok(())
     }
 
+    /// The grid's layout as `--stats` names it (`gpu.grid_layout`): `float` or `dense`.
+    pub fn grid_name(&self) -> &'static str {
+        match self.grid {
+            GridTextures::Float { .. } => "float",
+            GridTextures::Dense(_) => "dense",
+        }
+    }
+
     /// The float layout's cell table (`None` for the dense grid).
     pub fn cell(&self) -> Option<&PackedTexture> {
         match &self.grid {
