@@ -12,7 +12,10 @@
 //! it, under the estimates' 2.2 and 3.4 GB beside the scene. The irregular grid's GPU
 //! layout is not linear in the triangles past 2^24 cells ([`gpu_bytes`]); once the grid is
 //! built, the layout's exact sizes are checked again before anything is packed
-//! ([`LayoutPlan`](crate::gpu::layout::LayoutPlan)).
+//! ([`LayoutPlan`](crate::gpu::layout::LayoutPlan)). The compute kernel's dense layout of
+//! the irregular grid ([`GpuLayout::Dense`]) is linear: on the 12-sphere scene (llvmpipe,
+//! 0ac6d95) 767 MB uploaded (195 bytes per triangle) and 2.29 GB whole process (582 bytes
+//! per triangle), under the estimate's 860 beside the scene.
 
 use crate::accel::AccelKind;
 use crate::{Error, Result};
