@@ -414,10 +414,9 @@ impl<'s> GpuScene<'s> {
             .into_iter()
             .enumerate()
             .map(|(k, (_, t))| {
-                let bytes: Vec<u8> = t.data.iter().flat_map(|v| v.to_ne_bytes()).collect();
                 Ok((
                     STORAGE_BINDING_BASE + k as u32,
-                    StorageBuffer::new(self.ctx, &bytes)?,
+                    StorageBuffer::from_f32(self.ctx, &t.data)?,
                 ))
             })
             .collect::<Result<Vec<_>>>()?;
