@@ -149,8 +149,9 @@ impl Drop for GpuScene<'_> {
 }
 
 impl<'s> GpuScene<'s> {
-    /// Packs `scene` and `accel` for `ctx` (uploads follow on first use). With
-    /// `no_specialize` every shading feature is compiled in, whatever the scene needs.
+    /// The scene and `accel` for `ctx`: each layout is packed, and each copy uploaded, on
+    /// first use by the kernel that reads it ([`GpuScene::layout`]). With `no_specialize`
+    /// every shading feature is compiled in, whatever the scene needs.
     pub fn new(
         ctx: &'s GlContext,
         scene: &'s Scene,
@@ -555,6 +556,8 @@ impl<'s> GpuScene<'s> {
 
     /// The fragment program of `pass`, compiled (or linked from the cache) on first use.
     pub fn fragment_program(&self, pass: Pass, techniques: Techniques) -> Result<Rc<Program>> {
+        // Packed first, so that packing counts as upload time, not as compile time.
+        self.layout(LayoutTarget::Float)?;
         self.program(ProgramKey::Fragment(pass, techniques), || {
             let a = self.assemble_fragment(pass, techniques)?;
             let vertex = self.ctx.info.dialect.quad_vertex_shader();
@@ -575,6 +578,7 @@ impl<'s> GpuScene<'s> {
         passes: &[Pass],
         techniques: Techniques,
     ) -> Result<Vec<Rc<Program>>> {
+        self.layout(LayoutTarget::Float)?;
         let t0 = Instant::now();
         let mut pending: Vec<(ProgramKey, SourceKey, Assembled, PendingProgram)> = Vec::new();
         for &pass in passes {
@@ -631,6 +635,7 @@ impl<'s> GpuScene<'s> {
         techniques: Techniques,
     ) -> Result<Rc<Program>> {
         let key = ProgramKey::Compute(pass, *spec, techniques);
+        self.layout(LayoutTarget::Compute)?;
         self.program(key, || {
             // Started by compute_program_ready: wait for it.
             let started = self.compiling.borrow_mut().remove(&key);
@@ -669,6 +674,7 @@ impl<'s> GpuScene<'s> {
         if self.programs.borrow().contains_key(&key) {
             return Ok(true);
         }
+        self.layout(LayoutTarget::Compute)?;
         let t0 = Instant::now();
         let ready = self.start_or_poll(key, pass, spec, techniques);
         self.charge(|c| c.compile_ms += ms_since(t0));
