@@ -24,7 +24,7 @@ use super::contract::{uniform, Unit};
 use super::gl::compute::{start_compute, PendingCompute};
 use super::gl::program::{allow_parallel_compile, link_binary, start_program, PendingProgram};
 use super::gl::{compile_compute, compile_program, state, Program, StorageBuffer, Texture};
-use super::layout::{DenseBuffer, Fetch, IndexFormat, LayoutTarget, SceneTextures};
+use super::layout::{IndexFormat, LayoutTarget, SceneTextures};
 use super::program_cache::{ProgramCache, SourceKey};
 use super::shader::{
     assemble_compute, assemble_in, Assembled, ComputePass, ComputeSpec, Features, Pass,
@@ -36,6 +36,10 @@ use crate::output::GpuStats;
 use crate::scene::Scene;
 use crate::technique::Techniques;
 use crate::Result;
+
+mod upload;
+
+pub use upload::DENSE_BLOCK_BYTES_ENV;
 
 #[cfg(test)]
 thread_local! {
@@ -263,46 +267,6 @@ impl<'s> GpuScene<'s> {
         self.features
     }
 
-    /// The layout `target` reads, packed on first use (its size checked from the counts
-    /// first: [`LayoutPlan`](super::layout::LayoutPlan)); what packing took is charged as
-    /// upload time.
-    pub fn layout(&self, target: LayoutTarget) -> Result<&SceneTextures> {
-        let slot = self.slot(target);
-        if let Some(l) = self.layouts[slot].get() {
-            return Ok(l);
-        }
-        let t0 = Instant::now();
-        let max_size = self.ctx.info.max_texture_size.max(0) as u32;
-        let normals = self.features.smooth_normals;
-        let mut l = match (slot, self.index_format) {
-            (FLOAT, Some(format)) => {
-                SceneTextures::pack_format(self.scene, self.accel, max_size, normals, format)?
-            }
-            _ => SceneTextures::pack_for(
-                self.scene,
-                self.accel,
-                max_size,
-                normals,
-                target,
-                block_bytes(self.ctx),
-            )?,
-        };
-        if self.skew_faces {
-            l.skew_faces();
-        }
-        self.charge(|c| c.upload_ms += ms_since(t0));
-        Ok(self.layouts[slot].get_or_init(|| l))
-    }
-
-    /// Which of the layouts `target` reads: the compute kernel's own over the irregular
-    /// grid, else the float one.
-    fn slot(&self, target: LayoutTarget) -> usize {
-        match (target, self.accel) {
-            (LayoutTarget::Compute, GridRef::Irregular(_)) => DENSE,
-            (LayoutTarget::Compute | LayoutTarget::Float, _) => FLOAT,
-        }
-    }
-
     /// Whether the scene has texture coordinates or vertex colours (then the layouts pack
     /// `tex` and the programs compile `HAS_TEXTURES`).
     pub fn textured(&self) -> bool {
@@ -368,127 +332,6 @@ impl<'s> GpuScene<'s> {
         self.costs.set(c);
     }
 
-    /// The float layout's textures with their units, uploaded on first use.
-    pub fn textures(&self) -> Result<&[(Unit, Texture)]> {
-        self.textures_for(LayoutTarget::Float)
-    }
-
-    /// The textures of `target`'s layout with their units, uploaded on first use.
-    fn textures_for(&self, target: LayoutTarget) -> Result<&[(Unit, Texture)]> {
-        let slot = self.slot(target);
-        if let Some(t) = self.textures[slot].get() {
-            return Ok(t);
-        }
-        let layout = self.layout(target)?;
-        let t0 = Instant::now();
-        let textures = layout
-            .with_units()
-            .into_iter()
-            .map(|(unit, t)| {
-                Ok((
-                    unit,
-                    Texture::new_f32(self.ctx, t.width, t.height, Some(&t.data))?,
-                ))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        // Waiting here charges the upload to set-up instead of to the first pass that
-        // reads it.
-        state::finish(self.ctx.gl());
-        self.charge(|c| {
-            c.upload_ms += ms_since(t0);
-            c.upload_bytes += layout.bytes();
-        });
-        Ok(self.textures[slot].get_or_init(|| textures))
-    }
-
-    /// The compute kernel's layout's texels as storage buffers at their bindings
-    /// (`Fetch::Storage`), uploaded on first use.
-    fn buffers(&self) -> Result<&[(u32, StorageBuffer)]> {
-        let slot = self.slot(LayoutTarget::Compute);
-        if let Some(b) = self.buffers[slot].get() {
-            return Ok(b);
-        }
-        let layout = self.layout(LayoutTarget::Compute)?;
-        let t0 = Instant::now();
-        let buffers = layout
-            .with_units()
-            .into_iter()
-            .enumerate()
-            .map(|(k, (_, t))| {
-                Ok((
-                    STORAGE_BINDING_BASE + k as u32,
-                    StorageBuffer::from_f32(self.ctx, &t.data)?,
-                ))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        state::finish(self.ctx.gl());
-        self.charge(|c| {
-            c.upload_ms += ms_since(t0);
-            c.upload_bytes += layout.bytes();
-        });
-        Ok(self.buffers[slot].get_or_init(|| buffers))
-    }
-
-    /// The dense grid's storage buffers at their bindings (none for the float layout),
-    /// uploaded on first use, each from the grid's own words where it keeps them (the
-    /// cells' records made one buffer at a time), so the host holds no copy of the grid.
-    fn dense_buffers(&self) -> Result<&[(u32, StorageBuffer)]> {
-        if let Some(b) = self.dense_buffers.get() {
-            return Ok(b);
-        }
-        let layout = self.layout(LayoutTarget::Compute)?;
-        let (Some(d), GridRef::Irregular(g)) = (layout.dense(), self.accel) else {
-            return Ok(self.dense_buffers.get_or_init(Vec::new));
-        };
-        let t0 = Instant::now();
-        let buffers = DenseBuffer::ALL
-            .iter()
-            .map(|&b| {
-                let words = d.buffer_words(g, b);
-                Ok((
-                    layout.dense_binding(b),
-                    StorageBuffer::from_u32(self.ctx, &words)?,
-                ))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        state::finish(self.ctx.gl());
-        self.charge(|c| {
-            c.upload_ms += ms_since(t0);
-            c.upload_bytes += layout.dense_bytes() as usize;
-        });
-        Ok(self.dense_buffers.get_or_init(|| buffers))
-    }
-
-    /// Uploads what the compute kernel reads through `fetch` (its layout's textures or
-    /// storage buffers, and the dense grid's buffers), so that it counts in the set-up.
-    pub fn upload_compute(&self, fetch: Fetch) -> Result<()> {
-        match fetch {
-            Fetch::Storage => drop(self.buffers()?),
-            Fetch::TexelFetch | Fetch::Texture2D => drop(self.textures_for(LayoutTarget::Compute)?),
-        }
-        self.dense_buffers().map(drop)
-    }
-
-    /// Binds what the compute kernel reads through `fetch` (uploading it first if needed).
-    pub fn bind_compute(&self, fetch: Fetch) -> Result<()> {
-        match fetch {
-            Fetch::Storage => {
-                for (binding, buf) in self.buffers()? {
-                    buf.bind(self.ctx.gl(), *binding);
-                }
-            }
-            Fetch::TexelFetch | Fetch::Texture2D => {
-                for (unit, tex) in self.textures_for(LayoutTarget::Compute)? {
-                    bind_texture(self.ctx.gl(), *unit, tex);
-                }
-            }
-        }
-        for (binding, buf) in self.dense_buffers()? {
-            buf.bind(self.ctx.gl(), *binding);
-        }
-        Ok(())
-    }
-
     /// The lights as the compute kernel's light buffer (`contract::compute::light_buffer`),
     /// uploaded on first use.
     pub fn light_buffer(&self) -> Result<&StorageBuffer> {
@@ -544,14 +387,6 @@ impl<'s> GpuScene<'s> {
                 .downcast_mut::<Option<T>>()
                 .expect("kept values are stored under their own type")
         })
-    }
-
-    /// Binds the scene textures to their units (uploading them first if needed).
-    pub fn bind_textures(&self) -> Result<()> {
-        for (unit, tex) in self.textures()? {
-            bind_texture(self.ctx.gl(), *unit, tex);
-        }
-        Ok(())
     }
 
     /// The fragment program of `pass`, compiled (or linked from the cache) on first use.
@@ -871,25 +706,6 @@ pub fn max_iterations(accel: GridRef<'_>) -> u64 {
         GridRef::Irregular(g) => (g.res, g.tri_indices.len()),
     };
     16 * (res.iter().map(|&r| r as u64).sum::<u64>() + refs as u64 + 16)
-}
-
-/// [`GpuScene::layouts`]' slots.
-const FLOAT: usize = 0;
-const DENSE: usize = 1;
-
-/// Environment variable that caps the storage-block size the compute kernel's dense grid
-/// is sized against below the driver's GL_MAX_SHADER_STORAGE_BLOCK_SIZE (tests: the
-/// fallback to the float layout past it, on a small scene); other values are ignored.
-pub const DENSE_BLOCK_BYTES_ENV: &str = "FRAGTRACE_DENSE_BLOCK_BYTES";
-
-/// The storage-block size the dense grid's buffers must fit: the driver's, or
-/// [`DENSE_BLOCK_BYTES_ENV`]'s where lower.
-fn block_bytes(ctx: &GlContext) -> u64 {
-    let driver = super::gl::storage_limits(ctx.gl()).1;
-    let cap = std::env::var(DENSE_BLOCK_BYTES_ENV)
-        .ok()
-        .and_then(|v| v.parse::<u64>().ok());
-    cap.map_or(driver, |c| c.min(driver))
 }
 
 /// Binds `tex` to `unit`.
