@@ -22,6 +22,9 @@ impl GpuScene<'_> {
             (FLOAT, Some(format)) => {
                 SceneTextures::pack_format(self.scene, self.accel, max_size, normals, format)?
             }
+            (FLOAT, None) => SceneTextures::pack_with(self.scene, self.accel, max_size, normals)?,
+            // Only here is the storage-block size asked for: a context without compute
+            // shaders (GL 2.1, WebGL) answers the query with GL_INVALID_ENUM.
             _ => SceneTextures::pack_for(
                 self.scene,
                 self.accel,
@@ -189,6 +192,9 @@ pub const DENSE_BLOCK_BYTES_ENV: &str = "FRAGTRACE_DENSE_BLOCK_BYTES";
 /// The storage-block size the dense grid's buffers must fit: the driver's, or
 /// [`DENSE_BLOCK_BYTES_ENV`]'s where lower.
 fn block_bytes(ctx: &GlContext) -> u64 {
+    if !ctx.info.compute {
+        return 0;
+    }
     let driver = crate::gpu::gl::storage_limits(ctx.gl()).1;
     let cap = std::env::var(DENSE_BLOCK_BYTES_ENV)
         .ok()
