@@ -8,7 +8,7 @@ use crate::gpu::layout::{DenseBuffer, Fetch, LayoutTarget};
 
 impl GpuScene<'_> {
     /// The layout `target` reads, packed on first use (its size checked from the counts
-    /// first: [`LayoutPlan`](super::layout::LayoutPlan)); what packing took is charged as
+    /// first: [`LayoutPlan`](crate::gpu::layout::LayoutPlan)); what packing took is charged as
     /// upload time.
     pub fn layout(&self, target: LayoutTarget) -> Result<&SceneTextures> {
         let slot = self.slot(target);
