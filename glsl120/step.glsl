@@ -47,14 +47,15 @@ void traverse_setup(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     vec3 c = vec3(irr_lateral(o.x, d.x, span.x, u_grid_min.x, u_cell_size.x, 0.0, top.x),
                   irr_lateral(o.y, d.y, span.x, u_grid_min.y, u_cell_size.y, 0.0, top.y),
                   irr_lateral(o.z, d.z, span.x, u_grid_min.z, u_cell_size.z, 0.0, top.z));
-    float id = irr_lookup(c);
+    CELL_ID id = irr_lookup(c);
     vec4 lo = irr_lo(id);
     vec4 hi = irr_hi(id);
-    irr_enter(lo, hi);
+    irr_enter(id, lo, hi);
     vec4 cell = vec4(lo.w, hi.w, 0.0, 0.0);
     // (cell id, previous exit t, where the ray leaves the grid's box): the box exit is
-    // kept so that steps need not clip the ray against the box again.
-    c = vec3(id, span.x, span.y);
+    // kept so that steps need not clip the ray against the box again. The dense grid's
+    // id stays in registers (irr_enter); its channel holds the id as a float, unread.
+    c = vec3(float(id), span.x, span.y);
 #else
     vec3 c = start_cell(s0.S0_ORIGIN, s1.S1_DIR, span.x);
     vec4 cell = fetch_cell(cell_linear(c));
@@ -71,20 +72,19 @@ void traverse_step(inout vec4 s0, vec4 s1, inout vec4 s2, inout vec4 s3) {
     // One irregular-grid step (CPU twin: cpu/traverse_irregular.rs, walk).
     vec3 o = s0.S0_ORIGIN;
     vec3 d = s1.S1_DIR;
-    float id = s2.S2_CELL.x;
-    vec3 lo = irr_cur_lo(id).xyz;
-    vec3 hi = irr_cur_hi(id).xyz;
+    vec3 lo = irr_cur_lo(s2).xyz;
+    vec3 hi = irr_cur_hi(s2).xyz;
     vec2 ex = irr_exit(o, d, lo, hi, s2.S2_CELL.y);
     float t_leave = s2.S2_CELL.z; // clip_grid(o, d, 0.0, t_max).y, from traverse_setup
-    float next = ex.x >= t_leave ? -1.0 : irr_next(o, d, ex, lo, hi);
-    if (next < 0.0) {
+    CELL_ID next = ex.x >= t_leave ? NO_CELL : irr_next(o, d, ex, lo, hi);
+    if (next == NO_CELL) {
         s0.S0_STATE = ST_DONE;
         return;
     }
     vec4 nlo = irr_lo(next);
     vec4 nhi = irr_hi(next);
-    irr_enter(nlo, nhi);
-    s2 = S2_TEXEL(vec3(next, ex.x, t_leave), CURSOR_FIRST(nlo.w));
+    irr_enter(next, nlo, nhi);
+    s2 = S2_TEXEL(vec3(float(next), ex.x, t_leave), CURSOR_FIRST(nlo.w));
     s3.S3_CURSOR_END = CURSOR_END_OF(nlo.w, nhi.w);
     s3.S3_STEPS += 1.0;
     s0.S0_STATE = nhi.w > 0.0 ? ST_TESTING : ST_TRAVERSING;

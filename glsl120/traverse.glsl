@@ -96,10 +96,27 @@ float exit_limit(float t_exit) {
 // src/cpu/traverse_irregular.rs (`exit`, `lateral`, `walk`). u_cell_size and u_grid_res
 // are the virtual grid's; irr_lookup (the voxel-map descent) is generated with the layout.
 
+#ifdef DENSE_GRID
+// The compute kernel's integer layout (gpu/layout/dense.rs): a cell id is the cell's index
+// in the uvec4 buffers dense_cell_lo (exit box lower corner, first reference) and
+// dense_cell_hi (exit box upper corner, count); the first reference is kept apart
+// (g_cell_first), the cursor counting from it. CELL_ID is a cell id's type, NO_CELL none.
+#define CELL_ID uint
+#define NO_CELL 4294967295u
+vec4 irr_lo(uint id) { return vec4(vec3(dense_cell_lo[id].xyz), 0.0); }
+vec4 irr_hi(uint id) {
+    uvec4 h = dense_cell_hi[id];
+    return vec4(vec3(h.xyz), float(h.w));
+}
+#else
 // Cell texels: (exit box lower corner, list offset) and (exit box upper corner, count);
-// with SPLIT_INDEX the offset is its lo part and a third texel holds (hi, 0, 0, 0).
+// with SPLIT_INDEX the offset is its lo part and a third texel holds (hi, 0, 0, 0). A cell
+// id is its float slot.
+#define CELL_ID float
+#define NO_CELL -1.0
 vec4 irr_lo(float id) { return fetch_cell_at(id, CELL_TEXELS, 0.0); }
 vec4 irr_hi(float id) { return fetch_cell_at(id, CELL_TEXELS, 1.0); }
+#endif
 
 #ifdef KERNEL_COMPUTE
 // The compute kernels trace one ray to its end in a loop, so the texels of the cell a ray
@@ -109,16 +126,22 @@ vec4 irr_hi(float id) { return fetch_cell_at(id, CELL_TEXELS, 1.0); }
 // between passes). Same values either way, so the same images.
 vec4 g_cell_lo;
 vec4 g_cell_hi;
-void irr_enter(vec4 lo, vec4 hi) {
+#ifdef DENSE_GRID
+uint g_cell_first;
+#endif
+void irr_enter(CELL_ID id, vec4 lo, vec4 hi) {
     g_cell_lo = lo;
     g_cell_hi = hi;
+#ifdef DENSE_GRID
+    g_cell_first = dense_cell_lo[id].w;
+#endif
 }
-vec4 irr_cur_lo(float id) { return g_cell_lo; }
-vec4 irr_cur_hi(float id) { return g_cell_hi; }
+vec4 irr_cur_lo(vec4 s2) { return g_cell_lo; }
+vec4 irr_cur_hi(vec4 s2) { return g_cell_hi; }
 #else
-void irr_enter(vec4 lo, vec4 hi) {}
-vec4 irr_cur_lo(float id) { return irr_lo(id); }
-vec4 irr_cur_hi(float id) { return irr_hi(id); }
+void irr_enter(float id, vec4 lo, vec4 hi) {}
+vec4 irr_cur_lo(vec4 s2) { return irr_lo(s2.S2_CELL.x); }
+vec4 irr_cur_hi(vec4 s2) { return irr_hi(s2.S2_CELL.x); }
 #endif
 
 // Parameter at which the ray crosses virtual boundary k of one axis (d != 0): the
@@ -183,9 +206,9 @@ float irr_beyond(float d, float lo, float hi) {
     return d > 0.0 ? hi : lo - 1.0;
 }
 
-// The cell after leaving box lo..hi at ex = (t_exit, axis): its id, or -1 when the ray
+// The cell after leaving box lo..hi at ex = (t_exit, axis): its id, or NO_CELL when the ray
 // leaves the grid.
-float irr_next(vec3 o, vec3 d, vec2 ex, vec3 lo, vec3 hi) {
+CELL_ID irr_next(vec3 o, vec3 d, vec2 ex, vec3 lo, vec3 hi) {
     float t = ex.x;
     vec3 k = vec3(
         ex.y == 0.0 ? irr_beyond(d.x, lo.x, hi.x)
@@ -194,7 +217,7 @@ float irr_next(vec3 o, vec3 d, vec2 ex, vec3 lo, vec3 hi) {
                     : irr_lateral(o.y, d.y, t, u_grid_min.y, u_cell_size.y, lo.y, hi.y - 1.0),
         ex.y == 2.0 ? irr_beyond(d.z, lo.z, hi.z)
                     : irr_lateral(o.z, d.z, t, u_grid_min.z, u_cell_size.z, lo.z, hi.z - 1.0));
-    if (any(lessThan(k, vec3(0.0))) || any(greaterThanEqual(k, u_grid_res))) return -1.0;
+    if (any(lessThan(k, vec3(0.0))) || any(greaterThanEqual(k, u_grid_res))) return NO_CELL;
     return irr_lookup(k);
 }
 #endif
@@ -203,10 +226,12 @@ float irr_next(vec3 o, vec3 d, vec2 ex, vec3 lo, vec3 hi) {
 // with SPLIT_INDEX from the cell's first reference, whose offset hi * 2^24 + lo is fetched
 // again from the cell (the ray state has no channel left for it).
 float cell_entry(vec4 s2, float k) {
-#ifdef SPLIT_INDEX
+#ifdef DENSE_GRID
+    // The triangle's index from the dense list, carried as its float id.
+    return tri_slot(dense_refs[g_cell_first + uint(k)]);
+#elif defined(SPLIT_INDEX)
 #ifdef ACCEL_IRREGULAR
-    float id = s2.S2_CELL.x;
-    return entry_list_split(fetch_cell_at(id, CELL_TEXELS, 2.0).x, irr_cur_lo(id).w, k);
+    return entry_list_split(fetch_cell_at(s2.S2_CELL.x, CELL_TEXELS, 2.0).x, irr_cur_lo(s2).w, k);
 #else
     vec4 cell = fetch_cell(cell_linear(s2.S2_CELL));
     return entry_list_split(cell.z, cell.x, k);
@@ -220,8 +245,7 @@ float cell_entry(vec4 s2, float k) {
 // irregular cell's exit box.
 float cell_exit(vec3 o, vec3 d, vec4 s2) {
 #ifdef ACCEL_IRREGULAR
-    float id = s2.S2_CELL.x;
-    return irr_exit(o, d, irr_cur_lo(id).xyz, irr_cur_hi(id).xyz, s2.S2_CELL.y).x;
+    return irr_exit(o, d, irr_cur_lo(s2).xyz, irr_cur_hi(s2).xyz, s2.S2_CELL.y).x;
 #else
     vec3 tn = boundaries(o, d, s2.S2_CELL);
     return min(min(tn.x, tn.y), tn.z);

@@ -12,7 +12,10 @@
 //! it, under the estimates' 2.2 and 3.4 GB beside the scene. The irregular grid's GPU
 //! layout is not linear in the triangles past 2^24 cells ([`gpu_bytes`]); once the grid is
 //! built, the layout's exact sizes are checked again before anything is packed
-//! ([`LayoutPlan`](crate::gpu::layout::LayoutPlan)).
+//! ([`LayoutPlan`](crate::gpu::layout::LayoutPlan)). The compute kernel's dense layout of
+//! the irregular grid ([`GpuLayout::Dense`]) is linear: on the 12-sphere scene (llvmpipe,
+//! 0ac6d95) 767 MB uploaded (195 bytes per triangle) and 2.29 GB whole process (582 bytes
+//! per triangle), under the estimate's 860 beside the scene.
 
 use crate::accel::AccelKind;
 use crate::{Error, Result};
@@ -37,18 +40,35 @@ pub const GPU_BYTES_PER_TRIANGLE: u64 = 300;
 /// lower, as the estimate refuses only what cannot fit.
 pub const IRREGULAR_CELLS_PER_TRIANGLE: f64 = 1.875;
 
+/// Which GPU layout a render packs beside its structure (what [`gpu_bytes`] counts).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuLayout {
+    /// None: a CPU render.
+    None,
+    /// The float layout of the fragment kernels (and of `--kernel auto`, which may render
+    /// with one of them): its irregular cells at float slots.
+    Float,
+    /// `--kernel compute`: the irregular grid in dense integer buffers
+    /// (`gpu::layout::DenseIrregular`), linear in the triangles.
+    Dense,
+}
+
 /// Bytes the GPU layout of a `kind` structure over `triangles` triangles takes on the host
-/// (with the driver's copy): [`GPU_BYTES_PER_TRIANGLE`] each, and for the irregular grid
-/// the float slots of its cells past 2^24 ([`float_slot`](crate::gpu::layout::float_slot)),
-/// sparser every 2^23 cells, which its cell texture leaves empty: not linear in the
-/// triangles (about 43 bytes more per triangle at 11.8 M triangles, 1,900 at 32.8 M).
-pub fn gpu_bytes(kind: AccelKind, triangles: u64) -> u64 {
+/// (with the driver's copy): [`GPU_BYTES_PER_TRIANGLE`] each, and in the float layout for
+/// the irregular grid the float slots of its cells past 2^24
+/// ([`float_slot`](crate::gpu::layout::float_slot)), sparser every 2^23 cells, which its
+/// cell texture leaves empty: not linear in the triangles (about 43 bytes more per triangle
+/// at 11.8 M triangles, 1,900 at 32.8 M). The compute kernel's dense layout has no such
+/// term ([`GpuLayout::Dense`]).
+pub fn gpu_bytes(kind: AccelKind, triangles: u64, layout: GpuLayout) -> u64 {
     use crate::gpu::split_index::{irregular_cell_texels, IndexFormat};
     // RGBA32F (`gpu::layout::TEXEL_BYTES`; the layout reads this file, not the other way).
     let texel_bytes = std::mem::size_of::<[f32; 4]>() as u64;
     let linear = triangles * GPU_BYTES_PER_TRIANGLE;
-    if kind != AccelKind::Irregular {
-        return linear;
+    match (layout, kind) {
+        (GpuLayout::None, _) => return 0,
+        (GpuLayout::Float, AccelKind::Irregular) => {}
+        (GpuLayout::Dense | GpuLayout::Float, _) => return linear,
     }
     let cells = (triangles as f64 * IRREGULAR_CELLS_PER_TRIANGLE) as u64;
     let per = IndexFormat::Split.irregular_cell_texels() as u64;
@@ -71,25 +91,20 @@ pub fn available_bytes() -> Option<u64> {
     Some(kib * 1024)
 }
 
-/// Refuses a build of `kind` over `triangles` triangles (and, `gpu`, its GPU layout) that
+/// Refuses a build of `kind` over `triangles` triangles (and its GPU layout `gpu`) that
 /// needs more than `available` bytes: one line with the need, what there is and the
 /// structure that needs least.
 pub fn check_build(
     kind: AccelKind,
     triangles: usize,
-    gpu: bool,
+    gpu: GpuLayout,
     available: Option<u64>,
 ) -> Result<()> {
     let Some(available) = available else {
         return Ok(());
     };
     let build = triangles as u64 * build_bytes_per_triangle(kind);
-    let need = build
-        + if gpu {
-            gpu_bytes(kind, triangles as u64)
-        } else {
-            0
-        };
+    let need = build + gpu_bytes(kind, triangles as u64, gpu);
     let per = need / (triangles as u64).max(1);
     if need <= available {
         return Ok(());
@@ -98,12 +113,19 @@ pub fn check_build(
     let bvh = gib(triangles as u64 * build_bytes_per_triangle(AccelKind::Bvh));
     let advice = match (kind, gpu) {
         (AccelKind::Bvh, _) => "free memory or render on a larger machine".to_string(),
-        (AccelKind::Irregular, true) => {
+        (AccelKind::Irregular, GpuLayout::Float | GpuLayout::Dense) => {
             let n = triangles as u64;
-            let uniform =
-                n * build_bytes_per_triangle(AccelKind::Uniform) + gpu_bytes(AccelKind::Uniform, n);
+            let uniform = n * build_bytes_per_triangle(AccelKind::Uniform)
+                + gpu_bytes(AccelKind::Uniform, n, gpu);
+            let dense = match gpu {
+                GpuLayout::Float => format!(
+                    "--kernel compute needs about {:.1} GiB, ",
+                    gib(build + gpu_bytes(kind, n, GpuLayout::Dense))
+                ),
+                GpuLayout::Dense | GpuLayout::None => String::new(),
+            };
             format!(
-                "--accel uniform needs about {:.1} GiB, --backend cpu --accel bvh about {bvh:.1} GiB",
+                "{dense}--accel uniform needs about {:.1} GiB, --backend cpu --accel bvh about {bvh:.1} GiB",
                 gib(uniform)
             )
         }
@@ -118,7 +140,11 @@ pub fn check_build(
             AccelKind::Irregular => "irregular grid",
         },
         gib(need),
-        if gpu { " with its GPU layout" } else { "" },
+        match gpu {
+            GpuLayout::None => "",
+            GpuLayout::Float => " with its GPU layout",
+            GpuLayout::Dense => " with the compute kernel's GPU layout",
+        },
         gib(available),
     )))
 }
@@ -132,8 +158,9 @@ mod tests {
     #[test]
     fn refuses_only_what_does_not_fit() {
         let gib = 1u64 << 30;
-        assert!(check_build(AccelKind::Irregular, 1_000_000, true, Some(gib)).is_ok());
-        let e = check_build(AccelKind::Irregular, 32_768_002, true, Some(4 * gib)).unwrap_err();
+        let float = GpuLayout::Float;
+        assert!(check_build(AccelKind::Irregular, 1_000_000, float, Some(gib)).is_ok());
+        let e = check_build(AccelKind::Irregular, 32_768_002, float, Some(4 * gib)).unwrap_err();
         let text = e.to_string();
         assert!(matches!(e, Error::Limit(_)), "{e}");
         assert!(!text.contains('\n'), "{text}");
@@ -144,19 +171,36 @@ mod tests {
         assert!(text.contains("4.0 GiB is available"), "{text}");
         assert!(
             text.contains(
-                "--accel uniform needs about 16.2 GiB, --backend cpu --accel bvh about 3.7 GiB"
+                "--kernel compute needs about 26.2 GiB, --accel uniform needs about 16.2 GiB, \
+                 --backend cpu --accel bvh about 3.7 GiB"
             ),
             "{text}"
         );
-        let e = check_build(AccelKind::Uniform, 32_768_002, false, Some(gib)).unwrap_err();
+        // The compute kernel's dense layout: linear, 860 bytes per triangle.
+        let dense = GpuLayout::Dense;
+        let e = check_build(AccelKind::Irregular, 32_768_002, dense, Some(4 * gib)).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.contains(
+                "needs about 26.2 GiB of memory (860 bytes per triangle with the compute kernel's"
+            ),
+            "{text}"
+        );
+        assert!(
+            text.contains(" --accel uniform needs about 16.2 GiB"),
+            "{text}"
+        );
+        assert!(!text.contains("--kernel compute"), "{text}");
+        let none = GpuLayout::None;
+        let e = check_build(AccelKind::Uniform, 32_768_002, none, Some(gib)).unwrap_err();
         assert!(
             e.to_string()
                 .contains("--backend cpu --accel bvh needs about 3.7 GiB"),
             "{e}"
         );
-        let e = check_build(AccelKind::Bvh, 100_000_000, false, Some(gib)).unwrap_err();
+        let e = check_build(AccelKind::Bvh, 100_000_000, none, Some(gib)).unwrap_err();
         assert!(e.to_string().contains("free memory"), "{e}");
-        assert!(check_build(AccelKind::Bvh, usize::MAX / 1024, false, None).is_ok());
+        assert!(check_build(AccelKind::Bvh, usize::MAX / 1024, none, None).is_ok());
     }
 
     /// The GPU layout's estimate: linear below 2^24 cells (all structures), then the
@@ -167,16 +211,27 @@ mod tests {
     #[test]
     fn gpu_estimate_counts_the_slot_spacing() {
         let n = 32_768_002u64;
-        assert_eq!(gpu_bytes(AccelKind::Uniform, n), n * GPU_BYTES_PER_TRIANGLE);
+        let float = GpuLayout::Float;
+        assert_eq!(
+            gpu_bytes(AccelKind::Uniform, n, float),
+            n * GPU_BYTES_PER_TRIANGLE
+        );
         let small = 8_000_000u64; // 15 M cells: below 2^24, no slots skipped
         assert_eq!(
-            gpu_bytes(AccelKind::Irregular, small),
+            gpu_bytes(AccelKind::Irregular, small, float),
             small * GPU_BYTES_PER_TRIANGLE
         );
-        let per = |n: u64| gpu_bytes(AccelKind::Irregular, n) as f64 / n as f64;
+        let per = |n: u64| gpu_bytes(AccelKind::Irregular, n, float) as f64 / n as f64;
         let (big, mid) = (per(n), per(11_796_482));
         assert!((2100.0..2300.0).contains(&big), "{big}");
         assert!((330.0..360.0).contains(&mid), "{mid}");
+        // The compute kernel's dense layout stays linear; a CPU render packs none.
+        let dense = GpuLayout::Dense;
+        assert_eq!(
+            gpu_bytes(AccelKind::Irregular, n, dense),
+            n * GPU_BYTES_PER_TRIANGLE
+        );
+        assert_eq!(gpu_bytes(AccelKind::Irregular, n, GpuLayout::None), 0);
     }
 
     /// The machine's figure is read where there is one (Linux).

@@ -277,6 +277,10 @@ pub struct GpuStats {
     /// `texel-fetch` or `storage-buffer` (compute, `--scene-fetch` resolved), `texture2D`
     /// (the fragment kernels).
     pub scene_fetch: String,
+    /// How the compute kernel read the grid (named by `gpu::layout::SceneTextures::grid_name`):
+    /// `dense` (the irregular grid's `u32` storage buffers) or `float` (the textures every
+    /// fragment kernel reads); empty for the fragment kernels, which read `float` always.
+    pub grid_layout: String,
     /// Passes drawn, by kind (the compute kernel: dispatches).
     pub passes: HashMap<String, u64>,
     /// Total passes drawn.

@@ -179,7 +179,12 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
                 .map(|m| m.geometry.triangles.len())
                 .sum::<usize>();
         crate::gpu::layout::check_triangles(stored)?;
-        crate::memory::check_build(kind, stored, gpu, crate::memory::available_bytes())?;
+        crate::memory::check_build(
+            kind,
+            stored,
+            gpu_layout(opts),
+            crate::memory::available_bytes(),
+        )?;
         let levels = GridInstances::build(scene, &opts.grid)?;
         let accel = Accel::GridInstanced(Box::new(levels));
         let summary = accel.as_ref().summary(scene.instanced_triangles() as usize);
@@ -191,6 +196,18 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
         });
     }
     prepare_flat(scene, opts, || opts.stored_once_advice(scene))
+}
+
+/// The GPU layout the render `opts` asks for packs (what the memory check counts): the
+/// compute kernel's dense one where that kernel is named, else the float one (`auto` may
+/// render with a fragment kernel).
+fn gpu_layout(opts: &RenderOptions) -> crate::memory::GpuLayout {
+    use crate::memory::GpuLayout;
+    match (opts.backend, opts.gpu.kernel) {
+        (Backend::Gl, crate::gpu::options::Kernel::Compute) => GpuLayout::Dense,
+        (Backend::Gl, _) => GpuLayout::Float,
+        (_, _) => GpuLayout::None,
+    }
 }
 
 /// [`prepare`] of a structure other than the two levels: an instanced scene is taken flat
@@ -226,7 +243,7 @@ fn prepare_flat<'s>(
     crate::memory::check_build(
         kind,
         scene.triangles.len(),
-        gpu,
+        gpu_layout(opts),
         crate::memory::available_bytes(),
     )?;
     let accel = Accel::build(&scene, kind, &opts.grid, &opts.irregular)?;

@@ -246,4 +246,4 @@ impl Fnv1a {
 }
 
 /// See [`glsl_120_output_is_unchanged`].
-const GLSL_120_HASH: u64 = 0x9d50_ac6e_0de8_259a;
+const GLSL_120_HASH: u64 = 0xe8cf_d8f5_6d0a_6618;

@@ -726,7 +726,7 @@ fn every_fragment_kernel_renders_the_compute_kernels_bytes() {
 fn the_split_index_format_renders_the_same_two_levels() {
     use fragtrace::accel::grid_instances::GridInstances;
     use fragtrace::accel::Accel;
-    use fragtrace::gpu::layout::IndexFormat;
+    use fragtrace::gpu::layout::{IndexFormat, LayoutTarget};
     use fragtrace::gpu::options::GpuOptions;
     use fragtrace::gpu::request::ImageRequest;
     use fragtrace::gpu::GpuScene;
@@ -739,7 +739,12 @@ fn the_split_index_format_renders_the_same_two_levels() {
             .unwrap()
             .with_index_format(IndexFormat::Split)
             .unwrap();
-        assert_eq!(split.layout().format, IndexFormat::Split);
+        // Both kernels' layouts: an instanced scene's compute layout is its float one.
+        for target in [LayoutTarget::Float, LayoutTarget::Compute] {
+            let l = split.layout(target).unwrap();
+            assert_eq!(l.format, IndexFormat::Split, "{target:?}");
+            assert!(l.inst.is_some(), "{target:?}: the instancing data `inst`");
+        }
         for kernel in [Kernel::Looped, Kernel::Compute] {
             let req = ImageRequest {
                 camera: s.camera,

@@ -114,6 +114,60 @@ fn split_indices_render_the_cpu_image_on_compute_and_looped() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// The compute kernel's dense grid (issue 53: cells, voxel map and references as `u32` in
+/// storage buffers) with its references uploaded after 2^24 unused words
+/// (`FRAGTRACE_DENSE_PAST_2_24=1`), so that every reference it reads lies past 2^24, on
+/// four spheres at subdivisions 6 (327,682 triangles, a scene CI can afford): its image is
+/// the unpadded render's and the CPU's bit for bit (measured identical here, so any
+/// difference fails), and the padding was uploaded (64 MiB more). With storage blocks too
+/// small for the dense buffers (`FRAGTRACE_DENSE_BLOCK_BYTES`) the kernel falls back to the
+/// float layout, again with the CPU's image.
+#[test]
+fn dense_grid_reads_references_past_2_pow_24() {
+    let d = tmpdir("dense");
+    std::fs::write(d.join("s.toml"), spheres(4, 6)).unwrap();
+    let past = [("FRAGTRACE_DENSE_PAST_2_24", "1")];
+    let cpu = render(&d, "cpu.png", &["--backend", "cpu"], &[]);
+    let flags = |stats: &'static str| {
+        [
+            "--backend",
+            "gl",
+            "--accel",
+            "irregular",
+            "--kernel",
+            "compute",
+            "--stats",
+            stats,
+        ]
+    };
+    let padded = render(&d, "padded.png", &flags("padded.json"), &past);
+    let plain = render(&d, "plain.png", &flags("plain.json"), &[]);
+    let differ = |a: &[f32], b: &[f32]| a.iter().zip(b).filter(|(x, y)| x != y).count();
+    let (to_plain, to_cpu) = (differ(&padded, &plain), differ(&padded, &cpu));
+    println!("dense past 2^24: {to_plain} values differ from the unpadded render, {to_cpu} from the CPU's");
+    assert_eq!(to_plain, 0, "padded against unpadded");
+    assert_eq!(to_cpu, 0, "padded against the CPU");
+    let gpu = |f: &str, key: &str| {
+        let text = std::fs::read_to_string(d.join(f)).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v["gpu"][key].clone()
+    };
+    let uploaded = |f: &str| gpu(f, "upload_bytes").as_u64().unwrap();
+    assert_eq!(gpu("padded.json", "grid_layout"), "dense");
+    assert_eq!(
+        uploaded("padded.json") - uploaded("plain.json"),
+        4 << 24,
+        "the padding was not uploaded"
+    );
+    // Storage blocks too small for the dense buffers (a stand-in limit of 4 KiB): the
+    // compute kernel takes the float layout (`gpu.grid_layout`), with the same image.
+    let small = [("FRAGTRACE_DENSE_BLOCK_BYTES", "4096")];
+    let float = render(&d, "float.png", &flags("float.json"), &small);
+    assert_eq!(differ(&float, &cpu), 0, "float layout against the CPU");
+    assert_eq!(gpu("float.json", "grid_layout"), "float");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A machine with 1 MiB available (a stand-in /proc/meminfo): a 20,482-triangle scene's
 /// irregular grid (560 bytes per triangle) is refused in one line naming the need, what
 /// there is and an option, exit code 2, before the build, and the existing image is kept.

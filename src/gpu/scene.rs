@@ -23,7 +23,7 @@ use super::contract::{uniform, Unit};
 use super::gl::compute::{start_compute, PendingCompute};
 use super::gl::program::{allow_parallel_compile, link_binary, start_program, PendingProgram};
 use super::gl::{compile_compute, compile_program, state, Program, StorageBuffer, Texture};
-use super::layout::{IndexFormat, SceneTextures};
+use super::layout::{IndexFormat, LayoutTarget, SceneTextures};
 use super::program_cache::{ProgramCache, SourceKey};
 use super::shader::{
     assemble_compute, assemble_in, Assembled, ComputePass, ComputeSpec, Features, Pass,
@@ -35,6 +35,10 @@ use crate::output::GpuStats;
 use crate::scene::Scene;
 use crate::technique::Techniques;
 use crate::Result;
+
+mod upload;
+
+pub use upload::DENSE_BLOCK_BYTES_ENV;
 
 #[cfg(test)]
 thread_local! {
@@ -101,9 +105,17 @@ pub struct GpuScene<'s> {
     given: &'s Scene,
     accel: GridRef<'s>,
     features: Features,
-    layout: SceneTextures,
-    textures: OnceCell<Vec<(Unit, Texture)>>,
-    buffers: OnceCell<Vec<(u32, StorageBuffer)>>,
+    /// The layouts, each packed on first use ([`LayoutSlot`]): the float one and the
+    /// compute kernel's over the irregular grid; and each one's uploaded copies.
+    layouts: [OnceCell<SceneTextures>; 2],
+    textures: [OnceCell<Vec<(Unit, Texture)>>; 2],
+    buffers: [OnceCell<Vec<(u32, StorageBuffer)>>; 2],
+    /// The dense grid's storage buffers at their bindings, uploaded on first use.
+    dense_buffers: OnceCell<Vec<(u32, StorageBuffer)>>,
+    /// Tests only: the index format the float layout is packed in
+    /// ([`GpuScene::with_index_format`]), and faces skewed ([`GpuScene::with_skewed_faces`]).
+    index_format: Option<IndexFormat>,
+    skew_faces: bool,
     programs: RefCell<HashMap<ProgramKey, Rc<Program>>>,
     /// Compute programs started and not yet finished ([`GpuScene::compute_program_ready`]).
     compiling: RefCell<HashMap<ProgramKey, Compiling>>,
@@ -139,8 +151,9 @@ impl Drop for GpuScene<'_> {
 }
 
 impl<'s> GpuScene<'s> {
-    /// Packs `scene` and `accel` for `ctx` (uploads follow on first use). With
-    /// `no_specialize` every shading feature is compiled in, whatever the scene needs.
+    /// The scene and `accel` for `ctx`: each layout is packed, and each copy uploaded, on
+    /// first use by the kernel that reads it ([`GpuScene::layout`]). With `no_specialize`
+    /// every shading feature is compiled in, whatever the scene needs.
     pub fn new(
         ctx: &'s GlContext,
         scene: &'s Scene,
@@ -162,13 +175,6 @@ impl<'s> GpuScene<'s> {
         } else {
             Features::of(scene)
         };
-        let max_size = ctx.info.max_texture_size.max(0) as u32;
-        let layout = match instancing {
-            Some(gi) => {
-                SceneTextures::pack_instanced(given, gi, max_size, features.smooth_normals, None)?
-            }
-            None => SceneTextures::pack_with(scene, accel, max_size, features.smooth_normals)?,
-        };
         let costs = Costs {
             upload_ms: ms_since(t),
             ..Costs::default()
@@ -179,9 +185,12 @@ impl<'s> GpuScene<'s> {
             given,
             accel,
             features,
-            layout,
-            textures: OnceCell::new(),
-            buffers: OnceCell::new(),
+            layouts: Default::default(),
+            textures: Default::default(),
+            buffers: Default::default(),
+            dense_buffers: OnceCell::new(),
+            index_format: None,
+            skew_faces: false,
             programs: RefCell::new(HashMap::new()),
             compiling: RefCell::new(HashMap::new()),
             compile_polls: std::env::var(COMPILE_POLLS_ENV)
@@ -205,9 +214,7 @@ impl<'s> GpuScene<'s> {
     /// whether the walk still finds every hit (`tests/hard_cases/grid.rs`, case 08/09).
     /// The uniform grid is left as it is.
     pub fn with_skewed_faces(mut self) -> Self {
-        if let Some(i) = &mut self.layout.irregular {
-            i.skew_faces = true;
-        }
+        self.skew_faces = true;
         self
     }
 
@@ -223,27 +230,10 @@ impl<'s> GpuScene<'s> {
         self.cache.as_ref()
     }
 
-    /// Tests only: the scene repacked in `format` before anything is uploaded
-    /// ([`IndexFormat::Split`] takes a scene that fits in floats down the split path, which
-    /// must render the same image).
+    /// Tests only: the float layout packed in `format` ([`IndexFormat::Split`] takes a scene
+    /// that fits in floats down the split path, which must render the same image).
     pub fn with_index_format(mut self, format: IndexFormat) -> Result<Self> {
-        let max_size = self.ctx.info.max_texture_size.max(0) as u32;
-        self.layout = match self.instancing {
-            Some(gi) => SceneTextures::pack_instanced(
-                self.given,
-                gi,
-                max_size,
-                self.features.smooth_normals,
-                Some(format),
-            )?,
-            None => SceneTextures::pack_format(
-                self.scene,
-                self.accel,
-                max_size,
-                self.features.smooth_normals,
-                format,
-            )?,
-        };
+        self.index_format = Some(format);
         Ok(self)
     }
 
@@ -274,9 +264,10 @@ impl<'s> GpuScene<'s> {
         self.features
     }
 
-    /// The packed layout (texture sizes, storage blocks).
-    pub fn layout(&self) -> &SceneTextures {
-        &self.layout
+    /// Whether the scene has texture coordinates or vertex colours (then the layouts pack
+    /// `tex` and the programs compile `HAS_TEXTURES`).
+    pub fn textured(&self) -> bool {
+        self.scene.has_textures() || self.scene.has_vertex_colors()
     }
 
     /// Whether any material reflects or refracts (else no ray has children).
@@ -337,61 +328,6 @@ impl<'s> GpuScene<'s> {
         self.costs.set(c);
     }
 
-    /// The scene textures with their units, uploaded on first use.
-    pub fn textures(&self) -> Result<&[(Unit, Texture)]> {
-        if let Some(t) = self.textures.get() {
-            return Ok(t);
-        }
-        let t0 = Instant::now();
-        let textures = self
-            .layout
-            .with_units()
-            .into_iter()
-            .map(|(unit, t)| {
-                Ok((
-                    unit,
-                    Texture::new_f32(self.ctx, t.width, t.height, Some(&t.data))?,
-                ))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        // Waiting here charges the upload to set-up instead of to the first pass that
-        // reads it.
-        state::finish(self.ctx.gl());
-        self.charge(|c| {
-            c.upload_ms += ms_since(t0);
-            c.upload_bytes += self.layout.bytes();
-        });
-        Ok(self.textures.get_or_init(|| textures))
-    }
-
-    /// The same texels as storage buffers at their bindings (the compute kernel's
-    /// `Fetch::Storage`), uploaded on first use.
-    pub fn buffers(&self) -> Result<&[(u32, StorageBuffer)]> {
-        if let Some(b) = self.buffers.get() {
-            return Ok(b);
-        }
-        let t0 = Instant::now();
-        let buffers = self
-            .layout
-            .with_units()
-            .into_iter()
-            .enumerate()
-            .map(|(k, (_, t))| {
-                let bytes: Vec<u8> = t.data.iter().flat_map(|v| v.to_ne_bytes()).collect();
-                Ok((
-                    STORAGE_BINDING_BASE + k as u32,
-                    StorageBuffer::new(self.ctx, &bytes)?,
-                ))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        state::finish(self.ctx.gl());
-        self.charge(|c| {
-            c.upload_ms += ms_since(t0);
-            c.upload_bytes += self.layout.bytes();
-        });
-        Ok(self.buffers.get_or_init(|| buffers))
-    }
-
     /// The lights as the compute kernel's light buffer (`contract::compute::light_buffer`),
     /// uploaded on first use.
     pub fn light_buffer(&self) -> Result<&StorageBuffer> {
@@ -449,24 +385,10 @@ impl<'s> GpuScene<'s> {
         })
     }
 
-    /// Binds the scene textures to their units (uploading them first if needed).
-    pub fn bind_textures(&self) -> Result<()> {
-        for (unit, tex) in self.textures()? {
-            bind_texture(self.ctx.gl(), *unit, tex);
-        }
-        Ok(())
-    }
-
-    /// Binds the scene's storage buffers to their bindings (uploading them first if needed).
-    pub fn bind_buffers(&self) -> Result<()> {
-        for (binding, buf) in self.buffers()? {
-            buf.bind(self.ctx.gl(), *binding);
-        }
-        Ok(())
-    }
-
     /// The fragment program of `pass`, compiled (or linked from the cache) on first use.
     pub fn fragment_program(&self, pass: Pass, techniques: Techniques) -> Result<Rc<Program>> {
+        // Packed first, so that packing counts as upload time, not as compile time.
+        self.layout(LayoutTarget::Float)?;
         self.program(ProgramKey::Fragment(pass, techniques), || {
             let a = self.assemble_fragment(pass, techniques)?;
             let vertex = self.ctx.info.dialect.quad_vertex_shader();
@@ -487,6 +409,7 @@ impl<'s> GpuScene<'s> {
         passes: &[Pass],
         techniques: Techniques,
     ) -> Result<Vec<Rc<Program>>> {
+        self.layout(LayoutTarget::Float)?;
         let t0 = Instant::now();
         let mut pending: Vec<(ProgramKey, SourceKey, Assembled, PendingProgram)> = Vec::new();
         for &pass in passes {
@@ -523,8 +446,9 @@ impl<'s> GpuScene<'s> {
     /// The assembled source of fragment pass `pass`.
     fn assemble_fragment(&self, pass: Pass, techniques: Techniques) -> Result<Assembled> {
         let dialect = self.ctx.info.dialect;
+        let layout = self.layout(LayoutTarget::Float)?;
         #[allow(unused_mut)]
-        let mut a = assemble_in(dialect, pass, self.features, techniques, &self.layout)?;
+        let mut a = assemble_in(dialect, pass, self.features, techniques, layout)?;
         #[cfg(test)]
         if BREAK_PASS.get() == Some(pass) {
             a.source.push_str("this line does not compile\n");
@@ -542,13 +466,20 @@ impl<'s> GpuScene<'s> {
         techniques: Techniques,
     ) -> Result<Rc<Program>> {
         let key = ProgramKey::Compute(pass, *spec, techniques);
+        self.layout(LayoutTarget::Compute)?;
         self.program(key, || {
             // Started by compute_program_ready: wait for it.
             let started = self.compiling.borrow_mut().remove(&key);
             if let Some(c) = started {
                 return self.finish_compiling(c);
             }
-            let a = assemble_compute(pass, spec, self.features, techniques, &self.layout)?;
+            let a = assemble_compute(
+                pass,
+                spec,
+                self.features,
+                techniques,
+                self.layout(LayoutTarget::Compute)?,
+            )?;
             let key = SourceKey::of(pass.name(), &[&a.source]);
             let program = self.cached_or(pass.name(), key, || {
                 compile_compute(self.ctx, pass.name(), &a.source, &|n| a.origin(n))
@@ -574,6 +505,7 @@ impl<'s> GpuScene<'s> {
         if self.programs.borrow().contains_key(&key) {
             return Ok(true);
         }
+        self.layout(LayoutTarget::Compute)?;
         let t0 = Instant::now();
         let ready = self.start_or_poll(key, pass, spec, techniques);
         self.charge(|c| c.compile_ms += ms_since(t0));
@@ -589,7 +521,13 @@ impl<'s> GpuScene<'s> {
         techniques: Techniques,
     ) -> Result<bool> {
         if !self.compiling.borrow().contains_key(&key) {
-            let a = assemble_compute(pass, spec, self.features, techniques, &self.layout)?;
+            let a = assemble_compute(
+                pass,
+                spec,
+                self.features,
+                techniques,
+                self.layout(LayoutTarget::Compute)?,
+            )?;
             let source = SourceKey::of(pass.name(), &[&a.source]);
             if let Some(p) = self.cached(pass.name(), source) {
                 self.keep(key, p.declaring(a.declared))?;

@@ -51,20 +51,14 @@ impl IndexFormat {
     }
 
     /// The GLSL of the format: its `#define`s and, split, the exact address arithmetic
-    /// every texture's fetches use.
+    /// every texture's fetches use (the list cursor's macros are the layout's:
+    /// `SceneTextures::glsl_with`).
     pub(crate) fn glsl(self) -> String {
         match self {
-            IndexFormat::Float => "// Cursor from the list's start (one float, exact below 2^24).
-                 #define CURSOR_FIRST(offset) (offset)
-                 #define CURSOR_END_OF(offset, count) ((offset) + (count))
-"
-            .into(),
+            IndexFormat::Float => String::new(),
             IndexFormat::Split => format!(
                 "#define SPLIT_INDEX 1
                  #define SPLIT_BASE {base:.1}
-                 // Cursor from the cell's first reference, whose offset is split (list_at).
-                 #define CURSOR_FIRST(offset) 0.0
-                 #define CURSOR_END_OF(offset, count) (count)
                  {}{}",
                 include_str!("../../glsl120/split_index.glsl"),
                 slot_glsl(),
@@ -489,6 +483,46 @@ mod tests {
             assert_eq!(g as u64, k, "slot {s}");
         }
         println!("slot_record: {} ids on the driver", ids.len());
+    }
+
+    /// `tri_slot` (GLSL 4.30, the compute kernel's float id of a triangle index read from
+    /// the dense grid's references) on the driver gives `float_slot`'s value, bit for bit,
+    /// for every id of `slot_ids` (around 2^24, every band edge, the last id carried).
+    #[test]
+    fn tri_slot_on_the_driver_is_float_slot() {
+        use crate::gpu::context::with_test_context;
+        use crate::gpu::gl::{compile_compute, dispatch, StorageBuffer};
+        let ids: Vec<u32> = slot_ids().into_iter().map(|k| k as u32).collect();
+        let src = format!(
+            "#version 430\n{}\nlayout(local_size_x = 64) in;\n\
+             layout(std430, binding = 0) readonly buffer In {{ uint k[]; }};\n\
+             layout(std430, binding = 1) writeonly buffer Out {{ float r[]; }};\n\
+             void main() {{\n\
+             \x20   uint i = gl_GlobalInvocationID.x;\n\
+             \x20   if (i < {n}u) r[i] = tri_slot(k[i]);\n\
+             }}\n",
+            crate::gpu::layout::dense::tri_slot_glsl(),
+            n = ids.len()
+        );
+        let got = with_test_context(|ctx| {
+            if !ctx.info.compute {
+                println!("skipped: no compute shaders on this context");
+                return None;
+            }
+            let p = compile_compute(ctx, "tri_slot", &src, &|n| ("test".into(), n)).unwrap();
+            let input = StorageBuffer::from_u32(ctx, &ids).unwrap();
+            let out = StorageBuffer::zeroed_u32(ctx, ids.len()).unwrap();
+            input.bind(ctx.gl(), 0);
+            out.bind(ctx.gl(), 1);
+            dispatch(ctx.gl(), &p, [ids.len().div_ceil(64) as u32, 1, 1]);
+            Some(out.read_u32(ctx.gl()).unwrap())
+        });
+        let Some(got) = got else { return };
+        for (&k, &g) in ids.iter().zip(&got) {
+            let want = float_slot(k as u64) as f32;
+            assert_eq!(f32::from_bits(g), want, "triangle {k}");
+        }
+        println!("tri_slot: {} ids on the driver", ids.len());
     }
 
     /// A voxel map relaid by `align_blocks` with 10 significant bits (so that blocks pass

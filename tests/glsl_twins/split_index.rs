@@ -132,8 +132,9 @@ fn entry_list_split_reads_past_2_pow_24() {
     let value = |i: u64| ((i.wrapping_mul(2654435761)) % SPLIT_BASE) as f32;
     let entries: Vec<f32> = (0..n as u64).map(value).collect();
     let mut layout = split_layout(16384);
-    layout.list = PackedTexture::pack_entries("list", &entries, 16384).unwrap();
-    assert_eq!(layout.list.width, 4096);
+    *layout.float_grid_mut().unwrap().1 =
+        PackedTexture::pack_entries("list", &entries, 16384).unwrap();
+    assert_eq!(layout.list().unwrap().width, 4096);
     let mut cases = Vec::new();
     let mut want = Vec::new();
     let near = 1u64 << 24;

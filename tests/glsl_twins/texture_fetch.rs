@@ -96,7 +96,7 @@ fn record_fetches_read_their_texel_past_2_pow_23() {
     let mut layout = dummy_layout();
     assert_eq!(layout.format, IndexFormat::Float);
     layout.tri = PackedTexture::pack("tri", texels.clone(), 16384).unwrap();
-    layout.cell = PackedTexture::pack("cell", texels, 16384).unwrap();
+    *layout.float_grid_mut().unwrap().0 = PackedTexture::pack("cell", texels, 16384).unwrap();
     assert_eq!(
         (layout.tri.width as u64, layout.tri.height as u64),
         (W, ROWS)
@@ -117,8 +117,9 @@ fn record_fetches_read_their_texel_past_2_pow_23() {
 fn entry_fetches_read_their_entry_past_2_pow_23() {
     let entries: Vec<f32> = (0..W * ROWS * 4).map(|e| e as f32).collect();
     let mut layout = dummy_layout();
-    layout.list = PackedTexture::pack_entries("list", &entries, 16384).unwrap();
-    assert_eq!(layout.list.width as u64, W);
+    *layout.float_grid_mut().unwrap().1 =
+        PackedTexture::pack_entries("list", &entries, 16384).unwrap();
+    assert_eq!(layout.list().unwrap().width as u64, W);
     let idx: Vec<u64> = indices().into_iter().filter(|&i| i < 1 << 24).collect();
     let got = run(&layout, "entry_list(q.x)", &idx);
     check("entry_list", &idx, &got, |e| {

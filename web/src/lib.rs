@@ -373,7 +373,7 @@ impl App {
             .scene();
         // The fragment kernels' texture units (`gpu::contract::Unit`): the scene textures'
         // 16th only where the scene has image textures or texture coordinates.
-        let units = if self.loaded.as_ref().unwrap().gs().layout().tex.is_some() {
+        let units = if self.loaded.as_ref().unwrap().gs().textured() {
             TEXTURED_TEXTURE_UNITS
         } else {
             REQUIRED_TEXTURE_UNITS

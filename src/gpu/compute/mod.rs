@@ -25,6 +25,7 @@ use super::contract::compute::{aov, camera_buffer, sum_words, Counter};
 use super::contract::{uniform, Buffer, Image, StateTexels, STORAGE_BINDING_BASE};
 use super::gl::{bind_image, dispatch, Program, ReadbackRing, StorageBuffer, Texture, TimerQuery};
 use super::info::GlInfo;
+use super::layout::LayoutTarget;
 use super::options::{GpuOptions, SceneFetch, Storage};
 use super::request::{aov_pixel, aov_pixel_id, Flow, GpuOutput, ImageRequest, Observer, Snapshot};
 use super::scene::{ms_since, GpuScene};
@@ -77,16 +78,15 @@ impl<'g> Setup<'g> {
         // Settled here, not in `Plan::resolve`: the blocks needed are the packed scene's
         // (`layout().storage_blocks()`), known only once `GpuScene` has packed it, which
         // comes after the plan so that a refused kernel costs no packing.
+        let layout = gs.layout(LayoutTarget::Compute)?;
+        stats.grid_layout = layout.grid_name().into();
         let (blocks, needed) = (
             Limits::query(ctx.gl()).blocks,
-            gs.layout().storage_blocks() + STORAGE_BINDING_BASE,
+            layout.storage_blocks() + STORAGE_BINDING_BASE,
         );
         let fetch = settle_fetch(spec.fetch, blocks, needed, opts)?;
         stats.scene_fetch = fetch.name().into();
-        match fetch {
-            Fetch::Storage => drop(gs.buffers()?),
-            Fetch::TexelFetch | Fetch::Texture2D => drop(gs.textures()?),
-        }
+        gs.upload_compute(fetch)?;
         if gs.instanced() && pass != ComputePass::Render {
             return Err(Error::Internal(format!(
                 "{} walks scenes stored flat; an instanced scene renders through render.comp",
@@ -111,10 +111,7 @@ impl<'g> Setup<'g> {
     fn dispatch(&mut self, width: u32, height: u32, timers: bool) -> Result<()> {
         let ctx = self.gs.ctx();
         let gl = ctx.gl();
-        match self.fetch {
-            Fetch::Storage => self.gs.bind_buffers()?,
-            Fetch::TexelFetch | Fetch::Texture2D => self.gs.bind_textures()?,
-        }
+        self.gs.bind_compute(self.fetch)?;
         let timer = (timers && ctx.info.timer_query)
             .then(|| TimerQuery::new(ctx))
             .transpose()?;
@@ -199,7 +196,7 @@ fn render_spec(gs: &GpuScene, req: &ImageRequest) -> ComputeSpec {
 /// issue 52; `gpu::render`).
 pub(crate) fn programs_ready(gs: &GpuScene, req: &ImageRequest) -> Result<bool> {
     let spec = render_spec(gs, req);
-    let needed = gs.layout().storage_blocks() + STORAGE_BINDING_BASE;
+    let needed = gs.layout(LayoutTarget::Compute)?.storage_blocks() + STORAGE_BINDING_BASE;
     let blocks = Limits::query(gs.ctx().gl()).blocks;
     let spec = ComputeSpec {
         fetch: settle_fetch(spec.fetch, blocks, needed, &req.gpu)?,
@@ -259,7 +256,7 @@ pub(crate) fn render(
     let program = &setup.program;
     program.set(gl, uniform::EYE, req.camera.eye)?;
     program.set(gl, uniform::SAMPLE_WEIGHT, 1.0 / offsets.len() as f32)?;
-    if gs.layout().tex.is_some() {
+    if gs.textured() {
         // The primary rays' cone spread (the root of every pixel's tree).
         let spread = crate::scene::texture::pixel_spread(req.camera.vfov_deg, req.height);
         program.set(

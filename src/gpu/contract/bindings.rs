@@ -744,14 +744,17 @@ mod tests {
             (AccelKind::Irregular, textured_builtin(), false),
             (AccelKind::Uniform, placed, true),
         ] {
-            let (layout, _levels) = if instanced {
+            // The fragment passes' layout, and the compute kernel's: on the irregular grid
+            // its integer buffers (`DENSE_GRID`); an instanced scene's levels walk the
+            // uniform grid, whose one layout (with `inst`) every kernel reads.
+            let (layout, compute_layout) = if instanced {
                 let gi = crate::accel::grid_instances::GridInstances::build(
                     &scene,
                     &GridConfig::default(),
                 )
                 .unwrap();
                 let l = SceneTextures::pack_instanced(&scene, &gi, 4096, true, None).unwrap();
-                (l, Some(gi))
+                (l.clone(), l)
             } else {
                 let accel = Accel::build(
                     &scene,
@@ -761,7 +764,16 @@ mod tests {
                 )
                 .unwrap();
                 let l = SceneTextures::pack_with(&scene, accel.as_ref(), 4096, true).unwrap();
-                (l, None)
+                let c = SceneTextures::pack_for(
+                    &scene,
+                    accel.as_ref(),
+                    4096,
+                    true,
+                    crate::gpu::layout::LayoutTarget::Compute,
+                    1 << 27,
+                )
+                .unwrap();
+                (l, c)
             };
             let mut add = |p: Program| {
                 for (name, utype) in p.active_uniforms(ctx.gl()) {
@@ -803,7 +815,7 @@ mod tests {
                         &spec,
                         Features::all(),
                         Techniques::default(),
-                        &layout,
+                        &compute_layout,
                     )
                     .unwrap();
                     let p = compile_compute(ctx, pass.name(), &a.source, &|n| a.origin(n)).unwrap();

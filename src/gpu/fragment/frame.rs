@@ -179,7 +179,7 @@ impl<'a> Frame<'a> {
         };
         let info = &ctx.info;
         info.check_image_size(width, height)?;
-        let textured = gs.layout().tex.is_some();
+        let textured = gs.textured();
         let units = if textured {
             TEXTURED_TEXTURE_UNITS
         } else {
@@ -390,7 +390,7 @@ impl<'a> Frame<'a> {
     /// With textures, tells the passes that shade level `level` or spawn from it whether
     /// it is the root, whose cone (width 0, spread `spread`) has no record.
     pub(super) fn set_root_cone(&self, level: usize, spread: f32) -> Result<()> {
-        if self.gs.layout().tex.is_none() {
+        if !self.gs.textured() {
             return Ok(());
         }
         let v = glam::Vec3::new(if level == 0 { 1.0 } else { 0.0 }, spread, 0.0);

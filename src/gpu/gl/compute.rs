@@ -138,6 +138,40 @@ impl StorageBuffer {
         })
     }
 
+    /// A buffer holding `words`, uploaded from them without a copy on the host (one of at
+    /// least 16 bytes is made for fewer, as [`StorageBuffer::new`] does).
+    pub fn from_u32(ctx: &GlContext, words: &[u32]) -> Result<Self> {
+        // SAFETY: every initialised u32 is four initialised bytes and u8 has alignment 1,
+        // so the view covers exactly the words' memory, which `words` keeps alive.
+        let bytes: &[u8] = unsafe {
+            std::slice::from_raw_parts(words.as_ptr().cast::<u8>(), std::mem::size_of_val(words))
+        };
+        Self::from_bytes(ctx, bytes)
+    }
+
+    /// A buffer holding `values` (native byte order), uploaded from them without a copy on
+    /// the host: a scene's largest textures as storage buffers.
+    pub fn from_f32(ctx: &GlContext, values: &[f32]) -> Result<Self> {
+        // SAFETY: every initialised f32 is four initialised bytes and u8 has alignment 1,
+        // so the view covers exactly the values' memory, which `values` keeps alive.
+        let bytes: &[u8] = unsafe {
+            std::slice::from_raw_parts(values.as_ptr().cast::<u8>(), std::mem::size_of_val(values))
+        };
+        Self::from_bytes(ctx, bytes)
+    }
+
+    /// A buffer holding `bytes`, copied by GL alone where there are 16 or more.
+    fn from_bytes(ctx: &GlContext, bytes: &[u8]) -> Result<Self> {
+        if bytes.len() < 16 {
+            return Self::new(ctx, bytes);
+        }
+        // SAFETY: `create` calls this with the context current and the new buffer bound;
+        // GL copies `bytes`, which outlive the call, and reads no more than their length.
+        Self::create(ctx, bytes.len(), |gl| unsafe {
+            gl.buffer_data_u8_slice(glow::SHADER_STORAGE_BUFFER, bytes, glow::DYNAMIC_COPY)
+        })
+    }
+
     /// A buffer of `n` zeroed `u32`s.
     pub fn zeroed_u32(ctx: &GlContext, n: usize) -> Result<Self> {
         Self::new(ctx, &vec![0u8; n * 4])

@@ -53,6 +53,15 @@ impl IrregularLayout {
         }
     }
 
+    /// The voxel map the GPU reads for `g` within `capacity` entries ([`WideMap::for_gpu`]),
+    /// or as [`HOP_BITS_ENV`] fixes them.
+    pub(super) fn wide_map_within(g: &IrregularGrid, capacity: usize) -> WideMap {
+        match hop_bits_override() {
+            Some(bits) => WideMap::build(g, bits),
+            None => WideMap::for_gpu(g, capacity),
+        }
+    }
+
     /// Entries the voxel map `w` takes in `format` (the split format's blocks aligned to
     /// exact floats: [`align_blocks`]), counted before it is laid out.
     pub(super) fn entries(w: &WideMap, format: IndexFormat) -> u64 {

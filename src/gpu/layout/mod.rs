@@ -42,11 +42,13 @@
 //! built one with its levels merged into hops of several levels ([`WideMap`](crate::accel::irregular_wide::WideMap)), so a lookup
 //! waits on fewer dependent reads; the cells are the built grid's.
 
+pub(crate) mod dense;
 mod irregular;
 mod packed;
 mod plan;
 mod tex;
 
+pub use dense::{DenseBuffer, DenseIrregular, DENSE_PAST_2_24_ENV};
 pub use irregular::{IrregularLayout, HOP_BITS_ENV};
 pub use packed::{texture_dims, PackedTexture};
 pub use plan::{GridCounts, LayoutCounts, LayoutPlan, TEXEL_BYTES};
@@ -59,7 +61,7 @@ pub use super::split_index::{
     split_coord, IndexFormat, MAX_EXACT_INDEX, MAX_GPU_TRIANGLES, MAX_SLOT_TEXELS, SPLIT_BASE,
     SPLIT_INDEX_ENV, TRI_SLOT_BANDS,
 };
-use crate::accel::{AccelRef, GridRef};
+use crate::accel::{AccelRef, GridRef, IrregularGrid};
 use crate::scene::{CheckerAxes, Scene};
 use crate::{Error, Result};
 
@@ -112,12 +114,8 @@ pub struct SceneTextures {
     pub nrm: Option<PackedTexture>,
     /// Materials.
     pub mat: PackedTexture,
-    /// Cell table of the grid.
-    pub cell: PackedTexture,
-    /// Triangle-index list.
-    pub list: PackedTexture,
-    /// The irregular grid's voxel map and descent (`None` for the uniform grid).
-    pub irregular: Option<IrregularLayout>,
+    /// The grid: float textures, or the compute kernel's integer buffers.
+    pub grid: GridTextures,
     /// Texture coordinates, vertex colours and textures (`None` for a scene without
     /// textures and vertex colours: then no texture code is compiled).
     pub tex: Option<TexLayout>,
@@ -127,6 +125,35 @@ pub struct SceneTextures {
     pub inst: Option<PackedTexture>,
     /// How indices are written (and read by the GLSL).
     pub format: IndexFormat,
+}
+
+/// The grid's part of the layout.
+#[derive(Clone, Debug)]
+pub enum GridTextures {
+    /// The float layout every fragment kernel reads (and the compute kernel on the uniform
+    /// grid): the cell table, the triangle-index list and, for the irregular grid, its
+    /// voxel map, as RGBA32F textures.
+    Float {
+        /// Cell table of the grid.
+        cell: PackedTexture,
+        /// Triangle-index list.
+        list: PackedTexture,
+        /// The irregular grid's voxel map and descent (`None` for the uniform grid).
+        irregular: Option<IrregularLayout>,
+    },
+    /// The compute kernel's integer layout of the irregular grid (`DENSE_GRID`): storage
+    /// buffers, uploaded from the grid ([`DenseIrregular`]).
+    Dense(DenseIrregular),
+}
+
+/// Which kernels a layout is packed for: the float layout serves every kernel; the
+/// compute kernel reads the irregular grid from integer buffers instead ([`GridTextures`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum LayoutTarget {
+    /// Textures of floats (GLSL 1.20 and up).
+    Float,
+    /// The compute kernel: the irregular grid dense, in `u32` storage buffers.
+    Compute,
 }
 
 /// Numeric code of a checker's axes in the material texture (and in GLSL).
@@ -208,7 +235,6 @@ impl SceneTextures {
         let accel = accel.into().grid()?;
         check_indices(scene, accel)?;
         let smooth = normals || scene.has_smooth_normals();
-        let n_tris = scene.triangles.len();
         // Every texture's size from the counts, refused before any is allocated (the
         // irregular grid's voxel map as the GPU reads it is built first: its size is part
         // of the plan).
@@ -236,61 +262,8 @@ impl SceneTextures {
             inst_texels: inst.as_ref().map(|d| d.len() as u64),
             ..LayoutCounts::of(scene, grid, smooth, format)
         });
-        // The browser tells a page nothing of the host's memory: there the driver refuses.
-        #[cfg(not(target_arch = "wasm32"))]
-        let available = crate::memory::available_bytes();
-        #[cfg(target_arch = "wasm32")]
-        let available = None;
-        plan.check(max_size, available)?;
-        let mut tri = Vec::with_capacity(n_tris * 3);
-        let mut nrm = Vec::with_capacity(if smooth { n_tris * 3 } else { 0 });
-        for (i, t) in scene.triangles.iter().enumerate() {
-            let v = scene.triangle_vertices(i);
-            let has_n = t.has_normals();
-            tri.push([v[0].x, v[0].y, v[0].z, t.material as f32]);
-            tri.push([v[1].x, v[1].y, v[1].z, if has_n { 1.0 } else { 0.0 }]);
-            tri.push([v[2].x, v[2].y, v[2].z, 0.0]);
-            if smooth {
-                for k in 0..3 {
-                    let n = if has_n {
-                        scene.normals[t.n[k] as usize]
-                    } else {
-                        glam::Vec3::ZERO
-                    };
-                    nrm.push([n.x, n.y, n.z, 0.0]);
-                }
-            }
-        }
-        let tex = TexLayout::pack(scene, max_size)?;
-        let mut mat = vec![[0f32; 4]; scene.materials.len() * MAT_TEXELS as usize];
-        for (i, m) in scene.materials.iter().enumerate() {
-            let (ca, cb, scale, axes, phase) = match &m.checker {
-                Some(c) => (c.color_a, c.color_b, c.scale, axes_code(c.axes), c.phase),
-                None => (glam::Vec3::ZERO, glam::Vec3::ZERO, 0.0, 0.0, [0.0; 2]),
-            };
-            let texels = &mut mat[i * MAT_TEXELS as usize..][..MAT_TEXELS as usize];
-            let mut put = |f: Field, v: &[f32]| {
-                texels[f.texel][f.first..f.first + f.len].copy_from_slice(v);
-            };
-            put(slot::ALBEDO, &m.albedo.to_array());
-            put(slot::KA, &[m.ka]);
-            put(slot::KS, &m.ks.to_array());
-            put(slot::NS, &[m.ns]);
-            put(slot::KR, &m.kr.to_array());
-            put(slot::KD, &[m.kd]);
-            put(slot::KT, &m.kt.to_array());
-            put(slot::IOR, &[m.ior]);
-            put(slot::CHECKER_A, &ca.to_array());
-            put(slot::CHECKER_SCALE, &[scale]);
-            put(slot::CHECKER_B, &cb.to_array());
-            put(slot::CHECKER_AXES, &[axes]);
-            put(slot::FRESNEL, &[if m.fresnel { 1.0 } else { 0.0 }]);
-            put(slot::CHECKER_PHASE, &phase);
-            if let (Some(k), Some(t)) = (m.diffuse_map, &tex) {
-                // `M6_MAP_KD`: the texture's header, plus one (zero: no texture).
-                put(slot::PAD, &[t.headers[k as usize] as f32 + 1.0]);
-            }
-        }
+        plan.check(max_size, available_memory())?;
+        let (tri, nrm, mat, tex) = pack_scene(scene, max_size, smooth)?;
         // Offsets as written: one float (exact below 2^24, checked above for Float), or hi
         // and lo.
         let off = |o: u32| match format {
@@ -347,7 +320,10 @@ impl SceneTextures {
         let cell_texels = cell.len() as u64;
         if format == IndexFormat::Float {
             let need = [
-                ("triangle texels", n_tris as u64 * TRI_TEXELS as u64),
+                (
+                    "triangle texels",
+                    scene.triangles.len() as u64 * TRI_TEXELS as u64,
+                ),
                 ("cell texels", cell_texels),
                 ("triangle references", list.len() as u64),
             ];
@@ -357,18 +333,15 @@ impl SceneTextures {
                 )));
             }
         }
-        let slots = |t: PackedTexture| PackedTexture { slots: true, ..t };
         let packed = SceneTextures {
-            tri: slots(PackedTexture::pack("tri", tri, max_size)?),
-            nrm: if smooth {
-                Some(slots(PackedTexture::pack("nrm", nrm, max_size)?))
-            } else {
-                None
+            tri,
+            nrm,
+            mat,
+            grid: GridTextures::Float {
+                cell: PackedTexture::pack("cell", cell, max_size)?,
+                list: PackedTexture::pack_entries("list", &list, max_size)?,
+                irregular,
             },
-            mat: PackedTexture::pack("mat", mat, max_size)?,
-            cell: PackedTexture::pack("cell", cell, max_size)?,
-            list: PackedTexture::pack_entries("list", &list, max_size)?,
-            irregular,
             tex,
             inst: match inst {
                 Some(d) => Some(PackedTexture::pack("inst", d, max_size)?),
@@ -376,8 +349,98 @@ impl SceneTextures {
             },
             format,
         };
-        // What was checked is what was packed: every texture as the plan sized it.
-        for t in packed.all() {
+        packed.check_plan(&plan, max_size)?;
+        Ok(packed)
+    }
+
+    /// The compute kernel's layout of `scene` over the irregular grid `g`: the scene's
+    /// textures as the float layout packs them, in the index format its triangles need, and
+    /// the grid as integer storage buffers ([`DenseIrregular`]) of at most `block_bytes`
+    /// each (GL_MAX_SHADER_STORAGE_BLOCK_SIZE), uploaded from the grid itself; every size
+    /// checked from the counts first ([`LayoutPlan`]).
+    pub fn pack_dense(
+        scene: &Scene,
+        g: &IrregularGrid,
+        max_size: u32,
+        normals: bool,
+        block_bytes: u64,
+    ) -> Result<Self> {
+        check_triangles(scene.triangles.len())?;
+        let smooth = normals || scene.has_smooth_normals();
+        let format = IndexFormat::needed(scene.triangles.len() as u64 * TRI_TEXELS as u64, 0);
+        let map = DenseIrregular::wide_map(g, max_size, block_bytes);
+        let ref_base = DenseIrregular::ref_base_from_env();
+        let (cells, refs, entries) = (
+            g.cells.len() as u64,
+            g.tri_indices.len() as u64,
+            map.vmap.len() as u64,
+        );
+        let max_count = g.cells.iter().map(|c| c.range.count).max().unwrap_or(0);
+        let ref_words = ref_base as u64 + refs;
+        DenseIrregular::check(cells, ref_words, entries, max_count as u64, block_bytes)?;
+        let counts = GridCounts::Dense {
+            cells,
+            refs: ref_words,
+            vmap_entries: entries,
+        };
+        let plan = LayoutPlan::new(&LayoutCounts::of(scene, counts, smooth, format));
+        plan.check(max_size, available_memory())?;
+        let (tri, nrm, mat, tex) = pack_scene(scene, max_size, smooth)?;
+        let packed = SceneTextures {
+            tri,
+            nrm,
+            mat,
+            grid: GridTextures::Dense(DenseIrregular {
+                map,
+                cells,
+                refs,
+                ref_base,
+                skew_faces: false,
+            }),
+            tex,
+            inst: None,
+            format,
+        };
+        packed.check_plan(&plan, max_size)?;
+        Ok(packed)
+    }
+
+    /// The layout of `scene` over `accel` for `target`: the compute kernel's over an
+    /// irregular grid ([`SceneTextures::pack_dense`]), else the float layout
+    /// ([`SceneTextures::pack_with`]). Where a dense buffer passes `block_bytes` (llvmpipe's
+    /// blocks are 128 MiB, where its textures hold 4 GiB) the compute kernel takes the float
+    /// layout if that fits, as it did before the dense one; if neither fits, the refusal
+    /// names both.
+    pub fn pack_for<'a>(
+        scene: &Scene,
+        accel: impl Into<AccelRef<'a>>,
+        max_size: u32,
+        normals: bool,
+        target: LayoutTarget,
+        block_bytes: u64,
+    ) -> Result<Self> {
+        let accel = accel.into().grid()?;
+        match (target, accel) {
+            (LayoutTarget::Compute, GridRef::Irregular(g)) => {
+                match Self::pack_dense(scene, g, max_size, normals, block_bytes) {
+                    Err(Error::Limit(dense)) => Self::pack_with(scene, accel, max_size, normals)
+                        .map_err(|float| {
+                            Error::Limit(format!(
+                                "{dense}; the float layout does not fit either: {float}"
+                            ))
+                        }),
+                    packed => packed,
+                }
+            }
+            (LayoutTarget::Compute | LayoutTarget::Float, _) => {
+                Self::pack_with(scene, accel, max_size, normals)
+            }
+        }
+    }
+
+    /// What was checked is what was packed: every texture as the plan sized it.
+    fn check_plan(&self, plan: &LayoutPlan, max_size: u32) -> Result<()> {
+        for t in self.all() {
             let counted = plan.textures.iter().find(|&&(n, _)| n == t.name);
             let want = counted.map(|&(_, n)| texture_dims(n, max_size));
             if want != Some((t.width, t.height as u64)) {
@@ -387,7 +450,70 @@ impl SceneTextures {
                 )));
             }
         }
-        Ok(packed)
+        Ok(())
+    }
+
+    /// The grid's layout as `--stats` names it (`gpu.grid_layout`): `float` or `dense`.
+    pub fn grid_name(&self) -> &'static str {
+        match self.grid {
+            GridTextures::Float { .. } => "float",
+            GridTextures::Dense(_) => "dense",
+        }
+    }
+
+    /// The float layout's cell table (`None` for the dense grid).
+    pub fn cell(&self) -> Option<&PackedTexture> {
+        match &self.grid {
+            GridTextures::Float { cell, .. } => Some(cell),
+            GridTextures::Dense(_) => None,
+        }
+    }
+
+    /// The float layout's triangle-index list (`None` for the dense grid).
+    pub fn list(&self) -> Option<&PackedTexture> {
+        match &self.grid {
+            GridTextures::Float { list, .. } => Some(list),
+            GridTextures::Dense(_) => None,
+        }
+    }
+
+    /// The float layout's cell table and triangle-index list, to replace (tests that
+    /// read synthetic texels through the generated fetches).
+    pub fn float_grid_mut(&mut self) -> Option<(&mut PackedTexture, &mut PackedTexture)> {
+        match &mut self.grid {
+            GridTextures::Float { cell, list, .. } => Some((cell, list)),
+            GridTextures::Dense(_) => None,
+        }
+    }
+
+    /// The float layout's voxel map of the irregular grid (`None` otherwise).
+    pub fn irregular(&self) -> Option<&IrregularLayout> {
+        match &self.grid {
+            GridTextures::Float { irregular, .. } => irregular.as_ref(),
+            GridTextures::Dense(_) => None,
+        }
+    }
+
+    /// The compute kernel's integer layout of the irregular grid (`None` otherwise).
+    pub fn dense(&self) -> Option<&DenseIrregular> {
+        match &self.grid {
+            GridTextures::Dense(d) => Some(d),
+            GridTextures::Float { .. } => None,
+        }
+    }
+
+    /// Tests only: the irregular grid's walk compiled with every face crossing moved by
+    /// about an ulp (`SKEW_FACES`), in either layout.
+    pub fn skew_faces(&mut self) {
+        match &mut self.grid {
+            GridTextures::Float {
+                irregular: Some(i), ..
+            } => i.skew_faces = true,
+            GridTextures::Dense(d) => d.skew_faces = true,
+            GridTextures::Float {
+                irregular: None, ..
+            } => {}
+        }
     }
 
     /// All textures, in binding order.
@@ -397,16 +523,15 @@ impl SceneTextures {
 
     /// All textures with the unit each is bound to.
     pub fn with_units(&self) -> Vec<(Unit, &PackedTexture)> {
-        let mut v = vec![
-            (Unit::Tri, &self.tri),
-            (Unit::Mat, &self.mat),
-            (Unit::Cell, &self.cell),
-            (Unit::List, &self.list),
-        ];
+        let mut v = vec![(Unit::Tri, &self.tri), (Unit::Mat, &self.mat)];
+        if let GridTextures::Float { cell, list, .. } = &self.grid {
+            v.push((Unit::Cell, cell));
+            v.push((Unit::List, list));
+        }
         if let Some(n) = &self.nrm {
             v.push((Unit::Nrm, n));
         }
-        if let Some(i) = &self.irregular {
+        if let Some(i) = self.irregular() {
             v.push((Unit::Vmap, &i.vmap));
         }
         if let Some(t) = &self.tex {
@@ -431,11 +556,36 @@ impl SceneTextures {
             self.format.irregular_cell_texels()
         );
         s.push_str(&self.format.glsl());
-        for (k, t) in self.all().into_iter().enumerate() {
+        // The list cursor: from the list's start, or (split, dense) from the cell's first
+        // reference, whose offset the cell holds.
+        s.push_str(match (&self.grid, self.format) {
+            (GridTextures::Float { .. }, IndexFormat::Float) => {
+                "// Cursor from the list's start (one float, exact below 2^24).\n\
+                 #define CURSOR_FIRST(offset) (offset)\n\
+                 #define CURSOR_END_OF(offset, count) ((offset) + (count))\n"
+            }
+            (GridTextures::Dense(_), _) | (GridTextures::Float { .. }, IndexFormat::Split) => {
+                "// Cursor from the cell's first reference (split: list_at; dense: g_cell_first).\n\
+                 #define CURSOR_FIRST(offset) 0.0\n\
+                 #define CURSOR_END_OF(offset, count) (count)\n"
+            }
+        });
+        let all = self.all();
+        for (k, t) in all.iter().enumerate() {
             s.push_str(&t.glsl_format(fetch, STORAGE_BINDING_BASE + k as u32, self.format));
         }
-        if let Some(i) = &self.irregular {
-            s.push_str(&i.glsl());
+        match &self.grid {
+            GridTextures::Float {
+                irregular: Some(i), ..
+            } => s.push_str(&i.glsl()),
+            GridTextures::Float {
+                irregular: None, ..
+            } => {}
+            // After every texture's storage blocks (the list's and voxel map's float views
+            // are the float layout's only).
+            GridTextures::Dense(d) => {
+                s.push_str(&d.glsl(STORAGE_BINDING_BASE + all.len() as u32));
+            }
         }
         if let Some(t) = &self.tex {
             s.push_str(&t.glsl(fetch));
@@ -451,14 +601,120 @@ impl SceneTextures {
 
     /// Storage blocks the textures take under [`Fetch::Storage`]: one per texture, and the
     /// float views the kernels read entries through (the list's, the voxel map's).
+    /// The dense grid's buffers follow the textures' blocks, under either fetch.
     pub fn storage_blocks(&self) -> u32 {
-        self.all().len() as u32 + 1 + u32::from(self.irregular.is_some())
+        let textures = self.all().len() as u32;
+        match &self.grid {
+            GridTextures::Float { irregular, .. } => textures + 1 + u32::from(irregular.is_some()),
+            GridTextures::Dense(_) => textures + DenseBuffer::ALL.len() as u32,
+        }
     }
 
-    /// Total bytes uploaded.
+    /// The storage binding of the dense grid's buffer `b` (its layout only).
+    pub fn dense_binding(&self, b: DenseBuffer) -> u32 {
+        let k = DenseBuffer::ALL.iter().position(|&x| x == b).unwrap_or(0);
+        STORAGE_BINDING_BASE + self.all().len() as u32 + k as u32
+    }
+
+    /// Total bytes of the textures (the dense grid's buffers: [`SceneTextures::dense_bytes`]).
     pub fn bytes(&self) -> usize {
         self.all().iter().map(|t| t.bytes()).sum()
     }
+
+    /// Bytes of the dense grid's buffers (0 for the float layout).
+    pub fn dense_bytes(&self) -> u64 {
+        match &self.grid {
+            GridTextures::Dense(d) => DenseBuffer::ALL
+                .iter()
+                .map(|b| {
+                    b.elements(d.cells, d.ref_words(), d.map.vmap.len() as u64) * b.element_bytes()
+                })
+                .sum(),
+            GridTextures::Float { .. } => 0,
+        }
+    }
+}
+
+/// The host memory the size check weighs a layout against (the browser tells a page
+/// nothing of it: there the driver refuses).
+fn available_memory() -> Option<u64> {
+    #[cfg(not(target_arch = "wasm32"))]
+    return crate::memory::available_bytes();
+    #[cfg(target_arch = "wasm32")]
+    None
+}
+
+/// The scene's textures every layout packs alike: triangles, vertex normals (when
+/// `smooth`), materials, and texture coordinates with their images.
+#[allow(clippy::type_complexity)]
+fn pack_scene(
+    scene: &Scene,
+    max_size: u32,
+    smooth: bool,
+) -> Result<(
+    PackedTexture,
+    Option<PackedTexture>,
+    PackedTexture,
+    Option<TexLayout>,
+)> {
+    let n_tris = scene.triangles.len();
+    let mut tri = Vec::with_capacity(n_tris * 3);
+    let mut nrm = Vec::with_capacity(if smooth { n_tris * 3 } else { 0 });
+    for (i, t) in scene.triangles.iter().enumerate() {
+        let v = scene.triangle_vertices(i);
+        let has_n = t.has_normals();
+        tri.push([v[0].x, v[0].y, v[0].z, t.material as f32]);
+        tri.push([v[1].x, v[1].y, v[1].z, if has_n { 1.0 } else { 0.0 }]);
+        tri.push([v[2].x, v[2].y, v[2].z, 0.0]);
+        if smooth {
+            for k in 0..3 {
+                let n = if has_n {
+                    scene.normals[t.n[k] as usize]
+                } else {
+                    glam::Vec3::ZERO
+                };
+                nrm.push([n.x, n.y, n.z, 0.0]);
+            }
+        }
+    }
+    let tex = TexLayout::pack(scene, max_size)?;
+    let mut mat = vec![[0f32; 4]; scene.materials.len() * MAT_TEXELS as usize];
+    for (i, m) in scene.materials.iter().enumerate() {
+        let (ca, cb, scale, axes, phase) = match &m.checker {
+            Some(c) => (c.color_a, c.color_b, c.scale, axes_code(c.axes), c.phase),
+            None => (glam::Vec3::ZERO, glam::Vec3::ZERO, 0.0, 0.0, [0.0; 2]),
+        };
+        let texels = &mut mat[i * MAT_TEXELS as usize..][..MAT_TEXELS as usize];
+        let mut put = |f: Field, v: &[f32]| {
+            texels[f.texel][f.first..f.first + f.len].copy_from_slice(v);
+        };
+        put(slot::ALBEDO, &m.albedo.to_array());
+        put(slot::KA, &[m.ka]);
+        put(slot::KS, &m.ks.to_array());
+        put(slot::NS, &[m.ns]);
+        put(slot::KR, &m.kr.to_array());
+        put(slot::KD, &[m.kd]);
+        put(slot::KT, &m.kt.to_array());
+        put(slot::IOR, &[m.ior]);
+        put(slot::CHECKER_A, &ca.to_array());
+        put(slot::CHECKER_SCALE, &[scale]);
+        put(slot::CHECKER_B, &cb.to_array());
+        put(slot::CHECKER_AXES, &[axes]);
+        put(slot::FRESNEL, &[if m.fresnel { 1.0 } else { 0.0 }]);
+        put(slot::CHECKER_PHASE, &phase);
+        if let (Some(k), Some(t)) = (m.diffuse_map, &tex) {
+            // `M6_MAP_KD`: the texture's header, plus one (zero: no texture).
+            put(slot::PAD, &[t.headers[k as usize] as f32 + 1.0]);
+        }
+    }
+    let slots = |t: PackedTexture| PackedTexture { slots: true, ..t };
+    let tri = slots(PackedTexture::pack("tri", tri, max_size)?);
+    let nrm = if smooth {
+        Some(slots(PackedTexture::pack("nrm", nrm, max_size)?))
+    } else {
+        None
+    };
+    Ok((tri, nrm, PackedTexture::pack("mat", mat, max_size)?, tex))
 }
 
 #[cfg(test)]
@@ -498,21 +754,22 @@ mod tests {
         let s = scene_of(&[[Vec3::ZERO, Vec3::X, Vec3::Y], [Vec3::Z, Vec3::X, Vec3::Y]]);
         let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
         let l = SceneTextures::pack(&s, &g, 4096).unwrap();
-        let vmap = &l.irregular.as_ref().unwrap().vmap;
+        let vmap = &l.irregular().unwrap().vmap;
+        let (list, cell) = (l.list().unwrap(), l.cell().unwrap());
         for fetch in [Fetch::Texture2D, Fetch::TexelFetch, Fetch::Storage] {
-            for t in [&l.list, vmap] {
+            for t in [list, vmap] {
                 assert!(t.entries, "{}", t.name);
                 let glsl = t.glsl_with(fetch, 9);
                 assert!(glsl.contains(&format!("entry_{}(", t.name)), "{fetch:?}");
             }
-            for t in [&l.tri, &l.mat, &l.cell] {
+            for t in [&l.tri, &l.mat, cell] {
                 assert!(!t.entries, "{}", t.name);
                 assert!(!t.glsl_with(fetch, 9).contains("entry_"), "{}", t.name);
             }
         }
         // Every triangle index of the grid's lists, in order.
         let n = g.tri_indices.len();
-        let listed: Vec<u32> = l.list.data[..n].iter().map(|&x| x as u32).collect();
+        let listed: Vec<u32> = list.data[..n].iter().map(|&x| x as u32).collect();
         assert_eq!(listed, g.tri_indices);
     }
 

@@ -4,12 +4,17 @@
 //! line, not after allocating it). The counts matter most for the irregular grid: its cells
 //! sit at float slots ([`float_slot`](super::float_slot)) that get sparser every 2^23 cells past 2^24, so its
 //! cell texture grows faster than its cells: the 100-sphere scene's 61.5 M cells take
-//! 2.14 G texels (34 GB), where they would take 184 M densely.
+//! 2.14 G texels (34 GB), where they would take 184 M densely. The compute kernel's dense
+//! layout of the irregular grid ([`GridCounts::Dense`]) is counted as storage buffers of
+//! bytes instead: 32 bytes per cell, 4 per reference and per voxel-map entry, checked
+//! against GL_MAX_SHADER_STORAGE_BLOCK_SIZE ([`DenseIrregular::check`](super::DenseIrregular::check))
+//! and, with the textures, against the host's memory.
 
 use super::packed::too_large;
 use super::tex::TexLayout;
 use super::{
-    irregular_cell_texels, texture_dims, IndexFormat, LIST_PER_TEXEL, MAT_TEXELS, TRI_TEXELS,
+    irregular_cell_texels, texture_dims, DenseBuffer, IndexFormat, LIST_PER_TEXEL, MAT_TEXELS,
+    TRI_TEXELS,
 };
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -34,6 +39,15 @@ pub enum GridCounts {
         /// Triangle references.
         refs: u64,
         /// Voxel-map entries as laid out for the GPU (hops, aligned blocks).
+        vmap_entries: u64,
+    },
+    /// An irregular grid in the compute kernel's integer buffers ([`DenseIrregular`](super::DenseIrregular)).
+    Dense {
+        /// Cells.
+        cells: u64,
+        /// Triangle references.
+        refs: u64,
+        /// Voxel-map entries.
         vmap_entries: u64,
     },
 }
@@ -77,6 +91,8 @@ impl LayoutCounts {
 pub struct LayoutPlan {
     /// (texture name, texels).
     pub textures: Vec<(&'static str, u64)>,
+    /// (storage buffer name, bytes): the dense grid's.
+    pub buffers: Vec<(&'static str, u64)>,
     /// Whether the grid is the irregular one (what the refusals advise).
     pub irregular: bool,
 }
@@ -91,6 +107,7 @@ impl LayoutPlan {
         }
         textures.push(("mat", c.materials * MAT_TEXELS as u64));
         let entries = |n: u64| n.div_ceil(LIST_PER_TEXEL as u64);
+        let mut buffers = Vec::new();
         let irregular = match c.grid {
             GridCounts::Uniform { cells, refs } => {
                 textures.push(("cell", cells));
@@ -107,6 +124,17 @@ impl LayoutPlan {
                 textures.push(("vmap", entries(vmap_entries)));
                 true
             }
+            GridCounts::Dense {
+                cells,
+                refs,
+                vmap_entries,
+            } => {
+                for b in DenseBuffer::ALL {
+                    let n = b.elements(cells, refs, vmap_entries);
+                    buffers.push((b.name(), n * b.element_bytes()));
+                }
+                true
+            }
         };
         if let Some(t) = c.tex_texels {
             textures.push(("tex", t));
@@ -116,11 +144,13 @@ impl LayoutPlan {
         }
         LayoutPlan {
             textures,
+            buffers,
             irregular,
         }
     }
 
-    /// Host bytes of the textures as packed under a limit of `max_size` (rows padded).
+    /// Host bytes of the textures as packed under a limit of `max_size` (rows padded) and
+    /// of the dense grid's buffers.
     pub fn bytes(&self, max_size: u32) -> u64 {
         self.textures
             .iter()
@@ -128,7 +158,8 @@ impl LayoutPlan {
                 let (w, h) = texture_dims(n, max_size);
                 w as u64 * h * TEXEL_BYTES
             })
-            .sum()
+            .sum::<u64>()
+            + self.buffers.iter().map(|&(_, b)| b).sum::<u64>()
     }
 
     /// Options that render the scene when texture `name` cannot be packed: every structure
@@ -137,6 +168,7 @@ impl LayoutPlan {
     fn advice(&self, name: &str) -> &'static str {
         match (name, self.irregular) {
             ("cell" | "list" | "vmap", true) => "--accel uniform, or --backend cpu",
+            (n, true) if n.starts_with("dense_") => "--accel uniform, or --backend cpu",
             ("cell" | "list", false) => "a lower --grid-density, or --backend cpu",
             _ => "--backend cpu",
         }
@@ -169,11 +201,16 @@ impl LayoutPlan {
             .copied()
             .max_by_key(|&(_, n)| n)
             .unwrap_or(("tri", 0));
-        let largest = self.bytes_of(name, max_size);
+        let (name, what, largest) = match self.buffers.iter().copied().max_by_key(|&(_, b)| b) {
+            Some((b, bytes)) if bytes > self.bytes_of(name, max_size) => {
+                (b, format!("{bytes} bytes"), bytes)
+            }
+            _ => (name, format!("{n} texels"), self.bytes_of(name, max_size)),
+        };
         Err(Error::Limit(format!(
-            "the GPU layout of the {} grid needs about {:.1} GiB of host memory (its textures, \
-             {:.1} GiB, the largest `{name}` of {n} texels at {:.1} GiB, and the driver's copy), \
-             and {:.1} GiB is available; render it with {}",
+            "the GPU layout of the {} grid needs about {:.1} GiB of host memory (its textures \
+             and buffers, {:.1} GiB, the largest `{name}` of {what} at {:.1} GiB, and the \
+             driver's copy), and {:.1} GiB is available; render it with {}",
             if self.irregular {
                 "irregular"
             } else {
@@ -251,6 +288,48 @@ mod tests {
         let cell = gb(fits.bytes_of("cell", 32768));
         assert!((1.2..1.4).contains(&cell), "{cell}");
         assert!((0.5..0.6).contains(&gb(fits.bytes_of("tri", 32768))));
+    }
+
+    /// The 100-sphere scene's counts in the compute kernel's dense layout (61.5 M cells
+    /// from the H100's refusal; 5.31 references and 2 voxel-map entries a triangle, the
+    /// 12-sphere scene's 20.9 M references over 3.93 M triangles): no texture of the grid,
+    /// fits a GPU of 32768-texel textures and 2 GiB storage blocks (each buffer under 1 GB),
+    /// and takes 32 bytes a cell where the slots took 11.6 times 48.
+    #[test]
+    fn spheres_100_irregular_fits_the_dense_layout() {
+        let (triangles, cells) = (32_768_002u64, 61_500_880u64);
+        let refs = triangles * 531 / 100;
+        let plan = LayoutPlan::new(&LayoutCounts {
+            triangles,
+            normals: true,
+            materials: 2,
+            grid: GridCounts::Dense {
+                cells,
+                refs,
+                vmap_entries: 2 * triangles,
+            },
+            tex_texels: None,
+            inst_texels: None,
+            format: IndexFormat::Split,
+        });
+        let names: Vec<&str> = plan.textures.iter().map(|&(n, _)| n).collect();
+        assert_eq!(names, ["tri", "nrm", "mat"]);
+        assert!(plan.check(32768, None).is_ok());
+        for &(name, bytes) in &plan.buffers {
+            assert!(bytes < 1_000_000_000, "{name}: {bytes}");
+        }
+        let cell_bytes: u64 = plan
+            .buffers
+            .iter()
+            .filter(|(n, _)| n.starts_with("dense_cell"))
+            .map(|&(_, b)| b)
+            .sum();
+        assert_eq!(cell_bytes, 32 * cells);
+        // Everything the layout uploads: about 185 bytes a triangle (tri and nrm 48 each,
+        // cells 60, references 21, voxel map 8), where the float layout's cell texture
+        // alone took 1,047.
+        let per = plan.bytes(32768) as f64 / triangles as f64;
+        assert!((180.0..200.0).contains(&per), "{per}");
     }
 
     /// The uniform grid's cell texture beyond the limit names the options that change it;

@@ -184,6 +184,16 @@ pub fn dump_shaders_as<'a>(
     let accel = accel.into().grid()?;
     // Variants with smooth normals on fetch from the normal texture, so it is declared.
     let layout = SceneTextures::pack_with(scene, accel, layout::MAX_ROW, all_variants)?;
+    // The compute programs read the compute kernel's layout (over the irregular grid, its
+    // integer buffers), sized against the largest block GL's sizes express: no context here.
+    let compute_layout = SceneTextures::pack_for(
+        scene,
+        accel,
+        layout::MAX_ROW,
+        all_variants,
+        layout::LayoutTarget::Compute,
+        i32::MAX as u64,
+    )?;
     let max_iterations = crate::gpu::scene::max_iterations(accel).min(i32::MAX as u64) as u32;
     let compute = compute_programs(scene, max_iterations, all_variants);
     let d = Techniques::default();
@@ -228,7 +238,7 @@ pub fn dump_shaders_as<'a>(
             write(sub.join(name), &assemble(pass, f, t, &layout)?.source)?;
         }
         for (stem, pass, spec) in &compute {
-            let a = assemble_compute(*pass, spec, f, t, &layout)?;
+            let a = assemble_compute(*pass, spec, f, t, &compute_layout)?;
             write(sub.join(format!("{stem}.comp")), &a.source)?;
         }
     }
