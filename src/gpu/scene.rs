@@ -230,8 +230,9 @@ impl<'s> GpuScene<'s> {
         self.cache.as_ref()
     }
 
-    /// Tests only: the float layout packed in `format` ([`IndexFormat::Split`] takes a scene
-    /// that fits in floats down the split path, which must render the same image).
+    /// Tests only: the float layout packed in `format` (an instanced scene's, which every
+    /// kernel reads; [`IndexFormat::Split`] takes a scene that fits in floats down the split
+    /// path, which must render the same image).
     pub fn with_index_format(mut self, format: IndexFormat) -> Result<Self> {
         self.index_format = Some(format);
         Ok(self)
