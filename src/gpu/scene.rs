@@ -474,19 +474,30 @@ impl<'s> GpuScene<'s> {
             if let Some(c) = started {
                 return self.finish_compiling(c);
             }
-            let a = assemble_compute(
-                pass,
-                spec,
-                self.features,
-                techniques,
-                self.layout(LayoutTarget::Compute)?,
-            )?;
+            let a = self.assemble_compute(pass, spec, techniques)?;
             let key = SourceKey::of(pass.name(), &[&a.source]);
             let program = self.cached_or(pass.name(), key, || {
                 compile_compute(self.ctx, pass.name(), &a.source, &|n| a.origin(n))
             })?;
             Ok(program.declaring(a.declared))
         })
+    }
+
+    /// The source of the compute program of `pass` for `spec`, over the compute kernel's
+    /// layout (the one place both the waiting and the polling compile assemble it).
+    fn assemble_compute(
+        &self,
+        pass: ComputePass,
+        spec: &ComputeSpec,
+        techniques: Techniques,
+    ) -> Result<Assembled> {
+        assemble_compute(
+            pass,
+            spec,
+            self.features,
+            techniques,
+            self.layout(LayoutTarget::Compute)?,
+        )
     }
 
     /// Whether the compute program of `pass` for `spec` can run without waiting for a
@@ -522,13 +533,7 @@ impl<'s> GpuScene<'s> {
         techniques: Techniques,
     ) -> Result<bool> {
         if !self.compiling.borrow().contains_key(&key) {
-            let a = assemble_compute(
-                pass,
-                spec,
-                self.features,
-                techniques,
-                self.layout(LayoutTarget::Compute)?,
-            )?;
+            let a = self.assemble_compute(pass, spec, techniques)?;
             let source = SourceKey::of(pass.name(), &[&a.source]);
             if let Some(p) = self.cached(pass.name(), source) {
                 self.keep(key, p.declaring(a.declared))?;
