@@ -25,13 +25,19 @@ fn render(d: &Path, extra: &[&str], env: &[(&str, &str)]) -> (Value, String) {
 }
 
 /// [`render`] at `width` x `height`.
-fn render_at(
+fn render_at(d: &Path, size: (u32, u32), extra: &[&str], env: &[(&str, &str)]) -> (Value, String) {
+    render_scene(d, "turntable", size, extra, env)
+}
+
+/// [`render_at`] of scenes/`name`.toml.
+fn render_scene(
     d: &Path,
+    name: &str,
     (width, height): (u32, u32),
     extra: &[&str],
     env: &[(&str, &str)],
 ) -> (Value, String) {
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/turntable.toml");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}.toml"));
     let mut c = common::bin();
     c.current_dir(d)
         .arg(&scene)
@@ -227,6 +233,75 @@ fn a_large_cold_frame_is_handed_to_compute_part_way_down() {
         "its AOVs differ"
     );
     assert!(read("b/h.png") == read("c/c.png"), "its PNG differs");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Where the fallback's float layout does not fit but the compute kernel's dense one does
+/// (the dragon's irregular grid: its `cell` texture is 954 rows high, past a texture size
+/// of 640, `FRAGTRACE_GL_LIMITS=texture=640`), a cold start waits for the compute compile
+/// instead of failing on the fallback (on the H100 the 100-sphere scene's float layout
+/// needs 2.1 G texels): the frame is compute's whole render, not marked a cold start, and
+/// the same bytes as `--kernel compute`'s; `--kernel looped` is refused in one line.
+#[test]
+fn a_cold_start_waits_for_compute_where_the_fallback_cannot_hold_the_scene() {
+    let d = common::tmpdir("no-fallback");
+    let small = ("FRAGTRACE_GL_LIMITS", "texture=640");
+    let size = (32, 24);
+    let irregular = ["--accel", "irregular"];
+    for sub in ["a", "b"] {
+        std::fs::create_dir_all(d.join(sub)).unwrap();
+    }
+    let polls = [("FRAGTRACE_COMPILE_POLLS", "1"), small];
+    let (cold, _) = render_scene(
+        &d.join("a"),
+        "dragon",
+        size,
+        &[&irregular[..], &["-o", "a.exr"]].concat(),
+        &polls,
+    );
+    assert_eq!(cold["gpu"]["kernel"], "compute", "{cold}");
+    assert_eq!(cold["gpu"]["cold_start"], false, "{cold}");
+    assert_eq!(cold["gpu"]["grid_layout"], "dense", "{cold}");
+    let (whole, _) = render_scene(
+        &d.join("b"),
+        "dragon",
+        size,
+        &[&irregular[..], &["--kernel", "compute", "-o", "b.exr"]].concat(),
+        &[small],
+    );
+    assert_eq!(whole["gpu"]["kernel"], "compute", "{whole}");
+    let read = |p: &str| std::fs::read(d.join(p)).unwrap();
+    assert!(
+        read("a/a.exr") == read("b/b.exr"),
+        "the waited-for frame differs"
+    );
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/dragon.toml");
+    let o = common::bin()
+        .arg(&scene)
+        .args([
+            "--backend",
+            "gl",
+            "--kernel",
+            "looped",
+            "--accel",
+            "irregular",
+        ])
+        .args(["--width", "32", "--height", "24", "-o"])
+        .arg(d.join("l.png"))
+        .env(small.0, small.1)
+        .env(
+            "FRAGTRACE_MODEL_PATH",
+            std::env::join_paths(common::model_path()).unwrap(),
+        )
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("texture `cell` needs") && err.contains("is 640"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
     let _ = std::fs::remove_dir_all(&d);
 }
 

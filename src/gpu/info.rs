@@ -44,7 +44,7 @@ impl Check {
 }
 
 /// Environment variable naming a historical card whose limits fragtrace imposes on top of
-/// the driver's (`geforce7`), to prove the GL 2.1 path fits period hardware on a modern
+/// the driver's (`geforce7`; `texture=N` for the texture size alone), to prove the GL 2.1 path fits period hardware on a modern
 /// driver that cannot be told to shrink its own limits.
 pub const LIMITS_ENV: &str = "FRAGTRACE_GL_LIMITS";
 
@@ -70,7 +70,12 @@ pub const GEFORCE7: LimitProfile = LimitProfile {
     max_texture_units: 16,
 };
 
+/// The smallest texture size `FRAGTRACE_GL_LIMITS=texture=N` accepts: GL 2.1's own minimum.
+pub const MIN_TEXTURE_SIZE: i32 = 64;
+
 /// The profile named by [`LIMITS_ENV`], read once per process; `None` when unset or empty.
+/// Besides the named cards, `texture=N` lowers only `GL_MAX_TEXTURE_SIZE` to N (tests: a
+/// layout past the texture size on a scene small enough to build in a moment).
 ///
 /// # Panics
 /// Never; an unknown name is reported by [`GlContext::new_unchecked`](super::GlContext::new_unchecked) as a usage error.
@@ -81,9 +86,19 @@ pub fn limit_profile() -> std::result::Result<Option<LimitProfile>, String> {
             Err(_) => Ok(None),
             Ok(v) if v.is_empty() => Ok(None),
             Ok(v) if v == GEFORCE7.name => Ok(Some(GEFORCE7)),
-            Ok(v) => Err(format!(
-                "{LIMITS_ENV}={v} is not a known profile (expected geforce7)"
-            )),
+            Ok(v) => match v.strip_prefix("texture=").map(str::parse::<i32>) {
+                Some(Ok(size)) if size >= MIN_TEXTURE_SIZE => Ok(Some(LimitProfile {
+                    // Read once per process (the `OnceLock`), so the name is leaked once.
+                    name: Box::leak(v.into_boxed_str()),
+                    max_texture_size: size,
+                    max_draw_buffers: i32::MAX,
+                    max_texture_units: i32::MAX,
+                })),
+                _ => Err(format!(
+                    "{LIMITS_ENV}={v} is not a known profile (expected geforce7, or \
+                     texture=N with N >= {MIN_TEXTURE_SIZE})"
+                )),
+            },
         })
         .clone()
 }

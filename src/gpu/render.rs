@@ -9,6 +9,7 @@
 use super::compute;
 use super::context::GlContext;
 use super::fragment;
+use super::layout::LayoutTarget;
 use super::options::{FragmentKernel, GpuOptions, KernelChoice};
 use super::pause::Stepped;
 use super::scene::GpuScene;
@@ -99,7 +100,15 @@ pub fn render<'a>(
 fn cold_start(gs: &GpuScene, req: &ImageRequest) -> Result<Option<FragmentKernel>> {
     Ok(match req.gpu.choose_kernel(&gs.ctx().info)? {
         KernelChoice::Compute { fallback: Some(k) } if !compute::programs_ready(gs, req)? => {
-            Some(k)
+            // The fallback reads the float layout. Where that does not fit (an irregular
+            // grid past the texture size, which compute's dense layout holds) the frame
+            // waits for compute instead of failing; the float layout packed here is the
+            // one the fallback would pack first anyway.
+            match gs.layout(LayoutTarget::Float) {
+                Ok(_) => Some(k),
+                Err(Error::Limit(_)) => None,
+                Err(e) => return Err(e),
+            }
         }
         _ => None,
     })
