@@ -55,4 +55,69 @@ void place_normals(inout vec3 n0, inout vec3 n1, inout vec3 n2) {
     n1 = mirror ? m2 : m1;
     n2 = mirror ? m1 : m2;
 }
+#ifdef HAS_TEXTURES
+// True when the instance being shaded mirrors (its winding reversed when placed).
+bool shade_mirrors() {
+    return g_shade_inst >= 0.0 && inst_texel(inst_at(g_shade_inst) + 2.0).w > 0.5;
+}
+
+// The packed (object-space) record r0, r1 of triangle tri made the placed triangle's: the
+// corners' uvs in the placed winding, the level-of-detail bias moved by half the log2 of
+// the object-space area over the placed area (the bias is 0.5 log2(texel area / area):
+// TriTex::of on the placed triangle, up to f32 rounding here).
+void place_tex(float tri, inout vec4 r0, inout vec4 r1) {
+    if (g_shade_inst < 0.0) return;
+    vec4 t0 = fetch_tri_at(tri, TRI_TEXELS, 0.0);
+    vec4 t1 = fetch_tri_at(tri, TRI_TEXELS, 1.0);
+    vec4 t2 = fetch_tri_at(tri, TRI_TEXELS, 2.0);
+    float a_obj = length(cross(t1.xyz - t0.xyz, t2.xyz - t0.xyz));
+    place_triangle(t0, t1, t2);
+    float a_placed = length(cross(t1.xyz - t0.xyz, t2.xyz - t0.xyz));
+    if (a_obj > 0.0 && a_placed > 0.0) r1.z += 0.5 * log2(a_obj / a_placed);
+    if (shade_mirrors()) {
+        vec2 u1 = r0.zw;
+        r0.zw = r1.xy;
+        r1.xy = u1;
+    }
+}
+
+// The packed triangle's corner colours c1, c2 in the placed winding (Scene::placed_colors).
+void place_colors(inout vec3 c1, inout vec3 c2) {
+    if (!shade_mirrors()) return;
+    vec3 c = c1;
+    c1 = c2;
+    c2 = c;
+}
+
+// The curvature of triangle tri as placed (k: the packed record's, the scene's own
+// triangles'): worked out on the placed vertices and normals (CPU twin: curvature in
+// src/scene/texture.rs, on the flattened triangle), since a scale changes it.
+float placed_curvature(float tri, float k) {
+    if (g_shade_inst < 0.0) return k;
+#ifdef HAS_SMOOTH_NORMALS
+    vec4 t0 = fetch_tri_at(tri, TRI_TEXELS, 0.0);
+    vec4 t1 = fetch_tri_at(tri, TRI_TEXELS, 1.0);
+    vec4 t2 = fetch_tri_at(tri, TRI_TEXELS, 2.0);
+    if (t1.w <= 0.5) return 0.0;
+    vec3 n0 = fetch_nrm_at(tri, TRI_TEXELS, 0.0).xyz;
+    vec3 n1 = fetch_nrm_at(tri, TRI_TEXELS, 1.0).xyz;
+    vec3 n2 = fetch_nrm_at(tri, TRI_TEXELS, 2.0).xyz;
+    place_triangle(t0, t1, t2);
+    place_normals(n0, n1, n2);
+    float sum = 0.0;
+    vec3 dp = t1.xyz - t0.xyz;
+    float l2 = dot(dp, dp);
+    if (l2 > 0.0) sum += dot(n1 - n0, dp) / l2;
+    dp = t2.xyz - t1.xyz;
+    l2 = dot(dp, dp);
+    if (l2 > 0.0) sum += dot(n2 - n1, dp) / l2;
+    dp = t0.xyz - t2.xyz;
+    l2 = dot(dp, dp);
+    if (l2 > 0.0) sum += dot(n0 - n2, dp) / l2;
+    return sum / 3.0;
+#else
+    return 0.0;
+#endif
+}
+#endif
 #endif

@@ -31,6 +31,12 @@ vec3 terminator_gap(vec3 p, vec3 v, vec3 n, float b) {
 // The instance being shaded places its triangle and normals (instance.glsl, included later).
 void place_triangle(inout vec4 t0, inout vec4 t1, inout vec4 t2);
 void place_normals(inout vec3 n0, inout vec3 n1, inout vec3 n2);
+#ifdef HAS_TEXTURES
+// And its texture record, corner colours and curvature.
+void place_tex(float tri, inout vec4 r0, inout vec4 r1);
+void place_colors(inout vec3 c1, inout vec3 c2);
+float placed_curvature(float tri, float k);
+#endif
 #endif
 
 Surface surface(vec3 o, vec3 d, float tri) {
@@ -239,6 +245,9 @@ vec3 albedo_tex(Surface s, float width, vec3 d) {
     if (map > 0.0) {
         vec4 r0 = fetch_tex(s.tri * TEX_REC);
         vec4 r1 = fetch_tex(s.tri * TEX_REC + 1.0);
+#ifdef INSTANCED
+        place_tex(s.tri, r0, r1);
+#endif
         float lod = tex_lod(r1.z, width, dot(s.nf, d));
         vec2 uv = r0.xy * s.b.x + r0.zw * s.b.y + r1.xy * s.b.z;
         a = a * tex_bilinear(map - 1.0, uv, lod);
@@ -247,6 +256,9 @@ vec3 albedo_tex(Surface s, float width, vec3 d) {
     vec3 c0 = fetch_tex(TEX_COLORS + s.tri * 3.0).xyz;
     vec3 c1 = fetch_tex(TEX_COLORS + s.tri * 3.0 + 1.0).xyz;
     vec3 c2 = fetch_tex(TEX_COLORS + s.tri * 3.0 + 2.0).xyz;
+#ifdef INSTANCED
+    place_colors(c1, c2);
+#endif
     a = a * (c0 * s.b.x + c1 * s.b.y + c2 * s.b.z);
 #endif
     return a;
@@ -256,6 +268,9 @@ vec3 albedo_tex(Surface s, float width, vec3 d) {
 // (CPU twin: CpuRenderer::child_cone).
 vec2 child_cone_at(Surface s, vec2 cone, bool refracted) {
     float k = fetch_tex(s.tri * TEX_REC + 1.0).w;
+#ifdef INSTANCED
+    k = placed_curvature(s.tri, k);
+#endif
     if (s.flipped) k = -k;
     float ior = mat_texel(s.mat, M3_SLOT).M3_IOR;
     float eta = s.entering ? 1.0 / ior : ior / 1.0;

@@ -93,8 +93,50 @@ impl GridInstances {
                 scene.source
             ))
         };
+        // Texture coordinates and vertex colours as `Scene::flattened` stores them (once
+        // any triangle has them, every triangle and position), but each mesh's once, in
+        // object space: the kernels read a hit's by its packed triangle, in the placed
+        // winding (`glsl120/instance.glsl`).
+        let uvs = !packed.tri_uvs.is_empty()
+            || inst.meshes.iter().any(|m| !m.geometry.tri_uvs.is_empty());
+        let colors = scene.has_vertex_colors();
+        if uvs {
+            packed
+                .tri_uvs
+                .resize(packed.triangles.len(), [crate::scene::NO_UV; 3]);
+        }
+        if colors {
+            packed.colors.resize(packed.positions.len(), Vec3::ONE);
+        }
         for (m, g) in inst.meshes.iter().zip(&grids) {
             let geo = &m.geometry;
+            if uvs {
+                let ubase = packed.uvs.len() as u32;
+                if geo.tri_uvs.is_empty() {
+                    packed.tri_uvs.extend(std::iter::repeat_n(
+                        [crate::scene::NO_UV; 3],
+                        geo.triangles.len(),
+                    ));
+                } else {
+                    packed.tri_uvs.extend(geo.tri_uvs.iter().map(|t| {
+                        if t[0] == crate::scene::NO_UV {
+                            *t
+                        } else {
+                            t.map(|k| k + ubase)
+                        }
+                    }));
+                }
+                packed.uvs.extend_from_slice(&geo.uvs);
+            }
+            if colors {
+                if geo.colors.is_empty() {
+                    packed
+                        .colors
+                        .extend(std::iter::repeat_n(Vec3::ONE, geo.positions.len()));
+                } else {
+                    packed.colors.extend_from_slice(&geo.colors);
+                }
+            }
             let tri_base =
                 u32::try_from(packed.triangles.len()).map_err(|_| too_many("triangles"))?;
             let cell_base = u32::try_from(grid.cells.len()).map_err(|_| too_many("cells"))?;
@@ -127,14 +169,6 @@ impl GridInstances {
                 triangles: geo.triangles.len() as u32,
                 references: g.tri_indices.len() as u32,
             });
-        }
-        if !packed.tri_uvs.is_empty() {
-            packed
-                .tri_uvs
-                .resize(packed.triangles.len(), [crate::scene::NO_UV; 3]);
-        }
-        if !packed.colors.is_empty() {
-            packed.colors.resize(packed.positions.len(), Vec3::ONE);
         }
         let boxes: Vec<(Vec3, Vec3)> = inst
             .instances

@@ -63,11 +63,15 @@ pub struct CpuRenderer<'a, T, W = Walker<'a, T>> {
     /// Each triangle's unit geometric normal, worked out once (`shade::geometric_normal`)
     /// rather than at every hit.
     ng: Vec<V3<T>>,
-    /// Each triangle's texture record when the scene has textures or vertex colours (else
-    /// empty: an untextured scene stores and runs nothing for them).
+    /// Each of the scene's own triangles' texture record when the scene has textures or
+    /// vertex colours (else empty: an untextured scene stores and runs nothing for them).
+    /// An instanced triangle's is worked out at its hit (`TriTex::of`), the mesh stored
+    /// once.
     tex: Vec<TriTex>,
     /// True when some material has a texture: rays then carry cones.
     textured: bool,
+    /// True when the scene or an instanced mesh has vertex colours.
+    coloured: bool,
     /// The compilation of the direct-lighting lanes that runs (the widest the CPU has).
     dispatch: Dispatch,
 }
@@ -102,7 +106,8 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     ) -> Self {
         let ng = walker.tris().par_iter().map(geometric_normal).collect();
         let textured = scene.has_textures();
-        let tex = if textured || scene.has_vertex_colors() {
+        let coloured = scene.has_vertex_colors();
+        let tex = if textured || coloured {
             (0..scene.triangles.len())
                 .into_par_iter()
                 .map(|i| TriTex::of(scene, i))
@@ -116,6 +121,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             ng,
             tex,
             textured,
+            coloured,
             dispatch: Dispatch::detect(),
             walker,
             techniques,

@@ -133,15 +133,18 @@ pub fn uv_at<T: Real>(rec: &TriTex, b: [T; 3]) -> (T, T) {
     )
 }
 
-/// The interpolated vertex colour of triangle `tri` at barycentrics `b` (white without
-/// vertex colours).
+/// The interpolated vertex colour of triangle `tri` (one of the scene's own, or an
+/// instance's: its corners in the placed winding) at barycentrics `b`: white without
+/// vertex colours (`coloured`: [`Scene::has_vertex_colors`]), and white corners
+/// interpolated for a triangle without where others have them, as the flattened scene
+/// stores it.
 #[inline]
-pub fn vertex_color<T: Real>(scene: &Scene, tri: usize, b: [T; 3]) -> V3<T> {
-    if scene.colors.is_empty() {
+pub fn vertex_color<T: Real>(scene: &Scene, coloured: bool, tri: usize, b: [T; 3]) -> V3<T> {
+    if !coloured {
         return V3::splat(T::ONE);
     }
-    let v = scene.triangles[tri].v;
-    let c = |k: usize| V3::<T>::from_vec3(scene.colors[v[k] as usize]);
+    let c = scene.placed_colors(tri).unwrap_or([glam::Vec3::ONE; 3]);
+    let c = |k: usize| V3::<T>::from_vec3(c[k]);
     c(0) * b[0] + c(1) * b[1] + c(2) * b[2]
 }
 

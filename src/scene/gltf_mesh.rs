@@ -145,19 +145,6 @@ struct Builder<'a> {
     first_shared: Option<usize>,
 }
 
-/// Whether instancing can store `mesh` once: no primitive has texture coordinates,
-/// vertex colours or a base colour texture (instanced meshes carry none of them).
-fn instanceable(mesh: &gltf::Mesh<'_>) -> bool {
-    mesh.primitives().all(|p| {
-        p.get(&Semantic::TexCoords(0)).is_none()
-            && p.get(&Semantic::Colors(0)).is_none()
-            && p.material()
-                .pbr_metallic_roughness()
-                .base_color_texture()
-                .is_none()
-    })
-}
-
 /// A node's local transform in f64.
 fn node_matrix(node: &gltf::Node<'_>) -> DMat4 {
     match node.transform() {
@@ -226,15 +213,15 @@ impl Builder<'_> {
                 stack.push((c, m, depth + 1));
             }
         }
-        // A mesh several nodes place is stored once when sharing (and the mesh has
-        // nothing instancing does not carry); every other placement is emitted placed.
+        // A mesh several nodes place is stored once when sharing (with its texture
+        // coordinates and vertex colours); every other placement is emitted placed.
         let mut uses: HashMap<usize, usize> = HashMap::new();
         for (mesh, _, _) in &placed {
             *uses.entry(mesh.index()).or_default() += 1;
         }
         let mut shared: Vec<(gltf::Mesh<'_>, Vec<DMat4>, usize)> = Vec::new();
         for (mesh, m, node) in placed {
-            if self.share && uses[&mesh.index()] > 1 && instanceable(&mesh) {
+            if self.share && uses[&mesh.index()] > 1 {
                 match shared.iter_mut().find(|s| s.0.index() == mesh.index()) {
                     Some(s) => s.1.push(m),
                     None => shared.push((mesh, vec![m], node)),
@@ -254,6 +241,7 @@ impl Builder<'_> {
             let t1 = self.mesh.triangles.len();
             self.mesh.shared.push(super::obj::SharedMesh {
                 triangles: self.mesh.triangles[t0..t1].to_vec(),
+                tri_uvs: self.mesh.tri_uvs[t0..t1].to_vec(),
                 placements,
             });
         }
@@ -603,7 +591,8 @@ impl Builder<'_> {
     }
 
     fn finish(mut self) -> Result<ObjMesh> {
-        // The shared meshes' triangles live in `shared` alone (they have no uvs).
+        // The shared meshes' triangles live in `shared` alone (their uv indices too; their
+        // positions, colours and uvs stay, which `shared` indexes).
         if let Some(t0) = self.first_shared {
             self.mesh.triangles.truncate(t0);
             self.mesh.tri_uvs.truncate(t0);

@@ -19,15 +19,17 @@
 //! renormalised, rounded once), so a hit shades on the very triangle the flattened scene
 //! stores; only the hit's t and barycentrics, computed in object space, differ by rounding.
 
-use glam::{DMat3, DVec3, Vec3};
+use glam::{DMat3, DVec3, Vec2, Vec3};
 
 use super::{Scene, Triangle};
 use crate::{Error, Result};
 
 /// A mesh that instances place: its geometry in object space, its triangles' materials
-/// indices into the owning scene's [`Scene::materials`]. Held as a [`Scene`] of geometry
-/// alone (positions, normals, triangles; no camera, lights, materials or textures) so that
-/// the BVH build and walk take it as they take a scene.
+/// indices into the owning scene's [`Scene::materials`] (and so its textures the owning
+/// scene's [`Scene::textures`]). Held as a [`Scene`] of geometry alone (positions, normals,
+/// triangles, and where the mesh has them texture coordinates and vertex colours; no
+/// camera, lights, materials or textures) so that the BVH build and walk take it as they
+/// take a scene.
 #[derive(Clone, Debug)]
 pub struct Mesh {
     /// What placed it (`objects[3]`), for messages.
@@ -183,7 +185,8 @@ impl Instancing {
         )
     }
 
-    /// Memory of the meshes (positions, normals, triangles) and placements, in bytes.
+    /// Memory of the meshes (positions, normals, triangles, texture coordinates, vertex
+    /// colours) and placements, in bytes.
     pub fn bytes(&self) -> usize {
         let mesh: usize = self
             .meshes
@@ -193,6 +196,9 @@ impl Instancing {
                 g.positions.len() * 12
                     + g.normals.len() * 12
                     + g.triangles.len() * std::mem::size_of::<Triangle>()
+                    + g.uvs.len() * 8
+                    + g.tri_uvs.len() * 12
+                    + g.colors.len() * 12
             })
             .sum();
         mesh + self.instances.len() * std::mem::size_of::<Instance>()
@@ -229,6 +235,84 @@ impl Scene {
         v
     }
 
+    /// The instance, mesh geometry and mesh triangle of an instanced id (past the scene's
+    /// own triangles).
+    fn placed_parts(&self, id: usize) -> (&Instance, &Scene, usize) {
+        let inst = &self.instancing;
+        let (k, j) = inst.locate(id as u32);
+        let place = &inst.instances[k];
+        (place, &inst.meshes[place.mesh as usize].geometry, j)
+    }
+
+    /// The unit vertex normals of triangle `id` (None without) as [`Scene::flattened`]
+    /// stores them: an instance's placed by [`Instance::normal`], in the placed winding.
+    pub fn placed_normals(&self, id: usize) -> Option<[Vec3; 3]> {
+        if id < self.triangles.len() {
+            let t = &self.triangles[id];
+            return t
+                .has_normals()
+                .then(|| t.n.map(|k| self.normals[k as usize]));
+        }
+        let (place, g, j) = self.placed_parts(id);
+        let t = &g.triangles[j];
+        let mut n = t
+            .has_normals()
+            .then(|| t.n.map(|k| place.normal(g.normals[k as usize])))?;
+        if place.mirrors() {
+            n.swap(1, 2);
+        }
+        Some(n)
+    }
+
+    /// The texture coordinates of triangle `id`'s corners (None without), in the placed
+    /// winding for an instance's: [`Scene::flattened`]'s.
+    pub fn placed_uvs(&self, id: usize) -> Option<[Vec2; 3]> {
+        let (uvi, uvs, mirror) = if id < self.triangles.len() {
+            (self.triangle_uv_indices(id), &self.uvs, false)
+        } else {
+            let (place, g, j) = self.placed_parts(id);
+            (g.triangle_uv_indices(j), &g.uvs, place.mirrors())
+        };
+        if uvi[0] == super::NO_UV {
+            return None;
+        }
+        let mut uv = uvi.map(|k| uvs[k as usize]);
+        if mirror {
+            uv.swap(1, 2);
+        }
+        Some(uv)
+    }
+
+    /// The vertex colours of triangle `id`'s corners (None when neither the scene nor the
+    /// instance's mesh has any; white corners where only the other has), in the placed
+    /// winding for an instance's: [`Scene::flattened`]'s.
+    pub fn placed_colors(&self, id: usize) -> Option<[Vec3; 3]> {
+        if id < self.triangles.len() {
+            if self.colors.is_empty() {
+                return None;
+            }
+            return Some(self.triangles[id].v.map(|k| self.colors[k as usize]));
+        }
+        let (place, g, j) = self.placed_parts(id);
+        if g.colors.is_empty() {
+            return None;
+        }
+        let mut c = g.triangles[j].v.map(|k| g.colors[k as usize]);
+        if place.mirrors() {
+            c.swap(1, 2);
+        }
+        Some(c)
+    }
+
+    /// The material index of triangle `id` (one of the scene's own, or an instance's).
+    pub fn placed_material(&self, id: usize) -> u32 {
+        if id < self.triangles.len() {
+            return self.triangles[id].material;
+        }
+        let (_, g, j) = self.placed_parts(id);
+        g.triangles[j].material
+    }
+
     /// Triangles once instances are counted: the scene's own and every instance's.
     pub fn instanced_triangles(&self) -> u64 {
         self.triangles.len() as u64 + self.instancing.triangles()
@@ -254,8 +338,21 @@ impl Scene {
         let mut out = self.clone();
         out.instancing = Instancing::default();
         out.triangles.reserve(extra as usize);
+        // Texture coordinates and colours as the scene file's loader appends an object
+        // stored flat (`toml_scene::build`'s `append`): once any triangle has them, every
+        // triangle (NO_UV) and position (white) has, and each instance its own copy.
+        let meshes = &self.instancing.meshes;
+        let uvs = !self.tri_uvs.is_empty() || meshes.iter().any(|m| !m.geometry.tri_uvs.is_empty());
+        let colors =
+            !self.colors.is_empty() || meshes.iter().any(|m| !m.geometry.colors.is_empty());
+        if uvs {
+            out.tri_uvs.resize(out.triangles.len(), [super::NO_UV; 3]);
+        }
+        if colors {
+            out.colors.resize(out.positions.len(), Vec3::ONE);
+        }
         for inst in &self.instancing.instances {
-            let g = &self.instancing.meshes[inst.mesh as usize].geometry;
+            let g = &meshes[inst.mesh as usize].geometry;
             let (vbase, nbase) = (out.positions.len() as u32, out.normals.len() as u32);
             out.positions
                 .extend(g.positions.iter().map(|&p| inst.point(p)));
@@ -278,12 +375,34 @@ impl Scene {
                 }
                 t
             }));
-        }
-        if !out.tri_uvs.is_empty() {
-            out.tri_uvs.resize(out.triangles.len(), [super::NO_UV; 3]);
-        }
-        if !out.colors.is_empty() {
-            out.colors.resize(out.positions.len(), Vec3::ONE);
+            if uvs {
+                let ubase = out.uvs.len() as u32;
+                if g.tri_uvs.is_empty() {
+                    out.tri_uvs
+                        .extend(std::iter::repeat_n([super::NO_UV; 3], g.triangles.len()));
+                } else {
+                    out.tri_uvs.extend(g.tri_uvs.iter().map(|t| {
+                        let mut t = if t[0] == super::NO_UV {
+                            *t
+                        } else {
+                            t.map(|k| k + ubase)
+                        };
+                        if mirror {
+                            t.swap(1, 2);
+                        }
+                        t
+                    }));
+                }
+                out.uvs.extend_from_slice(&g.uvs);
+            }
+            if colors {
+                if g.colors.is_empty() {
+                    out.colors
+                        .extend(std::iter::repeat_n(Vec3::ONE, g.positions.len()));
+                } else {
+                    out.colors.extend_from_slice(&g.colors);
+                }
+            }
         }
         Ok(out)
     }
@@ -296,11 +415,16 @@ impl Scene {
         let inst = &self.instancing;
         for (k, m) in inst.meshes.iter().enumerate() {
             let g = &m.geometry;
-            if !g.tri_uvs.is_empty() || !g.colors.is_empty() || !g.textures.is_empty() {
+            let uvs_ok = (g.tri_uvs.is_empty() || g.tri_uvs.len() == g.triangles.len())
+                && g.tri_uvs
+                    .iter()
+                    .all(|t| t[0] == super::NO_UV || t.iter().all(|&k| (k as usize) < g.uvs.len()));
+            let colors_ok = g.colors.is_empty() || g.colors.len() == g.positions.len();
+            if !uvs_ok || !colors_ok || !g.textures.is_empty() {
                 return Err(bad(
                     format!("instancing.meshes[{k}] ({})", m.name),
-                    "an instanced mesh carries no texture coordinates, vertex colours or \
-                     textures (such meshes are stored flat)"
+                    "texture coordinates or vertex colours out of range, or textures held \
+                     by the mesh (its materials' textures are the scene's)"
                         .into(),
                 ));
             }

@@ -322,9 +322,14 @@ impl Scene {
         self.materials.iter().any(|m| m.diffuse_map.is_some())
     }
 
-    /// True when the scene has vertex colours.
+    /// True when the scene, or a mesh its instances place, has vertex colours.
     pub fn has_vertex_colors(&self) -> bool {
         !self.colors.is_empty()
+            || self
+                .instancing
+                .meshes
+                .iter()
+                .any(|m| !m.geometry.colors.is_empty())
     }
 
     /// The uv indices of triangle `i`'s corners (`[NO_UV; 3]` when it has none).
@@ -343,6 +348,9 @@ impl Scene {
         self.tri_uvs.clear();
         self.colors.clear();
         self.texture_problems.clear();
+        for m in &mut self.instancing.meshes {
+            m.geometry.strip_textures();
+        }
     }
 
     /// Appends a material and returns its index.

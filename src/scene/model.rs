@@ -45,8 +45,8 @@ pub fn load_mesh(path: &Path) -> Result<ObjMesh> {
     }
 }
 
-/// [`load_mesh`] for a scene that instances: a glTF mesh several nodes place (without
-/// texture coordinates, vertex colours or a textured material) is stored once, in
+/// [`load_mesh`] for a scene that instances: a glTF mesh several nodes place (with its
+/// texture coordinates, vertex colours and materials) is stored once, in
 /// [`ObjMesh::shared`](super::obj::ObjMesh::shared), instead of once per node.
 pub fn load_mesh_instanced(path: &Path) -> Result<ObjMesh> {
     match MeshFormat::of(path) {

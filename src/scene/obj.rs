@@ -64,6 +64,9 @@ pub struct ObjMesh {
 pub struct SharedMesh {
     /// The triangles, once.
     pub triangles: Vec<Triangle>,
+    /// Their uv indices into [`ObjMesh::uvs`] (`[NO_UV; 3]` for a triangle without),
+    /// parallel to `triangles`.
+    pub tri_uvs: Vec<[u32; 3]>,
     /// The nodes' transforms (their parents' composed), in walk order.
     pub placements: Vec<glam::DMat4>,
 }

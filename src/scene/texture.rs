@@ -219,18 +219,16 @@ pub struct TriTex {
 }
 
 impl TriTex {
-    /// The record of triangle `i` of `scene`.
+    /// The record of triangle `i` of `scene`: one of its own, or (an id past them) an
+    /// instance's, worked out on the triangle [`Scene::flattened`](super::Scene::flattened)
+    /// stores (placed vertices and normals rounded to f32, corners in the placed winding),
+    /// so a two-level walk's hit reads the flattened scene's record.
     pub fn of(scene: &super::Scene, i: usize) -> TriTex {
-        let t = &scene.triangles[i];
-        let p = scene.triangle_vertices(i).map(|v| v.as_dvec3());
-        let uvi = scene.triangle_uv_indices(i);
-        let has_uv = uvi[0] != super::NO_UV;
-        let uv = if has_uv {
-            uvi.map(|k| scene.uvs[k as usize].to_array())
-        } else {
-            [[0.0; 2]; 3]
-        };
-        let map = scene.materials[t.material as usize].diffuse_map;
+        let p = scene.placed_vertices(i).map(|v| v.as_dvec3());
+        let corners = scene.placed_uvs(i);
+        let has_uv = corners.is_some();
+        let uv = corners.map_or([[0.0; 2]; 3], |c| c.map(|v| v.to_array()));
+        let map = scene.materials[scene.placed_material(i) as usize].diffuse_map;
         let lod_bias = match (map, has_uv) {
             (None, _) => 0.0,
             (Some(_), false) => NO_UV_BIAS,
@@ -252,9 +250,7 @@ impl TriTex {
                 }
             }
         };
-        let normals = t
-            .has_normals()
-            .then(|| t.n.map(|k| scene.normals[k as usize].as_dvec3()));
+        let normals = scene.placed_normals(i).map(|n| n.map(|v| v.as_dvec3()));
         let curvature = curvature(p, normals);
         TriTex {
             uv,
@@ -265,7 +261,7 @@ impl TriTex {
 }
 
 /// [`TriTex::curvature`] of a triangle of vertices `p` and vertex normals `n` (0 without):
-/// also what an instanced triangle's hit works out (`cpu/render.rs`).
+/// also what the GPU's walk of instances works out for an instanced hit.
 pub fn curvature(p: [glam::DVec3; 3], n: Option<[glam::DVec3; 3]>) -> f32 {
     let Some(n) = n else { return 0.0 };
     let mut sum = 0.0;

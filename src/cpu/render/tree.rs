@@ -12,6 +12,7 @@ use super::super::shade_lanes::{Lane, Shadows, SurfaceIn, Surfaces, LANES, V3L};
 use super::super::texture::{self, Cone};
 use super::super::traverse::{Hit, Ray, Trace, Work};
 use super::{CpuRenderer, Tally};
+use crate::scene::texture::TriTex;
 use crate::scene::Material;
 
 /// The buffers of one depth of the ray tree, kept from batch to batch by a band (the
@@ -398,7 +399,7 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     /// f64 on the very triangle the object-space test met (rounding it to f32 first would
     /// move it off that triangle by far more than f64's offsets lift a secondary ray's
     /// origin: acne); the winding reversed under a mirroring placement, the barycentrics
-    /// with it. Instanced meshes carry no texture coordinates or vertex colours.
+    /// with it. (Its texture record: `TriTex::of`, at the hit.)
     fn placed(&self, hit: &Hit<T>) -> Placed<T> {
         let inst = &self.scene.instancing;
         let (k, j) = inst.locate(hit.tri);
@@ -440,26 +441,31 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
     ) -> (V3<T>, Cone<T>) {
         let mut alb = albedo(m, sp.p);
         let mut at_hit = cone;
-        if hit.tri as usize >= self.ng.len() {
-            // An instance: no texture coordinates or vertex colours (`scene/instance.rs`).
-            if self.textured {
-                at_hit.width = cone.width + cone.spread * hit.t;
-            }
-        } else if !self.tex.is_empty() {
-            let tri = hit.tri as usize;
-            let rec = &self.tex[tri];
-            if self.textured {
-                at_hit.width = cone.width + cone.spread * hit.t;
-            }
-            if let Some(k) = m.diffuse_map {
-                let t = &self.scene.textures[k as usize];
-                let lod = texture::lod(T::from_f32(rec.lod_bias), at_hit.width, sp.nf.dot(ray.d));
-                let level = texture::level_of(lod, t.levels.len());
-                let (u, v) = texture::uv_at(rec, hit.b);
-                alb = alb.mul_elem(texture::bilinear(t, level, u, v));
-            }
-            alb = alb.mul_elem(texture::vertex_color(self.scene, tri, hit.b));
+        if !(self.textured || self.coloured) {
+            return (alb, at_hit);
         }
+        let tri = hit.tri as usize;
+        // An instance's record is worked out here, on the triangle the flattened scene
+        // stores (`TriTex::of`): the mesh is stored once, its records not per placement.
+        let placed;
+        let rec = match self.tex.get(tri) {
+            Some(rec) if tri < self.ng.len() => rec,
+            _ => {
+                placed = TriTex::of(self.scene, tri);
+                &placed
+            }
+        };
+        if self.textured {
+            at_hit.width = cone.width + cone.spread * hit.t;
+        }
+        if let Some(k) = m.diffuse_map {
+            let t = &self.scene.textures[k as usize];
+            let lod = texture::lod(T::from_f32(rec.lod_bias), at_hit.width, sp.nf.dot(ray.d));
+            let level = texture::level_of(lod, t.levels.len());
+            let (u, v) = texture::uv_at(rec, hit.b);
+            alb = alb.mul_elem(texture::bilinear(t, level, u, v));
+        }
+        alb = alb.mul_elem(texture::vertex_color(self.scene, self.coloured, tri, hit.b));
         (alb, at_hit)
     }
 
@@ -474,21 +480,13 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         cone: Cone<T>,
         refracted: bool,
     ) -> Cone<T> {
-        let k = if tri >= self.ng.len() {
-            let hit = Hit {
-                t: T::ZERO,
-                tri: tri as u32,
-                b: [T::ZERO; 3],
-            };
-            let g = self.placed(&hit);
-            let p = g.v.map(|v| v.to_dvec3());
-            T::from_f32(crate::scene::texture::curvature(
-                p,
-                g.n.map(|n| n.map(|v| v.to_dvec3())),
-            ))
-        } else {
-            T::from_f32(self.tex[tri].curvature)
+        // An instance's curvature on the triangle the flattened scene stores, as its
+        // record (`TriTex::of`).
+        let k = match self.tex.get(tri) {
+            Some(rec) if tri < self.ng.len() => rec.curvature,
+            _ => TriTex::of(self.scene, tri).curvature,
         };
+        let k = T::from_f32(k);
         let k = if sp.flipped { -k } else { k };
         let eta = refracted.then(|| {
             let ior = T::from_f32(m.ior);

@@ -646,7 +646,7 @@ impl Builder<'_> {
             self.shared_meshes(i, o, &mesh, placement, &outer, &*material_map)?;
         }
         if let Some(list) = &d.instances {
-            return self.instances(i, o, list, outer, geometry, &*material_map);
+            return self.instances(i, list, outer, geometry, &*material_map);
         }
         self.append(geometry, &*material_map, o.span(), i)?;
         self.world.positions.extend(world);
@@ -686,15 +686,33 @@ impl Builder<'_> {
             // The mesh's own vertices, renumbered from 0.
             let mut vmap = HashMap::new();
             let mut nmap = HashMap::new();
+            let mut umap = HashMap::new();
             let mut mesh = Scene::empty(self.scene.camera);
             mesh.source = format!("objects[{i}].mesh (shared mesh {s})");
-            for t in &shared.triangles {
+            let uvs = shared.tri_uvs.iter().any(|t| t[0] != NO_UV);
+            for (j, t) in shared.triangles.iter().enumerate() {
                 let v = t.v.map(|k| {
                     *vmap.entry(k).or_insert_with(|| {
                         mesh.positions.push(loaded.positions[k as usize]);
+                        if let Some(&c) = loaded.colors.get(k as usize) {
+                            mesh.colors.push(c);
+                        }
                         mesh.positions.len() as u32 - 1
                     })
                 });
+                if uvs {
+                    let uv = shared.tri_uvs[j];
+                    mesh.tri_uvs.push(if uv[0] == NO_UV {
+                        uv
+                    } else {
+                        uv.map(|k| {
+                            *umap.entry(k).or_insert_with(|| {
+                                mesh.uvs.push(loaded.uvs[k as usize]);
+                                mesh.uvs.len() as u32 - 1
+                            })
+                        })
+                    });
+                }
                 let n = if t.has_normals() {
                     t.n.map(|k| {
                         *nmap.entry(k).or_insert_with(|| {
@@ -778,13 +796,11 @@ impl Builder<'_> {
     }
 
     /// Object `i`'s `geometry` (placed by its own placement) placed once per entry of
-    /// `list`: stored once as an instanced mesh, or, when it has texture coordinates,
-    /// vertex colours or a textured material (which instanced meshes do not carry), once
-    /// per instance with a warning.
+    /// `list`: stored once as an instanced mesh, with its texture coordinates and vertex
+    /// colours.
     fn instances(
         &mut self,
         i: usize,
-        o: &S<ObjectDef>,
         list: &[S<InstanceDef>],
         placements: Vec<(Placement, Range<usize>, usize)>,
         geometry: Geometry,
@@ -802,33 +818,13 @@ impl Builder<'_> {
             // (A glTF whose meshes are all shared: placed by `shared_meshes`.)
             return Ok(());
         }
-        let textured = !geometry.tri_uvs.is_empty()
-            || !geometry.colors.is_empty()
-            || geometry.triangles.iter().any(|t| {
-                self.scene.materials[material(t.material) as usize]
-                    .diffuse_map
-                    .is_some()
-            });
-        if textured {
-            self.warnings.push(format!(
-                "{}: objects[{i}] has texture coordinates, vertex colours or a texture, which instanced meshes do not carry: its {} instances are stored flat, {} triangles each",
-                ctx.name,
-                list.len(),
-                geometry.triangles.len()
-            ));
-            for (p, span, k) in placements {
-                let mut g = geometry.clone();
-                let world = p.apply(&mut g);
-                self.check_finite(&g, span, &format!("objects[{i}].instances[{k}]"))?;
-                self.append(g, material, o.span(), i)?;
-                self.world.positions.extend(world);
-            }
-            return Ok(());
-        }
         let mut mesh = Scene::empty(self.scene.camera);
         mesh.source = format!("objects[{i}]");
         mesh.positions = geometry.positions;
         mesh.normals = geometry.normals;
+        mesh.uvs = geometry.uvs;
+        mesh.tri_uvs = geometry.tri_uvs;
+        mesh.colors = geometry.colors;
         mesh.triangles = geometry
             .triangles
             .into_iter()
