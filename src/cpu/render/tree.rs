@@ -448,11 +448,17 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
         // An instance's record is worked out here, on the triangle the flattened scene
         // stores (`TriTex::of`): the mesh is stored once, its records not per placement.
         let placed;
-        let rec = match self.tex.get(tri) {
-            Some(rec) if tri < self.ng.len() => rec,
+        let (rec, b) = match self.tex.get(tri) {
+            Some(rec) if tri < self.ng.len() => (rec, hit.b),
             _ => {
                 placed = TriTex::of(self.scene, tri);
-                &placed
+                // The object-space barycentrics in the placed winding (`placed`).
+                let inst = &self.scene.instancing;
+                let mut b = hit.b;
+                if inst.instances[inst.locate(hit.tri).0].mirrors() {
+                    b.swap(1, 2);
+                }
+                (&placed, b)
             }
         };
         if self.textured {
@@ -462,10 +468,10 @@ impl<'a, T: Real, W: Trace<T>> CpuRenderer<'a, T, W> {
             let t = &self.scene.textures[k as usize];
             let lod = texture::lod(T::from_f32(rec.lod_bias), at_hit.width, sp.nf.dot(ray.d));
             let level = texture::level_of(lod, t.levels.len());
-            let (u, v) = texture::uv_at(rec, hit.b);
+            let (u, v) = texture::uv_at(rec, b);
             alb = alb.mul_elem(texture::bilinear(t, level, u, v));
         }
-        alb = alb.mul_elem(texture::vertex_color(self.scene, self.coloured, tri, hit.b));
+        alb = alb.mul_elem(texture::vertex_color(self.scene, self.coloured, tri, b));
         (alb, at_hit)
     }
 
