@@ -246,4 +246,4 @@ impl Fnv1a {
 }
 
 /// See [`glsl_120_output_is_unchanged`].
-const GLSL_120_HASH: u64 = 0xe8cf_d8f5_6d0a_6618;
+const GLSL_120_HASH: u64 = 0xa860_5df0_244a_7b14;
