@@ -361,3 +361,83 @@ fn every_gpu_kernel_renders_textured_instances_as_the_cpu() {
 
 // Measured on llvmpipe: compute (two levels) 3.5e-7, looped and multipass (flat) 3.7e-7.
 const RMSE_GL_VS_CPU64: f64 = 2e-6;
+
+/// A glTF whose one mesh (texture coordinates and vertex colours) two nodes place, one
+/// mirroring: in a scene the mesh is stored once with its coordinates and colours, and the
+/// flattened scene's corners carry the very coordinates and colours the glTF loaded flat
+/// gives (each triangle's corners in the same order: the mirrored one's winding reversed
+/// alike).
+#[test]
+fn a_gltf_mesh_shared_by_nodes_keeps_its_uvs_and_colours_stored_once() {
+    use base64::Engine as _;
+    let mut bin = Vec::new();
+    let put = |bin: &mut Vec<u8>, v: &[f32]| bin.extend(v.iter().flat_map(|c| c.to_le_bytes()));
+    put(&mut bin, &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    put(&mut bin, &[0.0, 0.0, 1.0, 0.0, 0.25, 0.75]);
+    put(&mut bin, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&bin)
+    );
+    let doc = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,
+"scenes":[{{"nodes":[0,1]}}],
+"nodes":[{{"translation":[2,0,0],"mesh":0}},
+ {{"matrix":[-1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,-1,1],"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"TEXCOORD_0":1,"COLOR_0":2}}}}]}}],
+"buffers":[{{"byteLength":{},"uri":"{uri}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":96}}],
+"accessors":[{{"bufferView":0,"byteOffset":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+ {{"bufferView":0,"byteOffset":36,"componentType":5126,"count":3,"type":"VEC2"}},
+ {{"bufferView":0,"byteOffset":60,"componentType":5126,"count":3,"type":"VEC3"}}]}}"#,
+        bin.len()
+    );
+    let dir = common::tmpdir("gltf");
+    let file = dir.join("shared.gltf");
+    std::fs::write(&file, doc).unwrap();
+    let text = format!(
+        "[camera]\neye = [0, 2, 30]\nlook_at = [0, 0, 0]\nfov = 40\n[[objects]]\nmesh = \"{}\"\n",
+        file.display()
+    );
+    let s = load_scene_str_with_search_path(&text, "g.toml", &dir, &[]).unwrap();
+    assert_eq!(s.triangles.len(), 0);
+    assert_eq!(
+        (s.instancing.meshes.len(), s.instancing.instances.len()),
+        (1, 2)
+    );
+    let g = &s.instancing.meshes[0].geometry;
+    assert_eq!((g.uvs.len(), g.tri_uvs.len(), g.colors.len()), (3, 1, 3));
+    let flat = s.flattened(u64::MAX, "the test").unwrap();
+    let loaded = fragtrace::scene::load_gltf(&file).unwrap();
+    assert_eq!(loaded.triangles.len(), 2);
+    // Each triangle's corners as (u, v, r, g, b) bits, the triangles sorted.
+    let corners = |tris: &[fragtrace::scene::Triangle],
+                   tri_uvs: &[[u32; 3]],
+                   uvs: &[glam::Vec2],
+                   colors: &[glam::Vec3]| {
+        let mut v: Vec<Vec<[u32; 5]>> = (tris.iter().zip(tri_uvs))
+            .map(|(t, uv)| {
+                (0..3)
+                    .map(|k| {
+                        let (u, c) = (uvs[uv[k] as usize], colors[t.v[k] as usize]);
+                        [u.x, u.y, c.x, c.y, c.z].map(f32::to_bits)
+                    })
+                    .collect()
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let got = corners(&flat.triangles, &flat.tri_uvs, &flat.uvs, &flat.colors);
+    let want = corners(
+        &loaded.triangles,
+        &loaded.tri_uvs,
+        &loaded.uvs,
+        &loaded.colors,
+    );
+    assert_eq!(got, want);
+    assert_ne!(
+        got[0], got[1],
+        "the mirrored triangle's corners come in another order"
+    );
+}
