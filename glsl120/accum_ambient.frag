@@ -8,6 +8,18 @@
 #include "instance.glsl"
 
 
+#ifdef HAS_TEXTURES
+// The cone record of the level shaded: with INSTANCED beside the instance in ri (record.frag;
+// both on s2's unit, the one unit a textured scene leaves them), else u_r3.
+vec2 level_cone() {
+#ifdef INSTANCED
+    return texture2D(u_ri, v_uv).yz;
+#else
+    return texture2D(u_r3, v_uv).xy;
+#endif
+}
+#endif
+
 void main() {
 #ifdef INSTANCED
     // The instance of this level's (the parent's) hit, which surface() places.
@@ -22,7 +34,7 @@ void main() {
             Surface s = surface(r0.R0_ORIGIN, r1.R1_DIR, r0.R0_TRI);
 #ifdef HAS_TEXTURES
             // This level's cone: the root's from u_root_cone, else its record r3.
-            vec2 cone = u_root_cone.x > 0.5 ? vec2(0.0, u_root_cone.y) : texture2D(u_r3, v_uv).xy;
+            vec2 cone = u_root_cone.x > 0.5 ? vec2(0.0, u_root_cone.y) : level_cone();
             vec3 alb = albedo_tex(s, cone_at(cone, r1.R1_T).x, r1.R1_DIR);
             acc.xyz += contribution(r2.R2_WEIGHT, ambient_with(s, alb), u_ambient);
 #else

@@ -9,6 +9,18 @@
 #include "instance.glsl"
 
 
+#ifdef HAS_TEXTURES
+// The cone record of the level shaded: with INSTANCED beside the instance in ri (record.frag;
+// both on s2's unit, the one unit a textured scene leaves them), else u_r3.
+vec2 level_cone() {
+#ifdef INSTANCED
+    return texture2D(u_ri, v_uv).yz;
+#else
+    return texture2D(u_r3, v_uv).xy;
+#endif
+}
+#endif
+
 void main() {
 #ifdef INSTANCED
     // The instance of this level's (the parent's) hit, which surface() places.
@@ -24,7 +36,7 @@ void main() {
         Surface s = surface(r0.R0_ORIGIN, r1.R1_DIR, r0.R0_TRI);
         vec3 l = texture2D(u_s1, v_uv).S1_DIR;
 #ifdef HAS_TEXTURES
-        vec2 cone = u_root_cone.x > 0.5 ? vec2(0.0, u_root_cone.y) : texture2D(u_r3, v_uv).xy;
+        vec2 cone = u_root_cone.x > 0.5 ? vec2(0.0, u_root_cone.y) : level_cone();
         vec3 alb = albedo_tex(s, cone_at(cone, r1.R1_T).x, r1.R1_DIR);
 #else
         vec3 alb = albedo_at(s.mat, s.p);

@@ -9,6 +9,18 @@
 #include "instance.glsl"
 
 
+#ifdef HAS_TEXTURES
+// The cone record of the level shaded: with INSTANCED beside the instance in ri (record.frag;
+// both on s2's unit, the one unit a textured scene leaves them), else u_p3.
+vec2 level_cone() {
+#ifdef INSTANCED
+    return texture2D(u_ri, v_uv).yz;
+#else
+    return texture2D(u_p3, v_uv).xy;
+#endif
+}
+#endif
+
 void main() {
 #ifdef INSTANCED
     // The instance of this level's (the parent's) hit, which surface() places.
@@ -32,7 +44,7 @@ void main() {
         if (child_exists(k)) {
             outw = R2_TEXEL(p2.R2_WEIGHT * k, 1.0);
 #ifdef HAS_TEXTURES
-            vec2 pc = u_root_cone.x > 0.5 ? vec2(0.0, u_root_cone.y) : texture2D(u_p3, v_uv).xy;
+            vec2 pc = u_root_cone.x > 0.5 ? vec2(0.0, u_root_cone.y) : level_cone();
             outc = vec4(child_cone_at(s, cone_at(pc, p1.R1_T), u_branch > 0.5), 0.0, 0.0);
 #endif
         }

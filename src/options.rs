@@ -250,8 +250,8 @@ impl RenderOptions {
     /// These options for rendering `scene` in the GL context `gl` describes, or on the CPU
     /// (None): [`on_backend`](Self::on_backend), and the one rule for a scene with
     /// instances on the GPU. Every kernel walks its instances as two levels over uniform
-    /// grids, stored once (`accel/grid_instances.rs`; a fragment kernel untextured scenes
-    /// only, in 32-bit ray state): where the structure is left to `auto` (or named
+    /// grids, stored once (`accel/grid_instances.rs`; a fragment kernel in 32-bit ray
+    /// state only): where the structure is left to `auto` (or named
     /// uniform) and nothing else keeps the scene flat ([`two_level_blocks`](Self::two_level_blocks)),
     /// it becomes the uniform grid, and `auto`'s kernel is named: the compute kernel where
     /// the context runs it (its fallback for the driver's loop limit, the fastest fragment
@@ -275,7 +275,7 @@ impl RenderOptions {
             Kernel::Auto => !info.compute || self.fragment_only(),
             Kernel::Multipass | Kernel::Unrolled(_) | Kernel::Looped => true,
         };
-        if scene.has_instances() && self.two_level_blocks(scene, fragment).is_empty() {
+        if scene.has_instances() && self.two_level_blocks(fragment).is_empty() {
             o.accel = AccelChoice::Uniform;
             if self.gpu.kernel == Kernel::Auto {
                 let fastest = Kernel::fastest_fragment(info);
@@ -296,12 +296,12 @@ impl RenderOptions {
         matches!(self.gpu.mask, Mask::EarlyZ | Mask::Stencil) || self.gpu.storage != Storage::F32
     }
 
-    /// What keeps `scene`'s instances off the GPU's two levels with these options on a
+    /// What keeps a scene's instances off the GPU's two levels with these options on a
     /// fragment kernel (`fragment`) or the compute kernel: the flags to give or drop
-    /// (`--accel uniform`, `without --storage f16`, and for a textured scene on a fragment
-    /// kernel, whose records have no room for the hit's instance beside its cone,
-    /// `--kernel compute`); empty where nothing does.
-    pub fn two_level_blocks(&self, scene: &Scene, fragment: bool) -> Vec<String> {
+    /// (`--accel uniform`, `without --storage f16`); empty where nothing does. Textures and
+    /// vertex colours keep nothing off (a fragment kernel's record pass copies a textured
+    /// level's cone beside its instance: `glsl120/record.frag`).
+    pub fn two_level_blocks(&self, fragment: bool) -> Vec<String> {
         let g = &self.gpu;
         let mut change = Vec::new();
         if !matches!(self.accel, AccelChoice::Auto | AccelChoice::Uniform) {
@@ -311,15 +311,6 @@ impl RenderOptions {
             // s1 in half floats holds the held hit's bound too coarsely.
             if g.storage != Storage::F32 {
                 change.push(format!("without --storage {}", g.storage));
-            }
-            let coloured = scene.has_vertex_colors()
-                || scene
-                    .instancing
-                    .meshes
-                    .iter()
-                    .any(|m| m.geometry.has_vertex_colors());
-            if scene.has_textures() || coloured {
-                change.push("--kernel compute".into());
             }
         }
         change
@@ -333,10 +324,10 @@ impl RenderOptions {
         )
     }
 
-    /// What would render `scene`'s instances stored once, where these options (settled:
+    /// What would render a scene's instances stored once, where these options (settled:
     /// [`on_context`](Self::on_context)) take them flat: the end of the one warning
     /// [`crate::render::prepare`] gives.
-    pub fn stored_once_advice(&self, scene: &Scene) -> String {
+    pub fn stored_once_advice(&self) -> String {
         match (self.backend == Backend::Gl, self.gl_compute) {
             (false, _) => "--backend cpu --accel bvh walks them as placed, stored once".into(),
             // Not settled in a context: `view` (one scene uploaded for every kernel its
@@ -344,15 +335,9 @@ impl RenderOptions {
             (true, None) => "`fragtrace render --backend gl` walks them on the GPU as placed, \
                  stored once (two levels over uniform grids)"
                 .into(),
-            (true, Some(compute)) => {
+            (true, Some(_)) => {
                 let fragment = self.gpu.kernel != Kernel::Compute;
-                let mut change = self.two_level_blocks(scene, fragment);
-                if !compute && change.iter().any(|c| c == "--kernel compute") {
-                    return "the fragment kernels walk a textured scene's instances flat and \
-                         this GL context has no compute kernel (OpenGL 4.3), which walks them \
-                         stored once; --backend cpu --accel bvh does on the CPU"
-                        .into();
-                }
+                let mut change = self.two_level_blocks(fragment);
                 if change.is_empty() {
                     change.push("--accel uniform".into());
                 }
@@ -653,7 +638,7 @@ mod tests {
                 (given.gpu.kernel, given.accel.resolve(true).into())
             );
             assert_eq!(o.instanced_fallback, None);
-            let a = o.stored_once_advice(&inst);
+            let a = o.stored_once_advice();
             assert!(a.contains(advice), "{a}");
         }
         let o = base.on_context(&inst, Some(&old));
@@ -663,11 +648,13 @@ mod tests {
         );
         let mut textured = inst.clone();
         textured.materials[0].diffuse_map = Some(0);
+        // Textures keep nothing off the two levels: the fastest fragment kernel walks them
+        // where compute is missing.
         let o = base.on_context(&textured, Some(&old));
-        assert_eq!(two(&o), (Kernel::Auto, AccelKind::Irregular));
-        assert!(o
-            .stored_once_advice(&textured)
-            .contains("no compute kernel"));
+        assert_eq!(
+            two(&o),
+            (Kernel::fastest_fragment(&old).kernel(), AccelKind::Uniform)
+        );
         let o = base.on_context(&textured, Some(&new));
         assert_eq!(two(&o), (Kernel::Compute, AccelKind::Uniform));
         let o = base.on_context(&flat, Some(&new));

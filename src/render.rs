@@ -529,11 +529,7 @@ impl<'p> Renderer<'p> {
         };
         let ctx = gs.ctx();
         let (kernel, accel) = self.opts.instanced_fallback.expect("checked by the caller");
-        if self
-            .opts
-            .two_level_blocks(&self.prepared.scene, true)
-            .is_empty()
-        {
+        if self.opts.two_level_blocks(true).is_empty() {
             let mut opts = RenderOptions {
                 instanced_fallback: None,
                 ..self.opts.clone()

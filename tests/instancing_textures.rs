@@ -10,10 +10,10 @@
 //!   mirror sphere and the floor of the scene's own triangles;
 //! - the CPU's two-level walk in f64 against the flattened scene's render in f64 (the
 //!   reference), and in f32 on every CPU path against the flattened scene's f32 render;
-//! - the compute kernel (two levels) against the CPU's two-level f64 image; the fragment
-//!   kernels take a textured instanced scene flat (`RenderOptions::two_level_blocks`: the
-//!   instance record and the cone record would need one texture unit more than 16), and
-//!   that render against the same reference;
+//! - every GPU kernel (compute, looped, unrolled, multipass: all two levels) against the
+//!   CPU's two-level f64 image, and the fragment kernels' bytes against the compute
+//!   kernel's (the record pass copies a level's cone beside its instance, so the passes
+//!   that shade read both from one texture unit);
 //! - the flattened scene stores each instance's uvs and colours as the flat path did.
 
 mod common;
@@ -328,23 +328,26 @@ const MAX_ABS_F32: f32 = 1e-5;
 const RMSE_F32: f64 = 5e-7;
 const ID_SHARE: f64 = 0.001;
 
-/// The compute kernel walks the textured instances as two levels (its stats say so) and
-/// renders the CPU's two-level f64 image within the bound; the fragment kernels take the
-/// scene flat (no instancing in their stats) and render the same reference within the
-/// same bound.
+/// Every GPU kernel walks the textured instances as two levels (its stats say so) and
+/// renders the CPU's two-level f64 image within the bound; the fragment kernels render the
+/// compute kernel's bytes, image and primary AOVs alike.
 #[test]
 fn every_gpu_kernel_renders_textured_instances_as_the_cpu() {
     let s = scene();
     let reference = cpu(&s, Precision::F64, CpuPath::Scalar);
     common::with_test_context(|ctx| {
-        for kernel in [Kernel::Compute, Kernel::Looped, Kernel::Multipass] {
+        let mut compute = None;
+        for kernel in [
+            Kernel::Compute,
+            Kernel::Looped,
+            Kernel::Unrolled(3),
+            Kernel::Multipass,
+        ] {
             let mut o = opts(&s, Backend::Gl, Precision::F32, AccelChoice::Uniform);
             o.gpu.kernel = kernel;
             let gl = render_gl_with(ctx, &s, &o).unwrap();
-            let two = gl.stats.accel.detail.starts_with("instanced: 7 instances");
-            assert_eq!(
-                two,
-                kernel == Kernel::Compute,
+            assert!(
+                gl.stats.accel.detail.starts_with("instanced: 7 instances"),
                 "{kernel:?}: {}",
                 gl.stats.accel.detail
             );
@@ -352,11 +355,32 @@ fn every_gpu_kernel_renders_textured_instances_as_the_cpu() {
                 .unwrap()
                 .rmse;
             let share = ids_differ(&gl, &reference);
-            println!("{kernel:?} (two levels: {two}): RMSE {rmse:e}, ids differ on {share:.5}");
+            println!("{kernel:?}: RMSE {rmse:e}, ids differ on {share:.5}");
             assert!(rmse < RMSE_GL_VS_CPU64, "{kernel:?}: RMSE {rmse}");
             assert!(share <= ID_SHARE, "{kernel:?}: ids differ on {share}");
+            match &compute {
+                None => compute = Some(gl),
+                Some(c) => assert_eq!(bit_difference(&gl, c), None, "{kernel:?}"),
+            }
         }
     });
+}
+
+/// Where `a` and `b` differ in any bit of the image or of a primary-ray AOV value (depth,
+/// primitive id): the count, or None for the same bytes.
+fn bit_difference(a: &Rendered, b: &Rendered) -> Option<String> {
+    let bits = |r: &Rendered| {
+        let image = r.image.data.iter().map(|x| x.to_bits());
+        let aov = r
+            .aov
+            .pixels
+            .iter()
+            .flat_map(|p| [p.depth.to_bits(), p.primid.to_bits()]);
+        image.chain(aov).collect::<Vec<u32>>()
+    };
+    let (x, y) = (bits(a), bits(b));
+    let n = x.iter().zip(&y).filter(|(p, q)| p != q).count();
+    (n > 0 || x.len() != y.len()).then(|| format!("{n} values differ"))
 }
 
 // Measured on llvmpipe: compute (two levels) 3.5e-7, looped and multipass (flat) 3.7e-7.

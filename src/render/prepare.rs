@@ -26,7 +26,7 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
     let two_level_gpu = gpu
         && kind == AccelKind::Uniform
         && (opts.gpu.kernel == crate::gpu::options::Kernel::Compute
-            || (opts.fragment_kernel_named() && opts.two_level_blocks(scene, true).is_empty()));
+            || (opts.fragment_kernel_named() && opts.two_level_blocks(true).is_empty()));
     if scene.has_instances() && two_level_gpu {
         // What the GPU stores: the scene's own triangles and each mesh's once.
         let meshes = &scene.instancing.meshes;
@@ -52,7 +52,7 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
             flat: Default::default(),
         });
     }
-    prepare_flat(scene, opts, || opts.stored_once_advice(scene))
+    prepare_flat(scene, opts, || opts.stored_once_advice())
 }
 
 /// The GPU layout the render `opts` asks for packs (what the memory check counts): the

@@ -196,12 +196,6 @@ impl<'a> Frame<'a> {
                 }
             )));
         }
-        if textured && gs.instanced() {
-            return Err(Error::Internal(
-                "a textured scene's instances reach the fragment kernels flat (render::prepare)"
-                    .into(),
-            ));
-        }
         // Check memory before allocating: ray state (8), records (3 per level, 4 with
         // instances), colour (2).
         let per_level = if gs.instanced() { 4 } else { 3 };
@@ -379,8 +373,9 @@ impl<'a> Frame<'a> {
         self.bind_instance_record(level);
     }
 
-    /// An instanced scene's record of level `level`'s hit instances, on s2's unit (an
-    /// instanced scene on a fragment kernel has no cone records: `render::prepare`).
+    /// An instanced scene's record of level `level`'s hit instances, on s2's unit (with
+    /// textures, the level's cones beside them: the record pass copies them there, so the
+    /// passes that shade read both from this one unit, a textured scene having none free).
     fn bind_instance_record(&self, level: usize) {
         if let Some(ri) = self.rec01[level].textures().get(2) {
             bind_texture(self.gl(), Unit::S2, ri);
@@ -394,7 +389,12 @@ impl<'a> Frame<'a> {
             return Ok(());
         }
         let v = glam::Vec3::new(if level == 0 { 1.0 } else { 0.0 }, spread, 0.0);
-        for pass in [Pass::AccumAmbient, Pass::AccumLight, Pass::Weight] {
+        // An instanced scene's record pass copies the level's cone beside its instance.
+        let record = self.gs.instanced().then_some(Pass::Record);
+        for pass in [Pass::AccumAmbient, Pass::AccumLight, Pass::Weight]
+            .into_iter()
+            .chain(record)
+        {
             if self.programs.contains_key(&pass) {
                 self.set(pass, uniform::ROOT_CONE, v)?;
             }
@@ -630,9 +630,17 @@ impl<'a> Frame<'a> {
         self.observe().await
     }
 
-    /// Stores the finished wave in level `level`'s records.
+    /// Stores the finished wave in level `level`'s records (a textured instanced scene's
+    /// with the level's cone beside the instance: its cone record, on s2's unit, which the
+    /// record pass does not read as state, or the root's).
     pub(super) fn record(&mut self, level: usize) -> Result<()> {
         self.bind_state_input();
+        if self.gs.instanced() && self.gs.textured() {
+            self.set_root_cone(level, self.root_spread)?;
+            if let Some(cone) = self.rec2[level].textures().get(1) {
+                bind_texture(self.gl(), Unit::S2, cone);
+            }
+        }
         self.draw(Pass::Record, Slot::Rec01(level))
     }
 
