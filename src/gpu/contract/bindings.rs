@@ -303,7 +303,7 @@ pub const SAMPLERS: [Sampler; 27] = [
         ],
         Stage::Fragment,
         "instanced scenes: the instance of this level's (or the parent's) hit, -1 for the \
-         scene's own (record.frag's third output)",
+         scene's own, and with textures the level's cone (record.frag's third output)",
     ),
     sampler(
         "u_tex",
@@ -314,7 +314,9 @@ pub const SAMPLERS: [Sampler; 27] = [
     ),
     // The cone records share the unit of the ray state's s2: no program that reads a
     // record reads s2 (the shading and child passes read no traversal state but s0, s1,
-    // s3), and the host binds them after the state (`Frame::bind_records`).
+    // s3), and the host binds them after the state (`Frame::bind_records`). An instanced
+    // scene's record pass reads `u_r3` there too (it reads no s2) to copy the cone into
+    // `u_ri`, which then takes the unit in the passes that shade.
     sampler(
         "u_r3",
         Unit::S2,
