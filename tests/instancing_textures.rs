@@ -103,10 +103,12 @@ fn scene() -> Scene {
     load(SCENE, "scene")
 }
 
-/// Scene `text` loaded from a scratch folder of its own (`name`: the tests run in
-/// parallel) holding the octahedron, the shipped models on the search path.
+/// Scene `text` loaded from a scratch folder of its own holding the octahedron, the shipped models on the search path.
 fn load(text: &str, name: &str) -> Scene {
-    let dir = common::tmpdir(name);
+    // One folder per call: `tmpdir` empties its folder, and several tests load at once.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let k = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = common::tmpdir(&format!("{name}-{k}"));
     std::fs::write(dir.join("coloured.obj"), COLOURED_OBJ).unwrap();
     let mut search = vec![dir.clone()];
     search.extend(common::model_path());
