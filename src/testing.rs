@@ -281,3 +281,28 @@ pub(crate) fn full_range_values(n: usize, seed: u64) -> Vec<f32> {
         })
         .collect()
 }
+
+/// Asserts that `bytes` are the host's 8-bit sRGB of the linear values `rgb`, byte for
+/// byte (naming the first that differs, with its value), and, where `rgb` is long enough
+/// to hold them all, that every code appears: the check both GPU conversions
+/// (`srgb8.frag`, `srgb8.comp`) are held to. `label` names the frame.
+pub(crate) fn assert_host_srgb8(label: &str, rgb: &[f32], bytes: &[u8]) {
+    let host: Vec<u8> = rgb.iter().map(|&v| crate::image_io::srgb8(v)).collect();
+    assert_eq!(bytes.len(), host.len(), "{label}");
+    let diff: Vec<_> = (0..host.len()).filter(|&b| bytes[b] != host[b]).collect();
+    assert!(
+        diff.is_empty(),
+        "{label}: {} bytes differ, first at {:?}: value {:e}, gpu {}, host {}",
+        diff.len(),
+        diff.first(),
+        rgb[diff[0]],
+        bytes[diff[0]],
+        host[diff[0]]
+    );
+    if rgb.len() >= 2 * 256 + 64 {
+        assert!(
+            (0..=255u8).all(|c| host.contains(&c)),
+            "{label}: every code"
+        );
+    }
+}
