@@ -1,8 +1,9 @@
 //! Test-only helpers shared by the unit tests of every layer (declared `#[cfg(test)]` in
 //! `lib.rs`): the seeded generator and its seed, small scenes (empty, from triangles, random
 //! soups, closed spheres), random and aimed rays, primary rays of a scene's camera, and a
-//! rayon pool of a given size. One home, so the grid, irregular-grid, traversal, shading and
-//! layout tests build their inputs the same way. (Not `gpu::context`'s GL `test_support`.)
+//! rayon pool of a given size; the 8-bit conversion's inputs and check. One home, so the
+//! grid, irregular-grid, traversal, shading, layout and read-back tests build their inputs
+//! the same way. (Not `gpu::context`'s GL `test_support`.)
 
 use glam::{DVec3, Vec3};
 
