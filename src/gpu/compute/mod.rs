@@ -142,7 +142,8 @@ impl<'g> Setup<'g> {
 
 /// How the render kernel reads the scene: as asked, or under `auto` the faster of the two
 /// where measured: storage buffers on the H200, texelFetch on llvmpipe, whose storage loads
-/// run lane by lane with a bounds check each (docs/performance.md, "Scene fetch"). Other
+/// run lane by lane with a bounds check each (docs/performance.md, "llvmpipe (here)"; the
+/// H200 runs: `git show b97da3f:docs/performance.md`). Other
 /// drivers get storage buffers unmeasured; `--scene-fetch` and `fragtrace bench` are there
 /// to measure them.
 fn scene_fetch(choice: SceneFetch, info: &GlInfo) -> Fetch {
