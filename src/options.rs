@@ -290,6 +290,20 @@ impl RenderOptions {
         o.on_backend(true)
     }
 
+    /// `view`'s options for `scene`, settled on the GPU ([`on_backend`](Self::on_backend)):
+    /// one upload serves every kernel its `k` key switches to, so an instanced scene takes
+    /// the two levels (the uniform grid, where the structure is left to `auto`) exactly
+    /// where every kernel walks them ([`two_level_blocks`](Self::two_level_blocks) of the
+    /// fragment kernels empty); else [`crate::render::prepare`] stores them flat, with its
+    /// one warning.
+    pub fn for_view(&self, scene: &Scene) -> RenderOptions {
+        let mut o = self.clone();
+        if scene.has_instances() && self.two_level_blocks(scene, true).is_empty() {
+            o.accel = AccelChoice::Uniform;
+        }
+        o.on_backend(true)
+    }
+
     /// Whether these options ask for something only the fragment kernels have (a mask, or
     /// 16-bit ray storage: what makes `--kernel auto` a fragment kernel).
     fn fragment_only(&self) -> bool {
@@ -341,6 +355,11 @@ impl RenderOptions {
             (false, _) => "--backend cpu --accel bvh walks them as placed, stored once".into(),
             // Not settled in a context: `view` (one scene uploaded for every kernel its
             // key switches to), or a library caller.
+            (true, None) if self.two_level_blocks(scene, true) == ["--accel uniform"] => {
+                "--accel uniform walks them on the GPU as placed, stored once (two levels over \
+                 uniform grids)"
+                    .into()
+            }
             (true, None) => "`fragtrace render --backend gl` walks them on the GPU as placed, \
                  stored once (two levels over uniform grids)"
                 .into(),
