@@ -68,12 +68,12 @@ pub enum Error {
     /// caller that installed the observer expects it and never shows it to the user.
     #[error("render cancelled")]
     Cancelled,
-    /// A bug or an unexpected driver failure.
     /// A GPU kernel whose loops were ended before its work was done (a driver's limit on
     /// loop iterations, such as llvmpipe's, or a traversal bug): its image would be missing
     /// rays. `--kernel auto` then renders with a fragment kernel instead.
     #[error("the compute kernel did not finish: {0}")]
     Unfinished(String),
+    /// A bug or an unexpected driver failure.
     #[error("internal error: {0}")]
     Internal(String),
 }

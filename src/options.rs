@@ -290,6 +290,20 @@ impl RenderOptions {
         o.on_backend(true)
     }
 
+    /// `view`'s options for `scene`, settled on the GPU ([`on_backend`](Self::on_backend)):
+    /// one upload serves every kernel its `k` key switches to, so an instanced scene takes
+    /// the two levels (the uniform grid, where the structure is left to `auto`) exactly
+    /// where every kernel walks them ([`two_level_blocks`](Self::two_level_blocks) of the
+    /// fragment kernels empty); else [`crate::render::prepare`] stores them flat, with its
+    /// one warning.
+    pub fn for_view(&self, scene: &Scene) -> RenderOptions {
+        let mut o = self.clone();
+        if scene.has_instances() && self.two_level_blocks(true).is_empty() {
+            o.accel = AccelChoice::Uniform;
+        }
+        o.on_backend(true)
+    }
+
     /// Whether these options ask for something only the fragment kernels have (a mask, or
     /// 16-bit ray storage: what makes `--kernel auto` a fragment kernel).
     fn fragment_only(&self) -> bool {
@@ -332,6 +346,11 @@ impl RenderOptions {
             (false, _) => "--backend cpu --accel bvh walks them as placed, stored once".into(),
             // Not settled in a context: `view` (one scene uploaded for every kernel its
             // key switches to), or a library caller.
+            (true, None) if self.two_level_blocks(true) == ["--accel uniform"] => {
+                "--accel uniform walks them on the GPU as placed, stored once (two levels over \
+                 uniform grids)"
+                    .into()
+            }
             (true, None) => "`fragtrace render --backend gl` walks them on the GPU as placed, \
                  stored once (two levels over uniform grids)"
                 .into(),
@@ -560,9 +579,10 @@ mod tests {
     /// named) takes the two levels on any kernel: `auto`'s kernel becomes the compute
     /// kernel where the context runs it (its fallback kept aside for the loop limit), else
     /// (no compute, or a mask asked for) the fastest fragment kernel; a named fragment
-    /// kernel keeps its name. The irregular grid, 16-bit ray storage on a fragment kernel
-    /// and a textured scene on one leave the options as given, and the warning's advice
-    /// names what to change; no instances changes nothing. Settling twice changes nothing.
+    /// kernel keeps its name; a textured scene as an untextured one. The irregular grid and
+    /// 16-bit ray storage on a fragment kernel leave the options as given, and the
+    /// warning's advice names what to change; no instances changes nothing. Settling twice
+    /// changes nothing.
     #[test]
     fn instances_go_to_the_two_levels_on_every_kernel() {
         let text = "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[objects]]\nshape = \"box\"\ninstances = [{ translate = [1, 0, 0] }]\n";

@@ -1,8 +1,9 @@
 //! Test-only helpers shared by the unit tests of every layer (declared `#[cfg(test)]` in
 //! `lib.rs`): the seeded generator and its seed, small scenes (empty, from triangles, random
 //! soups, closed spheres), random and aimed rays, primary rays of a scene's camera, and a
-//! rayon pool of a given size. One home, so the grid, irregular-grid, traversal, shading and
-//! layout tests build their inputs the same way. (Not `gpu::context`'s GL `test_support`.)
+//! rayon pool of a given size; the 8-bit conversion's inputs and check. One home, so the
+//! grid, irregular-grid, traversal, shading, layout and read-back tests build their inputs
+//! the same way. (Not `gpu::context`'s GL `test_support`.)
 
 use glam::{DVec3, Vec3};
 
@@ -280,4 +281,29 @@ pub(crate) fn full_range_values(n: usize, seed: u64) -> Vec<f32> {
             set[k % set.len()]
         })
         .collect()
+}
+
+/// Asserts that `bytes` are the host's 8-bit sRGB of the linear values `rgb`, byte for
+/// byte (naming the first that differs, with its value), and, where `rgb` is long enough
+/// to hold them all, that every code appears: the check both GPU conversions
+/// (`srgb8.frag`, `srgb8.comp`) are held to. `label` names the frame.
+pub(crate) fn assert_host_srgb8(label: &str, rgb: &[f32], bytes: &[u8]) {
+    let host: Vec<u8> = rgb.iter().map(|&v| crate::image_io::srgb8(v)).collect();
+    assert_eq!(bytes.len(), host.len(), "{label}");
+    let diff: Vec<_> = (0..host.len()).filter(|&b| bytes[b] != host[b]).collect();
+    assert!(
+        diff.is_empty(),
+        "{label}: {} bytes differ, first at {:?}: value {:e}, gpu {}, host {}",
+        diff.len(),
+        diff.first(),
+        rgb[diff[0]],
+        bytes[diff[0]],
+        host[diff[0]]
+    );
+    if rgb.len() >= 2 * 256 + 64 {
+        assert!(
+            (0..=255u8).all(|c| host.contains(&c)),
+            "{label}: every code"
+        );
+    }
 }

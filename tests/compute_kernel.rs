@@ -521,3 +521,81 @@ fn scene_fetch_flag_picks_the_read_path_and_keeps_the_image() {
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// The compute kernel's two reads of the irregular grid (issue 53: the dense `u32` buffers,
+/// taken where the float layout does not fit, and the float textures, taken where it does:
+/// `FRAGTRACE_GRID_LAYOUT` forces each) render the same bytes, image and AOVs, on every
+/// shipped scene, and `--stats` names the read that ran. With the float read equal to the
+/// looped kernel's and the CPU's ([`compute_equals_looped_and_cpu_on_every_shipped_scene`]),
+/// this holds the dense read to them too on scenes the float layout holds.
+#[test]
+fn dense_and_float_grid_reads_render_the_same_bytes_on_every_shipped_scene() {
+    let has_compute = with_test_context(|ctx| {
+        compute_or_acknowledged_skip(ctx, "dense_and_float_grid_reads_render_the_same_bytes")
+    });
+    if !has_compute {
+        return;
+    }
+    let d = common::tmpdir("grid-reads");
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut names: Vec<_> = std::fs::read_dir(&scenes)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 10, "{names:?}");
+    let mut differ = Vec::new();
+    for scene in &names {
+        let name = scene.file_stem().unwrap().to_string_lossy().into_owned();
+        let mut outputs = Vec::new();
+        for layout in ["dense", "float"] {
+            let (out, stats) = (
+                format!("{name}-{layout}.exr"),
+                format!("{name}-{layout}.json"),
+            );
+            let o = bin()
+                .current_dir(&d)
+                .arg("render")
+                .arg(scene)
+                .args([
+                    "--backend",
+                    "gl",
+                    "--kernel",
+                    "compute",
+                    "--accel",
+                    "irregular",
+                ])
+                .args(["--width", "40", "--height", "30", "--aov", "primid,steps"])
+                .args(["--stats", &stats, "-q", "-o", &out])
+                .env("FRAGTRACE_GRID_LAYOUT", layout)
+                .env(
+                    "FRAGTRACE_MODEL_PATH",
+                    std::env::join_paths(common::model_path()).unwrap(),
+                )
+                .output()
+                .unwrap();
+            assert!(
+                o.status.success(),
+                "{name} {layout}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            let s: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(d.join(&stats)).unwrap()).unwrap();
+            assert_eq!(s["gpu"]["grid_layout"], layout, "{name}: {s}");
+            let aov = format!("{name}-{layout}.aov.exr");
+            outputs.push((
+                std::fs::read(d.join(&out)).unwrap(),
+                std::fs::read(d.join(&aov)).unwrap(),
+            ));
+        }
+        if outputs[0] != outputs[1] {
+            differ.push(name);
+        }
+    }
+    assert!(
+        differ.is_empty(),
+        "dense and float reads differ on {differ:?}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}

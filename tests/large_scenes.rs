@@ -117,16 +117,19 @@ fn split_indices_render_the_cpu_image_on_compute_and_looped() {
 /// The compute kernel's dense grid (issue 53: cells, voxel map and references as `u32` in
 /// storage buffers) with its references uploaded after 2^24 unused words
 /// (`FRAGTRACE_DENSE_PAST_2_24=1`), so that every reference it reads lies past 2^24, on
-/// four spheres at subdivisions 6 (327,682 triangles, a scene CI can afford): its image is
-/// the unpadded render's and the CPU's bit for bit (measured identical here, so any
-/// difference fails), and the padding was uploaded (64 MiB more). With storage blocks too
-/// small for the dense buffers (`FRAGTRACE_DENSE_BLOCK_BYTES`) the kernel falls back to the
-/// float layout, again with the CPU's image.
+/// four spheres at subdivisions 6 (327,682 triangles, a scene CI can afford), the dense
+/// read forced (`FRAGTRACE_GRID_LAYOUT=dense`: the float layout fits this scene, and the
+/// kernel takes that where it fits): its image is the unpadded render's and the CPU's bit
+/// for bit (measured identical here, so any difference fails), and the padding was
+/// uploaded (64 MiB more). Left to choose, the kernel reads the float layout, again with
+/// the CPU's image; with storage blocks too small for the dense buffers
+/// (`FRAGTRACE_DENSE_BLOCK_BYTES`) the forced dense read is refused in one line.
 #[test]
 fn dense_grid_reads_references_past_2_pow_24() {
     let d = tmpdir("dense");
     std::fs::write(d.join("s.toml"), spheres(4, 6)).unwrap();
-    let past = [("FRAGTRACE_DENSE_PAST_2_24", "1")];
+    let dense = ("FRAGTRACE_GRID_LAYOUT", "dense");
+    let past = [("FRAGTRACE_DENSE_PAST_2_24", "1"), dense];
     let cpu = render(&d, "cpu.png", &["--backend", "cpu"], &[]);
     let flags = |stats: &'static str| {
         [
@@ -141,7 +144,7 @@ fn dense_grid_reads_references_past_2_pow_24() {
         ]
     };
     let padded = render(&d, "padded.png", &flags("padded.json"), &past);
-    let plain = render(&d, "plain.png", &flags("plain.json"), &[]);
+    let plain = render(&d, "plain.png", &flags("plain.json"), &[dense]);
     let differ = |a: &[f32], b: &[f32]| a.iter().zip(b).filter(|(x, y)| x != y).count();
     let (to_plain, to_cpu) = (differ(&padded, &plain), differ(&padded, &cpu));
     println!("dense past 2^24: {to_plain} values differ from the unpadded render, {to_cpu} from the CPU's");
@@ -159,12 +162,26 @@ fn dense_grid_reads_references_past_2_pow_24() {
         4 << 24,
         "the padding was not uploaded"
     );
-    // Storage blocks too small for the dense buffers (a stand-in limit of 4 KiB): the
-    // compute kernel takes the float layout (`gpu.grid_layout`), with the same image.
-    let small = [("FRAGTRACE_DENSE_BLOCK_BYTES", "4096")];
-    let float = render(&d, "float.png", &flags("float.json"), &small);
+    assert_eq!(gpu("plain.json", "grid_layout"), "dense");
+    // Left to choose: the float layout (`gpu.grid_layout`), with the same image.
+    let float = render(&d, "float.png", &flags("float.json"), &[]);
     assert_eq!(differ(&float, &cpu), 0, "float layout against the CPU");
     assert_eq!(gpu("float.json", "grid_layout"), "float");
+    // Storage blocks too small for the dense buffers (a stand-in limit of 4 KiB).
+    let small = [("FRAGTRACE_DENSE_BLOCK_BYTES", "4096"), dense];
+    let o = run(
+        &d,
+        &[
+            &["render", "s.toml", "-o", "small.png"][..],
+            &flags("small.json"),
+        ]
+        .concat(),
+        &small,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("GL_MAX_SHADER_STORAGE_BLOCK_SIZE"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
     let _ = std::fs::remove_dir_all(&d);
 }
 

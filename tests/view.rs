@@ -141,6 +141,84 @@ fn screenshot_equals_headless_render_default_scene() {
     }
 }
 
+/// Placed meshes (instances, a mirrored one among them) in the view: by default it walks
+/// them as the GPU's two levels, stored once, since every kernel of its `k` key does (no
+/// "stores the instances flat" warning, the uniform grid), and with `--accel irregular`
+/// flat (the one warning), each time showing `render`'s image on the looped and the
+/// compute kernel. Before, the view stored them flat and then uploaded the scene as loaded
+/// beside the flat scene's grid: every instance was missing from the window.
+#[test]
+fn view_shows_an_instanced_scene_as_render_does() {
+    if !display_or_acknowledged_skip("view_shows_an_instanced_scene_as_render_does") {
+        return;
+    }
+    let scene = scratch("instanced.toml");
+    std::fs::write(&scene, INSTANCED).unwrap();
+    let path = scene.to_str().unwrap();
+    for (accel, flat) in [(None, false), (Some("irregular"), true)] {
+        for kernel in ["looped", "compute"] {
+            let mut flags = vec![
+                "--width", "64", "--height", "48", "--spp", "1", "--kernel", kernel,
+            ];
+            if let Some(a) = accel {
+                flags.extend(["--accel", a]);
+            }
+            let tag = format!("instanced-{}-{kernel}", accel.unwrap_or("default"));
+            let (rmse, log) = view_against_render(&tag, Some(path), &flags, "1", &[]);
+            eprintln!("instanced, {accel:?}, {kernel}: RMSE {rmse:.6}\n{log}");
+            assert!(rmse <= MAX_RMSE, "{tag}: RMSE {rmse}\n{log}");
+            assert_eq!(log.contains("instances flat"), flat, "{tag}: {log}");
+            let grid = if flat {
+                "irregular grid"
+            } else {
+                "uniform grid"
+            };
+            assert!(
+                log.contains(&format!("fragtrace view: {grid}")),
+                "{tag}: {log}"
+            );
+        }
+    }
+}
+
+/// Two meshes placed four times each over a floor (a mirrored sphere among them).
+const INSTANCED: &str = r#"
+[camera]
+eye = [0.0, 4.0, 10.0]
+look_at = [0.0, 0.7, 0.0]
+fov = 40
+[[lights]]
+position = [3.0, 8.0, 6.0]
+[materials.red]
+albedo = [0.9, 0.2, 0.2]
+kr = [0.3, 0.3, 0.3]
+[materials.blue]
+albedo = [0.2, 0.3, 0.9]
+[[objects]]
+shape = "quad"
+size = 20
+[[objects]]
+shape = "sphere"
+subdivisions = 2
+radius = 0.5
+material = "red"
+instances = [
+  { translate = [-2.5, 0.5, 0] },
+  { translate = [-0.5, 1, 0], scale = [1.5, 2, 0.7], rotate = [10, 40, 0] },
+  { translate = [1.2, 0.6, 0.3], scale = [-1, 1, 1] },
+  { translate = [2.5, 0.6, 0.5], rotate = [0, 0, 90], scale = 1.2 },
+]
+[[objects]]
+shape = "box"
+size = [1, 1, 1]
+material = "blue"
+instances = [
+  { translate = [-1, 0.5, 3] },
+  { translate = [0.2, 0.5, 2.5] },
+  { translate = [1.4, 0.5, 3], rotate = [0, 30, 0] },
+]
+"#;
+
 /// `view` goes through the same front door as `render`: it builds the structure `--accel`
 /// names (the irregular grid by default), reports it, and shows the render's image. Before,
 /// the view built its own uniform grid whatever the flags said (ground.toml: a bunny in a

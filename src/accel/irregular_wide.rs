@@ -21,7 +21,7 @@
 //! walks keep the built map: with this one the H200 host's CPU render did not get faster
 //! (2 threads within the noise, 16 threads 8-15% slower: a larger map in the caches), and
 //! building it inside the grid's build cost the 3.3 M-triangle icosphere 0.4 s
-//! (docs/performance.md, run 7).
+//! (run 7 of the notebook, `git show b97da3f:docs/performance.md`).
 
 use rayon::prelude::*;
 

@@ -625,11 +625,12 @@ pub fn run_view(args: &ViewArgs) -> Result<()> {
         )));
     }
     // The render flags go through `render`'s own conversion and checks, at `view`'s door;
-    // the window renders on the GPU, so `--accel auto` is the GPU's structure.
+    // the window renders on the GPU, so `--accel auto` is the GPU's structure (for an
+    // instanced scene, the two levels where every kernel walks them).
     let render = args
         .choices
         .to_options(&scene, Door::View)?
-        .on_backend(true);
+        .for_view(&scene);
     render.check_memory()?;
     let opts = crate::view::ViewOptions {
         render,

@@ -110,6 +110,9 @@ pub struct GpuScene<'s> {
     layouts: [OnceCell<SceneTextures>; 2],
     textures: [OnceCell<Vec<(Unit, Texture)>>; 2],
     buffers: [OnceCell<Vec<(u32, StorageBuffer)>>; 2],
+    /// The slot the compute kernel's layout took over an irregular grid (float where it
+    /// fits), once [`GpuScene::layout`] has chosen.
+    compute_slot: OnceCell<usize>,
     /// The dense grid's storage buffers at their bindings, uploaded on first use.
     dense_buffers: OnceCell<Vec<(u32, StorageBuffer)>>,
     /// Tests only: the index format the float layout is packed in
@@ -188,6 +191,7 @@ impl<'s> GpuScene<'s> {
             layouts: Default::default(),
             textures: Default::default(),
             buffers: Default::default(),
+            compute_slot: OnceCell::new(),
             dense_buffers: OnceCell::new(),
             index_format: None,
             skew_faces: false,

@@ -18,56 +18,40 @@ use crate::{Error, Result};
 mod dump;
 pub use dump::{all_feature_sets, all_passes, dump_shaders, dump_shaders_as};
 
+/// `(name, text)` of each named file of `glsl120/`, embedded in the binary; each name is
+/// written once, so an entry cannot name one file and embed another.
+macro_rules! glsl_sources {
+    ($($name:literal),* $(,)?) => {
+        &[$(($name, include_str!(concat!("../../glsl120/", $name)))),*]
+    };
+}
+
 /// The GLSL sources, embedded in the binary.
-const SOURCES: &[(&str, &str)] = &[
-    ("common.glsl", include_str!("../../glsl120/common.glsl")),
-    (
-        "intersect.glsl",
-        include_str!("../../glsl120/intersect.glsl"),
-    ),
-    ("traverse.glsl", include_str!("../../glsl120/traverse.glsl")),
-    ("shade.glsl", include_str!("../../glsl120/shade.glsl")),
-    ("step.glsl", include_str!("../../glsl120/step.glsl")),
-    ("unrolled.frag", include_str!("../../glsl120/unrolled.frag")),
-    ("srgb8.frag", include_str!("../../glsl120/srgb8.frag")),
-    ("raygen.frag", include_str!("../../glsl120/raygen.frag")),
-    (
-        "traverse_init.frag",
-        include_str!("../../glsl120/traverse_init.frag"),
-    ),
-    (
-        "traverse_step.frag",
-        include_str!("../../glsl120/traverse_step.frag"),
-    ),
-    (
-        "intersect.frag",
-        include_str!("../../glsl120/intersect.frag"),
-    ),
-    ("record.frag", include_str!("../../glsl120/record.frag")),
-    ("weight.frag", include_str!("../../glsl120/weight.frag")),
-    ("spawn.frag", include_str!("../../glsl120/spawn.frag")),
-    (
-        "shadow_spawn.frag",
-        include_str!("../../glsl120/shadow_spawn.frag"),
-    ),
-    (
-        "accum_light.frag",
-        include_str!("../../glsl120/accum_light.frag"),
-    ),
-    (
-        "accum_ambient.frag",
-        include_str!("../../glsl120/accum_ambient.frag"),
-    ),
-    ("count.frag", include_str!("../../glsl120/count.frag")),
-    ("compute.glsl", include_str!("../../glsl120/compute.glsl")),
-    ("instance.glsl", include_str!("../../glsl120/instance.glsl")),
-    (
-        "instance_walk.glsl",
-        include_str!("../../glsl120/instance_walk.glsl"),
-    ),
-    ("render.comp", include_str!("../../glsl120/render.comp")),
-    ("wave.comp", include_str!("../../glsl120/wave.comp")),
-    ("srgb8.comp", include_str!("../../glsl120/srgb8.comp")),
+const SOURCES: &[(&str, &str)] = glsl_sources![
+    "common.glsl",
+    "intersect.glsl",
+    "traverse.glsl",
+    "shade.glsl",
+    "step.glsl",
+    "unrolled.frag",
+    "srgb8.frag",
+    "raygen.frag",
+    "traverse_init.frag",
+    "traverse_step.frag",
+    "intersect.frag",
+    "record.frag",
+    "weight.frag",
+    "spawn.frag",
+    "shadow_spawn.frag",
+    "accum_light.frag",
+    "accum_ambient.frag",
+    "count.frag",
+    "compute.glsl",
+    "instance.glsl",
+    "instance_walk.glsl",
+    "render.comp",
+    "wave.comp",
+    "srgb8.comp",
 ];
 
 /// Files a pass may `#include`.

@@ -8,6 +8,7 @@ use std::borrow::Cow;
 
 use crate::accel::grid_instances::GridInstances;
 use crate::accel::{Accel, AccelKind};
+use crate::gpu::options::Kernel;
 use crate::options::{Backend, RenderOptions};
 use crate::scene::Scene;
 use crate::Result;
@@ -21,12 +22,14 @@ pub fn prepare<'s>(scene: &'s Scene, opts: &RenderOptions) -> Result<Prepared<'s
     let gpu = opts.backend == Backend::Gl;
     // The CPU's BVH and every GPU kernel over uniform grids walk instances as two levels
     // (the kernel named: `RenderOptions::on_context` names it where `auto` may take it;
-    // a fragment kernel for what `two_level_blocks` lets through); every other structure
-    // takes them flat.
+    // a fragment kernel, or `auto` still open as in `view`, whose key switches between
+    // every kernel, for what `two_level_blocks` lets through); every other structure takes
+    // them flat.
+    let any_kernel = opts.fragment_kernel_named() || opts.gpu.kernel == Kernel::Auto;
     let two_level_gpu = gpu
         && kind == AccelKind::Uniform
-        && (opts.gpu.kernel == crate::gpu::options::Kernel::Compute
-            || (opts.fragment_kernel_named() && opts.two_level_blocks(true).is_empty()));
+        && (opts.gpu.kernel == Kernel::Compute
+            || (any_kernel && opts.two_level_blocks(true).is_empty()));
     if scene.has_instances() && two_level_gpu {
         // What the GPU stores: the scene's own triangles and each mesh's once.
         let meshes = &scene.instancing.meshes;

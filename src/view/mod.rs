@@ -336,8 +336,10 @@ fn screenshot_name() -> PathBuf {
 /// are shown and the screenshot written). No display or no adequate GL context is
 /// [`Error::GlUnavailable`].
 pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
+    // The same front door as `render`: the structure `--accel` names, built once (an
+    // instanced scene's two levels where every kernel of the `k` key walks them:
+    // `RenderOptions::for_view`).
     let ro = &opts.render;
-    // The same front door as `render`: the structure `--accel` names, built once.
     let prepared = crate::render::prepare(&scene, ro)?;
     let mut event_loop: EventLoop<()> = window::event_loop()?;
     let (win, ctx) = window::open(&event_loop, ro.width, ro.height, "fragtrace view")?;
@@ -355,7 +357,8 @@ pub fn run(scene: Scene, opts: &ViewOptions) -> Result<()> {
     );
     // Uploaded once: every render of the view (each camera move, each key) reuses the
     // scene's textures and programs.
-    let gs = GpuScene::new(&ctx, &scene, &prepared.accel, ro.gpu.no_specialize)?
+    // The scene prepared: an instanced scene taken flat has its placed triangles there.
+    let gs = GpuScene::new(&ctx, &prepared.scene, &prepared.accel, ro.gpu.no_specialize)?
         .with_program_cache(ro.gpu.shader_cache.open(&ctx.info));
     let mut presenter = Presenter::new(&ctx)?;
     let inner = win.window.inner_size();

@@ -82,6 +82,14 @@ impl Loaded {
         scene: Scene,
         opts: &RenderOptions,
     ) -> fragtrace::Result<Loaded> {
+        // The page's kernels walk scenes stored flat (the two levels of `fragtrace render`
+        // are not carried over to WebGL): an instanced scene's placed triangles are stored,
+        // as `render` stores them for the irregular grid.
+        let scene = if scene.has_instances() {
+            scene.flattened(fragtrace::options::MAX_HOST_BYTES, "the web page")?
+        } else {
+            scene
+        };
         let accel = Accel::build(
             &scene,
             opts.accel.resolve(true),

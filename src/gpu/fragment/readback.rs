@@ -8,7 +8,7 @@ use super::frame::Frame;
 use crate::gpu::contract::{ray, RayState, StateTexels, Unit};
 use crate::gpu::gl::{state, ReadbackRing, RenderTarget, TexFormat};
 use crate::gpu::options::{FragmentKernel, GpuOptions};
-use crate::gpu::request::{aov_pixel, aov_pixel_id};
+use crate::gpu::request::aov_pixel_id;
 use crate::gpu::scene::bind_texture;
 use crate::gpu::scene::GpuScene;
 use crate::gpu::shader::{Pass, Query};
@@ -109,20 +109,10 @@ pub(super) fn read_aov(f: &Frame, scene: &Scene, w: u32, h: u32) -> Result<Aov> 
     if let Some(gi) = f.gs.instancing() {
         return Ok(instanced_aov(&s, f.gs.given_scene(), gi, w, h));
     }
-    let mut pixels = vec![AovPixel::miss(0.0); (w * h) as usize];
-    pixels
-        .par_chunks_mut(w as usize)
-        .enumerate()
-        .for_each(|(j, out)| {
-            let row = (h as usize - 1 - j) * w as usize;
-            for (i, px) in out.iter_mut().enumerate() {
-                let k = row + i;
-                let hit = RayState::from_code(s.get(k, ray::STATE)) == Some(RayState::Shading);
-                let best = hit.then(|| (s.get(k, ray::T_BEST), s.get(k, ray::TRI_BEST)));
-                *px = aov_pixel(scene, best, s.get(k, ray::STEPS));
-            }
-        });
-    Ok(Aov::from_vec(w, h, pixels))
+    // A flat scene's hit carries its triangle's id as the float slot.
+    Ok(aov_image(&s, scene, w, h, |k| {
+        crate::gpu::layout::slot_record(s.get(k, ray::TRI_BEST))
+    }))
 }
 
 /// [`read_aov`] of an instanced scene: its finished state (`instance_walk.glsl`) holds the
@@ -137,6 +127,28 @@ fn instanced_aov(
     h: u32,
 ) -> Aov {
     let instances = &given.instancing.instances;
+    aov_image(s, given, w, h, |k| {
+        let rec = crate::gpu::layout::slot_record(s.get(k, ray::TRI_BEST));
+        let inst = s.get(k, ray::CURSOR_END);
+        if inst < 0.0 {
+            return rec;
+        }
+        let i = &instances[inst as usize];
+        let base = gi.meshes[i.mesh as usize].tri_base as u64;
+        i.first as u64 + (rec - base)
+    })
+}
+
+/// The AOV image of the finished state `s` (rows flipped: GL's start at the bottom), `id`
+/// giving the exact triangle id of the hit at texel `k`; one loop for the flat and the
+/// instanced scene, which differ only in how a hit names its triangle.
+fn aov_image(
+    s: &StateTexels,
+    scene: &Scene,
+    w: u32,
+    h: u32,
+    id: impl Fn(usize) -> u64 + Sync,
+) -> Aov {
     let mut pixels = vec![AovPixel::miss(0.0); (w * h) as usize];
     pixels
         .par_chunks_mut(w as usize)
@@ -146,19 +158,8 @@ fn instanced_aov(
             for (i, px) in out.iter_mut().enumerate() {
                 let k = row + i;
                 let hit = RayState::from_code(s.get(k, ray::STATE)) == Some(RayState::Shading);
-                let best = hit.then(|| {
-                    let rec = crate::gpu::layout::slot_record(s.get(k, ray::TRI_BEST));
-                    let inst = s.get(k, ray::CURSOR_END);
-                    let id = if inst < 0.0 {
-                        rec
-                    } else {
-                        let i = &instances[inst as usize];
-                        let base = gi.meshes[i.mesh as usize].tri_base as u64;
-                        i.first as u64 + (rec - base)
-                    };
-                    (s.get(k, ray::T_BEST), id)
-                });
-                *px = aov_pixel_id(given, best, s.get(k, ray::STEPS));
+                let best = hit.then(|| (s.get(k, ray::T_BEST), id(k)));
+                *px = aov_pixel_id(scene, best, s.get(k, ray::STEPS));
             }
         });
     Aov::from_vec(w, h, pixels)
@@ -258,7 +259,6 @@ mod tests {
     #[test]
     fn srgb8_pass_converts_the_whole_range_as_the_host_does_at_every_size() {
         use super::Frame;
-        use crate::image_io::srgb8;
         with_test_context(|ctx| {
             let (scene, accel) = builtin_irregular();
             let gs = GpuScene::new(ctx, &scene, accel.as_ref(), false).unwrap();
@@ -289,18 +289,7 @@ mod tests {
                     Frame::new(&gs, w, h, 1, false, kernel, &opts, opts.techniques).unwrap();
                 f.acc[f.acc_cur].texture(0).upload(f.gl(), &rgba).unwrap();
                 let (bytes, nonfinite) = super::read_srgb8(&mut f, w, h).unwrap();
-                let host: Vec<u8> = rgb.iter().map(|&v| srgb8(v)).collect();
-                assert_eq!(bytes.len(), host.len());
-                let diff: Vec<_> = (0..host.len()).filter(|&b| bytes[b] != host[b]).collect();
-                assert!(
-                    diff.is_empty(),
-                    "{kernel} {w}x{h}: {} bytes differ, first at {:?}: value {:e}, gpu {}, host {}",
-                    diff.len(),
-                    diff.first(),
-                    rgb[diff[0]],
-                    bytes[diff[0]],
-                    host[diff[0]]
-                );
+                crate::testing::assert_host_srgb8(&format!("{kernel} {w}x{h}"), &rgb, &bytes);
                 let bad = rgb
                     .chunks(3)
                     .filter(|p| p.iter().any(|v| !v.is_finite()))
@@ -310,13 +299,6 @@ mod tests {
                     bad > 0 || px < 100,
                     "the image has non-finite pixels to count"
                 );
-                // Every code appears in the larger frames.
-                if px * 3 >= 2 * 256 + 64 {
-                    assert!(
-                        (0..=255u8).all(|c| host.contains(&c)),
-                        "{w}x{h}: every code"
-                    );
-                }
                 crate::pool::give_back(bytes);
             }
         });

@@ -158,7 +158,8 @@ pub(crate) async fn walk<'a>(
         f.observe().await?;
     }
     // The passes are queued, not done: wait for them here, so that `read_back` times the
-    // copy and not the GPU's last passes (measured apart: docs/performance.md, run 4).
+    // copy and not the GPU's last passes (measured apart: run 4 of the notebook,
+    // `git show b97da3f:docs/performance.md`).
     let t = crate::clock::Instant::now();
     state::finish(f.gl());
     f.stats

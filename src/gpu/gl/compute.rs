@@ -3,7 +3,7 @@
 
 use glow::HasContext;
 
-use super::program::{keep_binary, parse_error_line, Program};
+use super::program::{create_program, keep_binary, parse_error_line, start_shader, Program};
 use super::{check_gl_error, BufferKind, Owned, ShaderKind, Texture};
 use crate::error::{Error, Result};
 use crate::gpu::context::GlContext;
@@ -36,21 +36,8 @@ pub fn start_compute(ctx: &GlContext, pass: &str, src: &str) -> Result<PendingCo
     let gl = ctx.gl();
     // SAFETY: the context is current; every name used is created and owned here.
     unsafe {
-        let shader = Owned::<ShaderKind>::new(
-            ctx,
-            gl.create_shader(glow::COMPUTE_SHADER)
-                .map_err(|e| Error::Internal(format!("glCreateShader(GL_COMPUTE_SHADER): {e}")))?,
-        );
-        gl.shader_source(shader.name(), src);
-        gl.compile_shader(shader.name());
-        let program = Program::from_owned(
-            Owned::new(
-                ctx,
-                gl.create_program()
-                    .map_err(|e| Error::Internal(format!("glCreateProgram: {e}")))?,
-            ),
-            pass,
-        );
+        let shader = start_shader(ctx, glow::COMPUTE_SHADER, src)?;
+        let program = create_program(ctx, pass)?;
         let p = program.name();
         gl.attach_shader(p, shader.name());
         keep_binary(ctx, p);

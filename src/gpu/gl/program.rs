@@ -55,8 +55,8 @@ pub struct Program {
 }
 
 impl Program {
-    /// Wraps a program name created elsewhere in this module's crate (compute programs).
-    pub(super) fn from_owned(obj: Owned<ProgramKind>, pass: &str) -> Self {
+    /// Wraps a program name created in this file ([`create_program`], a cached binary's).
+    fn from_owned(obj: Owned<ProgramKind>, pass: &str) -> Self {
         Program {
             obj,
             pass: pass.to_string(),
@@ -230,6 +230,47 @@ pub(crate) fn vertex_buffer(
     }
 }
 
+/// Floats a vertex of the quad and the tile rectangles holds: x, y, z, u, v.
+pub(crate) const VERTEX_FLOATS: usize = 5;
+
+/// Makes `program` current and binds `vbo` (through `vao` where the context has vertex
+/// arrays) as vertices of [`VERTEX_FLOATS`]: position at [`ATTRIB_POS`], texture
+/// coordinate at [`ATTRIB_UV`]; the layout the quad and the tile rectangles
+/// ([`super::rects::Rects`]) share. [`unbind_vertices`] undoes it.
+///
+/// # Safety
+/// The context is current and `vbo` holds whole vertices of that layout.
+pub(crate) unsafe fn bind_vertices(
+    gl: &glow::Context,
+    program: &Program,
+    vbo: &Owned<BufferKind>,
+    vao: Option<&Owned<VertexArrayKind>>,
+) {
+    const STRIDE: i32 = (VERTEX_FLOATS * std::mem::size_of::<f32>()) as i32;
+    gl.use_program(Some(program.name()));
+    if let Some(vao) = vao {
+        gl.bind_vertex_array(Some(vao.name()));
+    }
+    gl.bind_buffer(glow::ARRAY_BUFFER, Some(vbo.name()));
+    gl.enable_vertex_attrib_array(ATTRIB_POS);
+    gl.vertex_attrib_pointer_f32(ATTRIB_POS, 3, glow::FLOAT, false, STRIDE, 0);
+    gl.enable_vertex_attrib_array(ATTRIB_UV);
+    gl.vertex_attrib_pointer_f32(ATTRIB_UV, 2, glow::FLOAT, false, STRIDE, 12);
+}
+
+/// Undoes [`bind_vertices`] (`with_vao`: it bound a vertex array).
+///
+/// # Safety
+/// The context is current.
+pub(crate) unsafe fn unbind_vertices(gl: &glow::Context, with_vao: bool) {
+    gl.disable_vertex_attrib_array(ATTRIB_POS);
+    gl.disable_vertex_attrib_array(ATTRIB_UV);
+    gl.bind_buffer(glow::ARRAY_BUFFER, None);
+    if with_vao {
+        gl.bind_vertex_array(None);
+    }
+}
+
 impl FullscreenQuad {
     /// Uploads the quad's vertices.
     pub fn new(ctx: &GlContext) -> Result<Self> {
@@ -271,28 +312,14 @@ impl FullscreenQuad {
     /// may be set before (after `gl.use_program(Some(program))`); textures must be bound to
     /// the units the program's samplers name.
     pub fn draw(&self, gl: &glow::Context, program: &Program) {
-        const STRIDE: i32 = 5 * std::mem::size_of::<f32>() as i32;
         // SAFETY: the buffer holds 4 vertices of the declared layout.
         unsafe {
-            gl.use_program(Some(program.name()));
-            if let Some(vao) = &self.vao {
-                gl.bind_vertex_array(Some(vao.name()));
-            }
-            gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.vbo.name()));
-            gl.enable_vertex_attrib_array(ATTRIB_POS);
-            gl.vertex_attrib_pointer_f32(ATTRIB_POS, 3, glow::FLOAT, false, STRIDE, 0);
-            gl.enable_vertex_attrib_array(ATTRIB_UV);
-            gl.vertex_attrib_pointer_f32(ATTRIB_UV, 2, glow::FLOAT, false, STRIDE, 12);
+            bind_vertices(gl, program, &self.vbo, self.vao.as_ref());
             // A fan over the 4 corners covers the same pixels as GL_QUADS, which core
             // profiles lack; the shared diagonal is rasterised once by the fill rule, so every
             // pixel gets exactly one fragment (occlusion counts rely on that).
             gl.draw_arrays(glow::TRIANGLE_FAN, 0, 4);
-            gl.disable_vertex_attrib_array(ATTRIB_POS);
-            gl.disable_vertex_attrib_array(ATTRIB_UV);
-            gl.bind_buffer(glow::ARRAY_BUFFER, None);
-            if self.vao.is_some() {
-                gl.bind_vertex_array(None);
-            }
+            unbind_vertices(gl, self.vao.is_some());
         }
     }
 }
@@ -379,14 +406,7 @@ pub fn start_program(
     unsafe {
         let vertex = start_shader(ctx, glow::VERTEX_SHADER, vertex_src)?;
         let fragment = start_shader(ctx, glow::FRAGMENT_SHADER, fragment_src)?;
-        let program = Program::from_owned(
-            Owned::new(
-                ctx,
-                gl.create_program()
-                    .map_err(|e| Error::Internal(format!("glCreateProgram: {e}")))?,
-            ),
-            pass,
-        );
+        let program = create_program(ctx, pass)?;
         let p = program.name();
         gl.attach_shader(p, vertex.name());
         gl.attach_shader(p, fragment.name());
@@ -457,13 +477,33 @@ pub fn allow_parallel_compile(ctx: &GlContext) {
     }
 }
 
-/// Hands `src` to the driver to compile as a shader of `kind`, without waiting.
-unsafe fn start_shader(ctx: &GlContext, kind: u32, src: &str) -> Result<Owned<ShaderKind>> {
+/// A new program with no shaders yet, named for `pass` in its errors.
+///
+/// # Safety
+/// The context is current.
+pub(super) unsafe fn create_program(ctx: &GlContext, pass: &str) -> Result<Program> {
+    let name = ctx
+        .gl()
+        .create_program()
+        .map_err(|e| Error::Internal(format!("glCreateProgram: {e}")))?;
+    Ok(Program::from_owned(Owned::new(ctx, name), pass))
+}
+
+/// Hands `src` to the driver to compile as a shader of `kind`, without waiting (the
+/// render and the compute programs alike).
+///
+/// # Safety
+/// The context is current.
+pub(super) unsafe fn start_shader(
+    ctx: &GlContext,
+    kind: u32,
+    src: &str,
+) -> Result<Owned<ShaderKind>> {
     let gl = ctx.gl();
     let shader = Owned::<ShaderKind>::new(
         ctx,
         gl.create_shader(kind)
-            .map_err(|e| Error::Internal(format!("glCreateShader: {e}")))?,
+            .map_err(|e| Error::Internal(format!("glCreateShader({kind:#x}): {e}")))?,
     );
     gl.shader_source(shader.name(), src);
     gl.compile_shader(shader.name());

@@ -12,7 +12,7 @@ use std::ops::Range;
 
 use glow::HasContext;
 
-use super::program::{Program, ATTRIB_POS, ATTRIB_UV};
+use super::program::{bind_vertices, unbind_vertices, Program, VERTEX_FLOATS};
 use super::{check_gl_error, f32_bytes, BufferKind, Owned, VertexArrayKind};
 use crate::error::Result;
 use crate::gpu::context::GlContext;
@@ -38,7 +38,7 @@ impl PixelRect {
 }
 
 /// Floats per vertex: x, y, z, u, v, as the quad's.
-const FLOATS: usize = 5;
+const FLOATS: usize = VERTEX_FLOATS;
 /// Vertices per rectangle: two triangles.
 const VERTICES: usize = 6;
 
@@ -126,21 +126,10 @@ impl Rects {
     /// Makes `program` current and binds the rectangles as its vertices, for several draws
     /// of parts of them ([`BoundRects::draw`]); unbound when the guard drops.
     pub fn bind<'a>(&'a self, gl: &'a glow::Context, program: &Program) -> BoundRects<'a> {
-        const STRIDE: i32 = (FLOATS * std::mem::size_of::<f32>()) as i32;
         // SAFETY: the context is current; the buffer holds `self.len` rectangles of
         // `VERTICES` vertices of the declared layout, and the guard's draws stay within
         // them (asserted there).
-        unsafe {
-            gl.use_program(Some(program.name()));
-            if let Some(vao) = &self.vao {
-                gl.bind_vertex_array(Some(vao.name()));
-            }
-            gl.bind_buffer(glow::ARRAY_BUFFER, Some(self.vbo.name()));
-            gl.enable_vertex_attrib_array(ATTRIB_POS);
-            gl.vertex_attrib_pointer_f32(ATTRIB_POS, 3, glow::FLOAT, false, STRIDE, 0);
-            gl.enable_vertex_attrib_array(ATTRIB_UV);
-            gl.vertex_attrib_pointer_f32(ATTRIB_UV, 2, glow::FLOAT, false, STRIDE, 12);
-        }
+        unsafe { bind_vertices(gl, program, &self.vbo, self.vao.as_ref()) };
         BoundRects { rects: self, gl }
     }
 }
@@ -175,15 +164,7 @@ impl BoundRects<'_> {
 
 impl Drop for BoundRects<'_> {
     fn drop(&mut self) {
-        let gl = self.gl;
         // SAFETY: the context is current; plain unbinding.
-        unsafe {
-            gl.disable_vertex_attrib_array(ATTRIB_POS);
-            gl.disable_vertex_attrib_array(ATTRIB_UV);
-            gl.bind_buffer(glow::ARRAY_BUFFER, None);
-            if self.rects.vao.is_some() {
-                gl.bind_vertex_array(None);
-            }
-        }
+        unsafe { unbind_vertices(self.gl, self.rects.vao.is_some()) };
     }
 }

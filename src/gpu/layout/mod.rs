@@ -156,6 +156,10 @@ pub enum LayoutTarget {
     Compute,
 }
 
+/// Environment variable that forces the compute kernel's read of an irregular grid:
+/// `dense` or `float` ([`SceneTextures::compute_irregular`]; other values: the choice).
+pub const GRID_LAYOUT_ENV: &str = "FRAGTRACE_GRID_LAYOUT";
+
 /// Numeric code of a checker's axes in the material texture (and in GLSL).
 pub fn axes_code(a: CheckerAxes) -> f32 {
     match a {
@@ -247,6 +251,16 @@ impl SceneTextures {
                 None,
             ),
             GridRef::Irregular(g) => {
+                // The textures known from the counts alone are checked before the voxel
+                // map is built for the GPU: on the 100-sphere scene (32.8 M triangles) that
+                // build took seconds and gigabytes only to be refused on `cell`.
+                let counts = GridCounts::Irregular {
+                    cells: g.cells.len() as u64,
+                    refs: g.tri_indices.len() as u64,
+                    vmap_entries: 0,
+                };
+                LayoutPlan::new(&LayoutCounts::of(scene, counts, smooth, format))
+                    .check(max_size, None)?;
                 let w = IrregularLayout::wide_map(g, max_size);
                 let vmap_entries = IrregularLayout::entries(&w, format);
                 IrregularLayout::check_entries(vmap_entries, format)?;
@@ -405,12 +419,10 @@ impl SceneTextures {
         Ok(packed)
     }
 
-    /// The layout of `scene` over `accel` for `target`: the compute kernel's over an
-    /// irregular grid ([`SceneTextures::pack_dense`]), else the float layout
-    /// ([`SceneTextures::pack_with`]). Where a dense buffer passes `block_bytes` (llvmpipe's
-    /// blocks are 128 MiB, where its textures hold 4 GiB) the compute kernel takes the float
-    /// layout if that fits, as it did before the dense one; if neither fits, the refusal
-    /// names both.
+    /// The layout of `scene` over `accel` for `target`: for the compute kernel over an
+    /// irregular grid, [`SceneTextures::compute_irregular`]'s choice between the float
+    /// layout and the dense one ([`SceneTextures::pack_dense`], buffers of at most
+    /// `block_bytes`), else the float layout ([`SceneTextures::pack_with`]).
     pub fn pack_for<'a>(
         scene: &Scene,
         accel: impl Into<AccelRef<'a>>,
@@ -421,20 +433,41 @@ impl SceneTextures {
     ) -> Result<Self> {
         let accel = accel.into().grid()?;
         match (target, accel) {
-            (LayoutTarget::Compute, GridRef::Irregular(g)) => {
-                match Self::pack_dense(scene, g, max_size, normals, block_bytes) {
-                    Err(Error::Limit(dense)) => Self::pack_with(scene, accel, max_size, normals)
-                        .map_err(|float| {
-                            Error::Limit(format!(
-                                "{dense}; the float layout does not fit either: {float}"
-                            ))
-                        }),
-                    packed => packed,
-                }
-            }
+            (LayoutTarget::Compute, GridRef::Irregular(g)) => Self::compute_irregular(
+                || Self::pack_with(scene, accel, max_size, normals),
+                || Self::pack_dense(scene, g, max_size, normals, block_bytes),
+            ),
             (LayoutTarget::Compute | LayoutTarget::Float, _) => {
                 Self::pack_with(scene, accel, max_size, normals)
             }
+        }
+    }
+
+    /// The one choice of the layout the compute kernel reads an irregular grid through:
+    /// the `float` one (the fragment kernels') where it fits, the `dense` one where it does
+    /// not (a float texture past GL_MAX_TEXTURE_SIZE, or memory: the dense grid takes about
+    /// a third of the bytes). Float first because it is the faster read: on the H200 the
+    /// bunny's equal-work 4096² kernel took 8.79 ms through it against 9.76 ms through the
+    /// dense buffers (2026-12-06, `FRAGTRACE_DENSE_BLOCK_BYTES=1` against the default of
+    /// f65056a). Where neither fits, the refusal names both. [`GRID_LAYOUT_ENV`] forces one
+    /// (tests: the dense read on scenes the float layout holds).
+    pub fn compute_irregular(
+        float: impl FnOnce() -> Result<Self>,
+        dense: impl FnOnce() -> Result<Self>,
+    ) -> Result<Self> {
+        match std::env::var(GRID_LAYOUT_ENV).as_deref() {
+            Ok("dense") => return dense(),
+            Ok("float") => return float(),
+            _ => {}
+        }
+        match float() {
+            Err(Error::Limit(f)) => dense().map_err(|d| match d {
+                Error::Limit(d) => {
+                    Error::Limit(format!("{d}; the float layout does not fit either: {f}"))
+                }
+                other => other,
+            }),
+            packed => packed,
         }
     }
 

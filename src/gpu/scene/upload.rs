@@ -1,6 +1,6 @@
 //! The scene's copies on the GPU (`GpuScene`'s job of uploads): each layout packed on first
 //! use for the kernel that reads it (the float one; the compute kernel's over the irregular
-//! grid, dense), its textures or storage buffers uploaded on first use, and the dense
+//! grid, dense where the float one does not fit), its textures or storage buffers uploaded on first use, and the dense
 //! grid's buffers uploaded from the grid's own words.
 
 use super::*;
@@ -9,7 +9,10 @@ use crate::gpu::layout::{DenseBuffer, Fetch, LayoutTarget};
 impl GpuScene<'_> {
     /// The layout `target` reads, packed on first use (its size checked from the counts
     /// first: [`LayoutPlan`](crate::gpu::layout::LayoutPlan)); what packing took is charged as
-    /// upload time.
+    /// upload time. The compute kernel over a flat scene's irregular grid reads the float
+    /// layout where it fits and the dense one where it does not
+    /// ([`SceneTextures::compute_irregular`]): a float layout packed for either kernel
+    /// serves both, never packed twice.
     pub fn layout(&self, target: LayoutTarget) -> Result<&SceneTextures> {
         let slot = self.slot(target);
         if let Some(l) = self.layouts[slot].get() {
@@ -18,29 +21,36 @@ impl GpuScene<'_> {
         let t0 = Instant::now();
         let max_size = self.ctx.info.max_texture_size.max(0) as u32;
         let normals = self.features.smooth_normals;
-        let mut l = match (self.instancing, slot, self.index_format) {
+        let float = || match (self.instancing, self.index_format) {
             // An instanced scene's two levels walk the uniform grid: one layout, with the
             // instancing data `inst`, serves every kernel (the dense grid is irregular only).
-            (Some(gi), _, format) => {
-                SceneTextures::pack_instanced(self.given, gi, max_size, normals, format)?
+            (Some(gi), format) => {
+                SceneTextures::pack_instanced(self.given, gi, max_size, normals, format)
             }
-            (None, FLOAT, Some(format)) => {
-                SceneTextures::pack_format(self.scene, self.accel, max_size, normals, format)?
+            (None, Some(format)) => {
+                SceneTextures::pack_format(self.scene, self.accel, max_size, normals, format)
             }
-            (None, FLOAT, None) => {
-                SceneTextures::pack_with(self.scene, self.accel, max_size, normals)?
-            }
-            // Only here is the storage-block size asked for: a context without compute
-            // shaders (GL 2.1, WebGL) answers the query with GL_INVALID_ENUM.
-            (None, _, _) => SceneTextures::pack_for(
-                self.scene,
-                self.accel,
-                max_size,
-                normals,
-                target,
-                block_bytes(self.ctx),
-            )?,
+            (None, None) => SceneTextures::pack_with(self.scene, self.accel, max_size, normals),
         };
+        let mut l = match (self.either(target), self.accel) {
+            (true, GridRef::Irregular(g)) => {
+                if let Some(l) = self.layouts[FLOAT].get() {
+                    let _ = self.compute_slot.set(FLOAT);
+                    return Ok(l);
+                }
+                SceneTextures::compute_irregular(float, || {
+                    // Only here is the storage-block size asked for: a context without
+                    // compute shaders (GL 2.1, WebGL) answers the query with GL_INVALID_ENUM.
+                    let block = block_bytes(self.ctx);
+                    SceneTextures::pack_dense(self.scene, g, max_size, normals, block)
+                })?
+            }
+            _ => float()?,
+        };
+        let slot = if l.dense().is_some() { DENSE } else { FLOAT };
+        if self.either(target) {
+            let _ = self.compute_slot.set(slot);
+        }
         if self.skew_faces {
             l.skew_faces();
         }
@@ -48,13 +58,23 @@ impl GpuScene<'_> {
         Ok(self.layouts[slot].get_or_init(|| l))
     }
 
-    /// Which of the layouts `target` reads: the compute kernel's own over the irregular
-    /// grid of a scene walked flat, else the float one (an instanced scene's, with `inst`,
-    /// for every kernel: its levels walk the uniform grid).
+    /// Whether `target` is the compute kernel on a flat scene's irregular grid, which reads
+    /// either layout ([`GpuScene::layout`] chooses).
+    fn either(&self, target: LayoutTarget) -> bool {
+        matches!(
+            (target, self.accel, self.instancing),
+            (LayoutTarget::Compute, GridRef::Irregular(_), None)
+        )
+    }
+
+    /// Which of the layouts `target` reads: the float one, but for the compute kernel on a
+    /// flat scene's irregular grid the one [`GpuScene::layout`] chose (the dense slot, empty,
+    /// until it has chosen).
     fn slot(&self, target: LayoutTarget) -> usize {
-        match (target, self.accel, self.instancing) {
-            (LayoutTarget::Compute, GridRef::Irregular(_), None) => DENSE,
-            (LayoutTarget::Compute | LayoutTarget::Float, _, _) => FLOAT,
+        if self.either(target) {
+            self.compute_slot.get().copied().unwrap_or(DENSE)
+        } else {
+            FLOAT
         }
     }
 
@@ -65,11 +85,12 @@ impl GpuScene<'_> {
 
     /// The textures of `target`'s layout with their units, uploaded on first use.
     fn textures_for(&self, target: LayoutTarget) -> Result<&[(Unit, Texture)]> {
+        // The layout first: it decides the compute kernel's slot.
+        let layout = self.layout(target)?;
         let slot = self.slot(target);
         if let Some(t) = self.textures[slot].get() {
             return Ok(t);
         }
-        let layout = self.layout(target)?;
         let t0 = Instant::now();
         let textures = layout
             .with_units()
@@ -94,11 +115,11 @@ impl GpuScene<'_> {
     /// The compute kernel's layout's texels as storage buffers at their bindings
     /// (`Fetch::Storage`), uploaded on first use.
     fn buffers(&self) -> Result<&[(u32, StorageBuffer)]> {
+        let layout = self.layout(LayoutTarget::Compute)?;
         let slot = self.slot(LayoutTarget::Compute);
         if let Some(b) = self.buffers[slot].get() {
             return Ok(b);
         }
-        let layout = self.layout(LayoutTarget::Compute)?;
         let t0 = Instant::now();
         let buffers = layout
             .with_units()
