@@ -167,19 +167,31 @@ fn dense_descent_on_the_driver_is_the_built_grids_lookup() {
     }
 }
 
-/// The compute kernel's layout where a dense buffer passes the block size: the float
-/// layout, which fits (as before the dense one); where the float layout does not fit
-/// either (textures 64 texels wide), one line naming both refusals.
+/// The compute kernel's layout: the float one where it fits (the faster read; the dense
+/// one is then never packed); the dense one where the float one is refused; where
+/// neither fits, one line naming both refusals (here textures 64 texels wide and blocks
+/// one byte short of the cells).
 #[test]
-fn compute_takes_the_float_layout_where_the_dense_one_does_not_fit() {
+fn compute_takes_the_dense_layout_only_where_the_float_one_does_not_fit() {
     use crate::gpu::layout::LayoutTarget;
     let (s, g) = two_spheres();
     let pack =
         |max, block| SceneTextures::pack_for(&s, &g, max, false, LayoutTarget::Compute, block);
-    assert!(pack(4096, BLOCK).unwrap().dense().is_some());
-    let small = 16 * g.cells.len() as u64 - 1;
-    let l = pack(4096, small).unwrap();
+    let l = pack(4096, BLOCK).unwrap();
     assert!(l.dense().is_none() && l.cell().is_some() && l.irregular().is_some());
+    let float = || SceneTextures::pack_with(&s, &g, 4096, false);
+    let dense = || SceneTextures::pack_dense(&s, &g, 4096, false, BLOCK);
+    let refused = || Err(Error::Limit("float refused".into()));
+    let unused = || -> Result<SceneTextures> { panic!("the dense layout packed as well") };
+    assert!(SceneTextures::compute_irregular(float, unused)
+        .unwrap()
+        .dense()
+        .is_none());
+    assert!(SceneTextures::compute_irregular(refused, dense)
+        .unwrap()
+        .dense()
+        .is_some());
+    let small = 16 * g.cells.len() as u64 - 1;
     let e = pack(64, small).unwrap_err().to_string();
     assert!(!e.contains('\n'), "{e}");
     for want in [
