@@ -18,8 +18,12 @@
 //! each pair as brute force does when it meets them in index order (the later one's
 //! intersection test against the earlier's tie limit), which gives brute force's answer
 //! except for chains of three or more hits each within the margin of the next (coplanar
-//! piles), where the pairs met decide. Only hits within `2 TIE_EPS` of the closest one
-//! seen are tested at all.
+//! piles, or three triangles on one edge), where the pairs met decide. "Within the
+//! margin" is the intersection test's comparison in `t * |det|`, so hits of the same t
+//! can fall on both sides of another's tie limit and close such a chain (the tests'
+//! `bvh_tie_chain_at_the_margin_is_the_documented_exception`): the rule is then not
+//! transitive, the answer depends on the order the hits are met, and brute force's is
+//! that of index order. Only hits within `2 TIE_EPS` of the closest one seen are tested.
 
 use super::closest::Closest;
 use super::intersect::{intersect_with, RayShear};
