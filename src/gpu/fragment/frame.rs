@@ -140,6 +140,29 @@ enum Counter {
     Bytes(RenderTarget),
 }
 
+/// The most bytes of ray textures one frame (or band) allocates: 8 GiB.
+pub(crate) const RAY_TEXTURE_BUDGET: u64 = 8 << 30;
+
+/// Environment variable that lowers [`RAY_TEXTURE_BUDGET`] (tests: a frame split into bands
+/// at a size CI renders); other values are ignored.
+pub const RAY_TEXTURE_BUDGET_ENV: &str = "FRAGTRACE_RAY_TEXTURE_BUDGET";
+
+/// [`RAY_TEXTURE_BUDGET`], or [`RAY_TEXTURE_BUDGET_ENV`]'s bytes where lower.
+pub(crate) fn ray_texture_budget() -> u64 {
+    std::env::var(RAY_TEXTURE_BUDGET_ENV)
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok())
+        .map_or(RAY_TEXTURE_BUDGET, |b| b.min(RAY_TEXTURE_BUDGET))
+}
+
+/// Bytes of the ray textures a `width` x `height` frame of `levels` ray-tree levels
+/// allocates: ray state (8 RGBA32F texels a pixel), records (3 per level, 4 with instances),
+/// colour (2).
+pub(crate) fn ray_texture_bytes(gs: &GpuScene, width: u32, height: u32, levels: usize) -> u64 {
+    let per_level = if gs.instanced() { 4 } else { 3 };
+    (width as u64 * height as u64) * 16 * (8 + per_level * levels as u64 + 2)
+}
+
 impl<'a> Frame<'a> {
     /// Takes the programs `gs` has for the passes a render with `kernel` draws (all
     /// shading passes when `shading`), compiled on first use, and allocates `width` x
@@ -196,14 +219,17 @@ impl<'a> Frame<'a> {
                 }
             )));
         }
-        // Check memory before allocating: ray state (8), records (3 per level, 4 with
-        // instances), colour (2).
-        let per_level = if gs.instanced() { 4 } else { 3 };
-        let bytes = (width as u64 * height as u64) * 16 * (8 + per_level * levels as u64 + 2);
-        if bytes > 8 << 30 {
+        // Check memory before allocating (`tree::render` splits a frame past it into bands).
+        let bytes = ray_texture_bytes(gs, width, height, levels);
+        let budget = ray_texture_budget();
+        if bytes > budget {
+            let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
             return Err(Error::Limit(format!(
-                "{width}x{height} with {levels} ray-tree levels needs {:.1} GiB of ray textures",
-                bytes as f64 / (1u64 << 30) as f64
+                "{width}x{height} with {levels} ray-tree levels needs {:.1} MiB of ray \
+                 textures, more than one frame may take ({:.1} MiB); a narrower image or a \
+                 lower --max-depth fits",
+                mib(bytes),
+                mib(budget)
             )));
         }
         // The scene's textures, then the programs: only the passes this scene and depth use.

@@ -11,7 +11,7 @@ use crate::clock::Instant;
 
 use rayon::prelude::*;
 
-use super::frame::{Frame, Slot, Watch};
+use super::frame::{ray_texture_budget, ray_texture_bytes, Frame, Slot, Watch};
 use super::readback::{flip_rgba_to_rgb, read_aov, read_srgb8};
 use crate::gpu::contract::{uniform, Unit};
 use crate::gpu::gl::{state, Texture};
@@ -23,6 +23,7 @@ use crate::gpu::shader::{Count, Pass, Query};
 use crate::image_io::Image;
 use crate::output::{Aov, RayCounts};
 use crate::progress::Progress;
+use crate::region::Region;
 use crate::scene::{camera, Scene};
 use crate::Result;
 
@@ -60,14 +61,42 @@ impl Branch {
 }
 
 /// Renders `req` with the fragment kernel `kernel`, calling `observer` (if any) between
-/// passes; it may cancel the render (a pause is run straight through).
+/// passes; it may cancel the render (a pause is run straight through). An unwatched frame
+/// whose ray textures would pass the budget (`frame::RAY_TEXTURE_BUDGET`, 8 GiB) is rendered in full-width bands of
+/// rows that each fit, stacked: a region renders exactly its pixels of the whole image
+/// (`crate::region`), so the frame is the same bytes (the 100-duck scene at 4096² and depth
+/// 5, two levels: 8.5 GiB in one go, refused before).
 pub(crate) fn render<'a>(
     gs: &'a GpuScene<'a>,
     req: &ImageRequest,
     kernel: FragmentKernel,
     observer: Option<&'a mut Observer<'a>>,
 ) -> Result<GpuOutput> {
-    block_on(walk(gs, *req, kernel, observer))
+    let px = req.pixels();
+    let levels = req.max_depth as usize + 1;
+    let per_row = ray_texture_bytes(gs, px.width(), 1, levels).max(1);
+    let rows = (ray_texture_budget() / per_row).min(u32::MAX as u64) as u32;
+    if observer.is_some() || rows == 0 || rows >= px.height() {
+        // A watched frame stays whole (the viewer shows one frame's passes); a row that
+        // does not fit is refused by `Frame::new`.
+        return block_on(walk(gs, *req, kernel, observer));
+    }
+    let mut parts = Vec::new();
+    let mut y = px.y0;
+    while y < px.y1 {
+        let band = Region {
+            y0: y,
+            y1: (y + rows).min(px.y1),
+            ..px
+        };
+        let part = ImageRequest {
+            region: Some(band),
+            ..*req
+        };
+        parts.push(block_on(walk(gs, part, kernel, None))?);
+        y = band.y1;
+    }
+    Ok(crate::output::BackendOutput::stack_rows(parts))
 }
 
 /// [`render`] as a future that suspends where the observer answers
