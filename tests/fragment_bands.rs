@@ -30,37 +30,10 @@ fn render(d: &Path, scene: &Path, out: &str, flags: &[&str], env: &[(&str, &str)
         .unwrap()
 }
 
-/// Two meshes placed over a floor, one mirrored, with a reflective material: instanced
-/// records (4 texels a level) in the ray textures.
-const INSTANCED: &str = r#"
-[camera]
-eye = [0.0, 4.0, 10.0]
-look_at = [0.0, 0.7, 0.0]
-fov = 40
-[[lights]]
-position = [3.0, 8.0, 6.0]
-[materials.red]
-albedo = [0.9, 0.2, 0.2]
-kr = [0.3, 0.3, 0.3]
-[[objects]]
-shape = "quad"
-size = 20
-[[objects]]
-shape = "sphere"
-subdivisions = 2
-radius = 0.5
-material = "red"
-instances = [
-  { translate = [-1.5, 0.5, 0] },
-  { translate = [0.2, 1, 0], scale = [-1.5, 2, 0.7], rotate = [10, 40, 0] },
-  { translate = [1.8, 0.6, 0.5] },
-]
-"#;
-
 #[test]
 fn frames_past_the_ray_texture_budget_render_in_bands_with_the_same_bytes() {
     let d = common::tmpdir("fragment-bands");
-    std::fs::write(d.join("instanced.toml"), INSTANCED).unwrap();
+    std::fs::write(d.join("instanced.toml"), common::INSTANCED_SCENE).unwrap();
     let duck = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/duck-table.toml");
     let read = |f: &str| std::fs::read(d.join(f)).unwrap();
     // Bytes of one 64-pixel row of ray textures at 6 levels: 64 x 16 x (8 + 3 x 6 + 2), and

@@ -16,52 +16,8 @@ use fragtrace::options::{AccelChoice, Backend, Precision, RenderOptions};
 use fragtrace::render::{prepare, render_cpu, render_gl_with};
 use fragtrace::scene::{load_scene_str, Scene};
 
-/// Spheres (a rotated, non-uniformly scaled one, a mirrored one overlapping it, one
-/// rotated by 90 degrees), boxes touching at shared faces and one placed twice at the same
-/// spot, over a floor of the scene's own triangles; a mirror material so that reflected
-/// rays meet instances too.
-const SCENE: &str = r#"
-[camera]
-eye = [0.0, 4.0, 10.0]
-look_at = [0.0, 0.7, 0.0]
-fov = 40
-[[lights]]
-position = [3.0, 8.0, 6.0]
-[materials.floor]
-checker = { a = [0.9, 0.9, 0.9], b = [0.2, 0.2, 0.2], scale = 1.0 }
-[materials.red]
-albedo = [0.9, 0.2, 0.2]
-ks = [0.5, 0.5, 0.5]
-ns = 50
-kr = [0.3, 0.3, 0.3]
-[materials.blue]
-albedo = [0.2, 0.3, 0.9]
-[[objects]]
-shape = "quad"
-size = 20
-material = "floor"
-[[objects]]
-shape = "sphere"
-subdivisions = 2
-radius = 0.5
-material = "red"
-instances = [
-  { translate = [-2.5, 0.5, 0] },
-  { translate = [-0.5, 1, 0], scale = [1.5, 2, 0.7], rotate = [10, 40, 0] },
-  { translate = [-0.2, 1.2, 0.3], scale = [-1, 1, 1] },
-  { translate = [2, 0.6, 0.5], rotate = [0, 0, 90], scale = 1.2 },
-]
-[[objects]]
-shape = "box"
-size = [1, 1, 1]
-material = "blue"
-instances = [
-  { translate = [-1, 0.5, 3] },
-  { translate = [0, 0.5, 3] },
-  { translate = [0, 0.5, 3] },
-  { translate = [1, 0.5, 3], rotate = [0, 90, 0] },
-]
-"#;
+/// The shared instanced scene ([`common::INSTANCED_SCENE`]).
+const SCENE: &str = common::INSTANCED_SCENE;
 
 fn scene() -> Scene {
     load_scene_str(SCENE, "gpu_instancing.toml", std::path::Path::new(".")).unwrap()

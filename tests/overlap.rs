@@ -79,42 +79,11 @@ fn flags_that_change_the_structure_reach_the_early_build() {
     );
 }
 
-/// A floor and a sphere placed three times (one mirrored).
-const INSTANCED: &str = r#"
-max_depth = 1
-[camera]
-eye = [0, 3, 8]
-look_at = [0, 0.5, 0]
-fov = 40
-[[lights]]
-position = [3, 6, 4]
-intensity = 1
-[materials.floor]
-albedo = [0.7, 0.7, 0.7]
-[materials.red]
-albedo = [0.9, 0.2, 0.2]
-kr = [0.3, 0.3, 0.3]
-[[objects]]
-shape = "quad"
-size = 10
-material = "floor"
-[[objects]]
-shape = "sphere"
-subdivisions = 2
-radius = 0.5
-material = "red"
-instances = [
-  { translate = [-1.5, 0.5, 0] },
-  { translate = [0, 0.8, 0], scale = [1.5, 1.6, 0.7], rotate = [10, 40, 0] },
-  { translate = [1.5, 0.5, 0.3], scale = [-1, 1, 1] },
-]
-"#;
-
 #[test]
 fn a_scene_with_instances_is_settled_by_the_context() {
     let d = tmpdir("overlap-instanced-scene");
     let path = d.join("instanced.toml");
-    std::fs::write(&path, INSTANCED).unwrap();
+    std::fs::write(&path, common::INSTANCED_SCENE).unwrap();
     same_as_library("instanced", path.to_str().unwrap(), &[]);
     let _ = std::fs::remove_dir_all(&d);
 }

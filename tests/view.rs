@@ -153,7 +153,7 @@ fn view_shows_an_instanced_scene_as_render_does() {
         return;
     }
     let scene = scratch("instanced.toml");
-    std::fs::write(&scene, INSTANCED).unwrap();
+    std::fs::write(&scene, common::INSTANCED_SCENE).unwrap();
     let path = scene.to_str().unwrap();
     for (accel, flat) in [(None, false), (Some("irregular"), true)] {
         for kernel in ["looped", "compute"] {
@@ -180,44 +180,6 @@ fn view_shows_an_instanced_scene_as_render_does() {
         }
     }
 }
-
-/// Two meshes placed four times each over a floor (a mirrored sphere among them).
-const INSTANCED: &str = r#"
-[camera]
-eye = [0.0, 4.0, 10.0]
-look_at = [0.0, 0.7, 0.0]
-fov = 40
-[[lights]]
-position = [3.0, 8.0, 6.0]
-[materials.red]
-albedo = [0.9, 0.2, 0.2]
-kr = [0.3, 0.3, 0.3]
-[materials.blue]
-albedo = [0.2, 0.3, 0.9]
-[[objects]]
-shape = "quad"
-size = 20
-[[objects]]
-shape = "sphere"
-subdivisions = 2
-radius = 0.5
-material = "red"
-instances = [
-  { translate = [-2.5, 0.5, 0] },
-  { translate = [-0.5, 1, 0], scale = [1.5, 2, 0.7], rotate = [10, 40, 0] },
-  { translate = [1.2, 0.6, 0.3], scale = [-1, 1, 1] },
-  { translate = [2.5, 0.6, 0.5], rotate = [0, 0, 90], scale = 1.2 },
-]
-[[objects]]
-shape = "box"
-size = [1, 1, 1]
-material = "blue"
-instances = [
-  { translate = [-1, 0.5, 3] },
-  { translate = [0.2, 0.5, 2.5] },
-  { translate = [1.4, 0.5, 3], rotate = [0, 30, 0] },
-]
-"#;
 
 /// `view` goes through the same front door as `render`: it builds the structure `--accel`
 /// names (the irregular grid by default), reports it, and shows the render's image. Before,
