@@ -1,9 +1,11 @@
-//! The process's start, overlapped: the scene loads (and its structure builds) on a second
-//! thread while this one starts the GL driver. On the H100 machine the driver's start is
-//! about 150 ms of a 4096² render's whole process (`gpu.context_ms`), the bunny's load and
-//! build 45 and 16 ms (issue 52's breakdown, docs/performance.md): side by side, the
-//! shorter is hidden. Only where a context is to be opened
-//! (`gl`, or `auto` on a device that is not Mesa's software one); every other render is the plain
+//! The process's start and end, overlapped: the scene loads (and its structure builds) on
+//! a second thread while this one decides whether to open a context (`auto` lists the
+//! devices, which starts the drivers) and starts the GL driver; at the end the image is
+//! written on a second thread while this one releases the context. On the H100 machine the
+//! driver's start is about 150 ms of a 4096² render's whole process and the context's
+//! release 16 ms; the bunny's load and build 45 and 16 ms (docs/performance.md): side by
+//! side, the shorter is hidden. Where `auto` takes the CPU, the load still runs beside the
+//! device listing; where the flags alone do not make the options, the render is the plain
 //! [`crate::render::render`] after the load.
 
 use crate::backend_choice::{open_context, start_of, Start};
@@ -30,21 +32,38 @@ enum Ready {
 }
 
 /// Renders the scene `load` gives, as [`crate::render::render`] would, with `load` run on
-/// a second thread while this one opens the context that `early` asks for: the options
-/// the flags alone give ([`crate::choices::RenderArgs::context_options`]), None where
-/// they could not be made without the scene (then nothing overlaps). On that thread a
-/// scene without instances also gets its GPU structure built (the options a context
-/// settles build the same one for it; where the context turns out otherwise, the
-/// structure is built again for what it asks). The load's error comes first, as it did
-/// when the load came first. Returns the render and the load's time.
-pub fn render_loading<F>(early: Option<&RenderOptions>, load: F) -> Result<(Rendered, f64)>
+/// a second thread while this one decides whether to open a context and opens it, as
+/// `early` asks: the options the flags alone give
+/// ([`crate::choices::RenderArgs::context_options`]), None where they could not be made
+/// without the scene (then nothing overlaps). The decision itself may start the driver
+/// (`auto` lists the devices to see whether only Mesa's software one is there: about 100
+/// ms on the H100 machine), so it runs beside the load too. Where a context is opened, the
+/// loading thread also builds a scene without instances its GPU structure (the options a
+/// context settles build the same one for it; where the context turns out otherwise, the
+/// structure is built again for what it asks). The load's error comes first, as it did when
+/// the load came first.
+///
+/// `deliver` gets the render (to write its image) while the GPU's context is released on
+/// this thread (about 16 ms at 4096² on the H100 machine, with the staging memory it
+/// pinned); its answer is returned beside the render and the load's time.
+pub fn render_loading<F, D, T>(
+    early: Option<&RenderOptions>,
+    load: F,
+    deliver: D,
+) -> Result<(Rendered, f64, T)>
 where
     F: FnOnce() -> Result<Loaded> + Send,
+    D: FnOnce(&Rendered) -> Result<T> + Send,
+    T: Send,
 {
-    let Some(early) = early.filter(|o| matches!(start_of(o), Start::Open)) else {
+    let Some(early) = early else {
         let l = load()?;
-        return Ok((crate::render::render(&l.scene, &l.opts)?, l.load_ms));
+        let out = crate::render::render(&l.scene, &l.opts)?;
+        let t = deliver(&out)?;
+        return Ok((out, l.load_ms, t));
     };
+    // Whether a context is being opened, from this thread to the loading one.
+    let (open_tx, open_rx) = std::sync::mpsc::channel::<bool>();
     let (ctx, ready) = std::thread::scope(|s| {
         let worker = s.spawn(move || -> Result<(Ready, RenderOptions, f64)> {
             let Loaded {
@@ -52,7 +71,8 @@ where
                 opts,
                 load_ms,
             } = load()?;
-            if scene.has_instances() {
+            // A closed channel (this thread's sibling failed) opens nothing.
+            if scene.has_instances() || !open_rx.recv().unwrap_or(false) {
                 return Ok((Ready::Scene(Box::new(scene)), opts, load_ms));
             }
             let gpu = RenderOptions {
@@ -68,28 +88,45 @@ where
             };
             Ok((ready, opts, load_ms))
         });
+        let open = matches!(start_of(early), Start::Open);
+        let _ = open_tx.send(open);
         let t = crate::clock::Instant::now();
-        let ctx = open_context(early, early.progress).map(|c| (c, t.elapsed()));
+        let ctx = open.then(|| open_context(early, early.progress).map(|c| (c, t.elapsed())));
         let ready = worker
             .join()
             .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
         (ctx, ready)
     });
     let (ready, opts, load_ms) = ready?;
-    let (ctx, opened) = ctx?;
     let (scene, built) = match &ready {
         Ready::Scene(scene) => (&**scene, None),
         Ready::Built(p, o) => (&*p.scene, Some((&**p, o))),
     };
-    let out = match ctx {
-        None => render_cpu(scene, &opts)?,
-        Some(ctx) => {
-            let mut out = render_gl_built(&ctx, scene, &opts, built)?;
-            if let Some(g) = out.stats.gpu.as_mut() {
-                g.context_ms = opened.as_secs_f64() * 1e3;
-            }
-            out
+    let (ctx, opened) = match ctx.transpose()? {
+        // `auto` without a context worth opening: the whole choice again, with the scene's
+        // options (the devices are listed once per process).
+        None => {
+            let out = crate::render::render(scene, &opts)?;
+            let t = deliver(&out)?;
+            return Ok((out, load_ms, t));
         }
+        Some(c) => c,
     };
-    Ok((out, load_ms))
+    let Some(ctx) = ctx else {
+        let out = render_cpu(scene, &opts)?;
+        let t = deliver(&out)?;
+        return Ok((out, load_ms, t));
+    };
+    let mut out = render_gl_built(&ctx, scene, &opts, built)?;
+    if let Some(g) = out.stats.gpu.as_mut() {
+        g.context_ms = opened.as_secs_f64() * 1e3;
+    }
+    let t = std::thread::scope(|s| {
+        let writer = s.spawn(|| deliver(&out));
+        drop(ctx);
+        writer
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+    })?;
+    Ok((out, load_ms, t))
 }

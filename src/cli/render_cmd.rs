@@ -95,10 +95,35 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         aov: aovs.is_some(),
         srgb8: image_io::Format::from_path(&args.output)?.is_srgb8(),
     };
-    // The scene loads while the GL driver starts (crate::overlap).
+    // The scene loads while the GL driver starts, and the image is written while the
+    // context is released (crate::overlap).
     let t = crate::clock::Instant::now();
-    let (mut out, load_ms) =
-        crate::overlap::render_loading(args.context_options().as_ref(), || {
+    let write = |out: &render::Rendered| -> Result<(f64, f64)> {
+        let render_call_ms = ms(t);
+        let finite = match out.nonfinite {
+            Some(n) => n == 0,
+            None => out.image.all_finite(),
+        };
+        if !finite {
+            return Err(Error::Internal(
+                "the render produced a NaN or Inf pixel".into(),
+            ));
+        }
+        let t = crate::clock::Instant::now();
+        match &out.srgb8 {
+            Some(rgb) => {
+                image_io::write_srgb8(&args.output, out.image.width, out.image.height, rgb)?
+            }
+            None => image_io::write_image(&args.output, &out.image)?,
+        }
+        if let Some(kinds) = &aovs {
+            crate::aov::write_aovs(&args.output, &out.aov, kinds)?;
+        }
+        Ok((render_call_ms, ms(t)))
+    };
+    let (mut out, load_ms, (render_call_ms, write_ms)) = crate::overlap::render_loading(
+        args.context_options().as_ref(),
+        || {
             let t = crate::clock::Instant::now();
             let scene = load(args.scene.as_deref(), args.choices.textures)?;
             let load_ms = ms(t);
@@ -110,30 +135,14 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
                 opts,
                 load_ms,
             })
-        })?;
-    let render_call_ms = ms(t);
-    let finite = match out.nonfinite {
-        Some(n) => n == 0,
-        None => out.image.all_finite(),
-    };
-    if !finite {
-        return Err(Error::Internal(
-            "the render produced a NaN or Inf pixel".into(),
-        ));
-    }
-    let t = crate::clock::Instant::now();
-    match &out.srgb8 {
-        Some(rgb) => image_io::write_srgb8(&args.output, out.image.width, out.image.height, rgb)?,
-        None => image_io::write_image(&args.output, &out.image)?,
-    }
-    if let Some(kinds) = &aovs {
-        crate::aov::write_aovs(&args.output, &out.aov, kinds)?;
-    }
+        },
+        write,
+    )?;
     out.stats.process = Some(render::ProcessTimes {
         start_ms,
         load_ms,
         render_call_ms,
-        write_ms: ms(t),
+        write_ms,
         total_ms: crate::clock::since_start_ms_f64(),
     });
     if let Some(path) = &args.stats {

@@ -189,8 +189,23 @@ type PfnQueryDeviceAttribExt =
     unsafe extern "system" fn(*mut c_void, egl::Int, *mut egl::Attrib) -> egl::Boolean;
 
 /// The EGL devices of this machine, in the order `--gpu N` numbers them. An EGL without
-/// device enumeration is an error saying so.
+/// device enumeration is an error saying so. Listed once per process: the first listing
+/// starts the drivers (about 100 ms on the H100 machine), and `--backend auto` asks again
+/// where it takes the CPU.
 pub fn list_devices() -> Result<Vec<EglDevice>> {
+    static DEVICES: OnceLock<std::result::Result<Vec<EglDevice>, String>> = OnceLock::new();
+    DEVICES
+        .get_or_init(|| {
+            list_devices_now().map_err(|e| match e {
+                Error::GlUnavailable(m) => m,
+                other => other.to_string(),
+            })
+        })
+        .clone()
+        .map_err(Error::GlUnavailable)
+}
+
+fn list_devices_now() -> Result<Vec<EglDevice>> {
     let egl = egl_instance()?;
     let client_exts = egl
         .query_string(None, egl::EXTENSIONS)

@@ -117,6 +117,26 @@ impl BandPlan {
 }
 
 /// What kept output buffers are made for: one band's pixels and which outputs are read.
+/// Bytes of each of the two staging slots the bands' output comes back through: pieces of
+/// a band, not whole bands. Pinned host memory is slow to get: the two slots of a 4096²
+/// frame's whole 8-bit band (50 MB each) took 18-20 ms to allocate on the H100 machine, in
+/// every process's first frame. Measured on the H200 (docs/performance.md), the steady
+/// 4096² frame reads back in 1.8-2.1 ms through 16 MiB slots, 2.3-2.6 ms through whole
+/// bands, 3.1-3.9 ms through 4 MiB and 5.3-6.5 ms through 1 MiB ones (a fence round trip
+/// per piece).
+pub(super) const STAGING_SLOT_BYTES: usize = 16 << 20;
+
+/// Environment variable that sets the staging slots' bytes instead (at least 16), so tests
+/// can read a small image back in many pieces.
+pub const STAGING_SLOT_ENV: &str = "FRAGTRACE_STAGING_SLOT_BYTES";
+
+fn staging_slot_bytes() -> usize {
+    std::env::var(STAGING_SLOT_ENV)
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .map_or(STAGING_SLOT_BYTES, |b| b.max(16))
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Shape {
     /// Pixels of the largest band.
@@ -171,7 +191,7 @@ impl Outputs {
                 .srgb8
                 .then(|| StorageBuffer::uninit(ctx, (px * 3).div_ceil(4) * 4))
                 .transpose()?,
-            ring: ReadbackRing::new(ctx, shape.out_bytes(px)).ok(),
+            ring: ReadbackRing::new(ctx, shape.out_bytes(px).min(staging_slot_bytes())).ok(),
             counters: StorageBuffer::zeroed_u32(ctx, 2 * COUNTERS)?,
         })
     }

@@ -362,9 +362,17 @@ pub(crate) fn render(
         let len = shape.out_bytes(band);
         match bufs.ring.as_mut() {
             Some(r) => {
-                let slot = r.copy(ctx, src, len)?;
-                if let Some(prev) = in_flight.replace((slot, at, len, n)) {
-                    take(r, prev, &mut out)?;
+                // A slot at a time (STAGING_SLOT_BYTES): the host takes one piece while
+                // the GPU copies the next; the band's rows count once its last is queued.
+                let mut done = 0;
+                while done < len {
+                    let piece = (len - done).min(r.slot_bytes());
+                    let slot = r.copy(ctx, src, done, piece)?;
+                    let rows = if done + piece == len { n } else { 0 };
+                    if let Some(prev) = in_flight.replace((slot, at + done, piece, rows)) {
+                        take(r, prev, &mut out)?;
+                    }
+                    done += piece;
                 }
                 // A band sized by time is measured to its end before the next is sized.
                 if plan.timed() {

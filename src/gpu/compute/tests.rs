@@ -231,7 +231,7 @@ fn srgb8_comp_converts_the_whole_range_as_the_host_does_at_every_size() {
             let mut out = crate::pool::take(len);
             match ReadbackRing::new(ctx, len) {
                 Ok(mut ring) => {
-                    let slot = ring.copy(ctx, &dst, len).unwrap();
+                    let slot = ring.copy(ctx, &dst, 0, len).unwrap();
                     ring.take(ctx, slot, |b| out.copy_from_slice(&b[..len]))
                         .unwrap();
                 }

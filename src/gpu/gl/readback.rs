@@ -89,15 +89,30 @@ impl ReadbackRing {
         })
     }
 
-    /// Queues a GPU copy of the first `len` bytes of `src` into the next slot (which must
-    /// have been taken) and returns the slot. Shader writes to `src` before this call are
-    /// made visible to the copy.
-    pub fn copy(&mut self, ctx: &GlContext, src: &StorageBuffer, len: usize) -> Result<usize> {
+    /// Bytes one slot holds: what one [`ReadbackRing::copy`] may move.
+    pub fn slot_bytes(&self) -> usize {
+        self.bytes
+    }
+
+    /// Queues a GPU copy of `len` bytes of `src` from byte `offset` on into the next slot
+    /// (which must have been taken) and returns the slot. Shader writes to `src` before
+    /// this call are made visible to the copy.
+    pub fn copy(
+        &mut self,
+        ctx: &GlContext,
+        src: &StorageBuffer,
+        offset: usize,
+        len: usize,
+    ) -> Result<usize> {
         let gl = ctx.gl();
         let k = self.next;
         assert!(len <= self.bytes, "copy past the staging buffer");
         assert!(self.slots[k].pending.is_none(), "slot {k} not taken yet");
-        // SAFETY: the context is current; both buffers are alive and `len` fits both.
+        let offset = i32::try_from(offset).map_err(|_| {
+            Error::Limit(format!("a staging copy from byte {offset} is past 2 GiB"))
+        })?;
+        // SAFETY: the context is current; both buffers are alive, `len` fits the slot and
+        // the caller's range lies in `src` (GL refuses it otherwise: checked below).
         unsafe {
             gl.memory_barrier(glow::BUFFER_UPDATE_BARRIER_BIT);
             gl.bind_buffer(glow::COPY_READ_BUFFER, Some(src.name()));
@@ -105,7 +120,7 @@ impl ReadbackRing {
             gl.copy_buffer_sub_data(
                 glow::COPY_READ_BUFFER,
                 glow::COPY_WRITE_BUFFER,
-                0,
+                offset,
                 0,
                 len as i32,
             );
