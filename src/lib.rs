@@ -56,6 +56,7 @@ pub mod output;
 pub mod overlap;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod plan;
+pub mod png_bands;
 pub mod pool;
 pub mod progress;
 pub mod query;
