@@ -188,24 +188,37 @@ const CUDA_DEVICE_NV: egl::Int = 0x323A;
 type PfnQueryDeviceAttribExt =
     unsafe extern "system" fn(*mut c_void, egl::Int, *mut egl::Attrib) -> egl::Boolean;
 
-/// The EGL devices of this machine, in the order `--gpu N` numbers them. An EGL without
-/// device enumeration is an error saying so. Listed once per process: the first listing
-/// starts the drivers (about 100 ms on the H100 machine), and `--backend auto` asks again
-/// where it takes the CPU.
+/// The EGL devices of this machine, in the order `--gpu N` numbers them, with their CUDA
+/// ordinals. An EGL without device enumeration is an error saying so. Listed once per
+/// process.
 pub fn list_devices() -> Result<Vec<EglDevice>> {
     static DEVICES: OnceLock<std::result::Result<Vec<EglDevice>, String>> = OnceLock::new();
-    DEVICES
-        .get_or_init(|| {
-            list_devices_now().map_err(|e| match e {
-                Error::GlUnavailable(m) => m,
-                other => other.to_string(),
-            })
-        })
-        .clone()
-        .map_err(Error::GlUnavailable)
+    cached(&DEVICES, true)
 }
 
-fn list_devices_now() -> Result<Vec<EglDevice>> {
+/// [`list_devices`] without the CUDA ordinals (`cuda` None): asking NVIDIA's driver for
+/// one starts CUDA, 185-190 ms on the H100 machine, which `--backend auto`'s look at the
+/// devices ([`software_only`]) does not need. Listed once per process.
+fn list_devices_without_cuda() -> Result<Vec<EglDevice>> {
+    static DEVICES: OnceLock<std::result::Result<Vec<EglDevice>, String>> = OnceLock::new();
+    cached(&DEVICES, false)
+}
+
+fn cached(
+    cell: &OnceLock<std::result::Result<Vec<EglDevice>, String>>,
+    cuda: bool,
+) -> Result<Vec<EglDevice>> {
+    cell.get_or_init(|| {
+        list_devices_now(cuda).map_err(|e| match e {
+            Error::GlUnavailable(m) => m,
+            other => other.to_string(),
+        })
+    })
+    .clone()
+    .map_err(Error::GlUnavailable)
+}
+
+fn list_devices_now(with_cuda: bool) -> Result<Vec<EglDevice>> {
     let egl = egl_instance()?;
     let client_exts = egl
         .query_string(None, egl::EXTENSIONS)
@@ -223,11 +236,12 @@ fn list_devices_now() -> Result<Vec<EglDevice>> {
         .enumerate()
         .map(|(i, d)| {
             let extensions = device_string(egl, d, egl::EXTENSIONS).unwrap_or_default();
-            let cuda = extensions
-                .split_ascii_whitespace()
-                .any(|e| e == "EGL_NV_device_cuda")
-                .then(|| device_attrib(egl, d, CUDA_DEVICE_NV))
-                .flatten();
+            let cuda = (with_cuda
+                && extensions
+                    .split_ascii_whitespace()
+                    .any(|e| e == "EGL_NV_device_cuda"))
+            .then(|| device_attrib(egl, d, CUDA_DEVICE_NV))
+            .flatten();
             EglDevice {
                 index: i as u32,
                 name: device_name(egl, d),
@@ -245,7 +259,7 @@ fn list_devices_now() -> Result<Vec<EglDevice>> {
 /// without making one (about 40 ms of driver start-up here, in every CPU render). False
 /// when the devices cannot be listed: the context's own renderer string decides then.
 pub fn software_only(device: Option<u32>) -> bool {
-    let Ok(devices) = list_devices() else {
+    let Ok(devices) = list_devices_without_cuda() else {
         return false;
     };
     let software = |d: &EglDevice| {
@@ -611,4 +625,26 @@ fn try_display(
             .find_map(|name| unsafe { libloading::Library::new(name) }.ok());
     }
     Ok(session)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `auto`'s listing without the CUDA ordinals names the same devices, in the same
+    /// order and with the same extensions, as the whole one (`info`, `--gpu env`).
+    #[test]
+    fn the_listing_without_cuda_is_the_whole_one_less_the_ordinals() {
+        let (Ok(whole), Ok(light)) = (list_devices(), list_devices_without_cuda()) else {
+            // Both fail alike where EGL cannot list devices.
+            assert_eq!(list_devices().is_err(), list_devices_without_cuda().is_err());
+            return;
+        };
+        let less = |d: &EglDevice| EglDevice {
+            cuda: None,
+            ..d.clone()
+        };
+        assert_eq!(whole.iter().map(less).collect::<Vec<_>>(), light);
+        assert!(light.iter().all(|d| d.cuda.is_none()));
+    }
 }
