@@ -40,7 +40,6 @@ pub mod clock;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod compare;
 pub mod cpu;
-pub mod detach;
 pub mod error;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod farm;

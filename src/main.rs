@@ -25,20 +25,15 @@ fn main() {
             std::process::exit(2);
         }
     };
-    // A render that may open a GL context answers once its files are written, before the
-    // driver's release at exit (fragtrace::detach).
-    let answer = cli.detaches().then(fragtrace::detach::split).flatten();
-    let code = match fragtrace::cli::run(cli) {
-        Ok(true) => 0,
-        Ok(false) => 1,
+    match fragtrace::cli::run(cli) {
+        Ok(true) => {}
+        Ok(false) => std::process::exit(1),
         Err(e) => {
             eprintln!(
                 "fragtrace: error: {}",
                 fragtrace::cli::one_line(&e.to_string())
             );
-            e.exit_code()
+            std::process::exit(e.exit_code());
         }
-    };
-    fragtrace::detach::finish(answer, code);
-    std::process::exit(code);
+    }
 }

@@ -664,19 +664,6 @@ fn mistyped_subcommand(scene: &Path) -> Option<String> {
         .map(|(_, n)| n.to_owned())
 }
 
-impl Cli {
-    /// Whether the command answers before the process's end ([`crate::detach`]): a render
-    /// that may open a GL context (not `--backend cpu`), unless `FRAGTRACE_DETACH_EXIT=0`.
-    pub fn detaches(&self) -> bool {
-        let args = match &self.command {
-            None => &self.render,
-            Some(Command::Render(args)) => args,
-            Some(_) => return false,
-        };
-        args.choices.backend != crate::options::Backend::Cpu && crate::detach::wanted()
-    }
-}
-
 /// Runs a parsed command line; `Ok(false)` means "ran, but the answer is no" (exit 1).
 pub fn run(cli: Cli) -> Result<bool> {
     crate::clock::mark_start();
