@@ -637,7 +637,10 @@ mod tests {
     fn the_listing_without_cuda_is_the_whole_one_less_the_ordinals() {
         let (Ok(whole), Ok(light)) = (list_devices(), list_devices_without_cuda()) else {
             // Both fail alike where EGL cannot list devices.
-            assert_eq!(list_devices().is_err(), list_devices_without_cuda().is_err());
+            assert_eq!(
+                list_devices().is_err(),
+                list_devices_without_cuda().is_err()
+            );
             return;
         };
         let less = |d: &EglDevice| EglDevice {
