@@ -241,7 +241,8 @@ fn a_large_cold_frame_is_handed_to_compute_part_way_down() {
 /// of 640, `FRAGTRACE_GL_LIMITS=texture=640`), a cold start waits for the compute compile
 /// instead of failing on the fallback (on the H100 the 100-sphere scene's float layout
 /// needs 2.1 G texels): the frame is compute's whole render, not marked a cold start, and
-/// the same bytes as `--kernel compute`'s; `--kernel looped` is refused in one line.
+/// the same bytes as `--kernel compute`'s; `--kernel looped` is refused in one line that
+/// names `--kernel compute`.
 #[test]
 fn a_cold_start_waits_for_compute_where_the_fallback_cannot_hold_the_scene() {
     let d = common::tmpdir("no-fallback");
@@ -301,6 +302,8 @@ fn a_cold_start_waits_for_compute_where_the_fallback_cannot_hold_the_scene() {
         err.contains("texture `cell` needs") && err.contains("is 640"),
         "{err}"
     );
+    // The refusal names the kernel that renders the scene on this context.
+    assert!(err.contains("--kernel compute"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -4,6 +4,7 @@
 //! grid's buffers uploaded from the grid's own words.
 
 use super::*;
+use crate::error::Error;
 use crate::gpu::layout::{DenseBuffer, Fetch, LayoutTarget};
 
 impl GpuScene<'_> {
@@ -45,7 +46,7 @@ impl GpuScene<'_> {
                     SceneTextures::pack_dense(self.scene, g, max_size, normals, block)
                 })?
             }
-            _ => float()?,
+            _ => float().map_err(|e| self.naming_compute(target, e))?,
         };
         let slot = if l.dense().is_some() { DENSE } else { FLOAT };
         if self.either(target) {
@@ -56,6 +57,23 @@ impl GpuScene<'_> {
         }
         self.charge(|c| c.upload_ms += ms_since(t0));
         Ok(self.layouts[slot].get_or_init(|| l))
+    }
+
+    /// A float layout refused for a fragment kernel on a flat scene's irregular grid names
+    /// the compute kernel where the context runs it: it reads that grid through the dense
+    /// layout, which holds scenes the float one does not (the dragon at a texture size of
+    /// 640, the 100-sphere scene on the H100).
+    fn naming_compute(&self, target: LayoutTarget, e: Error) -> Error {
+        match (e, target, self.accel, self.instancing) {
+            (Error::Limit(m), LayoutTarget::Float, GridRef::Irregular(_), None)
+                if self.ctx.info.compute =>
+            {
+                Error::Limit(format!(
+                    "{m}, or --kernel compute (its dense layout of the grid may fit)"
+                ))
+            }
+            (e, ..) => e,
+        }
     }
 
     /// Whether `target` is the compute kernel on a flat scene's irregular grid, which reads
