@@ -26,7 +26,8 @@ fn main() {
         }
     };
     match fragtrace::cli::run(cli) {
-        Ok(true) => {}
+        // A driver still compiling would hold the process at its exit (fragtrace::overlap).
+        Ok(true) => fragtrace::overlap::end_now(0),
         Ok(false) => std::process::exit(1),
         Err(e) => {
             eprintln!(

@@ -123,10 +123,38 @@ where
     }
     let t = std::thread::scope(|s| {
         let writer = s.spawn(|| deliver(&out));
-        drop(ctx);
+        if crate::gpu::scene::compile_left_running() {
+            // The process ends after the write (end_now): the context's release would
+            // wait for the driver's compile.
+            std::mem::forget(ctx);
+        } else {
+            drop(ctx);
+        }
         writer
             .join()
             .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
     })?;
     Ok((out, load_ms, t))
+}
+
+/// Ends the process with `code` at once, without the exit handlers of the libraries it
+/// loaded, where a GPU driver still compiles a program on its own threads
+/// ([`crate::gpu::scene::compile_left_running`]): NVIDIA's exit handlers wait for that
+/// compile (210-260 ms after a cold start on the H100 machine, against 60-70 ms this way;
+/// docs/performance.md). The files are written by then; standard output is flushed first
+/// (standard error is unbuffered). Elsewhere (or off Linux) it returns, and the process
+/// ends as usual.
+pub fn end_now(code: i32) {
+    if !crate::gpu::scene::compile_left_running() {
+        return;
+    }
+    #[cfg(target_os = "linux")]
+    {
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+        // SAFETY: _exit ends the process; nothing after it runs.
+        unsafe { libc::_exit(code) }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = code;
 }

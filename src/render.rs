@@ -126,6 +126,10 @@ pub struct ProcessTimes {
     pub write_ms: f64,
     /// From the process's start to the statistics' write.
     pub total_ms: f64,
+    /// The process ends at once after the statistics' write, without the drivers' exit
+    /// handlers: a driver still compiles one of its programs
+    /// ([`crate::overlap::end_now`]).
+    pub ends_at_once: bool,
 }
 
 /// A finished render.

@@ -310,7 +310,8 @@ fn a_cold_start_waits_for_compute_where_the_fallback_cannot_hold_the_scene() {
 
 /// One frame at a time on a driver slower to compile than the frame takes (polls that
 /// never answer "done" in the first process): the first run ends on the looped kernel with
-/// the compute compile unfinished, and marks it so; the second waits for that compile
+/// the compute compile unfinished, marks it so and ends at once after its files (without
+/// the driver's exit handlers, which would wait for the compile); the second waits for that compile
 /// (compute, compiled, no cold start) and stores it; the third links it from the cache.
 /// Without the mark every run would start the compile anew and end on looped, never
 /// reaching the faster kernel.
@@ -321,9 +322,13 @@ fn a_compile_left_unfinished_is_waited_for_by_the_next_run() {
     let (first, _) = render(&d, &["-o", "1.exr"], &never);
     assert_eq!(first["gpu"]["kernel"], "looped", "{first}");
     assert_eq!(first["gpu"]["cold_start"], true, "{first}");
+    // The compile still running, the process ends at once after its files (its driver's
+    // exit handlers would wait for the compile).
+    assert_eq!(first["process"]["ends_at_once"], true, "{first}");
     let (second, _) = render(&d, &["-o", "2.exr"], &never);
     assert_eq!(second["gpu"]["kernel"], "compute", "{second}");
     assert_eq!(second["gpu"]["cold_start"], false, "{second}");
+    assert_eq!(second["process"]["ends_at_once"], false, "{second}");
     assert!(
         second["gpu"]["programs_compiled"].as_u64().unwrap() >= 1,
         "{second}"

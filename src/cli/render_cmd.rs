@@ -144,6 +144,7 @@ pub fn run_render(args: &RenderArgs) -> Result<Option<render::Rendered>> {
         render_call_ms,
         write_ms,
         total_ms: crate::clock::since_start_ms_f64(),
+        ends_at_once: crate::gpu::scene::compile_left_running(),
     });
     if let Some(path) = &args.stats {
         write_stats(path, &out.stats)?;

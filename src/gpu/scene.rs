@@ -140,11 +140,27 @@ pub struct GpuScene<'s> {
     costs: Cell<Costs>,
 }
 
+/// Set once a scene goes while the driver still compiles one of its programs.
+static COMPILE_LEFT_RUNNING: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
+
+/// Whether a scene of this process went while the driver still compiled one of its
+/// programs on its own threads (a cold start that ended on the looped kernel): NVIDIA's
+/// driver then holds the process at its exit until that compile ends (210-260 ms on the
+/// H100 machine, docs/performance.md), which the command line skips
+/// ([`crate::overlap::end_now`]).
+pub fn compile_left_running() -> bool {
+    COMPILE_LEFT_RUNNING.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// A compute program whose compile the driver had not finished when the scene goes (the
 /// process ends after a cold start's looped frames) is marked in the program-binary cache,
 /// so that the next run waits for it ([`ProgramCache::was_unfinished`]).
 impl Drop for GpuScene<'_> {
     fn drop(&mut self) {
+        if !self.compiling.get_mut().is_empty() {
+            COMPILE_LEFT_RUNNING.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
         if let Some(cache) = &self.cache {
             for c in self.compiling.get_mut().values() {
                 cache.mark_unfinished(c.source);
