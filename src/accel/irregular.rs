@@ -1,12 +1,14 @@
 //! Irregular grid after Perard-Gayot, Kalojanov and Slusallek ("GPU Ray Tracing using
 //! Irregular Grids", Eurographics 2017): a uniform top grid whose cells are subdivided
 //! adaptively (an octree-like voxel map below each top cell, to a common virtual
-//! resolution), every empty leaf cell then given an *exit box* grown over its empty
-//! neighbours.
+//! resolution), every leaf cell then given an *exit box* grown over the neighbours that
+//! hold no triangle but its own (none, for an empty cell).
 //! A ray walks it one cell at a time: it leaves the current cell through the exit box, the
 //! cell holding the exit point is looked up in the voxel map, and so on. Empty space costs
 //! one step per exit box, however many cells it spans, so a mesh on a huge floor costs
-//! about what the mesh alone costs (the case a uniform or a two-level grid cannot fit).
+//! about what the mesh alone costs (the case a uniform or a two-level grid cannot fit);
+//! and a large triangle costs one step where its cells' own boxes would cost one per cell
+//! (a ray grazing a floor).
 //!
 //! Why this and not the two-level grid of Kalojanov et al. 2011 (removed, recoverable with
 //! `git show 5d36e05:src/accel/two_level.rs`): both were built and measured here
@@ -41,16 +43,16 @@
 //! - `vmap[0 .. top cells]`: one entry per top cell, x fastest; then the child blocks, in
 //!   depth-first order. An entry is a cell id, or [`NODE`] plus the index of the node's child
 //!   block (in GLSL: `id >= 0`, or `-(block + 1)`).
-//! - `cells[id]`: the cell's own box `lo .. hi` and its exit box `exit_lo .. exit_hi` (the
-//!   own box for a cell with triangles)
+//! - `cells[id]`: the cell's own box `lo .. hi` and its exit box `exit_lo .. exit_hi`
 //!   (virtual coordinates, upper bound exclusive) and its range of `tri_indices`, cells in
 //!   depth-first order. Empty top cells and empty voxel-map leaves are cells too.
 //! - `tri_indices`: triangles, cell after cell, ascending within each cell.
 //!
 //! Binning is exact ([`super::tribox::tri_box_overlap`]) against boxes grown as [`Grid`](super::Grid)
 //! grows them (`binning::Frame`), node after node, so a triangle on a cell face is in the cells on
-//! both sides. An exit box grows only over cells whose padded boxes no triangle touches, so
-//! any hit inside the exit box is a hit on one of the cell's own triangles.
+//! both sides. An exit box grows only over cells whose padded boxes no triangle but the
+//! cell's own touches, so any hit inside the exit box is a hit on one of the cell's own
+//! triangles, which a ray in the cell tests.
 //!
 //! The build is parallel (triangles for the top level, top cells for the voxel map, cells
 //! for the expansion) and deterministic: every parallel result is collected in index order,
@@ -112,7 +114,8 @@ pub struct IrrCell {
     pub lo: [u32; 3],
     /// Upper corner (exclusive) of the cell's own box.
     pub hi: [u32; 3],
-    /// Lower corner of the exit box: the own box grown over empty neighbours.
+    /// Lower corner of the exit box: the own box grown over neighbours that hold no
+    /// triangle but the cell's own.
     pub exit_lo: [u32; 3],
     /// Upper corner (exclusive) of the exit box.
     pub exit_hi: [u32; 3],

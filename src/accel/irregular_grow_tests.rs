@@ -1,12 +1,15 @@
-//! Tests of the exit-box growth's occupancy tables (`accel/irregular_grow.rs`): the
-//! summed-volume table against a brute-force count, the node records (children's kinds,
-//! first child node, tight box) against the map and built tree by tree in
-//! parallel against the serial pass; the emptiness query against brute force; the recent
-//! exit boxes changing no growth. The growth itself is checked by the build's tests
-//! (`irregular_tests.rs`: no exit box holds a foreign triangle) and the fingerprints of
+//! Tests of the exit-box growth and its occupancy tables (`accel/irregular_grow.rs`,
+//! `accel/irregular_occupancy.rs`): the summed-volume table against a brute-force count,
+//! the node records (children's kinds, first child node, tight box) against the map and
+//! built tree by tree in parallel against the serial pass; the emptiness and subset queries
+//! against brute force; the recent exit boxes changing no growth. The growth itself is
+//! checked by the build's tests (`irregular_tests.rs`: no exit box holds a foreign
+//! triangle, none overlaps a cell holding another triangle) and the fingerprints of
 //! `tests/irregular_build.rs`.
 
 use super::*;
+use crate::accel::irregular::NODE;
+use crate::accel::irregular_occupancy::{Occupancy, EMPTY, FULL};
 use crate::accel::IrregularConfig;
 use crate::testing::{corner_clusters, scene_of, soup, test_seed, with_threads, Rng};
 
@@ -384,10 +387,21 @@ fn recent_exit_boxes_change_no_growth() {
             ..Recent::new(&occ)
         };
         let mut last: Option<([u32; 3], [u32; 3])> = None;
-        for c in g.cells.iter().filter(|c| c.range.count == 0) {
-            let want = grow(&g, &occ, c, &off);
+        let ranges: Vec<CellRange> = g.cells.iter().map(|c| c.range).collect();
+        for (id, c) in g.cells.iter().enumerate() {
+            if c.range.count > 0 {
+                // Cells with triangles grow by the subset query, which the walls answer too.
+                let rule = Rule::Within {
+                    ranges: &ranges,
+                    own: g.cell_triangles(id as u32),
+                };
+                let want = grow(&g, &occ, c, &off, rule);
+                assert_eq!(grow(&g, &occ, c, &recent, rule), want, "{ctx}: cell {id}");
+                continue;
+            }
+            let want = grow(&g, &occ, c, &off, Rule::Empty);
             assert_eq!(
-                grow(&g, &occ, c, &recent),
+                grow(&g, &occ, c, &recent, Rule::Empty),
                 want,
                 "{ctx}: cell {:?}..{:?}",
                 c.lo,
@@ -411,4 +425,75 @@ fn recent_exit_boxes_change_no_growth() {
         inside > 100,
         "seed {seed}: {inside} first slabs inside the exit box before"
     );
+}
+
+/// The subset query ([`IrregularGrid::box_within_with`], and from a cell's ancestors as the
+/// growth asks it) against brute force on random soups and sparse scenes: a box is within a
+/// cell's list exactly when every cell it overlaps holds only triangles of that list. The
+/// boxes start inside a cell with triangles (whose list is the one asked about) and reach
+/// from one cell to a few top cells; both answers must occur often.
+#[test]
+fn box_within_agrees_with_brute_force() {
+    let seed = test_seed("irregular box within", 0x1_77E6_0006);
+    let mut rng = Rng::new(seed);
+    let overlaps = |alo: [u32; 3], ahi: [u32; 3], blo: [u32; 3], bhi: [u32; 3]| {
+        (0..3).all(|a| alo[a] < bhi[a] && blo[a] < ahi[a])
+    };
+    let (mut yes, mut no) = (0, 0);
+    for round in 0..4 {
+        let tris = if round % 2 == 0 {
+            soup(&mut rng, 200)
+        } else {
+            corner_clusters(&mut rng, 120, 12, 0.04)
+        };
+        let s = scene_of(&tris);
+        let cfg = IrregularConfig {
+            top_density: [0.125, 1.0][round / 2],
+            leaf_max: 2,
+        };
+        let g = IrregularGrid::build(&s, &cfg).unwrap();
+        let ctx = format!("seed {seed} round {round}: {}", g.stats);
+        let occ = Occupancy::new(&g);
+        let ranges: Vec<CellRange> = g.cells.iter().map(|c| c.range).collect();
+        let filled: Vec<u32> = (0..g.cells.len() as u32)
+            .filter(|&id| g.cells[id as usize].range.count > 0)
+            .collect();
+        for _ in 0..1500 {
+            let id = filled[(rng.f64() * filled.len() as f64) as usize % filled.len()];
+            let c = &g.cells[id as usize];
+            let own = g.cell_triangles(id);
+            let mut lo = [0u32; 3];
+            let mut hi = [0u32; 3];
+            for a in 0..3 {
+                let span = 1 + (rng.f64() * rng.f64() * (2 << g.shift[a]) as f64) as u32;
+                lo[a] = (c.lo[a] + (rng.f64() * (c.hi[a] - c.lo[a]) as f64) as u32)
+                    .saturating_sub(span / 2)
+                    .min(g.res[a] - 1);
+                hi[a] = (lo[a] + span).min(g.res[a]);
+            }
+            let want = g.cells.iter().enumerate().all(|(k, o)| {
+                !overlaps(o.lo, o.hi, lo, hi)
+                    || g.cell_triangles(k as u32)
+                        .iter()
+                        .all(|t| own.binary_search(t).is_ok())
+            });
+            assert_eq!(
+                g.box_within_with(&occ, &ranges, lo, hi, own),
+                want,
+                "{ctx}: cell {id}, box {lo:?}..{hi:?}"
+            );
+            assert_eq!(
+                Ancestors::of(&g, &occ, c).box_within(&g, &occ, &ranges, lo, hi, own),
+                want,
+                "{ctx}: cell {id}, box {lo:?}..{hi:?} from its ancestors"
+            );
+            if want {
+                yes += 1;
+            } else {
+                no += 1;
+            }
+        }
+    }
+    eprintln!("box_within: {yes} within, {no} not");
+    assert!(yes > 500 && no > 500, "seed {seed}: {yes} within, {no} not");
 }

@@ -16,6 +16,7 @@ pub mod instances;
 pub mod irregular;
 mod irregular_build;
 mod irregular_grow;
+mod irregular_occupancy;
 pub mod irregular_wide;
 pub mod tribox;
 

@@ -192,6 +192,65 @@ fn stadium_costs_about_what_a_fitting_floor_costs() {
     );
 }
 
+/// Cells with triangles grow over cells holding none but theirs (`Rule::Within` of
+/// `accel/irregular_grow.rs`): a ray grazing a floor larger than the mesh on it crosses the
+/// floor's cells in few steps. Rays from just above the floor of the 3x stadium to points
+/// on it far off, through the grid as built and through the same grid with every cell with
+/// triangles cut back to its own box (the structure before this growth, also sound): the
+/// same hits as brute force in both, and far fewer cells and tests per ray as built.
+#[test]
+fn grazing_rays_cross_a_floor_in_few_cells() {
+    let seed = test_seed("irregular grazing floor", 0x1_77E6_0104);
+    let mut rng = Rng::new(seed);
+    let s = scene_of(&stadium(3.0));
+    let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
+    let mut own_boxes = g.clone();
+    for c in own_boxes.cells.iter_mut().filter(|c| c.range.count > 0) {
+        (c.exit_lo, c.exit_hi) = (c.lo, c.hi);
+    }
+    let grown = own_boxes
+        .cells
+        .iter()
+        .zip(&g.cells)
+        .filter(|(a, b)| a != b)
+        .count();
+    let rays: Vec<(DVec3, DVec3, f64)> = (0..2000)
+        .map(|_| {
+            let o = DVec3::new(rng.range(-2.5, 2.5), -0.95, rng.range(2.0, 2.9));
+            let target = DVec3::new(rng.range(-2.9, 2.9), -1.0, rng.range(-2.9, -2.0));
+            (o, target - o, 1.0e30)
+        })
+        .collect();
+    let cost = |g: &IrregularGrid| {
+        let ctx = format!("seed {seed}: grazing rays");
+        assert!(check_both(&s, g, &rays, &ctx) > 1500, "{ctx}: few hits");
+        let w = IrregularWalker::<f32>::new(&s, g, Techniques::default());
+        let mut work = Work::default();
+        for &(o, d, t) in &rays {
+            let ray = Ray {
+                o: V3::from_dvec3(o),
+                d: V3::from_dvec3(d),
+                t_min: 0.0,
+                t_max: t as f32,
+            };
+            w.closest_hit(&ray, &mut work);
+        }
+        let n = rays.len() as f64;
+        (work.tests as f64 / n, work.cells as f64 / n)
+    };
+    let (as_built, cut_back) = (cost(&g), cost(&own_boxes));
+    println!(
+        "seed {seed}: {grown} cells with triangles grown; (tests, cells) per grazing ray \
+         {as_built:?} as built, {cut_back:?} in own boxes"
+    );
+    // Measured (seeds 1-4 and 6306529540): 21.2-22.0 tests and 9.96-10.19 cells as built,
+    // 37.1-38.2 and 23.1-23.6 in own boxes (ratios 1.72-1.75 and 2.29-2.32).
+    assert!(
+        as_built.1 * 2.0 <= cut_back.1 && as_built.0 * 1.5 <= cut_back.0,
+        "seed {seed}: {as_built:?} as built against {cut_back:?}"
+    );
+}
+
 #[test]
 fn rays_through_corners_faces_and_shared_edges() {
     let seed = test_seed("irregular boundaries", 0x1_77E6_0104);
