@@ -92,6 +92,12 @@ impl PackedTexture {
         let up = n.to_ascii_uppercase();
         let (mask, shift) = (self.width - 1, self.width.trailing_zeros());
         let body = match (format, fetch) {
+            // The record's index in integers: one conversion of `item` for the record's
+            // texels where the float sum took one per texel (the same index below 2^24;
+            // 1% off the H100's equal-work kernel, docs/performance.md).
+            (IndexFormat::Float, Fetch::Storage) => {
+                format!("    return buf_{n}[int(item) * int(per) + int(k)];\n")
+            }
             (IndexFormat::Float, _) => format!("    return fetch_{n}(item * per + k);\n"),
             (IndexFormat::Split, Fetch::Texture2D) if self.slots => format!(
                 "    vec2 p = slot_coord(item, per, k, {up}_W, {up}_INV_W);\n\
