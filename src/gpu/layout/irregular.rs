@@ -139,9 +139,17 @@ impl IrregularLayout {
              // Cell id of virtual cell k: the top entry, then one child block per hop of\n\
              // levels while the entry is a node (CPU twins: WideMap::lookup and\n\
              // IrregularGrid::lookup, the same cell). Every product is an integer times a power of two and\n\
-             // every mod by a power of two of an integer, so exact.\n\
-             float irr_lookup(vec3 k) {\n",
+             // every mod by a power of two of an integer, so exact.\n",
         );
+        let float_format = self.format == IndexFormat::Float;
+        if float_format {
+            // The compute kernels (GLSL 4.30) descend in integers, as the dense layout does:
+            // the same cell (every step exact either way), 3% off the H100's equal-work
+            // kernel against the float descent (docs/performance.md).
+            s += &self.glsl_lookup_uint();
+            s += "#else\n";
+        }
+        s += "float irr_lookup(vec3 k) {\n";
         s += &format!(
             "    vec3 t = floor(k * {});\n    float e = vmap_entry(t.x + {:.1} * (t.y + {:.1} * t.z));\n",
             v3(self.shift.map(pow2_literal)),
@@ -172,9 +180,48 @@ impl IrregularLayout {
             };
         }
         s += "    return e;\n}\n";
+        if float_format {
+            s += "#endif\n";
+        }
         if self.skew_faces {
             s += "#define SKEW_FACES 1\n";
         }
+        s
+    }
+
+    /// `#ifdef KERNEL_COMPUTE` and the float layout's `irr_lookup` in integers: the virtual
+    /// cell as a `uvec3`, each hop's child by shifts and masks, the block's start from the
+    /// entry (`-e - 1`, exact), each entry read by `entry_vmap_u`.
+    fn glsl_lookup_uint(&self) -> String {
+        let mut s = format!(
+            "#ifdef KERNEL_COMPUTE\n\
+             float irr_lookup(vec3 k) {{\n\
+             \x20   uvec3 c = uvec3(k);\n\
+             \x20   uvec3 t = c >> uvec3({}u, {}u, {}u);\n\
+             \x20   float e = entry_vmap_u(t.x + {}u * (t.y + {}u * t.z));\n",
+            self.shift[0], self.shift[1], self.shift[2], self.top_res[0], self.top_res[1]
+        );
+        let mut rem = self.shift;
+        for n in &self.hops {
+            for a in 0..3 {
+                rem[a] -= n[a];
+            }
+            s += &format!(
+                "    if (e < 0.0) {{\n\
+                 \x20       uvec3 q = (c >> uvec3({}u, {}u, {}u)) & uvec3({}u, {}u, {}u);\n\
+                 \x20       e = entry_vmap_u(uint(-e - 1.0) + q.x + (q.y << {}u) + (q.z << {}u));\n\
+                 \x20   }}\n",
+                rem[0],
+                rem[1],
+                rem[2],
+                (1u32 << n[0]) - 1,
+                (1u32 << n[1]) - 1,
+                (1u32 << n[2]) - 1,
+                n[0],
+                n[0] + n[1],
+            );
+        }
+        s += "    return e;\n}\n";
         s
     }
 }

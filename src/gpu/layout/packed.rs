@@ -176,21 +176,32 @@ impl PackedTexture {
     fn entry_glsl(&self, fetch: Fetch, binding: u32) -> String {
         let n = self.name;
         match fetch {
+            // The compute kernels' fetches (GLSL 4.30) also take the index as a `uint`
+            // (`entry_<name>_u`), for the integer descent of the voxel map.
             Fetch::Storage => format!(
                 "layout(std430, binding = {binding}) readonly buffer Entries_{n} {{ float entries_{n}[]; }};\n\
                  float entry_{n}(float i) {{\n\
                  \x20   return entries_{n}[int(i)];\n\
+                 }}\n\
+                 float entry_{n}_u(uint i) {{\n\
+                 \x20   return entries_{n}[i];\n\
                  }}\n",
             ),
-            Fetch::Texture2D | Fetch::TexelFetch => format!(
-                "float entry_{n}(float i) {{\n\
-                 \x20   float texel = floor(i * {inv:?});\n\
-                 \x20   vec4 sel = vec4(equal(vec4(i - texel * {per:.1}), vec4(0.0, 1.0, 2.0, 3.0)));\n\
-                 \x20   return dot(fetch_{n}(texel), sel);\n\
-                 }}\n",
-                inv = 1.0 / LIST_PER_TEXEL as f32,
-                per = LIST_PER_TEXEL as f32,
-            ),
+            Fetch::Texture2D | Fetch::TexelFetch => {
+                let mut s = format!(
+                    "float entry_{n}(float i) {{\n\
+                     \x20   float texel = floor(i * {inv:?});\n\
+                     \x20   vec4 sel = vec4(equal(vec4(i - texel * {per:.1}), vec4(0.0, 1.0, 2.0, 3.0)));\n\
+                     \x20   return dot(fetch_{n}(texel), sel);\n\
+                     }}\n",
+                    inv = 1.0 / LIST_PER_TEXEL as f32,
+                    per = LIST_PER_TEXEL as f32,
+                );
+                if matches!(fetch, Fetch::TexelFetch) {
+                    s += &format!("float entry_{n}_u(uint i) {{\n\x20   return entry_{n}(float(i));\n}}\n");
+                }
+                s
+            }
         }
     }
 
