@@ -190,7 +190,7 @@ impl Ancestors {
             if n.kids & (1 << i) == 0 {
                 return anc;
             }
-            num = n.first + (n.kids & ((1u8 << i) - 1)).count_ones();
+            num = n.child_node(i);
         }
     }
 

@@ -179,19 +179,7 @@ impl Within<'_> {
     pub(super) fn node(&self, num: u32, node_lo: [u32; 3], level: usize) -> bool {
         let (occ, lo, hi) = (self.occ, self.lo, self.hi);
         let lv = &occ.level[level];
-        let crem = lv.crem;
-        let mut overlap = u8::MAX;
-        for a in 0..3 {
-            if lv.low[a] != 0 {
-                let mid = node_lo[a] + (1 << crem[a]);
-                if lo[a] >= mid {
-                    overlap &= !lv.low[a];
-                }
-                if hi[a] <= mid {
-                    overlap &= lv.low[a];
-                }
-            }
-        }
+        let overlap = lv.overlap(node_lo, lo, hi);
         let n = &occ.nodes[num as usize];
         let mut full = overlap & n.full;
         while full != 0 {
@@ -205,11 +193,11 @@ impl Within<'_> {
         while kids != 0 {
             let i = kids.trailing_zeros();
             kids &= kids - 1;
-            let child = n.first + (n.kids & ((1u8 << i) - 1)).count_ones();
+            let child = n.child_node(i);
             if matches!(occ.tight_relation(child, lo, hi), Tight::Apart) {
                 continue;
             }
-            let clo = axes(|a| node_lo[a] + (((i & lv.bit[a] != 0) as u32) << crem[a]));
+            let clo = lv.child_lo(node_lo, i);
             if !self.node(child, clo, level + 1) {
                 return false;
             }
@@ -239,22 +227,7 @@ impl Query<'_> {
         if (0..3).all(|a| lo[a] <= node_lo[a] && node_lo[a] + (1 << lv.rem[a]) <= hi[a]) {
             return false;
         }
-        let crem = lv.crem;
-        // The children the box overlaps as a bit set: on a split axis the low ones when
-        // the box starts below the middle, the high ones when it ends above it (the box
-        // overlaps this node, so at least one of them).
-        let mut overlap = u8::MAX;
-        for a in 0..3 {
-            if lv.low[a] != 0 {
-                let mid = node_lo[a] + (1 << crem[a]);
-                if lo[a] >= mid {
-                    overlap &= !lv.low[a];
-                }
-                if hi[a] <= mid {
-                    overlap &= lv.low[a];
-                }
-            }
-        }
+        let overlap = lv.overlap(node_lo, lo, hi);
         let n = &occ.nodes[num as usize];
         // A cell with triangles among them answers at once; empty cells are skipped; a
         // node is skipped when the box misses its tight box, answers when the box holds
@@ -266,14 +239,13 @@ impl Query<'_> {
         while kids != 0 {
             let i = kids.trailing_zeros();
             kids &= kids - 1;
-            // Children that are nodes are numbered one after the other in block order.
-            let child = n.first + (n.kids & ((1u8 << i) - 1)).count_ones();
+            let child = n.child_node(i);
             match occ.tight_relation(child, lo, hi) {
                 Tight::Apart => continue,
                 Tight::Inside => return false,
                 Tight::Cut => {}
             }
-            let clo = axes(|a| node_lo[a] + (((i & lv.bit[a] != 0) as u32) << crem[a]));
+            let clo = lv.child_lo(node_lo, i);
             if !self.node_is_empty(child, clo, level + 1) {
                 return false;
             }
@@ -325,6 +297,33 @@ impl Level {
             .collect()
     }
 
+    /// The children of a node at this level (from `node_lo`) that the box `lo .. hi`
+    /// overlaps, as a bit set: on a split axis the low ones when the box starts below the
+    /// middle, the high ones when it ends above it (a box overlapping the node overlaps at
+    /// least one of them).
+    #[inline]
+    pub(super) fn overlap(&self, node_lo: [u32; 3], lo: [u32; 3], hi: [u32; 3]) -> u8 {
+        let mut overlap = u8::MAX;
+        for a in 0..3 {
+            if self.low[a] != 0 {
+                let mid = node_lo[a] + (1 << self.crem[a]);
+                if lo[a] >= mid {
+                    overlap &= !self.low[a];
+                }
+                if hi[a] <= mid {
+                    overlap &= self.low[a];
+                }
+            }
+        }
+        overlap
+    }
+
+    /// The lower corner of child `i` of a node at this level from `node_lo`.
+    #[inline]
+    pub(super) fn child_lo(&self, node_lo: [u32; 3], i: u32) -> [u32; 3] {
+        axes(|a| node_lo[a] + (((i & self.bit[a] != 0) as u32) << self.crem[a]))
+    }
+
     /// The number of the child of a node at this level holding virtual cell `p`.
     #[inline]
     pub(super) fn child_of(&self, p: [u32; 3]) -> u32 {
@@ -373,6 +372,15 @@ pub(super) struct NodeRec {
     /// Whether a cell with triangles lies below (a node's triangles may all only touch its
     /// padding, which its children's smaller padding leaves out).
     pub(super) holds_full: bool,
+}
+
+impl NodeRec {
+    /// The number of child `i`, a node (children that are nodes are numbered one after
+    /// the other in block order).
+    #[inline]
+    pub(super) fn child_node(&self, i: u32) -> u32 {
+        self.first + (self.kids & ((1u8 << i) - 1)).count_ones()
+    }
 }
 
 /// Summed-volume table of the top cells that are not empty (a node, or a cell with

@@ -147,6 +147,23 @@ fn mesh_in_a_stadium() {
     assert!(hits > 500, "seed {seed}: only {hits} hits");
 }
 
+/// Triangle tests and cells per closest-hit query of `rays` (f32 walk).
+fn work_per_ray(s: &Scene, g: &IrregularGrid, rays: &[(DVec3, DVec3, f64)]) -> (f64, f64) {
+    let w = IrregularWalker::<f32>::new(s, g, Techniques::default());
+    let mut work = Work::default();
+    for &(o, d, t) in rays {
+        let ray = Ray {
+            o: V3::from_dvec3(o),
+            d: V3::from_dvec3(d),
+            t_min: 0.0,
+            t_max: t as f32,
+        };
+        w.closest_hit(&ray, &mut work);
+    }
+    let n = rays.len() as f64;
+    (work.tests as f64 / n, work.cells as f64 / n)
+}
+
 #[test]
 fn stadium_costs_about_what_a_fitting_floor_costs() {
     // The point of the structure: tests and cells per ray from a camera looking at the
@@ -164,19 +181,7 @@ fn stadium_costs_about_what_a_fitting_floor_costs() {
     let cost = |tris: &[[Vec3; 3]]| {
         let s = scene_of(tris);
         let g = IrregularGrid::build(&s, &IrregularConfig::default()).unwrap();
-        let w = IrregularWalker::<f32>::new(&s, &g, Techniques::default());
-        let mut work = Work::default();
-        for &(o, d, t) in &rays {
-            let ray = Ray {
-                o: V3::from_dvec3(o),
-                d: V3::from_dvec3(d),
-                t_min: 0.0,
-                t_max: t as f32,
-            };
-            w.closest_hit(&ray, &mut work);
-        }
-        let n = rays.len() as f64;
-        (work.tests as f64 / n, work.cells as f64 / n)
+        work_per_ray(&s, &g, &rays)
     };
     let fitting = cost(&stadium(3.0));
     let huge = cost(&stadium(1000.0));
@@ -224,19 +229,7 @@ fn grazing_rays_cross_a_floor_in_few_cells() {
     let cost = |g: &IrregularGrid| {
         let ctx = format!("seed {seed}: grazing rays");
         assert!(check_both(&s, g, &rays, &ctx) > 1500, "{ctx}: few hits");
-        let w = IrregularWalker::<f32>::new(&s, g, Techniques::default());
-        let mut work = Work::default();
-        for &(o, d, t) in &rays {
-            let ray = Ray {
-                o: V3::from_dvec3(o),
-                d: V3::from_dvec3(d),
-                t_min: 0.0,
-                t_max: t as f32,
-            };
-            w.closest_hit(&ray, &mut work);
-        }
-        let n = rays.len() as f64;
-        (work.tests as f64 / n, work.cells as f64 / n)
+        work_per_ray(&s, g, &rays)
     };
     let (as_built, cut_back) = (cost(&g), cost(&own_boxes));
     println!(

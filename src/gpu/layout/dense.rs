@@ -21,6 +21,7 @@
 
 use std::borrow::Cow;
 
+use super::irregular::uint_hop_child;
 use super::packed::prev_pow2;
 use super::{MAX_EXACT_INDEX, MAX_ROW};
 use crate::accel::irregular::NODE;
@@ -249,19 +250,12 @@ impl DenseIrregular {
             for a in 0..3 {
                 rem[a] -= n[a];
             }
+            let (q, child) = uint_hop_child(rem, *n);
             s += &format!(
                 "    if (e >= {NODE}u) {{\n\
-                 \x20       uvec3 q = (c >> uvec3({}u, {}u, {}u)) & uvec3({}u, {}u, {}u);\n\
-                 \x20       e = dense_vmap[e - {NODE}u + q.x + (q.y << {}u) + (q.z << {}u)];\n\
-                 \x20   }}\n",
-                rem[0],
-                rem[1],
-                rem[2],
-                (1u32 << n[0]) - 1,
-                (1u32 << n[1]) - 1,
-                (1u32 << n[2]) - 1,
-                n[0],
-                n[0] + n[1],
+                 \x20       {q}\n\
+                 \x20       e = dense_vmap[e - {NODE}u + {child}];\n\
+                 \x20   }}\n"
             );
         }
         s += "    return e;\n}\n";

@@ -206,24 +206,32 @@ impl IrregularLayout {
             for a in 0..3 {
                 rem[a] -= n[a];
             }
+            let (q, child) = uint_hop_child(rem, *n);
             s += &format!(
                 "    if (e < 0.0) {{\n\
-                 \x20       uvec3 q = (c >> uvec3({}u, {}u, {}u)) & uvec3({}u, {}u, {}u);\n\
-                 \x20       e = entry_vmap_u(uint(-e - 1.0) + q.x + (q.y << {}u) + (q.z << {}u));\n\
-                 \x20   }}\n",
-                rem[0],
-                rem[1],
-                rem[2],
-                (1u32 << n[0]) - 1,
-                (1u32 << n[1]) - 1,
-                (1u32 << n[2]) - 1,
-                n[0],
-                n[0] + n[1],
+                 \x20       {q}\n\
+                 \x20       e = entry_vmap_u(uint(-e - 1.0) + {child});\n\
+                 \x20   }}\n"
             );
         }
         s += "    return e;\n}\n";
         s
     }
+}
+
+/// One hop of an integer voxel-map descent (GLSL 4.30; the float layout's in the compute
+/// kernels, the dense layout's): the declaration of `q`, the virtual cell `c`'s child
+/// coordinates in the hop's block (`rem` splits left below the hop, `n` in it), and the
+/// child's offset in the block from `q`.
+pub(super) fn uint_hop_child(rem: [u32; 3], n: [u32; 3]) -> (String, String) {
+    let m = n.map(|b| (1u32 << b) - 1);
+    (
+        format!(
+            "uvec3 q = (c >> uvec3({}u, {}u, {}u)) & uvec3({}u, {}u, {}u);",
+            rem[0], rem[1], rem[2], m[0], m[1], m[2]
+        ),
+        format!("q.x + (q.y << {}u) + (q.z << {}u)", n[0], n[0] + n[1]),
+    )
 }
 
 /// Environment variable that fixes the hop width of the GPU's voxel map (1 to
