@@ -356,6 +356,22 @@ fn box_is_empty_agrees_with_brute_force() {
     );
 }
 
+/// Round `round` (0 to 3) of the grids the growth's queries are tested on: a random soup
+/// of `n` triangles, then two sparse corner clusters with a few lone triangles, at top
+/// density 0.125 and then 1.0, split down to two triangles a cell (deep voxel maps).
+fn query_scene(rng: &mut Rng, round: usize, n: usize) -> IrregularGrid {
+    let tris = if round.is_multiple_of(2) {
+        soup(rng, n)
+    } else {
+        corner_clusters(rng, 120, 12, 0.04)
+    };
+    let cfg = IrregularConfig {
+        top_density: [0.125, 1.0][round / 2],
+        leaf_max: 2,
+    };
+    IrregularGrid::build(&scene_of(&tris), &cfg).unwrap()
+}
+
 /// The exit boxes of the cells grown just before ([`Recent`]) and the faces' walls (a
 /// failed slab's reach) change no growth: every empty cell of random soups and sparse
 /// scenes, grown in map order with them and with them off, gets the same exit box; and the
@@ -368,17 +384,7 @@ fn recent_exit_boxes_change_no_growth() {
     let mut rng = Rng::new(seed);
     let mut inside = 0;
     for round in 0..4 {
-        let tris = if round % 2 == 0 {
-            soup(&mut rng, 300)
-        } else {
-            corner_clusters(&mut rng, 120, 12, 0.04)
-        };
-        let s = scene_of(&tris);
-        let cfg = IrregularConfig {
-            top_density: [0.125, 1.0][round / 2],
-            leaf_max: 2,
-        };
-        let g = IrregularGrid::build(&s, &cfg).unwrap();
+        let g = query_scene(&mut rng, round, 300);
         let ctx = format!("seed {seed} round {round}: {}", g.stats);
         let occ = Occupancy::new(&g);
         let mut recent = Recent::new(&occ);
@@ -441,17 +447,7 @@ fn box_within_agrees_with_brute_force() {
     };
     let (mut yes, mut no) = (0, 0);
     for round in 0..4 {
-        let tris = if round % 2 == 0 {
-            soup(&mut rng, 200)
-        } else {
-            corner_clusters(&mut rng, 120, 12, 0.04)
-        };
-        let s = scene_of(&tris);
-        let cfg = IrregularConfig {
-            top_density: [0.125, 1.0][round / 2],
-            leaf_max: 2,
-        };
-        let g = IrregularGrid::build(&s, &cfg).unwrap();
+        let g = query_scene(&mut rng, round, 200);
         let ctx = format!("seed {seed} round {round}: {}", g.stats);
         let occ = Occupancy::new(&g);
         let ranges: Vec<CellRange> = g.cells.iter().map(|c| c.range).collect();

@@ -147,29 +147,18 @@ pub(super) struct Within<'a> {
 
 impl Within<'_> {
     /// Whether cell `id`'s triangles are all in `own` (both lists ascending).
-    pub(super) fn cell(&self, id: u32) -> bool {
-        Within::list_within(self.g, self.ranges, id, self.own)
-    }
-
-    /// Whether cell `id`'s triangles (through `ranges`) are all in `own` (both lists
-    /// ascending).
-    pub(super) fn list_within(
-        g: &IrregularGrid,
-        ranges: &[CellRange],
-        id: u32,
-        own: &[u32],
-    ) -> bool {
-        let r = ranges[id as usize];
-        if r.count as usize > own.len() {
+    fn cell(&self, id: u32) -> bool {
+        let r = self.ranges[id as usize];
+        if r.count as usize > self.own.len() {
             return false;
         }
-        let list = &g.tri_indices[r.offset as usize..(r.offset + r.count) as usize];
+        let list = &self.g.tri_indices[r.offset as usize..(r.offset + r.count) as usize];
         let mut k = 0;
         list.iter().all(|&t| {
-            while k < own.len() && own[k] < t {
+            while k < self.own.len() && self.own[k] < t {
                 k += 1;
             }
-            k < own.len() && own[k] == t
+            k < self.own.len() && self.own[k] == t
         })
     }
 
