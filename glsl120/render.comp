@@ -16,6 +16,7 @@
 //         order (with INSTANCED the id's bits in its tri channel); the render's 64-bit
 //         counter sums (rays by kind, cells entered, triangle
 //         tests, rays cut off by MAX_ITERATIONS, primary-ray steps, non-finite pixels).
+#include "camera.glsl"
 #include "intersect.glsl"
 #include "traverse.glsl"
 #include "step.glsl"
@@ -37,7 +38,7 @@ shared uint g_count[COUNTERS];
 
 // The primary direction through image position (px, py) (camera rows from the top):
 // Camera::direction_at in f64, operation for operation (precise: no fused multiply-adds),
-// rounded to f32.
+// rounded to f32 (unit_f32, camera.glsl: the same bits by a faster route).
 vec3 primary_dir(double px, double py) {
     dvec3 f = dvec3(cam[CAM_F], cam[CAM_F + 1], cam[CAM_F + 2]);
     dvec3 r = dvec3(cam[CAM_R], cam[CAM_R + 1], cam[CAM_R + 2]);
@@ -47,8 +48,7 @@ vec3 primary_dir(double px, double py) {
     precise double b = (1.0LF - 2.0LF * py / cam[CAM_H]) * s;
     precise dvec3 v = f + a * r + b * u;
     precise double len2 = v.x * v.x + v.y * v.y + v.z * v.z;
-    precise double inv = 1.0LF / sqrt(len2);
-    return vec3(v * inv);
+    return unit_f32(v, len2);
 }
 
 // One pending node of the ray tree: its ray and its weight.

@@ -47,6 +47,7 @@ const SOURCES: &[(&str, &str)] = glsl_sources![
     "accum_ambient.frag",
     "count.frag",
     "compute.glsl",
+    "camera.glsl",
     "instance.glsl",
     "instance_walk.glsl",
     "render.comp",
@@ -61,6 +62,7 @@ const INCLUDABLE: &[&str] = &[
     "shade.glsl",
     "step.glsl",
     "compute.glsl",
+    "camera.glsl",
     "instance.glsl",
     "instance_walk.glsl",
 ];

@@ -2,7 +2,8 @@
 //! f = normalize(look_at - eye), r = normalize(f x up), u = r x f, s = tan(vfov/2),
 //! dir(i, j) = normalize(f + (2(i+0.5)/W - 1)·s·(W/H)·r + (1 - 2(j+0.5)/H)·s·u), j = 0 at the
 //! top. Every backend takes its primary directions from [`Camera::direction_at`] in f64 (the
-//! GPU as a texture the host fills), so GL and the f32 CPU trace the same rays bit for bit.
+//! GPU as a texture the host fills; the compute kernel computes the same bits itself, its
+//! GLSL twin being `glsl120/camera.glsl`), so GL and the f32 CPU trace the same rays bit for bit.
 //! [`Camera::window_corners`] gives the thesis's form (eye plus the four corners of the
 //! window on the projection plane at distance 1), which spans the same rays by bilinear
 //! interpolation.

@@ -597,3 +597,6 @@ pub(crate) fn trace_wave(
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod camera_tests;
