@@ -25,6 +25,7 @@
 //! foreign context too lives until the last GL object made in it is gone, and Drop makes
 //! it current through the trait before deleting a name.
 
+use std::cell::RefCell;
 use std::ffi::c_void;
 use std::fmt;
 use std::rc::Rc;
@@ -77,10 +78,33 @@ pub(crate) struct GlShared {
     /// The directly loaded entry points.
     #[cfg(not(target_arch = "wasm32"))]
     pub(crate) raw: RawGl,
+    /// Deletes put off until the context goes ([`GlShared::defer`]).
+    deferred: RefCell<Vec<DeferredDelete>>,
     session: Session,
 }
 
+/// A GL delete run when the context goes, with it current.
+type DeferredDelete = Box<dyn FnOnce(&glow::Context)>;
+
+impl Drop for GlShared {
+    fn drop(&mut self) {
+        let deferred = std::mem::take(self.deferred.get_mut());
+        if !deferred.is_empty() {
+            self.with_current(|gl| deferred.into_iter().for_each(|f| f(gl)));
+        }
+    }
+}
+
 impl GlShared {
+    /// Puts `delete` off until the context goes: for an object whose delete the driver
+    /// would make wait (a program it is still compiling on its own threads: NVIDIA holds
+    /// the delete until the compile ends, 300 ms on the H100 after a cold start's looped
+    /// frame, docs/performance.md), where the context's release waits for it anyway, or
+    /// never comes (a command line that ends with the process, `crate::overlap::end_now`).
+    pub(crate) fn defer(&self, delete: DeferredDelete) {
+        self.deferred.borrow_mut().push(delete);
+    }
+
     /// Runs `f` with this context current: directly when it already is, otherwise after
     /// making it current, restoring the thread's previous context afterwards. If it cannot be
     /// made current, `f` is skipped (leaking a name beats deleting another context's).
@@ -183,6 +207,7 @@ impl GlContext {
             shared: Rc::new(GlShared {
                 gl,
                 raw,
+                deferred: RefCell::default(),
                 session: Session::Egl(session),
             }),
             info,
@@ -208,6 +233,7 @@ impl GlContext {
             shared: Rc::new(GlShared {
                 gl,
                 raw,
+                deferred: RefCell::default(),
                 session: Session::External(context),
             }),
             info,
@@ -256,6 +282,7 @@ pub(crate) fn web_context(gl: glow::Context, info: GlInfo) -> GlContext {
     GlContext {
         shared: Rc::new(GlShared {
             gl,
+            deferred: RefCell::default(),
             session: Session::Web,
         }),
         info,

@@ -249,6 +249,45 @@ fn objects_are_freed_in_their_own_context() {
     });
 }
 
+/// A delete put off until the context goes (`Owned::delete_with_context`: a compute
+/// compile the driver is still running when its scene goes, `PendingCompute::abandon`)
+/// leaves the object alive while the context lives, and runs when the context goes, in that
+/// context (a flag deferred after it shows when), the first context untouched.
+#[test]
+fn deferred_deletes_run_when_their_context_goes() {
+    with_test_context(|first| {
+        let before = live_objects(first, probe_names(first) + 256);
+        let second = GlContext::new().expect("second context");
+        let p: Program = crate::gpu::gl::compile_program(
+            &second,
+            "deferred",
+            crate::gpu::gl::QUAD_VERTEX_SHADER,
+            "#version 120\nvoid main() { gl_FragData[0] = vec4(1.0); }\n",
+            &crate::gpu::gl::single_file_line_map("deferred.frag"),
+        )
+        .unwrap();
+        let name = p.name().0.get();
+        p.delete_with_context();
+        let ran = std::rc::Rc::new(std::cell::Cell::new(false));
+        let flag = std::rc::Rc::clone(&ran);
+        second.shared().defer(Box::new(move |_| flag.set(true)));
+        assert!(
+            live_objects(&second, name + 8).contains(&("program", name)),
+            "the program was deleted before its context went"
+        );
+        assert!(!ran.get());
+        drop(second);
+        assert!(
+            ran.get(),
+            "the deferred deletes did not run when the context went"
+        );
+        first.make_current().unwrap();
+        check_gl_error(first.gl(), "the first context after the second went").unwrap();
+        let after = live_objects(first, probe_names(first) + 256);
+        assert_eq!(after, before, "the first context's objects changed");
+    });
+}
+
 /// The render hook (`render_gl_observed`): watching changes nothing in the image, the
 /// observer sees passes advance and samples finish, and a cancel stops the render at the
 /// pass it was asked in, with every GL object of the frame freed.

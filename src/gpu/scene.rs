@@ -155,7 +155,8 @@ pub fn compile_left_running() -> bool {
 
 /// A compute program whose compile the driver had not finished when the scene goes (the
 /// process ends after a cold start's looped frames) is marked in the program-binary cache,
-/// so that the next run waits for it ([`ProgramCache::was_unfinished`]).
+/// so that the next run waits for it ([`ProgramCache::was_unfinished`]), and given up
+/// without waiting: its delete runs when the context goes ([`PendingCompute::abandon`]).
 impl Drop for GpuScene<'_> {
     fn drop(&mut self) {
         if !self.compiling.get_mut().is_empty() {
@@ -165,6 +166,9 @@ impl Drop for GpuScene<'_> {
             for c in self.compiling.get_mut().values() {
                 cache.mark_unfinished(c.source);
             }
+        }
+        for (_, c) in self.compiling.get_mut().drain() {
+            c.pending.abandon(self.ctx);
         }
     }
 }

@@ -59,6 +59,18 @@ impl PendingCompute {
         unsafe { ctx.gl().get_program_completion_status(self.program.name()) }
     }
 
+    /// Gives the compile up. Where the driver is still at it, its program and shader are
+    /// deleted when the context goes rather than now: NVIDIA's driver makes a delete wait
+    /// for the compile to end (300-330 ms after the looped frame of a cold start on the
+    /// H100, for a program the render no longer needs; docs/performance.md).
+    pub fn abandon(self, ctx: &GlContext) {
+        if self.is_complete(ctx) {
+            return;
+        }
+        self.program.delete_with_context();
+        self.shader.delete_with_context();
+    }
+
     /// Waits for the link and returns the program, or [`compile_compute`]'s error.
     pub fn finish(
         self,

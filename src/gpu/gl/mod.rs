@@ -97,6 +97,23 @@ impl<K: GlKind> Owned<K> {
     }
 }
 
+impl<K: GlKind> Owned<K>
+where
+    K::Name: 'static,
+{
+    /// Gives the name up without deleting it now: its delete runs when the context goes
+    /// ([`GlShared::defer`]), for an object whose delete the driver would make wait.
+    pub(crate) fn delete_with_context(self) {
+        let this = std::mem::ManuallyDrop::new(self);
+        let name = this.name;
+        // SAFETY: `this` is never dropped, so its `Rc` is moved out exactly once.
+        let shared = unsafe { std::ptr::read(&this.shared) };
+        // SAFETY: the deferred delete runs with the owning context current, once, and the
+        // name is used by nothing else after `self`.
+        shared.defer(Box::new(move |gl| unsafe { K::delete(gl, name) }));
+    }
+}
+
 impl<K: GlKind> std::fmt::Debug for Owned<K> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{:?}", self.name)

@@ -55,6 +55,12 @@ pub struct Program {
 }
 
 impl Program {
+    /// Gives the program up, its delete put off until the context goes
+    /// ([`Owned::delete_with_context`]).
+    pub(crate) fn delete_with_context(self) {
+        self.obj.delete_with_context();
+    }
+
     /// Wraps a program name created in this file ([`create_program`], a cached binary's).
     fn from_owned(obj: Owned<ProgramKind>, pass: &str) -> Self {
         Program {
