@@ -8,8 +8,9 @@
 // Reads: the scene textures through the generated texelFetch fetch functions, grid
 //        uniforms, with INSTANCED the instancing data (instance.glsl, instance_walk.glsl: the
 //        walk of an instanced scene's two levels), u_eye, u_ambient, u_background, u_sample_weight, the camera buffer (the
-//        f64 frame and sample offsets: primary directions by the camera's formula in f64,
-//        rounded to f32, as the host computes them for the fragment kernels) and the lights
+//        up vector and the host's f64 tables of each column's and row's terms: primary
+//        directions by the camera's formula in f64, rounded to f32, as the host computes
+//        them for the fragment kernels) and the lights
 //        buffer (position, radiance).
 // Writes: radiance (linear RGB summed over samples) and, with WRITE_AOV, aov_out (first
 //         sample's primary ray: t_best, tri_best or TRI_NONE, steps, state), both in image
@@ -26,7 +27,7 @@
 #include "instance_walk.glsl"
 
 // Declared by the host from gpu/contract (bindings.rs, compute.rs): the buffers `cam`
-// (CAM_* slots: the camera frame, then (ox, oy) per sample from CAM_OFFSETS on), `lights`
+// (CAM_* slots: the up vector, then per sample the columns' f + a r and the rows' b), `lights`
 // (LIGHT_POS(k), LIGHT_RAD(k)), `counters` (COUNTERS slots per work group), and the
 // outputs for the band's rows in image order (rows from the top), so the host reads them
 // straight into its image: `radiance` (RGB per pixel) and `aov_out` (A0_TEXEL per pixel);
@@ -36,17 +37,18 @@ layout(local_size_x = LOCAL_X, local_size_y = LOCAL_Y) in;
 
 shared uint g_count[COUNTERS];
 
-// The primary direction through image position (px, py) (camera rows from the top):
-// Camera::direction_at in f64, operation for operation (precise: no fused multiply-adds),
-// rounded to f32 (unit_f32, camera.glsl: the same bits by a faster route).
-vec3 primary_dir(double px, double py) {
-    dvec3 f = dvec3(cam[CAM_F], cam[CAM_F + 1], cam[CAM_F + 2]);
-    dvec3 r = dvec3(cam[CAM_R], cam[CAM_R + 1], cam[CAM_R + 2]);
+// The primary direction of sample k through the pixel in column c and row r of the pixels
+// rendered (rows from the top): Camera::direction_at in f64, operation for operation
+// (precise: no fused multiply-adds), rounded to f32 (unit_f32, camera.glsl). The host's
+// tables hold each column's f + a r and each row's b (camera_buffer, computed as
+// Frame::direction_at computes them), so a pixel adds b u and normalises.
+vec3 primary_dir(int k, int c, int r) {
+    int col = CAM_COLUMNS + 3 * (k * u_size.x + c);
+    int row = CAM_COLUMNS + 3 * SAMPLES * u_size.x + k * u_size.y + r;
+    dvec3 fa = dvec3(cam[col], cam[col + 1], cam[col + 2]);
     dvec3 u = dvec3(cam[CAM_U], cam[CAM_U + 1], cam[CAM_U + 2]);
-    double s = cam[CAM_S];
-    precise double a = (2.0LF * px / cam[CAM_W] - 1.0LF) * s * cam[CAM_ASPECT];
-    precise double b = (1.0LF - 2.0LF * py / cam[CAM_H]) * s;
-    precise dvec3 v = f + a * r + b * u;
+    double b = cam[row];
+    precise dvec3 v = fa + b * u;
     precise double len2 = v.x * v.x + v.y * v.y + v.z * v.z;
     return unit_f32(v, len2);
 }
@@ -185,18 +187,15 @@ void shade_tree(vec3 d0, float w0, bool first, inout vec3 colour, inout vec4 aov
 
 // Radiance and AOV of pixel px (GL rows from the bottom of the pixels rendered, u_size)
 // into the output buffers, which hold this band's rows in image order. The pixels rendered
-// may be a region of the image (from column CAM_X0, row CAM_Y0): the primary ray is the
-// whole image's, its position an exact f64 integer plus the sample offset as on the host.
+// may be a region of the image: the primary ray is the whole image's (the host's tables
+// are the region's columns and rows of the whole image).
 void render_pixel(ivec2 px) {
     vec3 colour = vec3(0.0);
     vec4 aov = vec4(0.0);
     // GL rows run from the bottom, camera rows from the top.
-    double column = double(px.x) + cam[CAM_X0];
-    double row = double(u_size.y - 1 - px.y) + cam[CAM_Y0];
+    int row = u_size.y - 1 - px.y;
     for (int k = 0; k < SAMPLES; k++) {
-        double ox = cam[CAM_OFFSETS + 2 * k];
-        double oy = cam[CAM_OFFSETS + 2 * k + 1];
-        vec3 d = primary_dir(column + ox, row + oy);
+        vec3 d = primary_dir(k, px.x, row);
         n_count[C_PRIMARY] += 1u;
         shade_tree(d, u_sample_weight, k == 0, colour, aov);
     }

@@ -42,10 +42,18 @@ impl Frame {
     /// [`Camera::direction_at`] of the camera this frame is of: the same bits, without
     /// working out the frame (a tangent and two normalisations) again for every ray.
     pub fn direction_at(&self, w: u32, h: u32, px: f64, py: f64) -> DVec3 {
+        let (fa, b) = self.direction_terms(w, h, px, py);
+        (fa + b * self.u).normalize()
+    }
+
+    /// The two terms of [`Frame::direction_at`]'s unnormalised direction `f + a r + b u`:
+    /// `f + a r` (from the column, `px`) and `b` (from the row, `py`), the same operations.
+    /// The compute kernel gets them from the host per column and row (its camera tables).
+    pub fn direction_terms(&self, w: u32, h: u32, px: f64, py: f64) -> (DVec3, f64) {
         let aspect = w as f64 / h as f64;
         let a = (2.0 * px / w as f64 - 1.0) * self.s * aspect;
         let b = (1.0 - 2.0 * py / h as f64) * self.s;
-        (self.f + a * self.r + b * self.u).normalize()
+        (self.f + a * self.r, b)
     }
 
     /// [`Frame::direction_at`] of each position (`px[k]`, `py[k]`), into `out` as three

@@ -3,7 +3,7 @@
 //! `trace_rays`).
 //!
 //! No ray state crosses the host: the program computes the primary directions itself (the
-//! camera's f64 formula, from a buffer of the frame and sample offsets), walks the tree
+//! camera's f64 formula, from the host's tables of each column's and row's terms), walks the tree
 //! with a per-invocation stack and writes the summed radiance and the first sample's
 //! primary-ray AOV texel to two buffers. Counts come back as one record per work group
 //! (rays by kind, cells entered, triangle tests, rays cut off), summed here in u64. Every
@@ -276,6 +276,7 @@ pub(crate) fn render(
         &req.camera.frame(),
         (req.width, req.height),
         (px.x0, px.y0),
+        (width, height),
         &offsets,
     );
     let cam_bytes: Vec<u8> = cam.iter().flat_map(|v| v.to_ne_bytes()).collect();

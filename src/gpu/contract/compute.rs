@@ -77,51 +77,39 @@ pub fn sum_words(words: &[u32]) -> [u64; COUNTERS] {
     total
 }
 
-/// Camera buffer (f64): forward, right, up (3 each), tan(vfov/2), aspect, width, height
-/// (of the whole image), the first column and row of the pixels rendered (a region's
-/// corner: `--tile`, `--region`), then (ox, oy) per sample.
-pub const CAM_F: usize = 0;
-/// Right vector.
-pub const CAM_R: usize = 3;
-/// Up vector.
-pub const CAM_U: usize = 6;
-/// tan(vfov / 2).
-pub const CAM_S: usize = 9;
-/// Width / height.
-pub const CAM_ASPECT: usize = 10;
-/// Image width.
-pub const CAM_W: usize = 11;
-/// Image height.
-pub const CAM_H: usize = 12;
-/// First column rendered (0 for the whole image).
-pub const CAM_X0: usize = 13;
-/// First row rendered, from the top (0 for the whole image).
-pub const CAM_Y0: usize = 14;
-/// First sample offset.
-pub const CAM_OFFSETS: usize = 15;
+/// Camera buffer (f64): the up vector u, then the primary directions' tables: for each
+/// sample, each column of the pixels rendered (from the left) `f + a r` (3 values), then
+/// for each sample, each row (from the top) `b`, where `Frame::direction_at` forms the
+/// direction as normalize(f + a r + b u) with a from the column and b from the row (the
+/// same operations in the same order, so the kernel's directions are its bits). The
+/// tables take the kernel's two f64 divisions and most of its f64 products per pixel to
+/// the host (one column and one row each).
+pub const CAM_U: usize = 0;
+/// First value of the column table.
+pub const CAM_COLUMNS: usize = 3;
 
-/// The camera buffer of a `w` x `h` image of which the pixels from column `x0`, row
-/// `y0` on are rendered, with sample `offsets` (what `render.comp` reads to compute
-/// `Camera::direction_at` of the whole image itself).
+/// The camera buffer of a `w` x `h` image of which the `pw` x `ph` pixels from column `x0`,
+/// row `y0` on are rendered, with sample `offsets` (see [`CAM_COLUMNS`]).
 pub fn camera_buffer(
     frame: &crate::scene::camera::Frame,
     (w, h): (u32, u32),
     (x0, y0): (u32, u32),
+    (pw, ph): (u32, u32),
     offsets: &[(f64, f64)],
 ) -> Vec<f64> {
-    let mut v = vec![0f64; CAM_OFFSETS];
-    v[CAM_F..CAM_F + 3].copy_from_slice(&frame.f.to_array());
-    v[CAM_R..CAM_R + 3].copy_from_slice(&frame.r.to_array());
-    v[CAM_U..CAM_U + 3].copy_from_slice(&frame.u.to_array());
-    v[CAM_S] = frame.s;
-    v[CAM_ASPECT] = w as f64 / h as f64;
-    v[CAM_W] = w as f64;
-    v[CAM_H] = h as f64;
-    v[CAM_X0] = x0 as f64;
-    v[CAM_Y0] = y0 as f64;
-    for &(ox, oy) in offsets {
-        v.push(ox);
-        v.push(oy);
+    let mut v = Vec::with_capacity(CAM_COLUMNS + offsets.len() * (3 * pw + ph) as usize);
+    v.extend(frame.u.to_array());
+    for &(ox, _) in offsets {
+        for c in 0..pw {
+            let (fa, _) = frame.direction_terms(w, h, (x0 + c) as f64 + ox, 0.0);
+            v.extend(fa.to_array());
+        }
+    }
+    for &(_, oy) in offsets {
+        for r in 0..ph {
+            let (_, b) = frame.direction_terms(w, h, 0.0, (y0 + r) as f64 + oy);
+            v.push(b);
+        }
     }
     v
 }
@@ -164,18 +152,7 @@ pub fn compute_glsl() -> String {
     for c in Counter::ALL {
         s.push_str(&format!("#define {} {}\n", c.macro_name(), c.slot()));
     }
-    for (name, v) in [
-        ("CAM_F", CAM_F),
-        ("CAM_R", CAM_R),
-        ("CAM_U", CAM_U),
-        ("CAM_S", CAM_S),
-        ("CAM_ASPECT", CAM_ASPECT),
-        ("CAM_W", CAM_W),
-        ("CAM_H", CAM_H),
-        ("CAM_X0", CAM_X0),
-        ("CAM_Y0", CAM_Y0),
-        ("CAM_OFFSETS", CAM_OFFSETS),
-    ] {
+    for (name, v) in [("CAM_U", CAM_U), ("CAM_COLUMNS", CAM_COLUMNS)] {
         s.push_str(&format!("#define {name} {v}\n"));
     }
     s.push_str(&format!(
@@ -185,4 +162,65 @@ pub fn compute_glsl() -> String {
     s.push_str(&super::group_glsl("a", &aov::ALL, false));
     s.push_str(&super::instancing::instancing_glsl());
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::camera::{sample_offsets, Camera};
+    use crate::testing::{test_seed, Rng};
+    use glam::{DVec3, Vec3};
+
+    /// The kernel's direction from the camera buffer (`primary_dir` in `render.comp`: the
+    /// column's `f + a r` plus the row's `b` times u, normalised in f64) is
+    /// `Frame::direction_at`'s, bit for bit, at every pixel and sample of random cameras,
+    /// image sizes and regions (the GPU's rounding to f32 is `camera_tests`').
+    #[test]
+    fn camera_tables_give_direction_at_bits() {
+        let seed = test_seed("camera_tables_give_direction_at_bits", 65);
+        let mut rng = Rng::new(seed);
+        for _ in 0..20 {
+            let cam = Camera {
+                eye: rng.dvec3(-5.0, 5.0).as_vec3(),
+                look_at: rng.dvec3(-1.0, 1.0).as_vec3(),
+                up: Vec3::Y,
+                vfov_deg: rng.range(10.0, 120.0) as f32,
+            };
+            let frame = cam.frame();
+            let (w, h) = (rng.range(1.0, 300.0) as u32, rng.range(1.0, 300.0) as u32);
+            let (x0, y0) = (
+                rng.range(0.0, w as f64) as u32,
+                rng.range(0.0, h as f64) as u32,
+            );
+            let (pw, ph) = (w - x0, h - y0);
+            let offsets = sample_offsets([1, 4, 9][rng.range(0.0, 3.0) as usize]);
+            let buf = camera_buffer(&frame, (w, h), (x0, y0), (pw, ph), &offsets);
+            assert_eq!(
+                buf.len(),
+                CAM_COLUMNS + offsets.len() * (3 * pw + ph) as usize
+            );
+            let u = DVec3::from_slice(&buf[CAM_U..CAM_U + 3]);
+            let n = offsets.len();
+            for (k, &(ox, oy)) in offsets.iter().enumerate() {
+                for r in 0..ph as usize {
+                    for c in 0..pw as usize {
+                        let col = CAM_COLUMNS + 3 * (k * pw as usize + c);
+                        let fa = DVec3::from_slice(&buf[col..col + 3]);
+                        let b = buf[CAM_COLUMNS + 3 * n * pw as usize + k * ph as usize + r];
+                        let got = (fa + b * u).normalize();
+                        let want = frame.direction_at(
+                            w,
+                            h,
+                            (x0 as usize + c) as f64 + ox,
+                            (y0 as usize + r) as f64 + oy,
+                        );
+                        assert_eq!(
+                            got.to_array().map(f64::to_bits),
+                            want.to_array().map(f64::to_bits)
+                        );
+                    }
+                }
+            }
+        }
+    }
 }
