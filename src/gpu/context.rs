@@ -78,31 +78,54 @@ pub(crate) struct GlShared {
     /// The directly loaded entry points.
     #[cfg(not(target_arch = "wasm32"))]
     pub(crate) raw: RawGl,
-    /// Deletes put off until the context goes ([`GlShared::defer`]).
-    deferred: RefCell<Vec<DeferredDelete>>,
+    /// Deletes put off while the driver is busy with their objects ([`GlShared::defer`]).
+    deferred: RefCell<Vec<Deferred>>,
     session: Session,
 }
 
-/// A GL delete run when the context goes, with it current.
-type DeferredDelete = Box<dyn FnOnce(&glow::Context)>;
+/// A GL delete put off: `done` says, without waiting, whether the driver is through with
+/// the object (then `delete` no longer waits); both run with the context current.
+pub(crate) struct Deferred {
+    /// Whether the delete would no longer wait.
+    pub(crate) done: Box<dyn Fn(&glow::Context) -> bool>,
+    /// The delete.
+    pub(crate) delete: Box<dyn FnOnce(&glow::Context)>,
+}
 
 impl Drop for GlShared {
     fn drop(&mut self) {
         let deferred = std::mem::take(self.deferred.get_mut());
         if !deferred.is_empty() {
-            self.with_current(|gl| deferred.into_iter().for_each(|f| f(gl)));
+            self.with_current(|gl| deferred.into_iter().for_each(|d| (d.delete)(gl)));
         }
     }
 }
 
 impl GlShared {
-    /// Puts `delete` off until the context goes: for an object whose delete the driver
-    /// would make wait (a program it is still compiling on its own threads: NVIDIA holds
-    /// the delete until the compile ends, 300 ms on the H100 after a cold start's looped
-    /// frame, docs/performance.md), where the context's release waits for it anyway, or
-    /// never comes (a command line that ends with the process, `crate::overlap::end_now`).
-    pub(crate) fn defer(&self, delete: DeferredDelete) {
-        self.deferred.borrow_mut().push(delete);
+    /// Puts a delete off until the driver is done with its object ([`GlShared::reap`]) or
+    /// the context goes: for an object whose delete the driver would make wait (a program
+    /// it is still compiling on its own threads: NVIDIA holds the delete until the compile
+    /// ends, 300 ms on the H100 after a cold start's looped frame, docs/performance.md).
+    /// The context's release waits for it anyway, or never comes (a command line that ends
+    /// with the process, `crate::overlap::end_now`).
+    pub(crate) fn defer(&self, d: Deferred) {
+        self.deferred.borrow_mut().push(d);
+    }
+
+    /// Runs the put-off deletes whose objects the driver is done with, so that a context
+    /// that lives on (the viewer's, a library user's) frees them once their compiles end
+    /// (`GpuScene::new` asks).
+    pub(crate) fn reap(&self) {
+        if self.deferred.borrow().is_empty() {
+            return;
+        }
+        self.with_current(|gl| {
+            let all = std::mem::take(&mut *self.deferred.borrow_mut());
+            let (done, waiting): (Vec<Deferred>, Vec<Deferred>) =
+                all.into_iter().partition(|d| (d.done)(gl));
+            done.into_iter().for_each(|d| (d.delete)(gl));
+            self.deferred.borrow_mut().extend(waiting);
+        });
     }
 
     /// Runs `f` with this context current: directly when it already is, otherwise after

@@ -249,33 +249,50 @@ fn objects_are_freed_in_their_own_context() {
     });
 }
 
-/// A delete put off until the context goes (`Owned::delete_with_context`: a compute
-/// compile the driver is still running when its scene goes, `PendingCompute::abandon`)
-/// leaves the object alive while the context lives, and runs when the context goes, in that
-/// context (a flag deferred after it shows when), the first context untouched.
+/// A delete put off while the driver is busy (`Owned::delete_when`: a compute compile the
+/// driver is still running when its scene goes, `PendingCompute::abandon`) leaves the
+/// object alive while the driver is not done with it, runs once it is (`GlShared::reap`,
+/// which a new scene asks), and the rest runs when the context goes, in that context (a
+/// flag deferred last shows when), the first context untouched.
 #[test]
-fn deferred_deletes_run_when_their_context_goes() {
+fn deferred_deletes_run_when_done_or_when_their_context_goes() {
     with_test_context(|first| {
         let before = live_objects(first, probe_names(first) + 256);
         let second = GlContext::new().expect("second context");
-        let p: Program = crate::gpu::gl::compile_program(
-            &second,
-            "deferred",
-            crate::gpu::gl::QUAD_VERTEX_SHADER,
-            "#version 120\nvoid main() { gl_FragData[0] = vec4(1.0); }\n",
-            &crate::gpu::gl::single_file_line_map("deferred.frag"),
-        )
-        .unwrap();
-        let name = p.name().0.get();
-        p.delete_with_context();
+        let program = |label: &str| -> Program {
+            crate::gpu::gl::compile_program(
+                &second,
+                label,
+                crate::gpu::gl::QUAD_VERTEX_SHADER,
+                "#version 120\nvoid main() { gl_FragData[0] = vec4(1.0); }\n",
+                &crate::gpu::gl::single_file_line_map("deferred.frag"),
+            )
+            .unwrap()
+        };
+        let (busy, through) = (program("busy"), program("through"));
+        let (busy_name, through_name) = (busy.name().0.get(), through.name().0.get());
+        busy.delete_when(|_, _| false);
+        through.delete_when(|_, _| true);
+        let live = |n: u32| live_objects(&second, n + 8).contains(&("program", n));
+        assert!(
+            live(busy_name) && live(through_name),
+            "deleted before it was asked"
+        );
+        second.shared().reap();
+        assert!(
+            !live(through_name),
+            "a program the driver is through with was kept"
+        );
+        assert!(
+            live(busy_name),
+            "a program the driver is busy with was deleted"
+        );
         let ran = std::rc::Rc::new(std::cell::Cell::new(false));
         let flag = std::rc::Rc::clone(&ran);
-        second.shared().defer(Box::new(move |_| flag.set(true)));
-        assert!(
-            live_objects(&second, name + 8).contains(&("program", name)),
-            "the program was deleted before its context went"
-        );
-        assert!(!ran.get());
+        second.shared().defer(crate::gpu::context::Deferred {
+            done: Box::new(|_| false),
+            delete: Box::new(move |_| flag.set(true)),
+        });
         drop(second);
         assert!(
             ran.get(),

@@ -193,6 +193,8 @@ impl<'s> GpuScene<'s> {
         };
         let accel = accel.grid()?;
         allow_parallel_compile(ctx);
+        // Objects of compiles an earlier scene gave up, which the driver is through with.
+        ctx.shared().reap();
         let features = if no_specialize {
             Features::all()
         } else {

@@ -60,15 +60,23 @@ impl PendingCompute {
     }
 
     /// Gives the compile up. Where the driver is still at it, its program and shader are
-    /// deleted when the context goes rather than now: NVIDIA's driver makes a delete wait
-    /// for the compile to end (300-330 ms after the looped frame of a cold start on the
-    /// H100, for a program the render no longer needs; docs/performance.md).
+    /// deleted once it is done (the next scene in this context asks) or when the context
+    /// goes, rather than now: NVIDIA's driver makes a delete wait for the compile to end
+    /// (300-330 ms after the looped frame of a cold start on the H100, for a program the
+    /// render no longer needs; docs/performance.md).
     pub fn abandon(self, ctx: &GlContext) {
         if self.is_complete(ctx) {
             return;
         }
-        self.program.delete_with_context();
-        self.shader.delete_with_context();
+        self.program.delete_when(|gl, p| {
+            // SAFETY: asked with the owning context current (`GlShared::reap`), which
+            // offers the query (a compile still runs only under the extension).
+            unsafe { gl.get_program_completion_status(p) }
+        });
+        self.shader.delete_when(|gl, s| {
+            // SAFETY: as for the program.
+            unsafe { gl.get_shader_completion_status(s) }
+        });
     }
 
     /// Waits for the link and returns the program, or [`compile_compute`]'s error.

@@ -28,7 +28,7 @@ use std::rc::Rc;
 
 use glow::HasContext;
 
-use super::context::{GlContext, GlShared};
+use super::context::{Deferred, GlContext, GlShared};
 use crate::error::{Error, Result};
 
 pub mod compute;
@@ -101,16 +101,21 @@ impl<K: GlKind> Owned<K>
 where
     K::Name: 'static,
 {
-    /// Gives the name up without deleting it now: its delete runs when the context goes
-    /// ([`GlShared::defer`]), for an object whose delete the driver would make wait.
-    pub(crate) fn delete_with_context(self) {
+    /// Gives the name up without deleting it now: its delete runs once `done` (asked with
+    /// the context current, of the name) says the driver is through with it, or when the
+    /// context goes ([`GlShared::defer`]), for an object whose delete the driver would make
+    /// wait.
+    pub(crate) fn delete_when(self, done: impl Fn(&glow::Context, K::Name) -> bool + 'static) {
         let this = std::mem::ManuallyDrop::new(self);
         let name = this.name;
         // SAFETY: `this` is never dropped, so its `Rc` is moved out exactly once.
         let shared = unsafe { std::ptr::read(&this.shared) };
-        // SAFETY: the deferred delete runs with the owning context current, once, and the
-        // name is used by nothing else after `self`.
-        shared.defer(Box::new(move |gl| unsafe { K::delete(gl, name) }));
+        shared.defer(Deferred {
+            done: Box::new(move |gl| done(gl, name)),
+            // SAFETY: the deferred delete runs with the owning context current, once, and
+            // the name is used by nothing else after `self`.
+            delete: Box::new(move |gl| unsafe { K::delete(gl, name) }),
+        });
     }
 }
 

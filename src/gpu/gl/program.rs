@@ -55,10 +55,13 @@ pub struct Program {
 }
 
 impl Program {
-    /// Gives the program up, its delete put off until the context goes
-    /// ([`Owned::delete_with_context`]).
-    pub(crate) fn delete_with_context(self) {
-        self.obj.delete_with_context();
+    /// Gives the program up, its delete put off until `done` says the driver is through
+    /// with it or the context goes ([`Owned::delete_when`]).
+    pub(crate) fn delete_when(
+        self,
+        done: impl Fn(&glow::Context, glow::Program) -> bool + 'static,
+    ) {
+        self.obj.delete_when(done);
     }
 
     /// Wraps a program name created in this file ([`create_program`], a cached binary's).
