@@ -21,7 +21,7 @@
 
 use std::borrow::Cow;
 
-use super::irregular::uint_hop_child;
+use super::irregular::uint_descent;
 use super::packed::prev_pow2;
 use super::{MAX_EXACT_INDEX, MAX_ROW};
 use crate::accel::irregular::NODE;
@@ -240,25 +240,13 @@ impl DenseIrregular {
               uint irr_lookup(vec3 k) {\n\
               \x20   uvec3 c = uvec3(k);\n";
         let m = &self.map;
-        s += &format!(
-            "    uvec3 t = c >> uvec3({}u, {}u, {}u);\n\
-             \x20   uint e = dense_vmap[t.x + {}u * (t.y + {}u * t.z)];\n",
-            m.shift[0], m.shift[1], m.shift[2], m.top_res[0], m.top_res[1]
+        s += &uint_descent(
+            (m.shift, m.top_res, &m.hops),
+            "uint",
+            &format!("e >= {NODE}u"),
+            &format!("e - {NODE}u"),
+            &|i| format!("dense_vmap[{i}]"),
         );
-        let mut rem = m.shift;
-        for n in &m.hops {
-            for a in 0..3 {
-                rem[a] -= n[a];
-            }
-            let (q, child) = uint_hop_child(rem, *n);
-            s += &format!(
-                "    if (e >= {NODE}u) {{\n\
-                 \x20       {q}\n\
-                 \x20       e = dense_vmap[e - {NODE}u + {child}];\n\
-                 \x20   }}\n"
-            );
-        }
-        s += "    return e;\n}\n";
         if self.skew_faces {
             s += "#define SKEW_FACES 1\n";
         }

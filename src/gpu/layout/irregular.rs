@@ -193,37 +193,67 @@ impl IrregularLayout {
     /// cell as a `uvec3`, each hop's child by shifts and masks, the block's start from the
     /// entry (`-e - 1`, exact), each entry read by `entry_vmap_u`.
     fn glsl_lookup_uint(&self) -> String {
-        let mut s = format!(
+        format!(
             "#ifdef KERNEL_COMPUTE\n\
              float irr_lookup(vec3 k) {{\n\
-             \x20   uvec3 c = uvec3(k);\n\
-             \x20   uvec3 t = c >> uvec3({}u, {}u, {}u);\n\
-             \x20   float e = entry_vmap_u(t.x + {}u * (t.y + {}u * t.z));\n",
-            self.shift[0], self.shift[1], self.shift[2], self.top_res[0], self.top_res[1]
-        );
-        let mut rem = self.shift;
-        for n in &self.hops {
-            for a in 0..3 {
-                rem[a] -= n[a];
-            }
-            let (q, child) = uint_hop_child(rem, *n);
-            s += &format!(
-                "    if (e < 0.0) {{\n\
-                 \x20       {q}\n\
-                 \x20       e = entry_vmap_u(uint(-e - 1.0) + {child});\n\
-                 \x20   }}\n"
-            );
-        }
-        s += "    return e;\n}\n";
-        s
+             \x20   uvec3 c = uvec3(k);\n{}",
+            uint_descent(
+                (self.shift, self.top_res, &self.hops),
+                "float",
+                "e < 0.0",
+                "uint(-e - 1.0)",
+                &|i| format!("entry_vmap_u({i})"),
+            )
+        )
     }
+}
+
+/// An integer voxel-map descent's body (GLSL 4.30; the float layout's in the compute
+/// kernels, the dense layout's), after `uvec3 c` (the virtual cell) is declared: the top
+/// cell's entry `e` (of `e_type`, read by `fetch` at an index), then per hop, while
+/// `is_node`, the child's entry in the block starting at `block`; returns `e`. `map` is the
+/// map's (shift, top resolution, hop bits per level).
+pub(super) fn uint_descent(
+    (shift, top_res, hops): ([u32; 3], [u32; 3], &[[u32; 3]]),
+    e_type: &str,
+    is_node: &str,
+    block: &str,
+    fetch: &dyn Fn(&str) -> String,
+) -> String {
+    let mut s = format!(
+        "    uvec3 t = c >> uvec3({}u, {}u, {}u);\n\
+         \x20   {e_type} e = {};\n",
+        shift[0],
+        shift[1],
+        shift[2],
+        fetch(&format!(
+            "t.x + {}u * (t.y + {}u * t.z)",
+            top_res[0], top_res[1]
+        ))
+    );
+    let mut rem = shift;
+    for n in hops {
+        for a in 0..3 {
+            rem[a] -= n[a];
+        }
+        let (q, child) = uint_hop_child(rem, *n);
+        s += &format!(
+            "    if ({is_node}) {{\n\
+             \x20       {q}\n\
+             \x20       e = {};\n\
+             \x20   }}\n",
+            fetch(&format!("{block} + {child}"))
+        );
+    }
+    s += "    return e;\n}\n";
+    s
 }
 
 /// One hop of an integer voxel-map descent (GLSL 4.30; the float layout's in the compute
 /// kernels, the dense layout's): the declaration of `q`, the virtual cell `c`'s child
 /// coordinates in the hop's block (`rem` splits left below the hop, `n` in it), and the
 /// child's offset in the block from `q`.
-pub(super) fn uint_hop_child(rem: [u32; 3], n: [u32; 3]) -> (String, String) {
+fn uint_hop_child(rem: [u32; 3], n: [u32; 3]) -> (String, String) {
     let m = n.map(|b| (1u32 << b) - 1);
     (
         format!(
